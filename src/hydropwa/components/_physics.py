@@ -1,0 +1,247 @@
+"""Physics of the components, written once.
+
+Each function is a small pure function of floats, compiled with numba so the
+solver loop calls it without Python overhead; it is equally callable from
+Python (tests, identification, plots). The full, reduced and PWA models are
+assemblies of these functions (see :mod:`hydropwa.simulation._kernel`).
+
+All quantities are SI: pressures in Pa (gauge, tank = 0 unless set), flows in
+m³/s, positions in m, forces in N. The valve command ``u``, the spool position
+``nu`` and the orifice opening ``z`` are fractions of the full opening [1].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = [
+    "servo_valve_acceleration",
+    "dead_zone",
+    "signed_sqrt",
+    "orifice_flows",
+    "load_flow",
+    "effective_bulk_modulus",
+    "chamber_pressure_rates",
+    "load_pressure_rate",
+    "stribeck_friction",
+    "end_stop_force",
+    "piston_acceleration",
+    "pump_supply_rate",
+    "supply_flow",
+]
+
+_JIT = {"cache": True, "nogil": True, "fastmath": False}
+
+
+@njit(**_JIT)
+def servo_valve_acceleration(nu: float, dnu: float, u: float, omega0: float, zeta: float) -> float:
+    """Spool acceleration ν̈ [1/s²] of the second-order servo valve, Eq. (3).
+
+    ν̈ = ω0² (u − ν) − 2 ζ ω0 ν̇, i.e. G(s) = ω0² / (s² + 2ζω0 s + ω0²), Eq. (1).
+    """
+    return omega0 * omega0 * (u - nu) - 2.0 * zeta * omega0 * dnu
+
+
+@njit(**_JIT)
+def dead_zone(nu: float, alpha: float, beta: float, creep: float, outer_offset: float) -> float:
+    """Orifice opening z = h(ν) [1]: dead band with creep and saturation, Eqs. (2), (4), Table IV.
+
+    Parameters
+    ----------
+    nu : float
+        Spool position ν [1].
+    alpha : float
+        Saturation α [1].
+    beta : float
+        Dead-band half width β [1].
+    creep : float
+        Slope inside the band [1] (Table IV cell III; 0 gives Eq. (2) exactly).
+    outer_offset : float
+        Offset of the outer cells [1]: β as in Table IV, or β(1 − creep) for a
+        continuous characteristic.
+
+    Notes
+    -----
+    z = creep·ν for |ν| < β, α·sign(ν) for |ν| ≥ α + offset, ν − offset·sign(ν) otherwise.
+    """
+    a = abs(nu)
+    if a < beta:
+        return creep * nu
+    s = 1.0 if nu > 0.0 else -1.0
+    if a >= alpha + outer_offset:
+        return s * alpha
+    return nu - s * outer_offset
+
+
+@njit(**_JIT)
+def signed_sqrt(dp: float, p_tr: float) -> float:
+    """Regularised signed square root sign(Δp)·√|Δp| [√Pa] (NOTES.md item 3).
+
+    Below the transition pressure p_tr the turbulent law is replaced by the odd
+    cubic √p_tr·(1.25 s − 0.25 s³), s = Δp/p_tr, which matches value and slope
+    at |Δp| = p_tr and has the finite slope 1.25/√p_tr at zero (laminar flow).
+    """
+    a = abs(dp)
+    if a >= p_tr:
+        r = math.sqrt(a)
+        return r if dp > 0.0 else -r
+    s = dp / p_tr
+    return math.sqrt(p_tr) * (1.25 * s - 0.25 * s * s * s)
+
+
+@njit(**_JIT)
+def orifice_flows(z: float, p_a: float, p_b: float, p_s: float, p_t: float, K: float, p_tr: float):
+    """Flows through the valve's metering edges, Eqs. (5)–(6), signed.
+
+    Returns
+    -------
+    q_a : float
+        Flow into chamber A [m³/s] (from supply for z > 0, to tank for z < 0).
+    q_b : float
+        Flow *out of* chamber B [m³/s] (to tank for z > 0, from supply for z < 0);
+        Eq. (9) therefore uses −Q_B (NOTES.md item 1).
+
+    Notes
+    -----
+    Reversed pressure drops reverse the flow through the signed root.
+    """
+    if z >= 0.0:
+        q_a = z * K * signed_sqrt(p_s - p_a, p_tr)
+        q_b = z * K * signed_sqrt(p_b - p_t, p_tr)
+    else:
+        q_a = z * K * signed_sqrt(p_a - p_t, p_tr)
+        q_b = z * K * signed_sqrt(p_s - p_b, p_tr)
+    return q_a, q_b
+
+
+@njit(**_JIT)
+def supply_flow(z: float, q_a: float, q_b: float) -> float:
+    """Flow drawn from the supply port [m³/s] given the edge flows of :func:`orifice_flows`."""
+    return q_a if z >= 0.0 else -q_b
+
+
+@njit(**_JIT)
+def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> float:
+    """Load flow Q_L [m³/s] of the reduced model, Eq. (12), with a signed root.
+
+    Q_L = z K √(½ (P_S − sign(z) P_L)); for z ≥ 0 the sign is taken as +1.
+    """
+    if z >= 0.0:
+        return z * K * signed_sqrt(0.5 * (p_s - p_l), p_tr)
+    return z * K * signed_sqrt(0.5 * (p_s + p_l), p_tr)
+
+
+@njit(**_JIT)
+def effective_bulk_modulus(p: float, E: float, p_vap: float, p_rel: float) -> float:
+    """Effective bulk modulus [Pa] that keeps a chamber pressure physical.
+
+    Between the air-release pressure p_rel and the vapour pressure p_vap the
+    modulus falls linearly to 0.1 % of E, so a chamber emptied by the piston
+    approaches p_vap (≈ absolute zero) but does not cross it.
+    """
+    if p >= p_rel:
+        return E
+    frac = (p - p_vap) / (p_rel - p_vap)
+    if frac < 1e-3:
+        frac = 1e-3
+    return E * frac
+
+
+@njit(**_JIT)
+def chamber_pressure_rates(
+    q_a: float,
+    q_b: float,
+    x: float,
+    v: float,
+    p_a: float,
+    p_b: float,
+    area_a: float,
+    area_b: float,
+    stroke: float,
+    vol_a: float,
+    vol_b: float,
+    leak: float,
+    E: float,
+    p_vap: float,
+    p_rel: float,
+):
+    """Pressure rates Ṗ_A, Ṗ_B [Pa/s] from continuity, Eq. (9) with the corrected sign of Q_B.
+
+    Ṗ_A = E/(V_A + A_A x) · (Q_A − A_A ẋ + C_L (P_B − P_A))
+    Ṗ_B = E/(V_B + A_B (l − x)) · (−Q_B + A_B ẋ + C_L (P_A − P_B))
+    """
+    va = vol_a + area_a * x
+    vb = vol_b + area_b * (stroke - x)
+    ea = effective_bulk_modulus(p_a, E, p_vap, p_rel)
+    eb = effective_bulk_modulus(p_b, E, p_vap, p_rel)
+    dpa = ea / va * (q_a - area_a * v + leak * (p_b - p_a))
+    dpb = eb / vb * (-q_b + area_b * v + leak * (p_a - p_b))
+    return dpa, dpb
+
+
+@njit(**_JIT)
+def load_pressure_rate(q_l: float, v: float, p_l: float, mean_area: float, total_volume: float, leak: float, E: float):
+    """Load-pressure rate Ṗ_L [Pa/s] of the reduced model, Eq. (14)."""
+    return 4.0 * E / total_volume * (q_l - mean_area * v - leak * p_l)
+
+
+@njit(**_JIT)
+def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
+    """Stribeck friction force f(ẋ) [N], Eq. (11).
+
+    f = tanh(γ ẋ) (F_c + (F_s − F_c) exp(−|ẋ/χ|^δ)) + σ ẋ. Works on floats and
+    on numpy arrays of velocities [m/s]; odd in ẋ by construction.
+    """
+    return np.tanh(gamma * v) * (f_c + (f_s - f_c) * np.exp(-(np.abs(v / chi) ** delta))) + sigma * v
+
+
+@njit(**_JIT)
+def end_stop_force(x: float, v: float, stroke: float, k: float, c: float) -> float:
+    """Contact force of the end stops on the piston [N], positive towards +x.
+
+    A stiff spring–damper acts only while the piston is outside 0 ≤ x ≤ l, and
+    it only pushes (never pulls), so the piston leaves a stop freely.
+    """
+    if x < 0.0:
+        f = -k * x - c * v
+        return f if f > 0.0 else 0.0
+    if x > stroke:
+        f = -k * (x - stroke) - c * v
+        return f if f < 0.0 else 0.0
+    return 0.0
+
+
+@njit(**_JIT)
+def piston_acceleration(hydraulic_force: float, friction: float, load: float, stop: float, mass: float) -> float:
+    """Piston acceleration ẍ [m/s²] from Newton's law, Eqs. (10) and (15)."""
+    return (hydraulic_force - friction - load + stop) / mass
+
+
+@njit(**_JIT)
+def pump_supply_rate(
+    p_s: float,
+    q_draw: float,
+    p_set: float,
+    q_max: float,
+    droop: float,
+    v_line: float,
+    E: float,
+    p_relief: float,
+    relief_gain: float,
+) -> float:
+    """Supply-pressure rate Ṗ_S [Pa/s] of a pressure-compensated pump (virtual rig, Fig. 9).
+
+    The pump delivers q_max·clip((p_set − P_S)/droop, 0, 1) into the line volume;
+    the valve draws ``q_draw``; a relief valve opens above ``p_relief``.
+    At steady state P_S sags below p_set by droop·q_draw/q_max.
+    """
+    r = (p_set - p_s) / droop
+    if r < 0.0:
+        r = 0.0
+    elif r > 1.0:
+        r = 1.0
+    q_relief = relief_gain * (p_s - p_relief) if p_s > p_relief else 0.0
+    return E / v_line * (q_max * r - q_draw - q_relief)

@@ -1,0 +1,510 @@
+"""Frozen, validated parameter objects, one per component, SI units inside.
+
+Every field's docstring names its unit. Construction validates each field and
+raises :class:`~hydropwa.ParameterError` naming the field, the value and the
+unit. Units are converted only at the boundaries (TOML, CLI, data files).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+from .._errors import ParameterError
+
+__all__ = [
+    "ServoValve",
+    "DeadZone",
+    "ValveFlow",
+    "Cylinder",
+    "Oil",
+    "Friction",
+    "Supply",
+    "Load",
+    "SystemParams",
+    "flow_coefficient_from_rating",
+]
+
+
+def _check(
+    obj: Any,
+    name: str,
+    unit: str,
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    le: float | None = None,
+    lt: float | None = None,
+) -> None:
+    """Validate one float field of a parameter object (finite, within bounds)."""
+    label = f"{type(obj).__name__}.{name}"
+    value = getattr(obj, name)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{label} = {value!r} is not a number (expected a value in {unit})") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{label} = {v} {unit} is not finite; give a finite value in {unit}")
+    for bound, ok, word in (
+        (gt, lambda b: v > b, "greater than"),
+        (ge, lambda b: v >= b, "at least"),
+        (le, lambda b: v <= b, "at most"),
+        (lt, lambda b: v < b, "less than"),
+    ):
+        if bound is not None and not ok(bound):
+            raise ParameterError(f"{label} = {v:g} {unit} must be {word} {bound:g} {unit}")
+    object.__setattr__(obj, name, v)
+
+
+@dataclass(frozen=True, slots=True)
+class ServoValve:
+    """Closed-loop spool dynamics of the servo valve, Eq. (1)/(3) and Table II.
+
+    Attributes
+    ----------
+    omega0 : float
+        Natural frequency ω0 [rad/s] used when ``omega0_table`` is empty.
+    zeta : float
+        Damping ratio ζ [1].
+    omega0_table : tuple of (float, float)
+        Optional amplitude schedule ((|u| [1], ω0 [rad/s]), ...), sorted by
+        amplitude (Table II). When given, ω0 is interpolated linearly at the
+        amplitude of the command signal (peak |u| of the run), clamped at the
+        ends.
+    """
+
+    omega0: float = 628.3
+    zeta: float = 0.7
+    omega0_table: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        _check(self, "omega0", "rad/s", gt=0.0)
+        _check(self, "zeta", "1", gt=0.0, le=10.0)
+        table = tuple((float(a), float(w)) for a, w in self.omega0_table)
+        for a, w in table:
+            if not (0.0 < a <= 1.5) or not (w > 0.0 and math.isfinite(w)):
+                raise ParameterError(
+                    f"ServoValve.omega0_table entry ({a:g}, {w:g}) needs 0 < amplitude <= 1.5 [1] "
+                    "and omega0 > 0 [rad/s]"
+                )
+        if any(table[i + 1][0] <= table[i][0] for i in range(len(table) - 1)):
+            raise ParameterError("ServoValve.omega0_table amplitudes [1] must be strictly increasing")
+        object.__setattr__(self, "omega0_table", table)
+
+    def omega0_at(self, amplitude: float) -> float:
+        """ω0 [rad/s] for a command amplitude |u| [1] (Table II schedule or constant)."""
+        if not self.omega0_table:
+            return self.omega0
+        amps = [a for a, _ in self.omega0_table]
+        ws = [w for _, w in self.omega0_table]
+        a = abs(float(amplitude))
+        if a <= amps[0]:
+            return ws[0]
+        if a >= amps[-1]:
+            return ws[-1]
+        for i in range(len(amps) - 1):
+            if amps[i] <= a <= amps[i + 1]:
+                s = (a - amps[i]) / (amps[i + 1] - amps[i])
+                return ws[i] + s * (ws[i + 1] - ws[i])
+        return ws[-1]  # pragma: no cover
+
+
+@dataclass(frozen=True, slots=True)
+class DeadZone:
+    """Spool overlap (dead band) and saturation, Eq. (2)/(4) and Table IV.
+
+    Attributes
+    ----------
+    alpha : float
+        Saturation α [1]: the largest orifice opening z.
+    beta : float
+        Dead-band half width β [1] (fraction of full spool travel).
+    creep_slope : float
+        Slope k_g [1] inside the dead band (Table IV cell III, Sec. VI-B creep).
+    continuous : bool
+        If False (default, as Table IV prints it), z = u − β·sign(u) outside the
+        band, which leaves a jump of ``creep_slope·beta`` at |u| = β. If True,
+        the outer cells are shifted so that z is continuous.
+    """
+
+    alpha: float = 1.0
+    beta: float = 0.1
+    creep_slope: float = 0.04
+    continuous: bool = False
+
+    def __post_init__(self) -> None:
+        _check(self, "alpha", "1", gt=0.0, le=2.0)
+        _check(self, "beta", "1", ge=0.0, lt=1.0)
+        _check(self, "creep_slope", "1", ge=0.0, lt=1.0)
+        object.__setattr__(self, "continuous", bool(self.continuous))
+
+    @property
+    def outer_offset(self) -> float:
+        """Offset [1] of the outer linear cells: β, or β(1 − creep) if continuous."""
+        return self.beta * (1.0 - self.creep_slope) if self.continuous else self.beta
+
+    @property
+    def saturation_input(self) -> float:
+        """Command |u| [1] at which the opening saturates at α."""
+        return self.alpha + self.outer_offset
+
+
+def flow_coefficient_from_rating(nominal_flow: float, nominal_pressure_drop: float) -> float:
+    """Valve flow coefficient K from a datasheet rating, Eq. (8).
+
+    Parameters
+    ----------
+    nominal_flow : float
+        Rated flow Q_n [m³/s] at full opening.
+    nominal_pressure_drop : float
+        Pressure drop p_n [Pa] at which Q_n is rated (whole valve, both lands).
+
+    Returns
+    -------
+    float
+        K = Q_n / √p_n [m³/(s·√Pa)].
+
+    Notes
+    -----
+    The paper's K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) (NOTES.md item 9).
+    """
+    if not (nominal_flow > 0 and math.isfinite(nominal_flow)):
+        raise ParameterError(f"nominal flow {nominal_flow!r} m³/s must be positive and finite")
+    if not (nominal_pressure_drop > 0 and math.isfinite(nominal_pressure_drop)):
+        raise ParameterError(
+            f"nominal pressure drop {nominal_pressure_drop!r} Pa must be positive and finite"
+        )
+    return nominal_flow / math.sqrt(nominal_pressure_drop)
+
+
+@dataclass(frozen=True, slots=True)
+class ValveFlow:
+    """Turbulent orifice flow of the valve, Eqs. (5)–(8).
+
+    Attributes
+    ----------
+    K : float
+        Flow coefficient K [m³/(s·√Pa)] per metering edge at full opening.
+    transition_pressure : float
+        Pressure drop p_tr [Pa] below which the square root is replaced by a
+        cubic laminar law with the same value and slope at p_tr (NOTES.md item 3).
+    """
+
+    K: float = flow_coefficient_from_rating(40e-3 / 60.0, 70e5)
+    transition_pressure: float = 1e5
+
+    def __post_init__(self) -> None:
+        _check(self, "K", "m³/(s·√Pa)", gt=0.0, lt=1e-2)
+        _check(self, "transition_pressure", "Pa", gt=0.0, le=1e7)
+
+
+@dataclass(frozen=True, slots=True)
+class Cylinder:
+    """Single-rod cylinder, its chambers and end stops, Eqs. (9)–(10) and Table III.
+
+    Attributes
+    ----------
+    area_a : float
+        Piston-side area A_A [m²].
+    area_b : float
+        Rod-side (annulus) area A_B [m²].
+    stroke : float
+        Stroke l [m]; the rod moves in 0 <= x <= l.
+    dead_volume_a : float
+        Oil volume V_A [m³] between valve and chamber A at x = 0.
+    dead_volume_b : float
+        Oil volume V_B [m³] between valve and chamber B at x = l.
+    leakage : float
+        Internal leakage coefficient C_L [m³/(s·Pa)] across the piston.
+    end_stop_stiffness : float
+        Contact stiffness [N/m] of the end stops (penalty force outside 0..l).
+    end_stop_damping : float
+        Contact damping [N·s/m] of the end stops (acts only while in contact).
+    """
+
+    area_a: float = 1.3e-3
+    area_b: float = 0.76e-3
+    stroke: float = 0.2
+    dead_volume_a: float = 0.7e-3
+    dead_volume_b: float = 0.7e-3
+    leakage: float = 0.0
+    end_stop_stiffness: float = 1e8
+    end_stop_damping: float = 2e4
+
+    def __post_init__(self) -> None:
+        _check(self, "area_a", "m²", gt=0.0, lt=1.0)
+        _check(self, "area_b", "m²", gt=0.0, lt=1.0)
+        _check(self, "stroke", "m", gt=0.0, le=20.0)
+        _check(self, "dead_volume_a", "m³", gt=0.0)
+        _check(self, "dead_volume_b", "m³", gt=0.0)
+        _check(self, "leakage", "m³/(s·Pa)", ge=0.0, lt=1e-6)
+        _check(self, "end_stop_stiffness", "N/m", gt=0.0)
+        _check(self, "end_stop_damping", "N·s/m", ge=0.0)
+        swept = self.area_a * self.stroke
+        for name in ("dead_volume_a", "dead_volume_b"):
+            v = getattr(self, name)
+            if v > 100.0 * swept:
+                warnings.warn(
+                    f"Cylinder.{name} = {v:g} m³ is {v / swept:.0f}× the cylinder volume "
+                    f"({swept:.3g} m³); did you mean {v:g} L = {v * 1e-3:g} m³? (NOTES.md item 2)",
+                    UserWarning,
+                    stacklevel=3,
+                )
+
+    @property
+    def mean_area(self) -> float:
+        """Averaged piston area Ā = (A_A + A_B)/2 [m²], Eq. (14)."""
+        return 0.5 * (self.area_a + self.area_b)
+
+    @property
+    def total_volume(self) -> float:
+        """Total actuator volume V_t = V_A + V_B [m³], Eq. (14)."""
+        return self.dead_volume_a + self.dead_volume_b
+
+
+@dataclass(frozen=True, slots=True)
+class Oil:
+    """Hydraulic oil, Eq. (9).
+
+    Attributes
+    ----------
+    bulk_modulus : float
+        Effective bulk modulus E [Pa].
+    density : float
+        Density ρ [kg/m³] (informational; K already contains it, Eq. (7)).
+    vapour_pressure : float
+        Gauge pressure [Pa] (relative to the tank, about −1 bar = absolute zero)
+        that a chamber can approach but never cross.
+    release_pressure : float
+        Gauge pressure [Pa] below which dissolved air makes the oil compliant:
+        between ``vapour_pressure`` and ``release_pressure`` the effective bulk
+        modulus falls linearly to 0.1 % of E, so pressures stay physical.
+    """
+
+    bulk_modulus: float = 1e9
+    density: float = 870.0
+    vapour_pressure: float = -0.95e5
+    release_pressure: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check(self, "bulk_modulus", "Pa", gt=1e5, lt=1e11)
+        _check(self, "density", "kg/m³", gt=100.0, lt=3000.0)
+        _check(self, "vapour_pressure", "Pa", ge=-1.01325e5, le=0.0)
+        _check(self, "release_pressure", "Pa", le=1e6)
+        if self.release_pressure <= self.vapour_pressure:
+            raise ParameterError(
+                f"Oil.release_pressure = {self.release_pressure:g} Pa must be above "
+                f"Oil.vapour_pressure = {self.vapour_pressure:g} Pa"
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class Friction:
+    """Stribeck friction with a tanh sign, Eq. (11).
+
+    Attributes
+    ----------
+    coulomb : float
+        Coulomb friction F_c [N].
+    static : float
+        Static (stiction) friction F_s [N], F_s >= F_c.
+    viscous : float
+        Viscous coefficient σ [N·s/m].
+    stribeck_velocity : float
+        Stribeck velocity χ [m/s].
+    shape : float
+        Stribeck exponent δ [1].
+    smoothness : float
+        tanh slope γ [s/m] of the zero crossing.
+    """
+
+    coulomb: float = 90.0
+    static: float = 150.0
+    viscous: float = 1100.0
+    stribeck_velocity: float = 0.01
+    shape: float = 1.0
+    smoothness: float = 1e4
+
+    def __post_init__(self) -> None:
+        _check(self, "coulomb", "N", ge=0.0)
+        _check(self, "static", "N", ge=0.0)
+        _check(self, "viscous", "N·s/m", ge=0.0)
+        _check(self, "stribeck_velocity", "m/s", gt=0.0)
+        _check(self, "shape", "1", gt=0.0, le=10.0)
+        _check(self, "smoothness", "s/m", gt=0.0, le=1e8)
+        if self.static < self.coulomb:
+            raise ParameterError(
+                f"Friction.static = {self.static:g} N must be at least Friction.coulomb = "
+                f"{self.coulomb:g} N (Eq. (11) needs F_s >= F_c)"
+            )
+
+    @classmethod
+    def none(cls) -> Friction:
+        """Friction switched off (all forces zero)."""
+        return cls(coulomb=0.0, static=0.0, viscous=0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Supply:
+    """Supply and tank pressures, and an optional pump model (Fig. 9).
+
+    Attributes
+    ----------
+    pressure : float
+        Supply pressure P_S [Pa] (set value; the default input of every model).
+    tank_pressure : float
+        Tank pressure P_T [Pa].
+    model : str
+        ``"ideal"``: P_S is an input signal. ``"pump"``: P_S is a state fed by a
+        pressure-compensated pump into the line volume and drawn by the valve,
+        so it sags with flow (the virtual rig uses this).
+    pump_flow : float
+        Maximum pump flow [m³/s] (pump model).
+    compensator_droop : float
+        Pressure below the set value [Pa] at which the compensator delivers
+        the full pump flow (pump model); the steady sag is droop·Q/Q_max.
+    line_volume : float
+        Oil volume [m³] of the supply line between pump and valve (pump model).
+    relief_pressure : float
+        Relief valve cracking pressure [Pa] (pump model).
+    relief_gain : float
+        Relief valve flow gain [m³/(s·Pa)] above the cracking pressure.
+    """
+
+    pressure: float = 100e5
+    tank_pressure: float = 0.0
+    model: str = "ideal"
+    pump_flow: float = 120e-3 / 60.0
+    compensator_droop: float = 15e5
+    line_volume: float = 1.0e-3
+    relief_pressure: float = 120e5
+    relief_gain: float = 1e-9
+
+    def __post_init__(self) -> None:
+        _check(self, "pressure", "Pa", gt=0.0, le=1e9)
+        _check(self, "tank_pressure", "Pa", ge=-1.01325e5, le=1e8)
+        if self.model not in ("ideal", "pump"):
+            raise ParameterError(f"Supply.model = {self.model!r} must be 'ideal' or 'pump'")
+        _check(self, "pump_flow", "m³/s", gt=0.0)
+        _check(self, "compensator_droop", "Pa", gt=0.0)
+        _check(self, "line_volume", "m³", gt=0.0)
+        _check(self, "relief_pressure", "Pa", gt=0.0)
+        _check(self, "relief_gain", "m³/(s·Pa)", gt=0.0)
+        if self.pressure <= self.tank_pressure:
+            raise ParameterError(
+                f"Supply.pressure = {self.pressure:g} Pa must exceed Supply.tank_pressure = "
+                f"{self.tank_pressure:g} Pa"
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class Load:
+    """Moving mass and external load, Eq. (10).
+
+    Attributes
+    ----------
+    mass : float
+        Total moving mass m [kg].
+    force : float
+        Constant external load force F_L [N] (positive opposes extension);
+        a time signal given to ``simulate`` overrides it.
+    """
+
+    mass: float = 1.394
+    force: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check(self, "mass", "kg", gt=0.0)
+        _check(self, "force", "N")
+
+
+@dataclass(frozen=True, slots=True)
+class SystemParams:
+    """All parameters of one valve-controlled cylinder (the three models share it).
+
+    Attributes
+    ----------
+    valve : ServoValve
+    dead_zone : DeadZone
+    flow : ValveFlow
+    cylinder : Cylinder
+    oil : Oil
+    friction : Friction
+    supply : Supply
+    load : Load
+    meta : dict
+        Provenance and free-form notes (not used by the physics).
+    """
+
+    valve: ServoValve = field(default_factory=ServoValve)
+    dead_zone: DeadZone = field(default_factory=DeadZone)
+    flow: ValveFlow = field(default_factory=ValveFlow)
+    cylinder: Cylinder = field(default_factory=Cylinder)
+    oil: Oil = field(default_factory=Oil)
+    friction: Friction = field(default_factory=Friction)
+    supply: Supply = field(default_factory=Supply)
+    load: Load = field(default_factory=Load)
+    meta: dict = field(default_factory=dict, compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        expected = {
+            "valve": ServoValve,
+            "dead_zone": DeadZone,
+            "flow": ValveFlow,
+            "cylinder": Cylinder,
+            "oil": Oil,
+            "friction": Friction,
+            "supply": Supply,
+            "load": Load,
+        }
+        for name, cls in expected.items():
+            if not isinstance(getattr(self, name), cls):
+                raise ParameterError(
+                    f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
+                )
+
+    def replace(self, **changes: Any) -> SystemParams:
+        """Return a copy with components or dotted fields replaced.
+
+        Examples
+        --------
+        >>> p = SystemParams().replace(**{"supply.pressure": 95e5, "load.mass": 2.0})
+        """
+        groups: dict[str, dict[str, Any]] = {}
+        top: dict[str, Any] = {}
+        for key, value in changes.items():
+            if "." in key:
+                comp, fld = key.split(".", 1)
+                groups.setdefault(comp, {})[fld] = value
+            else:
+                top[key] = value
+        for comp, fields in groups.items():
+            base = top.get(comp, getattr(self, comp, None))
+            if base is None or not dataclasses.is_dataclass(base):
+                raise ParameterError(f"unknown parameter group {comp!r}")
+            names = {f.name for f in dataclasses.fields(base)}
+            for f in fields:
+                if f not in names:
+                    raise ParameterError(
+                        f"unknown parameter {comp}.{f}; known: {', '.join(sorted(names))}"
+                    )
+            top[comp] = dataclasses.replace(base, **fields)
+        return dataclasses.replace(self, **top)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Nested plain dict in SI units (component → field → value)."""
+        out: dict[str, dict[str, Any]] = {}
+        for f in dataclasses.fields(self):
+            if f.name == "meta":
+                continue
+            comp = getattr(self, f.name)
+            out[f.name] = {}
+            for cf in dataclasses.fields(comp):
+                val = getattr(comp, cf.name)
+                if isinstance(val, tuple):
+                    val = [list(x) for x in val]
+                out[f.name][cf.name] = val
+        return out

@@ -1,0 +1,287 @@
+"""TOML parameter files: the unit boundary of the parameter layer.
+
+Values may be plain SI numbers or strings with units (``"100 bar"``,
+``"40 L/min"``, ``"0.7 L"``, ``"10 %"``), parsed with pint here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from .._errors import ParameterError
+from .._io import atomic_write_text
+from ._params import (
+    Cylinder,
+    DeadZone,
+    Friction,
+    Load,
+    Oil,
+    ServoValve,
+    Supply,
+    SystemParams,
+    ValveFlow,
+    flow_coefficient_from_rating,
+)
+
+__all__ = ["load_params", "save_params", "params_to_toml", "params_from_dict", "parse_quantity", "FIELD_UNITS"]
+
+_COMPONENTS: dict[str, type] = {
+    "valve": ServoValve,
+    "dead_zone": DeadZone,
+    "flow": ValveFlow,
+    "cylinder": Cylinder,
+    "oil": Oil,
+    "friction": Friction,
+    "supply": Supply,
+    "load": Load,
+}
+
+#: SI unit of every numeric field, as a pint expression (None: not a quantity).
+FIELD_UNITS: dict[str, dict[str, str | None]] = {
+    "valve": {"omega0": "rad/s", "zeta": "", "omega0_table": None},
+    "dead_zone": {"alpha": "", "beta": "", "creep_slope": "", "continuous": None},
+    "flow": {"K": "m**3/s/Pa**0.5", "transition_pressure": "Pa"},
+    "cylinder": {
+        "area_a": "m**2",
+        "area_b": "m**2",
+        "stroke": "m",
+        "dead_volume_a": "m**3",
+        "dead_volume_b": "m**3",
+        "leakage": "m**3/s/Pa",
+        "end_stop_stiffness": "N/m",
+        "end_stop_damping": "N*s/m",
+    },
+    "oil": {"bulk_modulus": "Pa", "density": "kg/m**3", "vapour_pressure": "Pa", "release_pressure": "Pa"},
+    "friction": {
+        "coulomb": "N",
+        "static": "N",
+        "viscous": "N*s/m",
+        "stribeck_velocity": "m/s",
+        "shape": "",
+        "smoothness": "s/m",
+    },
+    "supply": {
+        "pressure": "Pa",
+        "tank_pressure": "Pa",
+        "model": None,
+        "pump_flow": "m**3/s",
+        "compensator_droop": "Pa",
+        "line_volume": "m**3",
+        "relief_pressure": "Pa",
+        "relief_gain": "m**3/s/Pa",
+    },
+    "load": {"mass": "kg", "force": "N"},
+}
+
+#: Units written next to SI numbers in saved files, for the human reader.
+_DISPLAY = {"": "1", "m**3/s/Pa**0.5": "m³/(s·√Pa)", "m**2": "m²", "m**3": "m³", "m**3/s/Pa": "m³/(s·Pa)",
+            "N*s/m": "N·s/m", "kg/m**3": "kg/m³", "m**3/s": "m³/s"}
+
+
+@lru_cache(maxsize=1)
+def _ureg():
+    import pint
+
+    ureg = pint.UnitRegistry()
+    ureg.define("percent_opening = 0.01 = pct")
+    return ureg
+
+
+def parse_quantity(value: Any, unit: str, where: str) -> float:
+    """Convert a TOML value (number or string with unit) to a float in ``unit``.
+
+    Parameters
+    ----------
+    value : float or str
+        A plain number (taken as SI) or a string such as ``"100 bar"``.
+    unit : str
+        Target SI unit as a pint expression (``""`` for dimensionless).
+    where : str
+        Field name used in error messages.
+
+    Returns
+    -------
+    float
+        The value in SI units.
+    """
+    if isinstance(value, bool):
+        raise ParameterError(f"{where} = {value!r} is a boolean; expected a number in {unit or '1'}")
+    if isinstance(value, int | float):
+        return float(value)
+    if not isinstance(value, str):
+        raise ParameterError(f"{where} = {value!r} must be a number or a string with a unit")
+    import pint
+
+    ureg = _ureg()
+    try:
+        q = ureg.Quantity(value.strip().replace("%", " percent"))
+        if isinstance(q, int | float):
+            return float(q)
+        return float(q.to(unit or "dimensionless").magnitude)
+    except pint.errors.DimensionalityError:
+        raise ParameterError(
+            f"{where} = {value!r} has the wrong dimension; expected a value convertible to "
+            f"{_DISPLAY.get(unit, unit) or '1'}"
+        ) from None
+    except Exception:
+        raise ParameterError(
+            f"{where} = {value!r} cannot be read as a quantity; write e.g. '100 bar' or a plain SI number"
+        ) from None
+
+
+def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemParams:
+    """Build :class:`SystemParams` from a nested dict as read from TOML.
+
+    Missing components and fields take the defaults of the dataclasses. The
+    ``[flow]`` table may give ``rating = {flow = "40 L/min", pressure_drop = "70 bar"}``
+    instead of ``K`` (Eq. (8)).
+    """
+    base = data.get("base")
+    if base is not None:
+        from ._presets import get_preset
+
+        params = get_preset(str(base))
+    else:
+        params = SystemParams()
+    unknown = set(data) - set(_COMPONENTS) - {"meta", "base", "uncertainty"}
+    if unknown:
+        raise ParameterError(
+            f"{source}: unknown section(s) {', '.join(sorted(unknown))}; "
+            f"known: {', '.join(_COMPONENTS)}, meta, uncertainty"
+        )
+    changes: dict[str, Any] = {}
+    for comp, cls in _COMPONENTS.items():
+        section = data.get(comp)
+        if section is None:
+            continue
+        if not isinstance(section, dict):
+            raise ParameterError(f"{source}: [{comp}] must be a table")
+        units = FIELD_UNITS[comp]
+        kwargs: dict[str, Any] = {}
+        for key, value in section.items():
+            where = f"{source}: {comp}.{key}"
+            if comp == "flow" and key == "rating":
+                if not isinstance(value, dict) or {"flow", "pressure_drop"} - set(value):
+                    raise ParameterError(f"{where} must be a table with 'flow' and 'pressure_drop'")
+                qn = parse_quantity(value["flow"], "m**3/s", where + ".flow")
+                pn = parse_quantity(value["pressure_drop"], "Pa", where + ".pressure_drop")
+                kwargs["K"] = flow_coefficient_from_rating(qn, pn)
+                continue
+            if key not in units:
+                raise ParameterError(f"{where}: unknown field; known: {', '.join(units)}")
+            unit = units[key]
+            if unit is None:
+                if key == "omega0_table":
+                    try:
+                        value = tuple(
+                            (parse_quantity(a, "", where), parse_quantity(w, "rad/s", where)) for a, w in value
+                        )
+                    except (TypeError, ValueError) as exc:
+                        if isinstance(exc, ParameterError):
+                            raise
+                        raise ParameterError(f"{where} must be a list of [amplitude, omega0] pairs") from None
+                kwargs[key] = value
+            else:
+                kwargs[key] = parse_quantity(value, unit, where)
+        try:
+            changes[comp] = dataclasses.replace(getattr(params, comp), **kwargs)
+        except ParameterError as exc:
+            raise ParameterError(f"{source}: {exc}") from None
+    meta = dict(params.meta)
+    meta.update(data.get("meta", {}) or {})
+    if "uncertainty" in data:
+        meta["uncertainty"] = data["uncertainty"]
+    return dataclasses.replace(params, meta=meta, **changes)
+
+
+def load_params(path: str | os.PathLike) -> SystemParams:
+    """Load a parameter TOML file (or a preset name such as ``"paper"``).
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing, is not valid TOML, or holds invalid values.
+    """
+    from ._presets import PRESETS, get_preset
+
+    if isinstance(path, str) and path in PRESETS and not Path(path).exists():
+        return get_preset(path)
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError(
+            f"parameter file {str(p)!r} not found; give a TOML file or a preset ({', '.join(PRESETS)})"
+        )
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise ParameterError(f"{p}: not a text file; expected a TOML parameter file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"{p}: invalid TOML ({exc})") from None
+    return params_from_dict(data, source=str(p))
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if math.isfinite(value) and value == int(value) and abs(value) < 1e15:
+            return f"{value:.1f}"
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return tomli_w.dumps({"x": value}).split("=", 1)[1].strip()
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_fmt(v) for v in value) + "]"
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def params_to_toml(params: SystemParams, header: str = "") -> str:
+    """Render parameters as a hand-editable TOML document (SI numbers, unit comments)."""
+    lines = ["# hydropwa parameter file. Plain numbers are SI; strings with units (\"100 bar\") work too."]
+    if header:
+        lines += [f"# {h}" for h in header.splitlines()]
+    for comp, cls in _COMPONENTS.items():
+        obj = getattr(params, comp)
+        lines += ["", f"[{comp}]"]
+        doc_units = FIELD_UNITS[comp]
+        for f in dataclasses.fields(cls):
+            val = getattr(obj, f.name)
+            unit = doc_units[f.name]
+            comment = f"  # {_DISPLAY.get(unit, unit)}" if unit is not None else ""
+            if f.name == "omega0_table":
+                comment = "  # [[|u| in 1, omega0 in rad/s], ...] (empty: constant omega0)"
+                val = [list(x) for x in val]
+            lines.append(f"{f.name} = {_fmt(val)}{comment}")
+    meta = {k: v for k, v in params.meta.items() if k != "uncertainty"}
+    if meta:
+        lines += ["", tomli_w.dumps({"meta": _plain(meta)}).strip()]
+    if "uncertainty" in params.meta:
+        lines += ["", tomli_w.dumps({"uncertainty": _plain(params.meta["uncertainty"])}).strip()]
+    return "\n".join(lines) + "\n"
+
+
+def _plain(obj: Any) -> Any:
+    """Make nested metadata TOML-serialisable (numpy scalars, tuples, None)."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items() if v is not None}
+    if isinstance(obj, list | tuple):
+        return [_plain(v) for v in obj if v is not None]
+    if hasattr(obj, "item") and callable(obj.item):
+        return obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return str(obj)
+    return obj
+
+
+def save_params(params: SystemParams, path: str | os.PathLike, header: str = "") -> Path:
+    """Write parameters to a TOML file atomically; :func:`load_params` reads it back exactly."""
+    return atomic_write_text(path, params_to_toml(params, header))
