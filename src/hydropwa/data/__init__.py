@@ -1,0 +1,39 @@
+"""Measurement data layer: runs, datasets, file formats, channel maps and validation.
+
+Units are converted only here, where data enters or leaves the package; every
+:class:`Run` holds SI units (``t`` [s], ``x`` [m], ``p_a`` [Pa], ...).
+"""
+
+from ._channel_map import ChannelMap, ChannelSpec
+from ._emps import builtin_channel_map, load_emps
+from ._formats import FORMATS, read_run, write_run
+from ._run import Run
+from ._units import CANONICAL_UNITS, convert_units, to_si
+from ._validate import (
+    PLAUSIBLE_RANGES,
+    Issue,
+    Plausible,
+    ValidationReport,
+    check_run,
+    validate_run,
+)
+
+__all__ = [
+    "CANONICAL_UNITS",
+    "FORMATS",
+    "PLAUSIBLE_RANGES",
+    "ChannelMap",
+    "ChannelSpec",
+    "Issue",
+    "Plausible",
+    "Run",
+    "ValidationReport",
+    "builtin_channel_map",
+    "check_run",
+    "convert_units",
+    "load_emps",
+    "read_run",
+    "to_si",
+    "validate_run",
+    "write_run",
+]

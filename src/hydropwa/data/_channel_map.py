@@ -1,0 +1,270 @@
+"""Channel maps: which logged variable or column becomes which channel, and how.
+
+A channel map is a TOML file::
+
+    [map]
+    name = "emps"                  # optional
+    description = "EMPS benchmark"  # optional
+    fs = 1000.0                     # optional nominal rate [Hz]; makes 't' optional
+    keep_unmapped = false           # copy unmapped 1-D variables of length N as-is
+
+    [meta]                          # merged into every run's metadata
+    rig = "EMPS"
+
+    [channels.x]
+    source = "qm"                   # variable, column name or struct path
+    unit = "m"                      # unit of gain * raw + offset (default: SI of the channel)
+
+    [channels.f_m]
+    source = "vir"
+    unit = "N"
+    gain = "@gtau"                  # a number, or "@var": a scalar variable of the file
+    offset = 0.0
+
+    [channels.p_a]
+    source = "data"                 # a matrix logged with one signal per column
+    column = 2                      # 1-based column (MATLAB convention)
+    unit = "bar"
+    gain = 25.0                     # bar/V for a 0-10 V sensor spanning 0-250 bar
+
+Struct paths reach into dSPACE/Simulink exports: ``"rec.X.Data"``, ``"rec.Y(3).Data"``
+(1-based element) or ``"rec.Y{p_A}.Data"`` (the element whose ``Name`` is ``p_A``).
+A channel's value is ``gain * raw + offset`` in ``unit``, then converted to SI.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hydropwa._errors import DataError
+
+from ._run import Run
+from ._units import CANONICAL_UNITS
+
+__all__ = ["ChannelMap", "ChannelSpec"]
+
+_TOKEN = re.compile(r"^(?P<name>[A-Za-z_][\w]*)(?:\((?P<index>\d+)\)|\{(?P<label>[^{}]+)\})?$")
+_SPEC_KEYS = {"source", "column", "unit", "gain", "offset"}
+
+
+@dataclasses.dataclass(frozen=True)
+class ChannelSpec:
+    """How to obtain one channel from a raw file.
+
+    Parameters
+    ----------
+    channel : str
+        Channel name in the run (``"p_a"``).
+    source : str
+        Variable, column name or struct path in the file.
+    column : int, optional
+        1-based column when ``source`` is a matrix with one signal per column.
+    unit : str, optional
+        Unit of ``gain * raw + offset``; defaults to the channel's SI unit.
+    gain : float or str
+        Gain [unit per raw unit, e.g. bar/V], or ``"@name"`` for a scalar in the file.
+    offset : float or str
+        Offset [unit], or ``"@name"``.
+    """
+
+    channel: str
+    source: str
+    column: int | None = None
+    unit: str | None = None
+    gain: float | str = 1.0
+    offset: float | str = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ChannelMap:
+    """A set of :class:`ChannelSpec` plus metadata for the runs it produces.
+
+    Parameters
+    ----------
+    channels : dict[str, ChannelSpec]
+        Spec per channel name.
+    meta : dict
+        Metadata merged into each run; the map wins over metadata found in the file.
+    name : str
+        Name of the map (recorded in run metadata as ``channel_map``).
+    fs : float, optional
+        Nominal sampling rate [Hz]; when ``t`` is not mapped, ``t = k / fs``.
+    keep_unmapped : bool
+        Also copy unmapped 1-D numeric variables of length N (unit ``"1"``).
+    """
+
+    channels: dict[str, ChannelSpec]
+    meta: dict[str, Any] = dataclasses.field(default_factory=dict)
+    name: str = ""
+    fs: float | None = None
+    keep_unmapped: bool = False
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any], origin: str = "channel map") -> ChannelMap:
+        """Build a map from the parsed TOML document (see the module docstring)."""
+        head = dict(doc.get("map", {}))
+        chans = doc.get("channels")
+        if not isinstance(chans, Mapping) or not chans:
+            raise DataError(f"{origin}: no [channels.<name>] tables; hint: add e.g. "
+                            "[channels.x] with source = \"qm\" and unit = \"m\"")
+        specs = {}
+        for ch, body in chans.items():
+            if isinstance(body, str):
+                body = {"source": body}
+            unknown = set(body) - _SPEC_KEYS
+            if unknown or "source" not in body:
+                raise DataError(
+                    f"{origin}, channel {ch!r}: keys {sorted(unknown) or []} unknown or 'source' "
+                    f"missing; hint: allowed keys are {sorted(_SPEC_KEYS)}")
+            column = body.get("column")
+            if column is not None and (not isinstance(column, int) or column < 1):
+                raise DataError(f"{origin}, channel {ch!r}: column = {column!r}; "
+                                "hint: columns are 1-based integers")
+            specs[ch] = ChannelSpec(channel=ch, source=str(body["source"]), column=column,
+                                    unit=body.get("unit"), gain=body.get("gain", 1.0),
+                                    offset=body.get("offset", 0.0))
+        fs = head.get("fs")
+        return cls(channels=specs, meta=dict(doc.get("meta", {})), name=str(head.get("name", "")),
+                   fs=None if fs is None else float(fs),
+                   keep_unmapped=bool(head.get("keep_unmapped", False)))
+
+    @classmethod
+    def from_toml(cls, path) -> ChannelMap:
+        """Read a channel map from a TOML file."""
+        path = Path(path)
+        try:
+            doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise DataError(f"channel map {str(path)!r}: cannot be read ({exc.strerror}); "
+                            "hint: check the path") from exc
+        except tomllib.TOMLDecodeError as exc:
+            raise DataError(f"channel map {str(path)!r}: invalid TOML ({exc}); "
+                            "hint: fix the syntax at the position given") from exc
+        return cls.from_dict(doc, origin=f"channel map {str(path)!r}")
+
+    # ------------------------------------------------------------------ apply
+    def apply(self, raw: Mapping[str, Any], name: str, meta: Mapping | None = None,
+              where: str = "") -> Run:
+        """Build a run from raw variables.
+
+        Parameters
+        ----------
+        raw : dict[str, Any]
+            Variables of the file (arrays, scalars, nested dicts/lists for structs).
+        name : str
+            Run name.
+        meta : dict, optional
+            Metadata from the file, merged under the map's ``meta``.
+        where : str
+            Description of the file for error messages.
+
+        Returns
+        -------
+        Run
+            Channels in SI units.
+        """
+        where = where or f"run {name!r}"
+        arrays: dict[str, np.ndarray] = {}
+        units: dict[str, str] = {}
+        for ch, spec in self.channels.items():
+            here = f"{where}, channel {ch!r} (source {spec.source!r})"
+            values = _column(_lookup(raw, spec.source, here), spec.column, here)
+            gain = _scalar(raw, spec.gain, here, "gain")
+            offset = _scalar(raw, spec.offset, here, "offset")
+            arrays[ch] = values * gain + offset if (gain != 1.0 or offset != 0.0) else values
+            unit = spec.unit if spec.unit is not None else CANONICAL_UNITS.get(ch)
+            if unit is None:
+                raise DataError(f"{here}: no unit; hint: add unit = \"...\" to [channels.{ch}]")
+            units[ch] = unit
+        if "t" not in arrays:
+            n = len(next(iter(arrays.values())))
+            if self.fs is None:
+                raise DataError(f"{where}: the channel map maps no 't' and gives no fs; "
+                                "hint: add [channels.t] or fs = <Hz> under [map]")
+            arrays["t"], units["t"] = np.arange(n) / self.fs, "s"
+        if self.keep_unmapped:
+            n = len(arrays["t"])
+            used = {s.source for s in self.channels.values()}
+            for key, val in raw.items():
+                arr = np.asarray(val) if not isinstance(val, dict | list | str) else None
+                if (key not in used and key not in arrays and not key.startswith("_")
+                        and arr is not None and arr.dtype.kind in "biuf" and arr.size == n
+                        and max(arr.shape, default=0) == n):
+                    arrays[key], units[key] = arr.reshape(-1).astype(float), "1"
+        merged = dict(meta or {})
+        merged.update(self.meta)
+        if self.name:
+            merged.setdefault("channel_map", self.name)
+        return Run.from_arrays(name, arrays, units, fs=self.fs, meta=merged)
+
+
+def _lookup(raw: Mapping[str, Any], path: str, where: str):
+    node: Any = raw
+    for token in path.split("."):
+        m = _TOKEN.match(token.strip())
+        if m is None:
+            raise DataError(f"{where}: cannot parse path element {token!r}; "
+                            "hint: use name, name(3) or name{Label}")
+        key = m.group("name")
+        if not isinstance(node, Mapping) or key not in node:
+            have = sorted(k for k in node if not str(k).startswith("__")) if isinstance(node, Mapping) else []
+            raise DataError(f"{where}: variable {key!r} not found (have {have}); "
+                            "hint: fix 'source' in the channel map")
+        node = node[key]
+        if m.group("index") is not None or m.group("label") is not None:
+            items = list(node) if isinstance(node, list | np.ndarray) else [node]
+            if m.group("index") is not None:
+                i = int(m.group("index"))
+                if not 1 <= i <= len(items):
+                    raise DataError(f"{where}: index {i} out of range 1..{len(items)} for {key!r}; "
+                                    "hint: indices are 1-based")
+                node = items[i - 1]
+            else:
+                label = m.group("label")
+                hits = [it for it in items if isinstance(it, Mapping) and str(
+                    it.get("Name", it.get("name", ""))).strip() == label]
+                if len(hits) != 1:
+                    raise DataError(f"{where}: {len(hits)} elements of {key!r} are named {label!r}; "
+                                    "hint: use a 1-based index instead, e.g. Y(2)")
+                node = hits[0]
+    return node
+
+
+def _column(node, column: int | None, where: str) -> np.ndarray:
+    try:
+        arr = np.asarray(node, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{where}: not a numeric array; hint: point 'source' at a signal") from exc
+    if arr.ndim == 2 and column is None and 1 in arr.shape:
+        return arr.reshape(-1)
+    if arr.ndim == 1 and column is None:
+        return arr
+    if arr.ndim == 2 and column is not None:
+        # Real-time targets log either (N, M) or (M, N); signals run along the long axis.
+        mat = arr if arr.shape[0] >= arr.shape[1] else arr.T
+        if not 1 <= column <= mat.shape[1]:
+            raise DataError(f"{where}: column {column} out of range 1..{mat.shape[1]}; "
+                            "hint: columns are 1-based")
+        return mat[:, column - 1].copy()
+    raise DataError(f"{where}: has shape {arr.shape}; hint: "
+                    + ("give column = <1-based index> for a matrix" if arr.ndim == 2
+                       else "point 'source' at a vector signal"))
+
+
+def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -> float:
+    if isinstance(value, str):
+        if not value.startswith("@"):
+            raise DataError(f"{where}: {what} = {value!r}; hint: give a number or '@variable'")
+        arr = np.asarray(_lookup(raw, value[1:], f"{where}, {what} {value!r}"), dtype=float)
+        if arr.size != 1:
+            raise DataError(f"{where}: {what} {value!r} has {arr.size} values, expected one scalar; "
+                            "hint: reference a 1x1 variable")
+        return float(arr.reshape(-1)[0])
+    return float(value)

@@ -1,0 +1,303 @@
+"""Readers and writers of single runs: CSV, Parquet and MATLAB ``.mat``.
+
+CSV
+    Leading comment line ``# hydropwa: {json}`` with ``format_version``, ``name``,
+    ``fs`` [Hz] and ``meta``; other ``#`` lines are ignored. Header ``name [unit]``.
+    Values written with the shortest round-trip representation; NaN as ``nan``.
+Parquet
+    One float64 column per channel; field metadata ``unit``; schema metadata key
+    ``hydropwa`` holds the same JSON as the CSV comment plus ``units``.
+MAT (v5)
+    One column vector (N, 1) per channel plus a char variable ``hydropwa`` holding the
+    JSON (with ``units`` and ``channels``). Files without it (real-time target logs)
+    need a :class:`~hydropwa.data.ChannelMap`.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hydropwa._errors import DataError
+from hydropwa._io import atomic_path, atomic_write_text
+
+from ._channel_map import ChannelMap
+from ._run import Run, format_column_label, parse_column_label
+from ._units import from_si, normalize_unit
+
+__all__ = ["read_run", "write_run", "FORMATS", "format_of"]
+
+FORMAT_VERSION = 1
+#: File formats by suffix.
+FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet", ".mat": "mat"}
+_SUFFIX = {"csv": ".csv", "parquet": ".parquet", "mat": ".mat"}
+_META_PREFIX = "# hydropwa:"
+_MATLAB_NAME = re.compile(r"^[A-Za-z]\w{0,62}$")
+
+
+def format_of(path, format: str | None = None) -> str:
+    """Return ``"csv"``, ``"parquet"`` or ``"mat"`` from ``format`` or the file suffix."""
+    if format is not None:
+        fmt = str(format).lower().lstrip(".")
+        if fmt not in _SUFFIX:
+            raise DataError(f"unknown format {format!r}; hint: use one of csv, parquet, mat")
+        return fmt
+    fmt = FORMATS.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise DataError(f"{str(path)!r}: cannot tell the format from suffix "
+                        f"{Path(path).suffix!r}; hint: use .csv, .parquet or .mat, or pass format=")
+    return fmt
+
+
+def suffix_of(format: str) -> str:
+    """File suffix of a format name."""
+    return _SUFFIX[format_of("", format)]
+
+
+def _header(run: Run, units: Mapping[str, str]) -> dict[str, Any]:
+    fs = run.fs if run.fs is not None and np.isfinite(run.fs) else None
+    return {"format_version": FORMAT_VERSION, "name": run.name, "fs": fs, "meta": run.meta,
+            "units": dict(units)}
+
+
+def _file_columns(run: Run, units: Mapping[str, str] | None) -> tuple[dict, dict]:
+    """Channels converted to the units requested for the file."""
+    units = {k: normalize_unit(v) for k, v in (units or {}).items()}
+    unknown = sorted(set(units) - set(run.channels))
+    if unknown:
+        raise DataError(f"run {run.name!r}: units given for missing channels {unknown}; "
+                        "hint: drop them from units=")
+    cols, file_units = {}, {}
+    for ch, v in run.channels.items():
+        unit = units.get(ch, run.units[ch])
+        cols[ch] = from_si(v, ch, run.units[ch], unit, f"run {run.name!r}, channel {ch!r}")
+        file_units[ch] = unit
+    return cols, file_units
+
+
+# ---------------------------------------------------------------------- CSV
+def _write_csv(run: Run, path: Path, units) -> None:
+    cols, file_units = _file_columns(run, units)
+    buf = io.StringIO()
+    buf.write(f"{_META_PREFIX} {json.dumps(_header(run, file_units), allow_nan=False)}\n")
+    buf.write(",".join(format_column_label(k, file_units[k]) for k in cols) + "\n")
+    for row in zip(*(c.tolist() for c in cols.values()), strict=True):
+        buf.write(",".join(map(repr, row)) + "\n")
+    atomic_write_text(path, buf.getvalue())
+
+
+def _read_csv(path: Path) -> tuple[dict, dict, dict]:
+    import pandas as pd
+
+    header: dict[str, Any] = {}
+    n_comment = 0
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            n_comment += 1
+            if line.startswith(_META_PREFIX):
+                try:
+                    header = json.loads(line[len(_META_PREFIX):])
+                except json.JSONDecodeError as exc:
+                    raise DataError(f"{str(path)!r}, line {n_comment}: the '# hydropwa:' metadata "
+                                    f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
+                                    ) from exc
+    try:
+        df = pd.read_csv(path, skiprows=n_comment, float_precision="round_trip",
+                         skipinitialspace=True, dtype=str, keep_default_na=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise DataError(f"{str(path)!r}: not a readable CSV table ({exc}); "
+                        "hint: one header line 'name [unit],...' then one row per sample") from exc
+    raw, units = {}, {}
+    for label in df.columns:
+        ch, unit = parse_column_label(label)
+        raw[ch] = _numeric_column(df[label].to_numpy(), path, ch, n_comment)
+        if unit is not None:
+            units[ch] = unit
+    return raw, units, header
+
+
+def _numeric_column(text: np.ndarray, path: Path, ch: str, n_comment: int) -> np.ndarray:
+    out = np.empty(text.shape, dtype=float)
+    for i, s in enumerate(text):
+        s = str(s).strip()
+        try:
+            out[i] = float(s) if s else np.nan
+        except ValueError:
+            raise DataError(f"{str(path)!r}, channel {ch!r}, sample {i} (line {i + n_comment + 2}): "
+                            f"{s!r} is not a number; hint: fix the cell or leave it empty for NaN"
+                            ) from None
+    return out
+
+
+# ---------------------------------------------------------------------- Parquet
+def _write_parquet(run: Run, path: Path, units) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    cols, file_units = _file_columns(run, units)
+    fields = [pa.field(k, pa.float64(), metadata={"unit": file_units[k]}) for k in cols]
+    schema = pa.schema(fields, metadata={"hydropwa": json.dumps(_header(run, file_units),
+                                                                allow_nan=False)})
+    table = pa.table({k: pa.array(v, type=pa.float64()) for k, v in cols.items()}, schema=schema)
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp)
+
+
+def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowInvalid, OSError) as exc:
+        raise DataError(f"{str(path)!r}: not a readable Parquet file ({exc}); "
+                        "hint: check that the file is complete") from exc
+    meta = table.schema.metadata or {}
+    header = json.loads(meta[b"hydropwa"]) if b"hydropwa" in meta else {}
+    raw, units = {}, {}
+    for field, col in zip(table.schema, table.columns, strict=True):
+        ch, unit = parse_column_label(field.name)
+        fmeta = field.metadata or {}
+        if b"unit" in fmeta:
+            unit = fmeta[b"unit"].decode()
+        try:
+            raw[ch] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
+        except (TypeError, ValueError, pa.ArrowInvalid) as exc:
+            raise DataError(f"{str(path)!r}, channel {ch!r}: column of type {field.type} is not "
+                            "numeric; hint: store signals as float64") from exc
+        if unit is not None:
+            units[ch] = unit
+    units = {**units, **header.get("units", {})}
+    return raw, units, header
+
+
+# ---------------------------------------------------------------------- MAT
+def _write_mat(run: Run, path: Path, units) -> None:
+    import scipy.io
+
+    cols, file_units = _file_columns(run, units)
+    bad = [k for k in cols if not _MATLAB_NAME.match(k) or k == "hydropwa"]
+    if bad:
+        raise DataError(f"run {run.name!r}: channel names {bad} are not valid MATLAB variable "
+                        "names; hint: rename them (letters, digits, underscores) or write CSV/Parquet")
+    header = _header(run, file_units)
+    header["channels"] = list(cols)
+    variables = {k: v.reshape(-1, 1) for k, v in cols.items()}
+    variables["hydropwa"] = json.dumps(header, allow_nan=False)
+    with atomic_path(path) as tmp:
+        scipy.io.savemat(tmp, variables, do_compression=True, oned_as="column")
+
+
+def _load_mat(path: Path) -> dict[str, Any]:
+    import scipy.io
+
+    try:
+        return scipy.io.loadmat(path, simplify_cells=True)
+    except NotImplementedError as exc:
+        raise DataError(f"{str(path)!r}: MATLAB v7.3 (HDF5) files are not supported; "
+                        "hint: re-save with save(..., '-v7') in MATLAB") from exc
+    except (ValueError, TypeError, OSError) as exc:
+        raise DataError(f"{str(path)!r}: not a readable MAT file ({exc}); "
+                        "hint: check that the file is complete") from exc
+
+
+def _read_mat(path: Path) -> tuple[dict, dict, dict]:
+    variables = _load_mat(path)
+    raw = {k: v for k, v in variables.items() if not k.startswith("__")}
+    text = raw.pop("hydropwa", None)
+    if text is None:
+        return raw, {}, {}
+    header = json.loads(str(text))
+    chans = {k: raw[k] for k in header.get("channels", []) if k in raw}
+    return chans, dict(header.get("units", {})), header
+
+
+_READERS = {"csv": _read_csv, "parquet": _read_parquet, "mat": _read_mat}
+_WRITERS = {"csv": _write_csv, "parquet": _write_parquet, "mat": _write_mat}
+
+
+# ---------------------------------------------------------------------- public
+def read_run(path: str | os.PathLike, channel_map: ChannelMap | str | os.PathLike | None = None,
+             name: str | None = None, *, validate: bool = True, **validate_options) -> Run:
+    """Read one run from a CSV, Parquet or MAT file, converting units to SI.
+
+    Parameters
+    ----------
+    path : path-like
+        File with suffix ``.csv``, ``.parquet`` or ``.mat``.
+    channel_map : ChannelMap or path-like, optional
+        Map from the file's variables/columns to channels. Required for MAT files not
+        written by hydropwa. With a map, units come from the map, not from the header.
+    name : str, optional
+        Run name (default: the name stored in the file, else the file stem).
+    validate : bool
+        Run :func:`~hydropwa.data.validate_run` and raise :class:`DataError` on errors.
+    **validate_options
+        Passed to ``validate_run`` (e.g. ``resample=True``); the repaired run is returned.
+
+    Returns
+    -------
+    Run
+        Channels in SI units.
+
+    Raises
+    ------
+    DataError
+        If the file cannot be read, a unit is unknown, or validation fails.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{str(path)!r}: no such file; hint: check the path")
+    fmt = format_of(path)
+    raw, units, header = _READERS[fmt](path)
+    run_name = str(name or header.get("name") or path.stem)
+    meta = dict(header.get("meta") or {})
+    if channel_map is not None:
+        cmap = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap.from_toml(channel_map)
+        meta.setdefault("source", path.name)
+        run = cmap.apply(raw, run_name, meta, where=f"{str(path)!r}")
+    elif fmt == "mat" and not header:
+        raise DataError(f"{str(path)!r}: MAT file without hydropwa metadata (variables "
+                        f"{sorted(raw)}); hint: pass a channel map (--channel-map map.toml)")
+    else:
+        run = Run.from_arrays(run_name, raw, units, fs=header.get("fs"), meta=meta)
+    if validate:
+        from ._validate import validate_run
+
+        run = validate_run(run, **validate_options).run
+    return run
+
+
+def write_run(run: Run, path: str | os.PathLike, format: str | None = None,
+              units: Mapping[str, str] | None = None) -> Path:
+    """Write a run atomically as CSV, Parquet or MAT.
+
+    Parameters
+    ----------
+    run : Run
+        The run (SI units).
+    path : path-like
+        Destination; the format follows the suffix unless ``format`` is given.
+    format : {"csv", "parquet", "mat"}, optional
+        File format.
+    units : dict[str, str], optional
+        Units to write per channel (e.g. ``{"p_a": "bar", "x": "mm"}``); SI otherwise.
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+    """
+    path = Path(path)
+    fmt = format_of(path, format)
+    _WRITERS[fmt](run, path, units)
+    return path

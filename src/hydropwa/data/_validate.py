@@ -1,0 +1,387 @@
+"""Validation of measured runs: time base, missing values, clipping, unit plausibility.
+
+Nothing is repaired silently: :func:`check_run` only reports, :func:`validate_run`
+raises on errors and repairs only what its flags ask for.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from hydropwa._errors import DataError
+
+from ._run import Run
+
+__all__ = ["Issue", "Plausible", "PLAUSIBLE_RANGES", "ValidationReport", "check_run",
+           "validate_run", "COMMAND_CHANNELS"]
+
+#: Channels that are commanded, not measured: not checked for clipping (a saturated
+#: command is legitimate).
+COMMAND_CHANNELS = frozenset({"u", "x_ref"})
+
+
+@dataclasses.dataclass(frozen=True)
+class Plausible:
+    """Plausible range of a canonical channel in SI units.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Smallest and largest plausible sample [SI unit of the channel].
+    min_peak : float
+        Smallest plausible peak ``max |value|`` when the channel is not all zero
+        [SI unit]; catches bar declared as Pa.
+    high_hint, low_hint : str
+        Likely cause when ``hi`` is exceeded / the peak is below ``min_peak``.
+    """
+
+    lo: float
+    hi: float
+    min_peak: float = 0.0
+    high_hint: str = "check the unit declared for this channel"
+    low_hint: str = "check the unit declared for this channel"
+
+
+_P_HIGH = "values above 1000 bar: check the declared unit (psi or kPa declared as Pa?)"
+_P_LOW = "the values look like bar (or MPa); declare the unit as 'bar' or 'MPa', e.g. 'p_a [bar]'"
+_FRACTION_HIGH = "the values look like percent; declare the unit as '%'"
+
+#: Plausibility ranges per canonical channel, SI units (see ``docs/architecture_data.md``).
+PLAUSIBLE_RANGES: dict[str, Plausible] = {
+    "u": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
+    "spool": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
+    "z": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
+    "x": Plausible(-0.05, 2.0, high_hint="positions beyond 2 m look like mm; declare the unit as 'mm'"),
+    "v": Plausible(-5.0, 5.0, high_hint="speeds beyond 5 m/s look like mm/s; declare 'mm/s'"),
+    "p_a": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
+    "p_b": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
+    "p_s": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
+    "p_l": Plausible(-1e8, 1e8, 1e3, _P_HIGH, _P_LOW),
+    "f_l": Plausible(-1e7, 1e7, high_hint="forces beyond 10 MN: check the declared unit"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Issue:
+    """One finding of a check.
+
+    Attributes
+    ----------
+    severity : str
+        ``"error"`` (validation fails) or ``"warning"``.
+    code : str
+        Stable identifier, e.g. ``"time_duplicate"``, ``"nonfinite"``, ``"clipped"``.
+    run : str
+        Run name.
+    channel : str or None
+        Channel name.
+    sample : int or None
+        Index of the first offending sample.
+    time : float or None
+        Time of that sample [s].
+    message : str
+        What is wrong.
+    hint : str
+        How to fix it.
+    """
+
+    severity: str
+    code: str
+    run: str
+    channel: str | None
+    sample: int | None
+    time: float | None
+    message: str
+    hint: str
+
+    def __str__(self) -> str:
+        where = f"run {self.run!r}"
+        if self.channel is not None:
+            where += f", channel {self.channel!r}"
+        if self.sample is not None:
+            where += f", sample {self.sample}"
+            if self.time is not None and np.isfinite(self.time):
+                where += f" (t = {self.time:.6g} s)"
+        return f"{where}: {self.message}; hint: {self.hint}"
+
+
+@dataclasses.dataclass(frozen=True)
+class ValidationReport:
+    """Result of :func:`validate_run`.
+
+    Attributes
+    ----------
+    run : Run
+        The run after the requested repairs (the input run when none was asked for).
+    issues : list[Issue]
+        Remaining findings (warnings only when validation passed).
+    repairs : list[str]
+        Repairs applied, one sentence each.
+    """
+
+    run: Run
+    issues: list[Issue]
+    repairs: list[str]
+
+    @property
+    def ok(self) -> bool:
+        """True when no error remains."""
+        return not any(i.severity == "error" for i in self.issues)
+
+
+def _issue(run: Run, code: str, channel, sample, message: str, hint: str,
+           severity: str = "error") -> Issue:
+    t = None
+    if sample is not None:
+        sample = int(sample)
+        t = float(run.t[sample]) if 0 <= sample < run.n_samples else None
+    return Issue(severity, code, run.name, channel, sample, t, message, hint)
+
+
+# ---------------------------------------------------------------------- checks
+def _check_time(run: Run, dt_rtol: float, gap_factor: float, fs_rtol: float) -> list[Issue]:
+    t = run.t
+    out: list[Issue] = []
+    if run.n_samples < 2:
+        return [_issue(run, "too_short", "t", None, f"only {run.n_samples} sample(s)",
+                       "a run needs at least two samples")]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        out.append(_issue(run, "time_not_finite", "t", bad[0],
+                          f"time stamp is NaN/inf ({bad.size} such samples)",
+                          "drop these samples explicitly (validate_run(..., drop_duplicates=True) "
+                          "also drops non-finite time stamps)"))
+        return out
+    dt = np.diff(t)
+    for code, mask, what in (("time_duplicate", dt == 0, "repeats the previous time stamp"),
+                             ("time_decreasing", dt < 0, "time goes backwards")):
+        idx = np.flatnonzero(mask)
+        if idx.size:
+            i = idx[0] + 1
+            out.append(_issue(run, code, "t", i,
+                              f"{what} (t[{i - 1}] = {t[i - 1]:.9g} s, t[{i}] = {t[i]:.9g} s; "
+                              f"{idx.size} such samples)",
+                              "drop duplicated samples with validate_run(..., drop_duplicates=True)"
+                              if code == "time_duplicate" else
+                              "the file interleaves or concatenates logs; split it or sort by time"))
+    if out:
+        return out
+    step = float(np.median(dt))
+    gaps = np.flatnonzero(dt > gap_factor * step)
+    if gaps.size:
+        i = gaps[0] + 1
+        out.append(_issue(run, "time_gap", "t", i,
+                          f"gap in time: t jumps {dt[i - 1]:.6g} s from sample {i - 1} "
+                          f"(median step {step:.6g} s; {gaps.size} gaps)",
+                          "samples are missing; split the run with select(), or interpolate across "
+                          "with validate_run(..., resample=True) if that is acceptable"))
+    jitter = np.flatnonzero((np.abs(dt - step) > dt_rtol * step) & (dt <= gap_factor * step))
+    if jitter.size:
+        i = jitter[0] + 1
+        out.append(_issue(run, "time_nonuniform", "t", i,
+                          f"non-uniform sampling: step {dt[i - 1]:.6g} s vs median {step:.6g} s "
+                          f"(tolerance {dt_rtol:.0%}; {jitter.size} such steps)",
+                          "resample explicitly with validate_run(..., resample=True) or Run.resample(fs)"))
+    if run.fs is not None and np.isfinite(run.fs) and abs(run.fs * step - 1.0) > fs_rtol:
+        out.append(_issue(run, "fs_mismatch", "t", None,
+                          f"declared fs = {run.fs:.6g} Hz but the median step gives {1 / step:.6g} Hz",
+                          "fix fs in the file metadata or channel map", severity="warning"))
+    return out
+
+
+def _check_finite(run: Run, channel: str) -> list[Issue]:
+    v = run.channels[channel]
+    bad = np.flatnonzero(~np.isfinite(v))
+    if not bad.size:
+        return []
+    return [_issue(run, "nonfinite", channel, bad[0],
+                   f"{bad.size} NaN/inf value(s) (missing samples), first here",
+                   "interpolate them explicitly with validate_run(..., interpolate_gaps=True) "
+                   "or cut the run with select()")]
+
+
+def _runs_of(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts = np.flatnonzero(edges == 1)
+    return starts, np.flatnonzero(edges == -1) - starts
+
+
+def _check_clipping(run: Run, channel: str, min_samples: int) -> list[Issue]:
+    v = run.channels[channel]
+    fin = v[np.isfinite(v)]
+    if fin.size < 2 * min_samples or fin.min() == fin.max():
+        return []
+    out = []
+    for level in (fin.max(), fin.min()):
+        starts, lengths = _runs_of(v == level)
+        long = lengths >= min_samples
+        if not long.any():
+            continue
+        # A stuck ADC is flat only at its rail; a quantised, slowly moving signal is flat
+        # everywhere. Flag only when the signal otherwise changes from sample to sample.
+        plateau = np.zeros(v.shape, dtype=bool)
+        for s, n in zip(starts[long], lengths[long], strict=True):
+            plateau[s:s + n] = True
+        rest = np.diff(v[~plateau])
+        if rest.size and np.mean(rest == 0) > 0.5:
+            continue
+        k = int(np.argmax(long))
+        side = "maximum" if level == fin.max() else "minimum"
+        out.append(_issue(run, "clipped", channel, starts[k],
+                          f"stuck at its {side} {level:.6g} {run.units[channel]} for "
+                          f"{int(lengths[k])} samples ({int(long.sum())} such stretches)",
+                          "the sensor or ADC saturated; re-measure with a larger range or "
+                          "exclude the stretch with select()"))
+    return out
+
+
+def _check_range(run: Run, channel: str, rng: Plausible) -> list[Issue]:
+    v = run.channels[channel]
+    fin = np.isfinite(v)
+    if not fin.any():
+        return []
+    unit = run.units[channel]
+    out = []
+    outside = np.flatnonzero(fin & ((v > rng.hi) | (v < rng.lo)))
+    if outside.size:
+        i = outside[0]
+        hint = rng.high_hint if v[i] > rng.hi else (
+            "check the sensor offset and sign, and the declared unit")
+        out.append(_issue(run, "implausible_magnitude", channel, i,
+                          f"value {v[i]:.6g} {unit} outside the plausible range "
+                          f"[{rng.lo:.6g}, {rng.hi:.6g}] {unit} ({outside.size} samples)", hint))
+    peak = float(np.max(np.abs(v[fin])))
+    if 0.0 < peak < rng.min_peak:
+        i = int(np.flatnonzero(fin & (np.abs(v) == peak))[0])
+        out.append(_issue(run, "implausible_magnitude", channel, i,
+                          f"peak |value| {peak:.6g} {unit} is below {rng.min_peak:.6g} {unit}, "
+                          "far below any working value", rng.low_hint))
+    return out
+
+
+def check_run(run: Run, *, dt_rtol: float = 0.01, gap_factor: float = 1.5,
+              fs_rtol: float = 0.01, clip_min_samples: int = 10,
+              ranges: Mapping[str, Plausible] | None = None,
+              no_clip_check: Iterable[str] = COMMAND_CHANNELS) -> list[Issue]:
+    """Check a run and return every finding; never raises for bad data.
+
+    Parameters
+    ----------
+    run : Run
+        The run to check.
+    dt_rtol : float
+        Allowed relative deviation of a time step from the median step [1].
+    gap_factor : float
+        A step longer than ``gap_factor`` median steps is a gap (missing samples) [1].
+    fs_rtol : float
+        Allowed relative mismatch between the declared ``fs`` and the median step [1].
+    clip_min_samples : int
+        Samples in a row at the channel's extreme that count as clipping.
+    ranges : dict[str, Plausible], optional
+        Plausible ranges per channel; default :data:`PLAUSIBLE_RANGES`.
+    no_clip_check : iterable of str
+        Channels not checked for clipping (commanded signals).
+
+    Returns
+    -------
+    list[Issue]
+        Findings ordered by channel; empty for a clean run.
+    """
+    ranges = PLAUSIBLE_RANGES if ranges is None else ranges
+    skip = set(no_clip_check)
+    issues = _check_time(run, dt_rtol, gap_factor, fs_rtol)
+    for ch in run.channels:
+        if ch == "t":
+            continue
+        issues += _check_finite(run, ch)
+        if ch not in skip:
+            issues += _check_clipping(run, ch, clip_min_samples)
+        if ch in ranges:
+            issues += _check_range(run, ch, ranges[ch])
+    return issues
+
+
+# ---------------------------------------------------------------------- repairs
+def _drop_duplicates(run: Run) -> tuple[Run, str | None]:
+    t = run.t
+    keep = np.isfinite(t)
+    keep[1:] &= np.diff(t) != 0
+    if keep.all():
+        return run, None
+    run2 = run.replace(channels={k: v[keep] for k, v in run.channels.items()})
+    return run2, f"dropped {int((~keep).sum())} samples with repeated or non-finite time stamps"
+
+
+def _interpolate_gaps(run: Run) -> tuple[Run, str | None]:
+    chans, n_fixed = {}, 0
+    t = run.t
+    for k, v in run.channels.items():
+        bad = ~np.isfinite(v)
+        if k == "t" or not bad.any() or bad.all():
+            chans[k] = v
+            continue
+        good = np.flatnonzero(~bad)
+        inner = bad & (np.arange(v.size) > good[0]) & (np.arange(v.size) < good[-1])
+        w = np.array(v)
+        w[inner] = np.interp(t[inner], t[~bad], v[~bad])
+        chans[k], n_fixed = w, n_fixed + int(inner.sum())
+    if not n_fixed:
+        return run, None
+    return run.replace(channels=chans), f"linearly interpolated {n_fixed} NaN/inf samples"
+
+
+def validate_run(run: Run, *, resample: bool = False, fs: float | None = None,
+                 interpolate_gaps: bool = False, drop_duplicates: bool = False,
+                 raise_on_error: bool = True, **check_options) -> ValidationReport:
+    """Validate a run, apply only the repairs asked for, and raise on remaining errors.
+
+    Parameters
+    ----------
+    run : Run
+        The run to validate.
+    resample : bool
+        Resample onto a uniform grid at ``fs`` (linear interpolation) when the time base
+        has jitter or gaps.
+    fs : float, optional
+        Target rate for ``resample`` [Hz]; default ``run.fs``.
+    interpolate_gaps : bool
+        Linearly interpolate NaN/inf samples that lie between finite ones.
+    drop_duplicates : bool
+        Drop samples whose time stamp repeats the previous one or is not finite.
+    raise_on_error : bool
+        Raise :class:`DataError` when errors remain (default) instead of returning them.
+    **check_options
+        Passed to :func:`check_run` (``dt_rtol``, ``clip_min_samples``, ``ranges``, ...).
+
+    Returns
+    -------
+    ValidationReport
+        The (repaired) run, remaining issues and the repairs applied.
+
+    Raises
+    ------
+    DataError
+        With the first error's message (run, channel, sample, hint) when errors remain.
+    """
+    repairs: list[str] = []
+    if drop_duplicates:
+        run, note = _drop_duplicates(run)
+        repairs += [note] if note else []
+    if interpolate_gaps:
+        run, note = _interpolate_gaps(run)
+        repairs += [note] if note else []
+    if resample:
+        codes = {i.code for i in check_run(run, **check_options)}
+        if codes & {"time_gap", "time_nonuniform"} or (fs is not None and fs != run.fs):
+            run = run.resample(fs)
+            repairs.append(f"resampled to a uniform grid at {run.fs:.6g} Hz")
+    issues = check_run(run, **check_options)
+    errors = [i for i in issues if i.severity == "error"]
+    if errors and raise_on_error:
+        more = f" [{len(errors) - 1} more error(s); run `hydropwa data check` to list all]" \
+            if len(errors) > 1 else ""
+        raise DataError(f"{errors[0]}{more}")
+    return ValidationReport(run=run, issues=issues, repairs=repairs)
