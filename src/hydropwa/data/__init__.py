@@ -4,8 +4,9 @@ Units are converted only here, where data enters or leaves the package; every
 :class:`Run` holds SI units (``t`` [s], ``x`` [m], ``p_a`` [Pa], ...).
 """
 
-from ._channel_map import ChannelMap, ChannelSpec
-from ._emps import builtin_channel_map, load_emps
+from ._channel_map import ChannelMap, ChannelSpec, builtin_channel_map
+from ._dataset import MANIFEST, Dataset, check_dataset, convert, read_dataset, write_dataset
+from ._emps import load_emps
 from ._formats import FORMATS, read_run, write_run
 from ._run import Run
 from ._units import CANONICAL_UNITS, convert_units, to_si
@@ -22,18 +23,24 @@ __all__ = [
     "CANONICAL_UNITS",
     "FORMATS",
     "PLAUSIBLE_RANGES",
+    "MANIFEST",
     "ChannelMap",
+    "Dataset",
     "ChannelSpec",
     "Issue",
     "Plausible",
     "Run",
     "ValidationReport",
     "builtin_channel_map",
+    "check_dataset",
     "check_run",
+    "convert",
     "convert_units",
     "load_emps",
+    "read_dataset",
     "read_run",
     "to_si",
     "validate_run",
+    "write_dataset",
     "write_run",
 ]

@@ -36,8 +36,10 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import os
 import tomllib
 from collections.abc import Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +50,7 @@ from hydropwa._errors import DataError
 from ._run import Run
 from ._units import CANONICAL_UNITS
 
-__all__ = ["ChannelMap", "ChannelSpec"]
+__all__ = ["ChannelMap", "ChannelSpec", "builtin_channel_map", "resolve_channel_map"]
 
 _TOKEN = re.compile(r"^(?P<name>[A-Za-z_][\w]*)(?:\((?P<index>\d+)\)|\{(?P<label>[^{}]+)\})?$")
 _SPEC_KEYS = {"source", "column", "unit", "gain", "offset"}
@@ -268,3 +270,28 @@ def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -
                             "hint: reference a 1x1 variable")
         return float(arr.reshape(-1)[0])
     return float(value)
+
+
+def builtin_channel_map(name: str) -> ChannelMap:
+    """Return a channel map shipped with the package (``"emps"``).
+
+    Parameters
+    ----------
+    name : str
+        Stem of a TOML file in ``hydropwa/data/channel_maps``.
+    """
+    res = resources.files("hydropwa.data").joinpath("channel_maps").joinpath(f"{name}.toml")
+    if not res.is_file():
+        raise DataError(f"no built-in channel map {name!r}; hint: the package ships 'emps'")
+    return ChannelMap.from_dict(tomllib.loads(res.read_text(encoding="utf-8")),
+                                origin=f"built-in channel map {name!r}")
+
+
+def resolve_channel_map(channel_map: ChannelMap | str | os.PathLike | None) -> ChannelMap | None:
+    """Accept a map, a TOML path, or the name of a built-in map (``"emps"``)."""
+    if channel_map is None or isinstance(channel_map, ChannelMap):
+        return channel_map
+    path = Path(channel_map)
+    if not path.exists() and not path.suffix and path.name == str(channel_map):
+        return builtin_channel_map(str(channel_map))
+    return ChannelMap.from_toml(path)

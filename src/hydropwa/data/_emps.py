@@ -3,33 +3,13 @@
 from __future__ import annotations
 
 import os
-from importlib import resources
 from pathlib import Path
 
-from ._channel_map import ChannelMap
+from ._channel_map import builtin_channel_map
 from ._formats import read_run
 from ._run import Run
 
-__all__ = ["load_emps", "builtin_channel_map"]
-
-
-def builtin_channel_map(name: str) -> ChannelMap:
-    """Return a channel map shipped with the package (``"emps"``).
-
-    Parameters
-    ----------
-    name : str
-        Stem of a TOML file in ``hydropwa/data/channel_maps``.
-    """
-    import tomllib
-
-    from hydropwa._errors import DataError
-
-    res = resources.files("hydropwa.data").joinpath("channel_maps").joinpath(f"{name}.toml")
-    if not res.is_file():
-        raise DataError(f"no built-in channel map {name!r}; hint: the package ships 'emps'")
-    return ChannelMap.from_dict(tomllib.loads(res.read_text(encoding="utf-8")),
-                                origin=f"built-in channel map {name!r}")
+__all__ = ["load_emps"]
 
 
 def load_emps(path: str | os.PathLike, name: str | None = None, *, validate: bool = True) -> Run:

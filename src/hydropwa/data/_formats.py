@@ -28,7 +28,7 @@ import numpy as np
 from hydropwa._errors import DataError
 from hydropwa._io import atomic_path, atomic_write_text
 
-from ._channel_map import ChannelMap
+from ._channel_map import ChannelMap, resolve_channel_map
 from ._run import Run, format_column_label, parse_column_label
 from ._units import from_si, normalize_unit
 
@@ -262,7 +262,7 @@ def read_run(path: str | os.PathLike, channel_map: ChannelMap | str | os.PathLik
     run_name = str(name or header.get("name") or path.stem)
     meta = dict(header.get("meta") or {})
     if channel_map is not None:
-        cmap = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap.from_toml(channel_map)
+        cmap = resolve_channel_map(channel_map)
         meta.setdefault("source", path.name)
         run = cmap.apply(raw, run_name, meta, where=f"{str(path)!r}")
     elif fmt == "mat" and not header:

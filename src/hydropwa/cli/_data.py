@@ -1,0 +1,87 @@
+"""``hydropwa data``: check and convert measurement files and datasets.
+
+Registered by the main CLI with ``app.add_typer(data_app, name="data")``.
+Exit codes: 0 clean / done, 1 issues found (``check``), 2 unreadable input or error.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hydropwa._errors import HydropwaError
+
+__all__ = ["app"]
+
+app = typer.Typer(help="Check and convert measurement files and datasets.",
+                  no_args_is_help=True, add_completion=False)
+
+
+def _fail(exc: HydropwaError) -> typer.Exit:
+    typer.echo(f"error: {exc}", err=True)
+    return typer.Exit(code=2)
+
+
+def _print_issues(issues, plain: bool) -> None:
+    if plain or not sys.stdout.isatty():
+        for issue in issues:
+            typer.echo(f"{issue.severity}: {issue}")
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{len(issues)} issue(s)")
+    for col in ("severity", "run", "channel", "sample", "t [s]", "message", "hint"):
+        table.add_column(col)
+    for i in issues:
+        table.add_row(i.severity, i.run, i.channel or "", "" if i.sample is None else str(i.sample),
+                      "" if i.time is None else f"{i.time:.6g}", i.message, i.hint)
+    Console().print(table)
+
+
+@app.command("check")
+def check(
+    source: Annotated[Path, typer.Argument(help="Dataset folder or run file (.csv/.parquet/.mat).")],
+    channel_map: Annotated[Path | None, typer.Option(
+        "--channel-map", "-m", help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.")] = None,
+    plain: Annotated[bool, typer.Option("--plain", help="Plain lines instead of a table.")] = False,
+) -> None:
+    """Validate a dataset or a single run file and list every issue found."""
+    from hydropwa.data import check_dataset
+
+    try:
+        issues = check_dataset(source, channel_map)
+    except HydropwaError as exc:
+        raise _fail(exc) from None
+    if not issues:
+        typer.echo(f"ok: {source} has no issues")
+        return
+    _print_issues(issues, plain)
+    raise typer.Exit(code=1)
+
+
+@app.command("convert")
+def convert(
+    src: Annotated[Path, typer.Argument(help="Run file, dataset folder, or folder of raw files.")],
+    dst: Annotated[Path, typer.Argument(help="Destination file or folder.")],
+    channel_map: Annotated[Path | None, typer.Option(
+        "--channel-map", "-m", help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.")] = None,
+    format: Annotated[str | None, typer.Option(
+        "--format", "-f", help="Output format: csv, parquet or mat.")] = None,
+    resample: Annotated[bool, typer.Option(
+        "--resample", help="Resample non-uniform time bases (explicit repair).")] = False,
+    overwrite: Annotated[bool, typer.Option(
+        "--overwrite", help="Replace an existing destination dataset.")] = False,
+) -> None:
+    """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""
+    from hydropwa.data import convert as convert_data
+
+    try:
+        out = convert_data(src, dst, channel_map=channel_map, format=format,
+                           overwrite=overwrite, resample=resample)
+    except HydropwaError as exc:
+        raise _fail(exc) from None
+    typer.echo(f"wrote {out}")

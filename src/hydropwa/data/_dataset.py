@@ -1,0 +1,374 @@
+"""Datasets: a folder of run files with a ``manifest.json``.
+
+Manifest (``manifest.json``, UTF-8 JSON)::
+
+    {
+      "format": "hydropwa-dataset",
+      "format_version": 1,
+      "meta": {...},                       # dataset metadata
+      "runs": [
+        {"name": "step_01", "file": "step_01.parquet", "format": "parquet",
+         "kind": "step", "fs": 1000.0, "n_samples": 2001, "duration": 2.0,
+         "channels": {"t": "s", "x": "m"}, "meta": {...}},
+        ...
+      ]
+    }
+
+Run files are written first and the manifest after each run, both atomically, so an
+interrupted writer leaves a valid dataset of the runs finished so far.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from hydropwa._errors import DataError
+from hydropwa._io import atomic_write_text
+
+from ._channel_map import ChannelMap, resolve_channel_map
+from ._formats import FORMATS, format_of, read_run, suffix_of, write_run
+from ._run import Run
+from ._validate import Issue, check_run
+
+__all__ = ["Dataset", "read_dataset", "write_dataset", "check_dataset", "convert", "MANIFEST"]
+
+#: File name of the dataset manifest.
+MANIFEST = "manifest.json"
+_FORMAT = "hydropwa-dataset"
+_VERSION = 1
+
+
+def _empty_manifest(meta: Mapping | None) -> dict[str, Any]:
+    return {"format": _FORMAT, "format_version": _VERSION, "meta": dict(meta or {}), "runs": []}
+
+
+def _read_manifest(root: Path) -> dict[str, Any]:
+    path = root / MANIFEST
+    if not path.is_file():
+        raise DataError(f"{str(root)!r}: no {MANIFEST}, so it is not a hydropwa dataset; hint: "
+                        "create one with write_dataset() or `hydropwa data convert SRC_DIR DST_DIR`")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise DataError(f"{str(path)!r}: manifest unreadable ({exc}); hint: fix the JSON or "
+                        "rewrite the dataset") from exc
+    if doc.get("format") != _FORMAT or not isinstance(doc.get("runs"), list):
+        raise DataError(f"{str(path)!r}: not a hydropwa manifest (needs \"format\": \"{_FORMAT}\" "
+                        "and a \"runs\" list); hint: rewrite the dataset with write_dataset()")
+    names = [e.get("name") for e in doc["runs"]]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise DataError(f"{str(path)!r}: runs {dup} listed twice; hint: remove the duplicate entries")
+    return doc
+
+
+def _entry(run: Run, file: str, fmt: str) -> dict[str, Any]:
+    return {"name": run.name, "file": file, "format": fmt, "kind": run.kind,
+            "fs": run.fs, "n_samples": run.n_samples, "duration": run.duration,
+            "channels": dict(run.units), "meta": run.meta}
+
+
+class Dataset:
+    """A folder of runs described by ``manifest.json``.
+
+    Parameters
+    ----------
+    root : path-like
+        Dataset folder.
+    manifest : dict, optional
+        Manifest document (read from ``root`` when omitted).
+    validate : bool
+        Validate runs when they are loaded (see :func:`~hydropwa.data.validate_run`).
+
+    Notes
+    -----
+    Runs load lazily and are cached; ``runs`` loads all of them. Iteration yields
+    :class:`Run` objects in manifest order.
+    """
+
+    def __init__(self, root: str | os.PathLike, manifest: Mapping | None = None,
+                 validate: bool = True) -> None:
+        self.root = Path(root)
+        self.manifest: dict[str, Any] = (dict(manifest) if manifest is not None
+                                         else _read_manifest(self.root))
+        self.validate = validate
+        self._cache: dict[str, Run] = {}
+
+    # ------------------------------------------------------------------ create
+    @classmethod
+    def create(cls, root: str | os.PathLike, meta: Mapping | None = None,
+               overwrite: bool = False) -> Dataset:
+        """Create an empty dataset (writes the manifest).
+
+        Raises
+        ------
+        DataError
+            If ``root`` already holds a manifest and ``overwrite`` is false.
+        """
+        root = Path(root)
+        if (root / MANIFEST).exists() and not overwrite:
+            raise DataError(f"{str(root)!r}: already holds a dataset; hint: choose another folder, "
+                            "pass overwrite=True, or open it with read_dataset() and add_run()")
+        ds = cls(root, _empty_manifest(meta))
+        ds._write_manifest()
+        return ds
+
+    def _write_manifest(self) -> None:
+        atomic_write_text(self.root / MANIFEST,
+                          json.dumps(self.manifest, indent=2, allow_nan=False) + "\n")
+
+    def add_run(self, run: Run, format: str = "parquet", units: Mapping[str, str] | None = None,
+                overwrite: bool = False) -> Path:
+        """Write ``run`` into the dataset, then update the manifest (both atomically).
+
+        Parameters
+        ----------
+        run : Run
+            The run; its name becomes the file stem.
+        format : {"parquet", "csv", "mat"}
+            File format of the run.
+        units : dict[str, str], optional
+            Units to write per channel (SI otherwise).
+        overwrite : bool
+            Replace a run of the same name.
+
+        Returns
+        -------
+        pathlib.Path
+            Path of the run file.
+        """
+        fmt = format_of("", format)
+        if run.name in self.names and not overwrite:
+            raise DataError(f"dataset {str(self.root)!r}: run {run.name!r} exists; hint: rename "
+                            "the run or pass overwrite=True")
+        file = run.name + suffix_of(fmt)
+        path = write_run(run, self.root / file, fmt, units)
+        runs = [e for e in self.manifest["runs"] if e["name"] != run.name]
+        runs.append(_entry(run, file, fmt))
+        self.manifest["runs"] = runs
+        self._write_manifest()
+        self._cache[run.name] = run
+        return path
+
+    def write(self, runs: Iterable[Run], format: str = "parquet",
+              units: Mapping[str, str] | None = None, overwrite: bool = False) -> Dataset:
+        """Add several runs, one after the other (see :meth:`add_run`)."""
+        for run in runs:
+            self.add_run(run, format=format, units=units, overwrite=overwrite)
+        return self
+
+    # ------------------------------------------------------------------ access
+    @property
+    def names(self) -> list[str]:
+        """Run names in manifest order."""
+        return [e["name"] for e in self.manifest["runs"]]
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        """Dataset metadata."""
+        return self.manifest.get("meta", {})
+
+    def entry(self, name: str) -> dict[str, Any]:
+        """Manifest entry of run ``name``."""
+        for e in self.manifest["runs"]:
+            if e["name"] == name:
+                return e
+        raise DataError(f"dataset {str(self.root)!r}: no run {name!r} (has {self.names}); "
+                        "hint: check the run name")
+
+    def path_of(self, name: str) -> Path:
+        """Path of the file of run ``name``."""
+        return self.root / self.entry(name)["file"]
+
+    def __getitem__(self, name: str) -> Run:
+        if name not in self._cache:
+            path = self.path_of(name)
+            if not path.is_file():
+                raise DataError(f"dataset {str(self.root)!r}, run {name!r}: file "
+                                f"{path.name!r} listed in {MANIFEST} is missing; hint: restore it "
+                                f"or remove the entry from {MANIFEST}")
+            self._cache[name] = read_run(path, name=name, validate=self.validate)
+        return self._cache[name]
+
+    @property
+    def runs(self) -> dict[str, Run]:
+        """All runs by name (loads every file)."""
+        return {n: self[n] for n in self.names}
+
+    def __iter__(self) -> Iterator[Run]:
+        return (self[n] for n in self.names)
+
+    def __len__(self) -> int:
+        return len(self.manifest["runs"])
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
+
+    def filter(self, kind: str | None = None, **meta) -> Dataset:
+        """Runs of one experiment ``kind`` (and matching metadata), as a new in-memory view."""
+        keep = [e for e in self.manifest["runs"]
+                if (kind is None or e.get("kind") == kind)
+                and all(e.get("meta", {}).get(k) == v for k, v in meta.items())]
+        ds = Dataset(self.root, {**self.manifest, "runs": keep}, validate=self.validate)
+        ds._cache = {n: r for n, r in self._cache.items() if n in ds.names}
+        return ds
+
+    def __repr__(self) -> str:
+        return f"Dataset({str(self.root)!r}, {len(self)} runs)"
+
+
+def read_dataset(root: str | os.PathLike, *, validate: bool = True, lazy: bool = False) -> Dataset:
+    """Open a dataset folder.
+
+    Parameters
+    ----------
+    root : path-like
+        Folder holding ``manifest.json``.
+    validate : bool
+        Validate each run when loaded; raises :class:`DataError` on errors.
+    lazy : bool
+        Load runs on first access instead of now.
+
+    Returns
+    -------
+    Dataset
+    """
+    ds = Dataset(root, validate=validate)
+    if not lazy:
+        ds.runs  # noqa: B018 - loading now surfaces file and validation errors here
+    return ds
+
+
+def write_dataset(runs: Iterable[Run], root: str | os.PathLike, *, format: str = "parquet",
+                  units: Mapping[str, str] | None = None, meta: Mapping | None = None,
+                  overwrite: bool = False) -> Dataset:
+    """Write runs as a new dataset, updating the manifest after each run.
+
+    Parameters
+    ----------
+    runs : iterable of Run
+        Runs to write (a generator is consumed one run at a time).
+    root : path-like
+        Destination folder (created).
+    format : {"parquet", "csv", "mat"}
+        File format of the runs.
+    units : dict[str, str], optional
+        Units to write per channel (SI otherwise).
+    meta : dict, optional
+        Dataset metadata.
+    overwrite : bool
+        Replace an existing manifest in ``root``.
+
+    Returns
+    -------
+    Dataset
+    """
+    return Dataset.create(root, meta=meta, overwrite=overwrite).write(runs, format, units)
+
+
+def _unreadable(run: str, message: str, hint: str) -> Issue:
+    return Issue("error", "unreadable", run, None, None, None, message, hint)
+
+
+def check_dataset(source: str | os.PathLike | Dataset,
+                  channel_map: ChannelMap | str | os.PathLike | None = None,
+                  **check_options) -> list[Issue]:
+    """Check every run of a dataset (or one file) and return all findings.
+
+    Parameters
+    ----------
+    source : path-like or Dataset
+        Dataset folder, run file, or an open :class:`Dataset`.
+    channel_map : ChannelMap or path-like, optional
+        Map for raw files (single-file sources).
+    **check_options
+        Passed to :func:`~hydropwa.data.check_run`.
+
+    Returns
+    -------
+    list[Issue]
+        Empty for a clean dataset. Unreadable runs are reported with code ``"unreadable"``.
+
+    Raises
+    ------
+    DataError
+        If ``source`` itself cannot be read (no manifest, unreadable file).
+    """
+    if not isinstance(source, Dataset) and not Path(source).exists():
+        raise DataError(f"{str(source)!r}: no such file or folder; hint: check the path")
+    if not isinstance(source, Dataset) and Path(source).is_file():
+        return check_run(read_run(source, channel_map, validate=False), **check_options)
+    ds = source if isinstance(source, Dataset) else Dataset(source, validate=False)
+    ds = Dataset(ds.root, ds.manifest, validate=False)
+    issues: list[Issue] = []
+    for name in ds.names:
+        try:
+            run = ds[name]
+        except DataError as exc:
+            issues.append(_unreadable(name, str(exc), "see the message"))
+            continue
+        issues += check_run(run, **check_options)
+    return issues
+
+
+def _raw_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir()
+                  if p.is_file() and p.suffix.lower() in FORMATS and not p.name.startswith("."))
+
+
+def convert(src: str | os.PathLike, dst: str | os.PathLike, *,
+            channel_map: ChannelMap | str | os.PathLike | None = None, format: str | None = None,
+            units: Mapping[str, str] | None = None, overwrite: bool = False,
+            **validate_options) -> Path:
+    """Convert a run file or a whole folder to another format, validating on the way.
+
+    Parameters
+    ----------
+    src : path-like
+        A run file, a dataset folder (with manifest), or a folder of raw files (each
+        ``.csv``/``.parquet``/``.mat`` becomes a run).
+    dst : path-like
+        Destination file (for a file ``src``) or folder.
+    channel_map : ChannelMap or path-like, optional
+        Map for raw files.
+    format : {"csv", "parquet", "mat"}, optional
+        Output format; default from ``dst``'s suffix for files, ``"parquet"`` for folders.
+    units : dict[str, str], optional
+        Units to write per channel (SI otherwise).
+    overwrite : bool
+        Replace an existing destination dataset.
+    **validate_options
+        Passed to :func:`~hydropwa.data.validate_run` (e.g. ``resample=True``).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file or folder.
+    """
+    src, dst = Path(src), Path(dst)
+    cmap = resolve_channel_map(channel_map)
+    if src.is_file():
+        if dst.is_dir():
+            dst = dst / (src.stem + suffix_of(format or "parquet"))
+        run = read_run(src, cmap, **validate_options)
+        return write_run(run, dst, format, units)
+    if not src.is_dir():
+        raise DataError(f"{str(src)!r}: no such file or folder; hint: check the path")
+    fmt = format or "parquet"
+    if (src / MANIFEST).is_file():
+        ds = Dataset(src, validate=False)
+        runs = (read_run(ds.path_of(n), cmap, name=n, **validate_options) for n in ds.names)
+        meta = ds.meta
+    else:
+        files = _raw_files(src)
+        if not files:
+            raise DataError(f"{str(src)!r}: no {MANIFEST} and no .csv/.parquet/.mat files; "
+                            "hint: point at a dataset folder or a run file")
+        runs = (read_run(p, cmap, **validate_options) for p in files)
+        meta = {"source": str(src)}
+    write_dataset(runs, dst, format=fmt, units=units, meta=meta, overwrite=overwrite)
+    return dst
