@@ -111,8 +111,8 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
                                     f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
                                     ) from exc
     try:
-        df = pd.read_csv(path, skiprows=n_comment, float_precision="round_trip",
-                         skipinitialspace=True, dtype=str, keep_default_na=False)
+        df = pd.read_csv(path, skiprows=n_comment, skipinitialspace=True, dtype=str,
+                         keep_default_na=False)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{str(path)!r}: not a readable CSV table ({exc}); "
                         "hint: one header line 'name [unit],...' then one row per sample") from exc
@@ -126,9 +126,14 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
 
 
 def _numeric_column(text: np.ndarray, path: Path, ch: str, n_comment: int) -> np.ndarray:
-    out = np.empty(text.shape, dtype=float)
-    for i, s in enumerate(text):
-        s = str(s).strip()
+    # Text is parsed by Python's float(): correctly rounded, so CSV round trips are exact.
+    cells = [str(s).strip() for s in text]
+    try:
+        return np.array([float(s) if s else np.nan for s in cells], dtype=float)
+    except ValueError:
+        pass
+    out = np.empty(len(cells), dtype=float)
+    for i, s in enumerate(cells):
         try:
             out[i] = float(s) if s else np.nan
         except ValueError:
