@@ -46,3 +46,9 @@ def emps_dir() -> Path:
     if not (EMPS_DIR / "DATA_EMPS.mat").is_file():
         pytest.skip("EMPS benchmark files not available")
     return EMPS_DIR
+
+
+@pytest.fixture(name="make_run")
+def make_run_fixture():
+    """The :func:`make_run` factory, for tests that build variants of the clean run."""
+    return make_run
