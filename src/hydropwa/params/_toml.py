@@ -118,6 +118,10 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         return float(value)
     if not isinstance(value, str):
         raise ParameterError(f"{where} = {value!r} must be a number or a string with a unit")
+    try:
+        return float(value)
+    except ValueError:
+        pass
     import pint
 
     ureg = _ureg()

@@ -1,0 +1,19 @@
+"""Simulation: input signals, the compiled stiff integrator and ``simulate``."""
+
+from ._signals import Chirp, Constant, Ramp, Sampled, Signal, Sine, Step, as_signal, parse_signal
+from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
+
+__all__ = [
+    "CHANNEL_UNITS",
+    "Chirp",
+    "Constant",
+    "Ramp",
+    "Sampled",
+    "Signal",
+    "SimulationResult",
+    "Sine",
+    "Step",
+    "as_signal",
+    "parse_signal",
+    "simulate",
+]

@@ -1,0 +1,339 @@
+"""Input signals: constant, step, ramp, sine, chirp and sampled (measured) data.
+
+A signal is a frozen object that evaluates in Python (``sig(t)``) and packs
+into plain arrays that the compiled solver evaluates without calling Python
+(:func:`eval_signal`). ``parse_signal`` reads the CLI spec language, e.g.
+``"sine:amplitude=0.4,frequency=1"`` or ``"constant:95 bar"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+from numba import njit
+
+from .._errors import SignalError
+
+__all__ = [
+    "Signal",
+    "Constant",
+    "Step",
+    "Ramp",
+    "Sine",
+    "Chirp",
+    "Sampled",
+    "as_signal",
+    "parse_signal",
+    "eval_signal",
+]
+
+_CONSTANT, _STEP, _RAMP, _SINE, _CHIRP, _SAMPLED = 0, 1, 2, 3, 4, 5
+_TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True, nogil=True)
+def eval_signal(kind: int, par, ts, vs, t: float) -> float:
+    """Evaluate a packed signal at time ``t`` [s] (compiled; see :meth:`Signal.pack`)."""
+    if kind == _CONSTANT:
+        return par[0]
+    if kind == _STEP:
+        return par[2] if t >= par[0] else par[1]
+    if kind == _RAMP:
+        t0, t1, v0, v1 = par[0], par[1], par[2], par[3]
+        if t <= t0:
+            return v0
+        if t >= t1:
+            return v1
+        return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    if kind == _SINE:
+        amp, freq, off, ph, start = par[0], par[1], par[2], par[3], par[4]
+        if t < start:
+            return off
+        return off + amp * math.sin(_TWO_PI * freq * (t - start) + ph)
+    if kind == _CHIRP:
+        amp, f0, f1, dur, off, start = par[0], par[1], par[2], par[3], par[4], par[5]
+        tau = t - start
+        if tau < 0.0 or tau > dur:
+            return off
+        return off + amp * math.sin(_TWO_PI * (f0 * tau + 0.5 * (f1 - f0) * tau * tau / dur))
+    # sampled: linear interpolation, held at the ends
+    n = ts.shape[0]
+    if t <= ts[0]:
+        return vs[0]
+    if t >= ts[n - 1]:
+        return vs[n - 1]
+    i = np.searchsorted(ts, t, side="right") - 1
+    w = (t - ts[i]) / (ts[i + 1] - ts[i])
+    return vs[i] + w * (vs[i + 1] - vs[i])
+
+
+@njit(cache=True, nogil=True)
+def _eval_many(kind, par, ts, vs, t):
+    out = np.empty(t.shape[0])
+    for i in range(t.shape[0]):
+        out[i] = eval_signal(kind, par, ts, vs, t[i])
+    return out
+
+
+_EMPTY = np.zeros(1)
+
+
+@dataclass(frozen=True)
+class Signal:
+    """Base class of input signals (values in SI, or fractions for the valve command)."""
+
+    _kind = -1
+
+    def _par(self) -> list[float]:
+        return [float(getattr(self, f.name)) for f in fields(self)]
+
+    def pack(self) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+        """Return ``(kind, par[8], ts, vs)`` for :func:`eval_signal`."""
+        par = np.zeros(8)
+        vals = self._par()
+        par[: len(vals)] = vals
+        return self._kind, par, _EMPTY, _EMPTY
+
+    def __call__(self, t):
+        kind, par, ts, vs = self.pack()
+        arr = np.atleast_1d(np.asarray(t, dtype=float))
+        out = _eval_many(kind, par, ts, vs, arr)
+        return out if np.ndim(t) else float(out[0])
+
+    def peak(self, duration: float) -> float:
+        """Largest |value| over [0, duration] (used for the ω0 amplitude schedule)."""
+        tt = np.linspace(0.0, max(duration, 1e-9), 4001)
+        return float(np.max(np.abs(self(tt))))
+
+    def describe(self) -> dict:
+        """Plain-dict description (kind and parameters) for metadata."""
+        d = {"kind": type(self).__name__.lower()}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                d[f.name] = f"array[{v.size}]"
+            else:
+                d[f.name] = v
+        return d
+
+    def _validate_finite(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float | int) and not math.isfinite(v):
+                raise SignalError(f"{type(self).__name__}.{f.name} = {v} is not finite")
+
+
+@dataclass(frozen=True)
+class Constant(Signal):
+    """Constant value."""
+
+    value: float = 0.0
+    _kind = _CONSTANT
+
+    def __post_init__(self):
+        self._validate_finite()
+
+    def peak(self, duration: float) -> float:
+        return abs(self.value)
+
+
+@dataclass(frozen=True)
+class Step(Signal):
+    """Step from ``before`` to ``after`` at ``time`` [s]."""
+
+    time: float = 0.0
+    before: float = 0.0
+    after: float = 1.0
+    _kind = _STEP
+
+    def __post_init__(self):
+        self._validate_finite()
+
+
+@dataclass(frozen=True)
+class Ramp(Signal):
+    """Linear ramp from ``v0`` at ``t0`` [s] to ``v1`` at ``t1`` [s], held outside."""
+
+    t0: float = 0.0
+    t1: float = 1.0
+    v0: float = 0.0
+    v1: float = 1.0
+    _kind = _RAMP
+
+    def __post_init__(self):
+        self._validate_finite()
+        if not self.t1 > self.t0:
+            raise SignalError(f"ramp needs t1 > t0, got t0={self.t0}, t1={self.t1}")
+
+
+@dataclass(frozen=True)
+class Sine(Signal):
+    """offset + amplitude·sin(2π·frequency·(t − start) + phase) for t ≥ start [s]; offset before."""
+
+    amplitude: float = 1.0
+    frequency: float = 1.0
+    offset: float = 0.0
+    phase: float = 0.0
+    start: float = 0.0
+    _kind = _SINE
+
+    def __post_init__(self):
+        self._validate_finite()
+        if self.frequency < 0:
+            raise SignalError(f"sine frequency {self.frequency} Hz must be >= 0")
+
+    def peak(self, duration: float) -> float:
+        return abs(self.offset) + abs(self.amplitude)
+
+
+@dataclass(frozen=True)
+class Chirp(Signal):
+    """Linear chirp from f0 to f1 [Hz] over ``duration`` [s] starting at ``start`` [s]."""
+
+    amplitude: float = 1.0
+    f0: float = 1.0
+    f1: float = 10.0
+    duration: float = 1.0
+    offset: float = 0.0
+    start: float = 0.0
+    _kind = _CHIRP
+
+    def __post_init__(self):
+        self._validate_finite()
+        if self.duration <= 0 or self.f0 < 0 or self.f1 < 0:
+            raise SignalError("chirp needs duration > 0 s and frequencies f0, f1 >= 0 Hz")
+
+    def peak(self, duration: float) -> float:
+        return abs(self.offset) + abs(self.amplitude)
+
+
+@dataclass(frozen=True)
+class Sampled(Signal):
+    """Measured samples (t [s], values), linearly interpolated, held at the ends."""
+
+    t: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    values: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    _kind = _SAMPLED
+
+    def __post_init__(self):
+        t = np.ascontiguousarray(self.t, dtype=float).ravel()
+        v = np.ascontiguousarray(self.values, dtype=float).ravel()
+        if t.size != v.size or t.size < 1:
+            raise SignalError(f"sampled signal needs equal, non-empty t and values (got {t.size} and {v.size})")
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise SignalError(
+                f"sampled signal has a non-finite value at sample {bad[0]} (t = {t[bad[0]]:g} s); "
+                "repair the data (interpolate the gap) before simulating"
+            )
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            i = int(np.flatnonzero(~(np.diff(t) > 0))[0]) + 1 if t.size > 1 else 0
+            raise SignalError(f"sampled signal times must be finite and strictly increasing (sample {i})")
+        if t.size == 1:
+            t = np.array([t[0], t[0] + 1.0])
+            v = np.array([v[0], v[0]])
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "values", v)
+
+    def pack(self):
+        return self._kind, np.zeros(8), self.t, self.values
+
+    def peak(self, duration: float) -> float:
+        m = self.t <= self.t[0] + duration
+        return float(np.max(np.abs(self.values[m]))) if np.any(m) else float(abs(self.values[0]))
+
+    def __eq__(self, other):
+        return (
+            isinstance(other, Sampled)
+            and np.array_equal(self.t, other.t)
+            and np.array_equal(self.values, other.values)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def as_signal(value, unit: str = "", name: str = "signal") -> Signal:
+    """Turn a number, a spec string, a (t, values) pair or a Signal into a Signal."""
+    if isinstance(value, Signal):
+        return value
+    if isinstance(value, bool):
+        raise SignalError(f"{name}: {value!r} is not a signal")
+    if isinstance(value, int | float | np.floating | np.integer):
+        return Constant(float(value))
+    if isinstance(value, str):
+        return parse_signal(value, unit=unit, name=name)
+    if isinstance(value, tuple) and len(value) == 2:
+        return Sampled(np.asarray(value[0]), np.asarray(value[1]))
+    raise SignalError(
+        f"{name}: cannot use {type(value).__name__} as a signal; give a number, a spec such as "
+        "'sine:amplitude=0.4,frequency=1', a (t, values) pair or a Signal"
+    )
+
+
+_KINDS: dict[str, type[Signal]] = {
+    "constant": Constant,
+    "step": Step,
+    "ramp": Ramp,
+    "sine": Sine,
+    "chirp": Chirp,
+}
+_FIRST = {"constant": "value", "step": "after", "ramp": "v1", "sine": "amplitude", "chirp": "amplitude"}
+#: Parameters that carry the signal's own unit; the rest are times/frequencies/angles.
+_VALUED = {"value", "before", "after", "v0", "v1", "amplitude", "offset"}
+_TIMED = {"time": "s", "t0": "s", "t1": "s", "start": "s", "duration": "s", "frequency": "Hz", "f0": "Hz", "f1": "Hz", "phase": "rad"}
+
+
+def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
+    """Parse a signal spec ``kind:key=value,...`` (values may carry units).
+
+    Parameters
+    ----------
+    spec : str
+        E.g. ``"sine:amplitude=0.4,frequency=1"``, ``"step:time=0.1,after=40 %"``,
+        ``"constant:95 bar"``, ``"chirp:amplitude=0.1,f0=2,f1=100,duration=5"``,
+        or a bare number ``"0.2"``.
+    unit : str
+        SI unit of the signal's values as a pint expression (``""`` for the valve
+        command fraction, ``"Pa"`` for pressure, ``"N"`` for force).
+    name : str
+        Name used in error messages (e.g. ``"--input"``).
+    """
+    from ..params import parse_quantity
+
+    text = spec.strip()
+    if ":" not in text:
+        try:
+            return Constant(parse_quantity(text, unit, name))
+        except Exception:
+            raise SignalError(
+                f"{name}: cannot read {spec!r}; write kind:key=value,... with kind one of "
+                f"{', '.join(_KINDS)} (e.g. 'sine:amplitude=0.4,frequency=1')"
+            ) from None
+    kind, _, rest = text.partition(":")
+    kind = kind.strip().lower()
+    if kind not in _KINDS:
+        raise SignalError(f"{name}: unknown signal kind {kind!r}; choose one of {', '.join(_KINDS)}")
+    cls = _KINDS[kind]
+    allowed = [f.name for f in fields(cls)]
+    kwargs: dict[str, float] = {}
+    for i, item in enumerate(p for p in rest.split(",") if p.strip()):
+        if "=" in item:
+            key, _, val = item.partition("=")
+            key = key.strip()
+        elif i == 0:
+            key, val = _FIRST[kind], item
+        else:
+            raise SignalError(f"{name}: {item.strip()!r} in {spec!r} needs the form key=value")
+        if key not in allowed:
+            raise SignalError(f"{name}: {kind} has no parameter {key!r}; known: {', '.join(allowed)}")
+        target = unit if key in _VALUED else _TIMED.get(key, "")
+        try:
+            kwargs[key] = parse_quantity(val.strip(), target, f"{name} {key}")
+        except Exception as exc:
+            raise SignalError(f"{name}: {exc}") from None
+    try:
+        return cls(**kwargs)
+    except SignalError as exc:
+        raise SignalError(f"{name}: {exc}") from None

@@ -1,0 +1,348 @@
+"""One ``simulate`` for every model, and the result object it returns."""
+
+from __future__ import annotations
+
+import math
+import os
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._errors import SignalError, SimulationError
+from . import _kernel as K
+from ._signals import Constant, Sampled, Signal, as_signal
+
+__all__ = ["simulate", "SimulationResult", "CHANNEL_UNITS", "pack_signals"]
+
+#: SI unit of every output channel.
+CHANNEL_UNITS: dict[str, str] = {
+    "t": "s",
+    "u": "1",
+    "spool": "1",
+    "z": "1",
+    "p_a": "Pa",
+    "p_b": "Pa",
+    "p_l": "Pa",
+    "p_s": "Pa",
+    "f_l": "N",
+    "x": "m",
+    "v": "m/s",
+    "friction": "N",
+    "cell_g": "1",
+    "cell_o": "1",
+    "cell_n": "1",
+    "cell_w": "1",
+}
+_OUT_COLS = ("u", "spool", "z", "p_a", "p_b", "p_l", "p_s", "f_l", "x", "v", "friction")
+_STATUS = {
+    K.MAX_STEPS: "the step budget (max_steps) was exhausted; raise max_steps or loosen rtol",
+    K.STEP_COLLAPSE: "the step size collapsed below machine precision (the dynamics are too stiff or discontinuous here)",
+    K.NON_FINITE: "the state became non-finite (NaN or inf)",
+}
+
+
+@dataclass
+class SimulationResult:
+    """Trajectory of one simulation, resampled at the output rate.
+
+    Attributes
+    ----------
+    t : ndarray
+        Output times [s].
+    channels : dict[str, ndarray]
+        Named channels in SI (see :data:`CHANNEL_UNITS`): t, u, spool, z, p_a,
+        p_b, p_l, p_s, f_l, x, v, friction, and for the PWA model the active
+        cells cell_g, cell_o, cell_n, cell_w.
+    states : ndarray, shape (n, n_states)
+        Raw model states; names in ``state_names``.
+    state_names : tuple of str
+    model : str
+        ``"full"``, ``"reduced"`` or ``"pwa"``.
+    params : SystemParams
+        The parameters used.
+    inputs : dict[str, dict]
+        Description of the input signals.
+    stats : dict
+        Solver statistics: steps, rejected, rhs_evaluations, wall_time [s], rtol.
+    """
+
+    t: np.ndarray
+    channels: dict[str, np.ndarray]
+    states: np.ndarray
+    state_names: tuple[str, ...]
+    model: str
+    params: Any
+    inputs: dict[str, dict] = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Unit of each channel."""
+        return {k: CHANNEL_UNITS.get(k, "1") for k in self.channels}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.channels[name]
+        except KeyError:
+            raise KeyError(f"no channel {name!r}; available: {', '.join(self.channels)}") from None
+
+    def __repr__(self) -> str:
+        return (
+            f"SimulationResult(model={self.model!r}, n={self.t.size}, t=[{self.t[0]:g}, {self.t[-1]:g}] s, "
+            f"channels={list(self.channels)}, steps={self.stats.get('steps')})"
+        )
+
+    def to_pandas(self):
+        """DataFrame indexed by time with one column per channel (SI units in ``df.attrs['units']``)."""
+        import pandas as pd
+
+        df = pd.DataFrame({k: v for k, v in self.channels.items() if k != "t"}, index=pd.Index(self.t, name="t"))
+        df.attrs["units"] = self.units
+        df.attrs["model"] = self.model
+        return df
+
+    def to_run(self, name: str | None = None, meta: dict | None = None):
+        """The result as a :class:`hydropwa.data.Run` (for the data layer's writers)."""
+        from ..data import Run
+
+        m = {"source": "simulation", "model": self.model, "inputs": self.inputs, "stats": _plain(self.stats)}
+        m.update(meta or {})
+        fs = 1.0 / float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
+        return Run(name=name or f"sim-{self.model}", channels=dict(self.channels), units=self.units, fs=fs, meta=m)
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """Write all channels to CSV (header ``name [unit]``), atomically."""
+        from ..data import write_run
+
+        return Path(write_run(self.to_run(), Path(path), format="csv"))
+
+    def to_parquet(self, path: str | os.PathLike) -> Path:
+        """Write all channels to Parquet (units in the schema metadata), atomically."""
+        from ..data import write_run
+
+        return Path(write_run(self.to_run(), Path(path), format="parquet"))
+
+    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s"), ax=None):
+        """Plot channels against time in engineering units (%, mm, bar); returns the figure."""
+        from ..evaluation.plots import plot_result
+
+        return plot_result(self, channels=channels)
+
+    def occupancy(self) -> dict[str, dict[int, float]]:
+        """PWA only: fraction of time each cell of each nonlinearity is active."""
+        out: dict[str, dict[int, float]] = {}
+        for key in ("cell_g", "cell_o", "cell_n", "cell_w"):
+            if key in self.channels:
+                vals, counts = np.unique(self.channels[key].astype(int), return_counts=True)
+                out[key[5:]] = {int(v): float(c) / self.t.size for v, c in zip(vals, counts, strict=True)}
+        return out
+
+    def switches(self) -> dict[str, int]:
+        """PWA only: number of cell changes of each nonlinearity between output samples."""
+        return {
+            key[5:]: int(np.count_nonzero(np.diff(self.channels[key]) != 0))
+            for key in ("cell_g", "cell_o", "cell_n", "cell_w")
+            if key in self.channels
+        }
+
+
+def _plain(d: dict) -> dict:
+    return {k: (v.item() if hasattr(v, "item") else v) for k, v in d.items()}
+
+
+def pack_signals(signals: list[Signal]):
+    """Pack the (u, P_S, F_L) signals into the arrays the kernel evaluates."""
+    sk = np.zeros(3, dtype=np.int64)
+    sp = np.zeros((3, 8))
+    so = np.zeros((3, 2), dtype=np.int64)
+    ts_parts, vs_parts = [], []
+    pos = 0
+    for i, sig in enumerate(signals):
+        kind, par, ts, vs = sig.pack()
+        sk[i] = kind
+        sp[i] = par
+        if isinstance(sig, Sampled):
+            ts_parts.append(ts)
+            vs_parts.append(vs)
+            so[i] = (pos, pos + ts.size)
+            pos += ts.size
+        else:
+            so[i] = (0, 0)
+    st = np.concatenate(ts_parts) if ts_parts else np.zeros(1)
+    sv = np.concatenate(vs_parts) if vs_parts else np.zeros(1)
+    return sk, sp, np.ascontiguousarray(st), np.ascontiguousarray(sv), so
+
+
+def _diagnose(params, state: dict[str, float]) -> str:
+    """A likely cause of a failed integration, in the user's terms."""
+    c, oil = params.cylinder, params.oil
+    vmin = min(c.dead_volume_a, c.dead_volume_b)
+    k_h = oil.bulk_modulus * c.area_a**2 / vmin
+    hints = []
+    if k_h / params.load.mass > 1e14:
+        hints.append(
+            f"dead volume {vmin:.3g} m³ makes the chamber stiffness {k_h:.3g} N/m "
+            f"(eigenvalue ~{math.sqrt(k_h / params.load.mass):.3g} rad/s); check the chamber volumes"
+        )
+    if params.friction.smoothness * params.friction.static / params.load.mass > 1e12:
+        hints.append(
+            f"friction smoothness γ = {params.friction.smoothness:g} s/m with F_s = {params.friction.static:g} N "
+            "makes the zero crossing extremely stiff; lower γ"
+        )
+    if params.cylinder.end_stop_stiffness / params.load.mass > 1e14:
+        hints.append("the end-stop stiffness is extreme for this mass; lower cylinder.end_stop_stiffness")
+    x = state.get("x")
+    if x is not None and (x < -0.01 * c.stroke or x > 1.01 * c.stroke):
+        hints.append(f"the piston left its stroke (x = {x:.4g} m)")
+    return "; ".join(hints) if hints else "no obvious parameter problem; try a smaller rtol or check the inputs"
+
+
+def simulate(
+    model,
+    u=0.0,
+    *,
+    duration: float | None = None,
+    t: np.ndarray | None = None,
+    supply_pressure=None,
+    load_force=None,
+    x0: float | None = None,
+    initial_state: np.ndarray | None = None,
+    fs: float = 2000.0,
+    rtol: float = 1e-5,
+    params=None,
+    max_steps: int = 5_000_000,
+    hmax: float | None = None,
+    raise_on_failure: bool = True,
+) -> SimulationResult:
+    """Simulate any model (full, reduced or PWA) with time-varying inputs.
+
+    Parameters
+    ----------
+    model : FullOrderModel, ReducedModel, PwaModel or str
+        The model, or ``"full"``, ``"reduced"``, ``"pwa"`` with ``params``.
+    u : float, str, Signal or (t, values)
+        Valve command [1] (fraction of full opening, ±1 = 100 %).
+    duration : float, optional
+        Simulated time [s] (from 0). Either this or ``t``.
+    t : ndarray, optional
+        Explicit output times [s] (increasing); overrides ``duration``/``fs``.
+    supply_pressure : float, str, Signal or (t, values), optional
+        P_S(t) [Pa]; default ``params.supply.pressure``. Ignored by the full
+        model when ``supply.model == "pump"`` (P_S is then a state).
+    load_force : float, str, Signal or (t, values), optional
+        F_L(t) [N]; default ``params.load.force``.
+    x0 : float, optional
+        Initial rod position [m] (default mid-stroke) for the default initial state.
+    initial_state : ndarray, optional
+        Full initial state vector (see the model's ``state_names``).
+    fs : float
+        Output sampling rate [Hz] (default 2 kHz, as on the rig).
+    rtol : float
+        Relative tolerance; absolute tolerances are rtol × the model's state scale.
+    max_steps : int
+        Step budget of the integrator.
+    hmax : float, optional
+        Largest step [s]; default 10 ms, or the sample spacing of measured inputs.
+    raise_on_failure : bool
+        If False, a failed integration returns the partial result with
+        ``stats['status']`` set instead of raising.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    SimulationError
+        If the integration fails; names the time, the state and a likely cause,
+        with the partial result in ``err.partial``.
+    """
+    from ..models import as_model
+
+    mdl = as_model(model, params)
+    prm = mdl.params
+    if t is None:
+        if duration is None or not (duration > 0) or not math.isfinite(duration):
+            raise SignalError(f"duration must be a positive number of seconds, got {duration!r}")
+        if not (fs > 0) or not math.isfinite(fs):
+            raise SignalError(f"output rate fs must be a positive number of Hz, got {fs!r}")
+        n = int(round(duration * fs)) + 1
+        t_out = np.linspace(0.0, duration, n)
+    else:
+        t_out = np.ascontiguousarray(t, dtype=float).ravel()
+        if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
+            raise SignalError("t must hold at least two finite, strictly increasing times [s]")
+        duration = float(t_out[-1] - t_out[0])
+    u_sig = as_signal(u, "", "u")
+    ps_sig = as_signal(prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure")
+    fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
+    sigs = [u_sig, ps_sig, fl_sig]
+    p = mdl.pack(command_amplitude=u_sig.peak(duration))
+    ps0 = ps_sig(t_out[0])
+    fl0 = fl_sig(t_out[0])
+    if initial_state is None:
+        y0 = mdl.initial_state(x0=x0, supply_pressure=ps0, load_force=fl0)
+    else:
+        y0 = np.asarray(initial_state, dtype=float).ravel().copy()
+        if y0.size != len(mdl.state_names) or not np.all(np.isfinite(y0)):
+            raise SignalError(
+                f"initial_state needs {len(mdl.state_names)} finite values ({', '.join(mdl.state_names)}), got {y0.size}"
+            )
+    if hmax is None:
+        hmax = 0.01
+        for s in sigs:
+            if isinstance(s, Sampled) and s.t.size > 1:
+                hmax = min(hmax, float(np.min(np.diff(s.t))))
+    sk, sp, st, sv, so = pack_signals(sigs)
+    t0 = _time.perf_counter()
+    Y, n_done, status, t_fail, y_fail, stats = K.integrate(
+        mdl.kind, y0, t_out, p, sk, sp, st, sv, so, float(rtol), mdl.state_scale(), 1e-5, float(hmax), int(max_steps)
+    )
+    wall = _time.perf_counter() - t0
+    Y = Y[:n_done]
+    out = K.outputs(mdl.kind, t_out, Y, n_done, p, sk, sp, st, sv, so)
+    channels = {"t": t_out[:n_done].copy()}
+    for i, name in enumerate(_OUT_COLS):
+        channels[name] = out[:, i].copy()
+    if mdl.kind == K.PWA:
+        packed = out[:, 11].astype(np.int64)
+        channels["cell_g"] = (packed % 8).astype(float)
+        channels["cell_o"] = ((packed // 8) % 8).astype(float)
+        channels["cell_n"] = ((packed // 64) % 8).astype(float)
+        channels["cell_w"] = ((packed // 512) % 64).astype(float)
+    result = SimulationResult(
+        t=channels["t"],
+        channels=channels,
+        states=Y,
+        state_names=tuple(mdl.state_names),
+        model=mdl.name,
+        params=prm,
+        inputs={"u": u_sig.describe(), "p_s": ps_sig.describe(), "f_l": fl_sig.describe()},
+        stats={
+            "steps": int(stats[0]),
+            "rejected": int(stats[1]),
+            "rhs_evaluations": int(stats[2]),
+            "wall_time": wall,
+            "rtol": float(rtol),
+            "status": int(status),
+            "omega0": float(p[K.I_OMEGA0]),
+        },
+    )
+    if status != K.OK:
+        state = {name: float(v) for name, v in zip(mdl.state_names, y_fail, strict=True)}
+        state_txt = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
+        msg = (
+            f"{mdl.name} model integration failed at t = {t_fail:.6g} s: {_STATUS[int(status)]}. "
+            f"State: {state_txt}. Likely cause: {_diagnose(prm, state)}"
+        )
+        result.stats["message"] = msg
+        if raise_on_failure:
+            raise SimulationError(msg, t=float(t_fail), state=state, partial=result)
+    return result
+
+
+# Constant is re-exported for convenience in type hints of callers.
+_ = Constant
