@@ -12,8 +12,9 @@ from hydropwa.data import Run
 EMPS_DIR = Path("/work/shared/data")
 
 
-def make_run(name: str = "step_01", n: int = 500, fs: float = 1000.0, seed: int = 0,
-             kind: str = "step") -> Run:
+def make_run(
+    name: str = "step_01", n: int = 500, fs: float = 1000.0, seed: int = 0, kind: str = "step"
+) -> Run:
     """A plausible run with every canonical channel, SI units, sensor noise."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) / fs
@@ -22,17 +23,27 @@ def make_run(name: str = "step_01", n: int = 500, fs: float = 1000.0, seed: int 
     return Run(
         name=name,
         channels={
-            "t": t, "u": u, "spool": u + 1e-3 * rng.normal(size=n), "z": u,
-            "x": x, "v": np.gradient(x, t),
-            "p_a": 60e5 + 2e5 * rng.normal(size=n), "p_b": 40e5 + 2e5 * rng.normal(size=n),
-            "p_s": 140e5 + 1e5 * rng.normal(size=n), "p_l": 20e5 + 3e5 * rng.normal(size=n),
+            "t": t,
+            "u": u,
+            "spool": u + 1e-3 * rng.normal(size=n),
+            "z": u,
+            "x": x,
+            "v": np.gradient(x, t),
+            "p_a": 60e5 + 2e5 * rng.normal(size=n),
+            "p_b": 40e5 + 2e5 * rng.normal(size=n),
+            "p_s": 140e5 + 1e5 * rng.normal(size=n),
+            "p_l": 20e5 + 3e5 * rng.normal(size=n),
             "f_l": 1e3 * rng.normal(size=n),
             "temp_oil": 313.15 + 0.1 * rng.normal(size=n),
         },
         units={"temp_oil": "K"},
         fs=fs,
-        meta={"kind": kind, "signal": {"type": "step", "amplitude": 0.5},
-              "rig": "virtual", "true_params": {"A_a": 1.96e-3}},
+        meta={
+            "kind": kind,
+            "signal": {"type": "step", "amplitude": 0.5},
+            "rig": "virtual",
+            "true_params": {"A_a": 1.96e-3},
+        },
     )
 
 

@@ -29,7 +29,9 @@ def test_check_reports_issues_with_exit_1(cli, tmp_path, make_run):
     path = write_run(run.replace(channels=chans), tmp_path / "bad.csv")
     res = cli.invoke(app, ["check", str(path), "--plain"])
     assert res.exit_code == 1
-    assert "error: run 'bad', channel 'p_a', sample 7 (t = 0.007 s): 1 NaN/inf value(s)" in res.stdout
+    assert (
+        "error: run 'bad', channel 'p_a', sample 7 (t = 0.007 s): 1 NaN/inf value(s)" in res.stdout
+    )
 
 
 def test_check_unreadable_input_exit_2(cli, tmp_path):
@@ -52,8 +54,18 @@ def test_convert_file_and_error(cli, tmp_path, make_run):
 
 
 def test_convert_emps_folder_with_channel_map(cli, tmp_path, emps_dir):
-    res = cli.invoke(app, ["convert", str(emps_dir), str(tmp_path / "emps"),
-                           "--channel-map", "emps", "--format", "parquet"])
+    res = cli.invoke(
+        app,
+        [
+            "convert",
+            str(emps_dir),
+            str(tmp_path / "emps"),
+            "--channel-map",
+            "emps",
+            "--format",
+            "parquet",
+        ],
+    )
     assert res.exit_code == 0, res.output
     ds = read_dataset(tmp_path / "emps")
     assert ds.names == ["DATA_EMPS", "DATA_EMPS_PULSES"]

@@ -14,8 +14,11 @@ from hydropwa.data import MANIFEST, Dataset, check_dataset, convert, read_datase
 
 @pytest.fixture
 def runs(make_run):
-    return [make_run("step_01", seed=1), make_run("step_02", seed=2),
-            make_run("stribeck_01", seed=3, kind="stribeck")]
+    return [
+        make_run("step_01", seed=1),
+        make_run("step_02", seed=2),
+        make_run("stribeck_01", seed=3, kind="stribeck"),
+    ]
 
 
 @pytest.mark.parametrize("fmt", ["parquet", "csv", "mat"])
@@ -70,7 +73,10 @@ def test_interrupted_write_keeps_finished_runs(tmp_path, runs, monkeypatch):
     assert ds.names == ["step_01", "step_02"]
     np.testing.assert_array_equal(ds["step_02"]["x"], runs[1]["x"])
     assert sorted(p.name for p in (tmp_path / "ds").iterdir()) == [
-        MANIFEST, "step_01.parquet", "step_02.parquet"]
+        MANIFEST,
+        "step_01.parquet",
+        "step_02.parquet",
+    ]
     # resume: add the missing run to the existing dataset
     Dataset(tmp_path / "ds").add_run(runs[2])
     assert read_dataset(tmp_path / "ds").names == ["step_01", "step_02", "stribeck_01"]
@@ -91,8 +97,11 @@ def test_missing_manifest_and_missing_file(tmp_path, runs):
         read_dataset(tmp_path)
     write_dataset(runs, tmp_path / "ds")
     (tmp_path / "ds" / "step_02.parquet").unlink()
-    with pytest.raises(DataError, match=r"run 'step_02': file 'step_02.parquet' listed in "
-                                        r"manifest.json is missing"):
+    with pytest.raises(
+        DataError,
+        match=r"run 'step_02': file 'step_02.parquet' listed in "
+        r"manifest.json is missing",
+    ):
         read_dataset(tmp_path / "ds")
     issues = check_dataset(tmp_path / "ds")
     assert [(i.code, i.run) for i in issues] == [("unreadable", "step_02")]
@@ -104,7 +113,9 @@ def test_check_dataset_reports_bad_run(tmp_path, runs):
     with pytest.raises(DataError, match=r"run 'step_02', channel 'x', sample 0"):
         read_dataset(tmp_path / "ds")
     issues = check_dataset(tmp_path / "ds")
-    assert [(i.run, i.channel, i.code) for i in issues] == [("step_02", "x", "implausible_magnitude")]
+    assert [(i.run, i.channel, i.code) for i in issues] == [
+        ("step_02", "x", "implausible_magnitude")
+    ]
 
 
 def test_convert_dataset_between_formats(tmp_path, runs):

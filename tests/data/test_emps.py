@@ -26,8 +26,13 @@ def test_load_emps(emps_dir, stem):
     run = load_emps(path)
     raw = scipy.io.loadmat(path)
     assert run.name == stem and run.n_samples == 24841
-    assert run.units == {"t": "s", "x": "m", "x_ref": "m", "f_m": "N",
-                         **({"pulses_N": "1"} if stem.endswith("PULSES") else {})}
+    assert run.units == {
+        "t": "s",
+        "x": "m",
+        "x_ref": "m",
+        "f_m": "N",
+        **({"pulses_N": "1"} if stem.endswith("PULSES") else {}),
+    }
     assert run.fs == 1000.0
     np.testing.assert_allclose(np.median(np.diff(run.t)), 1e-3, rtol=1e-4)
     assert run.duration == pytest.approx(24.84)

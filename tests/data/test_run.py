@@ -32,7 +32,9 @@ def test_missing_time_channel_is_rejected():
 
 
 def test_non_si_unit_for_canonical_channel_is_rejected():
-    with pytest.raises(DataError, match=r"channel 'p_a': unit 'bar' inside a Run, expected SI 'Pa'"):
+    with pytest.raises(
+        DataError, match=r"channel 'p_a': unit 'bar' inside a Run, expected SI 'Pa'"
+    ):
         Run("r", {"t": np.arange(3.0), "p_a": np.ones(3)}, units={"p_a": "bar"})
 
 
@@ -52,9 +54,16 @@ def test_fs_estimated_from_time_stamps():
 
 
 def test_from_pandas_converts_labelled_units_to_si():
-    df = pd.DataFrame({"t [s]": [0.0, 0.001, 0.002], "p_a [bar]": [2.5, 100.0, 210.0],
-                       "x [mm]": [12.5, 100.0, 250.0], "u [%]": [0.0, 50.0, -100.0],
-                       "q [L/min]": [60.0, 0.0, 6.0], "f_l [kN]": [1.5, 0.0, -2.0]})
+    df = pd.DataFrame(
+        {
+            "t [s]": [0.0, 0.001, 0.002],
+            "p_a [bar]": [2.5, 100.0, 210.0],
+            "x [mm]": [12.5, 100.0, 250.0],
+            "u [%]": [0.0, 50.0, -100.0],
+            "q [L/min]": [60.0, 0.0, 6.0],
+            "f_l [kN]": [1.5, 0.0, -2.0],
+        }
+    )
     run = Run.from_pandas(df, name="r")
     np.testing.assert_array_equal(run["p_a"], [2.5e5, 100e5, 210e5])
     np.testing.assert_array_equal(run["x"], [0.0125, 0.1, 0.25])

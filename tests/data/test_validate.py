@@ -15,13 +15,16 @@ def _write_bad(make_run, tmp_path, name, **changes):
     chans = {k: np.array(v) for k, v in run.channels.items()}
     for k, fn in changes.items():
         chans[k] = fn(chans[k])
-    return write_run(Run(name, chans, run.units, fs=run.fs, meta=run.meta), tmp_path / f"{name}.csv")
+    return write_run(
+        Run(name, chans, run.units, fs=run.fs, meta=run.meta), tmp_path / f"{name}.csv"
+    )
 
 
 def _set(index, value):
     def fn(a):
         a[index] = value
         return a
+
     return fn
 
 
@@ -42,8 +45,11 @@ def test_duplicated_time_stamp(make_run, tmp_path):
 
 def test_decreasing_time(make_run, tmp_path):
     path = _write_bad(make_run, tmp_path, "back", t=_set(300, 0.1))
-    with pytest.raises(DataError, match=r"run 'back', channel 't', sample 300 \(t = 0.1 s\): "
-                                        r"time goes backwards"):
+    with pytest.raises(
+        DataError,
+        match=r"run 'back', channel 't', sample 300 \(t = 0.1 s\): "
+        r"time goes backwards",
+    ):
         read_run(path)
 
 
@@ -60,9 +66,14 @@ def test_duplicates_dropped_only_on_request(make_run, tmp_path):
 
 
 def test_non_uniform_sampling_and_explicit_resample(make_run, tmp_path):
-    path = _write_bad(make_run, tmp_path, "jit", t=lambda t: t + np.where(np.arange(t.size) == 250, 3e-4, 0))
-    with pytest.raises(DataError, match=r"run 'jit', channel 't', sample 250 \(t = 0.2503 s\): "
-                                        r"non-uniform sampling.*hint: resample explicitly"):
+    path = _write_bad(
+        make_run, tmp_path, "jit", t=lambda t: t + np.where(np.arange(t.size) == 250, 3e-4, 0)
+    )
+    with pytest.raises(
+        DataError,
+        match=r"run 'jit', channel 't', sample 250 \(t = 0.2503 s\): "
+        r"non-uniform sampling.*hint: resample explicitly",
+    ):
         read_run(path)
     raw = read_run(path, validate=False)
     report = validate_run(raw, resample=True)
@@ -76,8 +87,11 @@ def test_time_gap(make_run, tmp_path):
     keep = np.r_[0:200, 250:500]
     gap = Run("gap", {k: v[keep] for k, v in run.channels.items()}, run.units, fs=1000.0)
     path = write_run(gap, tmp_path / "gap.parquet")
-    with pytest.raises(DataError, match=r"run 'gap', channel 't', sample 200 \(t = 0.25 s\): gap in "
-                                        r"time: t jumps 0.051 s from sample 199"):
+    with pytest.raises(
+        DataError,
+        match=r"run 'gap', channel 't', sample 200 \(t = 0.25 s\): gap in "
+        r"time: t jumps 0.051 s from sample 199",
+    ):
         read_run(path)
 
 
@@ -103,6 +117,7 @@ def test_clipped_adc(make_run, tmp_path):
     def clip(p):
         p[300:340] = p.max() + 1e5
         return p
+
     path = _write_bad(make_run, tmp_path, "clip", p_a=clip)
     with pytest.raises(DataError) as err:
         read_run(path)
@@ -132,8 +147,11 @@ def test_pressure_in_bar_declared_as_pa(tmp_path):
     path = tmp_path / "bar_as_pa.csv"
     t = np.arange(100) / 1000
     p = 80.0 + 5 * np.sin(2 * np.pi * 10 * t)
-    path.write_text("t [s],p_a [Pa]\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), p.tolist(), strict=True)),
-                    encoding="utf-8")
+    path.write_text(
+        "t [s],p_a [Pa]\n"
+        + "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), p.tolist(), strict=True)),
+        encoding="utf-8",
+    )
     with pytest.raises(DataError) as err:
         read_run(path)
     msg = str(err.value)
@@ -164,7 +182,10 @@ def test_check_run_lists_every_issue_without_raising(clean_run):
     chans["x"] = chans["x"] * 1000
     issues = check_run(clean_run.replace(channels=chans))
     assert {(i.code, i.channel) for i in issues} == {
-        ("time_duplicate", "t"), ("nonfinite", "p_s"), ("implausible_magnitude", "x")}
+        ("time_duplicate", "t"),
+        ("nonfinite", "p_s"),
+        ("implausible_magnitude", "x"),
+    }
     dup = next(i for i in issues if i.code == "time_duplicate")
     assert (dup.run, dup.sample, dup.severity) == ("step_01", 10, "error")
     with pytest.raises(DataError, match=r"\[2 more error\(s\)"):

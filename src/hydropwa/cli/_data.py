@@ -16,8 +16,11 @@ from hydropwa._errors import HydropwaError
 
 __all__ = ["app"]
 
-app = typer.Typer(help="Check and convert measurement files and datasets.",
-                  no_args_is_help=True, add_completion=False)
+app = typer.Typer(
+    help="Check and convert measurement files and datasets.",
+    no_args_is_help=True,
+    add_completion=False,
+)
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
@@ -37,16 +40,31 @@ def _print_issues(issues, plain: bool) -> None:
     for col in ("severity", "run", "channel", "sample", "t [s]", "message", "hint"):
         table.add_column(col)
     for i in issues:
-        table.add_row(i.severity, i.run, i.channel or "", "" if i.sample is None else str(i.sample),
-                      "" if i.time is None else f"{i.time:.6g}", i.message, i.hint)
+        table.add_row(
+            i.severity,
+            i.run,
+            i.channel or "",
+            "" if i.sample is None else str(i.sample),
+            "" if i.time is None else f"{i.time:.6g}",
+            i.message,
+            i.hint,
+        )
     Console().print(table)
 
 
 @app.command("check")
 def check(
-    source: Annotated[Path, typer.Argument(help="Dataset folder or run file (.csv/.parquet/.mat).")],
-    channel_map: Annotated[Path | None, typer.Option(
-        "--channel-map", "-m", help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.")] = None,
+    source: Annotated[
+        Path, typer.Argument(help="Dataset folder or run file (.csv/.parquet/.mat).")
+    ],
+    channel_map: Annotated[
+        Path | None,
+        typer.Option(
+            "--channel-map",
+            "-m",
+            help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
+        ),
+    ] = None,
     plain: Annotated[bool, typer.Option("--plain", help="Plain lines instead of a table.")] = False,
 ) -> None:
     """Validate a dataset or a single run file and list every issue found."""
@@ -67,21 +85,31 @@ def check(
 def convert(
     src: Annotated[Path, typer.Argument(help="Run file, dataset folder, or folder of raw files.")],
     dst: Annotated[Path, typer.Argument(help="Destination file or folder.")],
-    channel_map: Annotated[Path | None, typer.Option(
-        "--channel-map", "-m", help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.")] = None,
-    format: Annotated[str | None, typer.Option(
-        "--format", "-f", help="Output format: csv, parquet or mat.")] = None,
-    resample: Annotated[bool, typer.Option(
-        "--resample", help="Resample non-uniform time bases (explicit repair).")] = False,
-    overwrite: Annotated[bool, typer.Option(
-        "--overwrite", help="Replace an existing destination dataset.")] = False,
+    channel_map: Annotated[
+        Path | None,
+        typer.Option(
+            "--channel-map",
+            "-m",
+            help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
+        ),
+    ] = None,
+    format: Annotated[
+        str | None, typer.Option("--format", "-f", help="Output format: csv, parquet or mat.")
+    ] = None,
+    resample: Annotated[
+        bool, typer.Option("--resample", help="Resample non-uniform time bases (explicit repair).")
+    ] = False,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="Replace an existing destination dataset.")
+    ] = False,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""
     from hydropwa.data import convert as convert_data
 
     try:
-        out = convert_data(src, dst, channel_map=channel_map, format=format,
-                           overwrite=overwrite, resample=resample)
+        out = convert_data(
+            src, dst, channel_map=channel_map, format=format, overwrite=overwrite, resample=resample
+        )
     except HydropwaError as exc:
         raise _fail(exc) from None
     typer.echo(f"wrote {out}")

@@ -35,8 +35,8 @@ A channel's value is ``gain * raw + offset`` in ``unit``, then converted to SI.
 from __future__ import annotations
 
 import dataclasses
-import re
 import os
+import re
 import tomllib
 from collections.abc import Mapping
 from importlib import resources
@@ -114,8 +114,10 @@ class ChannelMap:
         head = dict(doc.get("map", {}))
         chans = doc.get("channels")
         if not isinstance(chans, Mapping) or not chans:
-            raise DataError(f"{origin}: no [channels.<name>] tables; hint: add e.g. "
-                            "[channels.x] with source = \"qm\" and unit = \"m\"")
+            raise DataError(
+                f"{origin}: no [channels.<name>] tables; hint: add e.g. "
+                '[channels.x] with source = "qm" and unit = "m"'
+            )
         specs = {}
         for ch, body in chans.items():
             if isinstance(body, str):
@@ -124,18 +126,30 @@ class ChannelMap:
             if unknown or "source" not in body:
                 raise DataError(
                     f"{origin}, channel {ch!r}: keys {sorted(unknown) or []} unknown or 'source' "
-                    f"missing; hint: allowed keys are {sorted(_SPEC_KEYS)}")
+                    f"missing; hint: allowed keys are {sorted(_SPEC_KEYS)}"
+                )
             column = body.get("column")
             if column is not None and (not isinstance(column, int) or column < 1):
-                raise DataError(f"{origin}, channel {ch!r}: column = {column!r}; "
-                                "hint: columns are 1-based integers")
-            specs[ch] = ChannelSpec(channel=ch, source=str(body["source"]), column=column,
-                                    unit=body.get("unit"), gain=body.get("gain", 1.0),
-                                    offset=body.get("offset", 0.0))
+                raise DataError(
+                    f"{origin}, channel {ch!r}: column = {column!r}; "
+                    "hint: columns are 1-based integers"
+                )
+            specs[ch] = ChannelSpec(
+                channel=ch,
+                source=str(body["source"]),
+                column=column,
+                unit=body.get("unit"),
+                gain=body.get("gain", 1.0),
+                offset=body.get("offset", 0.0),
+            )
         fs = head.get("fs")
-        return cls(channels=specs, meta=dict(doc.get("meta", {})), name=str(head.get("name", "")),
-                   fs=None if fs is None else float(fs),
-                   keep_unmapped=bool(head.get("keep_unmapped", False)))
+        return cls(
+            channels=specs,
+            meta=dict(doc.get("meta", {})),
+            name=str(head.get("name", "")),
+            fs=None if fs is None else float(fs),
+            keep_unmapped=bool(head.get("keep_unmapped", False)),
+        )
 
     @classmethod
     def from_toml(cls, path) -> ChannelMap:
@@ -144,16 +158,20 @@ class ChannelMap:
         try:
             doc = tomllib.loads(path.read_text(encoding="utf-8"))
         except OSError as exc:
-            raise DataError(f"channel map {str(path)!r}: cannot be read ({exc.strerror}); "
-                            "hint: check the path") from exc
+            raise DataError(
+                f"channel map {str(path)!r}: cannot be read ({exc.strerror}); hint: check the path"
+            ) from exc
         except tomllib.TOMLDecodeError as exc:
-            raise DataError(f"channel map {str(path)!r}: invalid TOML ({exc}); "
-                            "hint: fix the syntax at the position given") from exc
+            raise DataError(
+                f"channel map {str(path)!r}: invalid TOML ({exc}); "
+                "hint: fix the syntax at the position given"
+            ) from exc
         return cls.from_dict(doc, origin=f"channel map {str(path)!r}")
 
     # ------------------------------------------------------------------ apply
-    def apply(self, raw: Mapping[str, Any], name: str, meta: Mapping | None = None,
-              where: str = "") -> Run:
+    def apply(
+        self, raw: Mapping[str, Any], name: str, meta: Mapping | None = None, where: str = ""
+    ) -> Run:
         """Build a run from raw variables.
 
         Parameters
@@ -183,22 +201,30 @@ class ChannelMap:
             arrays[ch] = values * gain + offset if (gain != 1.0 or offset != 0.0) else values
             unit = spec.unit if spec.unit is not None else CANONICAL_UNITS.get(ch)
             if unit is None:
-                raise DataError(f"{here}: no unit; hint: add unit = \"...\" to [channels.{ch}]")
+                raise DataError(f'{here}: no unit; hint: add unit = "..." to [channels.{ch}]')
             units[ch] = unit
         if "t" not in arrays:
             n = len(next(iter(arrays.values())))
             if self.fs is None:
-                raise DataError(f"{where}: the channel map maps no 't' and gives no fs; "
-                                "hint: add [channels.t] or fs = <Hz> under [map]")
+                raise DataError(
+                    f"{where}: the channel map maps no 't' and gives no fs; "
+                    "hint: add [channels.t] or fs = <Hz> under [map]"
+                )
             arrays["t"], units["t"] = np.arange(n) / self.fs, "s"
         if self.keep_unmapped:
             n = len(arrays["t"])
             used = {s.source for s in self.channels.values()}
             for key, val in raw.items():
                 arr = np.asarray(val) if not isinstance(val, dict | list | str) else None
-                if (key not in used and key not in arrays and not key.startswith("_")
-                        and arr is not None and arr.dtype.kind in "biuf" and arr.size == n
-                        and max(arr.shape, default=0) == n):
+                if (
+                    key not in used
+                    and key not in arrays
+                    and not key.startswith("_")
+                    and arr is not None
+                    and arr.dtype.kind in "biuf"
+                    and arr.size == n
+                    and max(arr.shape, default=0) == n
+                ):
                     arrays[key], units[key] = arr.reshape(-1).astype(float), "1"
         merged = dict(meta or {})
         merged.update(self.meta)
@@ -212,29 +238,45 @@ def _lookup(raw: Mapping[str, Any], path: str, where: str):
     for token in path.split("."):
         m = _TOKEN.match(token.strip())
         if m is None:
-            raise DataError(f"{where}: cannot parse path element {token!r}; "
-                            "hint: use name, name(3) or name{Label}")
+            raise DataError(
+                f"{where}: cannot parse path element {token!r}; "
+                "hint: use name, name(3) or name{Label}"
+            )
         key = m.group("name")
         if not isinstance(node, Mapping) or key not in node:
-            have = sorted(k for k in node if not str(k).startswith("__")) if isinstance(node, Mapping) else []
-            raise DataError(f"{where}: variable {key!r} not found (have {have}); "
-                            "hint: fix 'source' in the channel map")
+            have = (
+                sorted(k for k in node if not str(k).startswith("__"))
+                if isinstance(node, Mapping)
+                else []
+            )
+            raise DataError(
+                f"{where}: variable {key!r} not found (have {have}); "
+                "hint: fix 'source' in the channel map"
+            )
         node = node[key]
         if m.group("index") is not None or m.group("label") is not None:
             items = list(node) if isinstance(node, list | np.ndarray) else [node]
             if m.group("index") is not None:
                 i = int(m.group("index"))
                 if not 1 <= i <= len(items):
-                    raise DataError(f"{where}: index {i} out of range 1..{len(items)} for {key!r}; "
-                                    "hint: indices are 1-based")
+                    raise DataError(
+                        f"{where}: index {i} out of range 1..{len(items)} for {key!r}; "
+                        "hint: indices are 1-based"
+                    )
                 node = items[i - 1]
             else:
                 label = m.group("label")
-                hits = [it for it in items if isinstance(it, Mapping) and str(
-                    it.get("Name", it.get("name", ""))).strip() == label]
+                hits = [
+                    it
+                    for it in items
+                    if isinstance(it, Mapping)
+                    and str(it.get("Name", it.get("name", ""))).strip() == label
+                ]
                 if len(hits) != 1:
-                    raise DataError(f"{where}: {len(hits)} elements of {key!r} are named {label!r}; "
-                                    "hint: use a 1-based index instead, e.g. Y(2)")
+                    raise DataError(
+                        f"{where}: {len(hits)} elements of {key!r} are named {label!r}; "
+                        "hint: use a 1-based index instead, e.g. Y(2)"
+                    )
                 node = hits[0]
     return node
 
@@ -252,12 +294,19 @@ def _column(node, column: int | None, where: str) -> np.ndarray:
         # Real-time targets log either (N, M) or (M, N); signals run along the long axis.
         mat = arr if arr.shape[0] >= arr.shape[1] else arr.T
         if not 1 <= column <= mat.shape[1]:
-            raise DataError(f"{where}: column {column} out of range 1..{mat.shape[1]}; "
-                            "hint: columns are 1-based")
+            raise DataError(
+                f"{where}: column {column} out of range 1..{mat.shape[1]}; "
+                "hint: columns are 1-based"
+            )
         return mat[:, column - 1].copy()
-    raise DataError(f"{where}: has shape {arr.shape}; hint: "
-                    + ("give column = <1-based index> for a matrix" if arr.ndim == 2
-                       else "point 'source' at a vector signal"))
+    raise DataError(
+        f"{where}: has shape {arr.shape}; hint: "
+        + (
+            "give column = <1-based index> for a matrix"
+            if arr.ndim == 2
+            else "point 'source' at a vector signal"
+        )
+    )
 
 
 def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -> float:
@@ -266,8 +315,10 @@ def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -
             raise DataError(f"{where}: {what} = {value!r}; hint: give a number or '@variable'")
         arr = np.asarray(_lookup(raw, value[1:], f"{where}, {what} {value!r}"), dtype=float)
         if arr.size != 1:
-            raise DataError(f"{where}: {what} {value!r} has {arr.size} values, expected one scalar; "
-                            "hint: reference a 1x1 variable")
+            raise DataError(
+                f"{where}: {what} {value!r} has {arr.size} values, expected one scalar; "
+                "hint: reference a 1x1 variable"
+            )
         return float(arr.reshape(-1)[0])
     return float(value)
 
@@ -283,8 +334,9 @@ def builtin_channel_map(name: str) -> ChannelMap:
     res = resources.files("hydropwa.data").joinpath("channel_maps").joinpath(f"{name}.toml")
     if not res.is_file():
         raise DataError(f"no built-in channel map {name!r}; hint: the package ships 'emps'")
-    return ChannelMap.from_dict(tomllib.loads(res.read_text(encoding="utf-8")),
-                                origin=f"built-in channel map {name!r}")
+    return ChannelMap.from_dict(
+        tomllib.loads(res.read_text(encoding="utf-8")), origin=f"built-in channel map {name!r}"
+    )
 
 
 def resolve_channel_map(channel_map: ChannelMap | str | os.PathLike | None) -> ChannelMap | None:

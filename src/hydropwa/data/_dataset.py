@@ -49,27 +49,42 @@ def _empty_manifest(meta: Mapping | None) -> dict[str, Any]:
 def _read_manifest(root: Path) -> dict[str, Any]:
     path = root / MANIFEST
     if not path.is_file():
-        raise DataError(f"{str(root)!r}: no {MANIFEST}, so it is not a hydropwa dataset; hint: "
-                        "create one with write_dataset() or `hydropwa data convert SRC_DIR DST_DIR`")
+        raise DataError(
+            f"{str(root)!r}: no {MANIFEST}, so it is not a hydropwa dataset; hint: "
+            "create one with write_dataset() or `hydropwa data convert SRC_DIR DST_DIR`"
+        )
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
-        raise DataError(f"{str(path)!r}: manifest unreadable ({exc}); hint: fix the JSON or "
-                        "rewrite the dataset") from exc
+        raise DataError(
+            f"{str(path)!r}: manifest unreadable ({exc}); hint: fix the JSON or rewrite the dataset"
+        ) from exc
     if doc.get("format") != _FORMAT or not isinstance(doc.get("runs"), list):
-        raise DataError(f"{str(path)!r}: not a hydropwa manifest (needs \"format\": \"{_FORMAT}\" "
-                        "and a \"runs\" list); hint: rewrite the dataset with write_dataset()")
+        raise DataError(
+            f'{str(path)!r}: not a hydropwa manifest (needs "format": "{_FORMAT}" '
+            'and a "runs" list); hint: rewrite the dataset with write_dataset()'
+        )
     names = [e.get("name") for e in doc["runs"]]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise DataError(f"{str(path)!r}: runs {dup} listed twice; hint: remove the duplicate entries")
+        raise DataError(
+            f"{str(path)!r}: runs {dup} listed twice; hint: remove the duplicate entries"
+        )
     return doc
 
 
 def _entry(run: Run, file: str, fmt: str) -> dict[str, Any]:
-    return {"name": run.name, "file": file, "format": fmt, "kind": run.kind,
-            "fs": run.fs, "n_samples": run.n_samples, "duration": run.duration,
-            "channels": dict(run.units), "meta": run.meta}
+    return {
+        "name": run.name,
+        "file": file,
+        "format": fmt,
+        "kind": run.kind,
+        "fs": run.fs,
+        "n_samples": run.n_samples,
+        "duration": run.duration,
+        "channels": dict(run.units),
+        "meta": run.meta,
+    }
 
 
 class Dataset:
@@ -90,18 +105,21 @@ class Dataset:
     :class:`Run` objects in manifest order.
     """
 
-    def __init__(self, root: str | os.PathLike, manifest: Mapping | None = None,
-                 validate: bool = True) -> None:
+    def __init__(
+        self, root: str | os.PathLike, manifest: Mapping | None = None, validate: bool = True
+    ) -> None:
         self.root = Path(root)
-        self.manifest: dict[str, Any] = (dict(manifest) if manifest is not None
-                                         else _read_manifest(self.root))
+        self.manifest: dict[str, Any] = (
+            dict(manifest) if manifest is not None else _read_manifest(self.root)
+        )
         self.validate = validate
         self._cache: dict[str, Run] = {}
 
     # ------------------------------------------------------------------ create
     @classmethod
-    def create(cls, root: str | os.PathLike, meta: Mapping | None = None,
-               overwrite: bool = False) -> Dataset:
+    def create(
+        cls, root: str | os.PathLike, meta: Mapping | None = None, overwrite: bool = False
+    ) -> Dataset:
         """Create an empty dataset (writes the manifest).
 
         Raises
@@ -111,18 +129,26 @@ class Dataset:
         """
         root = Path(root)
         if (root / MANIFEST).exists() and not overwrite:
-            raise DataError(f"{str(root)!r}: already holds a dataset; hint: choose another folder, "
-                            "pass overwrite=True, or open it with read_dataset() and add_run()")
+            raise DataError(
+                f"{str(root)!r}: already holds a dataset; hint: choose another folder, "
+                "pass overwrite=True, or open it with read_dataset() and add_run()"
+            )
         ds = cls(root, _empty_manifest(meta))
         ds._write_manifest()
         return ds
 
     def _write_manifest(self) -> None:
-        atomic_write_text(self.root / MANIFEST,
-                          json.dumps(self.manifest, indent=2, allow_nan=False) + "\n")
+        atomic_write_text(
+            self.root / MANIFEST, json.dumps(self.manifest, indent=2, allow_nan=False) + "\n"
+        )
 
-    def add_run(self, run: Run, format: str = "parquet", units: Mapping[str, str] | None = None,
-                overwrite: bool = False) -> Path:
+    def add_run(
+        self,
+        run: Run,
+        format: str = "parquet",
+        units: Mapping[str, str] | None = None,
+        overwrite: bool = False,
+    ) -> Path:
         """Write ``run`` into the dataset, then update the manifest (both atomically).
 
         Parameters
@@ -143,8 +169,10 @@ class Dataset:
         """
         fmt = format_of("", format)
         if run.name in self.names and not overwrite:
-            raise DataError(f"dataset {str(self.root)!r}: run {run.name!r} exists; hint: rename "
-                            "the run or pass overwrite=True")
+            raise DataError(
+                f"dataset {str(self.root)!r}: run {run.name!r} exists; hint: rename "
+                "the run or pass overwrite=True"
+            )
         file = run.name + suffix_of(fmt)
         path = write_run(run, self.root / file, fmt, units)
         runs = [e for e in self.manifest["runs"] if e["name"] != run.name]
@@ -154,8 +182,13 @@ class Dataset:
         self._cache[run.name] = run
         return path
 
-    def write(self, runs: Iterable[Run], format: str = "parquet",
-              units: Mapping[str, str] | None = None, overwrite: bool = False) -> Dataset:
+    def write(
+        self,
+        runs: Iterable[Run],
+        format: str = "parquet",
+        units: Mapping[str, str] | None = None,
+        overwrite: bool = False,
+    ) -> Dataset:
         """Add several runs, one after the other (see :meth:`add_run`)."""
         for run in runs:
             self.add_run(run, format=format, units=units, overwrite=overwrite)
@@ -177,8 +210,10 @@ class Dataset:
         for e in self.manifest["runs"]:
             if e["name"] == name:
                 return e
-        raise DataError(f"dataset {str(self.root)!r}: no run {name!r} (has {self.names}); "
-                        "hint: check the run name")
+        raise DataError(
+            f"dataset {str(self.root)!r}: no run {name!r} (has {self.names}); "
+            "hint: check the run name"
+        )
 
     def path_of(self, name: str) -> Path:
         """Path of the file of run ``name``."""
@@ -188,9 +223,11 @@ class Dataset:
         if name not in self._cache:
             path = self.path_of(name)
             if not path.is_file():
-                raise DataError(f"dataset {str(self.root)!r}, run {name!r}: file "
-                                f"{path.name!r} listed in {MANIFEST} is missing; hint: restore it "
-                                f"or remove the entry from {MANIFEST}")
+                raise DataError(
+                    f"dataset {str(self.root)!r}, run {name!r}: file "
+                    f"{path.name!r} listed in {MANIFEST} is missing; hint: restore it "
+                    f"or remove the entry from {MANIFEST}"
+                )
             self._cache[name] = read_run(path, name=name, validate=self.validate)
         return self._cache[name]
 
@@ -210,9 +247,12 @@ class Dataset:
 
     def filter(self, kind: str | None = None, **meta) -> Dataset:
         """Runs of one experiment ``kind`` (and matching metadata), as a new in-memory view."""
-        keep = [e for e in self.manifest["runs"]
-                if (kind is None or e.get("kind") == kind)
-                and all(e.get("meta", {}).get(k) == v for k, v in meta.items())]
+        keep = [
+            e
+            for e in self.manifest["runs"]
+            if (kind is None or e.get("kind") == kind)
+            and all(e.get("meta", {}).get(k) == v for k, v in meta.items())
+        ]
         ds = Dataset(self.root, {**self.manifest, "runs": keep}, validate=self.validate)
         ds._cache = {n: r for n, r in self._cache.items() if n in ds.names}
         return ds
@@ -243,9 +283,15 @@ def read_dataset(root: str | os.PathLike, *, validate: bool = True, lazy: bool =
     return ds
 
 
-def write_dataset(runs: Iterable[Run], root: str | os.PathLike, *, format: str = "parquet",
-                  units: Mapping[str, str] | None = None, meta: Mapping | None = None,
-                  overwrite: bool = False) -> Dataset:
+def write_dataset(
+    runs: Iterable[Run],
+    root: str | os.PathLike,
+    *,
+    format: str = "parquet",
+    units: Mapping[str, str] | None = None,
+    meta: Mapping | None = None,
+    overwrite: bool = False,
+) -> Dataset:
     """Write runs as a new dataset, updating the manifest after each run.
 
     Parameters
@@ -274,9 +320,11 @@ def _unreadable(run: str, message: str, hint: str) -> Issue:
     return Issue("error", "unreadable", run, None, None, None, message, hint)
 
 
-def check_dataset(source: str | os.PathLike | Dataset,
-                  channel_map: ChannelMap | str | os.PathLike | None = None,
-                  **check_options) -> list[Issue]:
+def check_dataset(
+    source: str | os.PathLike | Dataset,
+    channel_map: ChannelMap | str | os.PathLike | None = None,
+    **check_options,
+) -> list[Issue]:
     """Check every run of a dataset (or one file) and return all findings.
 
     Parameters
@@ -316,14 +364,23 @@ def check_dataset(source: str | os.PathLike | Dataset,
 
 
 def _raw_files(folder: Path) -> list[Path]:
-    return sorted(p for p in folder.iterdir()
-                  if p.is_file() and p.suffix.lower() in FORMATS and not p.name.startswith("."))
+    return sorted(
+        p
+        for p in folder.iterdir()
+        if p.is_file() and p.suffix.lower() in FORMATS and not p.name.startswith(".")
+    )
 
 
-def convert(src: str | os.PathLike, dst: str | os.PathLike, *,
-            channel_map: ChannelMap | str | os.PathLike | None = None, format: str | None = None,
-            units: Mapping[str, str] | None = None, overwrite: bool = False,
-            **validate_options) -> Path:
+def convert(
+    src: str | os.PathLike,
+    dst: str | os.PathLike,
+    *,
+    channel_map: ChannelMap | str | os.PathLike | None = None,
+    format: str | None = None,
+    units: Mapping[str, str] | None = None,
+    overwrite: bool = False,
+    **validate_options,
+) -> Path:
     """Convert a run file or a whole folder to another format, validating on the way.
 
     Parameters
@@ -366,8 +423,10 @@ def convert(src: str | os.PathLike, dst: str | os.PathLike, *,
     else:
         files = _raw_files(src)
         if not files:
-            raise DataError(f"{str(src)!r}: no {MANIFEST} and no .csv/.parquet/.mat files; "
-                            "hint: point at a dataset folder or a run file")
+            raise DataError(
+                f"{str(src)!r}: no {MANIFEST} and no .csv/.parquet/.mat files; "
+                "hint: point at a dataset folder or a run file"
+            )
         runs = (read_run(p, cmap, **validate_options) for p in files)
         meta = {"source": str(src)}
     write_dataset(runs, dst, format=fmt, units=units, meta=meta, overwrite=overwrite)

@@ -49,11 +49,13 @@ def format_of(path, format: str | None = None) -> str:
         if fmt not in _SUFFIX:
             raise DataError(f"unknown format {format!r}; hint: use one of csv, parquet, mat")
         return fmt
-    fmt = FORMATS.get(Path(path).suffix.lower())
-    if fmt is None:
-        raise DataError(f"{str(path)!r}: cannot tell the format from suffix "
-                        f"{Path(path).suffix!r}; hint: use .csv, .parquet or .mat, or pass format=")
-    return fmt
+    found = FORMATS.get(Path(path).suffix.lower())
+    if found is None:
+        raise DataError(
+            f"{str(path)!r}: cannot tell the format from suffix "
+            f"{Path(path).suffix!r}; hint: use .csv, .parquet or .mat, or pass format="
+        )
+    return found
 
 
 def suffix_of(format: str) -> str:
@@ -63,8 +65,13 @@ def suffix_of(format: str) -> str:
 
 def _header(run: Run, units: Mapping[str, str]) -> dict[str, Any]:
     fs = run.fs if run.fs is not None and np.isfinite(run.fs) else None
-    return {"format_version": FORMAT_VERSION, "name": run.name, "fs": fs, "meta": run.meta,
-            "units": dict(units)}
+    return {
+        "format_version": FORMAT_VERSION,
+        "name": run.name,
+        "fs": fs,
+        "meta": run.meta,
+        "units": dict(units),
+    }
 
 
 def _file_columns(run: Run, units: Mapping[str, str] | None) -> tuple[dict, dict]:
@@ -72,8 +79,10 @@ def _file_columns(run: Run, units: Mapping[str, str] | None) -> tuple[dict, dict
     units = {k: normalize_unit(v) for k, v in (units or {}).items()}
     unknown = sorted(set(units) - set(run.channels))
     if unknown:
-        raise DataError(f"run {run.name!r}: units given for missing channels {unknown}; "
-                        "hint: drop them from units=")
+        raise DataError(
+            f"run {run.name!r}: units given for missing channels {unknown}; "
+            "hint: drop them from units="
+        )
     cols, file_units = {}, {}
     for ch, v in run.channels.items():
         unit = units.get(ch, run.units[ch])
@@ -105,17 +114,21 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
             n_comment += 1
             if line.startswith(_META_PREFIX):
                 try:
-                    header = json.loads(line[len(_META_PREFIX):])
+                    header = json.loads(line[len(_META_PREFIX) :])
                 except json.JSONDecodeError as exc:
-                    raise DataError(f"{str(path)!r}, line {n_comment}: the '# hydropwa:' metadata "
-                                    f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
-                                    ) from exc
+                    raise DataError(
+                        f"{str(path)!r}, line {n_comment}: the '# hydropwa:' metadata "
+                        f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
+                    ) from exc
     try:
-        df = pd.read_csv(path, skiprows=n_comment, skipinitialspace=True, dtype=str,
-                         keep_default_na=False)
+        df = pd.read_csv(
+            path, skiprows=n_comment, skipinitialspace=True, dtype=str, keep_default_na=False
+        )
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataError(f"{str(path)!r}: not a readable CSV table ({exc}); "
-                        "hint: one header line 'name [unit],...' then one row per sample") from exc
+        raise DataError(
+            f"{str(path)!r}: not a readable CSV table ({exc}); "
+            "hint: one header line 'name [unit],...' then one row per sample"
+        ) from exc
     raw, units = {}, {}
     for label in df.columns:
         ch, unit = parse_column_label(label)
@@ -137,9 +150,10 @@ def _numeric_column(text: np.ndarray, path: Path, ch: str, n_comment: int) -> np
         try:
             out[i] = float(s) if s else np.nan
         except ValueError:
-            raise DataError(f"{str(path)!r}, channel {ch!r}, sample {i} (line {i + n_comment + 2}): "
-                            f"{s!r} is not a number; hint: fix the cell or leave it empty for NaN"
-                            ) from None
+            raise DataError(
+                f"{str(path)!r}, channel {ch!r}, sample {i} (line {i + n_comment + 2}): "
+                f"{s!r} is not a number; hint: fix the cell or leave it empty for NaN"
+            ) from None
     return out
 
 
@@ -150,8 +164,9 @@ def _write_parquet(run: Run, path: Path, units) -> None:
 
     cols, file_units = _file_columns(run, units)
     fields = [pa.field(k, pa.float64(), metadata={"unit": file_units[k]}) for k in cols]
-    schema = pa.schema(fields, metadata={"hydropwa": json.dumps(_header(run, file_units),
-                                                                allow_nan=False)})
+    schema = pa.schema(
+        fields, metadata={"hydropwa": json.dumps(_header(run, file_units), allow_nan=False)}
+    )
     table = pa.table({k: pa.array(v, type=pa.float64()) for k, v in cols.items()}, schema=schema)
     with atomic_path(path) as tmp:
         pq.write_table(table, tmp)
@@ -164,8 +179,10 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
     try:
         table = pq.read_table(path)
     except (pa.ArrowInvalid, OSError) as exc:
-        raise DataError(f"{str(path)!r}: not a readable Parquet file ({exc}); "
-                        "hint: check that the file is complete") from exc
+        raise DataError(
+            f"{str(path)!r}: not a readable Parquet file ({exc}); "
+            "hint: check that the file is complete"
+        ) from exc
     meta = table.schema.metadata or {}
     header = json.loads(meta[b"hydropwa"]) if b"hydropwa" in meta else {}
     raw, units = {}, {}
@@ -177,8 +194,10 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
         try:
             raw[ch] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
         except (TypeError, ValueError, pa.ArrowInvalid) as exc:
-            raise DataError(f"{str(path)!r}, channel {ch!r}: column of type {field.type} is not "
-                            "numeric; hint: store signals as float64") from exc
+            raise DataError(
+                f"{str(path)!r}, channel {ch!r}: column of type {field.type} is not "
+                "numeric; hint: store signals as float64"
+            ) from exc
         if unit is not None:
             units[ch] = unit
     units = {**units, **header.get("units", {})}
@@ -192,8 +211,10 @@ def _write_mat(run: Run, path: Path, units) -> None:
     cols, file_units = _file_columns(run, units)
     bad = [k for k in cols if not _MATLAB_NAME.match(k) or k == "hydropwa"]
     if bad:
-        raise DataError(f"run {run.name!r}: channel names {bad} are not valid MATLAB variable "
-                        "names; hint: rename them (letters, digits, underscores) or write CSV/Parquet")
+        raise DataError(
+            f"run {run.name!r}: channel names {bad} are not valid MATLAB variable "
+            "names; hint: rename them (letters, digits, underscores) or write CSV/Parquet"
+        )
     header = _header(run, file_units)
     header["channels"] = list(cols)
     variables = {k: v.reshape(-1, 1) for k, v in cols.items()}
@@ -208,11 +229,14 @@ def _load_mat(path: Path) -> dict[str, Any]:
     try:
         return scipy.io.loadmat(path, simplify_cells=True)
     except NotImplementedError as exc:
-        raise DataError(f"{str(path)!r}: MATLAB v7.3 (HDF5) files are not supported; "
-                        "hint: re-save with save(..., '-v7') in MATLAB") from exc
+        raise DataError(
+            f"{str(path)!r}: MATLAB v7.3 (HDF5) files are not supported; "
+            "hint: re-save with save(..., '-v7') in MATLAB"
+        ) from exc
     except (ValueError, TypeError, OSError) as exc:
-        raise DataError(f"{str(path)!r}: not a readable MAT file ({exc}); "
-                        "hint: check that the file is complete") from exc
+        raise DataError(
+            f"{str(path)!r}: not a readable MAT file ({exc}); hint: check that the file is complete"
+        ) from exc
 
 
 def _read_mat(path: Path) -> tuple[dict, dict, dict]:
@@ -231,8 +255,14 @@ _WRITERS = {"csv": _write_csv, "parquet": _write_parquet, "mat": _write_mat}
 
 
 # ---------------------------------------------------------------------- public
-def read_run(path: str | os.PathLike, channel_map: ChannelMap | str | os.PathLike | None = None,
-             name: str | None = None, *, validate: bool = True, **validate_options) -> Run:
+def read_run(
+    path: str | os.PathLike,
+    channel_map: ChannelMap | str | os.PathLike | None = None,
+    name: str | None = None,
+    *,
+    validate: bool = True,
+    **validate_options,
+) -> Run:
     """Read one run from a CSV, Parquet or MAT file, converting units to SI.
 
     Parameters
@@ -266,13 +296,15 @@ def read_run(path: str | os.PathLike, channel_map: ChannelMap | str | os.PathLik
     raw, units, header = _READERS[fmt](path)
     run_name = str(name or header.get("name") or path.stem)
     meta = dict(header.get("meta") or {})
-    if channel_map is not None:
-        cmap = resolve_channel_map(channel_map)
+    cmap = resolve_channel_map(channel_map)
+    if cmap is not None:
         meta.setdefault("source", path.name)
         run = cmap.apply(raw, run_name, meta, where=f"{str(path)!r}")
     elif fmt == "mat" and not header:
-        raise DataError(f"{str(path)!r}: MAT file without hydropwa metadata (variables "
-                        f"{sorted(raw)}); hint: pass a channel map (--channel-map map.toml)")
+        raise DataError(
+            f"{str(path)!r}: MAT file without hydropwa metadata (variables "
+            f"{sorted(raw)}); hint: pass a channel map (--channel-map map.toml)"
+        )
     else:
         run = Run.from_arrays(run_name, raw, units, fs=header.get("fs"), meta=meta)
     if validate:
@@ -282,8 +314,12 @@ def read_run(path: str | os.PathLike, channel_map: ChannelMap | str | os.PathLik
     return run
 
 
-def write_run(run: Run, path: str | os.PathLike, format: str | None = None,
-              units: Mapping[str, str] | None = None) -> Path:
+def write_run(
+    run: Run,
+    path: str | os.PathLike,
+    format: str | None = None,
+    units: Mapping[str, str] | None = None,
+) -> Path:
     """Write a run atomically as CSV, Parquet or MAT.
 
     Parameters

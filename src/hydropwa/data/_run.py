@@ -103,7 +103,9 @@ class Run:
     def __post_init__(self) -> None:
         name = str(self.name)
         if not name or "/" in name or "\\" in name:
-            raise DataError(f"run name {name!r} is invalid; hint: use a non-empty name without slashes")
+            raise DataError(
+                f"run name {name!r} is invalid; hint: use a non-empty name without slashes"
+            )
         if "t" not in self.channels:
             raise DataError(
                 f"run {name!r}: has no time channel 't' (channels: {sorted(self.channels)}); "
@@ -143,7 +145,9 @@ class Run:
             units[k] = unit
         extra = sorted(set(given) - set(chans))
         if extra:
-            raise DataError(f"run {name!r}: units given for missing channels {extra}; hint: drop them")
+            raise DataError(
+                f"run {name!r}: units given for missing channels {extra}; hint: drop them"
+            )
         return units
 
     @staticmethod
@@ -151,7 +155,9 @@ class Run:
         if fs is not None:
             fs = float(fs)
             if not np.isfinite(fs) or fs <= 0:
-                raise DataError(f"run {name!r}: sampling rate fs = {fs} Hz; hint: give fs > 0 in Hz")
+                raise DataError(
+                    f"run {name!r}: sampling rate fs = {fs} Hz; hint: give fs > 0 in Hz"
+                )
             return fs
         dt = np.diff(t)
         dt = dt[np.isfinite(dt) & (dt > 0)]
@@ -195,8 +201,13 @@ class Run:
 
     def replace(self, **changes) -> Run:
         """Return a copy with fields replaced (``channels``, ``units``, ``fs``, ``meta``, ``name``)."""
-        fields = {"name": self.name, "channels": dict(self.channels), "units": dict(self.units),
-                  "fs": self.fs, "meta": copy.deepcopy(self.meta)}
+        fields: dict[str, Any] = {
+            "name": self.name,
+            "channels": dict(self.channels),
+            "units": dict(self.units),
+            "fs": self.fs,
+            "meta": copy.deepcopy(self.meta),
+        }
         fields.update(changes)
         return Run(**fields)
 
@@ -209,13 +220,20 @@ class Run:
         import pandas as pd
 
         df = pd.DataFrame({k: np.array(v) for k, v in self.channels.items()})
-        df.attrs.update(name=self.name, units=dict(self.units), fs=self.fs,
-                        meta=copy.deepcopy(self.meta))
+        df.attrs.update(
+            name=self.name, units=dict(self.units), fs=self.fs, meta=copy.deepcopy(self.meta)
+        )
         return df
 
     @classmethod
-    def from_pandas(cls, df, units: Mapping[str, str] | None = None, name: str | None = None,
-                    meta: Mapping | None = None, fs: float | None = None) -> Run:
+    def from_pandas(
+        cls,
+        df,
+        units: Mapping[str, str] | None = None,
+        name: str | None = None,
+        meta: Mapping | None = None,
+        fs: float | None = None,
+    ) -> Run:
         """Build a run from a data frame, converting units to SI.
 
         Parameters
@@ -243,18 +261,30 @@ class Run:
         for label in df.columns:
             ch, unit = parse_column_label(str(label))
             if ch in cols:
-                raise DataError(f"run {name!r}: channel {ch!r} appears twice; hint: rename one column")
+                raise DataError(
+                    f"run {name!r}: channel {ch!r} appears twice; hint: rename one column"
+                )
             cols[ch] = df[label].to_numpy(dtype=float, copy=True)
             if unit is not None:
                 declared[ch] = unit
         declared.update(units or {})
-        return cls.from_arrays(name, cols, declared,
-                               fs=fs if fs is not None else attrs.get("fs"),
-                               meta=meta if meta is not None else attrs.get("meta") or {})
+        return cls.from_arrays(
+            name,
+            cols,
+            declared,
+            fs=fs if fs is not None else attrs.get("fs"),
+            meta=meta if meta is not None else attrs.get("meta") or {},
+        )
 
     @classmethod
-    def from_arrays(cls, name: str, channels: Mapping[str, np.ndarray], units: Mapping[str, str],
-                    fs: float | None = None, meta: Mapping | None = None) -> Run:
+    def from_arrays(
+        cls,
+        name: str,
+        channels: Mapping[str, np.ndarray],
+        units: Mapping[str, str],
+        fs: float | None = None,
+        meta: Mapping | None = None,
+    ) -> Run:
         """Build a run from arrays in declared (possibly non-SI) units; converts to SI.
 
         Parameters
@@ -280,7 +310,8 @@ class Run:
                     f"hint: write the header as '{ch} [unit]' or give the unit in the channel map"
                 )
             si_chans[ch], si_units[ch] = to_si(
-                _as_channel(ch, name, values), unit, ch, f"run {name!r}, channel {ch!r}")
+                _as_channel(ch, name, values), unit, ch, f"run {name!r}, channel {ch!r}"
+            )
         return cls(name=name, channels=si_chans, units=si_units, fs=fs, meta=dict(meta or {}))
 
     # ------------------------------------------------------------------ slicing
@@ -317,9 +348,12 @@ class Run:
         DataError
             If time stamps are not strictly increasing or not finite.
         """
-        fs = float(self.fs if fs is None else fs)
+        nominal = self.fs if self.fs is not None else float("nan")
+        fs = float(nominal if fs is None else fs)
         if not np.isfinite(fs) or fs <= 0:
-            raise DataError(f"run {self.name!r}: cannot resample to fs = {fs} Hz; hint: give fs > 0")
+            raise DataError(
+                f"run {self.name!r}: cannot resample to fs = {fs} Hz; hint: give fs > 0"
+            )
         t = self.t
         bad = np.flatnonzero(~np.isfinite(t))
         if bad.size:

@@ -31,8 +31,24 @@ CANONICAL_UNITS: dict[str, str] = {
 }
 
 # SI unit used for an extra (non-canonical) channel, chosen by dimensionality.
-_PREFERRED_SI = ("1", "s", "m", "m/s", "m/s**2", "Pa", "N", "kg", "m**3/s", "m**3", "m**2",
-                 "V", "A", "W", "K", "N*s/m")
+_PREFERRED_SI = (
+    "1",
+    "s",
+    "m",
+    "m/s",
+    "m/s**2",
+    "Pa",
+    "N",
+    "kg",
+    "m**3/s",
+    "m**3",
+    "m**2",
+    "V",
+    "A",
+    "W",
+    "K",
+    "N*s/m",
+)
 
 # Spellings that pint does not read, or reads differently from what engineers mean.
 _ALIASES = {"": "1", "-": "1", "1": "1", "%": "percent", "lpm": "L/min", "l/min": "L/min"}
@@ -53,15 +69,21 @@ def _pint_unit(unit: str, where: str) -> pint.Unit:
     text = normalize_unit(unit)
     try:
         return _registry().Unit("dimensionless" if text == "1" else text)
-    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError,
-            AttributeError, TypeError, ValueError, AssertionError) as exc:
+    except (
+        pint.errors.UndefinedUnitError,
+        pint.errors.DefinitionSyntaxError,
+        AttributeError,
+        TypeError,
+        ValueError,
+        AssertionError,
+    ) as exc:
         raise DataError(
             f"{where}: unknown unit {unit!r}; hint: use a unit pint understands, "
             "e.g. bar, Pa, MPa, psi, mm, m, mm/s, L/min, %, kN, N, V or 1"
         ) from exc
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _preferred_by_dimension() -> dict[object, str]:
     return {_pint_unit(u, "SI table").dimensionality: u for u in _PREFERRED_SI}
 

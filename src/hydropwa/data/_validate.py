@@ -15,8 +15,15 @@ from hydropwa._errors import DataError
 
 from ._run import Run
 
-__all__ = ["Issue", "Plausible", "PLAUSIBLE_RANGES", "ValidationReport", "check_run",
-           "validate_run", "COMMAND_CHANNELS"]
+__all__ = [
+    "Issue",
+    "Plausible",
+    "PLAUSIBLE_RANGES",
+    "ValidationReport",
+    "check_run",
+    "validate_run",
+    "COMMAND_CHANNELS",
+]
 
 #: Channels that are commanded, not measured: not checked for clipping (a saturated
 #: command is legitimate).
@@ -54,7 +61,9 @@ PLAUSIBLE_RANGES: dict[str, Plausible] = {
     "u": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
     "spool": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
     "z": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
-    "x": Plausible(-0.05, 2.0, high_hint="positions beyond 2 m look like mm; declare the unit as 'mm'"),
+    "x": Plausible(
+        -0.05, 2.0, high_hint="positions beyond 2 m look like mm; declare the unit as 'mm'"
+    ),
     "v": Plausible(-5.0, 5.0, high_hint="speeds beyond 5 m/s look like mm/s; declare 'mm/s'"),
     "p_a": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
     "p_b": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
@@ -132,8 +141,9 @@ class ValidationReport:
         return not any(i.severity == "error" for i in self.issues)
 
 
-def _issue(run: Run, code: str, channel, sample, message: str, hint: str,
-           severity: str = "error") -> Issue:
+def _issue(
+    run: Run, code: str, channel, sample, message: str, hint: str, severity: str = "error"
+) -> Issue:
     t = None
     if sample is not None:
         sample = int(sample)
@@ -146,49 +156,95 @@ def _check_time(run: Run, dt_rtol: float, gap_factor: float, fs_rtol: float) -> 
     t = run.t
     out: list[Issue] = []
     if run.n_samples < 2:
-        return [_issue(run, "too_short", "t", None, f"only {run.n_samples} sample(s)",
-                       "a run needs at least two samples")]
+        return [
+            _issue(
+                run,
+                "too_short",
+                "t",
+                None,
+                f"only {run.n_samples} sample(s)",
+                "a run needs at least two samples",
+            )
+        ]
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        out.append(_issue(run, "time_not_finite", "t", bad[0],
-                          f"time stamp is NaN/inf ({bad.size} such samples)",
-                          "drop these samples explicitly (validate_run(..., drop_duplicates=True) "
-                          "also drops non-finite time stamps)"))
+        out.append(
+            _issue(
+                run,
+                "time_not_finite",
+                "t",
+                bad[0],
+                f"time stamp is NaN/inf ({bad.size} such samples)",
+                "drop these samples explicitly (validate_run(..., drop_duplicates=True) "
+                "also drops non-finite time stamps)",
+            )
+        )
         return out
     dt = np.diff(t)
-    for code, mask, what in (("time_duplicate", dt == 0, "repeats the previous time stamp"),
-                             ("time_decreasing", dt < 0, "time goes backwards")):
+    for code, mask, what in (
+        ("time_duplicate", dt == 0, "repeats the previous time stamp"),
+        ("time_decreasing", dt < 0, "time goes backwards"),
+    ):
         idx = np.flatnonzero(mask)
         if idx.size:
             i = idx[0] + 1
-            out.append(_issue(run, code, "t", i,
-                              f"{what} (t[{i - 1}] = {t[i - 1]:.9g} s, t[{i}] = {t[i]:.9g} s; "
-                              f"{idx.size} such samples)",
-                              "drop duplicated samples with validate_run(..., drop_duplicates=True)"
-                              if code == "time_duplicate" else
-                              "the file interleaves or concatenates logs; split it or sort by time"))
+            out.append(
+                _issue(
+                    run,
+                    code,
+                    "t",
+                    i,
+                    f"{what} (t[{i - 1}] = {t[i - 1]:.9g} s, t[{i}] = {t[i]:.9g} s; "
+                    f"{idx.size} such samples)",
+                    "drop duplicated samples with validate_run(..., drop_duplicates=True)"
+                    if code == "time_duplicate"
+                    else "the file interleaves or concatenates logs; split it or sort by time",
+                )
+            )
     if out:
         return out
     step = float(np.median(dt))
     gaps = np.flatnonzero(dt > gap_factor * step)
     if gaps.size:
         i = gaps[0] + 1
-        out.append(_issue(run, "time_gap", "t", i,
-                          f"gap in time: t jumps {dt[i - 1]:.6g} s from sample {i - 1} "
-                          f"(median step {step:.6g} s; {gaps.size} gaps)",
-                          "samples are missing; split the run with select(), or interpolate across "
-                          "with validate_run(..., resample=True) if that is acceptable"))
+        out.append(
+            _issue(
+                run,
+                "time_gap",
+                "t",
+                i,
+                f"gap in time: t jumps {dt[i - 1]:.6g} s from sample {i - 1} "
+                f"(median step {step:.6g} s; {gaps.size} gaps)",
+                "samples are missing; split the run with select(), or interpolate across "
+                "with validate_run(..., resample=True) if that is acceptable",
+            )
+        )
     jitter = np.flatnonzero((np.abs(dt - step) > dt_rtol * step) & (dt <= gap_factor * step))
     if jitter.size:
         i = jitter[0] + 1
-        out.append(_issue(run, "time_nonuniform", "t", i,
-                          f"non-uniform sampling: step {dt[i - 1]:.6g} s vs median {step:.6g} s "
-                          f"(tolerance {dt_rtol:.0%}; {jitter.size} such steps)",
-                          "resample explicitly with validate_run(..., resample=True) or Run.resample(fs)"))
+        out.append(
+            _issue(
+                run,
+                "time_nonuniform",
+                "t",
+                i,
+                f"non-uniform sampling: step {dt[i - 1]:.6g} s vs median {step:.6g} s "
+                f"(tolerance {dt_rtol:.0%}; {jitter.size} such steps)",
+                "resample explicitly with validate_run(..., resample=True) or Run.resample(fs)",
+            )
+        )
     if run.fs is not None and np.isfinite(run.fs) and abs(run.fs * step - 1.0) > fs_rtol:
-        out.append(_issue(run, "fs_mismatch", "t", None,
-                          f"declared fs = {run.fs:.6g} Hz but the median step gives {1 / step:.6g} Hz",
-                          "fix fs in the file metadata or channel map", severity="warning"))
+        out.append(
+            _issue(
+                run,
+                "fs_mismatch",
+                "t",
+                None,
+                f"declared fs = {run.fs:.6g} Hz but the median step gives {1 / step:.6g} Hz",
+                "fix fs in the file metadata or channel map",
+                severity="warning",
+            )
+        )
     return out
 
 
@@ -197,10 +253,17 @@ def _check_finite(run: Run, channel: str) -> list[Issue]:
     bad = np.flatnonzero(~np.isfinite(v))
     if not bad.size:
         return []
-    return [_issue(run, "nonfinite", channel, bad[0],
-                   f"{bad.size} NaN/inf value(s) (missing samples), first here",
-                   "interpolate them explicitly with validate_run(..., interpolate_gaps=True) "
-                   "or cut the run with select()")]
+    return [
+        _issue(
+            run,
+            "nonfinite",
+            channel,
+            bad[0],
+            f"{bad.size} NaN/inf value(s) (missing samples), first here",
+            "interpolate them explicitly with validate_run(..., interpolate_gaps=True) "
+            "or cut the run with select()",
+        )
+    ]
 
 
 def _runs_of(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -224,17 +287,24 @@ def _check_clipping(run: Run, channel: str, min_samples: int) -> list[Issue]:
         # everywhere. Flag only when the signal otherwise changes from sample to sample.
         plateau = np.zeros(v.shape, dtype=bool)
         for s, n in zip(starts[long], lengths[long], strict=True):
-            plateau[s:s + n] = True
+            plateau[s : s + n] = True
         rest = np.diff(v[~plateau])
         if rest.size and np.mean(rest == 0) > 0.5:
             continue
         k = int(np.argmax(long))
         side = "maximum" if level == fin.max() else "minimum"
-        out.append(_issue(run, "clipped", channel, starts[k],
-                          f"stuck at its {side} {level:.6g} {run.units[channel]} for "
-                          f"{int(lengths[k])} samples ({int(long.sum())} such stretches)",
-                          "the sensor or ADC saturated; re-measure with a larger range or "
-                          "exclude the stretch with select()"))
+        out.append(
+            _issue(
+                run,
+                "clipped",
+                channel,
+                starts[k],
+                f"stuck at its {side} {level:.6g} {run.units[channel]} for "
+                f"{int(lengths[k])} samples ({int(long.sum())} such stretches)",
+                "the sensor or ADC saturated; re-measure with a larger range or "
+                "exclude the stretch with select()",
+            )
+        )
     return out
 
 
@@ -248,24 +318,49 @@ def _check_range(run: Run, channel: str, rng: Plausible) -> list[Issue]:
     outside = np.flatnonzero(fin & ((v > rng.hi) | (v < rng.lo)))
     if outside.size:
         i = outside[0]
-        hint = rng.high_hint if v[i] > rng.hi else (
-            "check the sensor offset and sign, and the declared unit")
-        out.append(_issue(run, "implausible_magnitude", channel, i,
-                          f"value {v[i]:.6g} {unit} outside the plausible range "
-                          f"[{rng.lo:.6g}, {rng.hi:.6g}] {unit} ({outside.size} samples)", hint))
+        hint = (
+            rng.high_hint
+            if v[i] > rng.hi
+            else ("check the sensor offset and sign, and the declared unit")
+        )
+        out.append(
+            _issue(
+                run,
+                "implausible_magnitude",
+                channel,
+                i,
+                f"value {v[i]:.6g} {unit} outside the plausible range "
+                f"[{rng.lo:.6g}, {rng.hi:.6g}] {unit} ({outside.size} samples)",
+                hint,
+            )
+        )
     peak = float(np.max(np.abs(v[fin])))
     if 0.0 < peak < rng.min_peak:
         i = int(np.flatnonzero(fin & (np.abs(v) == peak))[0])
-        out.append(_issue(run, "implausible_magnitude", channel, i,
-                          f"peak |value| {peak:.6g} {unit} is below {rng.min_peak:.6g} {unit}, "
-                          "far below any working value", rng.low_hint))
+        out.append(
+            _issue(
+                run,
+                "implausible_magnitude",
+                channel,
+                i,
+                f"peak |value| {peak:.6g} {unit} is below {rng.min_peak:.6g} {unit}, "
+                "far below any working value",
+                rng.low_hint,
+            )
+        )
     return out
 
 
-def check_run(run: Run, *, dt_rtol: float = 0.01, gap_factor: float = 1.5,
-              fs_rtol: float = 0.01, clip_min_samples: int = 10,
-              ranges: Mapping[str, Plausible] | None = None,
-              no_clip_check: Iterable[str] = COMMAND_CHANNELS) -> list[Issue]:
+def check_run(
+    run: Run,
+    *,
+    dt_rtol: float = 0.01,
+    gap_factor: float = 1.5,
+    fs_rtol: float = 0.01,
+    clip_min_samples: int = 10,
+    ranges: Mapping[str, Plausible] | None = None,
+    no_clip_check: Iterable[str] = COMMAND_CHANNELS,
+) -> list[Issue]:
     """Check a run and return every finding; never raises for bad data.
 
     Parameters
@@ -333,9 +428,16 @@ def _interpolate_gaps(run: Run) -> tuple[Run, str | None]:
     return run.replace(channels=chans), f"linearly interpolated {n_fixed} NaN/inf samples"
 
 
-def validate_run(run: Run, *, resample: bool = False, fs: float | None = None,
-                 interpolate_gaps: bool = False, drop_duplicates: bool = False,
-                 raise_on_error: bool = True, **check_options) -> ValidationReport:
+def validate_run(
+    run: Run,
+    *,
+    resample: bool = False,
+    fs: float | None = None,
+    interpolate_gaps: bool = False,
+    drop_duplicates: bool = False,
+    raise_on_error: bool = True,
+    **check_options,
+) -> ValidationReport:
     """Validate a run, apply only the repairs asked for, and raise on remaining errors.
 
     Parameters
@@ -381,7 +483,10 @@ def validate_run(run: Run, *, resample: bool = False, fs: float | None = None,
     issues = check_run(run, **check_options)
     errors = [i for i in issues if i.severity == "error"]
     if errors and raise_on_error:
-        more = f" [{len(errors) - 1} more error(s); run `hydropwa data check` to list all]" \
-            if len(errors) > 1 else ""
+        more = (
+            f" [{len(errors) - 1} more error(s); run `hydropwa data check` to list all]"
+            if len(errors) > 1
+            else ""
+        )
         raise DataError(f"{errors[0]}{more}")
     return ValidationReport(run=run, issues=issues, repairs=repairs)
