@@ -76,3 +76,13 @@ def test_convert_mat_without_map_fails_cleanly(cli, tmp_path, emps_dir):
     res = cli.invoke(app, ["convert", str(emps_dir / "DATA_EMPS.mat"), str(tmp_path / "e.csv")])
     assert res.exit_code == 2
     assert "MAT file without hydropwa metadata" in res.stderr and "--channel-map" in res.stderr
+
+
+def test_check_folder_of_raw_files(cli, emps_dir, tmp_path):
+    res = cli.invoke(app, ["check", str(emps_dir), "--channel-map", "emps"])
+    assert res.exit_code == 0, res.output
+    res = cli.invoke(app, ["check", str(emps_dir), "--plain"])
+    assert res.exit_code == 1
+    assert res.stdout.count("MAT file without hydropwa metadata") == 2
+    res = cli.invoke(app, ["check", str(tmp_path)])
+    assert res.exit_code == 2 and "no manifest.json" in res.stderr

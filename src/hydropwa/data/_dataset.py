@@ -316,8 +316,9 @@ def write_dataset(
     return Dataset.create(root, meta=meta, overwrite=overwrite).write(runs, format, units)
 
 
-def _unreadable(run: str, message: str, hint: str) -> Issue:
-    return Issue("error", "unreadable", run, None, None, None, message, hint)
+def _unreadable(run: str, error: DataError) -> Issue:
+    message, _, hint = str(error).partition("; hint: ")
+    return Issue("error", "unreadable", run, None, None, None, message, hint or "check the file")
 
 
 def check_dataset(
@@ -325,7 +326,7 @@ def check_dataset(
     channel_map: ChannelMap | str | os.PathLike | None = None,
     **check_options,
 ) -> list[Issue]:
-    """Check every run of a dataset (or one file) and return all findings.
+    """Check every run of a dataset, a folder of raw files, or one file; return all findings.
 
     Parameters
     ----------
@@ -350,6 +351,11 @@ def check_dataset(
         raise DataError(f"{str(source)!r}: no such file or folder; hint: check the path")
     if not isinstance(source, Dataset) and Path(source).is_file():
         return check_run(read_run(source, channel_map, validate=False), **check_options)
+    if not isinstance(source, Dataset) and not (Path(source) / MANIFEST).exists():
+        files = _raw_files(Path(source))
+        if not files:
+            _read_manifest(Path(source))  # raises the "not a dataset" error
+        return _check_files(files, resolve_channel_map(channel_map), check_options)
     ds = source if isinstance(source, Dataset) else Dataset(source, validate=False)
     ds = Dataset(ds.root, ds.manifest, validate=False)
     issues: list[Issue] = []
@@ -357,9 +363,21 @@ def check_dataset(
         try:
             run = ds[name]
         except DataError as exc:
-            issues.append(_unreadable(name, str(exc), "see the message"))
+            issues.append(_unreadable(name, exc))
             continue
         issues += check_run(run, **check_options)
+    return issues
+
+
+def _check_files(files: list[Path], cmap: ChannelMap | None, options: dict) -> list[Issue]:
+    issues: list[Issue] = []
+    for path in files:
+        try:
+            run = read_run(path, cmap, validate=False)
+        except DataError as exc:
+            issues.append(_unreadable(path.stem, exc))
+            continue
+        issues += check_run(run, **options)
     return issues
 
 
