@@ -1,0 +1,3 @@
+from hydropwa.cli import main
+
+main()

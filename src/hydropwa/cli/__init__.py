@@ -1,0 +1,85 @@
+"""The ``hydropwa`` command line: thin wrappers over the public API.
+
+Every user error (:class:`~hydropwa.HydropwaError`) is printed as one line
+``error: ...`` on stderr with exit code 2; warnings as ``warning: ...``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import warnings
+
+import click
+import typer
+
+from .._errors import HydropwaError
+from ._core import params_app, simulate_command
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(
+    name="hydropwa",
+    help="Model, identify and linearize valve-controlled hydraulic cylinders.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+app.add_typer(params_app, name="params")
+app.command("simulate")(simulate_command)
+
+# Sub-applications: (module, attribute, name) — each module defines a typer app or a command.
+_SUBAPPS = (
+    ("._data", "app", "data"),
+    ("._rig", "app", "rig"),
+    ("._identify", "app", "identify"),
+    ("._linearize", "linearize_command", "linearize"),
+    ("._sweep", "sweep_command", "sweep"),
+    ("._paper", "paper_command", "paper"),
+)
+for _mod, _attr, _name in _SUBAPPS:
+    try:
+        _m = importlib.import_module(_mod, __name__)
+    except ModuleNotFoundError as _exc:  # a layer not installed in this build
+        if _exc.name and _exc.name.startswith("hydropwa.cli."):
+            continue
+        raise
+    _obj = getattr(_m, _attr)
+    if isinstance(_obj, typer.Typer):
+        app.add_typer(_obj, name=_name)
+    else:
+        app.command(_name)(_obj)
+
+
+def _showwarning(message, category, filename, lineno, file=None, line=None):
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``hydropwa`` command; returns the exit code."""
+    warnings.showwarning = _showwarning
+    command = typer.main.get_command(app)
+    try:
+        rv = command.main(args=argv, prog_name="hydropwa", standalone_mode=False)
+    except HydropwaError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        code = 2
+    except click.exceptions.Exit as exc:
+        code = exc.exit_code
+    except click.exceptions.Abort:
+        print("error: aborted", file=sys.stderr)
+        code = 130
+    except click.ClickException as exc:
+        exc.show()
+        code = exc.exit_code
+    except KeyboardInterrupt:
+        print("error: interrupted; finished files are kept, rerun to resume", file=sys.stderr)
+        code = 130
+    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        print(f"error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
+        code = 2
+    else:
+        code = rv if isinstance(rv, int) else 0
+    if argv is None:
+        sys.exit(code)
+    return code

@@ -1,0 +1,139 @@
+"""``hydropwa params`` and ``hydropwa simulate``: thin wrappers over the public API."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .._errors import ParameterError, SignalError
+from ..params import FIELD_UNITS, PRESETS, get_preset, load_params, params_to_toml, parse_quantity, save_params
+
+params_app = typer.Typer(help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True)
+
+#: SI unit → (display unit, factor) for `params show`.
+_ENGINEERING = {
+    "Pa": ("bar", 1e-5),
+    "m**3": ("L", 1e3),
+    "m**3/s": ("L/min", 6e4),
+    "m**2": ("cm²", 1e4),
+    "m": ("mm", 1e3),
+    "m/s": ("mm/s", 1e3),
+    "": ("%", 100.0),
+}
+_NOT_PERCENT = {"zeta", "shape", "creep_slope"}
+
+
+def resolve_params(source: str | None):
+    """A preset name or a TOML path (``None``: the paper preset)."""
+    if source is None:
+        return get_preset("paper")
+    return load_params(source)
+
+
+@params_app.command("show")
+def params_show(
+    source: Annotated[str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")] = "paper",
+) -> None:
+    """Print a parameter set with SI values and engineering units."""
+    from rich.console import Console
+    from rich.table import Table
+
+    params = resolve_params(source)
+    table = Table(title=f"parameters: {source}")
+    for col in ("group", "field", "SI value", "SI unit", "engineering"):
+        table.add_column(col)
+    for comp, units in FIELD_UNITS.items():
+        obj = getattr(params, comp)
+        for f in dataclasses.fields(obj):
+            val = getattr(obj, f.name)
+            unit = units[f.name]
+            eng = ""
+            if unit is not None and isinstance(val, float):
+                if unit in _ENGINEERING and not (unit == "" and f.name in _NOT_PERCENT):
+                    u_disp, fac = _ENGINEERING[unit]
+                    eng = f"{val * fac:.6g} {u_disp}"
+            table.add_row(comp, f.name, f"{val:.6g}" if isinstance(val, float) else str(val), unit or "1" if unit is not None else "", eng)
+    Console(width=120).print(table)
+
+
+@params_app.command("export")
+def params_export(
+    source: Annotated[str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")] = "paper",
+    out: Annotated[Path, typer.Option("--out", "-o", help="TOML file to write.")] = Path("params.toml"),
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """Write a parameter set to a hand-editable TOML file."""
+    if out.exists() and not force:
+        raise ParameterError(f"{out} exists; pass --force to overwrite it")
+    params = resolve_params(source)
+    save_params(params, out, header=f"exported from {source}")
+    typer.echo(f"wrote {out}")
+
+
+def simulate_command(
+    model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
+    params: Annotated[str | None, typer.Option("--params", "-p", help="Preset name or TOML file (default: paper).")] = None,
+    input: Annotated[str | None, typer.Option("--input", "-i", help="Valve command spec, e.g. 'sine:amplitude=0.4,frequency=1' (fractions; '40 %' works).")] = None,
+    input_file: Annotated[Path | None, typer.Option("--input-file", help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT).")] = None,
+    duration: Annotated[float | None, typer.Option("--duration", "-d", help="Simulated time [s] (default: 5, or the input file's length).")] = None,
+    supply_pressure: Annotated[str | None, typer.Option("--supply-pressure", help="Constant ('95 bar') or signal spec for P_S.")] = None,
+    load_force: Annotated[str | None, typer.Option("--load-force", help="Constant ('500 N') or signal spec for F_L.")] = None,
+    x0: Annotated[str | None, typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke.")] = None,
+    fs: Annotated[float, typer.Option("--fs", help="Output rate [Hz].")] = 2000.0,
+    rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-5,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output file (.csv or .parquet).")] = Path("run.csv"),
+    plot: Annotated[Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")] = None,
+) -> None:
+    """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
+    from ..models import as_model
+    from ..simulation import Sampled, simulate
+
+    if model not in ("full", "reduced", "pwa"):
+        raise ParameterError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise ParameterError(f"--out {out} must end in .csv or .parquet")
+    if input is not None and input_file is not None:
+        raise SignalError("give either --input or --input-file, not both")
+    prm = resolve_params(params)
+    if input_file is not None:
+        from ..data import read_run
+
+        run = read_run(input_file)
+        if not run.has("u"):
+            raise SignalError(f"{input_file} has no valve command channel 'u'; map one with a channel map")
+        u = Sampled(run.t - run.t[0], run["u"])
+        if duration is None:
+            duration = float(run.t[-1] - run.t[0])
+    else:
+        u = input if input is not None else "sine:amplitude=0.4,frequency=1"
+    duration = 5.0 if duration is None else duration
+    x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
+    res = simulate(
+        as_model(model, prm),
+        u,
+        duration=duration,
+        supply_pressure=supply_pressure,
+        load_force=load_force,
+        x0=x_init,
+        fs=fs,
+        rtol=rtol,
+    )
+    if out.suffix.lower() == ".csv":
+        res.to_csv(out)
+    else:
+        res.to_parquet(out)
+    msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
+    if plot is not None:
+        from ..evaluation import plot_result, save_figure
+
+        save_figure(plot_result(res), plot)
+        msg += f" and {plot}"
+    typer.echo(msg)
+
+
+def parse_pressure(text: str, name: str) -> float:
+    """Parse a pressure option such as '95 bar' to Pa."""
+    return parse_quantity(text, "Pa", name)
