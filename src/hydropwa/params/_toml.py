@@ -129,6 +129,10 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         q = ureg.Quantity(value.strip().replace("%", " percent"))
         if isinstance(q, int | float):
             return float(q)
+        if unit == "rad/s" and q.check("[frequency]") and "rad" not in str(q.units):
+            # pint equates 1 Hz with 1 rad/s (radians are dimensionless); a frequency
+            # in Hz given for an angular frequency means 2π rad per cycle.
+            return float(2.0 * math.pi * q.to("Hz").magnitude)
         return float(q.to(unit or "dimensionless").magnitude)
     except pint.errors.DimensionalityError:
         raise ParameterError(
