@@ -1,0 +1,1 @@
+"""Piecewise-affine linearization of the reduced model, Sec. IV of the paper."""
