@@ -1,1 +1,95 @@
-"""Piecewise-affine linearization of the reduced model, Sec. IV of the paper."""
+"""Piecewise-affine linearization of the reduced model, Sec. IV of the paper.
+
+Parameters → :func:`linearize` → :class:`PwaModel` → ``simulate(model, ...)`` (kernel kind 2
+reads :func:`pack_pwa`), :meth:`PwaModel.state_space`, :func:`save_pwa` for control design.
+"""
+
+from ._cells import (
+    CQ_INTERVAL,
+    CQP_INTERVAL,
+    FRICTION_INTERVAL,
+    PAPER_WORKING_POINTS,
+    cq_cells,
+    cq_shape,
+    cqp_cells,
+    cqp_shape,
+    dead_zone_cells,
+    friction_cells,
+    friction_function,
+    table_v_residual,
+)
+from ._export import SCHEMA, export_pwa, load_pwa, save_pwa
+from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
+from ._model import (
+    FORMS,
+    AffineDynamics,
+    CellIndex,
+    PwaModel,
+    linearize,
+    pack_pwa,
+    pwa_rhs,
+    reduced_rhs,
+)
+from ._paper_tables import (
+    TABLE_IX,
+    TABLE_VI,
+    TABLE_VII,
+    TABLE_VII_CORRECTED,
+    TABLE_VIII,
+    TABLE_VIII_CORRECTED,
+    TABLE_VIII_FACTOR,
+    PaperColumn,
+    cq_error_comparison,
+    recover_paper_columns,
+    reproduce_paper_tables,
+    reproduce_table_iv,
+    reproduce_table_v,
+    reproduce_tables_vi_ix,
+    tangent_coefficients,
+)
+
+__all__ = [
+    "AffineDynamics",
+    "CQP_INTERVAL",
+    "CQ_INTERVAL",
+    "CellIndex",
+    "FORMS",
+    "FRICTION_INTERVAL",
+    "PAPER_WORKING_POINTS",
+    "PaperColumn",
+    "PwaFit",
+    "PwaModel",
+    "SCHEMA",
+    "TABLE_IX",
+    "TABLE_VI",
+    "TABLE_VII",
+    "TABLE_VIII",
+    "TABLE_VIII_CORRECTED",
+    "TABLE_VIII_FACTOR",
+    "TABLE_VII_CORRECTED",
+    "approximation_errors",
+    "cq_cells",
+    "cq_error_comparison",
+    "cq_shape",
+    "cqp_cells",
+    "cqp_shape",
+    "dead_zone_cells",
+    "export_pwa",
+    "fit_pwa",
+    "friction_cells",
+    "friction_function",
+    "linearize",
+    "load_pwa",
+    "pack_pwa",
+    "pwa_rhs",
+    "recover_paper_columns",
+    "reduced_rhs",
+    "reproduce_paper_tables",
+    "reproduce_table_iv",
+    "reproduce_table_v",
+    "reproduce_tables_vi_ix",
+    "save_pwa",
+    "table_v_residual",
+    "tangent_coefficients",
+    "tangent_pwa",
+]

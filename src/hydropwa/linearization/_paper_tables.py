@@ -299,3 +299,31 @@ def reproduce_paper_tables(K: float | None = None) -> dict:
     for t in ("VI", "VII", "VIII", "IX"):
         out[t] = df[df["table"] == t].reset_index(drop=True)
     return out
+
+
+def cq_error_comparison(n_cells: int = 5, interval=(0.0, 1.0)) -> dict[str, float]:
+    """Max error of C_q: the paper's tangent cells versus minimax-optimised breakpoints.
+
+    Parameters
+    ----------
+    n_cells : int
+        Cells of the optimised fit (the paper uses 5).
+    interval : (float, float)
+        Normalised load-pressure range p̃ = P_L/P_S [1]; default 0 <= P_L <= P_S, the
+        branch of Fig. 1.
+
+    Returns
+    -------
+    dict
+        ``paper`` and ``optimized``: max |C_q − Ĉ_q| / (K√(P_S/2)) [1] (multiply by
+        K√(P_S/2) for m³/s), and ``optimized_breakpoints`` is not included (see cq_cells).
+    """
+    from ._cells import cq_cells, cq_shape
+    from ._fit import approximation_errors
+
+    paper = cq_cells(5, "paper", interval=interval)
+    opt = cq_cells(n_cells, "optimized", interval=interval)
+    return {
+        "paper": approximation_errors(cq_shape, paper.pwa, interval)[0],
+        "optimized": approximation_errors(cq_shape, opt.pwa, interval)[0],
+    }
