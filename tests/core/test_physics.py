@@ -75,16 +75,17 @@ def test_steady_extension_speed_without_friction(paper):
 def test_dead_band_gives_only_creep(paper):
     p = _no_friction(paper)
     u = 0.05  # inside β = 0.1: z = 0.04·u (Table IV cell III)
-    res = simulate(FullOrderModel(p), Constant(u), duration=1.0, x0=0.01, rtol=1e-7)
-    v_end = res["v"][-200:].mean()
+    # the tiny opening makes the pressure mode slow (τ = V/(E·∂Q/∂p) ≈ 8 s): run 40 s
+    res = simulate(FullOrderModel(p), Constant(u), duration=40.0, x0=0.01, rtol=1e-7, fs=100)
+    v_end = res["v"][-50:].mean()
     assert res["z"][-1] == pytest.approx(0.04 * u)
     assert v_end == pytest.approx(_steady_speed(p, 0.04 * u), rel=5e-3)
     assert v_end < 0.01 * _steady_speed(p, 0.5 - 0.1)
 
 
 def _locked(params):
-    # a very heavy piston does not move in a few milliseconds
-    return params.replace(**{"load.mass": 1e9})
+    # a piston of 1e12 kg moves < 1e-9 m in 0.2 s under the forces here
+    return params.replace(**{"load.mass": 1e12})
 
 
 def test_locked_piston_pressure_rise_rate(paper):
@@ -181,11 +182,14 @@ def test_agreement_with_independent_scipy_reference(paper):
 
     def f(t, y):
         dy = np.empty(7)
-        K.rhs(K.FULL, t, y, p, *packed, dy)
+        with np.errstate(all="ignore"):  # Radau probes wild trial states
+            K.rhs(K.FULL, t, y, p, *packed, dy)
         return dy
 
     t_eval = np.linspace(0, 1.0, 2001)
-    ref = solve_ivp(f, (0, 1.0), y0, method="Radau", t_eval=t_eval, rtol=1e-9, atol=1e-9 * model.state_scale())
+    with np.errstate(over="ignore"):  # scipy's num_jac step factors overflow harmlessly
+        ref = solve_ivp(f, (0, 1.0), y0, method="Radau", t_eval=t_eval, rtol=1e-9, atol=1e-9 * model.state_scale())
+    assert ref.success
     res = simulate(model, u, duration=1.0, x0=0.05)
     assert np.max(np.abs(res["x"] - ref.y[4])) < 0.1e-3  # 0.1 mm, the benchmark's accuracy target
     assert np.max(np.abs(res["p_a"] - ref.y[2])) < 0.5e5  # 0.5 bar

@@ -306,7 +306,9 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
     if ":" not in text:
         try:
             return Constant(parse_quantity(text, unit, name))
-        except Exception:
+        except Exception as exc:
+            if "wrong dimension" in str(exc):
+                raise SignalError(str(exc)) from None
             raise SignalError(
                 f"{name}: cannot read {spec!r}; write kind:key=value,... with kind one of "
                 f"{', '.join(_KINDS)} (e.g. 'sine:amplitude=0.4,frequency=1')"

@@ -182,7 +182,7 @@ def _diagnose(params, state: dict[str, float]) -> str:
     vmin = min(c.dead_volume_a, c.dead_volume_b)
     k_h = oil.bulk_modulus * c.area_a**2 / vmin
     hints = []
-    if k_h / params.load.mass > 1e14:
+    if k_h / params.load.mass > 1e10:  # hydraulic eigenfrequency above 1e5 rad/s
         hints.append(
             f"dead volume {vmin:.3g} m³ makes the chamber stiffness {k_h:.3g} N/m "
             f"(eigenvalue ~{math.sqrt(k_h / params.load.mass):.3g} rad/s); check the chamber volumes"
