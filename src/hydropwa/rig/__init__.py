@@ -1,0 +1,53 @@
+"""Virtual test rig: the full-order model with the paper's sensors, supply and experiments.
+
+``Rig`` (true parameters, sensors, rate, supply) + ``Campaign`` (experiments as data,
+``load_campaign("paper")``) → ``run_campaign`` → one :class:`hydropwa.data.Dataset` per
+experiment and ``true_params.toml``. ``measure`` applies the sensor chain to any
+:class:`~hydropwa.SimulationResult`. See ``docs/architecture_rig.md``.
+"""
+
+from ._campaign import (
+    EXPERIMENTS,
+    Campaign,
+    DeadZoneExperiment,
+    Experiment,
+    FrfExperiment,
+    FrfSweep,
+    FrictionExperiment,
+    SineExperiment,
+    builtin_campaigns,
+    load_campaign,
+    parse_campaign,
+)
+from ._experiments import RunSpec, counter_force_signal, execute, plan, run_seed
+from ._rig import Rig, paper_supply
+from ._runner import TRUE_PARAMS, run_campaign, run_experiment
+from ._sensors import MEASURED_CHANNELS, SensorModel, measure, paper_sensors
+
+__all__ = [
+    "EXPERIMENTS",
+    "MEASURED_CHANNELS",
+    "TRUE_PARAMS",
+    "Campaign",
+    "DeadZoneExperiment",
+    "Experiment",
+    "FrfExperiment",
+    "FrfSweep",
+    "FrictionExperiment",
+    "Rig",
+    "RunSpec",
+    "SensorModel",
+    "SineExperiment",
+    "builtin_campaigns",
+    "counter_force_signal",
+    "execute",
+    "load_campaign",
+    "measure",
+    "paper_sensors",
+    "paper_supply",
+    "parse_campaign",
+    "plan",
+    "run_campaign",
+    "run_experiment",
+    "run_seed",
+]

@@ -1,0 +1,420 @@
+"""Campaign definitions: the paper's experiments as data (TOML → frozen dataclasses).
+
+A campaign file has a ``[campaign]`` table and one table per experiment
+(``[frf]``, ``[deadzone]``, ``[friction]``, ``[sine]``); see ``campaigns/paper.toml``
+and ``docs/architecture_rig.md``. Numbers are SI (fractions for valve openings and
+stroke positions); strings with units (``"10 %"``, ``"2 Hz"``, ``"1.5 kN"``) are
+converted here, at the boundary.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from .._errors import ParameterError
+from ..params import parse_quantity
+
+__all__ = [
+    "EXPERIMENTS",
+    "Campaign",
+    "DeadZoneExperiment",
+    "Experiment",
+    "FrfExperiment",
+    "FrfSweep",
+    "FrictionExperiment",
+    "SineExperiment",
+    "builtin_campaigns",
+    "load_campaign",
+    "parse_campaign",
+]
+
+#: Experiment names, in the order a campaign runs them.
+EXPERIMENTS = ("frf", "deadzone", "friction", "sine")
+_DIRECTIONS = {"extend": 1, "retract": -1}
+
+
+# --------------------------------------------------------------------- readers
+class _Table:
+    """A TOML table with typed getters whose errors name the full key."""
+
+    def __init__(self, data: Any, where: str) -> None:
+        if not isinstance(data, Mapping):
+            raise ParameterError(f"{where} must be a table, got {type(data).__name__}")
+        self.data = dict(data)
+        self.where = where
+        self.used: set[str] = set()
+
+    def key(self, k: str) -> str:
+        return f"{self.where}.{k}"
+
+    def raw(self, k: str, default: Any = ...) -> Any:
+        self.used.add(k)
+        if k not in self.data:
+            if default is ...:
+                raise ParameterError(f"{self.key(k)} is missing")
+            return default
+        return self.data[k]
+
+    def quantity(self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None) -> float:
+        v = self.raw(k, default)
+        return _check(parse_quantity(v, unit, self.key(k)), self.key(k), unit, gt, ge, le)
+
+    def integer(self, k: str, default: Any = ..., *, ge: int = 0) -> int:
+        v = self.raw(k, default)
+        if isinstance(v, bool) or not isinstance(v, int) or v < ge:
+            raise ParameterError(f"{self.key(k)} = {v!r} must be an integer >= {ge}")
+        return v
+
+    def text(self, k: str, default: Any = ...) -> str:
+        v = self.raw(k, default)
+        if not isinstance(v, str):
+            raise ParameterError(f"{self.key(k)} = {v!r} must be a string")
+        return v
+
+    def values(self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None) -> tuple[float, ...]:
+        """A list of quantities, or a range table ``{start, stop, step}`` (stop included)."""
+        v = self.raw(k, default)
+        where = self.key(k)
+        if isinstance(v, Mapping):
+            rng = _Table(v, where)
+            start = rng.quantity("start", unit)
+            stop = rng.quantity("stop", unit)
+            step = rng.quantity("step", unit, gt=0.0)
+            rng.finish()
+            n = math.floor((stop - start) / step + 1e-9) + 1
+            if n < 1:
+                raise ParameterError(f"{where}: stop {stop:g} lies below start {start:g}")
+            vals = [round(start + i * step, 12) for i in range(n)]
+        elif isinstance(v, list):
+            vals = [parse_quantity(x, unit, f"{where}[{i}]") for i, x in enumerate(v)]
+        else:
+            raise ParameterError(f"{where} = {v!r} must be a list or a table {{start, stop, step}}")
+        if not vals:
+            raise ParameterError(f"{where} is empty")
+        return tuple(_check(x, f"{where}[{i}]", unit, gt, ge, le) for i, x in enumerate(vals))
+
+    def directions(self, k: str) -> tuple[int, ...]:
+        v = self.raw(k, ["extend", "retract"])
+        if not isinstance(v, list) or not v or any(d not in _DIRECTIONS for d in v) or len(set(v)) != len(v):
+            raise ParameterError(f"{self.key(k)} = {v!r} must list 'extend' and/or 'retract' once each")
+        return tuple(_DIRECTIONS[d] for d in v)
+
+    def finish(self) -> None:
+        extra = sorted(set(self.data) - self.used)
+        if extra:
+            raise ParameterError(f"{self.where}: unknown key(s) {', '.join(extra)}")
+
+
+def _check(x: float, where: str, unit: str, gt=None, ge=None, le=None) -> float:
+    u = f" {unit}" if unit else ""
+    if not math.isfinite(x):
+        raise ParameterError(f"{where} = {x!r} must be finite")
+    if gt is not None and not x > gt:
+        raise ParameterError(f"{where} = {x:g}{u} must be > {gt:g}{u}")
+    if ge is not None and not x >= ge:
+        raise ParameterError(f"{where} = {x:g}{u} must be >= {ge:g}{u}")
+    if le is not None and not x <= le:
+        raise ParameterError(f"{where} = {x:g}{u} must be <= {le:g}{u}")
+    return x
+
+
+# --------------------------------------------------------------------- experiments
+@dataclass(frozen=True)
+class FrfSweep:
+    """Stepped sines at one valve opening.
+
+    Attributes
+    ----------
+    opening : float
+        Sine amplitude [1] (fraction of full opening, 0.1 = 10 %).
+    frequencies : tuple of float
+        Sine frequencies [Hz].
+    """
+
+    opening: float
+    frequencies: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class FrfExperiment:
+    """Valve FRF by stepped sines, Sec. VI-A: spool position measured.
+
+    Attributes
+    ----------
+    sweeps : tuple of FrfSweep
+        One per opening (10, 25, 90 % in the paper).
+    settle : float
+        Time before the evaluated periods [s].
+    periods : int
+        Periods evaluated by the sine fit (4 in the paper).
+    margin_periods : int
+        Extra periods recorded after them.
+    start_position : float
+        Initial rod position [1] (fraction of the stroke).
+    """
+
+    name = "frf"
+    sweeps: tuple[FrfSweep, ...]
+    settle: float = 0.05
+    periods: int = 4
+    margin_periods: int = 2
+    start_position: float = 0.5
+
+
+@dataclass(frozen=True)
+class DeadZoneExperiment:
+    """Constant inputs around the dead band, Sec. VI-B (start retracted for u > 0, extended for u < 0).
+
+    Attributes
+    ----------
+    inputs : tuple of float
+        Input magnitudes [1] (1 % to 20 % in 0.5 % steps in the paper).
+    directions : tuple of int
+        +1 (extend from fully retracted) and/or −1 (retract from fully extended).
+    duration : float
+        Longest run [s]; long enough to see the creep inside the band.
+    stop_at : float
+        A run ends when the rod has travelled this fraction of the stroke [1], before the end stop.
+    min_duration : float
+        A run lasts at least this long [s] even if the stroke is used sooner.
+    """
+
+    name = "deadzone"
+    inputs: tuple[float, ...]
+    directions: tuple[int, ...] = (1, -1)
+    duration: float = 4.0
+    stop_at: float = 0.9
+    min_duration: float = 0.2
+
+
+@dataclass(frozen=True)
+class FrictionExperiment:
+    """Constant inputs against a counter force of the second cylinder, Sec. VI-C.
+
+    Attributes
+    ----------
+    inputs : tuple of float
+        Input magnitudes [1] (5 % to 50 % in 1 % steps in the paper).
+    directions : tuple of int
+        +1 and/or −1 (as for the dead-zone runs).
+    counter_force : float
+        Force opposing the motion [N] once ramped up.
+    force_ramp : float
+        Duration of the smooth (raised-cosine) ramp-up of the counter force [s].
+    valve_delay : float
+        Time at which the valve opens [s] (after the ramp).
+    ripple : float
+        Amplitude of the force-control ripple [1] (fraction of ``counter_force``).
+    ripple_frequency : float
+        Frequency of the ripple [Hz].
+    force_noise : float
+        Standard deviation of the force-control noise [N].
+    force_rate : float
+        Rate at which the counter-force signal is sampled [Hz] (noise bandwidth fs/2).
+    duration, stop_at, min_duration : float
+        As in :class:`DeadZoneExperiment` [s], [1], [s] (``min_duration`` counted from ``valve_delay``).
+    """
+
+    name = "friction"
+    inputs: tuple[float, ...]
+    directions: tuple[int, ...] = (1, -1)
+    counter_force: float = 1500.0
+    force_ramp: float = 0.3
+    valve_delay: float = 0.4
+    ripple: float = 0.01
+    ripple_frequency: float = 7.0
+    force_noise: float = 5.0
+    force_rate: float = 500.0
+    duration: float = 4.0
+    stop_at: float = 0.9
+    min_duration: float = 0.2
+
+
+@dataclass(frozen=True)
+class SineExperiment:
+    """Evaluation runs, Sec. VII: sines f × amplitude, sagging supply pressure recorded.
+
+    Attributes
+    ----------
+    frequencies : tuple of float
+        Sine frequencies [Hz] (1, 2, 3 in the paper).
+    amplitudes : tuple of float
+        Sine amplitudes [1] (0.2, 0.4, 0.6).
+    periods : int
+        Periods per run.
+    start_position : float
+        Initial rod position [1] (fraction of the stroke). The asymmetric cylinder
+        drifts to +x, so runs start low in the stroke.
+    """
+
+    name = "sine"
+    frequencies: tuple[float, ...]
+    amplitudes: tuple[float, ...]
+    periods: int = 5
+    start_position: float = 0.1
+
+
+Experiment = FrfExperiment | DeadZoneExperiment | FrictionExperiment | SineExperiment
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A set of experiments with one seed.
+
+    Attributes
+    ----------
+    name : str
+        Campaign name.
+    seed : int
+        Campaign seed; each run's noise seed derives from it and the run name.
+    experiments : dict[str, Experiment]
+        By name (``frf``, ``deadzone``, ``friction``, ``sine``), in run order.
+    description : str
+    source : str
+        File the campaign came from.
+    """
+
+    name: str
+    seed: int
+    experiments: dict[str, Experiment] = field(default_factory=dict)
+    description: str = ""
+    source: str = ""
+
+    def __getitem__(self, name: str) -> Experiment:
+        try:
+            return self.experiments[name]
+        except KeyError:
+            raise ParameterError(
+                f"campaign {self.name!r} has no experiment {name!r}; it has {', '.join(self.experiments) or 'none'}"
+            ) from None
+
+
+# --------------------------------------------------------------------- parsing
+def _frf(t: _Table) -> FrfExperiment:
+    sweeps = t.raw("sweep")
+    if not isinstance(sweeps, list) or not sweeps:
+        raise ParameterError(f"{t.key('sweep')} must be a non-empty array of tables [[frf.sweep]]")
+    out = []
+    for i, s in enumerate(sweeps):
+        st = _Table(s, f"{t.key('sweep')}[{i}]")
+        out.append(FrfSweep(st.quantity("opening", "", gt=0.0, le=1.0), st.values("frequencies", "Hz", gt=0.0)))
+        st.finish()
+    return FrfExperiment(
+        sweeps=tuple(out),
+        settle=t.quantity("settle", "s", 0.05, ge=0.0),
+        periods=t.integer("periods", 4, ge=1),
+        margin_periods=t.integer("margin_periods", 2, ge=0),
+        start_position=t.quantity("start_position", "", 0.5, ge=0.0, le=1.0),
+    )
+
+
+def _deadzone(t: _Table) -> DeadZoneExperiment:
+    return DeadZoneExperiment(
+        inputs=t.values("inputs", "", gt=0.0, le=1.0),
+        directions=t.directions("directions"),
+        duration=t.quantity("duration", "s", 4.0, gt=0.0),
+        stop_at=t.quantity("stop_at", "", 0.9, gt=0.0, le=1.0),
+        min_duration=t.quantity("min_duration", "s", 0.2, ge=0.0),
+    )
+
+
+def _friction(t: _Table) -> FrictionExperiment:
+    exp = FrictionExperiment(
+        inputs=t.values("inputs", "", gt=0.0, le=1.0),
+        directions=t.directions("directions"),
+        counter_force=t.quantity("counter_force", "N", 1500.0, ge=0.0),
+        force_ramp=t.quantity("force_ramp", "s", 0.3, gt=0.0),
+        valve_delay=t.quantity("valve_delay", "s", 0.4, ge=0.0),
+        ripple=t.quantity("ripple", "", 0.01, ge=0.0, le=1.0),
+        ripple_frequency=t.quantity("ripple_frequency", "Hz", 7.0, ge=0.0),
+        force_noise=t.quantity("force_noise", "N", 5.0, ge=0.0),
+        force_rate=t.quantity("force_rate", "Hz", 500.0, gt=0.0),
+        duration=t.quantity("duration", "s", 4.0, gt=0.0),
+        stop_at=t.quantity("stop_at", "", 0.9, gt=0.0, le=1.0),
+        min_duration=t.quantity("min_duration", "s", 0.2, ge=0.0),
+    )
+    if exp.valve_delay >= exp.duration:
+        raise ParameterError(f"{t.key('valve_delay')} = {exp.valve_delay:g} s must be shorter than duration")
+    return exp
+
+
+def _sine(t: _Table) -> SineExperiment:
+    return SineExperiment(
+        frequencies=t.values("frequencies", "Hz", gt=0.0),
+        amplitudes=t.values("amplitudes", "", gt=0.0, le=1.0),
+        periods=t.integer("periods", 5, ge=1),
+        start_position=t.quantity("start_position", "", 0.1, ge=0.0, le=1.0),
+    )
+
+
+_PARSERS = {"frf": _frf, "deadzone": _deadzone, "friction": _friction, "sine": _sine}
+
+
+def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
+    """Build a :class:`Campaign` from a parsed TOML document.
+
+    Raises
+    ------
+    ParameterError
+        Naming the file and the key of any missing, unknown or invalid entry.
+    """
+    top = _Table(data, source)
+    head = _Table(top.raw("campaign", {}), f"{source}: [campaign]")
+    name = head.text("name", Path(source).stem)
+    seed = head.integer("seed", 0, ge=0)
+    description = head.text("description", "")
+    head.finish()
+    experiments: dict[str, Experiment] = {}
+    for exp_name in EXPERIMENTS:
+        if exp_name in data:
+            t = _Table(top.raw(exp_name), f"{source}: [{exp_name}]")
+            experiments[exp_name] = _PARSERS[exp_name](t)
+            t.finish()
+    extra = sorted(set(data) - top.used - set(EXPERIMENTS))
+    if extra:
+        raise ParameterError(
+            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, {', '.join(EXPERIMENTS)}"
+        )
+    if not experiments:
+        raise ParameterError(f"{source}: no experiment tables; add one of {', '.join(EXPERIMENTS)}")
+    return Campaign(name=name, seed=seed, experiments=experiments, description=description, source=source)
+
+
+def builtin_campaigns() -> list[str]:
+    """Names of the campaigns shipped with the package (``paper``, ...)."""
+    folder = resources.files("hydropwa.rig") / "campaigns"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
+    """Load a campaign by built-in name (``"paper"``) or from a TOML file.
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing or invalid (the message names the key).
+    """
+    p = Path(name_or_path)
+    if isinstance(name_or_path, str) and not p.exists() and name_or_path in builtin_campaigns():
+        text = (resources.files("hydropwa.rig") / "campaigns" / f"{name_or_path}.toml").read_text(encoding="utf-8")
+        source = f"{name_or_path}.toml"
+    elif p.is_file():
+        text = p.read_text(encoding="utf-8")
+        source = str(p)
+    else:
+        raise ParameterError(
+            f"campaign {str(name_or_path)!r} not found; give a TOML file or a built-in name "
+            f"({', '.join(builtin_campaigns())})"
+        )
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"{source}: invalid TOML ({exc})") from None
+    return parse_campaign(data, source)

@@ -1,0 +1,274 @@
+"""Runs of each experiment: what is commanded, where the rod starts, how long it lasts.
+
+:func:`plan` expands an experiment definition into :class:`RunSpec` objects (one per
+setting); :func:`execute` simulates one of them on a :class:`~hydropwa.rig.Rig` and
+measures it. Each run draws its noise from its own seed (:func:`run_seed`), so results
+do not depend on the order or the process in which runs are executed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..models import FullOrderModel
+from ..simulation import Constant, Sampled, Signal, Sine, Step, simulate
+from ._campaign import (
+    DeadZoneExperiment,
+    Experiment,
+    FrfExperiment,
+    FrictionExperiment,
+    SineExperiment,
+)
+from ._rig import Rig
+from ._sensors import measure
+
+__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal"]
+
+_DIRNAME = {1: "extend", -1: "retract"}
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of an experiment.
+
+    Attributes
+    ----------
+    name : str
+        Run name (file stem), unique in the experiment.
+    experiment : str
+        ``frf``, ``deadzone``, ``friction`` or ``sine``.
+    command : Signal
+        Valve command u(t) [1].
+    duration : float
+        Simulated time [s].
+    start_position : float
+        Initial rod position [m].
+    stop_at : float or None
+        End the run once the rod has travelled this distance [m] (dead-zone, friction).
+    min_duration : float
+        Shortest run when ``stop_at`` is reached early [s].
+    counter_force : dict or None
+        Counter-force settings (friction runs); the signal is drawn per run.
+    meta : dict
+        Setting of the run for the metadata (``level``, ``frequency``, ``direction``, ...).
+    """
+
+    name: str
+    experiment: str
+    command: Signal
+    duration: float
+    start_position: float
+    stop_at: float | None = None
+    min_duration: float = 0.0
+    counter_force: dict[str, float] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def _pct(value: float) -> str:
+    """``0.015 -> '01p5'``: a percentage for run names, without dots."""
+    text = f"{100 * value:05.2f}".rstrip("0").rstrip(".")
+    return text.replace(".", "p")
+
+
+def run_seed(campaign_seed: int, experiment: str, run_name: str) -> np.random.SeedSequence:
+    """Seed of one run: the campaign seed and a stable hash of the run's name.
+
+    Parameters
+    ----------
+    campaign_seed : int
+        Seed of the campaign (``--seed``).
+    experiment, run_name : str
+        Identify the run.
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+        Independent of run order and process, so ``--jobs`` does not change results.
+    """
+    digest = hashlib.sha256(f"{experiment}/{run_name}".encode()).digest()
+    key = tuple(int.from_bytes(digest[i : i + 4], "little") for i in range(0, 16, 4))
+    return np.random.SeedSequence(entropy=int(campaign_seed), spawn_key=key)
+
+
+# --------------------------------------------------------------------- planning
+def _plan_frf(exp: FrfExperiment, rig: Rig) -> list[RunSpec]:
+    runs = []
+    x0 = exp.start_position * rig.params.cylinder.stroke
+    for sweep in exp.sweeps:
+        for f in sweep.frequencies:
+            dur = exp.settle + (exp.periods + exp.margin_periods) / f
+            cmd = Sine(amplitude=sweep.opening, frequency=f)
+            runs.append(
+                RunSpec(
+                    name=f"frf_a{_pct(sweep.opening)}_f{f:06.2f}".replace(".", "p"),
+                    experiment="frf",
+                    command=cmd,
+                    duration=dur,
+                    start_position=x0,
+                    meta={"opening": sweep.opening, "amplitude": sweep.opening, "frequency": f,
+                          "settle": exp.settle, "periods": exp.periods,
+                          "fit_window": [exp.settle, exp.settle + exp.periods / f]},
+                )
+            )
+    return runs
+
+
+def _constant_runs(exp: DeadZoneExperiment | FrictionExperiment, rig: Rig, kind: str) -> list[RunSpec]:
+    stroke = rig.params.cylinder.stroke
+    delay = exp.valve_delay if isinstance(exp, FrictionExperiment) else 0.0
+    runs = []
+    for d in exp.directions:
+        for u in exp.inputs:
+            level = d * u
+            cmd: Signal = Step(time=delay, before=0.0, after=level) if delay > 0 else Constant(level)
+            force = None
+            if isinstance(exp, FrictionExperiment):
+                force = {
+                    "force": d * exp.counter_force,
+                    "ramp": exp.force_ramp,
+                    "ripple": exp.ripple,
+                    "ripple_frequency": exp.ripple_frequency,
+                    "noise": exp.force_noise,
+                    "rate": exp.force_rate,
+                }
+            runs.append(
+                RunSpec(
+                    name=f"{kind}_{_DIRNAME[d]}_u{_pct(u)}",
+                    experiment=kind,
+                    command=cmd,
+                    duration=exp.duration,
+                    start_position=0.0 if d > 0 else stroke,
+                    stop_at=exp.stop_at * stroke,
+                    min_duration=delay + exp.min_duration,
+                    counter_force=force,
+                    meta={"level": level, "direction": _DIRNAME[d], "valve_delay": delay,
+                          **({"counter_force": d * exp.counter_force} if force else {})},
+                )
+            )
+    return runs
+
+
+def _plan_sine(exp: SineExperiment, rig: Rig) -> list[RunSpec]:
+    x0 = exp.start_position * rig.params.cylinder.stroke
+    return [
+        RunSpec(
+            name=f"sine_f{f:g}_a{_pct(a)}".replace(".", "p"),
+            experiment="sine",
+            command=Sine(amplitude=a, frequency=f),
+            duration=exp.periods / f,
+            start_position=x0,
+            meta={"amplitude": a, "frequency": f, "periods": exp.periods},
+        )
+        for f in exp.frequencies
+        for a in exp.amplitudes
+    ]
+
+
+def plan(experiment: Experiment, rig: Rig) -> list[RunSpec]:
+    """Expand an experiment into its runs, one per setting, in campaign order."""
+    if isinstance(experiment, FrfExperiment):
+        return _plan_frf(experiment, rig)
+    if isinstance(experiment, DeadZoneExperiment):
+        return _constant_runs(experiment, rig, "deadzone")
+    if isinstance(experiment, FrictionExperiment):
+        return _constant_runs(experiment, rig, "friction")
+    if isinstance(experiment, SineExperiment):
+        return _plan_sine(experiment, rig)
+    raise TypeError(f"unknown experiment {type(experiment).__name__}")
+
+
+# --------------------------------------------------------------------- execution
+def counter_force_signal(settings: dict[str, float], duration: float, rng: np.random.Generator) -> Sampled:
+    """Load force F_L(t) of the second cylinder: smooth ramp-up, ripple and control noise.
+
+    Parameters
+    ----------
+    settings : dict
+        ``force`` [N] (signed, positive opposes extension), ``ramp`` [s], ``ripple`` [1],
+        ``ripple_frequency`` [Hz], ``noise`` [N], ``rate`` [Hz].
+    duration : float
+        Length of the signal [s].
+    rng : numpy.random.Generator
+        Source of the control noise.
+
+    Returns
+    -------
+    Sampled
+        F_L [N] sampled at ``rate``, linearly interpolated by the solver.
+
+    Notes
+    -----
+    F_L(t) = F·s(t)·(1 + r·sin 2πf_r t) + s(t)·n(t), with the raised-cosine ramp
+    s(t) = (1 − cos(π t/T))/2 for t < T, 1 after, and white noise n of the given std.
+    """
+    rate = settings["rate"]
+    n = int(math.ceil(duration * rate)) + 2
+    t = np.arange(n) / rate
+    s = np.where(t < settings["ramp"], 0.5 * (1.0 - np.cos(np.pi * t / settings["ramp"])), 1.0)
+    ripple = 1.0 + settings["ripple"] * np.sin(2 * np.pi * settings["ripple_frequency"] * t)
+    noise = rng.normal(0.0, settings["noise"], size=n) if settings["noise"] > 0 else np.zeros(n)
+    return Sampled(t, settings["force"] * s * ripple + s * noise)
+
+
+def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec) -> int:
+    """Number of samples to keep: up to where the rod has used ``stop_at`` of travel."""
+    if spec.stop_at is None:
+        return x.size
+    travelled = np.abs(x - spec.start_position)
+    hit = np.flatnonzero(travelled >= spec.stop_at)
+    if hit.size == 0:
+        return x.size
+    keep_until = max(t[hit[0]], spec.min_duration)
+    return int(np.searchsorted(t, keep_until, side="right"))
+
+
+def execute(rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: dict[str, Any] | None = None):
+    """Simulate one run on the rig and measure it.
+
+    Parameters
+    ----------
+    rig : Rig
+    spec : RunSpec
+    seed : numpy.random.SeedSequence
+        Seed of this run (:func:`run_seed`).
+    base_meta : dict, optional
+        Metadata merged into the run's (campaign name, seed).
+
+    Returns
+    -------
+    hydropwa.data.Run
+        Measured channels; ``meta`` holds ``experiment``/``kind``, ``signal`` (commanded
+        signal and parameters), the setting, ``load`` and ``start_position`` [m].
+    """
+    force_rng, sensor_rng = (np.random.default_rng(s) for s in seed.spawn(2))
+    load = None
+    if spec.counter_force is not None:
+        load = counter_force_signal(spec.counter_force, spec.duration, force_rng)
+    model = FullOrderModel(rig.params)
+    result = simulate(
+        model, spec.command, duration=spec.duration, load_force=load, x0=spec.start_position,
+        fs=rig.fs, rtol=rig.rtol,
+    )
+    n = _stop_index(result.channels["x"], result.t, spec)
+    if n < result.t.size:
+        result.channels = {k: v[:n] for k, v in result.channels.items()}
+        result.t = result.channels["t"]
+    signal = {"type": spec.command.describe()["kind"], **spec.command.describe()}
+    signal.pop("kind")
+    meta = {
+        **(base_meta or {}),
+        "experiment": spec.experiment,
+        "kind": spec.experiment,
+        "signal": signal,
+        **spec.meta,
+        "start_position": spec.start_position,
+        "load": {"type": "counter_force", **spec.counter_force} if spec.counter_force else {"type": "none"},
+        "stopped_early": bool(n < round(spec.duration * rig.fs) + 1),
+        "solver": {"steps": result.stats["steps"], "rtol": rig.rtol},
+    }
+    return measure(result, rig.sensors, sensor_rng, name=spec.name, meta=meta, fs=rig.fs)

@@ -1,0 +1,247 @@
+"""Running experiments: datasets on disk, resume, seeds, process pool and progress.
+
+Layout written by :func:`run_campaign` (and :func:`run_experiment` for one experiment)::
+
+    OUT/true_params.toml         the rig's true parameters (load_params reads it)
+    OUT/<experiment>/manifest.json, <run>.parquet   one hydropwa Dataset per experiment
+
+Runs are written one by one (file, then manifest, both atomically), so an interrupted
+campaign resumes where it stopped: a rerun with the same settings skips every run the
+manifest lists whose file exists. Different settings in an existing output are an error
+unless ``force`` is given.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import hashlib
+import json
+import os
+from collections.abc import Callable, Iterable, Iterator
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+from .. import __version__
+from .._errors import DataError, ParameterError
+from .._io import atomic_write_text
+from ..data import MANIFEST, Dataset
+from ..params import params_to_toml
+from ._campaign import EXPERIMENTS, Campaign, Experiment
+from ._experiments import RunSpec, execute, plan, run_seed
+from ._rig import Rig
+
+__all__ = ["run_experiment", "run_campaign", "TRUE_PARAMS"]
+
+#: File name of the true parameters next to the datasets.
+TRUE_PARAMS = "true_params.toml"
+
+Progress = Callable[[str, int, int], None]
+
+
+def _json_safe(obj: Any) -> Any:
+    return json.loads(json.dumps(obj, default=list))
+
+
+def _dataset_meta(rig: Rig, experiment: Experiment, campaign_name: str, seed: int) -> dict[str, Any]:
+    definition = {"experiment": experiment.name, **dataclasses.asdict(experiment)}
+    meta = {
+        "generator": f"hydropwa {__version__} virtual rig",
+        "experiment": experiment.name,
+        "campaign": campaign_name,
+        "seed": int(seed),
+        "definition": definition,
+        "rig": rig.describe(),
+        "true_params": rig.params.to_dict(),
+    }
+    meta = _json_safe(meta)
+    text = json.dumps({k: meta[k] for k in ("experiment", "seed", "definition", "rig", "true_params")}, sort_keys=True)
+    meta["fingerprint"] = hashlib.sha256(text.encode()).hexdigest()[:16]
+    return meta
+
+
+def _true_params_text(rig: Rig) -> str:
+    return params_to_toml(rig.params, "true parameters of the virtual rig that produced the datasets here")
+
+
+def _write_true_params(rig: Rig, out: Path, force: bool) -> None:
+    path = out / TRUE_PARAMS
+    text = _true_params_text(rig)
+    if path.exists() and not force and path.read_text(encoding="utf-8") != text:
+        raise DataError(
+            f"{str(path)!r} holds other parameters than this rig's; hint: pass --force (force=True) "
+            "to overwrite the output, or choose another output folder"
+        )
+    if not path.exists() or path.read_text(encoding="utf-8") != text:
+        atomic_write_text(path, text)
+
+
+def _open_dataset(root: Path, meta: dict[str, Any], force: bool) -> Dataset:
+    """Open a matching dataset to resume, or create a new one."""
+    if (root / MANIFEST).exists():
+        try:
+            old = Dataset(root, validate=False)
+        except DataError:
+            old = None
+        if old is not None and not force:
+            if old.meta.get("fingerprint") == meta["fingerprint"]:
+                return old
+            raise DataError(
+                f"{str(root)!r} already holds a dataset made with other settings "
+                f"(fingerprint {old.meta.get('fingerprint')!r}, now {meta['fingerprint']!r}); "
+                "hint: pass --force (force=True) to overwrite it, or choose another output folder"
+            )
+        if old is not None:
+            for e in old.manifest["runs"]:
+                f = root / str(e.get("file", ""))
+                if f.is_file() and f.parent == root:
+                    f.unlink()
+        elif not force:
+            raise DataError(f"{str(root)!r}: unreadable manifest; hint: pass --force to overwrite it")
+    return Dataset.create(root, meta=meta, overwrite=True)
+
+
+def _complete(ds: Dataset, name: str) -> bool:
+    if name not in ds.names:
+        return False
+    path = ds.path_of(name)
+    return path.is_file() and path.stat().st_size > 0
+
+
+def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
+    return execute(rig, spec, run_seed(seed, spec.experiment, spec.name), base_meta)
+
+
+def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int) -> Iterator:
+    """Measured runs in plan order, computed in this process or in a process pool."""
+    fn = partial(_worker, rig, seed, base_meta)
+    if jobs <= 1 or len(specs) <= 1:
+        yield from map(fn, specs)
+        return
+    with cf.ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as pool:
+        yield from pool.map(fn, specs, chunksize=1)
+
+
+def _rich_progress():
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description:<10}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        transient=False,
+    )
+
+
+def run_experiment(
+    rig: Rig,
+    experiment: Experiment,
+    out_dir: str | os.PathLike,
+    seed: int = 0,
+    jobs: int = 1,
+    progress: bool | Progress = False,
+    *,
+    force: bool = False,
+    campaign_name: str = "",
+    format: str = "parquet",
+) -> Dataset:
+    """Run one experiment on the rig and write it as ``out_dir/<experiment>/``.
+
+    Parameters
+    ----------
+    rig : Rig
+        The virtual rig (true parameters, sensors, rate).
+    experiment : Experiment
+        An experiment of a :class:`~hydropwa.rig.Campaign` (``campaign["frf"]``).
+    out_dir : path-like
+        Output root; ``true_params.toml`` is written there too.
+    seed : int
+        Campaign seed; run seeds derive from it and the run names.
+    jobs : int
+        Worker processes (1: run here). Does not change the results.
+    progress : bool or callable
+        Show a progress bar (rich), or call ``progress(experiment, done, total)``.
+    force : bool
+        Overwrite an existing output made with other settings (else :class:`DataError`).
+    campaign_name : str
+        Recorded in the dataset metadata.
+    format : {"parquet", "csv", "mat"}
+        File format of the runs.
+
+    Returns
+    -------
+    Dataset
+        The experiment's dataset (runs already present are kept, not recomputed).
+    """
+    if not isinstance(jobs, int) or jobs < 1:
+        raise ParameterError(f"jobs = {jobs!r} must be an integer >= 1")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_true_params(rig, out, force)
+    meta = _dataset_meta(rig, experiment, campaign_name, seed)
+    ds = _open_dataset(out / experiment.name, meta, force)
+    specs = [s for s in plan(experiment, rig) if not _complete(ds, s.name)]
+    total = len(plan(experiment, rig))
+    done = total - len(specs)
+    base_meta = {"campaign": campaign_name, "seed": int(seed)}
+    bar = task = None
+    if progress is True:
+        bar = _rich_progress()
+        bar.start()
+        task = bar.add_task(experiment.name, total=total, completed=done)
+    try:
+        for run in _results(rig, specs, seed, base_meta, jobs):
+            ds.add_run(run, format=format, overwrite=True)
+            done += 1
+            if bar is not None:
+                bar.update(task, completed=done)
+            elif callable(progress):
+                progress(experiment.name, done, total)
+    finally:
+        if bar is not None:
+            bar.stop()
+    return ds
+
+
+def run_campaign(
+    rig: Rig,
+    campaign: Campaign,
+    out_dir: str | os.PathLike,
+    *,
+    experiments: Iterable[str] | None = None,
+    seed: int | None = None,
+    jobs: int = 1,
+    progress: bool | Progress = False,
+    force: bool = False,
+    format: str = "parquet",
+) -> dict[str, Dataset]:
+    """Run a campaign's experiments, each into ``out_dir/<experiment>/``.
+
+    Parameters
+    ----------
+    rig : Rig
+    campaign : Campaign
+        From :func:`~hydropwa.rig.load_campaign`.
+    out_dir : path-like
+        Output root (``true_params.toml`` and one dataset folder per experiment).
+    experiments : iterable of str, optional
+        Names to run (default: all of the campaign's, in the order frf, deadzone, friction, sine).
+    seed : int, optional
+        Overrides the campaign's seed.
+    jobs, progress, force, format
+        As in :func:`run_experiment`.
+
+    Returns
+    -------
+    dict[str, Dataset]
+        Dataset per experiment.
+    """
+    names = list(campaign.experiments) if experiments is None else list(experiments)
+    for n in names:
+        if n not in EXPERIMENTS:
+            raise ParameterError(f"unknown experiment {n!r}; choose from {', '.join(EXPERIMENTS)}")
+    seed = campaign.seed if seed is None else int(seed)
+    return {
+        n: run_experiment(rig, campaign[n], out_dir, seed, jobs, progress, force=force,
+                          campaign_name=campaign.name, format=format)
+        for n in names
+    }

@@ -1,0 +1,237 @@
+"""Sensor chain of the virtual rig: sensor gain and offset, noise, clipping, 16-bit ADC.
+
+The rig of the paper (Sec. V, Table I) samples every signal at 2 kHz with the 16-bit
+converters of a Speedgoat IO183 (±10 V) and IO397 (±10.24 V) card. Each sensor is a
+:class:`SensorModel`; :func:`measure` applies the chain to a simulated trajectory and
+returns the :class:`~hydropwa.data.Run` the rig would have recorded.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from .._errors import ParameterError
+
+__all__ = ["SensorModel", "paper_sensors", "measure", "MEASURED_CHANNELS"]
+
+#: Channels the rig records: the command it sends and what its sensors measure.
+MEASURED_CHANNELS = ("u", "spool", "p_a", "p_b", "p_s", "x", "f_l")
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """One sensor and its analogue-to-digital conversion.
+
+    Attributes
+    ----------
+    name : str
+        Part name (e.g. ``"Danfoss MBS 1250"``).
+    channel : str
+        Canonical channel the sensor measures (``p_a``, ``x``, ``f_l``, ...).
+    unit : str
+        SI unit of the measured quantity (``Pa``, ``m``, ``N``, ``1``).
+    range : tuple of float
+        Measurement range ``(lo, hi)`` [unit]; the output saturates outside it.
+    adc_bits : int
+        Converter resolution [bit] (16 on IO183 and IO397).
+    adc_span : tuple of float
+        Converter input span ``(lo, hi)`` [V] (±10 V on IO183, ±10.24 V on IO397).
+    gain : float or None
+        Sensor plus conditioning gain [V/unit]. ``None`` (default) scales ``range`` onto
+        the full ``adc_span``, so one code is exactly ``(hi − lo) / 2**adc_bits``.
+    noise_std : float
+        Standard deviation of white measurement noise [unit], added before conversion.
+    offset : float
+        Zero error of the sensor [unit], added to the true value (calibration error).
+
+    Notes
+    -----
+    The chain is ``y = Q(clip(x + offset + n, range))`` with ``n ~ N(0, noise_std²)``
+    and ``Q`` a mid-tread quantizer of step :attr:`quantization_step` anchored at the
+    voltage ``adc_span[0]``; the recorded value is converted back with the nominal gain,
+    so an ``offset`` stays in the data as it would on the rig.
+    """
+
+    name: str
+    channel: str
+    unit: str
+    range: tuple[float, float]
+    adc_bits: int = 16
+    adc_span: tuple[float, float] = (-10.0, 10.0)
+    gain: float | None = None
+    noise_std: float = 0.0
+    offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        lo, hi = (float(v) for v in self.range)
+        vlo, vhi = (float(v) for v in self.adc_span)
+        object.__setattr__(self, "range", (lo, hi))
+        object.__setattr__(self, "adc_span", (vlo, vhi))
+        where = f"sensor {self.channel!r} ({self.name})"
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise ParameterError(f"{where}: range ({lo:g}, {hi:g}) {self.unit} needs lo < hi")
+        if not (math.isfinite(vlo) and math.isfinite(vhi) and vhi > vlo):
+            raise ParameterError(f"{where}: adc_span ({vlo:g}, {vhi:g}) V needs lo < hi")
+        if not (isinstance(self.adc_bits, int) and 1 <= self.adc_bits <= 32):
+            raise ParameterError(f"{where}: adc_bits = {self.adc_bits!r} must be an integer in 1..32")
+        if self.gain is not None and not (math.isfinite(self.gain) and self.gain > 0):
+            raise ParameterError(f"{where}: gain = {self.gain!r} V/{self.unit} must be > 0")
+        if not (math.isfinite(self.noise_std) and self.noise_std >= 0):
+            raise ParameterError(f"{where}: noise_std = {self.noise_std!r} {self.unit} must be >= 0")
+        if not math.isfinite(self.offset):
+            raise ParameterError(f"{where}: offset = {self.offset!r} {self.unit} must be finite")
+        if self.gain is not None and self.gain * (hi - lo) > (vhi - vlo) * (1 + 1e-12):
+            raise ParameterError(
+                f"{where}: range × gain = {self.gain * (hi - lo):g} V exceeds the converter span "
+                f"{vhi - vlo:g} V; lower the gain or use a converter with a larger span"
+            )
+
+    @property
+    def volts_per_unit(self) -> float:
+        """Effective gain [V/unit] (``gain``, or the span-filling gain when ``gain`` is None)."""
+        if self.gain is None:
+            return (self.adc_span[1] - self.adc_span[0]) / (self.range[1] - self.range[0])
+        return float(self.gain)
+
+    @property
+    def full_scale(self) -> float:
+        """Span of the measured quantity that the converter covers [unit]."""
+        if self.gain is None:
+            return self.range[1] - self.range[0]
+        return (self.adc_span[1] - self.adc_span[0]) / self.gain
+
+    @property
+    def quantization_step(self) -> float:
+        """One converter code in the measured quantity [unit]: ``full_scale / 2**adc_bits``."""
+        return self.full_scale / 2**self.adc_bits
+
+    @property
+    def zero_level(self) -> float:
+        """Measured value of the lowest converter code [unit] (the range's lower end).
+
+        Unipolar sensors are wired so that their range starts at the converter's lowest
+        code; with an explicit ``gain`` the codes above ``range[1]`` stay unused.
+        """
+        return self.range[0]
+
+    def apply(self, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Measure ``values`` [unit]: offset, noise, range clipping, quantization.
+
+        Parameters
+        ----------
+        values : ndarray, shape (n,)
+            True values [unit].
+        rng : numpy.random.Generator
+            Noise source.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Recorded values [unit], multiples of :attr:`quantization_step` above
+            :attr:`zero_level`.
+        """
+        y = np.asarray(values, dtype=float) + self.offset
+        if self.noise_std > 0:
+            y = y + rng.normal(0.0, self.noise_std, size=y.shape)
+        lo, hi = self.range
+        step = self.quantization_step
+        top = self.zero_level + (2**self.adc_bits - 1) * step
+        y = np.clip(y, lo, min(hi, top))
+        codes = np.rint((y - self.zero_level) / step)
+        codes = np.clip(codes, 0, 2**self.adc_bits - 1)
+        return self.zero_level + codes * step
+
+    def describe(self) -> dict[str, Any]:
+        """Plain-dict description for metadata (SI units; ``quantization_step`` added)."""
+        d = asdict(self)
+        d["range"] = list(self.range)
+        d["adc_span"] = list(self.adc_span)
+        d["quantization_step"] = self.quantization_step
+        return d
+
+
+def paper_sensors() -> dict[str, SensorModel]:
+    """Sensors of the paper's rig (Table I) with the defaults documented in the rig docs.
+
+    Returns
+    -------
+    dict[str, SensorModel]
+        By channel: ``p_a``, ``p_b``, ``p_s`` (Danfoss MBS 1250, 0–250 bar), ``x``
+        (Celesco CLP-250, 0–250 mm), ``f_l`` (HBM S9M/50 kN, ±50 kN on the IO397's
+        ±10.24 V), ``spool`` (valve's own ±10 V spool signal).
+    """
+
+    def pressure(channel: str) -> SensorModel:
+        return SensorModel(
+            "Danfoss MBS 1250 063G1229 (0-250 bar)", channel, "Pa", (0.0, 250e5),
+            adc_span=(-10.0, 10.0), noise_std=0.05e5,
+        )
+
+    return {
+        "p_a": pressure("p_a"),
+        "p_b": pressure("p_b"),
+        "p_s": pressure("p_s"),
+        "x": SensorModel(
+            "Celesco CLP-250 linear potentiometer", "x", "m", (0.0, 0.25),
+            adc_span=(-10.0, 10.0), noise_std=5e-6,
+        ),
+        "f_l": SensorModel(
+            "HBM 1-S9M/50kN-1 with amplifier", "f_l", "N", (-50e3, 50e3),
+            adc_span=(-10.24, 10.24), noise_std=5.0,
+        ),
+        "spool": SensorModel(
+            "Moog D633 spool position output (±10 V)", "spool", "1", (-1.0, 1.0),
+            adc_span=(-10.0, 10.0), noise_std=1e-3,
+        ),
+    }
+
+
+def measure(
+    result,
+    sensors: Mapping[str, SensorModel],
+    rng: np.random.Generator,
+    *,
+    name: str = "run",
+    meta: Mapping[str, Any] | None = None,
+    fs: float | None = None,
+):
+    """Apply the sensor chain to a simulated trajectory.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        Full-model simulation sampled at the rig rate.
+    sensors : dict[str, SensorModel]
+        Sensor per channel; channels without a sensor are not recorded, except the
+        command ``u``, which the rig records as sent.
+    rng : numpy.random.Generator
+        Noise source (one per run, see :func:`hydropwa.rig.run_seed`).
+    name : str
+        Run name.
+    meta : dict, optional
+        Run metadata.
+    fs : float, optional
+        Nominal sampling rate [Hz].
+
+    Returns
+    -------
+    hydropwa.data.Run
+        Channels ``t``, ``u`` and one per sensor, in SI units.
+    """
+    from ..data import Run
+
+    channels = {"t": np.asarray(result.channels["t"], dtype=float), "u": np.asarray(result.channels["u"], dtype=float)}
+    for ch in MEASURED_CHANNELS:
+        if ch in sensors:
+            channels[ch] = sensors[ch].apply(result.channels[ch], rng)
+    for ch, sensor in sensors.items():
+        if ch not in channels:
+            channels[ch] = sensor.apply(result.channels[ch], rng)
+    units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
+    return Run(name=name, channels=channels, units=units, fs=fs, meta=dict(meta or {}))
+
