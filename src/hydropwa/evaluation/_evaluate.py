@@ -1,0 +1,441 @@
+"""Full, reduced and PWA models against a measured sine run (Sec. VII of the paper).
+
+``evaluate_run`` finds the start of the first full period in steady state, takes the initial
+state from the measurement there, simulates each model over the rest of the run with the
+measured inputs, and scores every channel. The full model gets the measured P_S(t) (with an
+ideal supply, since P_S is measured). The reduced and PWA models get the run's average P_S
+as the paper does (``reduced``, ``pwa``), or the measured P_S(t) with the PWA cells
+rescheduled online (``pwa-scheduled``, and ``reduced-scheduled`` for the reduced model).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from .._errors import DataError
+from ._metrics import channel_metrics, drift_per_period
+
+__all__ = [
+    "MODELS",
+    "CHANNELS",
+    "EvaluationWarning",
+    "EvaluationResult",
+    "EvaluationStart",
+    "evaluation_start",
+    "evaluate_run",
+    "evaluate_dataset",
+]
+
+#: Model variants evaluate_run knows: name → description.
+MODELS: dict[str, str] = {
+    "full": "full-order model, measured P_S(t)",
+    "reduced": "reduced model, average P_S (paper)",
+    "reduced-scheduled": "reduced model, measured P_S(t)",
+    "pwa": "PWA model, cells at the average P_S (paper)",
+    "pwa-scheduled": "PWA model, cells scheduled on the measured P_S(t)",
+}
+#: Channels scored per run.
+CHANNELS = ("x", "p_a", "p_b", "p_l", "v")
+_CELL_SETS = ("cell_g", "cell_o", "cell_n", "cell_w")
+
+
+class EvaluationWarning(UserWarning):
+    """The evaluation had to assume something (e.g. a constant supply pressure); the message says what."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EvaluationStart:
+    """Where the simulations start and the measured state there.
+
+    Attributes
+    ----------
+    index : int
+        Sample index of the start in the run.
+    t0 : float
+        Start time [s].
+    period : float or None
+        Input period [s] (None for a non-periodic command).
+    x, v, p_a, p_b, p_s, spool : float
+        Measured state at the start [m, m/s, Pa, Pa, Pa, 1]; v from a local quadratic fit
+        of x, spool = u (Sec. VII).
+    """
+
+    index: int
+    t0: float
+    period: float | None
+    x: float
+    v: float
+    p_a: float
+    p_b: float
+    p_s: float
+    spool: float
+
+
+def _frequency(run) -> float | None:
+    """Command frequency [Hz] from the metadata, else from the upward zero crossings of u."""
+    meta = run.meta or {}
+    for src in (meta, meta.get("signal") or {}):
+        f = src.get("frequency") if isinstance(src, dict) else None
+        if isinstance(f, int | float) and f > 0:
+            return float(f)
+    up = _upward_crossings(run.channels["t"], run.channels["u"])
+    if up.size < 3:
+        return None
+    return 1.0 / float(np.median(np.diff(up)))
+
+
+def _upward_crossings(t: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Times [s] where u crosses zero upwards (linear interpolation)."""
+    s = np.signbit(u)
+    idx = np.nonzero(s[:-1] & ~s[1:])[0]
+    du = u[idx + 1] - u[idx]
+    frac = np.where(du != 0, -u[idx] / np.where(du != 0, du, 1.0), 0.0)
+    return t[idx] + frac * (t[idx + 1] - t[idx])
+
+
+def _local_slope(t: np.ndarray, x: np.ndarray, i: int, half_width: float) -> float:
+    """dx/dt at sample i from a least-squares quadratic over ±half_width [s]."""
+    sel = np.abs(t - t[i]) <= half_width
+    if np.count_nonzero(sel) < 5:
+        sel = np.zeros_like(sel)
+        sel[max(0, i - 3) : i + 4] = True
+    tt = t[sel] - t[i]
+    c = np.polyfit(tt, x[sel], 2 if tt.size >= 5 else 1)
+    return float(c[-2])
+
+
+def evaluation_start(run, settle_periods: float = 1.0, slope_window: float = 0.01) -> EvaluationStart:
+    """The start of the first full period in steady state, and the measured state there.
+
+    Parameters
+    ----------
+    run : hydropwa.data.Run
+        Needs t, u, x, p_a, p_b (p_s optional).
+    settle_periods : float
+        Periods [1] skipped as transient before looking for the start of a period.
+    slope_window : float
+        Half width [s] of the local fit that gives the velocity.
+
+    Returns
+    -------
+    EvaluationStart
+
+    Notes
+    -----
+    A period starts at an upward zero crossing of the command. Data that begins mid-stroke
+    or mid-run works the same way: only the measurement at the start is used.
+    """
+    t = run.channels["t"]
+    u = run.channels["u"]
+    f = _frequency(run)
+    period = None if f is None else 1.0 / f
+    i = 0
+    if period is not None:
+        ups = _upward_crossings(t, u)
+        late = ups[ups >= t[0] + settle_periods * period - 0.25 * period]
+        # at least one full period must remain after the start
+        late = late[late <= t[-1] - period + 1e-9]
+        if late.size == 0:
+            late = ups[ups <= t[-1] - period + 1e-9]
+        if late.size:
+            i = int(np.searchsorted(t, late[0]))
+    i = min(i, t.size - 2)
+    ch = run.channels
+    ps = float(ch["p_s"][i]) if "p_s" in ch else math.nan
+    return EvaluationStart(
+        index=i, t0=float(t[i]), period=period, x=float(ch["x"][i]),
+        v=_local_slope(t, ch["x"], i, slope_window), p_a=float(ch["p_a"][i]), p_b=float(ch["p_b"][i]),
+        p_s=ps, spool=float(u[i]),
+    )
+
+
+def _measured(run, start: EvaluationStart, slope_window: float) -> dict[str, np.ndarray]:
+    """Measured channels from the start on, with P_L and a smoothed-derivative velocity."""
+    from scipy.signal import savgol_filter
+
+    i = start.index
+    ch = {k: np.asarray(v[i:], dtype=float) for k, v in run.channels.items()}
+    ch["p_l"] = ch["p_a"] - ch["p_b"]
+    if "v" not in ch:
+        dt = float(np.median(np.diff(ch["t"])))
+        win = max(5, int(round(2 * slope_window / dt)) | 1)
+        if win < ch["t"].size:
+            ch["v"] = savgol_filter(ch["x"], win, 2, deriv=1, delta=dt)
+        else:
+            ch["v"] = np.gradient(ch["x"], ch["t"])
+    return ch
+
+
+@dataclasses.dataclass
+class EvaluationResult:
+    """Models against one measured run.
+
+    Attributes
+    ----------
+    run : str
+        Run name.
+    start : EvaluationStart
+        Start of the comparison and the initial state taken from the measurement.
+    measured : dict[str, ndarray]
+        Measured channels from the start on (SI), with p_l = p_a − p_b and v from x.
+    simulations : dict[str, SimulationResult]
+        Per model variant (see :data:`MODELS`).
+    metrics : pandas.DataFrame
+        One row per (model, channel): ``nrmse_fit`` [%], ``rmse``, ``peak_error`` [SI unit of
+        the channel, in ``unit``], ``coverage`` [1]; for ``x`` also ``drift_measured`` and
+        ``drift_model`` [m per period].
+    cell_metrics : pandas.DataFrame
+        PWA variants: per nonlinearity (``g``, ``o``, ``n``, ``w``) and cell, the fraction of
+        time active and the RMSE of x [m] and p_l [Pa] while it is active.
+    supply_pressure : float
+        Average measured (or assumed) P_S [Pa] given to the paper-style variants.
+    notes : list of str
+        Assumptions made (missing P_S, failed integrations).
+    meta : dict
+        The run's metadata.
+    """
+
+    run: str
+    start: EvaluationStart
+    measured: dict[str, np.ndarray]
+    simulations: dict[str, Any]
+    metrics: Any
+    cell_metrics: Any
+    supply_pressure: float
+    notes: list[str] = dataclasses.field(default_factory=list)
+    meta: dict = dataclasses.field(default_factory=dict)
+
+    def fit(self, model: str = "full", channel: str = "x") -> float:
+        """NRMSE fit [%] of one model variant on one channel."""
+        m = self.metrics
+        row = m[(m["model"] == model) & (m["channel"] == channel)]
+        if row.empty:
+            raise KeyError(f"no metric for model {model!r}, channel {channel!r}")
+        return float(row["nrmse_fit"].iloc[0])
+
+    def plot(self, models: Sequence[str] | None = None, channels: Sequence[str] = ("u", "x", "p_l"),
+             smooth: float = 0.01):
+        """Measurement and models over time, like Figs. 10–13 (see :func:`plot_evaluation`)."""
+        from ._figures import plot_evaluation
+
+        return plot_evaluation(self, models=models, channels=channels, smooth=smooth)
+
+    def __repr__(self) -> str:
+        fits = ", ".join(f"{m}: {self.fit(m, 'x'):.1f} %" for m in self.simulations
+                         if not self.metrics[(self.metrics["model"] == m)].empty)
+        return f"EvaluationResult(run={self.run!r}, t0={self.start.t0:.3f} s, position fit {fits})"
+
+
+def _check_models(models: Iterable[str]) -> tuple[str, ...]:
+    out = tuple(models)
+    bad = [m for m in out if m not in MODELS]
+    if bad or not out:
+        raise DataError(f"unknown model variant(s) {', '.join(map(repr, bad)) or '(none)'}; "
+                        f"choose from {', '.join(MODELS)}")
+    return out
+
+
+def _check_run(run) -> None:
+    missing = [c for c in ("t", "u", "x", "p_a", "p_b") if c not in run.channels]
+    if missing:
+        raise DataError(f"run {run.name!r} lacks channel(s) {', '.join(missing)} needed for the evaluation")
+    if run.channels["t"].size < 10:
+        raise DataError(f"run {run.name!r} has only {run.channels['t'].size} samples")
+
+
+def _supply(run, params, start: EvaluationStart, notes: list[str]):
+    """(P_S signal for the full model, average P_S [Pa]) — measured, or the assumed constant."""
+    from ..simulation import Sampled
+
+    if "p_s" in run.channels and np.all(np.isfinite(run.channels["p_s"])):
+        ps = run.channels["p_s"]
+        return Sampled(run.channels["t"], ps), float(np.mean(ps[start.index:]))
+    p = float(params.supply.pressure)
+    msg = (f"run {run.name!r} has no supply pressure channel p_s; assuming a constant "
+           f"P_S = {p / 1e5:g} bar (params.supply.pressure) for every model")
+    warnings.warn(msg, EvaluationWarning, stacklevel=3)
+    notes.append(msg)
+    return p, p
+
+
+def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
+    """(model object, supply-pressure input) of one variant."""
+    from ..linearization import linearize
+    from ..models import FullOrderModel, ReducedModel
+
+    if name == "full":
+        return FullOrderModel(params), ps_signal
+    if name == "reduced":
+        return ReducedModel(params), ps_mean
+    if name == "reduced-scheduled":
+        return ReducedModel(params), ps_signal
+    if name == "pwa":
+        return linearize(params, supply_pressure=ps_mean), ps_mean
+    return linearize(params, supply_pressure=ps_mean, scheduled=True), ps_signal
+
+
+def _initial_state(model, start: EvaluationStart, ps_mean: float) -> np.ndarray:
+    ps = start.p_s if math.isfinite(start.p_s) else ps_mean
+    return model.state_from_measurement(start.x, start.v, start.p_a, start.p_b, ps, start.spool)
+
+
+def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes):
+    from ..simulation import Sampled, simulate
+
+    model, ps_in = _model_and_inputs(name, params, ps_signal, ps_mean)
+    t = run.channels["t"]
+    fl = Sampled(t, run.channels["f_l"]) if "f_l" in run.channels else None
+    res = simulate(model, u=Sampled(t, run.channels["u"]), t=t[start.index:], supply_pressure=ps_in,
+                   load_force=fl, initial_state=_initial_state(model, start, ps_mean), rtol=rtol,
+                   raise_on_failure=False)
+    if res.stats.get("status", 0) != 0:
+        notes.append(f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
+                     f"{res.t.size} of {t.size - start.index} samples")
+    return res
+
+
+def _padded(res, key: str, n: int) -> np.ndarray:
+    y = np.full(n, np.nan)
+    if key in res.channels:
+        y[: res.channels[key].size] = res.channels[key]
+    return y
+
+
+def _metric_rows(run_name, meas, sims, start) -> list[dict]:
+    from ..simulation import CHANNEL_UNITS
+
+    n = meas["t"].size
+    rows = []
+    for model, res in sims.items():
+        for ch in CHANNELS:
+            y_hat = _padded(res, ch, n)
+            row = {"run": run_name, "model": model, "channel": ch, "unit": CHANNEL_UNITS.get(ch, "1"),
+                   **channel_metrics(meas[ch], y_hat)}
+            if ch == "x" and start.period is not None:
+                row["drift_measured"] = drift_per_period(meas["t"], meas["x"], start.period)
+                row["drift_model"] = drift_per_period(meas["t"], y_hat, start.period)
+            rows.append(row)
+    return rows
+
+
+def _cell_rows(run_name, meas, sims) -> list[dict]:
+    rows = []
+    for model, res in sims.items():
+        if "cell_g" not in res.channels:
+            continue
+        k = res.t.size
+        ex = res.channels["x"] - meas["x"][:k]
+        ep = res.channels["p_l"] - meas["p_l"][:k]
+        for key in _CELL_SETS:
+            cells = res.channels[key].astype(int)
+            for c in np.unique(cells):
+                sel = cells == c
+                rows.append({"run": run_name, "model": model, "set": key[5:], "cell": int(c),
+                             "fraction": float(np.mean(sel)),
+                             "rmse_x": float(np.sqrt(np.mean(ex[sel] ** 2))),
+                             "rmse_p_l": float(np.sqrt(np.mean(ep[sel] ** 2)))})
+    return rows
+
+
+def evaluation_params(params):
+    """The parameters used for evaluation: the measured P_S is an input, so the supply is ideal."""
+    if params.supply.model == "ideal":
+        return params
+    return params.replace(**{"supply.model": "ideal"})
+
+
+def evaluate_run(run, params, *, models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+                 settle_periods: float = 1.0, rtol: float = 1e-5,
+                 slope_window: float = 0.01) -> EvaluationResult:
+    """Simulate model variants with the run's measured inputs and score them against it.
+
+    Parameters
+    ----------
+    run : hydropwa.data.Run
+        A measured (or virtual-rig) sine run with t, u, x, p_a, p_b and, ideally, p_s, f_l.
+    params : SystemParams
+        Model parameters (identified or true).
+    models : iterable of str
+        Variants from :data:`MODELS`.
+    settle_periods : float
+        Periods [1] treated as transient before the first compared period.
+    rtol : float
+        Relative tolerance of the simulations.
+    slope_window : float
+        Half width [s] of the local fits that give the measured velocity.
+
+    Returns
+    -------
+    EvaluationResult
+
+    Raises
+    ------
+    DataError
+        A needed channel is missing or the model list is invalid.
+
+    Warns
+    -----
+    EvaluationWarning
+        When the run has no P_S: a constant ``params.supply.pressure`` is assumed (also
+        written to ``result.notes``).
+    """
+    import pandas as pd
+
+    names = _check_models(models)
+    _check_run(run)
+    params = evaluation_params(params)
+    start = evaluation_start(run, settle_periods, slope_window)
+    notes: list[str] = []
+    ps_signal, ps_mean = _supply(run, params, start, notes)
+    meas = _measured(run, start, slope_window)
+    sims = {name: _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes) for name in names}
+    return EvaluationResult(
+        run=run.name, start=start, measured=meas, simulations=sims,
+        metrics=pd.DataFrame(_metric_rows(run.name, meas, sims, start)),
+        cell_metrics=pd.DataFrame(_cell_rows(run.name, meas, sims),
+                                  columns=["run", "model", "set", "cell", "fraction", "rmse_x", "rmse_p_l"]),
+        supply_pressure=ps_mean, notes=notes, meta=dict(run.meta or {}),
+    )
+
+
+def evaluate_dataset(dataset, params, *, models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+                     progress=None, **kwargs):
+    """Metrics of :func:`evaluate_run` over every run of a dataset, as one DataFrame.
+
+    Parameters
+    ----------
+    dataset : hydropwa.data.Dataset or iterable of Run
+        The sine runs.
+    params : SystemParams
+    models : iterable of str
+        Variants from :data:`MODELS`.
+    progress : callable, optional
+        Called as ``progress(done, total, run_name)`` after each run.
+    **kwargs
+        Passed to :func:`evaluate_run`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Rows of every run's ``metrics``; the column ``note`` holds the run's notes.
+    """
+    import pandas as pd
+
+    runs = list(dataset)
+    frames = []
+    for k, run in enumerate(runs):
+        res = evaluate_run(run, params, models=models, **kwargs)
+        df = res.metrics.copy()
+        df["note"] = "; ".join(res.notes)
+        frames.append(df)
+        if progress is not None:
+            progress(k + 1, len(runs), run.name)
+    if not frames:
+        raise DataError("the dataset holds no runs to evaluate")
+    return pd.concat(frames, ignore_index=True)
