@@ -1,0 +1,64 @@
+"""Parameter identification (Sec. VI of the paper) in the scikit-learn shape.
+
+Settings go to ``__init__``, ``fit(data)`` returns the estimator, learned values
+end in ``_``. ``data`` is a :class:`hydropwa.data.Dataset`, a dataset folder, a
+run or a list of runs; the numpy-level functions (``fit_sinusoid``,
+``fit_second_order``, ``fit_dead_zone``, ``fit_stribeck``,
+``identify_inverse_dynamics``) work on plain arrays.
+"""
+
+from ._common import IdentificationWarning, ParameterEstimate, SkippedRun
+from ._deadzone import (
+    DeadZoneFit,
+    DeadZoneIdentifier,
+    VelocityEstimate,
+    dead_zone_velocity,
+    fit_dead_zone,
+    velocity_from_position,
+)
+from ._frf import (
+    FrequencyResponse,
+    SecondOrderFit,
+    SineFit,
+    ValveFrfIdentifier,
+    estimate_frf_h1,
+    fit_second_order,
+    fit_sinusoid,
+    second_order_response,
+    stepped_sine_point,
+)
+from ._friction import (
+    FrictionPoint,
+    StribeckFit,
+    StribeckIdentifier,
+    fit_stribeck,
+    friction_point,
+    steady_window,
+)
+
+__all__ = [
+    "DeadZoneFit",
+    "DeadZoneIdentifier",
+    "FrequencyResponse",
+    "FrictionPoint",
+    "IdentificationWarning",
+    "ParameterEstimate",
+    "SecondOrderFit",
+    "SineFit",
+    "SkippedRun",
+    "StribeckFit",
+    "StribeckIdentifier",
+    "ValveFrfIdentifier",
+    "VelocityEstimate",
+    "dead_zone_velocity",
+    "estimate_frf_h1",
+    "fit_dead_zone",
+    "fit_second_order",
+    "fit_sinusoid",
+    "fit_stribeck",
+    "friction_point",
+    "second_order_response",
+    "steady_window",
+    "stepped_sine_point",
+    "velocity_from_position",
+]

@@ -1,0 +1,269 @@
+"""Shared pieces of the identification layer: warnings, skipped runs, run access, statistics.
+
+Nothing here knows about a particular experiment. The estimators in ``_frf``,
+``_deadzone`` and ``_friction`` use these helpers to read runs, to skip bad
+runs loudly (a :class:`IdentificationWarning` *and* an entry in ``skipped_``)
+and to turn a least-squares Jacobian into standard errors and confidence
+intervals.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import warnings
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from .._errors import DataError, HydropwaError, IdentificationError
+
+__all__ = [
+    "IdentificationWarning",
+    "SkippedRun",
+    "ParameterEstimate",
+    "covariance_from_jacobian",
+    "as_runs",
+    "experiment_of",
+    "signal_value",
+    "EXPERIMENT_ALIASES",
+]
+
+
+class IdentificationWarning(UserWarning):
+    """A run was skipped or a result is weakly determined; the message says which and why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SkippedRun:
+    """A run (or part of one) left out of an identification, and why.
+
+    Attributes
+    ----------
+    run : str
+        Run name (with a segment suffix such as ``"@12Hz"`` where only part was dropped).
+    reason : str
+        One line saying what was wrong (missing channel, too short, end stop, ...).
+    """
+
+    run: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.run}: {self.reason}"
+
+
+def skip(skipped: list[SkippedRun], run: str, reason: str, stacklevel: int = 3) -> None:
+    """Record a skipped run and warn about it (never a silent drop)."""
+    skipped.append(SkippedRun(run, reason))
+    warnings.warn(f"run {run!r} skipped: {reason}", IdentificationWarning, stacklevel=stacklevel)
+
+
+@dataclasses.dataclass(frozen=True)
+class ParameterEstimate:
+    """One identified parameter with its uncertainty.
+
+    Attributes
+    ----------
+    value : float
+        Estimate [unit].
+    std : float
+        Standard error [unit] (from the Jacobian; NaN when not determined).
+    ci : tuple of float
+        Confidence interval (low, high) [unit] at ``level``.
+    unit : str
+        Unit of value, std and ci.
+    level : float
+        Confidence level of ``ci`` [1].
+    """
+
+    value: float
+    std: float
+    ci: tuple[float, float]
+    unit: str = ""
+    level: float = 0.95
+
+    @property
+    def relative_ci_halfwidth(self) -> float:
+        """Half the CI width over |value| [1]; ``inf`` for a zero estimate."""
+        half = 0.5 * (self.ci[1] - self.ci[0])
+        return float(half / abs(self.value)) if self.value != 0 else float("inf")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict for the ``[uncertainty]`` table of a parameter file."""
+        return {"value": float(self.value), "std": float(self.std), "ci_low": float(self.ci[0]),
+                "ci_high": float(self.ci[1]), "level": float(self.level), "unit": self.unit}
+
+    def __str__(self) -> str:
+        return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}])".strip()
+
+
+def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: int | None = None) -> np.ndarray:
+    """Parameter covariance s²·(JᵀJ)⁻¹ of a least-squares fit.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the residuals at the optimum.
+    residuals : ndarray, shape (n,)
+        Residuals at the optimum (their variance s² = ‖r‖²/(n − p) scales the result).
+    n_params : int, optional
+        Number of free parameters p (default ``jac.shape[1]``).
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        Covariance from the SVD of J; parameters in a direction the data do not
+        determine (singular value below 1e-10 of the largest) get an infinite
+        variance and NaN covariances.
+    """
+    jac = np.asarray(jac, dtype=float)
+    r = np.asarray(residuals, dtype=float)
+    n, p = jac.shape
+    p = n_params or p
+    dof = max(n - p, 1)
+    s2 = float(r @ r) / dof
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    tol = sv.max() * max(jac.shape) * 1e-10 if sv.size and sv.max() > 0 else 0.0
+    good = sv > tol
+    cov = (vt[good].T / sv[good] ** 2) @ vt[good] * s2
+    # directions the data do not see at all get an infinite variance, not a zero one
+    unseen = np.any(np.abs(vt[~good]) > 1e-6, axis=0) if (~good).any() else np.zeros(vt.shape[1], bool)
+    if unseen.any():
+        cov[unseen, :] = np.nan
+        cov[:, unseen] = np.nan
+        cov[unseen, unseen] = np.inf
+    return cov
+
+
+def t_quantile(level: float, dof: int) -> float:
+    """Two-sided Student-t quantile for a confidence ``level`` with ``dof`` degrees of freedom."""
+    return float(stats.t.ppf(0.5 + 0.5 * level, max(int(dof), 1)))
+
+
+def estimate(value: float, std: float, q: float, unit: str = "", level: float = 0.95) -> ParameterEstimate:
+    """A :class:`ParameterEstimate` with the symmetric interval value ± q·std."""
+    std = float(std)  # inf stays inf: a parameter the data do not determine
+    return ParameterEstimate(float(value), std, (float(value - q * std), float(value + q * std)), unit, level)
+
+
+def correlation(cov: np.ndarray) -> np.ndarray:
+    """Correlation matrix of a covariance (NaN where a variance is zero)."""
+    d = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return cov / np.outer(d, d)
+
+
+# --------------------------------------------------------------------------- runs
+
+#: Experiment names in run metadata and what the identification calls them.
+EXPERIMENT_ALIASES: dict[str, str] = {
+    "frf": "frf", "stepped_sine": "frf", "valve_frf": "frf", "sine_sweep": "frf",
+    "chirp": "frf", "noise": "frf", "broadband": "frf",
+    "deadzone": "deadzone", "dead_zone": "deadzone", "dead-zone": "deadzone",
+    "friction": "friction", "stribeck": "friction",
+    "sine": "sine", "motion": "sine", "closed_loop": "closed_loop",
+}
+
+
+def experiment_of(run) -> str | None:
+    """Experiment kind of a run: ``meta["experiment"]`` or ``meta["kind"]``, normalised.
+
+    Returns ``"frf"``, ``"deadzone"``, ``"friction"``, ``"sine"``, another raw
+    name, or ``None`` when the run says nothing.
+    """
+    meta = getattr(run, "meta", {}) or {}
+    raw = meta.get("experiment", meta.get("kind"))
+    if raw is None:
+        return None
+    raw = str(raw).lower()
+    return EXPERIMENT_ALIASES.get(raw, raw)
+
+
+def signal_value(run, *keys: str, default: Any = None) -> Any:
+    """First of ``keys`` found in ``run.meta``, ``run.meta["signal"]`` or ``run.meta["command"]``.
+
+    Lets the estimators read commanded signal parameters (``frequency`` [Hz],
+    ``amplitude`` [1], ``level`` [1], ``type``) wherever a writer put them.
+    """
+    meta = getattr(run, "meta", {}) or {}
+    places = [meta]
+    for sub in ("signal", "command", "input"):
+        if isinstance(meta.get(sub), Mapping):
+            places.append(meta[sub])
+    for key in keys:
+        for place in places:
+            if key in place and place[key] is not None:
+                return place[key]
+    return default
+
+
+def as_runs(data, experiment: str | None = None) -> list:
+    """Turn the argument of ``fit`` into a list of runs.
+
+    Parameters
+    ----------
+    data : Dataset, Run, path or iterable of Run
+        A :class:`hydropwa.data.Dataset`, a dataset folder, one run, or runs.
+    experiment : str, optional
+        Keep only runs of this experiment kind (see :func:`experiment_of`) when the
+        runs say what they are; runs without a kind are kept.
+
+    Raises
+    ------
+    IdentificationError
+        If nothing is left.
+    """
+    if isinstance(data, str | os.PathLike):
+        from ..data import read_dataset
+
+        data = read_dataset(data)
+    if hasattr(data, "channels") and hasattr(data, "name"):
+        runs = [data]
+    elif hasattr(data, "names") and hasattr(data, "__getitem__") and not isinstance(data, Mapping):
+        runs = [data[n] for n in data.names]
+    elif isinstance(data, Mapping):
+        runs = list(data.values())
+    elif isinstance(data, Iterable):
+        runs = list(data)
+    else:
+        raise IdentificationError(f"cannot identify from {type(data).__name__}; give a Dataset, a Run or runs")
+    if experiment is not None:
+        runs = [r for r in runs if experiment_of(r) in (None, experiment)]
+    if not runs:
+        what = f" of kind {experiment!r} (meta 'experiment' or 'kind')" if experiment else ""
+        raise IdentificationError(f"no runs{what} to identify from")
+    return runs
+
+
+def channels_of(run, names: Iterable[str], skipped: list[SkippedRun]) -> dict[str, np.ndarray] | None:
+    """The named channels of a run as float arrays, or ``None`` (and a skip) if one is missing."""
+    missing = [c for c in names if c not in run.channels]
+    if missing:
+        skip(skipped, run.name, f"missing channel(s) {', '.join(missing)} (has {', '.join(sorted(run.channels))})", 4)
+        return None
+    out = {}
+    for c in names:
+        a = np.asarray(run.channels[c], dtype=float)
+        if not np.all(np.isfinite(a)):
+            skip(skipped, run.name, f"channel {c!r} holds non-finite samples", 4)
+            return None
+        out[c] = a
+    return out
+
+
+def require_usable(items: list, skipped: list[SkippedRun], what: str, minimum: int = 1) -> None:
+    """Raise a one-line :class:`IdentificationError` when fewer than ``minimum`` items are usable."""
+    if len(items) < minimum:
+        why = "; ".join(str(s) for s in skipped[:5]) or "no runs given"
+        more = f" (and {len(skipped) - 5} more)" if len(skipped) > 5 else ""
+        raise IdentificationError(
+            f"{what}: {len(items)} usable run(s), need at least {minimum}; skipped: {why}{more}"
+        )
+
+
+def is_hydropwa_error(exc: BaseException) -> bool:
+    """Whether ``exc`` is a user error of the package (to be reported, not raised as a bug)."""
+    return isinstance(exc, HydropwaError | DataError)

@@ -1,0 +1,460 @@
+"""Dead band, creep and gain of the valve from constant-input runs (Sec. VI-B, Fig. 6, Table IV).
+
+Each constant-command run gives one rod velocity, the slope of a least-squares
+line through the position away from the end stop the rod moves towards. The
+velocity-against-command points are fitted with a hinge model per direction,
+
+    v = g₊ (u − β₊)      for u > β₊,
+    v = c u              for −β₋ ≤ u ≤ β₊   (creep inside the band),
+    v = g₋ (u + β₋)      for u < −β₋,
+
+(with ``continuous=True`` the outer lines are lifted by c β± so v is continuous),
+and the symmetric dead band β = (β₊ + β₋)/2 is reported. The creep slope c is a
+velocity per command; the opening slope of Table IV is k_g = c / ḡ with the
+mean outer gain ḡ = (g₊ + g₋)/2, since v ≈ ḡ·z near the band.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .._errors import IdentificationError
+from ..params import DeadZone, SystemParams
+from ._common import (
+    ParameterEstimate,
+    SkippedRun,
+    as_runs,
+    channels_of,
+    covariance_from_jacobian,
+    estimate,
+    require_usable,
+    signal_value,
+    skip,
+    t_quantile,
+)
+
+__all__ = ["VelocityEstimate", "velocity_from_position", "DeadZoneFit", "fit_dead_zone",
+           "dead_zone_velocity", "DeadZoneIdentifier"]
+
+
+@dataclasses.dataclass(frozen=True)
+class VelocityEstimate:
+    """Rod velocity from a least-squares line through the position.
+
+    Attributes
+    ----------
+    velocity : float
+        Slope ẋ [m/s].
+    std : float
+        Standard error of the slope [m/s] (white-residual formula; the residuals of
+        real runs are correlated, so treat it as a lower bound).
+    rms_residual : float
+        RMS deviation of the position from the line [m] (Sec. VI-C: not exactly linear).
+    window : tuple of float
+        (t0, t1) [s] of the samples used.
+    hit_stop : bool
+        Whether the run reached the end stop (samples from there on were dropped).
+    """
+
+    velocity: float
+    std: float
+    rms_residual: float
+    window: tuple[float, float]
+    hit_stop: bool = False
+
+
+def _line(t: np.ndarray, x: np.ndarray) -> tuple[float, float, float]:
+    tc = t - t.mean()
+    sxx = float(tc @ tc)
+    slope = float(tc @ (x - x.mean())) / sxx
+    r = x - x.mean() - slope * tc
+    dof = max(t.size - 2, 1)
+    s2 = float(r @ r) / dof
+    return slope, float(np.sqrt(s2 / sxx)), float(np.sqrt(np.mean(r**2)))
+
+
+def velocity_from_position(t, x, direction: float = 0.0, stroke: float | None = None,
+                           stop_margin: float = 1e-3, settle: float = 0.0,
+                           min_duration: float = 0.1, min_samples: int = 20) -> VelocityEstimate:
+    """Rod velocity of a constant-input run from the slope of the position (Sec. VI-B).
+
+    Parameters
+    ----------
+    t, x : array_like, shape (N,)
+        Time [s] and rod position [m].
+    direction : float
+        Sign of the command (> 0: extending towards x = ``stroke``; < 0: retracting towards 0).
+    stroke : float, optional
+        Stroke l [m]. With a direction, samples from the first one within
+        ``stop_margin`` of the stop ahead are dropped.
+    stop_margin : float
+        Distance [m] from the stop ahead at which the run counts as having hit it.
+    settle : float
+        Time [s] at the start of the run left out (valve opening transient).
+    min_duration : float
+        Shortest usable stretch [s].
+    min_samples : int
+        Fewest usable samples.
+
+    Returns
+    -------
+    VelocityEstimate
+
+    Raises
+    ------
+    IdentificationError
+        When the usable stretch is too short (e.g. the run started at, or soon hit, the stop).
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    keep = t >= t[0] + settle
+    hit = False
+    if stroke is not None and direction != 0:
+        at_stop = x >= stroke - stop_margin if direction > 0 else x <= stop_margin
+        idx = np.flatnonzero(at_stop & keep)
+        if idx.size:
+            hit = True
+            keep &= np.arange(t.size) < idx[0]
+    n = int(keep.sum())
+    dur = float(t[keep][-1] - t[keep][0]) if n > 1 else 0.0
+    if n < min_samples or dur < min_duration:
+        where = f"hit the end stop at t = {t[idx[0]]:.3g} s; " if hit else ""
+        raise IdentificationError(
+            f"{where}only {dur:.3g} s ({n} samples) usable, need {min_duration:g} s and {min_samples} samples"
+        )
+    slope, sd, rms = _line(t[keep], x[keep])
+    return VelocityEstimate(slope, sd, rms, (float(t[keep][0]), float(t[keep][-1])), hit)
+
+
+def dead_zone_velocity(u, gain_pos: float, gain_neg: float, beta_pos: float, beta_neg: float,
+                       creep: float, continuous: bool = False) -> np.ndarray:
+    """Hinge model of rod velocity against command [m/s] (Fig. 6).
+
+    Parameters
+    ----------
+    u : array_like
+        Constant command [1].
+    gain_pos, gain_neg : float
+        Outer slopes g₊, g₋ [m/s per unit command].
+    beta_pos, beta_neg : float
+        Band edges β₊, β₋ [1] (both positive; the band is −β₋ ≤ u ≤ β₊).
+    creep : float
+        Slope c inside the band [m/s per unit command].
+    continuous : bool
+        Lift the outer lines by c·β± so the curve is continuous.
+    """
+    u = np.asarray(u, dtype=float)
+    lift_p = creep * beta_pos if continuous else 0.0
+    lift_n = creep * beta_neg if continuous else 0.0
+    return np.where(u > beta_pos, gain_pos * (u - beta_pos) + lift_p,
+                    np.where(u < -beta_neg, gain_neg * (u + beta_neg) - lift_n, creep * u))
+
+
+@dataclasses.dataclass(frozen=True)
+class DeadZoneFit:
+    """Hinge fit of velocity against command.
+
+    Attributes
+    ----------
+    beta : ParameterEstimate
+        Symmetric dead band β = (β₊ + β₋)/2 [1].
+    beta_pos, beta_neg : ParameterEstimate
+        Band edge per direction [1].
+    gain_pos, gain_neg : ParameterEstimate
+        Outer slopes [m/s per unit command].
+    creep_velocity_slope : ParameterEstimate
+        Slope inside the band [m/s per unit command].
+    creep_slope : ParameterEstimate
+        Opening slope k_g = c/ḡ inside the band [1] (DeadZone.creep_slope).
+    rms_residual : float
+        RMS velocity residual [m/s].
+    n_points : int
+        Number of velocity points.
+    continuous : bool
+        Model variant fitted.
+    covariance : ndarray, shape (5, 5)
+        Covariance of (g₊, g₋, β₊, β₋, c).
+    """
+
+    beta: ParameterEstimate
+    beta_pos: ParameterEstimate
+    beta_neg: ParameterEstimate
+    gain_pos: ParameterEstimate
+    gain_neg: ParameterEstimate
+    creep_velocity_slope: ParameterEstimate
+    creep_slope: ParameterEstimate
+    rms_residual: float
+    n_points: int
+    continuous: bool
+    covariance: np.ndarray
+
+    def velocity(self, u) -> np.ndarray:
+        """Fitted velocity [m/s] at command ``u`` [1]."""
+        return dead_zone_velocity(u, self.gain_pos.value, self.gain_neg.value, self.beta_pos.value,
+                                  self.beta_neg.value, self.creep_velocity_slope.value, self.continuous)
+
+    def dead_zone(self, alpha: float = 1.0) -> DeadZone:
+        """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ)."""
+        return DeadZone(alpha=alpha, beta=float(np.clip(self.beta.value, 0.0, 0.999)),
+                        creep_slope=float(np.clip(self.creep_slope.value, 0.0, 0.999)),
+                        continuous=self.continuous)
+
+
+def _fixed_beta_fit(u, v, bp, bn, continuous):
+    """Slopes (g₊, g₋, c) by linear least squares for fixed band edges; returns θ and the cost."""
+    pos, neg = u > bp, u < -bn
+    inner = ~(pos | neg)
+    X = np.zeros((u.size, 3))
+    X[pos, 0] = u[pos] - bp
+    X[neg, 1] = u[neg] + bn
+    X[inner, 2] = u[inner]
+    if continuous:
+        X[pos, 2] = bp
+        X[neg, 2] = -bn
+    coef, *_ = np.linalg.lstsq(X, v, rcond=None)
+    theta = np.array([coef[0], coef[1], bp, bn, coef[2]])
+    return theta, float(np.sum((X @ coef - v) ** 2))
+
+
+def _split_fit(u, v, k_pos, k_neg, up, un, continuous):
+    """Best hinge fit with the first ``k_pos`` positive and ``k_neg`` negative commands inside the band.
+
+    For a fixed split the model is linear in (g₊, a₊, g₋, a₋, c) with the outer lines
+    g·u + a; β₊ = −a₊/g₊ (or a₊/(c − g₊) when continuous). A β outside the split's
+    interval is clamped to it and the slopes are solved again.
+    """
+    lo_p = up[k_pos - 1] if k_pos > 0 else 0.0
+    hi_p = up[k_pos]
+    lo_n = un[k_neg - 1] if k_neg > 0 else 0.0
+    hi_n = un[k_neg]
+    pos, neg = u >= hi_p, u <= -hi_n
+    inner = ~(pos | neg)
+    X = np.zeros((u.size, 5))
+    X[pos, 0], X[pos, 1] = u[pos], 1.0
+    X[neg, 2], X[neg, 3] = u[neg], 1.0
+    X[inner, 4] = u[inner]
+    coef, *_ = np.linalg.lstsq(X, v, rcond=None)
+    gp, ap, gn, an, c = coef
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bp = ap / (c - gp) if continuous else -ap / gp
+        bn = -an / (c - gn) if continuous else an / gn
+    bp = float(np.clip(np.nan_to_num(bp, nan=lo_p), lo_p, hi_p * (1 - 1e-9)))
+    bn = float(np.clip(np.nan_to_num(bn, nan=lo_n), lo_n, hi_n * (1 - 1e-9)))
+    return _fixed_beta_fit(u, v, bp, bn, continuous)
+
+
+def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZoneFit:
+    """Fit the hinge model to velocity-against-command points (Sec. VI-B, Fig. 6).
+
+    Parameters
+    ----------
+    u : array_like, shape (K,)
+        Constant commands [1], both signs.
+    v : array_like, shape (K,)
+        Rod velocities [m/s] (see :func:`velocity_from_position`).
+    continuous : bool
+        Fit the continuous variant (see :func:`dead_zone_velocity`).
+    level : float
+        Confidence level [1].
+
+    Returns
+    -------
+    DeadZoneFit
+
+    Raises
+    ------
+    IdentificationError
+        With fewer than 3 points per direction or fewer than 7 points in all.
+
+    Notes
+    -----
+    Exhaustive search over the splits of the commands into inside/outside the band
+    (per direction at least two points outside): for each split the model is linear
+    (outer lines g·u + a, inner c·u), β± follow from the intercepts and are kept inside
+    the split's interval. The best split is the global least-squares optimum. The
+    covariance of (g₊, g₋, β₊, β₋, c) comes from the Jacobian of the hinge model there.
+    """
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    npos, nneg = int(np.sum(u > 0)), int(np.sum(u < 0))
+    if npos < 3 or nneg < 3 or u.size < 7:
+        raise IdentificationError(
+            f"dead-zone fit needs at least 3 runs per direction and 7 in all; have {npos} with u > 0, "
+            f"{nneg} with u < 0"
+        )
+    up = np.unique(u[u > 0])
+    un = np.unique(-u[u < 0])
+    best, best_cost = None, np.inf
+    for kp in range(up.size - 1):
+        for kn in range(un.size - 1):
+            theta, cost = _split_fit(u, v, kp, kn, up, un, continuous)
+            if cost < best_cost:
+                best, best_cost = theta, cost
+    assert best is not None
+    resid = dead_zone_velocity(u, *best, continuous=continuous) - v
+    jac = _hinge_jacobian(u, best, continuous)
+    cov = covariance_from_jacobian(jac, resid)
+    q = t_quantile(level, u.size - 5)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    gp, gn, bp, bn, c = best
+    beta = 0.5 * (bp + bn)
+    beta_sd = 0.5 * np.sqrt(max(cov[2, 2] + cov[3, 3] + 2 * cov[2, 3], 0.0))
+    gbar = 0.5 * (gp + gn)
+    kg = c / gbar
+    grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar])
+    kg_sd = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    return DeadZoneFit(
+        beta=estimate(beta, beta_sd, q, "1", level),
+        beta_pos=estimate(bp, sd[2], q, "1", level),
+        beta_neg=estimate(bn, sd[3], q, "1", level),
+        gain_pos=estimate(gp, sd[0], q, "m/s", level),
+        gain_neg=estimate(gn, sd[1], q, "m/s", level),
+        creep_velocity_slope=estimate(c, sd[4], q, "m/s", level),
+        creep_slope=estimate(kg, kg_sd, q, "1", level),
+        rms_residual=float(np.sqrt(np.mean(resid**2))),
+        n_points=int(u.size),
+        continuous=continuous,
+        covariance=cov,
+    )
+
+
+def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool) -> np.ndarray:
+    """Analytic Jacobian of :func:`dead_zone_velocity` in (g₊, g₋, β₊, β₋, c)."""
+    gp, gn, bp, bn, c = th
+    pos, neg = u > bp, u < -bn
+    inner = ~(pos | neg)
+    J = np.zeros((u.size, 5))
+    J[pos, 0] = u[pos] - bp
+    J[neg, 1] = u[neg] + bn
+    J[pos, 2] = -gp + (c if continuous else 0.0)
+    J[neg, 3] = gn - (c if continuous else 0.0)
+    J[inner, 4] = u[inner]
+    if continuous:
+        J[pos, 4] = bp
+        J[neg, 4] = -bn
+    return J
+
+
+class DeadZoneIdentifier:
+    """Identify β, the creep slope and the outer gain from constant-input runs (Sec. VI-B).
+
+    Parameters
+    ----------
+    base_params : SystemParams, optional
+        Gives the stroke [m] (end-stop detection) and α; default the ``paper`` preset.
+    stop_margin : float
+        Distance [m] from the stop ahead at which a run counts as having hit it.
+    settle : float
+        Time [s] dropped at the start of each run.
+    min_duration : float
+        Shortest usable stretch of a run [s].
+    continuous : bool
+        Fit the continuous dead-zone variant.
+    level : float
+        Confidence level [1].
+
+    Attributes
+    ----------
+    points_ : pandas.DataFrame
+        One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std`` [m/s], ``rms_residual`` [m].
+    fit_ : DeadZoneFit
+        The hinge fit.
+    dead_zone_ : DeadZone
+        The fit as parameters (symmetric β, k_g = c/ḡ).
+    skipped_ : list[SkippedRun]
+        Runs left out, with the reason.
+
+    Notes
+    -----
+    The command of a run is ``meta["level"]`` (or ``amplitude``, ``u``) when given,
+    else the median of its ``u`` channel.
+    """
+
+    def __init__(self, base_params: SystemParams | None = None, stop_margin: float = 1e-3,
+                 settle: float = 0.05, min_duration: float = 0.1, continuous: bool = False,
+                 level: float = 0.95) -> None:
+        self.base_params = base_params
+        self.stop_margin = stop_margin
+        self.settle = settle
+        self.min_duration = min_duration
+        self.continuous = continuous
+        self.level = level
+
+    def fit(self, data) -> DeadZoneIdentifier:
+        """Estimate one velocity per run and fit the hinge model.
+
+        Returns
+        -------
+        DeadZoneIdentifier
+            ``self`` with ``points_``, ``fit_``, ``dead_zone_`` and ``skipped_`` set.
+
+        Raises
+        ------
+        IdentificationError
+            If too few runs are usable.
+        """
+        import pandas as pd
+
+        from ..params import get_preset
+
+        base = self.base_params or get_preset("paper")
+        runs = as_runs(data, "deadzone")
+        skipped: list[SkippedRun] = []
+        rows = []
+        for run in runs:
+            ch = channels_of(run, ("t", "x"), skipped)
+            if ch is None:
+                continue
+            level = command_level(run)
+            if level is None:
+                skip(skipped, run.name, "no command level (meta 'level' or channel 'u')")
+                continue
+            try:
+                est = velocity_from_position(ch["t"], ch["x"], np.sign(level), base.cylinder.stroke,
+                                             self.stop_margin, self.settle, self.min_duration)
+            except IdentificationError as exc:
+                skip(skipped, run.name, str(exc))
+                continue
+            rows.append({"run": run.name, "u": level, "v": est.velocity, "v_std": est.std,
+                         "rms_residual": est.rms_residual, "hit_stop": est.hit_stop})
+        require_usable(rows, skipped, "dead-zone identification", minimum=7)
+        pts = pd.DataFrame(rows).sort_values("u", ignore_index=True)
+        self.points_ = pts
+        self.fit_ = fit_dead_zone(pts["u"].to_numpy(), pts["v"].to_numpy(), self.continuous, self.level)
+        self.dead_zone_ = self.fit_.dead_zone(base.dead_zone.alpha)
+        self.skipped_ = skipped
+        return self
+
+    def uncertainty(self) -> dict:
+        """β, k_g and the per-direction values as a plain dict (``[uncertainty]`` table)."""
+        f = self.fit_
+        return {"beta": f.beta.to_dict(), "creep_slope": f.creep_slope.to_dict(),
+                "beta_pos": f.beta_pos.to_dict(), "beta_neg": f.beta_neg.to_dict(),
+                "gain_pos": f.gain_pos.to_dict(), "gain_neg": f.gain_neg.to_dict(),
+                "creep_velocity_slope": f.creep_velocity_slope.to_dict()}
+
+
+def command_level(run) -> float | None:
+    """Constant command of a run [1].
+
+    ``meta["level"]`` (signed) first, then the median of the second half of the ``u``
+    channel, then ``amplitude``/``opening`` (taken as given, sign included).
+    """
+    lv = signal_value(run, "level", "u")
+    if lv is not None:
+        try:
+            return float(lv)
+        except (TypeError, ValueError):
+            pass
+    if "u" in run.channels:
+        u = np.asarray(run.channels["u"], dtype=float)
+        u = u[np.isfinite(u)]
+        if u.size:
+            return float(np.median(u[u.size // 2:]))
+    lv = signal_value(run, "amplitude", "opening")
+    try:
+        return None if lv is None else float(lv)
+    except (TypeError, ValueError):
+        return None

@@ -1,0 +1,591 @@
+"""Stribeck friction from constant-input runs against a counter force (Sec. VI-C, Fig. 8).
+
+Per run: the steady part (moving-window velocity and net force inside a band
+around their medians, away from both end stops) gives averaged P_A, P_B, F_L and
+the friction force of Eq. (10) at steady state,
+
+    f = P_A A_A − P_B A_B − F_L,
+
+and the velocity from a least-squares line through the position. The points
+(ẋ, f) are fitted with Eq. (11),
+
+    f(ẋ) = tanh(γẋ)·(F_c + (F_s − F_c)·exp(−|ẋ/χ|^δ)) + σẋ,
+
+by bounded nonlinear least squares in (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ)
+with a robust loss and many starts. For fixed (χ, δ, γ) the model is linear in
+(F_c, F_s, σ), which gives each start its linear part exactly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .._errors import IdentificationError
+from ..components import stribeck_friction
+from ..params import Friction, SystemParams
+from ._common import (
+    ParameterEstimate,
+    SkippedRun,
+    as_runs,
+    channels_of,
+    correlation,
+    covariance_from_jacobian,
+    require_usable,
+    skip,
+    t_quantile,
+)
+from ._deadzone import command_level
+
+__all__ = ["FrictionPoint", "steady_window", "friction_point", "StribeckFit", "fit_stribeck",
+           "StribeckIdentifier", "STRIBECK_NAMES"]
+
+#: Friction field names in the order of the fit vector.
+STRIBECK_NAMES = ("coulomb", "static", "viscous", "stribeck_velocity", "shape", "smoothness")
+_UNITS = {"coulomb": "N", "static": "N", "viscous": "N·s/m", "stribeck_velocity": "m/s",
+          "shape": "1", "smoothness": "s/m"}
+
+
+def _default_bounds(vmin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of θ for data whose slowest speed is ``vmin`` [m/s] (see :func:`fit_stribeck`)."""
+    lb = np.array([0.0, 0.0, 0.0, np.log10(vmin / 10.0), 0.5, np.log10(3.0 / vmin)])
+    ub = np.array([1e5, 1e5, 1e7, 0.0, 5.0, 7.0])
+    lb[5] = min(lb[5], 6.0)
+    return lb, ub
+
+
+def _moving_slope(t: np.ndarray, x: np.ndarray, half: int) -> np.ndarray:
+    """Central secant slope over ±``half`` samples (NaN near the ends)."""
+    out = np.full(x.shape, np.nan)
+    if x.size > 2 * half:
+        out[half:-half] = (x[2 * half:] - x[:-2 * half]) / (t[2 * half:] - t[:-2 * half])
+    return out
+
+
+def _moving_mean(y: np.ndarray, half: int) -> np.ndarray:
+    out = np.full(y.shape, np.nan)
+    if y.size > 2 * half:
+        c = np.concatenate(([0.0], np.cumsum(y)))
+        w = 2 * half + 1
+        out[half:-half] = (c[w:] - c[:-w]) / w
+    return out
+
+
+def _longest_true(mask: np.ndarray) -> tuple[int, int]:
+    """(start, stop) of the longest run of True (stop exclusive); (0, 0) if none."""
+    m = np.concatenate(([False], mask, [False])).astype(np.int8)
+    d = np.diff(m)
+    starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    if starts.size == 0:
+        return 0, 0
+    k = int(np.argmax(stops - starts))
+    return int(starts[k]), int(stops[k])
+
+
+def _adaptive_window(t: np.ndarray, x: np.ndarray, window: float, band: float, abs_band: float) -> float:
+    """Lengthen the window so that position noise moves the secant velocity by < 1/3 of the band.
+
+    The noise σ_x is estimated from sample-to-sample differences; a secant over a
+    window T has velocity noise √2·σ_x/T.
+    """
+    d = np.diff(x)
+    sigma_x = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    n = t.size
+    v_rough = abs(float(np.median(x[n // 2:]) - np.median(x[: n // 2]))) / max(0.5 * (t[-1] - t[0]), 1e-12)
+    need = 3.0 * np.sqrt(2.0) * sigma_x / max(band * v_rough, abs_band)
+    return float(min(max(window, need), max(window, (t[-1] - t[0]) / 4.0)))
+
+
+def steady_window(t, x, net_force=None, stroke: float | None = None, stop_margin: float = 2e-3,
+                  window: float = 0.1, band: float = 0.15, abs_band: float = 5e-4,
+                  force_band: float = 0.25, force_abs_band: float = 20.0,
+                  min_duration: float = 0.2) -> slice:
+    """The longest steady stretch of a constant-input run.
+
+    Parameters
+    ----------
+    t, x : array_like, shape (N,)
+        Time [s] and rod position [m].
+    net_force : array_like, shape (N,), optional
+        P_A A_A − P_B A_B − F_L [N]; when given it must be steady too.
+    stroke : float, optional
+        Stroke [m]; samples within ``stop_margin`` of 0 or ``stroke`` are not steady.
+    stop_margin : float
+        Distance [m] from an end stop treated as contact.
+    window : float
+        Shortest length [s] of the moving window for velocity and force; longer where
+        position noise would otherwise put the window velocity outside the band
+        (slow runs), at most a quarter of the run.
+    band, abs_band : float
+        Velocity band: |v_w − median| ≤ max(band·|median|, abs_band) [1], [m/s].
+    force_band, force_abs_band : float
+        Force band, likewise [1], [N].
+    min_duration : float
+        Shortest acceptable steady stretch [s].
+
+    Returns
+    -------
+    slice
+        Sample indices of the steady stretch.
+
+    Raises
+    ------
+    IdentificationError
+        If no steady stretch of ``min_duration`` exists.
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    window = _adaptive_window(t, x, window, band, abs_band)
+    half = max(1, int(round(0.5 * window / dt)))
+    vw = _moving_slope(t, x, half)
+    ok = np.isfinite(vw)
+    if stroke is not None:
+        ok &= (x > stop_margin) & (x < stroke - stop_margin)
+    if not ok.any():
+        raise IdentificationError("no steady state: the rod never moves away from the end stops")
+    med = float(np.median(vw[ok]))
+    steady = ok & (np.abs(vw - med) <= max(band * abs(med), abs_band))
+    if net_force is not None:
+        fw = _moving_mean(np.asarray(net_force, dtype=float), half)
+        fmed = float(np.median(fw[steady])) if steady.any() else float(np.nanmedian(fw))
+        steady &= np.abs(fw - fmed) <= max(force_band * abs(fmed), force_abs_band)
+    i0, i1 = _longest_true(steady)
+    dur = float(t[i1 - 1] - t[i0]) if i1 > i0 else 0.0
+    if dur < min_duration:
+        raise IdentificationError(
+            f"no steady state: longest steady stretch {dur:.3g} s, need {min_duration:g} s "
+            "(velocity or force keeps changing, or the run hits the end stop)"
+        )
+    return slice(i0, i1)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrictionPoint:
+    """One steady-state friction measurement.
+
+    Attributes
+    ----------
+    velocity, velocity_std : float
+        ẋ [m/s] from the position slope, and its standard error.
+    force, force_std : float
+        f [N] of Eq. (10) at steady state, and the standard deviation of the
+        window mean (from the sample spread over √(number of windows)).
+    p_a, p_b, f_l : float
+        Mean chamber pressures [Pa] and load force [N] over the steady part.
+    window : tuple of float
+        (t0, t1) [s] of the steady part.
+    rms_position_residual : float
+        Deviation of the position from the line [m] (Sec. VI-C, Fig. 7).
+    """
+
+    velocity: float
+    velocity_std: float
+    force: float
+    force_std: float
+    p_a: float
+    p_b: float
+    f_l: float
+    window: tuple[float, float]
+    rms_position_residual: float
+
+
+def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: float | None = None,
+                   **window_kw) -> FrictionPoint:
+    """Steady-state friction force and velocity of one run, Eq. (10).
+
+    Parameters
+    ----------
+    t, x, p_a, p_b, f_l : array_like, shape (N,)
+        Time [s], position [m], chamber pressures [Pa], load force [N].
+    area_a, area_b : float
+        Piston areas A_A, A_B [m²].
+    stroke : float, optional
+        Stroke [m] for end-stop exclusion.
+    **window_kw
+        Passed to :func:`steady_window`.
+
+    Returns
+    -------
+    FrictionPoint
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    net = np.asarray(p_a) * area_a - np.asarray(p_b) * area_b - np.asarray(f_l)
+    sl = steady_window(t, x, net, stroke, **window_kw)
+    ts, xs = t[sl], x[sl]
+    tc = ts - ts.mean()
+    slope = float(tc @ (xs - xs.mean())) / float(tc @ tc)
+    r = xs - xs.mean() - slope * tc
+    vstd = float(np.sqrt(float(r @ r) / max(ts.size - 2, 1) / float(tc @ tc)))
+    n_blocks = max(1, int((ts[-1] - ts[0]) / window_kw.get("window", 0.1)))
+    return FrictionPoint(
+        velocity=slope, velocity_std=vstd,
+        force=float(np.mean(net[sl])), force_std=float(np.std(net[sl]) / np.sqrt(n_blocks)),
+        p_a=float(np.mean(np.asarray(p_a)[sl])), p_b=float(np.mean(np.asarray(p_b)[sl])),
+        f_l=float(np.mean(np.asarray(f_l)[sl])), window=(float(ts[0]), float(ts[-1])),
+        rms_position_residual=float(np.sqrt(np.mean(r**2))),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class StribeckFit:
+    """Eq. (11) fitted to velocity–force points.
+
+    Attributes
+    ----------
+    friction : Friction
+        The fitted curve as parameters (PWA code turns it into 7 cells).
+    estimates : dict[str, ParameterEstimate]
+        Per Friction field; χ and γ intervals come from the log10 scale (asymmetric).
+    correlation : ndarray, shape (p, p)
+        Correlation of the free fit parameters, in ``free`` order (log10 for χ, γ;
+        F_s − F_c for the static entry).
+    free : tuple of str
+        Names of the free parameters.
+    weak : tuple of str
+        Parameters the data barely determine (CI wider than ±50 %, a factor 2 on
+        the log scale, or at a bound).
+    velocity, force, residuals : ndarray
+        Data [m/s], [N] and residuals f_data − f_model [N].
+    rms_residual : float
+        RMS residual [N].
+    loss : str
+        Loss function used.
+    n_starts : int
+        Number of starting points tried.
+    """
+
+    friction: Friction
+    estimates: dict[str, ParameterEstimate]
+    correlation: np.ndarray
+    free: tuple[str, ...]
+    weak: tuple[str, ...]
+    velocity: np.ndarray
+    force: np.ndarray
+    residuals: np.ndarray
+    rms_residual: float
+    loss: str
+    n_starts: int
+
+    def force_at(self, v) -> np.ndarray:
+        """Fitted friction force [N] at velocity ``v`` [m/s]."""
+        return _eval(np.asarray(v, dtype=float), _theta_of(self.friction))
+
+
+def _theta_of(fr: Friction) -> np.ndarray:
+    return np.array([fr.coulomb, fr.static - fr.coulomb, fr.viscous, np.log10(fr.stribeck_velocity),
+                     fr.shape, np.log10(fr.smoothness)])
+
+
+def _eval(v: np.ndarray, th: np.ndarray) -> np.ndarray:
+    fc, dfs, sigma, lchi, delta, lgam = th
+    return stribeck_friction(v, fc, fc + dfs, sigma, 10.0**lchi, delta, 10.0**lgam)
+
+
+def _jac_theta(v: np.ndarray, th: np.ndarray) -> np.ndarray:
+    """Analytic Jacobian of Eq. (11) in θ = (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ), shape (K, 6)."""
+    fc, dfs, _, lchi, delta, lgam = th
+    chi, gam = 10.0**lchi, 10.0**lgam
+    sgn = np.tanh(gam * v)
+    ratio = np.abs(v) / chi
+    with np.errstate(divide="ignore"):
+        logr = np.where(ratio > 0, np.log(np.where(ratio > 0, ratio, 1.0)), 0.0)
+    a = ratio**delta
+    e = np.exp(-a)
+    ln10 = np.log(10.0)
+    return np.column_stack([
+        sgn,
+        sgn * e,
+        v,
+        sgn * dfs * e * delta * a * ln10,
+        -sgn * dfs * e * a * logr,
+        (fc + dfs * e) * v * (1.0 - sgn**2) * gam * ln10,
+    ])
+
+
+def _linear_part(v: np.ndarray, f: np.ndarray, lchi: float, delta: float, lgam: float) -> np.ndarray:
+    """(F_c, F_s − F_c, σ) ≥ 0 by linear least squares for fixed χ, δ, γ."""
+    s = np.tanh(10.0**lgam * v)
+    e = np.exp(-np.abs(v / 10.0**lchi) ** delta)
+    X = np.column_stack([s * (1.0 - e), s * e, v])
+    coef, *_ = np.linalg.lstsq(X, f, rcond=None)
+    fc, fs, sigma = np.clip(coef, 0.0, None)
+    return np.array([fc, max(fs - fc, 0.0), sigma])
+
+
+def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_l1",
+                 f_scale: float | None = None, n_starts: int = 24, level: float = 0.95,
+                 seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None) -> StribeckFit:
+    """Fit the Stribeck curve, Eq. (11), to velocity–force points (Fig. 8).
+
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        Steady velocities [m/s], both directions.
+    f : array_like, shape (K,)
+        Friction forces [N] from Eq. (10).
+    fixed : dict, optional
+        Friction fields held fixed, e.g. ``{"shape": 1.0}`` (SI values).
+    loss : str
+        ``least_squares`` loss (``"soft_l1"`` keeps a stray point from dragging the curve).
+    f_scale : float, optional
+        Residual scale [N] of the robust loss; default 1.4826·MAD of a first linear-loss fit.
+    n_starts : int
+        Number of starting points over (log χ, δ, log γ); a grid plus random draws.
+    level : float
+        Confidence level [1].
+    seed : int
+        Seed of the random starts.
+    bounds : dict, optional
+        (low, high) per Friction field in SI units, replacing the defaults below.
+
+    Returns
+    -------
+    StribeckFit
+
+    Raises
+    ------
+    IdentificationError
+        With fewer points than free parameters + 2, or points in one direction only.
+
+    Notes
+    -----
+    Fit vector θ = (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ). Default bounds, with
+    v_min the slowest measured |ẋ|: F_c, F_s − F_c ∈ [0, 1e5] N, σ ∈ [0, 1e7] N·s/m,
+    χ ∈ [v_min/10, 1] m/s, δ ∈ [0.5, 5], γ ∈ [3/v_min, 1e7] s/m. The last three
+    encode what constant-input data can say: a Stribeck decay finished well below the
+    slowest run, or a tanh transition wider than the slowest speed, trade off
+    against F_s without limit (F_s → ∞ with χ → 0 fits as well), so such optima are
+    excluded rather than reported as estimates. Covariance from
+    the Jacobian at the optimum; intervals on θ are mapped to Friction fields
+    (χ, γ: 10^(θ ± q·sd)). With |ẋ| ≥ a few mm/s and γ large, tanh(γẋ) = 1 for all
+    data: γ is then not identifiable and is reported so (``weak``).
+    """
+    v = np.asarray(v, dtype=float)
+    f = np.asarray(f, dtype=float)
+    fixed = dict(fixed or {})
+    unknown = set(fixed) - set(STRIBECK_NAMES)
+    if unknown:
+        raise IdentificationError(f"cannot fix {sorted(unknown)}; Friction fields are {', '.join(STRIBECK_NAMES)}")
+    fixed_th = {}
+    for k, val in fixed.items():
+        i = STRIBECK_NAMES.index(k)
+        fixed_th[i] = np.log10(val) if k in ("stribeck_velocity", "smoothness") else float(val)
+    if "static" in fixed:
+        fixed_th[1] = float(fixed["static"]) - float(fixed.get("coulomb", 0.0))
+    free_idx = [i for i in range(6) if i not in fixed_th]
+    if v.size < len(free_idx) + 2:
+        raise IdentificationError(f"Stribeck fit needs at least {len(free_idx) + 2} points, have {v.size}")
+    if not (np.any(v > 0) and np.any(v < 0)):
+        raise IdentificationError("Stribeck fit needs points in both directions of motion")
+
+    def full(p):
+        th = np.empty(6)
+        th[free_idx] = p
+        for i, val in fixed_th.items():
+            th[i] = val
+        return th
+
+    fscale = max(float(np.max(np.abs(f))), 1.0)
+
+    def resid(p):
+        return (_eval(v, full(p)) - f) / fscale
+
+    def jac(p):
+        return _jac_theta(v, full(p))[:, free_idx] / fscale
+
+    vmin = max(float(np.min(np.abs(v[v != 0]))), 1e-6)
+    lb_all, ub_all = _default_bounds(vmin)
+    for k, (lo, hi) in (bounds or {}).items():
+        if k not in STRIBECK_NAMES:
+            raise IdentificationError(f"no bound for {k!r}; Friction fields are {', '.join(STRIBECK_NAMES)}")
+        i = STRIBECK_NAMES.index(k)
+        tr = np.log10 if i in (3, 5) else float
+        lb_all[i], ub_all[i] = tr(lo), tr(hi)
+    lb, ub = lb_all[free_idx], ub_all[free_idx]
+    for i in free_idx:
+        if not lb_all[i] < ub_all[i]:
+            raise IdentificationError(f"empty bounds for {STRIBECK_NAMES[i]}")
+    rng = np.random.default_rng(seed)
+    lo_s, hi_s = lb_all[3:], ub_all[3:]
+    grid = [(lc, d, lg) for lc in np.linspace(max(np.log10(vmin / 3), lo_s[0]), np.log10(max(np.max(np.abs(v)), vmin)), 4)
+            for d in (0.7, 1.5) for lg in (lo_s[2] + 0.3, lo_s[2] + 2.0)]
+    while len(grid) < n_starts:
+        grid.append(tuple(rng.uniform(lo_s, hi_s)))
+    grid = [tuple(np.clip(g, lo_s + 1e-6, hi_s - 1e-6)) for g in grid]
+    xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[free_idx]
+    results = []
+    for lc, d, lg in grid[:max(n_starts, 1)]:
+        th0 = np.empty(6)
+        th0[3:] = (lc, d, lg)
+        for i, val in fixed_th.items():
+            th0[i] = val
+        th0[:3] = _linear_part(v, f, th0[3], th0[4], th0[5])
+        for i, val in fixed_th.items():
+            th0[i] = val
+        p0 = np.clip(th0[free_idx], lb + 1e-9, ub - 1e-9)
+        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3)
+        x_scale = np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p0), fscale * 0.05), xs)
+        results.append(least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf"))
+    best = min(results, key=lambda r: r.cost)
+    scale_n = f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
+    if loss != "linear":
+        ranked = sorted(results, key=lambda r: r.cost)[:4]
+        robust = [least_squares(resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf")
+                  for r in ranked]
+        best = min(robust, key=lambda r: r.cost)
+    th = full(best.x)
+    r = best.fun * fscale
+    cov = covariance_from_jacobian(best.jac * fscale, r) if best.jac.size else np.zeros((0, 0))
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    q = t_quantile(level, v.size - len(free_idx))
+    est: dict[str, ParameterEstimate] = {}
+    weak = []
+    names_free = []
+    for k, i in enumerate(free_idx):
+        names_free.append(STRIBECK_NAMES[i])
+        at_bound = th[i] <= lb_all[i] + 1e-6 * (1 + abs(lb_all[i])) or th[i] >= ub_all[i] - 1e-6 * (1 + abs(ub_all[i]))
+        if i in (3, 5):
+            lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
+            val = 10.0 ** th[i]
+            std = val * np.log(10.0) * sd[k]
+            is_weak = sd[k] * q > np.log10(2.0) or at_bound
+        elif i == 1:  # static = F_c + ΔF: propagate with the F_c covariance when F_c is free
+            val = th[0] + th[1]
+            var = sd[k] ** 2
+            if 0 in free_idx:
+                j = free_idx.index(0)
+                var += cov[j, j] + 2 * cov[j, k]
+            std = float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else float("inf")
+            lo, hi = val - q * std, val + q * std
+            is_weak = q * std > 0.5 * abs(val)
+        else:
+            val, std = th[i], sd[k]
+            lo, hi = val - q * std, val + q * std
+            is_weak = q * std > 0.5 * abs(val) or (at_bound and i != 0)
+        name = STRIBECK_NAMES[i]
+        est[name] = ParameterEstimate(float(val), float(std), (float(lo), float(hi)), _UNITS[name], level)
+        if is_weak:
+            weak.append(name)
+    friction = Friction(coulomb=float(th[0]), static=float(th[0] + th[1]), viscous=float(th[2]),
+                        stribeck_velocity=float(10.0 ** th[3]), shape=float(th[4]),
+                        smoothness=float(10.0 ** th[5]))
+    return StribeckFit(friction, est, correlation(cov), tuple(names_free), tuple(weak), v, f,
+                       f - _eval(v, th), float(np.sqrt(np.mean(r**2))), loss, len(results))
+
+
+class StribeckIdentifier:
+    """Identify the Stribeck friction curve from constant-input runs (Sec. VI-C, Eqs. (10)–(11)).
+
+    Parameters
+    ----------
+    base_params : SystemParams, optional
+        Areas A_A, A_B [m²] and stroke [m]; default the ``paper`` preset.
+    window : float
+        Moving window [s] of the steady-state detection.
+    band : float
+        Relative velocity band of the steady part [1].
+    abs_band : float
+        Absolute velocity band [m/s] (for slow runs).
+    force_band, force_abs_band : float
+        Relative [1] and absolute [N] band of the net force.
+    stop_margin : float
+        Distance [m] from an end stop treated as contact.
+    min_duration : float
+        Shortest steady stretch [s] a run must have.
+    fixed : dict, optional
+        Friction fields held fixed in the fit.
+    loss : str
+        Robust loss of the fit.
+    n_starts : int
+        Starting points of the fit.
+    level : float
+        Confidence level [1].
+
+    Attributes
+    ----------
+    points_ : pandas.DataFrame
+        One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std``, ``f`` [N], ``f_std``,
+        ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s].
+    fit_ : StribeckFit
+    friction_ : Friction
+    skipped_ : list[SkippedRun]
+    """
+
+    def __init__(self, base_params: SystemParams | None = None, window: float = 0.1, band: float = 0.15,
+                 abs_band: float = 5e-4, force_band: float = 0.25, force_abs_band: float = 20.0,
+                 stop_margin: float = 2e-3, min_duration: float = 0.2,
+                 fixed: dict[str, float] | None = None, loss: str = "soft_l1", n_starts: int = 24,
+                 level: float = 0.95) -> None:
+        self.base_params = base_params
+        self.window = window
+        self.band = band
+        self.abs_band = abs_band
+        self.force_band = force_band
+        self.force_abs_band = force_abs_band
+        self.stop_margin = stop_margin
+        self.min_duration = min_duration
+        self.fixed = fixed
+        self.loss = loss
+        self.n_starts = n_starts
+        self.level = level
+
+    def fit(self, data) -> StribeckIdentifier:
+        """Reduce each run to a friction point and fit Eq. (11).
+
+        Returns
+        -------
+        StribeckIdentifier
+            ``self`` with ``points_``, ``fit_``, ``friction_`` and ``skipped_`` set.
+
+        Raises
+        ------
+        IdentificationError
+            If too few runs are usable.
+        """
+        import pandas as pd
+
+        from ..params import get_preset
+
+        base = self.base_params or get_preset("paper")
+        cyl = base.cylinder
+        runs = as_runs(data, "friction")
+        skipped: list[SkippedRun] = []
+        rows = []
+        kw = dict(stop_margin=self.stop_margin, window=self.window, band=self.band, abs_band=self.abs_band,
+                  force_band=self.force_band, force_abs_band=self.force_abs_band,
+                  min_duration=self.min_duration)
+        for run in runs:
+            ch = channels_of(run, ("t", "x", "p_a", "p_b", "f_l"), skipped)
+            if ch is None:
+                continue
+            try:
+                pt = friction_point(ch["t"], ch["x"], ch["p_a"], ch["p_b"], ch["f_l"], cyl.area_a, cyl.area_b,
+                                    cyl.stroke, **kw)
+            except IdentificationError as exc:
+                skip(skipped, run.name, str(exc))
+                continue
+            lv = command_level(run)
+            rows.append({"run": run.name, "u": float("nan") if lv is None else lv, "v": pt.velocity,
+                         "v_std": pt.velocity_std, "f": pt.force, "f_std": pt.force_std, "p_a": pt.p_a,
+                         "p_b": pt.p_b, "f_l": pt.f_l, "t0": pt.window[0], "t1": pt.window[1],
+                         "rms_position_residual": pt.rms_position_residual})
+        n_free = 6 - len(self.fixed or {})
+        require_usable(rows, skipped, "Stribeck identification", minimum=n_free + 2)
+        pts = pd.DataFrame(rows).sort_values("v", ignore_index=True)
+        self.points_ = pts
+        self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), self.fixed, self.loss,
+                                 None, self.n_starts, self.level)
+        self.friction_ = self.fit_.friction
+        self.skipped_ = skipped
+        return self
+
+    def uncertainty(self) -> dict:
+        """Per-field estimates and the weakly identified names (``[uncertainty]`` table)."""
+        out = {k: e.to_dict() for k, e in self.fit_.estimates.items()}
+        out["weakly_identified"] = list(self.fit_.weak)
+        out["rms_residual_N"] = self.fit_.rms_residual
+        return out

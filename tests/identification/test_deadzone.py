@@ -1,0 +1,56 @@
+"""Dead band, creep slope and gain (Sec. VI-B, Fig. 6, Table IV)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import constant_input_runs, hinge_velocity
+
+from hydropwa.identification import DeadZoneIdentifier, dead_zone_velocity, fit_dead_zone, velocity_from_position
+
+LEVELS = np.concatenate([np.arange(0.01, 0.2001, 0.005), -np.arange(0.01, 0.2001, 0.005)])
+
+
+@pytest.mark.parametrize("beta,gain,creep_kg,seed", [(0.10, 0.5, 0.04, 1), (0.08, 0.3, 0.02, 2),
+                                                      (0.123, 0.8, 0.06, 3)])
+def test_beta_within_half_a_percent_from_noisy_points(beta, gain, creep_kg, seed):
+    """2 % multiplicative + 0.1 mm/s additive velocity noise; β within 0.005 of full opening."""
+    rng = np.random.default_rng(seed)
+    v = hinge_velocity(LEVELS, beta, gain, creep_kg * gain)
+    v = v * (1 + 0.02 * rng.standard_normal(v.size)) + 1e-4 * rng.standard_normal(v.size)
+    fit = fit_dead_zone(LEVELS, v)
+    assert abs(fit.beta.value - beta) < 0.005
+    assert fit.gain_pos.value == pytest.approx(gain, rel=0.05)
+    assert fit.creep_slope.value == pytest.approx(creep_kg, abs=0.01)
+    assert fit.beta.ci[0] < fit.beta.value < fit.beta.ci[1]
+    dz = fit.dead_zone()
+    assert dz.beta == pytest.approx(fit.beta.value)
+
+
+def test_asymmetric_band_and_continuous_variant():
+    u = LEVELS
+    v = dead_zone_velocity(u, 0.5, 0.45, 0.11, 0.09, 0.02, continuous=True)
+    fit = fit_dead_zone(u, v, continuous=True)
+    assert fit.beta_pos.value == pytest.approx(0.11, abs=1e-3)
+    assert fit.beta_neg.value == pytest.approx(0.09, abs=1e-3)
+    assert fit.beta.value == pytest.approx(0.10, abs=1e-3)
+    assert fit.gain_neg.value == pytest.approx(0.45, rel=1e-3)
+
+
+def test_velocity_from_position_drops_the_end_stop():
+    t = np.arange(0.0, 2.0, 1 / 2000)
+    x = np.clip(0.15 * t, 0.0, 0.2)  # reaches the stop at 1.33 s
+    est = velocity_from_position(t, x, direction=1.0, stroke=0.2, stop_margin=1e-3)
+    assert est.hit_stop
+    assert est.velocity == pytest.approx(0.15, rel=1e-6)
+    assert est.window[1] < 0.2 / 0.15
+
+
+def test_identifier_on_runs():
+    beta, gain = 0.1, 0.5
+    runs = constant_input_runs(LEVELS, lambda u: hinge_velocity(u, beta, gain, 0.04 * gain), duration=1.0)
+    ident = DeadZoneIdentifier().fit(runs)
+    assert ident.skipped_ == []
+    assert abs(ident.dead_zone_.beta - beta) < 0.005
+    assert ident.dead_zone_.creep_slope == pytest.approx(0.04, abs=0.005)
+    assert len(ident.points_) == LEVELS.size
