@@ -27,6 +27,13 @@ from ._frf import (
     second_order_response,
     stepped_sine_point,
 )
+from ._inverse_dynamics import (
+    EMPS_PUBLISHED,
+    EmpsResult,
+    InverseDynamicsResult,
+    identify_emps,
+    identify_inverse_dynamics,
+)
 from ._friction import (
     FrictionPoint,
     StribeckFit,
@@ -38,6 +45,11 @@ from ._friction import (
 
 __all__ = [
     "DeadZoneFit",
+    "EMPS_PUBLISHED",
+    "EmpsResult",
+    "InverseDynamicsResult",
+    "identify_emps",
+    "identify_inverse_dynamics",
     "DeadZoneIdentifier",
     "FrequencyResponse",
     "FrictionPoint",
