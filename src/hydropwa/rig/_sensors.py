@@ -177,7 +177,7 @@ def paper_sensors() -> dict[str, SensorModel]:
         "p_b": pressure("p_b"),
         "p_s": pressure("p_s"),
         "x": SensorModel(
-            "Celesco CLP-250 linear potentiometer", "x", "m", (0.0, 0.25),
+            "Celesco CLP-250 linear potentiometer", "x", "m", (-0.025, 0.225),
             adc_span=(-10.0, 10.0), noise_std=5e-6,
         ),
         "f_l": SensorModel(
