@@ -33,6 +33,7 @@ __all__ = [
     "cqp_cells",
     "friction_cells",
     "friction_function",
+    "friction_slope",
 ]
 
 #: Normalised working points p̂ = P̂_L/P_S of the paper's five C_q and C_qp cells,
@@ -170,6 +171,24 @@ def friction_function(friction: Friction):
     return f
 
 
+def friction_slope(friction: Friction):
+    """df/dẋ [N·s/m] of Eq. (11), analytic; at ẋ = 0 the limit γF_s + σ (for δ > 0)."""
+    fr = friction
+
+    def df(v):
+        v = np.asarray(v, dtype=float)
+        a = np.abs(v / fr.stribeck_velocity)
+        e = np.exp(-(a**fr.shape))
+        sv = fr.coulomb + (fr.static - fr.coulomb) * e
+        th = np.tanh(fr.smoothness * v)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ds = -(fr.static - fr.coulomb) * e * fr.shape * a ** (fr.shape - 1.0) * np.sign(v) / fr.stribeck_velocity
+            cross = np.where(v == 0.0, 0.0, th * ds)
+        return fr.smoothness * (1.0 - th**2) * sv + cross + fr.viscous
+
+    return df
+
+
 def _paper_friction_breakpoints() -> np.ndarray:
     from ..params import table_v_pwa
 
@@ -214,7 +233,7 @@ def friction_cells(
     if mode == "tangent":
         if working_points is None:
             raise PwaError("tangent friction cells need working_points [m/s]")
-        return tangent_pwa(func, working_points, interval)
+        return tangent_pwa(func, working_points, interval, friction_slope(friction))
     if mode in ("optimized", "optimized-rms"):
         return _optimized_friction(friction, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax")
     if mode == "given":

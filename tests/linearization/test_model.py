@@ -1,0 +1,249 @@
+"""PwaModel: state-space form against the reduced model, packing, export, errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from hydropwa._errors import PwaError
+from hydropwa.linearization import (
+    PAPER_WORKING_POINTS,
+    PwaModel,
+    linearize,
+    load_pwa,
+    pwa_rhs,
+    reduced_rhs,
+    save_pwa,
+)
+from hydropwa.params import get_preset
+
+FRICTION_WP = [-0.1, -0.03, -0.005, 0.0, 0.005, 0.03, 0.1]
+
+
+@pytest.fixture(scope="module")
+def params():
+    # a tiny laminar region so that the reduced model is the turbulent law at every working point
+    return get_preset("paper").replace(**{"flow.transition_pressure": 10.0})
+
+
+@pytest.fixture(scope="module")
+def tangent_model(params):
+    return linearize(params, supply_pressure=93.8e5, breakpoints="tangent",
+                     working_points={"friction": FRICTION_WP})
+
+
+def _fd_jacobian(fun, y, u, h):
+    f0 = fun(y, u)
+    A = np.zeros((3, 3))
+    for j in range(3):
+        dy = np.zeros(3)
+        dy[j] = h[j]
+        A[:, j] = (fun(y + dy, u) - fun(y - dy, u)) / (2 * h[j])
+    B = ((fun(y, u + 1e-7) - fun(y, u - 1e-7)) / 2e-7)[:, None]
+    return A, B, f0 - A @ y - B[:, 0] * u
+
+
+@pytest.mark.parametrize("g", [0, 1, 2, 3, 4])
+def test_cell_dynamics_equal_fd_linearization_of_reduced_model(tangent_model, params, g):
+    """Consistent form: A, B, f of each cell = FD linearization of Eqs. (12), (14), (15)."""
+    m = tangent_model
+    ps = m.supply_pressure
+    for s in (1, -1):
+        ulo, uhi = m._input_bounds(g, s)
+        z = m.dead_zone(np.array(0.5 * (ulo + uhi)))
+        if np.sign(z) not in (s, 0):
+            continue
+        for o in range(m.cq.n_cells):
+            for w in range(m.friction.n_cells):
+                dyn = m.state_space(cells=(g, s, o, w))
+                pt = dyn.point
+                y = np.array([pt["p_l"], pt["v"], pt["x"]])
+
+                def fun(yy, uu):
+                    return reduced_rhs(0.0, yy, uu, ps, None, params, end_stops=False)
+
+                # tiny step at v = 0: |v|^δ (δ < 1) in Eq. (11) spoils central differences there
+                h = np.array([1e-4 * ps * (1 - PAPER_WORKING_POINTS[o]), 1e-10 if pt["v"] == 0 else 1e-7, 1e-6])
+                A, B, f = _fd_jacobian(fun, y, pt["u"], h)
+                scale = np.abs(np.hstack((A, B))).max(axis=1) + 1e-30
+                np.testing.assert_allclose(dyn.A / scale[:, None], A / scale[:, None], atol=2e-5)
+                np.testing.assert_allclose(dyn.B[:, 0] / scale, B[:, 0] / scale, atol=2e-5)
+                rhs = fun(y, pt["u"])
+                np.testing.assert_allclose(dyn.A @ y + dyn.B[:, 0] * pt["u"] + dyn.f, rhs,
+                                           rtol=1e-9, atol=1e-6 * np.abs(rhs).max())
+
+
+@pytest.mark.parametrize("form", ["consistent", "paper"])
+def test_matrices_of_eq_23_reproduce_rhs(params, form):
+    m = linearize(params, form=form)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        y = np.array([rng.uniform(-80e5, 80e5), rng.uniform(-0.15, 0.15), 0.1])
+        u = rng.uniform(-1.3, 1.3)
+        A, b, f = m.matrices(y[0], y[1], u)
+        rhs = pwa_rhs(0.0, y, u, None, None, m)
+        np.testing.assert_allclose(A @ y[:2] + b * u + f, rhs[:2], rtol=1e-9, atol=1e-6)
+
+
+def test_printed_eq_25_27_need_minus_sign_on_cqp(params):
+    """(25)–(27) as printed, with k_n, d_n → −s·k_n, −s·d_n, equal the derived matrices."""
+    m = linearize(params, form="paper")
+    p_l, v, u = 30e5, 0.02, 0.6
+    A, b, f = m.matrices(p_l, v, u)
+    c = m._coefficients(p_l, v, u, None)
+    kn, dn = -c["s"] * c["k_n"], -c["s"] * c["d_n"]
+    c4 = c["c4"]
+    A11 = c4 * c["d_g"] * (c["k_o"] + kn * p_l + dn - c["cl"] / c["d_g"])
+    b1 = c4 * c["k_g"] * p_l * (c["k_o"] + c["d_o"] / p_l + kn * p_l + dn)
+    assert A[0, 0] == pytest.approx(A11, rel=1e-12)
+    assert b[0] == pytest.approx(b1, rel=1e-12)
+    assert f[0] == pytest.approx(c4 * c["d_o"] * c["d_g"], rel=1e-12)
+
+
+def test_paper_form_double_counts_pressure(params):
+    ps = 100e5
+    cons = linearize(params, supply_pressure=ps, breakpoints="optimized")
+    pap = linearize(params, supply_pressure=ps, form="paper", breakpoints="optimized")
+    exact = params.flow.K * np.sqrt(0.25 * ps)
+    assert cons.load_flow(0.5 * ps, 1.2) == pytest.approx(exact, rel=0.03)
+    assert pap.load_flow(0.5 * ps, 1.2) / exact == pytest.approx(0.5, abs=0.03)
+
+
+def test_scheduling_rescales_cells_exactly(params):
+    m = linearize(params, scheduled=True)
+    for ps in (60e5, 95e5, 140e5):
+        cq = m.cells_at(ps)["cq"]
+        p_hat = ps * np.array(PAPER_WORKING_POINTS)
+        exact = params.flow.K * np.sqrt(0.5 * (ps - p_hat))
+        np.testing.assert_allclose(cq(p_hat), exact, rtol=1e-12)
+        y = np.array([0.3 * ps, 0.01, 0.1])
+        q = m.load_flow(y[0], 0.8, ps)
+        assert q == pytest.approx(0.7 * params.flow.K * np.sqrt(0.5 * (ps - y[0])), rel=1e-12)
+    # fixed P_S ignores the input
+    f = linearize(params, supply_pressure=90e5)
+    y = np.array([10e5, 0.0, 0.1])
+    np.testing.assert_array_equal(pwa_rhs(0, y, 0.5, 140e5, None, f), pwa_rhs(0, y, 0.5, None, None, f))
+
+
+def test_pack_layout(params):
+    m = linearize(params, form="paper", scheduled=True, supply_pressure=85e5)
+    p = m.pack()
+    assert p[40] == 1.0 and p[41] == 85e5 and p[42] == 1.0
+    ng, no, nn, nw = (int(v) for v in p[43:47])
+    assert (ng, no, nn, nw) == (5, 5, 5, 7)
+    assert p.size == 50 + sum(3 * n - 1 for n in (ng, no, nn, nw))
+    s = 50
+    np.testing.assert_array_equal(p[s : s + ng - 1], m.dead_zone.breakpoints)
+    np.testing.assert_array_equal(p[s + ng - 1 : s + 2 * ng - 1], m.dead_zone.slopes)
+    s = 50 + 3 * ng - 1
+    np.testing.assert_array_equal(p[s + no - 1 : s + 2 * no - 1], m.cq.pwa.slopes)
+
+
+@pytest.mark.parametrize("form", ["consistent", "paper"])
+def test_kernel_matches_reference_rhs(params, form):
+    kernel = pytest.importorskip("hydropwa.simulation._kernel")
+    if not hasattr(kernel, "rhs_pwa"):
+        pytest.skip("kernel has no PWA right-hand side yet")
+    m = linearize(params, form=form, scheduled=True)
+    p = m.pack()
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        y = np.array([rng.uniform(-90e5, 90e5), rng.uniform(-0.15, 0.15), rng.uniform(-0.01, 0.21)])
+        u, ps, fl = rng.uniform(-1.3, 1.3), rng.uniform(70e5, 120e5), rng.uniform(-500, 500)
+        dy = np.zeros(3)
+        kernel.rhs_pwa(y, u, ps, fl, p, dy)
+        np.testing.assert_allclose(dy, pwa_rhs(0.0, y, u, ps, fl, m), rtol=1e-10, atol=1e-9)
+
+
+def test_json_round_trip_identical(params, tmp_path):
+    for m in (linearize(params), linearize(params, form="paper", scheduled=True, breakpoints="optimized")):
+        back = PwaModel.from_json(m.to_json())
+        assert back == m
+        np.testing.assert_array_equal(back.pack(), m.pack())
+        path = save_pwa(m, tmp_path / "pwa.json")
+        assert load_pwa(path) == m
+        doc = json.loads(path.read_text())
+        assert doc["time"] == "continuous" and len(doc["cells"]) > 0
+        cell = doc["cells"][0]
+        H, h = np.array(cell["H"]), np.array(cell["h"])
+        wp = cell["working_point"]
+        assert np.all(H @ np.array([wp["p_l"], wp["v"], wp["x"], wp["u"]]) <= h + 1e-9)
+
+
+@pytest.mark.parametrize(
+    "mutate, match",
+    [
+        (lambda d: d.update(schema="other/1"), "schema"),
+        (lambda d: d.pop("params"), "params"),
+        (lambda d: d["cell_sets"]["cq"].update(breakpoints=[0.9, 0.1, 0.2, 0.3]), "increasing"),
+        (lambda d: d.update(form="magic"), "form"),
+    ],
+)
+def test_json_schema_mismatch_raises(params, mutate, match):
+    d = linearize(params).to_dict()
+    mutate(d)
+    with pytest.raises(PwaError, match=match):
+        PwaModel.from_json(json.dumps(d))
+
+
+def test_load_pwa_not_json(tmp_path):
+    p = tmp_path / "x.json"
+    p.write_text("{nope")
+    with pytest.raises(PwaError, match="not valid JSON"):
+        load_pwa(p)
+
+
+def test_zoh_matches_expm_of_augmented_matrix(params):
+    m = linearize(params)
+    dyn = m.state_space({"p_l": 20e5, "v": 0.03, "u": 0.4})
+    dt = 5e-4
+    d = dyn.discretize(dt)
+    M = np.zeros((5, 5))
+    M[:3, :3], M[:3, 3], M[:3, 4] = dyn.A, dyn.B[:, 0], dyn.f
+    E = expm(M * dt)
+    np.testing.assert_allclose(d.A, E[:3, :3], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(d.B[:, 0], E[:3, 3], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(d.f, E[:3, 4], rtol=1e-9, atol=1e-12)
+    sys, f = d.to_statespace()
+    assert sys.dt == dt and np.allclose(f, d.f)
+
+
+def test_discrete_export(params, tmp_path):
+    m = linearize(params)
+    path = save_pwa(m, tmp_path / "d.json", sample_time=1e-3)
+    doc = json.loads(path.read_text())
+    assert doc["time"] == "discrete" and doc["sample_time"] == 1e-3
+    assert load_pwa(path) == m
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"supply_pressure": 50e5, "load_pressure_range": (-80e5, 80e5)}, "below the load-pressure range"),
+        ({"supply_pressure": -1.0}, "supply pressure"),
+        ({"cells": {"cq": 0}}, "positive integer"),
+        ({"cells": {"valve": 3}}, "unknown cell set"),
+        ({"breakpoints": {"cq": [0.5, 0.2, 0.7, 0.9]}}, "strictly increasing"),
+        ({"breakpoints": {"cq": [0.2, 0.5, 0.7, 1.5]}}, "inside the fit interval"),
+        ({"breakpoints": "best"}, "must be one of"),
+        ({"form": "exact"}, "form"),
+        ({"cells": {"cq": 4}}, "use breakpoints='optimized'"),
+    ],
+)
+def test_bad_inputs(params, kwargs, match):
+    with pytest.raises(PwaError, match=match):
+        linearize(params, **kwargs)
+
+
+def test_load_force_above_supply_raises(params):
+    heavy = params.replace(**{"load.force": 2e4})
+    with pytest.raises(PwaError, match="load pressure"):
+        linearize(heavy, supply_pressure=50e5)
+
+
+def test_control_statespace(params):
+    sys, f = linearize(params).state_space({"p_l": 0.0, "v": 0.0, "u": 0.5}).to_statespace()
+    assert sys.nstates == 3 and sys.ninputs == 1 and f.shape == (3,)
