@@ -111,7 +111,14 @@ class ChannelMap:
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any], origin: str = "channel map") -> ChannelMap:
         """Build a map from the parsed TOML document (see the module docstring)."""
-        head = dict(doc.get("map", {}))
+        if not isinstance(doc, Mapping):
+            raise DataError(
+                f"{origin}: expected a table with [channels.<name>] entries, got "
+                f"{type(doc).__name__}; hint: see the channel-map format in the docs"
+            )
+        head = doc.get("map", {})
+        if not isinstance(head, Mapping):
+            raise DataError(f"{origin}: [map] must be a table, got {type(head).__name__}")
         chans = doc.get("channels")
         if not isinstance(chans, Mapping) or not chans:
             raise DataError(
@@ -122,33 +129,60 @@ class ChannelMap:
         for ch, body in chans.items():
             if isinstance(body, str):
                 body = {"source": body}
-            unknown = set(body) - _SPEC_KEYS
+            if not isinstance(body, Mapping):
+                raise DataError(
+                    f"{origin}, channel {ch!r}: expected a table or a source name, got "
+                    f"{type(body).__name__}; hint: write [channels.{ch}] with source = \"...\""
+                )
+            unknown = sorted(map(str, set(body) - _SPEC_KEYS))
             if unknown or "source" not in body:
                 raise DataError(
-                    f"{origin}, channel {ch!r}: keys {sorted(unknown) or []} unknown or 'source' "
+                    f"{origin}, channel {ch!r}: keys {unknown} unknown or 'source' "
                     f"missing; hint: allowed keys are {sorted(_SPEC_KEYS)}"
                 )
             column = body.get("column")
-            if column is not None and (not isinstance(column, int) or column < 1):
+            if column is not None and (
+                not isinstance(column, int) or isinstance(column, bool) or column < 1
+            ):
                 raise DataError(
                     f"{origin}, channel {ch!r}: column = {column!r}; "
                     "hint: columns are 1-based integers"
                 )
+            unit = body.get("unit")
+            if unit is not None and not isinstance(unit, str):
+                raise DataError(
+                    f'{origin}, channel {ch!r}: unit = {unit!r}; hint: give the unit as a string, e.g. "bar"'
+                )
+            for what in ("gain", "offset"):
+                _check_factor(body.get(what, 0.0), f"{origin}, channel {ch!r}", what)
             specs[ch] = ChannelSpec(
-                channel=ch,
+                channel=str(ch),
                 source=str(body["source"]),
                 column=column,
-                unit=body.get("unit"),
+                unit=unit,
                 gain=body.get("gain", 1.0),
                 offset=body.get("offset", 0.0),
             )
         fs = head.get("fs")
+        if fs is not None:
+            if isinstance(fs, bool) or not isinstance(fs, int | float) or not (
+                np.isfinite(fs) and fs > 0
+            ):
+                raise DataError(f"{origin}: [map] fs = {fs!r}; hint: give the sampling rate in Hz, > 0")
+        keep = head.get("keep_unmapped", False)
+        if not isinstance(keep, bool):
+            raise DataError(
+                f"{origin}: [map] keep_unmapped = {keep!r}; hint: write true or false (no quotes)"
+            )
+        meta = doc.get("meta", {})
+        if not isinstance(meta, Mapping):
+            raise DataError(f"{origin}: [meta] must be a table, got {type(meta).__name__}")
         return cls(
             channels=specs,
-            meta=dict(doc.get("meta", {})),
+            meta=dict(meta),
             name=str(head.get("name", "")),
             fs=None if fs is None else float(fs),
-            keep_unmapped=bool(head.get("keep_unmapped", False)),
+            keep_unmapped=keep,
         )
 
     @classmethod
@@ -309,11 +343,26 @@ def _column(node, column: int | None, where: str) -> np.ndarray:
     )
 
 
+def _check_factor(value, where: str, what: str) -> None:
+    """A gain or offset is a finite number or an ``"@variable"`` reference."""
+    if isinstance(value, str) and value.startswith("@"):
+        return
+    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+        raise DataError(f"{where}: {what} = {value!r:.60}; hint: give a finite number or '@variable'")
+
+
 def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -> float:
+    if not isinstance(value, str):
+        _check_factor(value, where, what)
     if isinstance(value, str):
         if not value.startswith("@"):
             raise DataError(f"{where}: {what} = {value!r}; hint: give a number or '@variable'")
-        arr = np.asarray(_lookup(raw, value[1:], f"{where}, {what} {value!r}"), dtype=float)
+        try:
+            arr = np.asarray(_lookup(raw, value[1:], f"{where}, {what} {value!r}"), dtype=float)
+        except (TypeError, ValueError):
+            raise DataError(
+                f"{where}: {what} {value!r} is not numeric; hint: reference a 1x1 numeric variable"
+            ) from None
         if arr.size != 1:
             raise DataError(
                 f"{where}: {what} {value!r} has {arr.size} values, expected one scalar; "

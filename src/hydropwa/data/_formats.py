@@ -107,24 +107,36 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
 
     header: dict[str, Any] = {}
     n_comment = 0
-    with open(path, encoding="utf-8") as fh:
-        for line in fh:
-            if not line.startswith("#"):
-                break
-            n_comment += 1
-            if line.startswith(_META_PREFIX):
-                try:
-                    header = json.loads(line[len(_META_PREFIX) :])
-                except json.JSONDecodeError as exc:
-                    raise DataError(
-                        f"{str(path)!r}, line {n_comment}: the '# hydropwa:' metadata "
-                        f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
-                    ) from exc
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise DataError(
+            f"{str(path)!r}: byte {exc.start} is not UTF-8 text; hint: save the CSV as UTF-8 "
+            "(or check that the file is really a CSV table)"
+        ) from None
+    for line in io.StringIO(text, newline=None):  # universal newlines, as open() reads
+        if not line.startswith("#"):
+            break
+        n_comment += 1
+        if line.startswith(_META_PREFIX):
+            try:
+                header = json.loads(line[len(_META_PREFIX) :])
+            except json.JSONDecodeError as exc:
+                raise DataError(
+                    f"{str(path)!r}, line {n_comment}: the '# hydropwa:' metadata "
+                    f"is not valid JSON ({exc.msg}); hint: fix or delete that line"
+                ) from exc
+            header = _check_header(header, path)
     try:
         df = pd.read_csv(
-            path, skiprows=n_comment, skipinitialspace=True, dtype=str, keep_default_na=False
+            path,
+            encoding="utf-8",
+            skiprows=n_comment,
+            skipinitialspace=True,
+            dtype=str,
+            keep_default_na=False,
         )
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
         raise DataError(
             f"{str(path)!r}: not a readable CSV table ({exc}); "
             "hint: one header line 'name [unit],...' then one row per sample"
@@ -178,19 +190,27 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
 
     try:
         table = pq.read_table(path)
-    except (pa.ArrowInvalid, OSError) as exc:
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        # Corrupted files surface as any ArrowException subclass (ArrowInvalid,
+        # ArrowNotImplementedError, ArrowTypeError, ...) or as OSError.
         raise DataError(
             f"{str(path)!r}: not a readable Parquet file ({exc}); "
             "hint: check that the file is complete"
         ) from exc
     meta = table.schema.metadata or {}
-    header = json.loads(meta[b"hydropwa"]) if b"hydropwa" in meta else {}
+    header = _parse_header(meta[b"hydropwa"], path) if b"hydropwa" in meta else {}
     raw, units = {}, {}
     for field, col in zip(table.schema, table.columns, strict=True):
         ch, unit = parse_column_label(field.name)
         fmeta = field.metadata or {}
         if b"unit" in fmeta:
-            unit = fmeta[b"unit"].decode()
+            try:
+                unit = fmeta[b"unit"].decode("utf-8")
+            except UnicodeDecodeError:
+                raise DataError(
+                    f"{str(path)!r}, channel {ch!r}: the unit metadata is not UTF-8 text; "
+                    "hint: re-write the file with a readable unit"
+                ) from None
         try:
             raw[ch] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
         except (TypeError, ValueError, pa.ArrowInvalid) as exc:
@@ -200,8 +220,58 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
             ) from exc
         if unit is not None:
             units[ch] = unit
-    units = {**units, **header.get("units", {})}
+    units = {**units, **(header.get("units") or {})}
     return raw, units, header
+
+
+_HEADER_TYPES: dict[str, tuple[type, ...]] = {
+    "format_version": (int, float, str, type(None)),
+    "name": (str, int, float, type(None)),
+    "fs": (int, float, type(None)),
+    "meta": (dict, type(None)),
+    "units": (dict, type(None)),
+    "channels": (list, type(None)),
+}
+
+
+def _parse_header(text, path: Path) -> dict[str, Any]:
+    """Parse and check the ``hydropwa`` metadata JSON (a dict of known field types)."""
+    try:
+        header = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(
+            f"{str(path)!r}: the 'hydropwa' metadata is not valid JSON ({exc}); "
+            "hint: fix or remove the metadata"
+        ) from None
+    return _check_header(header, path)
+
+
+def _check_header(header: Any, path: Path) -> dict[str, Any]:
+    """Reject metadata of the wrong shape with a DataError instead of failing later."""
+    if not isinstance(header, dict):
+        raise DataError(
+            f"{str(path)!r}: the 'hydropwa' metadata is a JSON {type(header).__name__}, "
+            "expected an object; hint: fix or remove the metadata"
+        )
+    for key, types in _HEADER_TYPES.items():
+        value = header.get(key)
+        if not isinstance(value, types) or isinstance(value, bool):
+            raise DataError(
+                f"{str(path)!r}: metadata field {key!r} = {value!r:.60} has the wrong type "
+                f"({type(value).__name__}); hint: fix or remove the field"
+            )
+    for key in ("units",):
+        if not all(isinstance(v, str) for v in (header.get(key) or {}).values()):
+            raise DataError(
+                f"{str(path)!r}: metadata 'units' must map channel names to unit strings; "
+                "hint: fix or remove the field"
+            )
+    if not all(isinstance(v, str) for v in header.get("channels") or []):
+        raise DataError(
+            f"{str(path)!r}: metadata 'channels' must be a list of names; "
+            "hint: fix or remove the field"
+        )
+    return header
 
 
 # ---------------------------------------------------------------------- MAT
@@ -233,9 +303,12 @@ def _load_mat(path: Path) -> dict[str, Any]:
             f"{str(path)!r}: MATLAB v7.3 (HDF5) files are not supported; "
             "hint: re-save with save(..., '-v7') in MATLAB"
         ) from exc
-    except (ValueError, TypeError, OSError) as exc:
+    except Exception as exc:
+        # scipy's MAT parser reports corrupted bytes as MatReadError, zlib.error,
+        # struct.error, IndexError, ValueError, ... : all mean "not a readable file".
         raise DataError(
-            f"{str(path)!r}: not a readable MAT file ({exc}); hint: check that the file is complete"
+            f"{str(path)!r}: not a readable MAT file ({type(exc).__name__}: {exc}); "
+            "hint: check that the file is complete"
         ) from exc
 
 
@@ -245,9 +318,9 @@ def _read_mat(path: Path) -> tuple[dict, dict, dict]:
     text = raw.pop("hydropwa", None)
     if text is None:
         return raw, {}, {}
-    header = json.loads(str(text))
-    chans = {k: raw[k] for k in header.get("channels", []) if k in raw}
-    return chans, dict(header.get("units", {})), header
+    header = _parse_header(str(text), path)
+    chans = {k: raw[k] for k in header.get("channels") or [] if k in raw}
+    return chans, dict(header.get("units") or {}), header
 
 
 _READERS = {"csv": _read_csv, "parquet": _read_parquet, "mat": _read_mat}

@@ -153,7 +153,13 @@ class Run:
     @staticmethod
     def _nominal_fs(name: str, t: np.ndarray, fs: float | None) -> float:
         if fs is not None:
-            fs = float(fs)
+            try:
+                fs = float(fs)
+            except (TypeError, ValueError):
+                raise DataError(
+                    f"run {name!r}: sampling rate fs = {fs!r:.60} is not a number; "
+                    "hint: give fs > 0 in Hz"
+                ) from None
             if not np.isfinite(fs) or fs <= 0:
                 raise DataError(
                     f"run {name!r}: sampling rate fs = {fs} Hz; hint: give fs > 0 in Hz"
