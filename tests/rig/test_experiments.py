@@ -26,7 +26,9 @@ def _one(rig, exp, name=None):
 def test_supply_sags_with_flow(rig):
     """Sine at 60 %: P_S drops below the set value by about droop·Q/Q_max (Fig. 9)."""
     sup = rig.supply
-    res = simulate(FullOrderModel(rig.params), Sine(amplitude=0.6, frequency=2.0), duration=2.0, x0=0.02)
+    res = simulate(
+        FullOrderModel(rig.params), Sine(amplitude=0.6, frequency=2.0), duration=2.0, x0=0.02
+    )
     c = res.channels
     v = c["v"]
     q = np.where(v > 0, rig.params.cylinder.area_a * v, -rig.params.cylinder.area_b * v)

@@ -13,7 +13,11 @@ from hydropwa.rig import TRUE_PARAMS, run_campaign, run_experiment
 
 
 def _files(root):
-    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+    return {
+        p.relative_to(root).as_posix(): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +41,9 @@ def test_campaign_layout_and_metadata(small_out, rig, small_campaign):
             assert run.kind == name and "signal" in run.meta
 
 
-def test_same_seed_gives_identical_files_and_jobs_do_not_matter(tmp_path, small_out, rig, small_campaign):
+def test_same_seed_gives_identical_files_and_jobs_do_not_matter(
+    tmp_path, small_out, rig, small_campaign
+):
     run_campaign(rig, small_campaign, tmp_path / "b", jobs=2)
     assert _files(tmp_path / "b") == _files(small_out)
 
@@ -79,7 +85,16 @@ def test_other_settings_are_not_overwritten_without_force(tmp_path, rig, small_c
 
 def test_cli_runs_a_small_campaign(tmp_path, small_campaign_file, capsys):
     out = tmp_path / "cli"
-    args = ["rig", "run", "all", "--campaign", str(small_campaign_file), "--out", str(out), "--quiet"]
+    args = [
+        "rig",
+        "run",
+        "all",
+        "--campaign",
+        str(small_campaign_file),
+        "--out",
+        str(out),
+        "--quiet",
+    ]
     assert main([*args, "--seed", "5"]) == 0
     assert "wrote 8 runs" in capsys.readouterr().out
     files = _files(out)
@@ -93,7 +108,20 @@ def test_cli_runs_a_small_campaign(tmp_path, small_campaign_file, capsys):
 
 def test_cli_single_experiment_and_params(tmp_path, small_campaign_file):
     out = tmp_path / "one"
-    code = main(["rig", "run", "sine", "-c", str(small_campaign_file), "-o", str(out), "-p", "symmetric", "-q"])
+    code = main(
+        [
+            "rig",
+            "run",
+            "sine",
+            "-c",
+            str(small_campaign_file),
+            "-o",
+            str(out),
+            "-p",
+            "symmetric",
+            "-q",
+        ]
+    )
     assert code == 0
     assert sorted(p.name for p in out.iterdir()) == ["sine", TRUE_PARAMS]
     p = load_params(out / TRUE_PARAMS)

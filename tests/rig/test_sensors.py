@@ -19,7 +19,9 @@ def test_quantization_step_is_range_over_2_to_16(channel):
 
 def test_quantization_step_with_explicit_gain():
     # A 0-10 V pressure sensor on a ±10 V input uses half the codes: twice the step.
-    s = SensorModel("MBS 1250 0-10 V", "p_a", "Pa", (0.0, 250e5), adc_span=(-10.0, 10.0), gain=10.0 / 250e5)
+    s = SensorModel(
+        "MBS 1250 0-10 V", "p_a", "Pa", (0.0, 250e5), adc_span=(-10.0, 10.0), gain=10.0 / 250e5
+    )
     assert s.quantization_step == pytest.approx(2 * 250e5 / 2**16, rel=1e-12)
     assert s.quantization_step == pytest.approx(s.full_scale / 2**16, rel=0)
 

@@ -7,7 +7,7 @@ propagate to ``hydropwa.cli.main``, which prints one ``error: ...`` line and exi
 from __future__ import annotations
 
 import time
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -22,7 +22,7 @@ app = typer.Typer(
 )
 
 
-class Which(str, Enum):
+class Which(StrEnum):
     frf = "frf"
     deadzone = "deadzone"
     friction = "friction"
@@ -32,17 +32,36 @@ class Which(str, Enum):
 
 @app.command("run")
 def run_command(
-    experiment: Annotated[Which, typer.Argument(help="Experiment to run, or all of the campaign's.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder: DIR/<experiment>/ datasets and DIR/true_params.toml.")],
+    experiment: Annotated[
+        Which, typer.Argument(help="Experiment to run, or all of the campaign's.")
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Output folder: DIR/<experiment>/ datasets and DIR/true_params.toml.",
+        ),
+    ],
     params: Annotated[
-        str | None, typer.Option("--params", "-p", help="True parameters: TOML file or preset name (default: paper).")
+        str | None,
+        typer.Option(
+            "--params", "-p", help="True parameters: TOML file or preset name (default: paper)."
+        ),
     ] = None,
     campaign: Annotated[
         str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
     ] = "paper",
-    seed: Annotated[int | None, typer.Option("--seed", help="Campaign seed (default: the campaign's).")] = None,
-    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, help="Worker processes (results do not depend on it).")] = 1,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an output made with other settings.")] = False,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help="Campaign seed (default: the campaign's).")
+    ] = None,
+    jobs: Annotated[
+        int,
+        typer.Option("--jobs", "-j", min=1, help="Worker processes (results do not depend on it)."),
+    ] = 1,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite an output made with other settings.")
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
@@ -52,7 +71,9 @@ def run_command(
     camp = load_campaign(campaign)
     names = None if experiment is Which.all else [experiment.value]
     t0 = time.perf_counter()
-    datasets = run_campaign(rig, camp, out, experiments=names, seed=seed, jobs=jobs, progress=not quiet, force=force)
+    datasets = run_campaign(
+        rig, camp, out, experiments=names, seed=seed, jobs=jobs, progress=not quiet, force=force
+    )
     runs = sum(len(ds) for ds in datasets.values())
     typer.echo(
         f"wrote {runs} runs in {len(datasets)} dataset(s) under {out} "

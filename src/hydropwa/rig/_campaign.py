@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -62,7 +62,9 @@ class _Table:
             return default
         return self.data[k]
 
-    def quantity(self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None) -> float:
+    def quantity(
+        self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None
+    ) -> float:
         v = self.raw(k, default)
         return _check(parse_quantity(v, unit, self.key(k)), self.key(k), unit, gt, ge, le)
 
@@ -78,7 +80,9 @@ class _Table:
             raise ParameterError(f"{self.key(k)} = {v!r} must be a string")
         return v
 
-    def values(self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None) -> tuple[float, ...]:
+    def values(
+        self, k: str, unit: str, default: Any = ..., *, gt=None, ge=None, le=None
+    ) -> tuple[float, ...]:
         """A list of quantities, or a range table ``{start, stop, step}`` (stop included)."""
         v = self.raw(k, default)
         where = self.key(k)
@@ -102,8 +106,15 @@ class _Table:
 
     def directions(self, k: str) -> tuple[int, ...]:
         v = self.raw(k, ["extend", "retract"])
-        if not isinstance(v, list) or not v or any(d not in _DIRECTIONS for d in v) or len(set(v)) != len(v):
-            raise ParameterError(f"{self.key(k)} = {v!r} must list 'extend' and/or 'retract' once each")
+        if (
+            not isinstance(v, list)
+            or not v
+            or any(d not in _DIRECTIONS for d in v)
+            or len(set(v)) != len(v)
+        ):
+            raise ParameterError(
+                f"{self.key(k)} = {v!r} must list 'extend' and/or 'retract' once each"
+            )
         return tuple(_DIRECTIONS[d] for d in v)
 
     def finish(self) -> None:
@@ -304,7 +315,11 @@ def _frf(t: _Table) -> FrfExperiment:
     out = []
     for i, s in enumerate(sweeps):
         st = _Table(s, f"{t.key('sweep')}[{i}]")
-        out.append(FrfSweep(st.quantity("opening", "", gt=0.0, le=1.0), st.values("frequencies", "Hz", gt=0.0)))
+        out.append(
+            FrfSweep(
+                st.quantity("opening", "", gt=0.0, le=1.0), st.values("frequencies", "Hz", gt=0.0)
+            )
+        )
         st.finish()
     return FrfExperiment(
         sweeps=tuple(out),
@@ -341,7 +356,9 @@ def _friction(t: _Table) -> FrictionExperiment:
         min_duration=t.quantity("min_duration", "s", 0.2, ge=0.0),
     )
     if exp.valve_delay >= exp.duration:
-        raise ParameterError(f"{t.key('valve_delay')} = {exp.valve_delay:g} s must be shorter than duration")
+        raise ParameterError(
+            f"{t.key('valve_delay')} = {exp.valve_delay:g} s must be shorter than duration"
+        )
     return exp
 
 
@@ -354,7 +371,12 @@ def _sine(t: _Table) -> SineExperiment:
     )
 
 
-_PARSERS = {"frf": _frf, "deadzone": _deadzone, "friction": _friction, "sine": _sine}
+_PARSERS: dict[str, Callable[[_Table], Experiment]] = {
+    "frf": _frf,
+    "deadzone": _deadzone,
+    "friction": _friction,
+    "sine": _sine,
+}
 
 
 def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
@@ -384,7 +406,9 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
         )
     if not experiments:
         raise ParameterError(f"{source}: no experiment tables; add one of {', '.join(EXPERIMENTS)}")
-    return Campaign(name=name, seed=seed, experiments=experiments, description=description, source=source)
+    return Campaign(
+        name=name, seed=seed, experiments=experiments, description=description, source=source
+    )
 
 
 def builtin_campaigns() -> list[str]:
@@ -403,7 +427,9 @@ def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
     """
     p = Path(name_or_path)
     if isinstance(name_or_path, str) and not p.exists() and name_or_path in builtin_campaigns():
-        text = (resources.files("hydropwa.rig") / "campaigns" / f"{name_or_path}.toml").read_text(encoding="utf-8")
+        text = (resources.files("hydropwa.rig") / "campaigns" / f"{name_or_path}.toml").read_text(
+            encoding="utf-8"
+        )
         source = f"{name_or_path}.toml"
     elif p.is_file():
         text = p.read_text(encoding="utf-8")

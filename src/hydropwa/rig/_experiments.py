@@ -110,22 +110,31 @@ def _plan_frf(exp: FrfExperiment, rig: Rig) -> list[RunSpec]:
                     command=cmd,
                     duration=dur,
                     start_position=x0,
-                    meta={"opening": sweep.opening, "amplitude": sweep.opening, "frequency": f,
-                          "settle": exp.settle, "periods": exp.periods,
-                          "fit_window": [exp.settle, exp.settle + exp.periods / f]},
+                    meta={
+                        "opening": sweep.opening,
+                        "amplitude": sweep.opening,
+                        "frequency": f,
+                        "settle": exp.settle,
+                        "periods": exp.periods,
+                        "fit_window": [exp.settle, exp.settle + exp.periods / f],
+                    },
                 )
             )
     return runs
 
 
-def _constant_runs(exp: DeadZoneExperiment | FrictionExperiment, rig: Rig, kind: str) -> list[RunSpec]:
+def _constant_runs(
+    exp: DeadZoneExperiment | FrictionExperiment, rig: Rig, kind: str
+) -> list[RunSpec]:
     stroke = rig.params.cylinder.stroke
     delay = exp.valve_delay if isinstance(exp, FrictionExperiment) else 0.0
     runs = []
     for d in exp.directions:
         for u in exp.inputs:
             level = d * u
-            cmd: Signal = Step(time=delay, before=0.0, after=level) if delay > 0 else Constant(level)
+            cmd: Signal = (
+                Step(time=delay, before=0.0, after=level) if delay > 0 else Constant(level)
+            )
             force = None
             if isinstance(exp, FrictionExperiment):
                 force = {
@@ -146,8 +155,12 @@ def _constant_runs(exp: DeadZoneExperiment | FrictionExperiment, rig: Rig, kind:
                     stop_at=exp.stop_at * stroke,
                     min_duration=delay + exp.min_duration,
                     counter_force=force,
-                    meta={"level": level, "direction": _DIRNAME[d], "valve_delay": delay,
-                          **({"counter_force": d * exp.counter_force} if force else {})},
+                    meta={
+                        "level": level,
+                        "direction": _DIRNAME[d],
+                        "valve_delay": delay,
+                        **({"counter_force": force["force"]} if force else {}),
+                    },
                 )
             )
     return runs
@@ -183,7 +196,9 @@ def plan(experiment: Experiment, rig: Rig) -> list[RunSpec]:
 
 
 # --------------------------------------------------------------------- execution
-def counter_force_signal(settings: dict[str, float], duration: float, rng: np.random.Generator) -> Sampled:
+def counter_force_signal(
+    settings: dict[str, float], duration: float, rng: np.random.Generator
+) -> Sampled:
     """Load force F_L(t) of the second cylinder: smooth ramp-up, ripple and control noise.
 
     Parameters
@@ -227,7 +242,9 @@ def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec) -> int:
     return int(np.searchsorted(t, keep_until, side="right"))
 
 
-def execute(rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: dict[str, Any] | None = None):
+def execute(
+    rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: dict[str, Any] | None = None
+):
     """Simulate one run on the rig and measure it.
 
     Parameters
@@ -251,8 +268,13 @@ def execute(rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: di
         load = counter_force_signal(spec.counter_force, spec.duration, force_rng)
     model = FullOrderModel(rig.params)
     result = simulate(
-        model, spec.command, duration=spec.duration, load_force=load, x0=spec.start_position,
-        fs=rig.fs, rtol=rig.rtol,
+        model,
+        spec.command,
+        duration=spec.duration,
+        load_force=load,
+        x0=spec.start_position,
+        fs=rig.fs,
+        rtol=rig.rtol,
     )
     n = _stop_index(result.channels["x"], result.t, spec)
     if n < result.t.size:
@@ -267,7 +289,9 @@ def execute(rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: di
         "signal": signal,
         **spec.meta,
         "start_position": spec.start_position,
-        "load": {"type": "counter_force", **spec.counter_force} if spec.counter_force else {"type": "none"},
+        "load": {"type": "counter_force", **spec.counter_force}
+        if spec.counter_force
+        else {"type": "none"},
         "stopped_early": bool(n < round(spec.duration * rig.fs) + 1),
         "solver": {"steps": result.stats["steps"], "rtol": rig.rtol},
     }

@@ -76,12 +76,16 @@ class Rig:
             raise ParameterError(f"rig fs = {self.fs!r} Hz must be a positive number")
         if not (0 < self.rtol < 1):
             raise ParameterError(f"rig rtol = {self.rtol!r} must lie in (0, 1)")
-        supply = self.supply if self.supply is not None else paper_supply(self.params.supply.pressure)
+        supply = (
+            self.supply if self.supply is not None else paper_supply(self.params.supply.pressure)
+        )
         object.__setattr__(self, "supply", supply)
         object.__setattr__(self, "params", self.params.replace(supply=supply))
         for ch, s in self.sensors.items():
             if not isinstance(s, SensorModel) or s.channel != ch:
-                raise ParameterError(f"rig sensors[{ch!r}] must be a SensorModel for channel {ch!r}")
+                raise ParameterError(
+                    f"rig sensors[{ch!r}] must be a SensorModel for channel {ch!r}"
+                )
         object.__setattr__(self, "sensors", dict(self.sensors))
 
     @classmethod
@@ -98,6 +102,6 @@ class Rig:
         return {
             "fs": self.fs,
             "rtol": self.rtol,
-            "supply": dataclasses.asdict(self.supply),
+            "supply": dataclasses.asdict(self.params.supply),
             "sensors": {ch: s.describe() for ch, s in self.sensors.items()},
         }

@@ -44,7 +44,9 @@ def _json_safe(obj: Any) -> Any:
     return json.loads(json.dumps(obj, default=list))
 
 
-def _dataset_meta(rig: Rig, experiment: Experiment, campaign_name: str, seed: int) -> dict[str, Any]:
+def _dataset_meta(
+    rig: Rig, experiment: Experiment, campaign_name: str, seed: int
+) -> dict[str, Any]:
     definition = {"experiment": experiment.name, **dataclasses.asdict(experiment)}
     meta = {
         "generator": f"hydropwa {__version__} virtual rig",
@@ -56,13 +58,18 @@ def _dataset_meta(rig: Rig, experiment: Experiment, campaign_name: str, seed: in
         "true_params": rig.params.to_dict(),
     }
     meta = _json_safe(meta)
-    text = json.dumps({k: meta[k] for k in ("experiment", "seed", "definition", "rig", "true_params")}, sort_keys=True)
+    text = json.dumps(
+        {k: meta[k] for k in ("experiment", "seed", "definition", "rig", "true_params")},
+        sort_keys=True,
+    )
     meta["fingerprint"] = hashlib.sha256(text.encode()).hexdigest()[:16]
     return meta
 
 
 def _true_params_text(rig: Rig) -> str:
-    return params_to_toml(rig.params, "true parameters of the virtual rig that produced the datasets here")
+    return params_to_toml(
+        rig.params, "true parameters of the virtual rig that produced the datasets here"
+    )
 
 
 def _write_true_params(rig: Rig, out: Path, force: bool) -> None:
@@ -98,7 +105,9 @@ def _open_dataset(root: Path, meta: dict[str, Any], force: bool) -> Dataset:
                 if f.is_file() and f.parent == root:
                     f.unlink()
         elif not force:
-            raise DataError(f"{str(root)!r}: unreadable manifest; hint: pass --force to overwrite it")
+            raise DataError(
+                f"{str(root)!r}: unreadable manifest; hint: pass --force to overwrite it"
+            )
     return Dataset.create(root, meta=meta, overwrite=True)
 
 
@@ -127,7 +136,10 @@ def _rich_progress():
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     return Progress(
-        TextColumn("{task.description:<10}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        TextColumn("{task.description:<10}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
         transient=False,
     )
 
@@ -241,7 +253,16 @@ def run_campaign(
             raise ParameterError(f"unknown experiment {n!r}; choose from {', '.join(EXPERIMENTS)}")
     seed = campaign.seed if seed is None else int(seed)
     return {
-        n: run_experiment(rig, campaign[n], out_dir, seed, jobs, progress, force=force,
-                          campaign_name=campaign.name, format=format)
+        n: run_experiment(
+            rig,
+            campaign[n],
+            out_dir,
+            seed,
+            jobs,
+            progress,
+            force=force,
+            campaign_name=campaign.name,
+            format=format,
+        )
         for n in names
     }

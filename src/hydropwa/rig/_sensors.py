@@ -78,11 +78,15 @@ class SensorModel:
         if not (math.isfinite(vlo) and math.isfinite(vhi) and vhi > vlo):
             raise ParameterError(f"{where}: adc_span ({vlo:g}, {vhi:g}) V needs lo < hi")
         if not (isinstance(self.adc_bits, int) and 1 <= self.adc_bits <= 32):
-            raise ParameterError(f"{where}: adc_bits = {self.adc_bits!r} must be an integer in 1..32")
+            raise ParameterError(
+                f"{where}: adc_bits = {self.adc_bits!r} must be an integer in 1..32"
+            )
         if self.gain is not None and not (math.isfinite(self.gain) and self.gain > 0):
             raise ParameterError(f"{where}: gain = {self.gain!r} V/{self.unit} must be > 0")
         if not (math.isfinite(self.noise_std) and self.noise_std >= 0):
-            raise ParameterError(f"{where}: noise_std = {self.noise_std!r} {self.unit} must be >= 0")
+            raise ParameterError(
+                f"{where}: noise_std = {self.noise_std!r} {self.unit} must be >= 0"
+            )
         if not math.isfinite(self.offset):
             raise ParameterError(f"{where}: offset = {self.offset!r} {self.unit} must be finite")
         if self.gain is not None and self.gain * (hi - lo) > (vhi - vlo) * (1 + 1e-12):
@@ -168,8 +172,12 @@ def paper_sensors() -> dict[str, SensorModel]:
 
     def pressure(channel: str) -> SensorModel:
         return SensorModel(
-            "Danfoss MBS 1250 063G1229 (0-250 bar)", channel, "Pa", (0.0, 250e5),
-            adc_span=(-10.0, 10.0), noise_std=0.05e5,
+            "Danfoss MBS 1250 063G1229 (0-250 bar)",
+            channel,
+            "Pa",
+            (0.0, 250e5),
+            adc_span=(-10.0, 10.0),
+            noise_std=0.05e5,
         )
 
     return {
@@ -177,16 +185,28 @@ def paper_sensors() -> dict[str, SensorModel]:
         "p_b": pressure("p_b"),
         "p_s": pressure("p_s"),
         "x": SensorModel(
-            "Celesco CLP-250 linear potentiometer", "x", "m", (-0.025, 0.225),
-            adc_span=(-10.0, 10.0), noise_std=5e-6,
+            "Celesco CLP-250 linear potentiometer",
+            "x",
+            "m",
+            (-0.025, 0.225),
+            adc_span=(-10.0, 10.0),
+            noise_std=5e-6,
         ),
         "f_l": SensorModel(
-            "HBM 1-S9M/50kN-1 with amplifier", "f_l", "N", (-50e3, 50e3),
-            adc_span=(-10.24, 10.24), noise_std=5.0,
+            "HBM 1-S9M/50kN-1 with amplifier",
+            "f_l",
+            "N",
+            (-50e3, 50e3),
+            adc_span=(-10.24, 10.24),
+            noise_std=5.0,
         ),
         "spool": SensorModel(
-            "Moog D633 spool position output (±10 V)", "spool", "1", (-1.0, 1.0),
-            adc_span=(-10.0, 10.0), noise_std=1e-3,
+            "Moog D633 spool position output (±10 V)",
+            "spool",
+            "1",
+            (-1.0, 1.0),
+            adc_span=(-10.0, 10.0),
+            noise_std=1e-3,
         ),
     }
 
@@ -225,7 +245,10 @@ def measure(
     """
     from ..data import Run
 
-    channels = {"t": np.asarray(result.channels["t"], dtype=float), "u": np.asarray(result.channels["u"], dtype=float)}
+    channels = {
+        "t": np.asarray(result.channels["t"], dtype=float),
+        "u": np.asarray(result.channels["u"], dtype=float),
+    }
     for ch in MEASURED_CHANNELS:
         if ch in sensors:
             channels[ch] = sensors[ch].apply(result.channels[ch], rng)
@@ -234,4 +257,3 @@ def measure(
             channels[ch] = sensor.apply(result.channels[ch], rng)
     units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
     return Run(name=name, channels=channels, units=units, fs=fs, meta=dict(meta or {}))
-
