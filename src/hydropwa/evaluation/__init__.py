@@ -16,7 +16,19 @@ from ._evaluate import (
     evaluation_params,
     evaluation_start,
 )
+from ._figures import (
+    moving_average,
+    plot_bode,
+    plot_cell_occupancy,
+    plot_cq,
+    plot_cqp,
+    plot_dead_zone,
+    plot_evaluation,
+    plot_stribeck,
+)
 from ._metrics import channel_metrics, drift_per_period, nrmse_fit, peak_error, rmse
+from ._report import write_report
+from ._study import StudyError, StudyResult, run_paper_study
 from .plots import plot_result, save_figure
 
 __all__ = [
@@ -25,15 +37,27 @@ __all__ = [
     "EvaluationResult",
     "EvaluationStart",
     "EvaluationWarning",
+    "StudyError",
+    "StudyResult",
     "channel_metrics",
     "drift_per_period",
     "evaluate_dataset",
     "evaluate_run",
     "evaluation_params",
     "evaluation_start",
+    "moving_average",
     "nrmse_fit",
     "peak_error",
+    "plot_bode",
+    "plot_cell_occupancy",
+    "plot_cq",
+    "plot_cqp",
+    "plot_dead_zone",
+    "plot_evaluation",
     "plot_result",
+    "plot_stribeck",
     "rmse",
+    "run_paper_study",
     "save_figure",
+    "write_report",
 ]

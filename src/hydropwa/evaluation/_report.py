@@ -1,0 +1,149 @@
+"""The study's ``index.html``: one self-contained page (figures as base64 PNG, tables inline)."""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_write_text
+from .plots import DISPLAY
+
+__all__ = ["write_report", "metrics_for_display"]
+
+_CSS = """
+body{font-family:system-ui,sans-serif;max-width:1100px;margin:1.5em auto;padding:0 1em;color:#222}
+h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.8em}
+table{border-collapse:collapse;font-size:.82em;margin:.6em 0}
+td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}th{background:#f0f0f0}
+td:first-child,th:first-child{text-align:left}
+figure{display:inline-block;margin:.4em;vertical-align:top;max-width:48%}
+figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.8em;color:#555}
+.notes li{font-size:.85em}.small{font-size:.85em;color:#555}
+"""
+
+_CAPTIONS = {
+    "fig01": "Fig. 1: Ĉ_q coefficient and its linearization",
+    "fig02": "Fig. 2: Ĉ_qp coefficient and its linearization",
+    "fig05": "Fig. 5: measured valve FRFs versus linear model fit",
+    "fig06": "Fig. 6: dead-zone test and linearization",
+    "fig08": "Fig. 8: measured friction points and fitted Stribeck model",
+    "fig10": "Fig. 10: low amplitude, low frequency",
+    "fig11": "Fig. 11: high amplitude, low frequency",
+    "fig12": "Fig. 12: low amplitude, high frequency",
+    "fig13": "Fig. 13: high amplitude, high frequency",
+    "pwa_cells": "PWA cell occupancy and partition",
+}
+
+
+def _figure(path: Path) -> str:
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    key = path.stem.split("_")[0] if path.stem.startswith("fig") else path.stem
+    cap = _CAPTIONS.get(key, path.stem)
+    return (f'<figure><img alt="{html.escape(cap)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(cap)} ({html.escape(path.stem)}; SVG in figures/)</figcaption></figure>")
+
+
+def _figures(out: Path, prefixes: tuple[str, ...]) -> str:
+    files = sorted(p for p in (out / "figures").glob("*.png") if p.stem.startswith(prefixes))
+    return "\n".join(_figure(p) for p in files) or '<p class="small">(no figure: the data lacked this experiment)</p>'
+
+
+def _cell(v) -> str:
+    if isinstance(v, float | np.floating):
+        if not math.isfinite(v):
+            return ""
+        return f"{v:.4g}"
+    return html.escape(str(v))
+
+
+def _table(df, caption: str = "") -> str:
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+    body = "\n".join("<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in row) + "</tr>"
+                     for row in df.itertuples(index=False))
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def metrics_for_display(metrics):
+    """Metrics with RMSE, peak error and drift in engineering units (mm, bar, mm/s)."""
+    df = metrics.copy()
+    fac = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[1])
+    df["unit"] = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[2])
+    df["rmse"] = df["rmse"] * fac
+    df["peak_error"] = df["peak_error"] * fac
+    for col in ("drift_measured", "drift_model"):
+        if col in df:
+            df[col] = df[col] * 1e3
+    df = df.rename(columns={"nrmse_fit": "fit [%]", "drift_measured": "drift meas. [mm/period]",
+                            "drift_model": "drift model [mm/period]"})
+    return df.drop(columns=[c for c in ("note",) if c in df])
+
+
+def _params_section(out: Path) -> str:
+    import pandas as pd
+
+    f = out / "tables" / "identified.csv"
+    if not f.is_file():
+        return "<p>No identification table.</p>"
+    df = pd.read_csv(f)
+    return _table(df, "identified parameters: estimate, standard error, confidence interval, true value "
+                      "(virtual rig; empty when unknown)")
+
+
+def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
+    """Write ``out/index.html`` from the study's tables and figures; returns its path."""
+    import pandas as pd
+
+    from .. import __version__
+    from ..params import params_to_toml
+
+    metrics = pd.read_csv(out / "tables" / "metrics.csv")
+    fit = pd.read_csv(out / "tables" / "position_fit.csv")
+    notes_html = "".join(f"<li>{html.escape(n)}</li>" for n in notes) or "<li>none</li>"
+    true_toml = "" if true is None else (
+        "<details><summary>true parameters (TOML)</summary><pre>"
+        + html.escape(params_to_toml(true)) + "</pre></details>")
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>hydropwa paper study</title>
+<style>{_CSS}</style></head><body>
+<h1>Valve-controlled hydraulic cylinder: identification, PWA linearization and model evaluation</h1>
+<p class="small">hydropwa {html.escape(__version__)} · data: {html.escape(str(info.get('data')))} ·
+parameters: {html.escape(str(info.get('params_source')))} · {info.get('n_sine_runs')} sine runs ·
+PWA cells at the average supply pressure {info.get('supply_pressure', float('nan')) / 1e5:.2f} bar</p>
+
+<h2>Position fit (NRMSE, %)</h2>
+<p>100·(1 − ‖x − x̂‖/‖x − mean x‖) over the runs from the first full period in steady state
+(Sec. VII). <b>full</b>: full-order model with the measured P_S(t); <b>reduced</b>, <b>pwa</b>:
+average P_S as in the paper; <b>pwa-scheduled</b>: PWA cells rescheduled on the measured P_S(t);
+<b>full (true params)</b>: the full model with the rig's true parameters, for reference.</p>
+{_table(fit, "position fit [%] per run and model")}
+
+<h2>Measurement and simulation (Figs. 10–13)</h2>
+<p class="small">The measurement is smoothed by a 10 ms moving average for display only; metrics use the raw samples.</p>
+{_figures(out, ("fig10", "fig11", "fig12", "fig13"))}
+
+<h2>Identified parameters</h2>
+{_params_section(out)}
+<details><summary>identified parameters (identified.toml)</summary><pre>{html.escape(params_to_toml(ident))}</pre></details>
+{true_toml}
+
+<h2>Identification (Figs. 5, 6, 8)</h2>
+{_figures(out, ("fig05", "fig06", "fig08"))}
+
+<h2>Piecewise-affine model (Figs. 1, 2, cells)</h2>
+<p class="small">pwa.json holds the model with one affine system per cell.</p>
+{_figures(out, ("fig01", "fig02", "pwa_cells"))}
+
+<h2>All metrics</h2>
+<p class="small">Per run, model and channel; RMSE and peak error in mm, bar, mm/s; drift of the
+position per input period in mm. v is measured as the smoothed derivative of x.</p>
+{_table(metrics_for_display(metrics), "metrics")}
+
+<h2>Notes</h2><ul class="notes">{notes_html}</ul>
+</body></html>
+"""
+    return atomic_write_text(out / "index.html", page)

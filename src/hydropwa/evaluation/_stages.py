@@ -1,0 +1,104 @@
+"""Resumable stages of the paper study: a stage is finished when its outputs exist unchanged
+and its manifest ``.stages/<name>.json`` records the hash of the inputs it was made from."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from .._io import atomic_write_text
+
+__all__ = ["STAGE_DIR", "file_hash", "text_hash", "tree_files", "StageRunner"]
+
+#: Folder (inside the report folder) holding the stage manifests.
+STAGE_DIR = ".stages"
+
+
+def text_hash(*parts: Any) -> str:
+    """SHA-256 (hex, 16 digits) of the JSON rendering of ``parts``."""
+    text = json.dumps(parts, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def file_hash(path: Path) -> str:
+    """SHA-256 (hex, 16 digits) of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()[:16]
+
+
+def tree_files(root: Path) -> list[Path]:
+    """Every regular file under ``root`` (sorted), skipping hidden and temporary files."""
+    return sorted(p for p in root.rglob("*") if p.is_file() and not any(s.startswith(".") for s in p.relative_to(root).parts))
+
+
+class StageRunner:
+    """Runs named stages in a report folder, reusing those already finished.
+
+    Parameters
+    ----------
+    out : Path
+        Report folder.
+    fresh : bool
+        Recompute every stage.
+    on_stage : callable, optional
+        ``on_stage(name, reused, seconds)`` after each stage.
+    """
+
+    def __init__(self, out: Path, fresh: bool = False, on_stage: Callable | None = None) -> None:
+        self.out = out
+        self.fresh = fresh
+        self.on_stage = on_stage
+        self.record: dict[str, dict[str, Any]] = {}
+
+    def manifest_path(self, name: str) -> Path:
+        return self.out / STAGE_DIR / f"{name}.json"
+
+    def _load(self, name: str) -> dict[str, Any] | None:
+        try:
+            return json.loads(self.manifest_path(name).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return None
+
+    def finished(self, name: str, inputs: str) -> dict[str, Any] | None:
+        """The stage's manifest if it finished from ``inputs`` and its outputs are unchanged."""
+        if self.fresh:
+            return None
+        m = self._load(name)
+        if not m or m.get("inputs") != inputs:
+            return None
+        for rel, h in m.get("outputs", {}).items():
+            p = self.out / rel
+            if not p.is_file() or file_hash(p) != h:
+                return None
+        return m
+
+    def outputs_hash(self, name: str) -> str:
+        """Hash of a finished stage's outputs (the inputs of the stages after it)."""
+        m = self._load(name) or {}
+        return text_hash(m.get("outputs", {}))
+
+    def run(self, name: str, inputs: str, work: Callable[[], tuple[Iterable[Path], dict]]) -> dict[str, Any]:
+        """Run ``work`` unless the stage is finished; returns the stage manifest.
+
+        ``work()`` returns (output files, extra manifest entries such as ``notes``).
+        """
+        t0 = time.perf_counter()
+        m = self.finished(name, inputs)
+        reused = m is not None
+        if m is None:
+            files, extra = work()
+            outputs = {p.relative_to(self.out).as_posix(): file_hash(p) for p in sorted(set(files))}
+            m = {"stage": name, "inputs": inputs, "outputs": outputs, "seconds": time.perf_counter() - t0,
+                 "finished": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
+            atomic_write_text(self.manifest_path(name), json.dumps(m, indent=1, default=str) + "\n")
+        self.record[name] = {"reused": reused, "seconds": time.perf_counter() - t0, "work_seconds": m["seconds"]}
+        if self.on_stage is not None:
+            self.on_stage(name, reused, self.record[name]["seconds"])
+        return m

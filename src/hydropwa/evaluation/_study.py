@@ -1,0 +1,547 @@
+"""The paper study: data → identification → PWA → evaluation → report, resumable by stage.
+
+``run_paper_study(out)`` runs the paper's campaign on the virtual rig (or reads a measured
+dataset folder), identifies the valve, dead-zone and Stribeck parameters, linearizes the
+identified model, evaluates the full, reduced and PWA models on the sine runs and writes a
+self-contained report folder::
+
+    out/index.html        one page: figures (base64 PNG), tables, parameters, metrics
+    out/figures/          PNG + SVG of every figure
+    out/tables/           CSV + Markdown
+    out/identified.toml   identified parameters with an [uncertainty] table
+    out/pwa.json          the PWA model at the sine runs' average supply pressure
+    out/data/             the virtual rig's datasets (without ``data=``)
+    out/.stages/          one manifest per finished stage (inputs hash, output hashes)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._errors import HydropwaError
+from .._io import atomic_path, atomic_write_text
+from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
+
+__all__ = ["StudyError", "StudyResult", "run_paper_study", "EXPERIMENT_NAMES", "STUDY_VERSION"]
+
+#: Dataset sub-folders of a study's data (the rig's layout).
+EXPERIMENT_NAMES = ("frf", "deadzone", "friction", "sine")
+#: Bumped when a stage's outputs change meaning (invalidates finished stages).
+STUDY_VERSION = 1
+_STUDY_FILE = "study.json"
+
+
+class StudyError(HydropwaError, ValueError):
+    """The study cannot run as asked (occupied report folder, missing sine runs, ...)."""
+
+
+@dataclasses.dataclass
+class StudyResult:
+    """What :func:`run_paper_study` produced.
+
+    Attributes
+    ----------
+    out : Path
+        Report folder.
+    report : Path
+        ``out/index.html``.
+    params : SystemParams
+        Identified parameters.
+    true_params : SystemParams or None
+        True parameters where known (virtual rig).
+    metrics : pandas.DataFrame
+        Evaluation metrics (``tables/metrics.csv``).
+    stages : dict[str, dict]
+        Per stage: ``reused`` (bool), ``seconds`` (this call), ``work_seconds`` (when computed).
+    notes : list of str
+        Assumptions and skipped runs, as in the report.
+    elapsed : float
+        Wall time of the call [s].
+    """
+
+    out: Path
+    report: Path
+    params: Any
+    true_params: Any
+    metrics: Any
+    stages: dict[str, dict]
+    notes: list[str]
+    elapsed: float
+
+    def position_fit(self, model: str = "full") -> Any:
+        """Position NRMSE fit [%] per run of one model variant (a pandas Series)."""
+        m = self.metrics
+        sel = m[(m["model"] == model) & (m["channel"] == "x")]
+        return sel.set_index("run")["nrmse_fit"]
+
+
+# ----------------------------------------------------------------------------- inputs
+@dataclasses.dataclass
+class _Inputs:
+    out: Path
+    data: Path | None
+    params: Any  # SystemParams: the rig's true params, or the identification base with data=
+    params_source: str
+    campaign: Any  # Campaign or None
+    jobs: int
+
+    def key(self) -> str:
+        from ..params import params_to_toml
+
+        camp = None if self.campaign is None else repr(self.campaign.experiments) + str(self.campaign.seed)
+        data = None if self.data is None else str(self.data.resolve())
+        return text_hash(STUDY_VERSION, data, params_to_toml(self.params), camp)
+
+
+def _resolve(out, data, params, campaign) -> _Inputs:
+    from ..params import SystemParams, get_preset, load_params
+    from ..rig import load_campaign
+
+    if isinstance(params, SystemParams):
+        prm, src = params, "given SystemParams"
+    elif params is None:
+        true_file = Path(data) / "true_params.toml" if data is not None else None
+        if true_file is not None and true_file.is_file():
+            prm, src = load_params(true_file), f"{true_file} (true parameters of the data)"
+        else:
+            prm, src = get_preset("paper"), "preset 'paper'"
+    elif isinstance(params, str) and not Path(params).exists():
+        prm, src = get_preset(params), f"preset {params!r}"
+    else:
+        prm, src = load_params(params), str(params)
+    if data is not None:
+        d = Path(data)
+        if not d.is_dir():
+            raise StudyError(f"data folder {str(d)!r} does not exist; give a folder with frf/, deadzone/, "
+                             "friction/, sine/ datasets (the layout `hydropwa rig run all` writes)")
+        if not (d / "sine" / "manifest.json").is_file():
+            raise StudyError(f"data folder {str(d)!r} has no sine/ dataset; the evaluation needs the sine runs")
+        camp = None
+    else:
+        d = None
+        camp = load_campaign(campaign if campaign is not None else "paper")
+        if "sine" not in camp.experiments:
+            raise StudyError(f"campaign {camp.name!r} has no [sine] experiment; the evaluation needs it")
+    return _Inputs(Path(out), d, prm, src, camp, max(1, min(os.cpu_count() or 1, 4)))
+
+
+def _claim(out: Path, key: str, force: bool) -> None:
+    """Refuse a report folder made from other inputs unless ``force``; record ours."""
+    import json
+
+    study = out / STAGE_DIR / _STUDY_FILE
+    if study.is_file():
+        try:
+            old = json.loads(study.read_text(encoding="utf-8")).get("inputs")
+        except ValueError:
+            old = None
+        if old != key and not force:
+            raise StudyError(f"{str(out)!r} holds a report made from other inputs; pass --force (force=True) "
+                             "to overwrite it, or choose another folder")
+    elif out.is_dir() and any(out.iterdir()) and not force:
+        raise StudyError(f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (force=True) "
+                         "to write into it, or choose another folder")
+    if force and study.is_file():
+        for p in (out / STAGE_DIR).glob("*.json"):
+            p.unlink()
+    atomic_write_text(study, json.dumps({"inputs": key, "version": STUDY_VERSION}) + "\n")
+
+
+# ----------------------------------------------------------------------------- progress
+class _Progress:
+    """Rich progress bars per stage, or nothing."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.bar = None
+        if enabled:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self.bar = Progress(TextColumn("{task.description:<22}"), BarColumn(), MofNCompleteColumn(),
+                                TimeElapsedColumn())
+        self.tasks: dict[str, Any] = {}
+
+    def __enter__(self):
+        if self.bar is not None:
+            self.bar.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.stop()
+
+    def update(self, name: str, done: int, total: int) -> None:
+        if self.bar is None:
+            return
+        if name not in self.tasks:
+            self.tasks[name] = self.bar.add_task(name, total=total)
+        self.bar.update(self.tasks[name], completed=done, total=total)
+
+    def stage_done(self, name: str, reused: bool, seconds: float) -> None:
+        self.update(f"{name}{' (reused)' if reused else ''}", 1, 1)
+
+
+# ----------------------------------------------------------------------------- stages
+def _read(root: Path, name: str):
+    """A dataset of the study's data, or None when the folder lacks it.
+
+    Runs are not validated on reading: constant-input runs start at an end stop on purpose,
+    which the data layer's saturation check would reject.
+    """
+    from ..data import read_dataset
+
+    if not (root / name / "manifest.json").is_file():
+        return None
+    return read_dataset(root / name, validate=False, lazy=True)
+
+
+def _stage_data(inp: _Inputs, runner: StageRunner, prog: _Progress, rerun: bool) -> tuple[Path, str]:
+    """Virtual-rig campaign into out/data (or hash the user's data folder)."""
+    if inp.data is not None:
+        files = tree_files(inp.data)
+        key = text_hash([(p.relative_to(inp.data).as_posix(), file_hash(p)) for p in files])
+        prog.update("data (given)", 1, 1)
+        return inp.data, key
+    root = inp.out / "data"
+
+    def work():
+        from ..rig import Rig, run_campaign
+
+        rig = Rig(params=inp.params)
+        run_campaign(rig, inp.campaign, root, jobs=inp.jobs, force=rerun,
+                     progress=lambda e, d, t: prog.update(f"rig: {e}", d, t))
+        return tree_files(root), {}
+
+    m = runner.run("data", text_hash(inp.key(), "data"), work)
+    return root, text_hash(m["outputs"])
+
+
+def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> list[dict]:
+    rows = []
+    for name, unit, est, true in name_unit_est:
+        rows.append({"parameter": name, "unit": unit, "identified": est.value, "std": est.std,
+                     "ci_low": est.ci[0], "ci_high": est.ci[1], "true": np.nan if true is None else true})
+    return rows
+
+
+def _identify(data_root: Path, base, notes: list[str]):
+    """Run the three identifiers on the study's data; missing experiments keep the base values."""
+    from ..identification import DeadZoneIdentifier, IdentificationWarning, StribeckIdentifier, ValveFrfIdentifier
+
+    fitted: dict[str, Any] = {}
+    for exp, make in (("frf", lambda: ValveFrfIdentifier()),
+                      ("deadzone", lambda: DeadZoneIdentifier(base_params=base)),
+                      ("friction", lambda: StribeckIdentifier(base_params=base))):
+        ds = _read(data_root, exp)
+        if ds is None or len(ds) == 0:
+            notes.append(f"no {exp}/ dataset: its parameters are kept from the base parameters")
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", IdentificationWarning)
+            fitted[exp] = make().fit(ds)
+        notes.extend(f"{exp}: {w.message}" for w in caught if issubclass(w.category, IdentificationWarning))
+    return fitted
+
+
+def _identified_params(base, fitted: dict[str, Any]):
+    changes: dict[str, Any] = {}
+    unc: dict[str, Any] = {}
+    if "frf" in fitted:
+        changes["valve"] = fitted["frf"].valve_
+        unc["valve"] = fitted["frf"].uncertainty()
+    if "deadzone" in fitted:
+        changes["dead_zone"] = fitted["deadzone"].dead_zone_
+        unc["dead_zone"] = fitted["deadzone"].uncertainty()
+    if "friction" in fitted:
+        changes["friction"] = fitted["friction"].friction_
+        unc["friction"] = fitted["friction"].uncertainty()
+    meta = {"source": "hydropwa paper study: identified " + (", ".join(changes) or "nothing")
+            + "; the other values are the base (datasheet) parameters", "uncertainty": unc}
+    return base.replace(**changes, meta=meta)
+
+
+def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:
+    rows: list[tuple[str, str, Any, float | None]] = []
+    if "frf" in fitted:
+        f = fitted["frf"]
+        rows.append(("valve.zeta", "1", f.zeta_, None if true is None else true.valve.zeta))
+        for amp, fit in f.fits_.items():
+            tv = None if true is None else true.valve.omega0_at(amp)
+            rows.append((f"valve.omega0 at |u| = {100 * amp:g} %", "rad/s", fit.omega0, tv))
+    if "deadzone" in fitted:
+        d = fitted["deadzone"].fit_
+        rows.append(("dead_zone.beta", "1", d.beta, None if true is None else true.dead_zone.beta))
+        rows.append(("dead_zone.creep_slope", "1", d.creep_slope, None if true is None else true.dead_zone.creep_slope))
+    if "friction" in fitted:
+        for k, est in fitted["friction"].fit_.estimates.items():
+            tv = None if true is None else getattr(true.friction, k, None)
+            rows.append((f"friction.{k}", est.unit, est, tv))
+    return _estimates_rows(rows)
+
+
+def _write_table(df, stem: Path, floatfmt: str = ".4g") -> list[Path]:
+    """CSV and Markdown of a DataFrame, atomically."""
+    csv = stem.with_suffix(".csv")
+    with atomic_path(csv) as tmp:
+        df.to_csv(tmp, index=False)
+    md = stem.with_suffix(".md")
+    atomic_write_text(md, _markdown(df, floatfmt) + "\n")
+    return [csv, md]
+
+
+def _markdown(df, floatfmt: str = ".4g") -> str:
+    cols = list(df.columns)
+
+    def fmt(v):
+        if isinstance(v, float | np.floating):
+            return "" if not np.isfinite(v) else format(float(v), floatfmt)
+        return str(v)
+
+    lines = ["| " + " | ".join(map(str, cols)) + " |", "| " + " | ".join("---" for _ in cols) + " |"]
+    lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join(lines)
+
+
+def _save(fig, stem: Path) -> list[Path]:
+    from .plots import save_figure
+
+    png = stem.with_suffix(".png")
+    svg = stem.with_suffix(".svg")
+    with atomic_path(svg) as tmp:
+        fig.savefig(tmp, format="svg")
+    save_figure(fig, png, dpi=110)
+    return [png, svg]
+
+
+def _stage_identify(inp: _Inputs, runner: StageRunner, data_root: Path, data_key: str, notes: list[str]):
+    out = inp.out
+    true = _true_params(inp, data_root)
+
+    def work():
+        import pandas as pd
+
+        from ..params import params_to_toml
+        from ._figures import plot_bode, plot_dead_zone
+
+        stage_notes: list[str] = []
+        fitted = _identify(data_root, inp.params, stage_notes)
+        ident = _identified_params(inp.params, fitted)
+        files = [atomic_write_text(out / "identified.toml", params_to_toml(ident, "identified by `hydropwa paper`"))]
+        files += _write_table(pd.DataFrame(_parameter_table(fitted, true)), out / "tables" / "identified")
+        if "frf" in fitted:
+            f = fitted["frf"]
+            files += _save(plot_bode(f.frf_, f.fits_), out / "figures" / "fig05_valve_bode")
+        if "deadzone" in fitted:
+            d = fitted["deadzone"]
+            files += _write_table(d.points_, out / "tables" / "deadzone_points")
+            uu = np.linspace(float(d.points_["u"].min()), float(d.points_["u"].max()), 600)
+            files += _save(plot_dead_zone(d.points_["u"], d.points_["v"], uu, d.fit_.velocity(uu)),
+                           out / "figures" / "fig06_dead_zone")
+        if "friction" in fitted:
+            files += _write_table(fitted["friction"].points_, out / "tables" / "friction_points")
+        return files, {"notes": stage_notes}
+
+    m = runner.run("identify", text_hash(inp.key(), data_key, "identify"), work)
+    notes.extend(m.get("notes", []))
+    from ..params import load_params
+
+    return load_params(out / "identified.toml"), true, runner.outputs_hash("identify")
+
+
+def _true_params(inp: _Inputs, data_root: Path):
+    from ..params import load_params
+
+    if inp.data is None:
+        return inp.params
+    f = data_root / "true_params.toml"
+    return load_params(f) if f.is_file() else None
+
+
+def _sine_runs(data_root: Path) -> list:
+    ds = _read(data_root, "sine")
+    if ds is None or len(ds) == 0:
+        raise StudyError(f"{str(data_root / 'sine')!r} holds no runs; the evaluation needs the sine runs")
+    return list(ds)
+
+
+def _mean_supply(runs, params) -> float:
+    vals = [float(np.mean(r.channels["p_s"])) for r in runs if "p_s" in r.channels]
+    return float(np.mean(vals)) if vals else float(params.supply.pressure)
+
+
+def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, runs):
+    out = inp.out
+
+    def work():
+        import pandas as pd
+
+        from ..linearization import linearize, save_pwa
+        from ._evaluate import evaluation_params
+        from ._figures import plot_cq, plot_cqp, plot_stribeck
+
+        ps = _mean_supply(runs, ident)
+        pwa = linearize(evaluation_params(ident), supply_pressure=ps)
+        files = [save_pwa(pwa, out / "pwa.json")]
+        files += _save(plot_cq(pwa), out / "figures" / "fig01_cq")
+        files += _save(plot_cqp(pwa), out / "figures" / "fig02_cqp")
+        pts_file = out / "tables" / "friction_points.csv"
+        if pts_file.is_file():
+            pts = pd.read_csv(pts_file)
+            fig = plot_stribeck(pts["v"], pts["f"], ident.friction, pwa.cells_at()["friction"],
+                                None if true is None else true.friction)
+            files += _save(fig, out / "figures" / "fig08_stribeck")
+        return files, {"supply_pressure": ps}
+
+    m = runner.run("linearize", text_hash(inp.key(), key, "linearize"), work)
+    from ..linearization import load_pwa
+
+    return load_pwa(out / "pwa.json"), m["supply_pressure"], runner.outputs_hash("linearize")
+
+
+def _corners(runs) -> dict[int, Any]:
+    """Figs. 10–13: (low, high) amplitude × (low, high) frequency runs."""
+    keyed = [(r.meta.get("amplitude"), r.meta.get("frequency"), r) for r in runs]
+    keyed = [k for k in keyed if isinstance(k[0], int | float) and isinstance(k[1], int | float)]
+    if not keyed:
+        return dict(zip((10, 11, 12, 13), runs, strict=False))
+    amps = sorted({k[0] for k in keyed})
+    freqs = sorted({k[1] for k in keyed})
+    out: dict[int, Any] = {}
+    for num, (a, f) in zip((10, 11, 12, 13), ((amps[0], freqs[0]), (amps[-1], freqs[0]),
+                                              (amps[0], freqs[-1]), (amps[-1], freqs[-1])), strict=True):
+        hit = [k[2] for k in keyed if k[0] == a and k[1] == f]
+        if hit and all(hit[0] is not r for r in out.values()):
+            out[num] = hit[0]
+    return out
+
+
+def _summary(metrics):
+    """Position fit [%] per run (rows) and model (columns), plus the mean."""
+    x = metrics[metrics["channel"] == "x"].pivot(index="run", columns="model", values="nrmse_fit")
+    x.loc["mean"] = x.mean()
+    return x.reset_index()
+
+
+def _stage_evaluate(inp: _Inputs, runner: StageRunner, ident, true, key: str, runs, prog: _Progress,
+                    notes: list[str]):
+    out = inp.out
+
+    def work():
+        import pandas as pd
+
+        from ._evaluate import evaluate_run
+        from ._figures import plot_cell_occupancy
+
+        corners = _corners(runs)
+        frames, cells, stage_notes, files = [], [], [], []
+        example = None
+        for k, run in enumerate(runs):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                res = evaluate_run(run, ident, models=("full", "reduced", "pwa", "pwa-scheduled"))
+                if true is not None:
+                    ref = evaluate_run(run, true, models=("full",))
+            stage_notes.extend(f"{run.name}: {n}" for n in res.notes)
+            stage_notes.extend(f"{run.name}: {w.message}" for w in caught
+                               if not issubclass(w.category, DeprecationWarning) and str(w.message) not in res.notes)
+            df = res.metrics
+            if true is not None:
+                df = pd.concat([df, ref.metrics.assign(model="full (true params)")], ignore_index=True)
+            frames.append(df)
+            cells.append(res.cell_metrics)
+            for num, r in corners.items():
+                if r is run:
+                    files += _save(res.plot(channels=("u", "x", "p_l")), out / "figures" / f"fig{num}_{run.name}")
+            if example is None or run is corners.get(13):
+                example = res
+            prog.update("evaluate: sine runs", k + 1, len(runs))
+        metrics = pd.concat(frames, ignore_index=True)
+        cell_df = pd.concat(cells, ignore_index=True)
+        files += _write_table(metrics, out / "tables" / "metrics")
+        files += _write_table(_summary(metrics), out / "tables" / "position_fit", ".1f")
+        files += _write_table(cell_df, out / "tables" / "pwa_cells")
+        from ..linearization import load_pwa
+
+        traj = example.simulations.get("pwa") if example is not None else None
+        files += _save(plot_cell_occupancy(cell_df, load_pwa(out / "pwa.json"), traj), out / "figures" / "pwa_cells")
+        return files, {"notes": stage_notes}
+
+    m = runner.run("evaluate", text_hash(inp.key(), key, "evaluate"), work)
+    notes.extend(m.get("notes", []))
+    import pandas as pd
+
+    return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
+
+
+def _stage_report(inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict):
+    from ._report import write_report
+
+    def work():
+        return [write_report(inp.out, ident, true, notes, info)], {}
+
+    runner.run("report", text_hash(inp.key(), key, notes, "report"), work)
+
+
+# ----------------------------------------------------------------------------- main
+def run_paper_study(out, data=None, params=None, campaign=None, fresh: bool = False, force: bool = False,
+                    progress: bool = True) -> StudyResult:
+    """Run the paper's study end to end and write the report folder.
+
+    Parameters
+    ----------
+    out : path-like
+        Report folder (created).
+    data : path-like, optional
+        Measured dataset folder with frf/, deadzone/, friction/, sine/ sub-folders (each a
+        :class:`hydropwa.data.Dataset`). Without it the campaign runs on the virtual rig.
+    params : SystemParams, path-like or str, optional
+        Without ``data``: the rig's true parameters. With ``data``: the base (datasheet)
+        parameters the identification completes. A TOML file or a preset name; default the
+        data's ``true_params.toml`` when present, else the ``paper`` preset.
+    campaign : path-like or str, optional
+        Campaign TOML or built-in name for the virtual rig (default ``"paper"``, the full
+        campaign of Sec. VI–VII).
+    fresh : bool
+        Recompute every stage (including the rig runs).
+    force : bool
+        Overwrite a report folder made from other inputs (else :class:`StudyError`).
+    progress : bool
+        Show rich progress bars per stage.
+
+    Returns
+    -------
+    StudyResult
+
+    Raises
+    ------
+    StudyError
+        Occupied report folder, missing sine data.
+    HydropwaError
+        From the layers underneath (bad parameters, campaign, data, failed identification).
+    """
+    t0 = time.perf_counter()
+    inp = _resolve(out, data, params, campaign)
+    inp.out.mkdir(parents=True, exist_ok=True)
+    _claim(inp.out, inp.key(), force)
+    notes: list[str] = []
+    if inp.data is not None and _true_params(inp, inp.data) is None:
+        notes.append(f"base parameters: {inp.params_source}; no true parameters known for this data")
+    with _Progress(progress) as prog:
+        runner = StageRunner(inp.out, fresh or force, prog.stage_done)
+        data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
+        ident, true, k1 = _stage_identify(inp, runner, data_root, data_key, notes)
+        runs = _sine_runs(data_root)
+        pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
+        metrics, k3 = _stage_evaluate(inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes)
+        info = {"data": str(inp.data) if inp.data is not None else "virtual rig, campaign "
+                + (inp.campaign.source or inp.campaign.name),
+                "params_source": inp.params_source, "supply_pressure": ps, "n_sine_runs": len(runs)}
+        _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, info), notes, info)
+    return StudyResult(out=inp.out, report=inp.out / "index.html", params=ident, true_params=true,
+                       metrics=metrics, stages=runner.record, notes=notes, elapsed=time.perf_counter() - t0)
