@@ -67,9 +67,15 @@ def _friction_run(name, level, v, fr, area_a, area_b, stroke=0.2, seed=0, durati
     x = np.clip(x0 + v * t, 0, stroke) + 2e-5 * rng.standard_normal(t.size)
     f = stribeck_friction(v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
     f_l = 2000.0 * np.sign(v) + 5.0 * rng.standard_normal(t.size)
-    p_b = 10e5 + 2e4 * rng.standard_normal(t.size)
-    p_a = (f + 2000.0 * np.sign(v) + p_b * area_b) / area_a + 5e5 * np.exp(-t / 0.02)
-    p_a = p_a + 2e4 * rng.standard_normal(t.size)
+    net = f + 2000.0 * np.sign(v)  # P_A A_A − P_B A_B at steady state, Eq. (10)
+    low = 10e5 + 2e4 * rng.standard_normal(t.size)
+    transient = 5e5 * np.exp(-t / 0.02)
+    if net >= 0:  # extending: A drives
+        p_b = low
+        p_a = (net + p_b * area_b) / area_a + transient + 2e4 * rng.standard_normal(t.size)
+    else:
+        p_a = low
+        p_b = (p_a * area_a - net) / area_b + transient + 2e4 * rng.standard_normal(t.size)
     return Run(name, {"t": t, "x": x, "p_a": p_a, "p_b": p_b, "f_l": f_l, "u": np.full(t.size, level)},
                fs=FS, meta={"experiment": "friction", "signal": {"type": "constant", "level": level}})
 

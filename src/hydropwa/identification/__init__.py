@@ -34,6 +34,8 @@ from ._inverse_dynamics import (
     identify_emps,
     identify_inverse_dynamics,
 )
+from ._pipeline import PARTS, IdentificationReport, identify, load_runs
+from ._plots import plot_bode, plot_dead_zone, plot_inverse_dynamics, plot_stribeck
 from ._friction import (
     FrictionPoint,
     StribeckFit,
@@ -45,6 +47,14 @@ from ._friction import (
 
 __all__ = [
     "DeadZoneFit",
+    "IdentificationReport",
+    "PARTS",
+    "identify",
+    "load_runs",
+    "plot_bode",
+    "plot_dead_zone",
+    "plot_inverse_dynamics",
+    "plot_stribeck",
     "EMPS_PUBLISHED",
     "EmpsResult",
     "InverseDynamicsResult",

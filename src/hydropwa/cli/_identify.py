@@ -1,0 +1,122 @@
+"""``hydropwa identify``: parameters from measurements (Sec. VI of the paper).
+
+Registered by the main CLI with ``app.add_typer(app, name="identify")``. Each
+command calls one public function of :mod:`hydropwa.identification` and writes
+files; user errors print ``error: ...`` on stderr and exit 2; skipped runs are
+reported as ``warning: ...`` lines.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hydropwa._errors import HydropwaError
+
+__all__ = ["app"]
+
+app = typer.Typer(help="Identify valve, dead-zone and friction parameters from measurements.",
+                  no_args_is_help=True, add_completion=False)
+
+DataDir = Annotated[Path, typer.Argument(help="Dataset folder, or a campaign folder with one dataset per experiment.")]
+Out = Annotated[Path, typer.Option("--out", "-o", help="Parameter TOML to write.")]
+Figures = Annotated[Path | None, typer.Option("--figures", help="Folder for the figures (PNG).")]
+Base = Annotated[str | None, typer.Option("--base-params", help="Base parameter TOML or preset (default: paper).")]
+Summary = Annotated[Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")]
+
+
+def _fail(exc: HydropwaError) -> typer.Exit:
+    typer.echo(f"error: {exc}", err=True)
+    return typer.Exit(code=2)
+
+
+def _warn(message, category, filename, lineno, file=None, line=None):
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
+         summary: Path | None) -> None:
+    from hydropwa.identification import identify
+    from hydropwa.params import load_params
+
+    old = warnings.showwarning
+    warnings.showwarning = _warn
+    try:
+        params = load_params(base) if base else None
+        report = identify(data_dir, parts, base_params=params)
+        written = report.save(out, figures, summary)
+    except HydropwaError as exc:
+        raise _fail(exc) from None
+    finally:
+        warnings.showwarning = old
+    for role, path in written.items():
+        typer.echo(f"wrote {role}: {path}")
+    if report.skipped:
+        typer.echo(f"{len(report.skipped)} run(s) or part(s) skipped; see {written['summary']}")
+
+
+@app.command("frf")
+def frf(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None, base_params: Base = None,
+        summary: Summary = None) -> None:
+    """Servo valve ω0 and ζ per amplitude from stepped-sine or broadband runs (Sec. VI-A)."""
+    _run(("frf",), data_dir, out, figures, base_params, summary)
+
+
+@app.command("deadzone")
+def deadzone(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
+             base_params: Base = None, summary: Summary = None) -> None:
+    """Dead band β and creep slope from constant-input runs (Sec. VI-B)."""
+    _run(("deadzone",), data_dir, out, figures, base_params, summary)
+
+
+@app.command("friction")
+def friction(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
+             base_params: Base = None, summary: Summary = None) -> None:
+    """Stribeck friction from constant-input runs against a counter force (Sec. VI-C)."""
+    _run(("friction",), data_dir, out, figures, base_params, summary)
+
+
+@app.command("all")
+def identify_all(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
+                 base_params: Base = None, summary: Summary = None) -> None:
+    """Valve, dead zone and friction from whatever experiments the data hold."""
+    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary)
+
+
+@app.command("emps")
+def emps(
+    file: Annotated[Path, typer.Argument(help="EMPS benchmark estimation file (DATA_EMPS.mat).")],
+    validation: Annotated[Path | None, typer.Option(
+        "--validation", help="Cross-test file (default: DATA_EMPS_PULSES.mat beside FILE, if present).")] = None,
+    figures: Figures = None,
+    summary: Annotated[Path | None, typer.Option("--summary", help="Markdown summary to write.")] = None,
+    asymmetric: Annotated[bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")] = False,
+) -> None:
+    """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
+    from hydropwa.identification import identify_emps, plot_inverse_dynamics
+
+    if validation is None:
+        cand = file.with_name("DATA_EMPS_PULSES.mat")
+        validation = cand if cand.is_file() and cand.resolve() != file.resolve() else None
+    try:
+        if not file.is_file():
+            raise FileNotFoundError(2, "no such file", str(file))
+        res = identify_emps(file, validation, asymmetric=asymmetric)
+        text = res.summary_markdown()
+        if summary is not None:
+            from hydropwa._io import atomic_write_text
+
+            atomic_write_text(summary, text)
+        if figures is not None:
+            figures.mkdir(parents=True, exist_ok=True)
+            plot_inverse_dynamics(res, figures / "emps_force.png")
+    except HydropwaError as exc:
+        raise _fail(exc) from None
+    except FileNotFoundError as exc:
+        typer.echo(f"error: file not found: {exc.filename}", err=True)
+        raise typer.Exit(code=2) from None
+    typer.echo(text, nl=False)

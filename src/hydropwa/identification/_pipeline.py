@@ -1,0 +1,273 @@
+"""One call from measurements to a parameter file: valve, dead zone and friction together.
+
+:func:`identify` runs the estimators whose experiments it finds, puts their
+values into a copy of the base parameters, and keeps uncertainty and
+provenance in ``params.meta`` (``[uncertainty]`` and ``[meta]`` of the saved
+TOML), so the models take the result as is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import os
+import warnings
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from .._errors import IdentificationError
+from .._io import atomic_write_text
+from ..params import SystemParams, get_preset, save_params
+from ._common import IdentificationWarning, SkippedRun, experiment_of
+from ._deadzone import DeadZoneIdentifier
+from ._frf import ValveFrfIdentifier
+from ._friction import StribeckIdentifier
+
+__all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
+
+#: What :func:`identify` can identify, in order.
+PARTS = ("frf", "deadzone", "friction")
+
+
+def load_runs(source) -> list:
+    """All runs of a dataset folder, of a campaign folder (one dataset per sub-folder), or given runs.
+
+    Parameters
+    ----------
+    source : path-like, Dataset, or iterable of Run
+        A folder with ``manifest.json``, or a folder whose sub-folders hold datasets
+        (as written by ``hydropwa rig``), or runs.
+
+    Raises
+    ------
+    IdentificationError
+        If a folder holds no dataset.
+    """
+    from ..data import MANIFEST, read_dataset
+
+    if not isinstance(source, str | os.PathLike):
+        if hasattr(source, "names"):
+            return [source[n] for n in source.names]
+        return list(source)
+    root = Path(source)
+    if not root.is_dir():
+        raise IdentificationError(f"data folder {str(root)!r} not found")
+    if (root / MANIFEST).is_file():
+        ds = read_dataset(root)
+        return [ds[n] for n in ds.names]
+    subs = sorted(p for p in root.iterdir() if (p / MANIFEST).is_file())
+    if not subs:
+        raise IdentificationError(
+            f"{str(root)!r} holds no dataset (no {MANIFEST} in it or in its sub-folders); "
+            "hint: write one with `hydropwa rig run` or `hydropwa data convert`"
+        )
+    runs = []
+    for sub in subs:
+        ds = read_dataset(sub)
+        runs += [ds[n] for n in ds.names]
+    return runs
+
+
+@dataclasses.dataclass
+class IdentificationReport:
+    """What :func:`identify` found.
+
+    Attributes
+    ----------
+    params : SystemParams
+        Base parameters with the identified values in place; ``meta["identification"]``
+        holds provenance, ``meta["uncertainty"]`` the estimates with std and CI.
+    valve : ValveFrfIdentifier or None
+    dead_zone : DeadZoneIdentifier or None
+    friction : StribeckIdentifier or None
+    skipped : list[SkippedRun]
+        Every run or part left out, by any estimator, and parts not identified.
+    source : str
+        Where the data came from.
+    """
+
+    params: SystemParams
+    valve: ValveFrfIdentifier | None = None
+    dead_zone: DeadZoneIdentifier | None = None
+    friction: StribeckIdentifier | None = None
+    skipped: list[SkippedRun] = dataclasses.field(default_factory=list)
+    source: str = ""
+
+    def summary_markdown(self) -> str:
+        """A short markdown summary: values, intervals, weak parameters, skipped runs."""
+        return _summary(self)
+
+    def save(self, out: str | os.PathLike, figures: str | os.PathLike | None = None,
+             summary: str | os.PathLike | None = None) -> dict[str, Path]:
+        """Write the parameter TOML, the figures (PNG) and the markdown summary.
+
+        Parameters
+        ----------
+        out : path-like
+            Parameter file (``load_params`` reads it back).
+        figures : path-like, optional
+            Folder for ``valve_bode.png``, ``dead_zone.png``, ``stribeck.png``.
+        summary : path-like, optional
+            Markdown file (default: ``out`` with suffix ``.md``).
+
+        Returns
+        -------
+        dict[str, Path]
+            Written files by role.
+        """
+        from ._plots import plot_bode, plot_dead_zone, plot_stribeck
+
+        out = Path(out)
+        written = {"params": save_params(self.params, out, header=f"identified by hydropwa from {self.source}")}
+        summary = Path(summary) if summary is not None else out.with_suffix(".md")
+        written["summary"] = atomic_write_text(summary, self.summary_markdown())
+        if figures is not None:
+            fdir = Path(figures)
+            fdir.mkdir(parents=True, exist_ok=True)
+            if self.valve is not None:
+                plot_bode(self.valve, fdir / "valve_bode.png")
+                written["valve_bode"] = fdir / "valve_bode.png"
+            if self.dead_zone is not None:
+                plot_dead_zone(self.dead_zone, fdir / "dead_zone.png")
+                written["dead_zone"] = fdir / "dead_zone.png"
+            if self.friction is not None:
+                plot_stribeck(self.friction, fdir / "stribeck.png")
+                written["stribeck"] = fdir / "stribeck.png"
+        return written
+
+
+def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | None = None,
+             frf: dict[str, Any] | None = None, dead_zone: dict[str, Any] | None = None,
+             friction: dict[str, Any] | None = None) -> IdentificationReport:
+    """Identify valve, dead zone and friction from measured runs and return parameters.
+
+    Parameters
+    ----------
+    data : path-like, Dataset or iterable of Run
+        See :func:`load_runs`. Runs are routed by ``meta["experiment"]``/``meta["kind"]``.
+    parts : iterable of str
+        Any of ``"frf"``, ``"deadzone"``, ``"friction"``.
+    base_params : SystemParams, optional
+        Everything not identified, plus areas and stroke (default: ``paper`` preset).
+    frf, dead_zone, friction : dict, optional
+        Settings passed to :class:`ValveFrfIdentifier`, :class:`DeadZoneIdentifier`,
+        :class:`StribeckIdentifier`.
+
+    Returns
+    -------
+    IdentificationReport
+
+    Raises
+    ------
+    IdentificationError
+        If a single part was asked for and cannot be identified, or none of several can.
+        When several parts are asked for, a part without usable runs is skipped with an
+        :class:`IdentificationWarning` and listed in ``skipped``.
+    """
+    parts = tuple(parts)
+    unknown = set(parts) - set(PARTS)
+    if unknown:
+        raise IdentificationError(f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}")
+    base = base_params or get_preset("paper")
+    source = str(data) if isinstance(data, str | os.PathLike) else getattr(data, "root", "runs")
+    runs = load_runs(data)
+    by_kind: dict[str, list] = {p: [] for p in PARTS}
+    for r in runs:
+        k = experiment_of(r)
+        if k in by_kind:
+            by_kind[k].append(r)
+    report = IdentificationReport(params=base, source=str(source))
+    changes: dict[str, Any] = {}
+    uncertainty: dict[str, Any] = {}
+    provenance: dict[str, Any] = {"source": str(source), "date": _dt.date.today().isoformat(),
+                                  "method": "hydropwa.identification (Sec. VI of the paper)"}
+    makers = {
+        "frf": lambda: ValveFrfIdentifier(**(frf or {})),
+        "deadzone": lambda: DeadZoneIdentifier(base_params=base, **(dead_zone or {})),
+        "friction": lambda: StribeckIdentifier(base_params=base, **(friction or {})),
+    }
+    done = []
+    for part in parts:
+        selected = by_kind[part]
+        try:
+            if not selected:
+                raise IdentificationError(f"no runs of kind {part!r} in {source}")
+            est = makers[part]().fit(selected)
+        except IdentificationError as exc:
+            if len(parts) == 1:
+                raise
+            report.skipped.append(SkippedRun(f"<{part}>", str(exc)))
+            warnings.warn(f"{part} not identified: {exc}", IdentificationWarning, stacklevel=2)
+            continue
+        report.skipped += est.skipped_
+        done.append(part)
+        if part == "frf":
+            report.valve = est
+            changes["valve"] = est.valve_
+            uncertainty["valve"] = est.uncertainty()
+            provenance["valve"] = (f"Sec. VI-A: {sum(f.n_points for f in est.fits_.values())} FRF points at "
+                                   f"amplitudes {', '.join(f'{a:g}' for a in est.fits_)}; 2nd-order fit, "
+                                   "zeta pooled (inverse-variance)")
+        elif part == "deadzone":
+            report.dead_zone = est
+            changes["dead_zone"] = est.dead_zone_  # alpha (saturation) comes from the base
+            uncertainty["dead_zone"] = est.uncertainty()
+            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, hinge fit; "
+                                       "creep_slope = creep velocity slope / mean outer gain; alpha from base")
+        else:
+            report.friction = est
+            changes["friction"] = est.friction_
+            uncertainty["friction"] = est.uncertainty()
+            provenance["friction"] = (f"Sec. VI-C: {len(est.points_)} steady-state points, Eq. (10) with "
+                                      f"areas from base; Eq. (11) by bounded {est.loss} least squares"
+                                      + (f"; weakly identified: {', '.join(est.fit_.weak)}" if est.fit_.weak else ""))
+    if not done:
+        raise IdentificationError(
+            "nothing identified: " + "; ".join(s.reason for s in report.skipped if s.run.startswith("<"))
+        )
+    provenance["identified"] = done
+    provenance["skipped"] = [str(s) for s in report.skipped]
+    meta = {**{k: v for k, v in base.meta.items() if k != "uncertainty"},
+            "identification": provenance, "uncertainty": uncertainty}
+    report.params = dataclasses.replace(base, meta=meta, **changes)
+    return report
+
+
+def _fmt_est(e) -> str:
+    return f"{e.value:.5g} | {e.std:.2g} | [{e.ci[0]:.5g}, {e.ci[1]:.5g}] {e.unit}"
+
+
+def _summary(rep: IdentificationReport) -> str:
+    lines = [f"# Identification summary ({rep.source})", ""]
+    if rep.valve is not None:
+        lines += ["## Servo valve (Sec. VI-A, Eq. (1), Table II)", "",
+                  "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |", "|---|---|---|---|---|---|---|---|"]
+        for a, f in rep.valve.fits_.items():
+            lines.append(f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
+                         f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
+                         f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |")
+        lines += ["", f"Pooled ζ = {rep.valve.zeta_.value:.3f} ± {rep.valve.zeta_.std:.2g}.", ""]
+    if rep.dead_zone is not None:
+        f = rep.dead_zone.fit_
+        lines += ["## Dead zone (Sec. VI-B, Table IV, Fig. 6)", "", "| quantity | value | std | 95 % CI |",
+                  "|---|---|---|---|"]
+        for name, e in (("β (symmetric)", f.beta), ("β+", f.beta_pos), ("β−", f.beta_neg),
+                        ("k_g (creep opening slope)", f.creep_slope), ("creep velocity slope", f.creep_velocity_slope),
+                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg)):
+            lines.append(f"| {name} | {_fmt_est(e)} |")
+        lines += ["", f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.", ""]
+    if rep.friction is not None:
+        fit = rep.friction.fit_
+        lines += ["## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)", "", "| parameter | value | std | 95 % CI |",
+                  "|---|---|---|---|"]
+        for k, e in fit.estimates.items():
+            lines.append(f"| {k} | {_fmt_est(e)} |")
+        lines += ["", f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}."]
+        if fit.weak:
+            lines.append(f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
+                         "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation.")
+        lines.append("")
+    if rep.skipped:
+        lines += ["## Skipped", ""] + [f"- {s}" for s in rep.skipped] + [""]
+    return "\n".join(lines)
