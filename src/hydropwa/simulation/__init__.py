@@ -1,6 +1,7 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
 from ._signals import Chirp, Constant, Ramp, Sampled, Signal, Sine, Step, as_signal, parse_signal
+from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
 from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
 
 __all__ = [
@@ -8,6 +9,7 @@ __all__ = [
     "Chirp",
     "Constant",
     "Ramp",
+    "SUMMARY_COLUMNS",
     "Sampled",
     "Signal",
     "SimulationResult",
@@ -16,4 +18,6 @@ __all__ = [
     "as_signal",
     "parse_signal",
     "simulate",
+    "simulate_batch",
+    "summarize",
 ]

@@ -177,15 +177,21 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
 
 
 @njit(cache=True, nogil=True)
-def rhs(kind, t, y, p, sk, sp, st, sv, so, dy):
-    """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
-    u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+def rhs_at(kind, y, u, ps, fl, p, dy):
+    """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
         rhs_full(y, u, ps, fl, p, dy)
     elif kind == REDUCED:
         rhs_reduced(y, u, ps, fl, p, dy)
     else:
         rhs_pwa(y, u, ps, fl, p, dy)
+
+
+@njit(cache=True, nogil=True)
+def rhs(kind, t, y, p, sk, sp, st, sv, so, dy):
+    """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
+    u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+    rhs_at(kind, y, u, ps, fl, p, dy)
 
 
 @njit(cache=True, nogil=True)
@@ -238,9 +244,201 @@ def _solve(a, piv, b):
         b[i] = s / a[i, i]
 
 
+# --- Rosenbrock tableaus -----------------------------------------------------
+# Solvers of integrate(): ROS23 is Shampine & Reichelt's ROS2(3) (MATLAB's ode23s);
+# ROS34PW2 is the L-stable, stiffly accurate Rosenbrock-W method of order 3 with
+# an embedded order-2 estimate (Rang & Angermann 2005). Being a W-method it keeps
+# its order with an approximate Jacobian, which is why a Jacobian may be reused.
+ROS23, ROS34PW2 = 0, 1
+SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2}
+
+
+def _transformed_tableau(alpha, gamma, b, b_hat):
+    """Coefficients of the form (I − hγJ) U_i = hγ (f(t + α_i h, y + Σ A_ij U_j) + Σ C_ij U_j / h + γ_i h f_t).
+
+    With U = Γ K (Hairer & Wanner, Sect. IV.7): A = αΓ⁻¹, C = −Γ⁻¹ (strictly lower
+    part), m = bΓ⁻¹ for the solution and e = (b − b̂)Γ⁻¹ for the error estimate.
+    """
+    g_inv = np.linalg.inv(gamma)
+    a_t = alpha @ g_inv
+    c_t = -np.tril(g_inv, -1)
+    return (
+        tuple(float(v) for v in a_t.ravel()),
+        tuple(float(v) for v in c_t.ravel()),
+        tuple(float(v) for v in alpha.sum(axis=1)),
+        tuple(float(v) for v in gamma.sum(axis=1)),
+        tuple(float(v) for v in b @ g_inv),
+        tuple(float(v) for v in (b - b_hat) @ g_inv),
+    )
+
+
+_G = 4.3586652150845900e-01
+_PW2 = _transformed_tableau(
+    np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0],
+            [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+            [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    ),
+    np.array(
+        [
+            [_G, 0.0, 0.0, 0.0],
+            [-8.7173304301691801e-01, _G, 0.0, 0.0],
+            [-9.0338057013044082e-01, 5.4180672388095326e-02, _G, 0.0],
+            [2.4212380706095346e-01, -1.2232505839045147e00, 5.4526025533510214e-01, _G],
+        ]
+    ),
+    np.array([2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, _G]),
+    np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01]),
+)
+PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E = (np.array(v) for v in _PW2)
+PW2_GAMMA = _G
+_D23 = 1.0 / (2.0 + math.sqrt(2.0))
+_E32 = 6.0 + math.sqrt(2.0)
+
+
 @njit(cache=True, nogil=True)
-def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max_steps):
-    """Integrate model ``kind`` from t_out[0] with ROS2(3), dense output at ``t_out``.
+def _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft):
+    """Finite-difference Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
+
+    The inputs are evaluated once for the n state columns. Columns that are
+    known to vanish (P_S of the full model without the pump) are skipped, and so
+    is ∂f/∂t when every input is constant.
+    """
+    n = y.shape[0]
+    sqrt_eps = 1.4901161193847656e-08
+    nfev = 0
+    n_cols = n
+    if kind == FULL and p[I_PUMP] <= 0.5:
+        n_cols = 6
+        for i in range(n):
+            J[i, 6] = 0.0
+    for j in range(n_cols):
+        for i in range(n):
+            yt[i] = y[i]
+        dj = sqrt_eps * max(abs(y[j]), scale[j])
+        yt[j] = y[j] + dj
+        rhs_at(kind, yt, u, ps, fl, p, ft)
+        for i in range(n):
+            J[i, j] = (ft[i] - f0[i]) / dj
+    nfev += n_cols
+    if sk[0] == 0 and sk[1] == 0 and sk[2] == 0:
+        for i in range(n):
+            dfdt[i] = 0.0
+    else:
+        dt = sqrt_eps * max(abs(t), 1e-3)
+        u2, ps2, fl2 = _inputs(t + dt, sk, sp, st, sv, so)
+        rhs_at(kind, y, u2, ps2, fl2, p, ft)
+        for i in range(n):
+            dfdt[i] = (ft[i] - f0[i]) / dt
+        nfev += 1
+    return nfev
+
+
+@njit(cache=True, nogil=True)
+def _factor(J, W, piv, hg):
+    """W = I − hγ J, LU-factorised in place."""
+    n = J.shape[0]
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -hg * J[i, j]
+        W[i, i] += 1.0
+    _lu(W, piv)
+
+
+@njit(cache=True, nogil=True)
+def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so):
+    """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
+    n = y.shape[0]
+    hg = h * PW2_GAMMA
+    for i in range(4):
+        if i == 0:
+            for k in range(n):
+                ft[k] = f0[k]
+        else:
+            for k in range(n):
+                s = y[k]
+                for j in range(i):
+                    s += PW2_A[4 * i + j] * U[j, k]
+                yt[k] = s
+            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sk, sp, st, sv, so)
+            rhs_at(kind, yt, u, ps, fl, p, ft)
+        for k in range(n):
+            s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
+            for j in range(i):
+                s += PW2_C[4 * i + j] / h * U[j, k]
+            U[i, k] = hg * s
+        _solve(W, piv, U[i])
+    for k in range(n):
+        s = y[k]
+        e = 0.0
+        for j in range(4):
+            s += PW2_M[j] * U[j, k]
+            e += PW2_E[j] * U[j, k]
+        ynew[k] = s
+        yerr[k] = e
+    u, ps, fl = _inputs(t + h, sk, sp, st, sv, so)
+    rhs_at(kind, ynew, u, ps, fl, p, fnew)
+    return 4
+
+
+@njit(cache=True, nogil=True)
+def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so):
+    """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
+    n = y.shape[0]
+    hd = h * _D23
+    k1, k2, k3 = U[0], U[1], U[2]
+    for i in range(n):
+        k1[i] = f0[i] + hd * dfdt[i]
+    _solve(W, piv, k1)
+    for i in range(n):
+        yt[i] = y[i] + 0.5 * h * k1[i]
+    u, ps, fl = _inputs(t + 0.5 * h, sk, sp, st, sv, so)
+    rhs_at(kind, yt, u, ps, fl, p, ft)
+    for i in range(n):
+        k2[i] = ft[i] - k1[i]
+    _solve(W, piv, k2)
+    for i in range(n):
+        k2[i] += k1[i]
+        ynew[i] = y[i] + h * k2[i]
+    u, ps, fl = _inputs(t + h, sk, sp, st, sv, so)
+    rhs_at(kind, ynew, u, ps, fl, p, fnew)
+    for i in range(n):
+        k3[i] = fnew[i] - _E32 * (k2[i] - ft[i]) - 2.0 * (k1[i] - f0[i]) + hd * dfdt[i]
+    _solve(W, piv, k3)
+    for i in range(n):
+        yerr[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
+    return 2
+
+
+@njit(cache=True, nogil=True)
+def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
+    """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
+
+    The interpolant matches y and f at both ends, so it is third-order accurate
+    and needs no extra right-hand-side calls.
+    """
+    n = y.shape[0]
+    n_out = t_out.shape[0]
+    t_new = t + h
+    while k_out < n_out and t_out[k_out] <= t_new + 1e-12 * max(1.0, abs(t_new)):
+        th = (t_out[k_out] - t) / h
+        th2 = th * th
+        h00 = 1.0 - 3.0 * th2 + 2.0 * th2 * th
+        h10 = th - 2.0 * th2 + th2 * th
+        h01 = 3.0 * th2 - 2.0 * th2 * th
+        h11 = th2 * th - th2
+        for i in range(n):
+            Y[k_out, i] = h00 * y[i] + h01 * ynew[i] + h * (h10 * f0[i] + h11 * fnew[i])
+        k_out += 1
+    return k_out
+
+
+@njit(cache=True, nogil=True)
+def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max_steps, method=ROS34PW2, jac_reuse=True, gustafsson=True):
+    """Integrate model ``kind`` from t_out[0] with a Rosenbrock method, dense output at ``t_out``.
 
     Parameters
     ----------
@@ -262,6 +460,12 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
         Initial and largest step [s].
     max_steps : int
         Step budget.
+    method : int
+        ROS34PW2 (default) or ROS23.
+    jac_reuse : bool
+        ROS34PW2 only: keep the Jacobian of the last evaluation after an accepted
+        step whose error was small (the W-method keeps its order); recomputed
+        after every rejection and at least every 8 steps.
 
     Returns
     -------
@@ -273,40 +477,49 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
     t_fail : float
     y_fail : ndarray
     stats : ndarray
-        [accepted steps, rejected steps, rhs evaluations].
+        [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
+
+    Notes
+    -----
+    The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
+    the step factor is 0.9·err^(−1/3), clipped to [0.2, 5] (no growth right after a rejection).
     """
     n = y0.shape[0]
     n_out = t_out.shape[0]
     Y = np.empty((n_out, n))
-    d = 1.0 / (2.0 + math.sqrt(2.0))
-    e32 = 6.0 + math.sqrt(2.0)
-    sqrt_eps = math.sqrt(2.2e-16)
+    gamma = PW2_GAMMA if method == ROS34PW2 else _D23
+    reuse = jac_reuse and method == ROS34PW2
     y = y0.copy()
     t = t_out[0]
     t_end = t_out[n_out - 1]
     Y[0, :] = y
     k_out = 1
     f0 = np.empty(n)
-    f1 = np.empty(n)
-    f2 = np.empty(n)
+    fnew = np.empty(n)
     ft = np.empty(n)
     yt = np.empty(n)
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
     ynew = np.empty(n)
+    yerr = np.empty(n)
     dfdt = np.empty(n)
+    U = np.empty((4, n))
     J = np.empty((n, n))
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     atol = rtol * scale
-    rhs(kind, t, y, p, sk, sp, st, sv, so, f0)
+    u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+    rhs_at(kind, y, u, ps, fl, p, f0)
     nfev = 1
+    n_jac = 0
     h = min(h0, hmax)
     n_acc = 0
     n_rej = 0
     status = OK
     need_jac = True
+    jac_age = 0
+    h_fact = -1.0
+    last_rejected = False
+    h_acc = -1.0
+    err_acc = 1.0
     while k_out < n_out:
         if n_acc + n_rej >= max_steps:
             status = MAX_STEPS
@@ -320,84 +533,68 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
             if h < hmin:
                 h = hmin
         if need_jac:
-            # finite-difference Jacobian and time derivative at (t, y)
-            for j in range(n):
-                yt[:] = y
-                dj = sqrt_eps * max(abs(y[j]), scale[j])
-                yt[j] = y[j] + dj
-                rhs(kind, t, yt, p, sk, sp, st, sv, so, ft)
-                for i in range(n):
-                    J[i, j] = (ft[i] - f0[i]) / dj
-            dt = sqrt_eps * max(abs(t), 1e-3)
-            rhs(kind, t + dt, y, p, sk, sp, st, sv, so, ft)
-            for i in range(n):
-                dfdt[i] = (ft[i] - f0[i]) / dt
-            nfev += n + 1
+            u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+            nfev += _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft)
+            n_jac += 1
             need_jac = False
-        hd = h * d
-        for i in range(n):
-            for j in range(n):
-                W[i, j] = -hd * J[i, j]
-            W[i, i] += 1.0
-        _lu(W, piv)
-        for i in range(n):
-            k1[i] = f0[i] + hd * dfdt[i]
-        _solve(W, piv, k1)
-        for i in range(n):
-            yt[i] = y[i] + 0.5 * h * k1[i]
-        rhs(kind, t + 0.5 * h, yt, p, sk, sp, st, sv, so, f1)
-        for i in range(n):
-            k2[i] = f1[i] - k1[i]
-        _solve(W, piv, k2)
-        for i in range(n):
-            k2[i] += k1[i]
-            ynew[i] = y[i] + h * k2[i]
-        rhs(kind, t + h, ynew, p, sk, sp, st, sv, so, f2)
-        for i in range(n):
-            k3[i] = f2[i] - e32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f0[i]) + hd * dfdt[i]
-        _solve(W, piv, k3)
-        nfev += 2
+            jac_age = 0
+            h_fact = -1.0
+        if h != h_fact:
+            _factor(J, W, piv, h * gamma)
+            h_fact = h
+        if method == ROS34PW2:
+            nfev += _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so)
+        else:
+            nfev += _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so)
         err = 0.0
         finite = True
         for i in range(n):
-            e = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
             sc = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
-            err += (e / sc) ** 2
-            if not math.isfinite(ynew[i]) or not math.isfinite(f2[i]):
+            err += (yerr[i] / sc) ** 2
+            if not math.isfinite(ynew[i]) or not math.isfinite(fnew[i]):
                 finite = False
         err = math.sqrt(err / n)
         if not finite or not math.isfinite(err):
             n_rej += 1
             h *= 0.25
+            need_jac = True
+            last_rejected = True
             if h < hmin:
                 status = NON_FINITE
                 break
             continue
         if err <= 1.0:
-            t_new = t + h
-            # dense output with the method's continuous extension
-            while k_out < n_out and t_out[k_out] <= t_new + 1e-12 * max(1.0, abs(t_new)):
-                th = (t_out[k_out] - t) / h
-                c1 = th * (1.0 - th) / (1.0 - 2.0 * d)
-                c2 = th * (th - 2.0 * d) / (1.0 - 2.0 * d)
-                for i in range(n):
-                    Y[k_out, i] = y[i] + h * (c1 * k1[i] + c2 * k2[i])
-                k_out += 1
-            t = t_new
-            y[:] = ynew
-            f0[:] = f2
+            k_out = _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew)
+            t = t + h
+            for i in range(n):
+                y[i] = ynew[i]
+                f0[i] = fnew[i]
             n_acc += 1
-            need_jac = True
-            fac = 0.8 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0
-            h *= min(5.0, max(0.2, fac))
+            jac_age += 1
+            need_jac = not reuse or jac_age >= 8 or err > 0.5
+            fac = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0
+            if gustafsson and h_acc > 0.0 and err > 0.0:
+                # predictive controller (Gustafsson 1994): fewer rejections in a row
+                fac = min(fac, 0.9 * (h / h_acc) * (err_acc / (err * err)) ** (1.0 / 3.0))
+            h_acc = h
+            err_acc = max(err, 1e-4)
+            fac = min(5.0, max(0.2, fac))
+            if last_rejected and fac > 1.0:
+                fac = 1.0
+            # keep the factorisation when the step would barely change
+            if not (need_jac or fac < 1.0 or fac > 1.2):
+                fac = 1.0
+            h *= fac
             if h > hmax:
                 h = hmax
+            last_rejected = False
         else:
             n_rej += 1
-            h *= max(0.2, 0.8 * err ** (-1.0 / 3.0))
-    stats = np.array([n_acc, n_rej, nfev], dtype=np.int64)
+            h *= max(0.2, 0.9 * err ** (-1.0 / 3.0))
+            need_jac = reuse and jac_age > 0
+            last_rejected = True
+    stats = np.array([n_acc, n_rej, nfev, n_jac], dtype=np.int64)
     return Y, k_out, status, t, y, stats
-
 
 @njit(cache=True, nogil=True)
 def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
