@@ -273,7 +273,7 @@ def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:
         rows.append(("valve.zeta", "1", f.zeta_, None if true is None else true.valve.zeta))
         for amp, fit in f.fits_.items():
             tv = None if true is None else true.valve.omega0_at(amp)
-            rows.append((f"valve.omega0 at |u| = {100 * amp:g} %", "rad/s", fit.omega0, tv))
+            rows.append((f"valve.omega0 at u = {100 * amp:g} %", "rad/s", fit.omega0, tv))
     if "deadzone" in fitted:
         d = fitted["deadzone"].fit_
         rows.append(("dead_zone.beta", "1", d.beta, None if true is None else true.dead_zone.beta))
@@ -301,7 +301,7 @@ def _markdown(df, floatfmt: str = ".4g") -> str:
     def fmt(v):
         if isinstance(v, float | np.floating):
             return "" if not np.isfinite(v) else format(float(v), floatfmt)
-        return str(v)
+        return str(v).replace("|", "\\|")
 
     lines = ["| " + " | ".join(map(str, cols)) + " |", "| " + " | ".join("---" for _ in cols) + " |"]
     lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in df.itertuples(index=False)]

@@ -1,0 +1,127 @@
+"""The paper study: stages, resume, refusal to overwrite, CLI, and the report in a browser."""
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+from hydropwa.evaluation import StudyError, run_paper_study
+
+SMALL_CAMPAIGN = Path(__file__).parent / "small_campaign.toml"
+
+
+def _hashes(root: Path) -> dict[str, tuple[int, int]]:
+    return {p.relative_to(root).as_posix(): (p.stat().st_mtime_ns, p.stat().st_size)
+            for p in root.rglob("*") if p.is_file() and ".stages" not in p.parts}
+
+
+def test_study_writes_the_report_folder(small_study):
+    out = small_study.out
+    for rel in ("index.html", "identified.toml", "pwa.json", "tables/metrics.csv", "tables/metrics.md",
+                "tables/identified.csv", "tables/position_fit.md", "figures/fig01_cq.svg",
+                "figures/fig05_valve_bode.png", "figures/fig08_stribeck.png", "figures/pwa_cells.png"):
+        assert (out / rel).is_file(), rel
+    assert len(list((out / "figures").glob("fig1[0-3]_*.png"))) == 4
+    assert small_study.position_fit("full").min() >= 90.0
+    assert set(small_study.metrics.model) >= {"full", "reduced", "pwa", "pwa-scheduled", "full (true params)"}
+    from hydropwa.linearization import load_pwa
+    from hydropwa.params import load_params
+
+    ident = load_params(out / "identified.toml")
+    assert ident.dead_zone.beta == pytest.approx(0.1, abs=0.01)
+    assert load_pwa(out / "pwa.json").params.cylinder == ident.cylinder
+
+
+def test_rerun_reuses_every_stage(small_study):
+    before = _hashes(small_study.out)
+    t0 = time.perf_counter()
+    again = run_paper_study(small_study.out, campaign=SMALL_CAMPAIGN, progress=False)
+    took = time.perf_counter() - t0
+    assert all(s["reused"] for s in again.stages.values()), again.stages
+    assert took < 0.3 * sum(s["work_seconds"] for s in again.stages.values())
+    assert _hashes(small_study.out) == before
+
+
+def test_a_removed_output_reruns_its_stage_only(small_study, tmp_path):
+    out = tmp_path / "copy"
+    shutil.copytree(small_study.out, out)
+    (out / "index.html").unlink()
+    res = run_paper_study(out, campaign=SMALL_CAMPAIGN, progress=False)
+    assert {k for k, s in res.stages.items() if not s["reused"]} == {"report"}
+    assert (out / "index.html").is_file()
+
+
+def test_other_inputs_are_refused_without_force(small_study, tmp_path):
+    with pytest.raises(StudyError, match="other inputs; pass --force"):
+        run_paper_study(small_study.out, campaign=SMALL_CAMPAIGN, params="symmetric", progress=False)
+    (tmp_path / "x.txt").write_text("mine")
+    with pytest.raises(StudyError, match="not empty"):
+        run_paper_study(tmp_path, campaign=SMALL_CAMPAIGN, progress=False)
+
+
+def test_study_from_a_data_folder(small_study, tmp_path):
+    res = run_paper_study(tmp_path / "rep", data=small_study.out / "data", progress=False)
+    assert res.true_params is not None  # read from data/true_params.toml
+    assert res.position_fit("full").min() >= 90.0
+    assert not (tmp_path / "rep" / "data").exists()
+
+
+def test_cli_errors_are_one_line(tmp_path, capsys):
+    from hydropwa.cli import main
+
+    code = main(["paper", "--out", str(tmp_path / "r"), "--data", str(tmp_path / "missing"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith("error: data folder") and err.count("\n") == 1
+
+
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+
+
+def test_report_renders_in_chromium(small_study, tmp_path):
+    if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):
+        pytest.skip("chromium and chromium-driver are not installed (apt-get install chromium chromium-driver)")
+    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
+    from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
+
+    os.environ["SE_OFFLINE"] = "true"
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+              "--disable-component-update", "--disable-sync", "--no-first-run",
+              f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1200,3000"):
+        opts.add_argument(a)
+    driver = webdriver.Chrome(options=opts, service=Service(executable_path=CHROMEDRIVER))
+    try:
+        driver.get((small_study.out / "index.html").resolve().as_uri())
+        imgs = driver.find_elements(By.TAG_NAME, "img")
+        assert len(imgs) >= 10
+        widths = [driver.execute_script("return arguments[0].complete && arguments[0].naturalWidth", i) for i in imgs]
+        assert all(w and w > 0 for w in widths), widths
+        tables = driver.find_elements(By.TAG_NAME, "table")
+        assert len(tables) >= 3
+        text = driver.find_element(By.TAG_NAME, "body").text
+        assert "Position fit" in text and "Identified parameters" in text and "pwa-scheduled" in text
+        shot = Path(os.environ.get("HYDROPWA_SCREENSHOT_DIR", tmp_path)) / "report.png"
+        driver.save_screenshot(str(shot))
+        assert shot.stat().st_size > 10_000
+    finally:
+        driver.quit()
+
+
+@pytest.mark.slow
+def test_default_paper_command(tmp_path):
+    """The real default `hydropwa paper` (full paper campaign on the virtual rig), < 5 min."""
+    from hydropwa.cli import main
+
+    t0 = time.perf_counter()
+    assert main(["paper", "--out", str(tmp_path / "report"), "-q"]) == 0
+    assert time.perf_counter() - t0 < 300
+    import pandas as pd
+
+    m = pd.read_csv(tmp_path / "report" / "tables" / "metrics.csv")
+    fit = m[(m.model == "full") & (m.channel == "x")]["nrmse_fit"]
+    assert len(fit) == 9 and fit.min() >= 90.0
