@@ -13,6 +13,8 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from .._errors import ParameterError
 
 __all__ = [
@@ -83,7 +85,13 @@ class ServoValve:
     def __post_init__(self) -> None:
         _check(self, "omega0", "rad/s", gt=0.0)
         _check(self, "zeta", "1", gt=0.0, le=10.0)
-        table = tuple((float(a), float(w)) for a, w in self.omega0_table)
+        try:
+            table = tuple((float(a), float(w)) for a, w in self.omega0_table)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"ServoValve.omega0_table = {self.omega0_table!r:.80} must be a sequence of "
+                "(amplitude [1], omega0 [rad/s]) pairs"
+            ) from None
         for a, w in table:
             if not (0.0 < a <= 1.5) or not (w > 0.0 and math.isfinite(w)):
                 raise ParameterError(
@@ -139,6 +147,11 @@ class DeadZone:
         _check(self, "alpha", "1", gt=0.0, le=2.0)
         _check(self, "beta", "1", ge=0.0, lt=1.0)
         _check(self, "creep_slope", "1", ge=0.0, lt=1.0)
+        # bool("false") is True: accept only real booleans (and numpy bools), never strings.
+        if not isinstance(self.continuous, bool | np.bool_):
+            raise ParameterError(
+                f"DeadZone.continuous = {self.continuous!r} must be true or false (a boolean)"
+            )
         object.__setattr__(self, "continuous", bool(self.continuous))
 
     @property

@@ -152,6 +152,10 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
     ``[flow]`` table may give ``rating = {flow = "40 L/min", pressure_drop = "70 bar"}``
     instead of ``K`` (Eq. (8)).
     """
+    if not isinstance(data, dict):
+        raise ParameterError(
+            f"{source}: a parameter document must be a table of sections, got {type(data).__name__}"
+        )
     base = data.get("base")
     if base is not None:
         from ._presets import get_preset
@@ -204,7 +208,10 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
     meta = dict(params.meta)
-    meta.update(data.get("meta", {}) or {})
+    extra = data.get("meta", {}) or {}
+    if not isinstance(extra, dict):
+        raise ParameterError(f"{source}: [meta] must be a table, got {type(extra).__name__}")
+    meta.update(extra)
     if "uncertainty" in data:
         meta["uncertainty"] = data["uncertainty"]
     return dataclasses.replace(params, meta=meta, **changes)
