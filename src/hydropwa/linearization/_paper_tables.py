@@ -24,7 +24,14 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..params import TABLE_IV, TABLE_V, DeadZone, Friction, recover_stribeck_from_table_v, table_v_pwa
+from ..params import (
+    TABLE_IV,
+    TABLE_V,
+    DeadZone,
+    Friction,
+    recover_stribeck_from_table_v,
+    table_v_pwa,
+)
 from ._cells import PAPER_WORKING_POINTS, dead_zone_cells, friction_cells
 
 __all__ = [
