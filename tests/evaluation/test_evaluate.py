@@ -32,7 +32,7 @@ def test_plot_has_measurement_and_models(sine_run):
     run, params = sine_run
     res = evaluate_run(run, params, models=("full", "pwa"))
     fig = res.plot()
-    labels = [line.get_label() for line in fig.axes[1].get_lines()]
+    labels = [text.get_text() for text in fig.legends[0].get_texts()]
     assert labels[:3] == ["measurement", "full-order", "PWA (mean P_S)"]
 
 
@@ -40,7 +40,9 @@ def test_missing_supply_pressure_is_assumed_constant_and_said(sine_run):
     run, params = sine_run
     chans = {k: v for k, v in run.channels.items() if k != "p_s"}
     no_ps = Run(name="no_ps", channels=chans, meta=run.meta)
-    with pytest.warns(EvaluationWarning, match="no supply pressure channel p_s; assuming a constant P_S = 100 bar"):
+    with pytest.warns(
+        EvaluationWarning, match="no supply pressure channel p_s; assuming a constant P_S = 100 bar"
+    ):
         res = evaluate_run(no_ps, params, models=("full", "pwa-scheduled"))
     assert any("assuming a constant" in n for n in res.notes)
     assert res.supply_pressure == params.supply.pressure

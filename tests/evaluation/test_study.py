@@ -13,19 +13,38 @@ SMALL_CAMPAIGN = Path(__file__).parent / "small_campaign.toml"
 
 
 def _hashes(root: Path) -> dict[str, tuple[int, int]]:
-    return {p.relative_to(root).as_posix(): (p.stat().st_mtime_ns, p.stat().st_size)
-            for p in root.rglob("*") if p.is_file() and ".stages" not in p.parts}
+    return {
+        p.relative_to(root).as_posix(): (p.stat().st_mtime_ns, p.stat().st_size)
+        for p in root.rglob("*")
+        if p.is_file() and ".stages" not in p.parts
+    }
 
 
 def test_study_writes_the_report_folder(small_study):
     out = small_study.out
-    for rel in ("index.html", "identified.toml", "pwa.json", "tables/metrics.csv", "tables/metrics.md",
-                "tables/identified.csv", "tables/position_fit.md", "figures/fig01_cq.svg",
-                "figures/fig05_valve_bode.png", "figures/fig08_stribeck.png", "figures/pwa_cells.png"):
+    for rel in (
+        "index.html",
+        "identified.toml",
+        "pwa.json",
+        "tables/metrics.csv",
+        "tables/metrics.md",
+        "tables/identified.csv",
+        "tables/position_fit.md",
+        "figures/fig01_cq.svg",
+        "figures/fig05_valve_bode.png",
+        "figures/fig08_stribeck.png",
+        "figures/pwa_cells.png",
+    ):
         assert (out / rel).is_file(), rel
     assert len(list((out / "figures").glob("fig1[0-3]_*.png"))) == 4
     assert small_study.position_fit("full").min() >= 90.0
-    assert set(small_study.metrics.model) >= {"full", "reduced", "pwa", "pwa-scheduled", "full (true params)"}
+    assert set(small_study.metrics.model) >= {
+        "full",
+        "reduced",
+        "pwa",
+        "pwa-scheduled",
+        "full (true params)",
+    }
     from hydropwa.linearization import load_pwa
     from hydropwa.params import load_params
 
@@ -55,7 +74,9 @@ def test_a_removed_output_reruns_its_stage_only(small_study, tmp_path):
 
 def test_other_inputs_are_refused_without_force(small_study, tmp_path):
     with pytest.raises(StudyError, match="other inputs; pass --force"):
-        run_paper_study(small_study.out, campaign=SMALL_CAMPAIGN, params="symmetric", progress=False)
+        run_paper_study(
+            small_study.out, campaign=SMALL_CAMPAIGN, params="symmetric", progress=False
+        )
     (tmp_path / "x.txt").write_text("mine")
     with pytest.raises(StudyError, match="not empty"):
         run_paper_study(tmp_path, campaign=SMALL_CAMPAIGN, progress=False)
@@ -82,7 +103,9 @@ CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
 def test_report_renders_in_chromium(small_study, tmp_path):
     if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):
-        pytest.skip("chromium and chromium-driver are not installed (apt-get install chromium chromium-driver)")
+        pytest.skip(
+            "chromium and chromium-driver are not installed (apt-get install chromium chromium-driver)"
+        )
     webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
     from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.by import By
@@ -90,21 +113,34 @@ def test_report_renders_in_chromium(small_study, tmp_path):
     os.environ["SE_OFFLINE"] = "true"
     opts = webdriver.ChromeOptions()
     opts.binary_location = CHROMIUM
-    for a in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-              "--disable-component-update", "--disable-sync", "--no-first-run",
-              f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1200,3000"):
+    for a in (
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--window-size=1200,3000",
+    ):
         opts.add_argument(a)
     driver = webdriver.Chrome(options=opts, service=Service(executable_path=CHROMEDRIVER))
     try:
         driver.get((small_study.out / "index.html").resolve().as_uri())
         imgs = driver.find_elements(By.TAG_NAME, "img")
         assert len(imgs) >= 10
-        widths = [driver.execute_script("return arguments[0].complete && arguments[0].naturalWidth", i) for i in imgs]
+        widths = [
+            driver.execute_script("return arguments[0].complete && arguments[0].naturalWidth", i)
+            for i in imgs
+        ]
         assert all(w and w > 0 for w in widths), widths
         tables = driver.find_elements(By.TAG_NAME, "table")
         assert len(tables) >= 3
         text = driver.find_element(By.TAG_NAME, "body").text
-        assert "Position fit" in text and "Identified parameters" in text and "pwa-scheduled" in text
+        assert (
+            "Position fit" in text and "Identified parameters" in text and "pwa-scheduled" in text
+        )
         shot = Path(os.environ.get("HYDROPWA_SCREENSHOT_DIR", tmp_path)) / "report.png"
         driver.save_screenshot(str(shot))
         assert shot.stat().st_size > 10_000

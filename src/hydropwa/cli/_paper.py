@@ -15,31 +15,65 @@ __all__ = ["paper_command"]
 
 
 def paper_command(
-    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (index.html, figures/, tables/, identified.toml, pwa.json).")] = Path("report"),
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Report folder (index.html, figures/, tables/, identified.toml, pwa.json).",
+        ),
+    ] = Path("report"),
     data: Annotated[
         Path | None,
-        typer.Option("--data", "-d", help="Measured dataset folder with frf/, deadzone/, friction/, sine/ (default: run the virtual rig)."),
+        typer.Option(
+            "--data",
+            "-d",
+            help="Measured dataset folder with frf/, deadzone/, friction/, sine/ (default: run the virtual rig).",
+        ),
     ] = None,
     params: Annotated[
         str | None,
-        typer.Option("--params", "-p", help="TOML file or preset: the rig's true parameters, or with --data the base (datasheet) parameters."),
+        typer.Option(
+            "--params",
+            "-p",
+            help="TOML file or preset: the rig's true parameters, or with --data the base (datasheet) parameters.",
+        ),
     ] = None,
     campaign: Annotated[
-        str | None, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name for the rig (default: paper).")
+        str | None,
+        typer.Option(
+            "--campaign",
+            "-c",
+            help="Campaign TOML file or built-in name for the rig (default: paper).",
+        ),
     ] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite a report folder made from other inputs.")] = False,
-    fresh: Annotated[bool, typer.Option("--fresh", help="Recompute every stage instead of reusing finished ones.")] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite a report folder made from other inputs.")
+    ] = False,
+    fresh: Annotated[
+        bool,
+        typer.Option("--fresh", help="Recompute every stage instead of reusing finished ones."),
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper's study: data → identification → PWA → evaluation → report; reruns reuse finished stages."""
     from hydropwa.evaluation import run_paper_study
 
-    res = run_paper_study(out, data=data, params=params, campaign=campaign, fresh=fresh, force=force,
-                          progress=not quiet)
+    res = run_paper_study(
+        out,
+        data=data,
+        params=params,
+        campaign=campaign,
+        fresh=fresh,
+        force=force,
+        progress=not quiet,
+    )
     fit = res.position_fit("full")
     reused = [k for k, v in res.stages.items() if v["reused"]]
     typer.echo(f"report: {res.report}")
-    typer.echo(f"full-order position fit: mean {fit.mean():.1f} %, min {fit.min():.1f} % over {fit.size} sine runs")
+    typer.echo(
+        f"full-order position fit: mean {fit.mean():.1f} %, min {fit.min():.1f} % over {fit.size} sine runs"
+    )
     if reused:
         typer.echo(f"reused stages: {', '.join(reused)}")
     typer.echo(f"done in {res.elapsed:.1f} s")

@@ -110,7 +110,9 @@ def _local_slope(t: np.ndarray, x: np.ndarray, i: int, half_width: float) -> flo
     return float(c[-2])
 
 
-def evaluation_start(run, settle_periods: float = 1.0, slope_window: float = 0.01) -> EvaluationStart:
+def evaluation_start(
+    run, settle_periods: float = 1.0, slope_window: float = 0.01
+) -> EvaluationStart:
     """The start of the first full period in steady state, and the measured state there.
 
     Parameters
@@ -149,9 +151,15 @@ def evaluation_start(run, settle_periods: float = 1.0, slope_window: float = 0.0
     ch = run.channels
     ps = float(ch["p_s"][i]) if "p_s" in ch else math.nan
     return EvaluationStart(
-        index=i, t0=float(t[i]), period=period, x=float(ch["x"][i]),
-        v=_local_slope(t, ch["x"], i, slope_window), p_a=float(ch["p_a"][i]), p_b=float(ch["p_b"][i]),
-        p_s=ps, spool=float(u[i]),
+        index=i,
+        t0=float(t[i]),
+        period=period,
+        x=float(ch["x"][i]),
+        v=_local_slope(t, ch["x"], i, slope_window),
+        p_a=float(ch["p_a"][i]),
+        p_b=float(ch["p_b"][i]),
+        p_s=ps,
+        spool=float(u[i]),
     )
 
 
@@ -219,16 +227,23 @@ class EvaluationResult:
             raise KeyError(f"no metric for model {model!r}, channel {channel!r}")
         return float(row["nrmse_fit"].iloc[0])
 
-    def plot(self, models: Sequence[str] | None = None, channels: Sequence[str] = ("u", "x", "p_l"),
-             smooth: float = 0.01):
+    def plot(
+        self,
+        models: Sequence[str] | None = None,
+        channels: Sequence[str] = ("u", "x", "p_l"),
+        smooth: float = 0.01,
+    ):
         """Measurement and models over time, like Figs. 10–13 (see :func:`plot_evaluation`)."""
         from ._figures import plot_evaluation
 
         return plot_evaluation(self, models=models, channels=channels, smooth=smooth)
 
     def __repr__(self) -> str:
-        fits = ", ".join(f"{m}: {self.fit(m, 'x'):.1f} %" for m in self.simulations
-                         if not self.metrics[(self.metrics["model"] == m)].empty)
+        fits = ", ".join(
+            f"{m}: {self.fit(m, 'x'):.1f} %"
+            for m in self.simulations
+            if not self.metrics[(self.metrics["model"] == m)].empty
+        )
         return f"EvaluationResult(run={self.run!r}, t0={self.start.t0:.3f} s, position fit {fits})"
 
 
@@ -236,15 +251,19 @@ def _check_models(models: Iterable[str]) -> tuple[str, ...]:
     out = tuple(models)
     bad = [m for m in out if m not in MODELS]
     if bad or not out:
-        raise DataError(f"unknown model variant(s) {', '.join(map(repr, bad)) or '(none)'}; "
-                        f"choose from {', '.join(MODELS)}")
+        raise DataError(
+            f"unknown model variant(s) {', '.join(map(repr, bad)) or '(none)'}; "
+            f"choose from {', '.join(MODELS)}"
+        )
     return out
 
 
 def _check_run(run) -> None:
     missing = [c for c in ("t", "u", "x", "p_a", "p_b") if c not in run.channels]
     if missing:
-        raise DataError(f"run {run.name!r} lacks channel(s) {', '.join(missing)} needed for the evaluation")
+        raise DataError(
+            f"run {run.name!r} lacks channel(s) {', '.join(missing)} needed for the evaluation"
+        )
     if run.channels["t"].size < 10:
         raise DataError(f"run {run.name!r} has only {run.channels['t'].size} samples")
 
@@ -255,10 +274,12 @@ def _supply(run, params, start: EvaluationStart, notes: list[str]):
 
     if "p_s" in run.channels and np.all(np.isfinite(run.channels["p_s"])):
         ps = run.channels["p_s"]
-        return Sampled(run.channels["t"], ps), float(np.mean(ps[start.index:]))
+        return Sampled(run.channels["t"], ps), float(np.mean(ps[start.index :]))
     p = float(params.supply.pressure)
-    msg = (f"run {run.name!r} has no supply pressure channel p_s; assuming a constant "
-           f"P_S = {p / 1e5:g} bar (params.supply.pressure) for every model")
+    msg = (
+        f"run {run.name!r} has no supply pressure channel p_s; assuming a constant "
+        f"P_S = {p / 1e5:g} bar (params.supply.pressure) for every model"
+    )
     warnings.warn(msg, EvaluationWarning, stacklevel=3)
     notes.append(msg)
     return p, p
@@ -291,12 +312,21 @@ def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
     model, ps_in = _model_and_inputs(name, params, ps_signal, ps_mean)
     t = run.channels["t"]
     fl = Sampled(t, run.channels["f_l"]) if "f_l" in run.channels else None
-    res = simulate(model, u=Sampled(t, run.channels["u"]), t=t[start.index:], supply_pressure=ps_in,
-                   load_force=fl, initial_state=_initial_state(model, start, ps_mean), rtol=rtol,
-                   raise_on_failure=False)
+    res = simulate(
+        model,
+        u=Sampled(t, run.channels["u"]),
+        t=t[start.index :],
+        supply_pressure=ps_in,
+        load_force=fl,
+        initial_state=_initial_state(model, start, ps_mean),
+        rtol=rtol,
+        raise_on_failure=False,
+    )
     if res.stats.get("status", 0) != 0:
-        notes.append(f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
-                     f"{res.t.size} of {t.size - start.index} samples")
+        notes.append(
+            f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
+            f"{res.t.size} of {t.size - start.index} samples"
+        )
     return res
 
 
@@ -315,8 +345,13 @@ def _metric_rows(run_name, meas, sims, start) -> list[dict]:
     for model, res in sims.items():
         for ch in CHANNELS:
             y_hat = _padded(res, ch, n)
-            row = {"run": run_name, "model": model, "channel": ch, "unit": CHANNEL_UNITS.get(ch, "1"),
-                   **channel_metrics(meas[ch], y_hat)}
+            row = {
+                "run": run_name,
+                "model": model,
+                "channel": ch,
+                "unit": CHANNEL_UNITS.get(ch, "1"),
+                **channel_metrics(meas[ch], y_hat),
+            }
             if ch == "x" and start.period is not None:
                 row["drift_measured"] = drift_per_period(meas["t"], meas["x"], start.period)
                 row["drift_model"] = drift_per_period(meas["t"], y_hat, start.period)
@@ -336,10 +371,17 @@ def _cell_rows(run_name, meas, sims) -> list[dict]:
             cells = res.channels[key].astype(int)
             for c in np.unique(cells):
                 sel = cells == c
-                rows.append({"run": run_name, "model": model, "set": key[5:], "cell": int(c),
-                             "fraction": float(np.mean(sel)),
-                             "rmse_x": float(np.sqrt(np.mean(ex[sel] ** 2))),
-                             "rmse_p_l": float(np.sqrt(np.mean(ep[sel] ** 2)))})
+                rows.append(
+                    {
+                        "run": run_name,
+                        "model": model,
+                        "set": key[5:],
+                        "cell": int(c),
+                        "fraction": float(np.mean(sel)),
+                        "rmse_x": float(np.sqrt(np.mean(ex[sel] ** 2))),
+                        "rmse_p_l": float(np.sqrt(np.mean(ep[sel] ** 2))),
+                    }
+                )
     return rows
 
 
@@ -350,9 +392,15 @@ def evaluation_params(params):
     return params.replace(**{"supply.model": "ideal"})
 
 
-def evaluate_run(run, params, *, models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
-                 settle_periods: float = 1.0, rtol: float = 1e-5,
-                 slope_window: float = 0.01) -> EvaluationResult:
+def evaluate_run(
+    run,
+    params,
+    *,
+    models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+    settle_periods: float = 1.0,
+    rtol: float = 1e-5,
+    slope_window: float = 0.01,
+) -> EvaluationResult:
     """Simulate model variants with the run's measured inputs and score them against it.
 
     Parameters
@@ -394,18 +442,34 @@ def evaluate_run(run, params, *, models: Iterable[str] = ("full", "reduced", "pw
     notes: list[str] = []
     ps_signal, ps_mean = _supply(run, params, start, notes)
     meas = _measured(run, start, slope_window)
-    sims = {name: _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes) for name in names}
+    sims = {
+        name: _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
+        for name in names
+    }
     return EvaluationResult(
-        run=run.name, start=start, measured=meas, simulations=sims,
+        run=run.name,
+        start=start,
+        measured=meas,
+        simulations=sims,
         metrics=pd.DataFrame(_metric_rows(run.name, meas, sims, start)),
-        cell_metrics=pd.DataFrame(_cell_rows(run.name, meas, sims),
-                                  columns=["run", "model", "set", "cell", "fraction", "rmse_x", "rmse_p_l"]),
-        supply_pressure=ps_mean, notes=notes, meta=dict(run.meta or {}),
+        cell_metrics=pd.DataFrame(
+            _cell_rows(run.name, meas, sims),
+            columns=["run", "model", "set", "cell", "fraction", "rmse_x", "rmse_p_l"],
+        ),
+        supply_pressure=ps_mean,
+        notes=notes,
+        meta=dict(run.meta or {}),
     )
 
 
-def evaluate_dataset(dataset, params, *, models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
-                     progress=None, **kwargs):
+def evaluate_dataset(
+    dataset,
+    params,
+    *,
+    models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+    progress=None,
+    **kwargs,
+):
     """Metrics of :func:`evaluate_run` over every run of a dataset, as one DataFrame.
 
     Parameters

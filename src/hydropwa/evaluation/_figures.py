@@ -77,7 +77,9 @@ def plot_evaluation(result, models=None, channels=("u", "x", "p_l"), smooth: flo
     dt = float(np.median(np.diff(meas["t"]))) if t.size > 1 else 1.0
     n = max(1, int(round(smooth / dt)))
     models = list(result.simulations) if models is None else list(models)
-    fig, axes = plt.subplots(len(channels), 1, sharex=True, figsize=(7.5, 1.9 * len(channels) + 0.9), squeeze=False)
+    fig, axes = plt.subplots(
+        len(channels), 1, sharex=True, figsize=(7.5, 1.9 * len(channels) + 0.9), squeeze=False
+    )
     for ax, ch in zip(axes[:, 0], channels, strict=True):
         label, fac, unit = DISPLAY.get(ch, (ch, 1.0, ""))
         if ch in meas:
@@ -87,15 +89,25 @@ def plot_evaluation(result, models=None, channels=("u", "x", "p_l"), smooth: flo
             for m in models:
                 res = result.simulations[m]
                 color, ls, lab = MODEL_STYLE.get(m, ("gray", "-", m))
-                ax.plot(res.t - meas["t"][0], res.channels[ch] * fac, color=color, ls=ls, lw=1.1, label=lab)
+                ax.plot(
+                    res.t - meas["t"][0],
+                    res.channels[ch] * fac,
+                    color=color,
+                    ls=ls,
+                    lw=1.1,
+                    label=lab,
+                )
         ax.set_ylabel(f"{label} [{unit}]")
         ax.grid(True, alpha=0.3)
-    axes[1 if len(channels) > 1 else 0, 0].legend(loc="best", fontsize=7, ncol=2)
+    handles, labels = axes[-1, 0].get_legend_handles_labels()
+    fig.legend(
+        handles, labels, loc="lower center", ncol=min(len(labels), 3), fontsize=8, frameon=False
+    )
     axes[-1, 0].set_xlabel("time from the start of the compared period [s]")
     amp, freq = result.meta.get("amplitude"), result.meta.get("frequency")
     what = f"{100 * amp:g} % valve opening, {freq:g} Hz" if amp and freq else result.run
     axes[0, 0].set_title(f"Measurement and simulation, sine with {what}", fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     return fig
 
 
@@ -135,7 +147,13 @@ def plot_cqp(pwa, supply_pressure: float | None = None, openings=(0.25, 0.5, 0.7
     fig, ax = plt.subplots(figsize=(6.5, 4.0))
     for i, z in enumerate(openings):
         c = plt.cm.viridis(i / max(1, len(openings) - 1))
-        ax.plot(pl / 1e5, z * scale * cqp_shape(pl / ps) * 6e9, color=c, lw=1.5, label=f"Ĉ_qp, z = {z:g}")
+        ax.plot(
+            pl / 1e5,
+            z * scale * cqp_shape(pl / ps) * 6e9,
+            color=c,
+            lw=1.5,
+            label=f"Ĉ_qp, z = {z:g}",
+        )
         ax.plot(pl / 1e5, z * cells(pl) * 6e9, color=c, ls="--", lw=1.0)
     ax.plot([], [], "k--", lw=1.0, label=f"PWA, {cells.n_cells} cells (21)")
     ax.set_xlabel("load pressure P_L [bar]")
@@ -163,7 +181,14 @@ def plot_bode(frf: dict, fits: dict | None = None):
         c = plt.cm.tab10(i)
         f = np.asarray(r.frequency)
         h = np.asarray(r.response)
-        am.semilogx(f, 20 * np.log10(np.abs(h)), "o", ms=3, color=c, label=f"measured, |u| = {100 * amp:g} %")
+        am.semilogx(
+            f,
+            20 * np.log10(np.abs(h)),
+            "o",
+            ms=3,
+            color=c,
+            label=f"measured, |u| = {100 * amp:g} %",
+        )
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(h))), "o", ms=3, color=c)
         if fits and amp in fits:
             ff = np.geomspace(f.min(), f.max(), 300)
@@ -188,7 +213,13 @@ def plot_dead_zone(u, v, fit_u=None, fit_v=None):
     fig, ax = plt.subplots(figsize=(6.5, 4.0))
     ax.plot(np.asarray(u) * 100, np.asarray(v) * 1e3, "o", ms=3.5, label="measured (slope of x)")
     if fit_u is not None:
-        ax.plot(np.asarray(fit_u) * 100, np.asarray(fit_v) * 1e3, "r-", lw=1.2, label="PWA dead-zone fit (16)")
+        ax.plot(
+            np.asarray(fit_u) * 100,
+            np.asarray(fit_v) * 1e3,
+            "r-",
+            lw=1.2,
+            label="PWA dead-zone fit (16)",
+        )
     ax.set_xlabel("valve command u [%]")
     ax.set_ylabel("rod velocity [mm/s]")
     ax.set_title("Fig. 6: experimental test of the dead-zone and linearization", fontsize=10)
@@ -221,11 +252,23 @@ def plot_stribeck(v, f, friction=None, cells=None, true_friction=None):
     fig, ax = plt.subplots(figsize=(6.5, 4.0))
     ax.plot(v * 1e3, f, "o", ms=3.5, label="measured")
     if friction is not None:
-        ax.plot(vv * 1e3, friction_function(friction)(vv), "k-", lw=1.3, label="fitted Stribeck model (11)")
+        ax.plot(
+            vv * 1e3,
+            friction_function(friction)(vv),
+            "k-",
+            lw=1.3,
+            label="fitted Stribeck model (11)",
+        )
     if cells is not None:
         ax.plot(vv * 1e3, cells(vv), "r--", lw=1.1, label=f"PWA, {cells.n_cells} cells (22)")
     if true_friction is not None:
-        ax.plot(vv * 1e3, friction_function(true_friction)(vv), color="gray", lw=0.8, label="true (virtual rig)")
+        ax.plot(
+            vv * 1e3,
+            friction_function(true_friction)(vv),
+            color="gray",
+            lw=0.8,
+            label="true (virtual rig)",
+        )
     ax.set_xlabel("rod velocity [mm/s]")
     ax.set_ylabel("friction force [N]")
     ax.set_title("Fig. 8: measured data points and fitted Stribeck model", fontsize=10)

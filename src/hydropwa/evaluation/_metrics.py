@@ -18,7 +18,9 @@ def _pair(y, y_hat) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(y, dtype=float).ravel()
     y_hat = np.asarray(y_hat, dtype=float).ravel()
     if y.shape != y_hat.shape:
-        raise ValueError(f"measurement ({y.size} samples) and model ({y_hat.size}) differ in length")
+        raise ValueError(
+            f"measurement ({y.size} samples) and model ({y_hat.size}) differ in length"
+        )
     ok = np.isfinite(y) & np.isfinite(y_hat)
     return y[ok], y_hat[ok]
 

@@ -43,13 +43,18 @@ def _figure(path: Path) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
     key = path.stem.split("_")[0] if path.stem.startswith("fig") else path.stem
     cap = _CAPTIONS.get(key, path.stem)
-    return (f'<figure><img alt="{html.escape(cap)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(cap)} ({html.escape(path.stem)}; SVG in figures/)</figcaption></figure>")
+    return (
+        f'<figure><img alt="{html.escape(cap)}" src="data:image/png;base64,{data}">'
+        f"<figcaption>{html.escape(cap)} ({html.escape(path.stem)}; SVG in figures/)</figcaption></figure>"
+    )
 
 
 def _figures(out: Path, prefixes: tuple[str, ...]) -> str:
     files = sorted(p for p in (out / "figures").glob("*.png") if p.stem.startswith(prefixes))
-    return "\n".join(_figure(p) for p in files) or '<p class="small">(no figure: the data lacked this experiment)</p>'
+    return (
+        "\n".join(_figure(p) for p in files)
+        or '<p class="small">(no figure: the data lacked this experiment)</p>'
+    )
 
 
 def _cell(v) -> str:
@@ -62,8 +67,10 @@ def _cell(v) -> str:
 
 def _table(df, caption: str = "") -> str:
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    body = "\n".join("<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in row) + "</tr>"
-                     for row in df.itertuples(index=False))
+    body = "\n".join(
+        "<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in row) + "</tr>"
+        for row in df.itertuples(index=False)
+    )
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
@@ -78,8 +85,13 @@ def metrics_for_display(metrics):
     for col in ("drift_measured", "drift_model"):
         if col in df:
             df[col] = df[col] * 1e3
-    df = df.rename(columns={"nrmse_fit": "fit [%]", "drift_measured": "drift meas. [mm/period]",
-                            "drift_model": "drift model [mm/period]"})
+    df = df.rename(
+        columns={
+            "nrmse_fit": "fit [%]",
+            "drift_measured": "drift meas. [mm/period]",
+            "drift_model": "drift model [mm/period]",
+        }
+    )
     return df.drop(columns=[c for c in ("note",) if c in df])
 
 
@@ -90,8 +102,11 @@ def _params_section(out: Path) -> str:
     if not f.is_file():
         return "<p>No identification table.</p>"
     df = pd.read_csv(f)
-    return _table(df, "identified parameters: estimate, standard error, confidence interval, true value "
-                      "(virtual rig; empty when unknown)")
+    return _table(
+        df,
+        "identified parameters: estimate, standard error, confidence interval, true value "
+        "(virtual rig; empty when unknown)",
+    )
 
 
 def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
@@ -104,16 +119,22 @@ def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     metrics = pd.read_csv(out / "tables" / "metrics.csv")
     fit = pd.read_csv(out / "tables" / "position_fit.csv")
     notes_html = "".join(f"<li>{html.escape(n)}</li>" for n in notes) or "<li>none</li>"
-    true_toml = "" if true is None else (
-        "<details><summary>true parameters (TOML)</summary><pre>"
-        + html.escape(params_to_toml(true)) + "</pre></details>")
+    true_toml = (
+        ""
+        if true is None
+        else (
+            "<details><summary>true parameters (TOML)</summary><pre>"
+            + html.escape(params_to_toml(true))
+            + "</pre></details>"
+        )
+    )
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>hydropwa paper study</title>
 <style>{_CSS}</style></head><body>
 <h1>Valve-controlled hydraulic cylinder: identification, PWA linearization and model evaluation</h1>
-<p class="small">hydropwa {html.escape(__version__)} · data: {html.escape(str(info.get('data')))} ·
-parameters: {html.escape(str(info.get('params_source')))} · {info.get('n_sine_runs')} sine runs ·
-PWA cells at the average supply pressure {info.get('supply_pressure', float('nan')) / 1e5:.2f} bar</p>
+<p class="small">hydropwa {html.escape(__version__)} · data: {html.escape(str(info.get("data")))} ·
+parameters: {html.escape(str(info.get("params_source")))} · {info.get("n_sine_runs")} sine runs ·
+PWA cells at the average supply pressure {info.get("supply_pressure", float("nan")) / 1e5:.2f} bar</p>
 
 <h2>Position fit (NRMSE, %)</h2>
 <p>100·(1 − ‖x − x̂‖/‖x − mean x‖) over the runs from the first full period in steady state

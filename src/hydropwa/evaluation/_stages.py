@@ -35,7 +35,11 @@ def file_hash(path: Path) -> str:
 
 def tree_files(root: Path) -> list[Path]:
     """Every regular file under ``root`` (sorted), skipping hidden and temporary files."""
-    return sorted(p for p in root.rglob("*") if p.is_file() and not any(s.startswith(".") for s in p.relative_to(root).parts))
+    return sorted(
+        p
+        for p in root.rglob("*")
+        if p.is_file() and not any(s.startswith(".") for s in p.relative_to(root).parts)
+    )
 
 
 class StageRunner:
@@ -84,7 +88,9 @@ class StageRunner:
         m = self._load(name) or {}
         return text_hash(m.get("outputs", {}))
 
-    def run(self, name: str, inputs: str, work: Callable[[], tuple[Iterable[Path], dict]]) -> dict[str, Any]:
+    def run(
+        self, name: str, inputs: str, work: Callable[[], tuple[Iterable[Path], dict]]
+    ) -> dict[str, Any]:
         """Run ``work`` unless the stage is finished; returns the stage manifest.
 
         ``work()`` returns (output files, extra manifest entries such as ``notes``).
@@ -95,10 +101,20 @@ class StageRunner:
         if m is None:
             files, extra = work()
             outputs = {p.relative_to(self.out).as_posix(): file_hash(p) for p in sorted(set(files))}
-            m = {"stage": name, "inputs": inputs, "outputs": outputs, "seconds": time.perf_counter() - t0,
-                 "finished": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
+            m = {
+                "stage": name,
+                "inputs": inputs,
+                "outputs": outputs,
+                "seconds": time.perf_counter() - t0,
+                "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                **extra,
+            }
             atomic_write_text(self.manifest_path(name), json.dumps(m, indent=1, default=str) + "\n")
-        self.record[name] = {"reused": reused, "seconds": time.perf_counter() - t0, "work_seconds": m["seconds"]}
+        self.record[name] = {
+            "reused": reused,
+            "seconds": time.perf_counter() - t0,
+            "work_seconds": m["seconds"],
+        }
         if self.on_stage is not None:
             self.on_stage(name, reused, self.record[name]["seconds"])
         return m

@@ -95,7 +95,11 @@ class _Inputs:
     def key(self) -> str:
         from ..params import params_to_toml
 
-        camp = None if self.campaign is None else repr(self.campaign.experiments) + str(self.campaign.seed)
+        camp = (
+            None
+            if self.campaign is None
+            else repr(self.campaign.experiments) + str(self.campaign.seed)
+        )
         data = None if self.data is None else str(self.data.resolve())
         return text_hash(STUDY_VERSION, data, params_to_toml(self.params), camp)
 
@@ -119,16 +123,22 @@ def _resolve(out, data, params, campaign) -> _Inputs:
     if data is not None:
         d = Path(data)
         if not d.is_dir():
-            raise StudyError(f"data folder {str(d)!r} does not exist; give a folder with frf/, deadzone/, "
-                             "friction/, sine/ datasets (the layout `hydropwa rig run all` writes)")
+            raise StudyError(
+                f"data folder {str(d)!r} does not exist; give a folder with frf/, deadzone/, "
+                "friction/, sine/ datasets (the layout `hydropwa rig run all` writes)"
+            )
         if not (d / "sine" / "manifest.json").is_file():
-            raise StudyError(f"data folder {str(d)!r} has no sine/ dataset; the evaluation needs the sine runs")
+            raise StudyError(
+                f"data folder {str(d)!r} has no sine/ dataset; the evaluation needs the sine runs"
+            )
         camp = None
     else:
         d = None
         camp = load_campaign(campaign if campaign is not None else "paper")
         if "sine" not in camp.experiments:
-            raise StudyError(f"campaign {camp.name!r} has no [sine] experiment; the evaluation needs it")
+            raise StudyError(
+                f"campaign {camp.name!r} has no [sine] experiment; the evaluation needs it"
+            )
     return _Inputs(Path(out), d, prm, src, camp, max(1, min(os.cpu_count() or 1, 4)))
 
 
@@ -143,11 +153,15 @@ def _claim(out: Path, key: str, force: bool) -> None:
         except ValueError:
             old = None
         if old != key and not force:
-            raise StudyError(f"{str(out)!r} holds a report made from other inputs; pass --force (force=True) "
-                             "to overwrite it, or choose another folder")
+            raise StudyError(
+                f"{str(out)!r} holds a report made from other inputs; pass --force (force=True) "
+                "to overwrite it, or choose another folder"
+            )
     elif out.is_dir() and any(out.iterdir()) and not force:
-        raise StudyError(f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (force=True) "
-                         "to write into it, or choose another folder")
+        raise StudyError(
+            f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (force=True) "
+            "to write into it, or choose another folder"
+        )
     if force and study.is_file():
         for p in (out / STAGE_DIR).glob("*.json"):
             p.unlink()
@@ -161,10 +175,20 @@ class _Progress:
     def __init__(self, enabled: bool) -> None:
         self.bar = None
         if enabled:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+            )
 
-            self.bar = Progress(TextColumn("{task.description:<22}"), BarColumn(), MofNCompleteColumn(),
-                                TimeElapsedColumn())
+            self.bar = Progress(
+                TextColumn("{task.description:<22}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeElapsedColumn(),
+            )
         self.tasks: dict[str, Any] = {}
 
     def __enter__(self):
@@ -201,7 +225,9 @@ def _read(root: Path, name: str):
     return read_dataset(root / name, validate=False, lazy=True)
 
 
-def _stage_data(inp: _Inputs, runner: StageRunner, prog: _Progress, rerun: bool) -> tuple[Path, str]:
+def _stage_data(
+    inp: _Inputs, runner: StageRunner, prog: _Progress, rerun: bool
+) -> tuple[Path, str]:
     """Virtual-rig campaign into out/data (or hash the user's data folder)."""
     if inp.data is not None:
         files = tree_files(inp.data)
@@ -214,8 +240,14 @@ def _stage_data(inp: _Inputs, runner: StageRunner, prog: _Progress, rerun: bool)
         from ..rig import Rig, run_campaign
 
         rig = Rig(params=inp.params)
-        run_campaign(rig, inp.campaign, root, jobs=inp.jobs, force=rerun,
-                     progress=lambda e, d, t: prog.update(f"rig: {e}", d, t))
+        run_campaign(
+            rig,
+            inp.campaign,
+            root,
+            jobs=inp.jobs,
+            force=rerun,
+            progress=lambda e, d, t: prog.update(f"rig: {e}", d, t),
+        )
         return tree_files(root), {}
 
     m = runner.run("data", text_hash(inp.key(), "data"), work)
@@ -225,19 +257,35 @@ def _stage_data(inp: _Inputs, runner: StageRunner, prog: _Progress, rerun: bool)
 def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> list[dict]:
     rows = []
     for name, unit, est, true in name_unit_est:
-        rows.append({"parameter": name, "unit": unit, "identified": est.value, "std": est.std,
-                     "ci_low": est.ci[0], "ci_high": est.ci[1], "true": np.nan if true is None else true})
+        rows.append(
+            {
+                "parameter": name,
+                "unit": unit,
+                "identified": est.value,
+                "std": est.std,
+                "ci_low": est.ci[0],
+                "ci_high": est.ci[1],
+                "true": np.nan if true is None else true,
+            }
+        )
     return rows
 
 
 def _identify(data_root: Path, base, notes: list[str]):
     """Run the three identifiers on the study's data; missing experiments keep the base values."""
-    from ..identification import DeadZoneIdentifier, IdentificationWarning, StribeckIdentifier, ValveFrfIdentifier
+    from ..identification import (
+        DeadZoneIdentifier,
+        IdentificationWarning,
+        StribeckIdentifier,
+        ValveFrfIdentifier,
+    )
 
     fitted: dict[str, Any] = {}
-    for exp, make in (("frf", lambda: ValveFrfIdentifier()),
-                      ("deadzone", lambda: DeadZoneIdentifier(base_params=base)),
-                      ("friction", lambda: StribeckIdentifier(base_params=base))):
+    for exp, make in (
+        ("frf", lambda: ValveFrfIdentifier()),
+        ("deadzone", lambda: DeadZoneIdentifier(base_params=base)),
+        ("friction", lambda: StribeckIdentifier(base_params=base)),
+    ):
         ds = _read(data_root, exp)
         if ds is None or len(ds) == 0:
             notes.append(f"no {exp}/ dataset: its parameters are kept from the base parameters")
@@ -245,7 +293,9 @@ def _identify(data_root: Path, base, notes: list[str]):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", IdentificationWarning)
             fitted[exp] = make().fit(ds)
-        notes.extend(f"{exp}: {w.message}" for w in caught if issubclass(w.category, IdentificationWarning))
+        notes.extend(
+            f"{exp}: {w.message}" for w in caught if issubclass(w.category, IdentificationWarning)
+        )
     return fitted
 
 
@@ -261,8 +311,12 @@ def _identified_params(base, fitted: dict[str, Any]):
     if "friction" in fitted:
         changes["friction"] = fitted["friction"].friction_
         unc["friction"] = fitted["friction"].uncertainty()
-    meta = {"source": "hydropwa paper study: identified " + (", ".join(changes) or "nothing")
-            + "; the other values are the base (datasheet) parameters", "uncertainty": unc}
+    meta = {
+        "source": "hydropwa paper study: identified "
+        + (", ".join(changes) or "nothing")
+        + "; the other values are the base (datasheet) parameters",
+        "uncertainty": unc,
+    }
     return base.replace(**changes, meta=meta)
 
 
@@ -277,7 +331,14 @@ def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:
     if "deadzone" in fitted:
         d = fitted["deadzone"].fit_
         rows.append(("dead_zone.beta", "1", d.beta, None if true is None else true.dead_zone.beta))
-        rows.append(("dead_zone.creep_slope", "1", d.creep_slope, None if true is None else true.dead_zone.creep_slope))
+        rows.append(
+            (
+                "dead_zone.creep_slope",
+                "1",
+                d.creep_slope,
+                None if true is None else true.dead_zone.creep_slope,
+            )
+        )
     if "friction" in fitted:
         for k, est in fitted["friction"].fit_.estimates.items():
             tv = None if true is None else getattr(true.friction, k, None)
@@ -303,7 +364,10 @@ def _markdown(df, floatfmt: str = ".4g") -> str:
             return "" if not np.isfinite(v) else format(float(v), floatfmt)
         return str(v).replace("|", "\\|")
 
-    lines = ["| " + " | ".join(map(str, cols)) + " |", "| " + " | ".join("---" for _ in cols) + " |"]
+    lines = [
+        "| " + " | ".join(map(str, cols)) + " |",
+        "| " + " | ".join("---" for _ in cols) + " |",
+    ]
     lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in df.itertuples(index=False)]
     return "\n".join(lines)
 
@@ -319,7 +383,9 @@ def _save(fig, stem: Path) -> list[Path]:
     return [png, svg]
 
 
-def _stage_identify(inp: _Inputs, runner: StageRunner, data_root: Path, data_key: str, notes: list[str]):
+def _stage_identify(
+    inp: _Inputs, runner: StageRunner, data_root: Path, data_key: str, notes: list[str]
+):
     out = inp.out
     true = _true_params(inp, data_root)
 
@@ -332,8 +398,14 @@ def _stage_identify(inp: _Inputs, runner: StageRunner, data_root: Path, data_key
         stage_notes: list[str] = []
         fitted = _identify(data_root, inp.params, stage_notes)
         ident = _identified_params(inp.params, fitted)
-        files = [atomic_write_text(out / "identified.toml", params_to_toml(ident, "identified by `hydropwa paper`"))]
-        files += _write_table(pd.DataFrame(_parameter_table(fitted, true)), out / "tables" / "identified")
+        files = [
+            atomic_write_text(
+                out / "identified.toml", params_to_toml(ident, "identified by `hydropwa paper`")
+            )
+        ]
+        files += _write_table(
+            pd.DataFrame(_parameter_table(fitted, true)), out / "tables" / "identified"
+        )
         if "frf" in fitted:
             f = fitted["frf"]
             files += _save(plot_bode(f.frf_, f.fits_), out / "figures" / "fig05_valve_bode")
@@ -341,8 +413,10 @@ def _stage_identify(inp: _Inputs, runner: StageRunner, data_root: Path, data_key
             d = fitted["deadzone"]
             files += _write_table(d.points_, out / "tables" / "deadzone_points")
             uu = np.linspace(float(d.points_["u"].min()), float(d.points_["u"].max()), 600)
-            files += _save(plot_dead_zone(d.points_["u"], d.points_["v"], uu, d.fit_.velocity(uu)),
-                           out / "figures" / "fig06_dead_zone")
+            files += _save(
+                plot_dead_zone(d.points_["u"], d.points_["v"], uu, d.fit_.velocity(uu)),
+                out / "figures" / "fig06_dead_zone",
+            )
         if "friction" in fitted:
             files += _write_table(fitted["friction"].points_, out / "tables" / "friction_points")
         return files, {"notes": stage_notes}
@@ -366,7 +440,9 @@ def _true_params(inp: _Inputs, data_root: Path):
 def _sine_runs(data_root: Path) -> list:
     ds = _read(data_root, "sine")
     if ds is None or len(ds) == 0:
-        raise StudyError(f"{str(data_root / 'sine')!r} holds no runs; the evaluation needs the sine runs")
+        raise StudyError(
+            f"{str(data_root / 'sine')!r} holds no runs; the evaluation needs the sine runs"
+        )
     return list(ds)
 
 
@@ -393,8 +469,13 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
         pts_file = out / "tables" / "friction_points.csv"
         if pts_file.is_file():
             pts = pd.read_csv(pts_file)
-            fig = plot_stribeck(pts["v"], pts["f"], ident.friction, pwa.cells_at()["friction"],
-                                None if true is None else true.friction)
+            fig = plot_stribeck(
+                pts["v"],
+                pts["f"],
+                ident.friction,
+                pwa.cells_at()["friction"],
+                None if true is None else true.friction,
+            )
             files += _save(fig, out / "figures" / "fig08_stribeck")
         return files, {"supply_pressure": ps}
 
@@ -413,8 +494,11 @@ def _corners(runs) -> dict[int, Any]:
     amps = sorted({k[0] for k in keyed})
     freqs = sorted({k[1] for k in keyed})
     out: dict[int, Any] = {}
-    for num, (a, f) in zip((10, 11, 12, 13), ((amps[0], freqs[0]), (amps[-1], freqs[0]),
-                                              (amps[0], freqs[-1]), (amps[-1], freqs[-1])), strict=True):
+    for num, (a, f) in zip(
+        (10, 11, 12, 13),
+        ((amps[0], freqs[0]), (amps[-1], freqs[0]), (amps[0], freqs[-1]), (amps[-1], freqs[-1])),
+        strict=True,
+    ):
         hit = [k[2] for k in keyed if k[0] == a and k[1] == f]
         if hit and all(hit[0] is not r for r in out.values()):
             out[num] = hit[0]
@@ -428,8 +512,16 @@ def _summary(metrics):
     return x.reset_index()
 
 
-def _stage_evaluate(inp: _Inputs, runner: StageRunner, ident, true, key: str, runs, prog: _Progress,
-                    notes: list[str]):
+def _stage_evaluate(
+    inp: _Inputs,
+    runner: StageRunner,
+    ident,
+    true,
+    key: str,
+    runs,
+    prog: _Progress,
+    notes: list[str],
+):
     out = inp.out
 
     def work():
@@ -448,16 +540,25 @@ def _stage_evaluate(inp: _Inputs, runner: StageRunner, ident, true, key: str, ru
                 if true is not None:
                     ref = evaluate_run(run, true, models=("full",))
             stage_notes.extend(f"{run.name}: {n}" for n in res.notes)
-            stage_notes.extend(f"{run.name}: {w.message}" for w in caught
-                               if not issubclass(w.category, DeprecationWarning) and str(w.message) not in res.notes)
+            stage_notes.extend(
+                f"{run.name}: {w.message}"
+                for w in caught
+                if not issubclass(w.category, DeprecationWarning)
+                and str(w.message) not in res.notes
+            )
             df = res.metrics
             if true is not None:
-                df = pd.concat([df, ref.metrics.assign(model="full (true params)")], ignore_index=True)
+                df = pd.concat(
+                    [df, ref.metrics.assign(model="full (true params)")], ignore_index=True
+                )
             frames.append(df)
             cells.append(res.cell_metrics)
             for num, r in corners.items():
                 if r is run:
-                    files += _save(res.plot(channels=("u", "x", "p_l")), out / "figures" / f"fig{num}_{run.name}")
+                    files += _save(
+                        res.plot(channels=("u", "x", "p_l")),
+                        out / "figures" / f"fig{num}_{run.name}",
+                    )
             if example is None or run is corners.get(13):
                 example = res
             prog.update("evaluate: sine runs", k + 1, len(runs))
@@ -469,7 +570,10 @@ def _stage_evaluate(inp: _Inputs, runner: StageRunner, ident, true, key: str, ru
         from ..linearization import load_pwa
 
         traj = example.simulations.get("pwa") if example is not None else None
-        files += _save(plot_cell_occupancy(cell_df, load_pwa(out / "pwa.json"), traj), out / "figures" / "pwa_cells")
+        files += _save(
+            plot_cell_occupancy(cell_df, load_pwa(out / "pwa.json"), traj),
+            out / "figures" / "pwa_cells",
+        )
         return files, {"notes": stage_notes}
 
     m = runner.run("evaluate", text_hash(inp.key(), key, "evaluate"), work)
@@ -479,7 +583,9 @@ def _stage_evaluate(inp: _Inputs, runner: StageRunner, ident, true, key: str, ru
     return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
 
 
-def _stage_report(inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict):
+def _stage_report(
+    inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict
+):
     from ._report import write_report
 
     def work():
@@ -489,8 +595,15 @@ def _stage_report(inp: _Inputs, runner: StageRunner, ident, true, key: str, note
 
 
 # ----------------------------------------------------------------------------- main
-def run_paper_study(out, data=None, params=None, campaign=None, fresh: bool = False, force: bool = False,
-                    progress: bool = True) -> StudyResult:
+def run_paper_study(
+    out,
+    data=None,
+    params=None,
+    campaign=None,
+    fresh: bool = False,
+    force: bool = False,
+    progress: bool = True,
+) -> StudyResult:
     """Run the paper's study end to end and write the report folder.
 
     Parameters
@@ -531,17 +644,34 @@ def run_paper_study(out, data=None, params=None, campaign=None, fresh: bool = Fa
     _claim(inp.out, inp.key(), force)
     notes: list[str] = []
     if inp.data is not None and _true_params(inp, inp.data) is None:
-        notes.append(f"base parameters: {inp.params_source}; no true parameters known for this data")
+        notes.append(
+            f"base parameters: {inp.params_source}; no true parameters known for this data"
+        )
     with _Progress(progress) as prog:
         runner = StageRunner(inp.out, fresh or force, prog.stage_done)
         data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
         ident, true, k1 = _stage_identify(inp, runner, data_root, data_key, notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
-        metrics, k3 = _stage_evaluate(inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes)
-        info = {"data": str(inp.data) if inp.data is not None else "virtual rig, campaign "
-                + (inp.campaign.source or inp.campaign.name),
-                "params_source": inp.params_source, "supply_pressure": ps, "n_sine_runs": len(runs)}
+        metrics, k3 = _stage_evaluate(
+            inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes
+        )
+        info = {
+            "data": str(inp.data)
+            if inp.data is not None
+            else "virtual rig, campaign " + (inp.campaign.source or inp.campaign.name),
+            "params_source": inp.params_source,
+            "supply_pressure": ps,
+            "n_sine_runs": len(runs),
+        }
         _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, info), notes, info)
-    return StudyResult(out=inp.out, report=inp.out / "index.html", params=ident, true_params=true,
-                       metrics=metrics, stages=runner.record, notes=notes, elapsed=time.perf_counter() - t0)
+    return StudyResult(
+        out=inp.out,
+        report=inp.out / "index.html",
+        params=ident,
+        true_params=true,
+        metrics=metrics,
+        stages=runner.record,
+        notes=notes,
+        elapsed=time.perf_counter() - t0,
+    )

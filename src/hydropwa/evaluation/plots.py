@@ -45,7 +45,9 @@ def plot_result(result, channels=("u", "x", "p_a", "p_b", "p_s")):
 
     chans = [c for c in channels if c in result.channels]
     groups = _group(chans)
-    fig, axes = plt.subplots(len(groups), 1, sharex=True, figsize=(7.5, 1.9 * len(groups) + 0.8), squeeze=False)
+    fig, axes = plt.subplots(
+        len(groups), 1, sharex=True, figsize=(7.5, 1.9 * len(groups) + 0.8), squeeze=False
+    )
     t = result.channels["t"]
     for ax, (unit, names) in zip(axes[:, 0], groups.items(), strict=True):
         for ch in names:
