@@ -69,14 +69,10 @@ def _pint_unit(unit: str, where: str) -> pint.Unit:
     text = normalize_unit(unit)
     try:
         return _registry().Unit("dimensionless" if text == "1" else text)
-    except (
-        pint.errors.UndefinedUnitError,
-        pint.errors.DefinitionSyntaxError,
-        AttributeError,
-        TypeError,
-        ValueError,
-        AssertionError,
-    ) as exc:
+    except Exception as exc:
+        # pint's expression parser fails in many ways on arbitrary text (UndefinedUnitError,
+        # DefinitionSyntaxError, tokenize.TokenError, ZeroDivisionError, RecursionError,
+        # AssertionError, ...): every one of them means "not a unit".
         raise DataError(
             f"{where}: unknown unit {unit!r}; hint: use a unit pint understands, "
             "e.g. bar, Pa, MPa, psi, mm, m, mm/s, L/min, %, kN, N, V or 1"
@@ -111,7 +107,13 @@ def si_unit_for(channel: str, unit: str, where: str = "") -> str:
     found = _preferred_by_dimension().get(pu.dimensionality)
     if found is not None:
         return found
-    return f"{_registry().Quantity(1.0, pu).to_base_units().units:~}"
+    try:
+        return f"{_registry().Quantity(1.0, pu).to_base_units().units:~}"
+    except Exception as exc:  # OverflowError for 'bar**1e9', pint errors for odd units
+        raise DataError(
+            f"{where or f'channel {channel!r}'}: unit {unit!r} has no usable SI form ({exc}); "
+            "hint: declare a physical unit such as bar, mm or K"
+        ) from None
 
 
 def convert_units(values, from_unit: str, to_unit: str, where: str = "") -> np.ndarray:
@@ -151,18 +153,25 @@ def convert_units(values, from_unit: str, to_unit: str, where: str = "") -> np.n
         return arr
     ureg = _registry()
     try:
-        factor = float(ureg.Quantity(1.0, src).to(dst).magnitude)
-        inverse = float(ureg.Quantity(1.0, dst).to(src).magnitude)
-        zero = float(ureg.Quantity(0.0, src).to(dst).magnitude)
-    except pint.errors.OffsetUnitCalculusError:  # pragma: no cover - pint version dependent
-        zero = float("nan")
-    if zero == 0.0:
-        if factor == 1.0:
-            return arr
-        # Scale by the factor that is >= 1 (exact for 1e3, 1e5, ...): 12.5 mm / 1000 is the
-        # double nearest 0.0125 m, and SI -> bar -> SI round trips stay within one ulp.
-        return arr * factor if abs(factor) >= 1.0 else arr / inverse
-    return np.asarray(ureg.Quantity(arr, src).to(dst).magnitude, dtype=float)
+        try:
+            factor = float(ureg.Quantity(1.0, src).to(dst).magnitude)
+            inverse = float(ureg.Quantity(1.0, dst).to(src).magnitude)
+            zero = float(ureg.Quantity(0.0, src).to(dst).magnitude)
+        except pint.errors.OffsetUnitCalculusError:  # pragma: no cover - pint version dependent
+            zero = float("nan")
+        if zero == 0.0:
+            if factor == 1.0:
+                return arr
+            # Scale by the factor that is >= 1 (exact for 1e3, 1e5, ...): 12.5 mm / 1000 is the
+            # double nearest 0.0125 m, and SI -> bar -> SI round trips stay within one ulp.
+            with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+                return arr * factor if abs(factor) >= 1.0 else arr / inverse
+        return np.asarray(ureg.Quantity(arr, src).to(dst).magnitude, dtype=float)
+    except (OverflowError, ZeroDivisionError, pint.errors.PintError) as exc:
+        raise DataError(
+            f"{where}: cannot convert {from_unit!r} to {to_unit!r} ({exc}); "
+            "hint: declare a physical unit such as bar, mm or K"
+        ) from None
 
 
 def to_si(values, unit: str, channel: str, where: str = "") -> tuple[np.ndarray, str]:
