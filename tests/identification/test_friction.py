@@ -106,3 +106,18 @@ def test_identifier_on_runs_recovers_the_preset_curve():
                               fr.smoothness)
     assert np.max(np.abs(ident.fit_.force_at(vv) - model)) < 5.0
     assert ident.friction_.static == pytest.approx(fr.static, rel=0.1)
+
+
+def test_oscillating_run_is_flagged():
+    """A limit cycle (force swinging ±100 N at 40 Hz) is marked and noted, not hidden."""
+    p = get_preset("paper")
+    speeds = np.concatenate([np.linspace(0.02, 0.17, 6), -np.linspace(0.02, 0.17, 6)])
+    runs = [_friction_run(f"fr_{i}", 0.1, float(v), p.friction, p.cylinder.area_a, p.cylinder.area_b, seed=i,
+                          duration=1.0) for i, v in enumerate(speeds)]
+    t = runs[0]["t"]
+    p_a = runs[0]["p_a"] + 100.0 / p.cylinder.area_a * np.sin(2 * np.pi * 40.0 * t)
+    runs[0] = runs[0].replace(channels={**runs[0].channels, "p_a": p_a})
+    ident = StribeckIdentifier(base_params=p).fit(runs)
+    flagged = ident.points_.set_index("run")["oscillating"]
+    assert flagged["fr_0"] and flagged.sum() == 1
+    assert ident.notes_ and "oscillate" in ident.notes_[0]

@@ -179,6 +179,10 @@ class FrictionPoint:
         (t0, t1) [s] of the steady part.
     rms_position_residual : float
         Deviation of the position from the line [m] (Sec. VI-C, Fig. 7).
+    force_fluctuation : float
+        Standard deviation [N] of the net force over the steady part; far above the
+        sensor noise it reveals a limit cycle, whose averaged force is not the static
+        friction at the mean speed.
     """
 
     velocity: float
@@ -190,6 +194,7 @@ class FrictionPoint:
     f_l: float
     window: tuple[float, float]
     rms_position_residual: float
+    force_fluctuation: float = float("nan")
 
 
 def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: float | None = None,
@@ -227,6 +232,7 @@ def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: fl
         p_a=float(np.mean(np.asarray(p_a)[sl])), p_b=float(np.mean(np.asarray(p_b)[sl])),
         f_l=float(np.mean(np.asarray(f_l)[sl])), window=(float(ts[0]), float(ts[-1])),
         rms_position_residual=float(np.sqrt(np.mean(r**2))),
+        force_fluctuation=float(np.std(net[sl])),
     )
 
 
@@ -504,12 +510,18 @@ class StribeckIdentifier:
         Starting points of the fit.
     level : float
         Confidence level [1].
+    oscillation_factor : float
+        A run whose net-force std exceeds this multiple of the quietest runs' is
+        marked ``oscillating`` (kept in the fit, reported in ``notes_``).
 
     Attributes
     ----------
     points_ : pandas.DataFrame
         One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std``, ``f`` [N], ``f_std``,
-        ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s].
+        ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s], ``force_fluctuation`` [N],
+        ``oscillating``.
+    notes_ : list[str]
+        Caveats found in the data (oscillating runs).
     fit_ : StribeckFit
     friction_ : Friction
     skipped_ : list[SkippedRun]
@@ -519,7 +531,7 @@ class StribeckIdentifier:
                  abs_band: float = 5e-4, force_band: float = 0.25, force_abs_band: float = 20.0,
                  stop_margin: float = 2e-3, min_duration: float = 0.2,
                  fixed: dict[str, float] | None = None, loss: str = "soft_l1", n_starts: int = 24,
-                 level: float = 0.95) -> None:
+                 level: float = 0.95, oscillation_factor: float = 3.0) -> None:
         self.base_params = base_params
         self.window = window
         self.band = band
@@ -532,6 +544,7 @@ class StribeckIdentifier:
         self.loss = loss
         self.n_starts = n_starts
         self.level = level
+        self.oscillation_factor = oscillation_factor
 
     def fit(self, data) -> StribeckIdentifier:
         """Reduce each run to a friction point and fit Eq. (11).
@@ -572,11 +585,23 @@ class StribeckIdentifier:
             rows.append({"run": run.name, "u": float("nan") if lv is None else lv, "v": pt.velocity,
                          "v_std": pt.velocity_std, "f": pt.force, "f_std": pt.force_std, "p_a": pt.p_a,
                          "p_b": pt.p_b, "f_l": pt.f_l, "t0": pt.window[0], "t1": pt.window[1],
-                         "rms_position_residual": pt.rms_position_residual})
+                         "rms_position_residual": pt.rms_position_residual,
+                         "force_fluctuation": pt.force_fluctuation})
         n_free = 6 - len(self.fixed or {})
         require_usable(rows, skipped, "Stribeck identification", minimum=n_free + 2)
         pts = pd.DataFrame(rows).sort_values("v", ignore_index=True)
+        # runs whose force fluctuates far above the quietest runs (sensor noise) oscillate
+        floor = float(np.median(np.sort(pts["force_fluctuation"].to_numpy())[: max(3, len(pts) // 4)]))
+        pts["oscillating"] = pts["force_fluctuation"] > self.oscillation_factor * floor
         self.points_ = pts
+        self.notes_ = []
+        if pts["oscillating"].any():
+            osc = pts[pts["oscillating"]]
+            self.notes_.append(
+                f"{len(osc)} run(s) oscillate (net-force std > {self.oscillation_factor:g}× the quietest runs' "
+                f"{floor:.3g} N), at |v| up to {1e3 * osc['v'].abs().max():.3g} mm/s: their mean force is not "
+                "the static friction there, so F_s, χ and δ that rest on them may be biased beyond their CI"
+            )
         self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), self.fixed, self.loss,
                                  None, self.n_starts, self.level)
         self.friction_ = self.fit_.friction
@@ -587,5 +612,6 @@ class StribeckIdentifier:
         """Per-field estimates and the weakly identified names (``[uncertainty]`` table)."""
         out = {k: e.to_dict() for k, e in self.fit_.estimates.items()}
         out["weakly_identified"] = list(self.fit_.weak)
+        out["notes"] = list(self.notes_)
         out["rms_residual_N"] = self.fit_.rms_residual
         return out

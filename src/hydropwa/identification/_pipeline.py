@@ -267,6 +267,7 @@ def _summary(rep: IdentificationReport) -> str:
         if fit.weak:
             lines.append(f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
                          "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation.")
+        lines += [f"Note: {n}." for n in rep.friction.notes_]
         lines.append("")
     if rep.skipped:
         lines += ["## Skipped", ""] + [f"- {s}" for s in rep.skipped] + [""]
