@@ -151,7 +151,7 @@ def pwa_cells(y, u, ps_in, p):
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
-    Q_L = z·C_q(P_L) − c·sign(z)·C_qp(P_L, z)·P_L with C_q = K√(P_S/2)(k̂_o p̃ + d̂_o),
+    Q_L = z·C_q(P_L) − c·C_qp(P_L, z)·P_L with C_q = K√(P_S/2)(k̂_o p̃ + d̂_o),
     C_qp = |z| K/(4√(P_S/2)) (k̂_n p̃ + d̂_n), p̃ = sign(z) P_L/P_S, c the paper-form flag.
     """
     pl, v, x = y[0], y[1], y[2]
@@ -165,9 +165,8 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     cq = K * root * (p[s_o + no - 1 + o] * pn + p[s_o + 2 * no - 1 + o])
     ql = z * cq
     if p[I_FORM] != 0.0:
-        sgn = 1.0 if z >= 0.0 else -1.0
         cqp = abs(z) * K / (4.0 * root) * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
-        ql -= p[I_FORM] * sgn * cqp * pl
+        ql -= p[I_FORM] * cqp * pl  # -∂Q_L/∂P_L = C_qp for both signs of z
     abar = 0.5 * (p[I_AA] + p[I_AB])
     ff = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
