@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 from conftest import constant_input_runs, hinge_velocity
 
-from hydropwa.identification import DeadZoneIdentifier, dead_zone_velocity, fit_dead_zone, velocity_from_position
+from hydropwa.identification import (
+    DeadZoneIdentifier,
+    dead_zone_velocity,
+    fit_dead_zone,
+    velocity_from_position,
+)
 
 LEVELS = np.concatenate([np.arange(0.01, 0.2001, 0.005), -np.arange(0.01, 0.2001, 0.005)])
 

@@ -27,6 +27,14 @@ from ._frf import (
     second_order_response,
     stepped_sine_point,
 )
+from ._friction import (
+    FrictionPoint,
+    StribeckFit,
+    StribeckIdentifier,
+    fit_stribeck,
+    friction_point,
+    steady_window,
+)
 from ._inverse_dynamics import (
     EMPS_PUBLISHED,
     EmpsResult,
@@ -36,14 +44,6 @@ from ._inverse_dynamics import (
 )
 from ._pipeline import PARTS, IdentificationReport, identify, load_runs
 from ._plots import plot_bode, plot_dead_zone, plot_inverse_dynamics, plot_stribeck
-from ._friction import (
-    FrictionPoint,
-    StribeckFit,
-    StribeckIdentifier,
-    fit_stribeck,
-    friction_point,
-    steady_window,
-)
 
 __all__ = [
     "DeadZoneFit",
