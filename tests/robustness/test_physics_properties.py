@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from _fuzzutil import COUNTS
 from conftest import PHYSICS_EXAMPLES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -139,20 +140,25 @@ def _locked(params):
        leak=st.floats(1e-12, 1e-10))
 def test_closed_valve_leakage_conserves_oil(params, pa, pb, leak):
     """Closed valve (u = 0, spool at 0 so z = 0), locked piston, leakage only:
-    V_A·P_A + V_B·P_B is conserved (E constant above the release pressure), to 1e-4 relative.
+    V_A·P_A + V_B·P_B is conserved (E constant above the release pressure).
 
-    1e-4: the integrator's relative tolerance is 1e-5 per step on each pressure; the sum over
-    the trajectory stays well inside ten times that.
+    The "locked" piston (m = 1e9 kg) still creeps by Δx ~ 1e-7 m under A_A·P_A − A_B·P_B, which
+    changes V_A·P_A + V_B·P_B by E·(A_A − A_B)·Δx; the exact balance checked is therefore
+    ∫(V_A dP_A + V_B dP_B) = −E·(A_A − A_B)·Δx (leakage leaves A and enters B: it cancels),
+    to 1e-4 of (V_A + V_B)·(|P_A − P_B| + 1 bar): ten times the solver's rtol.
     """
     p = _locked(params).replace(**{"cylinder.leakage": leak})
-    c = p.cylinder
+    c, E = p.cylinder, p.oil.bulk_modulus
     x0 = 0.5 * c.stroke
     state = FullOrderModel.state_from_measurement(x=x0, v=0.0, p_a=pa, p_b=pb, p_s=p.supply.pressure)
     res = simulate(FullOrderModel(p), 0.0, duration=0.2, fs=2000, initial_state=state)
     va = c.dead_volume_a + c.area_a * res["x"]
     vb = c.dead_volume_b + c.area_b * (c.stroke - res["x"])
-    m = va * res["p_a"] + vb * res["p_b"]
-    assert np.max(np.abs(m - m[0])) <= 1e-4 * abs(m[0])
+    vdp = np.concatenate(([0.0], np.cumsum(0.5 * (va[1:] + va[:-1]) * np.diff(res["p_a"])
+                                           + 0.5 * (vb[1:] + vb[:-1]) * np.diff(res["p_b"]))))
+    expected = -E * (c.area_a - c.area_b) * (res["x"] - res["x"][0])
+    scale = (c.dead_volume_a + c.dead_volume_b) * (abs(pa - pb) + BAR)
+    assert np.max(np.abs(vdp - expected)) <= 1e-4 * scale
     # and the pressures do move towards each other (leakage acts); the heavy piston still
     # creeps under A_A·P_A − A_B·P_B, which shifts both pressures by a few Pa
     if abs(pa - pb) > BAR:
@@ -237,7 +243,11 @@ def test_reduced_and_pwa_track_full_model(params, amp, freq):
     full = simulate(FullOrderModel(params), u, duration=0.5, fs=1000)
     travel = float(np.ptp(full["x"]))
     if full["x"].min() < 0.02 * c.stroke or full["x"].max() > 0.98 * c.stroke:
+        COUNTS["physics: model agreement"][0] += 1
+        COUNTS["physics: model agreement"][2] += 1  # skipped: the stops act
         return  # the stops act: not the regime the reduced model claims
+    COUNTS["physics: model agreement"][0] += 1
+    COUNTS["physics: model agreement"][1] += 1  # compared
     lag = 2 * params.valve.zeta / min(w for _, w in params.valve.omega0_table or ((0, params.valve.omega0),))
     bound = 0.05 * travel + 2 * _vmax(full) * lag + 0.2e-3
     red = simulate(ReducedModel(params), u, duration=0.5, fs=1000)
