@@ -33,6 +33,7 @@ from ._friction import (
     StribeckIdentifier,
     fit_stribeck,
     friction_point,
+    friction_samples,
     steady_window,
 )
 from ._inverse_dynamics import (
@@ -79,6 +80,7 @@ __all__ = [
     "fit_sinusoid",
     "fit_stribeck",
     "friction_point",
+    "friction_samples",
     "second_order_response",
     "steady_window",
     "stepped_sine_point",

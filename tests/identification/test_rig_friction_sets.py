@@ -1,0 +1,88 @@
+"""Stribeck recovery on virtual-rig friction campaigns for three true parameter sets, both methods.
+
+Campaign: the paper's friction experiment (constant inputs 5–50 % both directions against
+1.5 kN), every 2nd % step, default sensor noise, seeded. Measured errors are in
+docs/architecture_identification.md. σ is recovered within 10 % by both methods; F_s is not
+(−30 … −45 %): the runs below ≈ 40–50 mm/s stick-slip at ≈ 200 Hz and cross 2–10 mm/s,
+where the Stribeck peak lies, within one 2 kHz sample, so F_s is an extrapolation.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from hydropwa.components import stribeck_friction
+from hydropwa.identification import StribeckIdentifier, friction_samples, load_runs
+from hydropwa.params import get_preset
+
+rig = pytest.importorskip("hydropwa.rig")
+
+SETS = {
+    "paper": {},
+    "B": {"friction.coulomb": 40.0, "friction.static": 120.0, "friction.viscous": 800.0,
+          "friction.stribeck_velocity": 0.01},
+    "C": {"friction.coulomb": 60.0, "friction.static": 250.0, "friction.viscous": 1500.0,
+          "friction.stribeck_velocity": 0.02, "friction.shape": 1.0, "friction.smoothness": 2000.0},
+}
+
+CAMPAIGN = {
+    "campaign": {"name": "friction-sets", "seed": 7},
+    "friction": {"inputs": {"start": "5 %", "stop": "50 %", "step": "2 %"}, "directions": ["extend", "retract"],
+                 "counter_force": "1.5 kN", "force_ramp": "0.3 s", "valve_delay": "0.4 s", "ripple": "1 %",
+                 "ripple_frequency": "7 Hz", "force_noise": "5 N", "force_rate": "500 Hz", "duration": "4 s",
+                 "stop_at": "90 %", "min_duration": "0.2 s"},
+}
+
+
+@pytest.fixture(scope="module", params=sorted(SETS))
+def campaign(request, tmp_path_factory):
+    params = get_preset("paper").replace(**SETS[request.param]) if SETS[request.param] else get_preset("paper")
+    out = tmp_path_factory.mktemp(f"fr_{request.param}")
+    rig.run_campaign(rig.Rig(params=params), rig.parse_campaign(CAMPAIGN), out, jobs=2)
+    return request.param, params, load_runs(out)
+
+
+def _fit(campaign, method):
+    _, params, runs = campaign
+    with warnings.catch_warnings():  # slow creeping runs without a steady part are skipped (average)
+        warnings.simplefilter("ignore")
+        return StribeckIdentifier(base_params=params, method=method).fit(runs)
+
+
+@pytest.mark.parametrize("method", ["average", "instantaneous"])
+def test_viscous_within_10_percent(campaign, method):
+    _, params, _ = campaign
+    ident = _fit(campaign, method)
+    assert ident.friction_.viscous == pytest.approx(params.friction.viscous, rel=0.10)
+    v = np.concatenate([np.linspace(0.06, 0.18, 20), -np.linspace(0.06, 0.18, 20)])
+    tf = params.friction
+    true = stribeck_friction(v, tf.coulomb, tf.static, tf.viscous, tf.stribeck_velocity, tf.shape, tf.smoothness)
+    assert np.max(np.abs(ident.fit_.force_at(v) - true)) < 10.0  # the curve where the runs are steady
+
+
+@pytest.mark.xfail(strict=True, reason="stick-slip below ~45 mm/s: the Stribeck peak is not sampled at 2 kHz "
+                                       "(see module docstring); F_s comes out 30-45 % low")
+@pytest.mark.parametrize("method", ["average", "instantaneous"])
+def test_static_within_10_percent(campaign, method):
+    _, params, _ = campaign
+    assert _fit(campaign, method).friction_.static == pytest.approx(params.friction.static, rel=0.10)
+
+
+def test_friction_samples_include_inertia():
+    """Sinusoidal motion on a ramp: f = net − m·ẍ is the curve at every sample (no loop)."""
+    p = get_preset("paper")
+    c, m, fr = p.cylinder, 5.0, p.friction
+    t = np.arange(0.0, 1.0, 1 / 2000.0)
+    x = 0.02 + 0.05 * t + 4e-5 * np.sin(2 * np.pi * 80 * t)
+    v = 0.05 + 4e-5 * 2 * np.pi * 80 * np.cos(2 * np.pi * 80 * t)
+    a = -4e-5 * (2 * np.pi * 80) ** 2 * np.sin(2 * np.pi * 80 * t)
+    f = stribeck_friction(v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
+    p_b = np.full(t.size, 10e5)
+    p_a = (f + m * a + 1500.0 + p_b * c.area_b) / c.area_a
+    vs, fs = friction_samples(t, x, p_a, p_b, np.full(t.size, 1500.0), c.area_a, c.area_b, m, stroke=c.stroke)
+    model = stribeck_friction(vs, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
+    assert vs.size > 1000
+    assert np.max(np.abs(fs - model)) < 1.0  # m·ẍ amplitude is 51 N
