@@ -200,8 +200,16 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
     meta = table.schema.metadata or {}
     header = _parse_header(meta[b"hydropwa"], path) if b"hydropwa" in meta else {}
     raw, units = {}, {}
-    for field, col in zip(table.schema, table.columns, strict=True):
-        ch, unit = parse_column_label(field.name)
+    try:
+        # pyarrow decodes column names lazily: a corrupted name fails here, not in read_table
+        fields = list(table.schema)
+        names = [f.name for f in fields]
+    except UnicodeDecodeError:
+        raise DataError(
+            f"{str(path)!r}: a column name is not UTF-8 text; hint: check that the file is complete"
+        ) from None
+    for field, name, col in zip(fields, names, table.columns, strict=True):
+        ch, unit = parse_column_label(name)
         fmeta = field.metadata or {}
         if b"unit" in fmeta:
             try:
