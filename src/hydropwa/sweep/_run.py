@@ -85,7 +85,9 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, progress) -> list[dict]:
 
     cluster = None
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=jobs or os.cpu_count() or 1, threads_per_worker=1, processes=True)
+        cluster = LocalCluster(
+            n_workers=jobs or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None
+        )
         client = Client(cluster)
     else:
         client = Client(scheduler)
