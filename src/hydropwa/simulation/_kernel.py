@@ -61,26 +61,34 @@ I_CELLS = 50
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _input(i, t, sk, sp, st, sv, so):
+    """Evaluate packed signal i at time t; only sampled signals need their slice of st, sv."""
+    k = sk[i]
+    if k == 0:  # constant: by far the most common supply pressure and load force
+        return sp[i, 0]
+    if k == 5:  # sampled
+        return eval_signal(k, sp[i], st[so[i, 0] : so[i, 1]], sv[so[i, 0] : so[i, 1]], t)
+    return eval_signal(k, sp[i], st, sv, t)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _inputs(t, sk, sp, st, sv, so):
     """Evaluate the three input signals u, P_S, F_L at time t."""
-    u = eval_signal(sk[0], sp[0], st[so[0, 0] : so[0, 1]], sv[so[0, 0] : so[0, 1]], t)
-    ps = eval_signal(sk[1], sp[1], st[so[1, 0] : so[1, 1]], sv[so[1, 0] : so[1, 1]], t)
-    fl = eval_signal(sk[2], sp[2], st[so[2, 0] : so[2, 1]], sv[so[2, 0] : so[2, 1]], t)
-    return u, ps, fl
+    return _input(0, t, sk, sp, st, sv, so), _input(1, t, sk, sp, st, sv, so), _input(2, t, sk, sp, st, sv, so)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _friction(v, p):
     return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
     nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
@@ -106,7 +114,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[6] = 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
@@ -119,7 +127,7 @@ def rhs_reduced(y, u, ps, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _cell(p, start, n, xv):
     """Index of the active cell among n cells whose n-1 breakpoints start at p[start]."""
     i = 0
@@ -128,7 +136,7 @@ def _cell(p, start, n, xv):
     return i
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def pwa_cells(y, u, ps_in, p):
     """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
@@ -147,7 +155,7 @@ def pwa_cells(y, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -175,7 +183,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
@@ -221,7 +229,7 @@ def _lu(a, piv):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _solve(a, piv, b):
     """Solve LU x = b in place (b overwritten with x)."""
     n = a.shape[0]
@@ -362,7 +370,7 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
                 for j in range(i):
                     s += PW2_A[4 * i + j] * U[j, k]
                 yt[k] = s
-            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sk, sp, st, sv, so)
+            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sk, sp, st, sv, so)  # α_4 = 1: reused for f(t + h)
             rhs_at(kind, yt, u, ps, fl, p, ft)
         for k in range(n):
             s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
@@ -378,7 +386,6 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
             e += PW2_E[j] * U[j, k]
         ynew[k] = s
         yerr[k] = e
-    u, ps, fl = _inputs(t + h, sk, sp, st, sv, so)
     rhs_at(kind, ynew, u, ps, fl, p, fnew)
     return 4
 
