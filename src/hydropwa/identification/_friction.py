@@ -40,10 +40,11 @@ from ._common import (
 from ._deadzone import command_level
 
 __all__ = ["FrictionPoint", "steady_window", "friction_point", "friction_samples", "StribeckFit",
+           "BreakawayRun", "breakaway_peaks", "curve_maximum",
            "fit_stribeck", "StribeckIdentifier", "STRIBECK_NAMES", "METHODS"]
 
 #: Point estimators of :class:`StribeckIdentifier`.
-METHODS = ("average", "instantaneous")
+METHODS = ("average", "instantaneous", "breakaway")
 
 # 8th-order central stencils of d/dt and d²/dt² (multiply by 1/dt, 1/dt²).
 _D1 = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
@@ -333,6 +334,146 @@ def friction_samples(t, x, p_a, p_b, f_l, area_a: float, area_b: float, mass: fl
     return v[ok][::max(int(decimate), 1)], f[ok][::max(int(decimate), 1)]
 
 
+@dataclasses.dataclass(frozen=True)
+class BreakawayRun:
+    """Net-force peaks of the stick-slip cycles of one constant-input run.
+
+    Attributes
+    ----------
+    direction : float
+        +1 (extending) or −1 (retracting).
+    mean_speed : float
+        |ẋ| averaged over the used part [m/s] (position secant); sets the loading rate.
+    peaks : ndarray
+        Per-cycle peak of the filtered net force P_A A_A − P_B A_B − F_L [N], as a magnitude,
+        parabolically interpolated between samples.
+    """
+
+    direction: float
+    mean_speed: float
+    peaks: np.ndarray
+
+    @property
+    def force(self) -> float:
+        """Median per-cycle peak [N]."""
+        return float(np.median(self.peaks))
+
+
+def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, stroke: float | None = None,
+                    stop_margin: float = 2e-3, settle: float = 0.15, cutoff: float = 300.0, taps: int = 41,
+                    min_slip: float = 5e-3, min_gap: float = 2e-3) -> BreakawayRun:
+    """Per-cycle peaks of the net force in a stick-slip run (the break-away force).
+
+    A cycle runs from one slip (local maximum of the filtered |ẋ| above ``min_slip``) to
+    the next, with a stick in between (|ẋ| below 30 % of both slip peaks). Its peak is the
+    maximum of the filtered net force P_A A_A − P_B A_B − F_L between the two slips.
+
+    Parameters
+    ----------
+    t, x, p_a, p_b, f_l : array_like, shape (N,)
+        Time [s], position [m], chamber pressures [Pa], load force [N].
+    area_a, area_b : float
+        Piston areas [m²].
+    u : array_like, optional
+        Command [1]; samples before its last change + ``settle`` are left out.
+    stroke, stop_margin : float, optional
+        Samples within ``stop_margin`` [m] of an end stop are left out.
+    settle : float
+        Time [s] after the last command change that is left out.
+    cutoff, taps : float, int
+        Zero-phase FIR as in :func:`friction_samples`.
+    min_slip : float
+        Smallest slip speed [m/s] (at least 3× the filtered velocity noise).
+    min_gap : float
+        Shortest time between two slips [s].
+
+    Returns
+    -------
+    BreakawayRun
+        ``peaks`` is empty if the run does not stick-slip.
+
+    Notes
+    -----
+    The peak equals the break-away force, the maximum of Eq. (11), only when the net force
+    rises slowly (slowest runs): the rod accelerates after break-away while the valve keeps
+    feeding oil, so the net force overshoots by m·ẍ, by ≈ 20–40 % at 15–40 mm/s on the
+    virtual rig. :class:`StribeckIdentifier` therefore uses the slowest stick-slip runs only.
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    net = np.asarray(p_a, dtype=float) * area_a - np.asarray(p_b, dtype=float) * area_b - np.asarray(f_l, dtype=float)
+    h, h1, _ = _consistent_kernels(dt, min(cutoff, 0.45 / dt), taps)
+    if x.size <= 2 * h.size:
+        raise IdentificationError(f"run too short for the {h.size}-tap filter ({x.size} samples)")
+    v = np.convolve(x, h1, mode="same")
+    nf = np.convolve(net, h, mode="same")
+    ok = np.ones(x.size, dtype=bool)
+    ok[: h.size] = False
+    ok[-h.size:] = False
+    if u is not None:
+        u = np.asarray(u, dtype=float)
+        uf = float(np.median(u[u.size // 2:]))
+        changed = np.flatnonzero(np.abs(u - uf) > 1e-6 * max(abs(uf), 1e-9))
+        t_on = t[min(changed[-1] + 1, t.size - 1)] if changed.size else t[0]
+        ok &= t >= t_on + settle
+    if stroke is not None:
+        ok &= (x > stop_margin) & (x < stroke - stop_margin)
+    if ok.sum() < 10:
+        raise IdentificationError("no samples away from the stops after the command settled")
+    idx = np.flatnonzero(ok)
+    i0, i1 = int(idx[0]), int(idx[-1])
+    mean_v = float((x[i1] - x[i0]) / max(t[i1] - t[i0], dt))
+    s = 1.0 if mean_v >= 0 else -1.0
+    d4 = np.diff(x, 4)
+    sigma_x = 1.4826 * float(np.median(np.abs(d4 - np.median(d4)))) / np.sqrt(70.0)
+    vslip = max(min_slip, 3.0 * sigma_x * float(np.sqrt(np.sum(h1**2))))
+    sv = np.where(ok, s * v, -np.inf)
+    y = s * nf
+    from scipy.signal import find_peaks
+
+    pk, _ = find_peaks(np.where(ok, sv, -1.0), height=vslip, distance=max(1, int(round(min_gap / dt))))
+    peaks = []
+    for a, b in zip(pk[:-1], pk[1:]):
+        if not ok[a:b + 1].all() or float(np.min(sv[a:b])) > 0.3 * min(sv[a], sv[b]):
+            continue
+        k = a + int(np.argmax(y[a:b + 1]))
+        if k <= a or k >= b:
+            continue
+        y0, y1, y2 = y[k - 1], y[k], y[k + 1]
+        den = y0 - 2.0 * y1 + y2
+        peaks.append(y1 - 0.125 * (y0 - y2) ** 2 / den if den < 0 else y1)
+    return BreakawayRun(s, abs(mean_v), np.asarray(peaks, dtype=float))
+
+
+def curve_maximum(friction: Friction, v_max: float = 1.0) -> tuple[float, float]:
+    """Largest friction force of Eq. (11) over 0 < ẋ ≤ ``v_max`` and where it lies.
+
+    Returns
+    -------
+    f_max, v_at : float
+        The maximum [N] (the break-away force of the curve; below F_s by the tanh rounding,
+        e.g. 0.83·F_s for the paper's set) and its velocity [m/s]. The first local maximum
+        (the Stribeck peak) is returned when σ·ẋ makes the curve rise again at high speed.
+    """
+    return _curve_max(_theta_of(friction), v_max)
+
+
+def _curve_max(th: np.ndarray, v_max: float = 1.0) -> tuple[float, float]:
+    from scipy.optimize import minimize_scalar
+
+    vg = np.logspace(-7, np.log10(v_max), 400)
+    fg = _eval(vg, th)
+    # first local maximum (Stribeck peak), else the global one
+    loc = np.flatnonzero((fg[1:-1] >= fg[:-2]) & (fg[1:-1] >= fg[2:])) + 1
+    k = int(loc[0]) if loc.size else int(np.argmax(fg))
+    lo, hi = np.log(vg[max(k - 1, 0)]), np.log(vg[min(k + 1, vg.size - 1)])
+    res = minimize_scalar(lambda z: -float(_eval(np.array([np.exp(z)]), th)[0]), bounds=(lo, hi),
+                          method="bounded", options={"xatol": 1e-6})
+    z = float(res.x) if -res.fun >= fg[k] else float(np.log(vg[k]))
+    return float(_eval(np.array([np.exp(z)]), th)[0]), float(np.exp(z))
+
+
 def _velocity_bins(v: np.ndarray, f: np.ndarray, rel: float, width: float, min_count: int) -> np.ndarray:
     """(median v, median f) per velocity bin of width max(rel·|v|, width), per direction; shape (K, 3) with count."""
     out = []
@@ -440,7 +581,8 @@ def _linear_part(v: np.ndarray, f: np.ndarray, lchi: float, delta: float, lgam: 
 
 def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_l1",
                  f_scale: float | None = None, n_starts: int = 24, level: float = 0.95,
-                 seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None) -> StribeckFit:
+                 seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
+                 breakaway: tuple[float, float] | None = None) -> StribeckFit:
     """Fit the Stribeck curve, Eq. (11), to velocity–force points (Fig. 8).
 
     Parameters
@@ -463,6 +605,11 @@ def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_
         Seed of the random starts.
     bounds : dict, optional
         (low, high) per Friction field in SI units, replacing the defaults below.
+    breakaway : (float, float), optional
+        Measured break-away force F_b [N] and its standard error: adds the residual
+        (max_{ẋ>0} f(ẋ) − F_b)/std, scaled like a point of the fit's robust residual scale
+        (its gradient is ∂f/∂θ at the maximising ẋ, by the envelope theorem). The maximum
+        lies below F_s by the tanh rounding, so γ should be fixed when this is used.
 
     Returns
     -------
@@ -554,14 +701,31 @@ def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_
         results.append(least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf"))
     best = min(results, key=lambda r: r.cost)
     scale_n = f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
+    if breakaway is not None:
+        f_b, sd_b = float(breakaway[0]), max(float(breakaway[1]), 1e-9)
+        w_b = scale_n / sd_b  # one point's weight at the robust residual scale
+        vcap = float(np.max(np.abs(v)))
+        resid_p, jac_p = resid, jac
+
+        def resid(p):  # noqa: F811 - the constrained objective replaces the plain one
+            return np.append(resid_p(p), w_b * (_curve_max(full(p), vcap)[0] - f_b))
+
+        def jac(p):  # noqa: F811
+            th_ = full(p)
+            row = _jac_theta(np.array([_curve_max(th_, vcap)[1]]), th_)[:, free_idx]
+            return np.vstack([jac_p(p), w_b * row])
+
+        ranked = sorted(results, key=lambda r: r.cost)[:4]
+        results = [least_squares(resid, r.x, jac=jac, bounds=(lb, ub), method="trf") for r in ranked]
+        best = min(results, key=lambda r: r.cost)
     if loss != "linear":
         ranked = sorted(results, key=lambda r: r.cost)[:4]
         robust = [least_squares(resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf")
                   for r in ranked]
         best = min(robust, key=lambda r: r.cost)
     th = full(best.x)
-    r = best.fun * fscale
-    cov = covariance_from_jacobian(best.jac * fscale, r) if best.jac.size else np.zeros((0, 0))
+    r = best.fun[: v.size] * fscale
+    cov = covariance_from_jacobian(best.jac * fscale, best.fun * fscale) if best.jac.size else np.zeros((0, 0))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     q = t_quantile(level, v.size - len(free_idx))
     est: dict[str, ParameterEstimate] = {}
@@ -640,6 +804,21 @@ class StribeckIdentifier:
     bin_rel, bin_width, bin_min_count : float, float, int
         Velocity bins of the instantaneous method: width max(bin_rel·|v|, bin_width) [1], [m/s],
         at least ``bin_min_count`` samples.
+    breakaway : bool
+        Also measure the break-away force from stick-slip runs (:func:`breakaway_peaks`) and
+        add "maximum of Eq. (11) = F_b" to the fit (``fit_stribeck(breakaway=...)``). F_b is the
+        median per-cycle net-force peak of the slowest stick-slip runs per direction (mean
+        speed ≤ ``breakaway_speed_ratio`` × the slowest one's; faster runs overshoot), the mean
+        of both directions, with a standard error that includes the direction difference.
+        Because constant-input data do not identify γ and the curve's maximum lies below F_s by
+        the tanh rounding, γ is then held at ``base_params.friction.smoothness`` unless ``fixed``
+        says otherwise. ``method="breakaway"`` is ``"instantaneous"`` with this on.
+    breakaway_speed_ratio : float
+        Runs used for F_b: mean speed ≤ this × the slowest stick-slip run's, per direction [1].
+    breakaway_min_cycles : int
+        Fewest stick-slip cycles for a run to count [1].
+    min_slip : float
+        Smallest slip speed [m/s] that marks a stick-slip cycle.
 
     Attributes
     ----------
@@ -648,7 +827,12 @@ class StribeckIdentifier:
         ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s], ``force_fluctuation`` [N],
         ``oscillating``.
     notes_ : list[str]
-        Caveats found in the data (oscillating runs).
+        Caveats found in the data (oscillating runs), and the break-away estimate.
+    breakaway_ : ParameterEstimate or None
+        Break-away force F_b [N] with its CI (``breakaway=True``), else None.
+    breakaway_runs_ : pandas.DataFrame or None
+        Per stick-slip run: ``run``, ``direction``, ``mean_speed`` [m/s], ``n_cycles``,
+        ``peak`` (median) and ``peak_std`` [N], ``used``.
     fit_ : StribeckFit
     friction_ : Friction
     skipped_ : list[SkippedRun]
@@ -660,7 +844,9 @@ class StribeckIdentifier:
                  fixed: dict[str, float] | None = None, loss: str = "soft_l1", n_starts: int = 24,
                  level: float = 0.95, oscillation_factor: float = 3.0, method: str = "average",
                  cutoff: float = 300.0, taps: int = 41, min_speed: float = 3e-3, guard: float = 0.0,
-                 bin_rel: float = 0.1, bin_width: float = 1e-3, bin_min_count: int = 5) -> None:
+                 bin_rel: float = 0.1, bin_width: float = 1e-3, bin_min_count: int = 5,
+                 breakaway: bool = False, breakaway_speed_ratio: float = 2.0, breakaway_min_cycles: int = 10,
+                 min_slip: float = 5e-3) -> None:
         self.base_params = base_params
         self.window = window
         self.band = band
@@ -682,6 +868,10 @@ class StribeckIdentifier:
         self.bin_rel = bin_rel
         self.bin_width = bin_width
         self.bin_min_count = bin_min_count
+        self.breakaway = breakaway
+        self.breakaway_speed_ratio = breakaway_speed_ratio
+        self.breakaway_min_cycles = breakaway_min_cycles
+        self.min_slip = min_slip
 
     def fit(self, data) -> StribeckIdentifier:
         """Reduce each run to a friction point and fit Eq. (11).
@@ -706,7 +896,9 @@ class StribeckIdentifier:
             raise IdentificationError(f"unknown method {self.method!r}; choose from {', '.join(METHODS)}")
         runs = as_runs(data, "friction")
         skipped: list[SkippedRun] = []
-        if self.method == "instantaneous":
+        self.breakaway_ = None
+        self.breakaway_runs_ = None
+        if self.method in ("instantaneous", "breakaway"):
             return self._fit_instantaneous(runs, base, skipped)
         rows = []
         kw = dict(stop_margin=self.stop_margin, window=self.window, band=self.band, abs_band=self.abs_band,
@@ -743,8 +935,7 @@ class StribeckIdentifier:
                 f"{floor:.3g} N), at |v| up to {1e3 * osc['v'].abs().max():.3g} mm/s: their mean force is not "
                 "the static friction there, so F_s, χ and δ that rest on them may be biased beyond their CI"
             )
-        self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), self.fixed, self.loss,
-                                 None, self.n_starts, self.level)
+        self._final_fit(pts, runs, base)
         self.friction_ = self.fit_.friction
         self.skipped_ = skipped
         return self
@@ -791,11 +982,85 @@ class StribeckIdentifier:
                 "speeds crossed within a sample or two (the low-speed Stribeck peak) are not resolved at "
                 "this sampling rate, so F_s, χ and δ rest on an extrapolation"
             )
-        self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), self.fixed, self.loss,
-                                 None, self.n_starts, self.level)
+        self._final_fit(pts, runs, base)
         self.friction_ = self.fit_.friction
         self.skipped_ = skipped
         return self
+
+    def _final_fit(self, pts, runs, base: SystemParams) -> None:
+        fixed = dict(self.fixed or {})
+        constraint = None
+        if self.breakaway or self.method == "breakaway":
+            constraint = self._breakaway(runs, base)
+            if constraint is not None and "smoothness" not in fixed:
+                fixed["smoothness"] = base.friction.smoothness
+                self.notes_.append(
+                    f"γ held at {base.friction.smoothness:.4g} s/m (base parameters): constant-input data do not "
+                    "identify it, and it sets how far the curve's maximum (the break-away force) lies below F_s")
+        self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), fixed, self.loss,
+                                 None, self.n_starts, self.level, breakaway=constraint)
+        if constraint is not None:
+            fm, vm = curve_maximum(self.fit_.friction, float(np.max(np.abs(pts["v"]))))
+            self.notes_.append(f"fitted curve maximum {fm:.4g} N at {1e3 * vm:.3g} mm/s (F_s = "
+                               f"{self.fit_.friction.static:.4g} N)")
+
+    def _breakaway(self, runs, base: SystemParams) -> tuple[float, float] | None:
+        """F_b and its standard error from the slowest stick-slip runs (sets ``breakaway_``)."""
+        import pandas as pd
+
+        cyl = base.cylinder
+        rows, peaks = [], {}
+        for run in runs:
+            if not all(c in run.channels for c in ("t", "x", "p_a", "p_b", "f_l")):
+                continue
+            try:
+                br = breakaway_peaks(run["t"], run["x"], run["p_a"], run["p_b"], run["f_l"], cyl.area_a,
+                                     cyl.area_b, u=run["u"] if "u" in run.channels else None, stroke=cyl.stroke,
+                                     stop_margin=self.stop_margin, cutoff=self.cutoff, taps=self.taps,
+                                     min_slip=self.min_slip)
+            except IdentificationError:
+                continue
+            if br.peaks.size < self.breakaway_min_cycles:
+                continue
+            pk = br.peaks
+            sem = 1.2533 * 1.4826 * float(np.median(np.abs(pk - np.median(pk)))) / np.sqrt(pk.size)
+            rows.append({"run": run.name, "direction": br.direction, "mean_speed": br.mean_speed,
+                         "n_cycles": int(pk.size), "peak": br.force, "peak_std": sem})
+            peaks[run.name] = pk
+        if not rows:
+            self.notes_.append("breakaway: no stick-slip run with enough cycles; F_s rests on the points alone")
+            return None
+        tab = pd.DataFrame(rows)
+        tab["used"] = False
+        per_dir = []
+        for d in (1.0, -1.0):
+            sel = tab["direction"] == d
+            if not sel.any():
+                continue
+            vmin = float(tab.loc[sel, "mean_speed"].min())
+            use = sel & (tab["mean_speed"] <= self.breakaway_speed_ratio * vmin)
+            tab.loc[use, "used"] = True
+            pooled = np.concatenate([peaks[n] for n in tab.loc[use, "run"]])
+            val = float(np.median(pooled))
+            sem = 1.2533 * 1.4826 * float(np.median(np.abs(pooled - val))) / np.sqrt(pooled.size)
+            meds = tab.loc[use, "peak"].to_numpy()
+            if meds.size > 1:
+                sem = max(sem, float(np.std(meds, ddof=1)) / np.sqrt(meds.size))
+            per_dir.append((d, val, sem, int(use.sum())))
+        vals = np.array([p[1] for p in per_dir])
+        sems = np.array([p[2] for p in per_dir])
+        f_b = float(np.mean(vals))
+        sd = float(np.sqrt(np.sum(sems**2)) / vals.size)
+        if vals.size == 2:
+            sd = float(np.hypot(sd, 0.5 * (vals[0] - vals[1])))
+        q = t_quantile(self.level, max(int(tab["used"].sum()) - 1, 1))
+        self.breakaway_ = ParameterEstimate(f_b, sd, (f_b - q * sd, f_b + q * sd), "N", self.level)
+        self.breakaway_runs_ = tab
+        txt = ", ".join(f"{'+' if d > 0 else '−'}: {val:.4g} ± {s_:.2g} N ({n} run(s))" for d, val, s_, n in per_dir)
+        self.notes_.append(
+            f"break-away force F_b = {f_b:.4g} N, {100 * self.level:g} % CI [{f_b - q * sd:.4g}, {f_b + q * sd:.4g}] "
+            f"(median stick-slip net-force peak of the slowest stick-slip runs; {txt}); fitted as the curve's maximum")
+        return f_b, sd
 
     def uncertainty(self) -> dict:
         """Per-field estimates and the weakly identified names (``[uncertainty]`` table)."""

@@ -219,8 +219,12 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
             report.friction = est
             changes["friction"] = est.friction_
             uncertainty["friction"] = est.uncertainty()
-            provenance["friction"] = (f"Sec. VI-C: {len(est.points_)} steady-state points, Eq. (10) with "
-                                      f"areas from base; Eq. (11) by bounded {est.loss} least squares"
+            kind = "steady-state" if est.method == "average" else "per-sample velocity-bin"
+            brk = est.breakaway_
+            provenance["friction"] = (f"Sec. VI-C: {len(est.points_)} {kind} points (method {est.method}), Eq. (10) "
+                                      f"with areas from base; Eq. (11) by bounded {est.loss} least squares"
+                                      + (f", constrained to the stick-slip break-away force {brk.value:.4g} N as its "
+                                         "maximum with γ from base" if brk is not None else "")
                                       + (f"; weakly identified: {', '.join(est.fit_.weak)}" if est.fit_.weak else ""))
     if not done:
         raise IdentificationError(
