@@ -434,7 +434,7 @@ def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, s
 
     pk, _ = find_peaks(np.where(ok, sv, -1.0), height=vslip, distance=max(1, int(round(min_gap / dt))))
     peaks = []
-    for a, b in zip(pk[:-1], pk[1:]):
+    for a, b in zip(pk[:-1], pk[1:], strict=True):
         if not ok[a:b + 1].all() or float(np.min(sv[a:b])) > 0.3 * min(sv[a], sv[b]):
             continue
         k = a + int(np.argmax(y[a:b + 1]))
