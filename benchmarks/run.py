@@ -74,7 +74,11 @@ def _best(fn, repeats: int) -> tuple[float, object]:
 
 def _scipy_rhs(model):
     """Plain-Python RHS f(t, y) of the model and its packed parameters."""
-    u, ps, fl = (as_signal(U, "", "u"), as_signal(model.params.supply.pressure, "Pa", "p_s"), as_signal(0.0, "N", "f_l"))
+    u, ps, fl = (
+        as_signal(U, "", "u"),
+        as_signal(model.params.supply.pressure, "Pa", "p_s"),
+        as_signal(0.0, "N", "f_l"),
+    )
     p = model.pack(command_amplitude=0.4)
     if model.kind == K.PWA:
         from hydropwa.linearization import pwa_rhs
@@ -88,7 +92,15 @@ def _scipy_run(model, t_out, rtol):
     y0 = model.initial_state()
     f = _scipy_rhs(model)
     t0 = time.perf_counter()
-    sol = solve_ivp(f, (0.0, DURATION), y0, method="LSODA", t_eval=t_out, rtol=rtol, atol=rtol * model.state_scale())
+    sol = solve_ivp(
+        f,
+        (0.0, DURATION),
+        y0,
+        method="LSODA",
+        t_eval=t_out,
+        rtol=rtol,
+        atol=rtol * model.state_scale(),
+    )
     return time.perf_counter() - t0, sol
 
 
@@ -98,12 +110,17 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
     t_out = np.linspace(0.0, DURATION, int(DURATION * FS) + 1)
     for name, model in _models().items():
         ix = X_INDEX[model.kind]
-        ref = simulate(model, U, duration=DURATION, fs=FS, rtol=1e-9, solver="ros23", max_steps=50_000_000)
+        ref = simulate(
+            model, U, duration=DURATION, fs=FS, rtol=1e-9, solver="ros23", max_steps=50_000_000
+        )
         x_ref = ref.states[:, ix]
         simulate(model, U, duration=DURATION, fs=FS, rtol=rtol)  # compile / load cache
-        t_h, res = _best(lambda m=model: simulate(m, U, duration=DURATION, fs=FS, rtol=rtol), repeats)
+        t_h, res = _best(
+            lambda m=model: simulate(m, U, duration=DURATION, fs=FS, rtol=rtol), repeats
+        )
         kern = min(
-            simulate(model, U, duration=DURATION, fs=FS, rtol=rtol).stats["wall_time"] for _ in range(repeats)
+            simulate(model, U, duration=DURATION, fs=FS, rtol=rtol).stats["wall_time"]
+            for _ in range(repeats)
         )
         err_h = float(np.max(np.abs(res.states[:, ix] - x_ref))) * 1e3
         t_s, err_s, rtol_s = float("nan"), float("nan"), float("nan")
@@ -140,8 +157,18 @@ def bench_batch(n_cases: int, rtol: float) -> list[dict]:
     rows = []
     for name in ("full", "reduced"):
         simulate_batch(name, inputs[:2], duration=1.0, rtol=rtol)
-        t1, _ = _best(lambda n=name: simulate_batch(n, inputs, duration=DURATION, rtol=rtol, jobs=1, summary=True), 1)
-        tp, _ = _best(lambda n=name: simulate_batch(n, inputs, duration=DURATION, rtol=rtol, jobs=cores, summary=True), 1)
+        t1, _ = _best(
+            lambda n=name: simulate_batch(
+                n, inputs, duration=DURATION, rtol=rtol, jobs=1, summary=True
+            ),
+            1,
+        )
+        tp, _ = _best(
+            lambda n=name: simulate_batch(
+                n, inputs, duration=DURATION, rtol=rtol, jobs=cores, summary=True
+            ),
+            1,
+        )
         rows.append(
             {
                 "model": name,
@@ -177,7 +204,11 @@ def bench_startup(rtol: float) -> list[dict]:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         for label in ("cold cache", "warm cache"):
             out = subprocess.run(
-                [sys.executable, "-c", _CHILD.replace("RTOL", repr(rtol))], env=env, capture_output=True, text=True, check=True
+                [sys.executable, "-c", _CHILD.replace("RTOL", repr(rtol))],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
             )
             rows.append({"process": label, **json.loads(out.stdout.strip().splitlines()[-1])})
     return rows
@@ -203,7 +234,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     repeats = 3 if args.quick else args.repeats
     n_batch = args.batch or 4 * (os.cpu_count() or 1)
-    print(f"paper rig, {DURATION:g} s of a 40 % 1 Hz sine, outputs at {FS:g} Hz; hydropwa rtol {args.rtol:g}")
+    print(
+        f"paper rig, {DURATION:g} s of a 40 % 1 Hz sine, outputs at {FS:g} Hz; hydropwa rtol {args.rtol:g}"
+    )
     single = bench_single(args.rtol, repeats, args.quick)
     _print_table(
         "single trajectory (times in s; ratio = scipy/hydropwa; realtime = simulated/wall)",
@@ -223,12 +256,23 @@ def main(argv=None) -> int:
     _print_table(
         "batch (cases per second)",
         batch,
-        {"single_per_s": "{:.1f}", "batch_per_s": "{:.1f}", "per_core_per_s": "{:.1f}", "efficiency": "{:.0%}"},
+        {
+            "single_per_s": "{:.1f}",
+            "batch_per_s": "{:.1f}",
+            "per_core_per_s": "{:.1f}",
+            "efficiency": "{:.0%}",
+        },
     )
     startup = bench_startup(args.rtol)
-    _print_table("start-up, fresh processes (s)", startup, {"import": "{:.3f}", "first": "{:.3f}", "warm": "{:.4f}"})
+    _print_table(
+        "start-up, fresh processes (s)",
+        startup,
+        {"import": "{:.3f}", "first": "{:.3f}", "warm": "{:.4f}"},
+    )
     if args.json:
-        args.json.write_text(json.dumps({"single": single, "batch": batch, "startup": startup}, indent=2))
+        args.json.write_text(
+            json.dumps({"single": single, "batch": batch, "startup": startup}, indent=2)
+        )
     return 0
 
 

@@ -39,7 +39,9 @@ def test_batch_over_inputs_broadcasts_one_model_and_summarizes(paper):
 
 def test_batch_reports_progress_and_rejects_mismatched_lengths(paper):
     seen = []
-    simulate_batch(["reduced"] * 2, 0.1, duration=0.05, progress=lambda d, n: seen.append((d, n)), jobs=1)
+    simulate_batch(
+        ["reduced"] * 2, 0.1, duration=0.05, progress=lambda d, n: seen.append((d, n)), jobs=1
+    )
     assert seen == [(1, 2), (2, 2)]
     from hydropwa._errors import SignalError
 

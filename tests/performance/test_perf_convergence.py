@@ -27,7 +27,11 @@ def reference(request):
     with the kernel's ROS2(3) at rtol 1e-9 to about 1 nm.)
     """
     model = as_model(request.param)
-    signals = [as_signal(U, "", "u"), as_signal(model.params.supply.pressure, "Pa", "p_s"), as_signal(0.0, "N", "f_l")]
+    signals = [
+        as_signal(U, "", "u"),
+        as_signal(model.params.supply.pressure, "Pa", "p_s"),
+        as_signal(0.0, "N", "f_l"),
+    ]
     sk, sp, st, sv, so = pack_signals(signals)
     p = model.pack(command_amplitude=0.4)
 
@@ -38,7 +42,13 @@ def reference(request):
 
     t = np.linspace(0.0, DURATION, 2001)
     sol = solve_ivp(
-        f, (0.0, DURATION), model.initial_state(), method="LSODA", t_eval=t, rtol=1e-10, atol=1e-10 * model.state_scale()
+        f,
+        (0.0, DURATION),
+        model.initial_state(),
+        method="LSODA",
+        t_eval=t,
+        rtol=1e-10,
+        atol=1e-10 * model.state_scale(),
     )
     assert sol.success
     return request.param, sol.y[X_INDEX[request.param]]
@@ -71,7 +81,10 @@ def test_ros34pw2_has_order_three_on_a_smooth_problem():
         r = simulate(model, 0.05, duration=0.02, fs=20000, rtol=rtol)
         w, z = r.stats["omega0"], prm.valve.zeta
         wd = w * np.sqrt(1 - z * z)
-        exact = 0.05 * (1 - np.exp(-z * w * r.t) * (np.cos(wd * r.t) + z / np.sqrt(1 - z * z) * np.sin(wd * r.t)))
+        exact = 0.05 * (
+            1
+            - np.exp(-z * w * r.t) * (np.cos(wd * r.t) + z / np.sqrt(1 - z * z) * np.sin(wd * r.t))
+        )
         res[rtol] = (float(np.max(np.abs(r["spool"] - exact))), r.stats["steps"])
     (e1, n1), (e2, n2), (e3, n3) = res.values()
     assert e3 < e2 < e1

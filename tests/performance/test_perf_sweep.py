@@ -35,7 +35,9 @@ def test_cases_are_the_grid_times_the_draws_in_si(spec_file):
     assert len(cases) == 2 * 2 * 2
     assert {c.overrides["supply.pressure"] for c in cases} == {8e6, 1e7}
     assert all(10 <= c.overrides["friction.coulomb"] <= 40 for c in cases)
-    assert [c.overrides for c in spec.cases()] == [c.overrides for c in cases]  # reproducible from the seed
+    assert [c.overrides for c in spec.cases()] == [
+        c.overrides for c in cases
+    ]  # reproducible from the seed
     assert spec.params_for(cases[-1]).load.mass == 2.0
 
 
@@ -48,7 +50,19 @@ def test_cli_writes_summary_and_trajectories(spec_file, tmp_path):
     from hydropwa.cli import main
 
     out = tmp_path / "summary.csv"
-    code = main(["sweep", str(spec_file), "--out", str(out), "--trajectories", str(tmp_path / "traj"), "-q", "-j", "2"])
+    code = main(
+        [
+            "sweep",
+            str(spec_file),
+            "--out",
+            str(out),
+            "--trajectories",
+            str(tmp_path / "traj"),
+            "-q",
+            "-j",
+            "2",
+        ]
+    )
     assert code == 0
     df = pd.read_csv(out)
     assert len(df) == 8 and list(df["case"]) == list(range(8))
@@ -67,4 +81,6 @@ def test_dask_local_cluster_gives_the_in_process_table(spec_file):
     spec = load_sweep(spec_file)
     local = run_sweep(spec, jobs=2)
     dask = run_sweep(spec, scheduler="local", jobs=2)
-    pd.testing.assert_frame_equal(local.drop(columns="wall_time"), dask.drop(columns="wall_time"), check_exact=True)
+    pd.testing.assert_frame_equal(
+        local.drop(columns="wall_time"), dask.drop(columns="wall_time"), check_exact=True
+    )

@@ -22,23 +22,43 @@ def _write_table(df, out: Path) -> None:
 
 
 def sweep_command(
-    spec: Annotated[Path, typer.Argument(help="Sweep definition (TOML with [grid], [random], [input]).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Summary table, one row per case (.csv or .parquet).")] = Path(
-        "summary.csv"
-    ),
+    spec: Annotated[
+        Path, typer.Argument(help="Sweep definition (TOML with [grid], [random], [input]).")
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", help="Summary table, one row per case (.csv or .parquet)."),
+    ] = Path("summary.csv"),
     trajectories: Annotated[
-        Path | None, typer.Option("--trajectories", help="Folder for one Parquet file of all channels per case.")
+        Path | None,
+        typer.Option(
+            "--trajectories", help="Folder for one Parquet file of all channels per case."
+        ),
     ] = None,
-    jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, help="Threads, or LocalCluster workers (default: all cores).")] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option(
+            "--jobs", "-j", min=1, help="Threads, or LocalCluster workers (default: all cores)."
+        ),
+    ] = None,
     scheduler: Annotated[
         str | None,
-        typer.Option("--scheduler", help="Dask scheduler address (tcp://host:8786), or 'local' for a LocalCluster."),
+        typer.Option(
+            "--scheduler",
+            help="Dask scheduler address (tcp://host:8786), or 'local' for a LocalCluster.",
+        ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Run every case of a sweep (in-process threads or on Dask) and write the summary table."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeRemainingColumn,
+    )
 
     from ..sweep import load_sweep, run_sweep
 
@@ -60,4 +80,7 @@ def sweep_command(
     _write_table(df, out)
     failed = int((df["status"] != 0).sum()) if "status" in df else 0
     where = "in-process" if scheduler is None else f"on Dask ({scheduler})"
-    console.print(f"{n} cases {where} → {out}" + (f"; {failed} failed (see the status column)" if failed else ""))
+    console.print(
+        f"{n} cases {where} → {out}"
+        + (f"; {failed} failed (see the status column)" if failed else "")
+    )

@@ -103,7 +103,10 @@ def _is_pair_signal(value) -> bool:
     return (
         isinstance(value, tuple)
         and len(value) == 2
-        and all(isinstance(v, np.ndarray) or (isinstance(v, list) and v and not isinstance(v[0], str)) for v in value)
+        and all(
+            isinstance(v, np.ndarray) or (isinstance(v, list) and v and not isinstance(v[0], str))
+            for v in value
+        )
     )
 
 
@@ -162,9 +165,13 @@ def simulate_batch(
     cases_u = _as_list(inputs, None, "inputs")
     n = max(len(cases_m), len(cases_u))
     if len(cases_m) not in (1, n) or len(cases_u) not in (1, n):
-        raise SignalError(f"cannot pair {len(cases_m)} models with {len(cases_u)} inputs; give one or the same number")
+        raise SignalError(
+            f"cannot pair {len(cases_m)} models with {len(cases_u)} inputs; give one or the same number"
+        )
     mdls = [_to_model(m, model) for m in cases_m]
-    pairs = [(mdls[i if len(mdls) > 1 else 0], cases_u[i if len(cases_u) > 1 else 0]) for i in range(n)]
+    pairs = [
+        (mdls[i if len(mdls) > 1 else 0], cases_u[i if len(cases_u) > 1 else 0]) for i in range(n)
+    ]
 
     def one(pair):
         res = simulate(pair[0], pair[1], **kwargs)
@@ -186,4 +193,3 @@ def simulate_batch(
             if progress is not None:
                 progress(done, n)
     return results
-

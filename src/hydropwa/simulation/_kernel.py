@@ -51,7 +51,17 @@ I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = 0, 1, 2, 3, 4, 5
 I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = 6, 7, 8, 9, 10, 11, 12, 13
 I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = 14, 15, 16, 17, 18
 I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = 19, 20, 21, 22, 23, 24
-I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = 25, 26, 27, 28, 29, 30, 31, 32, 33
+I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
+    25,
+    26,
+    27,
+    28,
+    29,
+    30,
+    31,
+    32,
+    33,
+)
 N_BASE = 40
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = 40, 41, 42, 43, 44, 45, 46
@@ -75,7 +85,11 @@ def _input(i, t, sk, sp, st, sv, so):
 @njit(cache=True, nogil=True, inline="always")
 def _inputs(t, sk, sp, st, sv, so):
     """Evaluate the three input signals u, P_S, F_L at time t."""
-    return _input(0, t, sk, sp, st, sv, so), _input(1, t, sk, sp, st, sv, so), _input(2, t, sk, sp, st, sv, so)
+    return (
+        _input(0, t, sk, sp, st, sv, so),
+        _input(1, t, sk, sp, st, sv, so),
+        _input(2, t, sk, sp, st, sv, so),
+    )
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -97,7 +111,21 @@ def rhs_full(y, u, ps_in, fl, p, dy):
     z = _opening(nu, p)
     qa, qb = orifice_flows(z, pa, pb, ps, p[I_PT], p[I_K], p[I_PTR])
     dpa, dpb = chamber_pressure_rates(
-        qa, qb, x, v, pa, pb, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_CL], p[I_E], p[I_PVAP], p[I_PREL]
+        qa,
+        qb,
+        x,
+        v,
+        pa,
+        pb,
+        p[I_AA],
+        p[I_AB],
+        p[I_STROKE],
+        p[I_VA],
+        p[I_VB],
+        p[I_CL],
+        p[I_E],
+        p[I_PVAP],
+        p[I_PREL],
     )
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
     dy[0] = dnu
@@ -108,7 +136,15 @@ def rhs_full(y, u, ps_in, fl, p, dy):
     dy[5] = piston_acceleration(pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl, stop, p[I_MASS])
     if pump:
         dy[6] = pump_supply_rate(
-            ps, supply_flow(z, qa, qb), p[I_PSET], p[I_QMAX], p[I_DROOP], p[I_VLINE], p[I_E], p[I_PRELIEF], p[I_GRELIEF]
+            ps,
+            supply_flow(z, qa, qb),
+            p[I_PSET],
+            p[I_QMAX],
+            p[I_DROOP],
+            p[I_VLINE],
+            p[I_E],
+            p[I_PRELIEF],
+            p[I_GRELIEF],
         )
     else:
         dy[6] = 0.0
@@ -356,7 +392,9 @@ def _factor(J, W, piv, hg):
 
 
 @njit(cache=True, nogil=True)
-def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so):
+def _step_ros34pw2(
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+):
     """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
     n = y.shape[0]
     hg = h * PW2_GAMMA
@@ -370,7 +408,9 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
                 for j in range(i):
                     s += PW2_A[4 * i + j] * U[j, k]
                 yt[k] = s
-            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sk, sp, st, sv, so)  # α_4 = 1: reused for f(t + h)
+            u, ps, fl = _inputs(
+                t + PW2_ALPHA[i] * h, sk, sp, st, sv, so
+            )  # α_4 = 1: reused for f(t + h)
             rhs_at(kind, yt, u, ps, fl, p, ft)
         for k in range(n):
             s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
@@ -391,7 +431,9 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
 
 
 @njit(cache=True, nogil=True)
-def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so):
+def _step_ros23(
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+):
     """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
     n = y.shape[0]
     hd = h * _D23
@@ -443,7 +485,25 @@ def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
 
 
 @njit(cache=True, nogil=True)
-def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max_steps, method=ROS34PW2, jac_reuse=True, gustafsson=True):
+def integrate(
+    kind,
+    y0,
+    t_out,
+    p,
+    sk,
+    sp,
+    st,
+    sv,
+    so,
+    rtol,
+    scale,
+    h0,
+    hmax,
+    max_steps,
+    method=ROS34PW2,
+    jac_reuse=True,
+    gustafsson=True,
+):
     """Integrate model ``kind`` from t_out[0] with a Rosenbrock method, dense output at ``t_out``.
 
     Parameters
@@ -540,7 +600,9 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
                 h = hmin
         if need_jac:
             u, ps, fl = _inputs(t, sk, sp, st, sv, so)
-            nfev += _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft)
+            nfev += _jacobian(
+                kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft
+            )
             n_jac += 1
             need_jac = False
             jac_age = 0
@@ -549,9 +611,13 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
             _factor(J, W, piv, h * gamma)
             h_fact = h
         if method == ROS34PW2:
-            nfev += _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so)
+            nfev += _step_ros34pw2(
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+            )
         else:
-            nfev += _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so)
+            nfev += _step_ros23(
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+            )
         err = 0.0
         finite = True
         for i in range(n):
@@ -601,6 +667,7 @@ def integrate(kind, y0, t_out, p, sk, sp, st, sv, so, rtol, scale, h0, hmax, max
             last_rejected = True
     stats = np.array([n_acc, n_rej, nfev, n_jac], dtype=np.int64)
     return Y, k_out, status, t, y, stats
+
 
 @njit(cache=True, nogil=True)
 def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):

@@ -34,13 +34,17 @@ def _row(case: SweepCase, summary: dict[str, float]) -> dict[str, Any]:
     return {"case": case.index, **case.overrides, **summary}
 
 
-def run_case(spec: SweepSpec, case: SweepCase, keep_result: bool = False) -> tuple[dict, SimulationResult | None]:
+def run_case(
+    spec: SweepSpec, case: SweepCase, keep_result: bool = False
+) -> tuple[dict, SimulationResult | None]:
     """Simulate one case; returns its summary row and, if asked, the full result.
 
     This is the task a Dask worker runs; it is a plain function of picklable
     arguments.
     """
-    res = simulate(spec.model, spec.u, params=spec.params_for(case), duration=spec.duration, **spec.options)
+    res = simulate(
+        spec.model, spec.u, params=spec.params_for(case), duration=spec.duration, **spec.options
+    )
     return _row(case, summarize(res)), (res if keep_result else None)
 
 
@@ -86,7 +90,10 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, progress) -> list[dict]:
     cluster = None
     if scheduler == "local":
         cluster = LocalCluster(
-            n_workers=jobs or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=jobs or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
         )
         client = Client(cluster)
     else:

@@ -44,7 +44,9 @@ def _field_unit(key: str) -> tuple[str, str, str]:
     group, _, name = key.partition(".")
     if group not in FIELD_UNITS or name not in FIELD_UNITS[group]:
         groups = ", ".join(FIELD_UNITS)
-        raise ParameterError(f"unknown parameter {key!r} in sweep; use 'group.field' with group one of {groups}")
+        raise ParameterError(
+            f"unknown parameter {key!r} in sweep; use 'group.field' with group one of {groups}"
+        )
     return group, name, FIELD_UNITS[group][name]
 
 
@@ -167,16 +169,24 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     inp = dict(data.get("input", {}))
     unknown = set(inp) - _INPUT_KEYS
     if unknown:
-        raise ParameterError(f"unknown [input] keys {sorted(unknown)}; allowed: {sorted(_INPUT_KEYS)}")
+        raise ParameterError(
+            f"unknown [input] keys {sorted(unknown)}; allowed: {sorted(_INPUT_KEYS)}"
+        )
     duration = parse_quantity(inp.pop("duration", 1.0), "s", "input.duration")
     model = str(inp.pop("model", "full"))
     u = inp.pop("u", 0.0)
     options = {}
     for key, value in inp.items():
         if key == "supply_pressure":
-            options[key] = parse_quantity(value, "Pa", "input.supply_pressure") if not _is_spec(value) else value
+            options[key] = (
+                parse_quantity(value, "Pa", "input.supply_pressure")
+                if not _is_spec(value)
+                else value
+            )
         elif key == "load_force":
-            options[key] = parse_quantity(value, "N", "input.load_force") if not _is_spec(value) else value
+            options[key] = (
+                parse_quantity(value, "N", "input.load_force") if not _is_spec(value) else value
+            )
         elif key == "fs":
             options[key] = parse_quantity(value, "Hz", "input.fs")
         elif key == "rtol":
