@@ -237,7 +237,7 @@ def rhs(kind, t, y, p, sk, sp, st, sv, so, dy):
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def _lu(a, piv):
     """In-place LU factorisation with partial pivoting of a small dense matrix."""
     n = a.shape[0]
@@ -265,7 +265,7 @@ def _lu(a, piv):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always")
 def _solve(a, piv, b):
     """Solve LU x = b in place (b overwritten with x)."""
     n = a.shape[0]
@@ -380,7 +380,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, 
     return nfev
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def _factor(J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = J.shape[0]
@@ -391,7 +391,7 @@ def _factor(J, W, piv, hg):
     _lu(W, piv)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
 ):
@@ -461,7 +461,7 @@ def _step_ros23(
     return 2
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -484,7 +484,7 @@ def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     return k_out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def integrate(
     kind,
     y0,
