@@ -68,8 +68,8 @@ def test_sampled_signal_interpolates_and_holds():
 def test_replayed_measured_command_reproduces_the_analytic_run(paper):
     t = np.linspace(0, 1, 2001)
     u = 0.3 * np.sin(2 * np.pi * 2 * t)
-    a = simulate(ReducedModel(paper), Sampled(t, u), duration=1.0)
-    b = simulate(ReducedModel(paper), Sine(amplitude=0.3, frequency=2), duration=1.0)
+    a = simulate(ReducedModel(paper), Sampled(t, u), duration=1.0, rtol=1e-7)
+    b = simulate(ReducedModel(paper), Sine(amplitude=0.3, frequency=2), duration=1.0, rtol=1e-7)
     # linear interpolation of a 2 kHz sampled sine: command error < 0.3·(2π·2/2000)²/8 ≈ 1.5e-6
     assert np.max(np.abs(a["x"] - b["x"])) < 2e-6
 
@@ -116,7 +116,7 @@ def test_stiff_dead_volume_failure_explains_cause(paper):
     # ROS2(3) is L-stable and copes with this, but needs tiny steps: the budget runs out
     p = paper.replace(**{"cylinder.dead_volume_a": 1e-9, "cylinder.dead_volume_b": 1e-9})
     with pytest.raises(SimulationError, match=r"dead volume 1e-09 m³ makes the chamber stiffness 1.69e\+12 N/m"):
-        simulate(FullOrderModel(p), Step(time=0.0, after=0.5), duration=0.05, x0=0.0, max_steps=500)
+        simulate(FullOrderModel(p), Step(time=0.0, after=0.5), duration=0.05, x0=0.0, max_steps=500, rtol=1e-5)
 
 
 def test_bad_duration():
