@@ -1,7 +1,10 @@
 """Stribeck recovery on virtual-rig friction campaigns for three true parameter sets, both methods.
 
 Campaign: the paper's friction experiment (constant inputs 5–50 % both directions against
-1.5 kN), every 2nd % step, default sensor noise, seeded. Measured errors are in
+1.5 kN), every 2nd % step, default sensor noise, seeded. Most tests here use an UNDAMPED
+counter force (``counter_damping = 0``) to document the stick-slip case; the last tests use
+the rig's default damped counter cylinder (``Load.damping`` = 1e4 N·s/m), which removes the
+stick-slip and gives F_c, F_s, σ within 10 % for set C and F_s −13 % / −16 % for paper / B. Measured errors are in
 docs/architecture_identification.md. σ is recovered within 10 % by both methods; F_s is not
 (−30 … −45 %): the runs below ≈ 40–50 mm/s stick-slip at ≈ 200 Hz and cross 2–10 mm/s,
 where the Stribeck peak lies, within one 2 kHz sample, so F_s is an extrapolation.
@@ -39,8 +42,12 @@ CAMPAIGN = {
     "friction": {"inputs": {"start": "5 %", "stop": "50 %", "step": "2 %"}, "directions": ["extend", "retract"],
                  "counter_force": "1.5 kN", "force_ramp": "0.3 s", "valve_delay": "0.4 s", "ripple": "1 %",
                  "ripple_frequency": "7 Hz", "force_noise": "5 N", "force_rate": "500 Hz", "duration": "4 s",
-                 "stop_at": "90 %", "min_duration": "0.2 s"},
+                 "stop_at": "90 %", "min_duration": "0.2 s", "counter_damping": "0 N*s/m"},
 }
+"""An undamped counter force: the slow runs stick-slip (the tests below document that case)."""
+
+DAMPED = {**CAMPAIGN, "friction": {**CAMPAIGN["friction"], "counter_damping": "1e4 N*s/m"}}
+"""The rig's default: the coupled counter cylinder damps the rod (no stick-slip down to 10 mm/s)."""
 
 
 @pytest.fixture(scope="module", params=sorted(SETS))
@@ -108,3 +115,29 @@ def test_friction_samples_include_inertia():
     model = stribeck_friction(vs, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
     assert vs.size > 1000
     assert np.max(np.abs(fs - model)) < 1.0  # m·ẍ amplitude is 51 N
+
+
+@pytest.fixture(scope="module", params=sorted(SETS))
+def damped_campaign(request, tmp_path_factory):
+    params = get_preset("paper").replace(**SETS[request.param]) if SETS[request.param] else get_preset("paper")
+    out = tmp_path_factory.mktemp(f"frd_{request.param}")
+    rig.run_campaign(rig.Rig(params=params), rig.parse_campaign(DAMPED), out, jobs=2)
+    return request.param, params, load_runs(out)
+
+
+# Measured with the damped counter cylinder, method="average" (identified vs true):
+#   paper: F_c +27 %, F_s -13 %, σ -3 %, χ +18 %
+#   B:     F_c +4.5 %, F_s -16 %, σ -1.5 %, χ +41 %
+#   C:     F_c +2.7 %, F_s -2.8 %, σ -0.7 %, χ +3 %
+# The slowest moving runs (11 %, ≈10 mm/s) lie above the curve's maximum (≈1.5 mm/s for the
+# paper and B sets, δ = 0.73), so F_s there is an extrapolation through δ and χ.
+def test_damped_rig_recovers_friction(damped_campaign):
+    name, params, _ = damped_campaign
+    ident = _fit(damped_campaign, "average")
+    f, t = ident.friction_, params.friction
+    assert f.viscous == pytest.approx(t.viscous, rel=0.10)
+    if name == "C":
+        assert f.coulomb == pytest.approx(t.coulomb, rel=0.10)
+        assert f.static == pytest.approx(t.static, rel=0.10)
+    else:
+        assert f.static == pytest.approx(t.static, rel=0.25)  # -13 % / -16 % measured, see above

@@ -74,6 +74,7 @@ def pack_params(params: SystemParams, omega0: float | None = None) -> np.ndarray
     p[K.I_PRELIEF] = s.relief_pressure
     p[K.I_GRELIEF] = s.relief_gain
     p[K.I_MASS] = ld.mass
+    p[K.I_CLOAD] = ld.damping
     return p
 
 

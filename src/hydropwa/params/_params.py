@@ -424,14 +424,20 @@ class Load:
     force : float
         Constant external load force F_L [N] (positive opposes extension);
         a time signal given to ``simulate`` overrides it.
+    damping : float
+        Viscous damping c [N·s/m] of an attached load, e.g. the pressure-controlled
+        counter cylinder of the rig: the load is F_L(t) + c·ẋ and the force sensor
+        (channel ``f_l``) measures that sum. 0 for a free rod.
     """
 
     mass: float = 1.394
     force: float = 0.0
+    damping: float = 0.0
 
     def __post_init__(self) -> None:
         _check(self, "mass", "kg", gt=0.0)
         _check(self, "force", "N")
+        _check(self, "damping", "N·s/m", ge=0.0)
 
 
 @dataclass(frozen=True, slots=True)

@@ -78,7 +78,7 @@ FIELD_UNITS: dict[str, dict[str, str | None]] = {
         "relief_pressure": "Pa",
         "relief_gain": "m**3/s/Pa",
     },
-    "load": {"mass": "kg", "force": "N"},
+    "load": {"mass": "kg", "force": "N", "damping": "N*s/m"},
 }
 
 #: Units written next to SI numbers in saved files, for the human reader.

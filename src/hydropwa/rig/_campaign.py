@@ -229,6 +229,13 @@ class FrictionExperiment:
         Standard deviation of the force-control noise [N].
     force_rate : float
         Rate at which the counter-force signal is sampled [Hz] (noise bandwidth fs/2).
+    counter_damping : float
+        Viscous damping [N·s/m] of the coupled, pressure-controlled counter cylinder: its
+        displaced oil passes its own control valve, so it loads the rod with c·ẋ on top of
+        the set force (``Load.damping``). The force sensor sits between the rods and
+        measures both, so Eq. (10) still isolates the friction. It also stops the
+        stick-slip that the Stribeck curve's negative slope causes below ~45 mm/s
+        against a nearly closed valve (measured: none down to 10 mm/s from 5e3 N·s/m).
     duration, stop_at, min_duration : float
         As in :class:`DeadZoneExperiment` [s], [1], [s] (``min_duration`` counted from ``valve_delay``).
     """
@@ -243,6 +250,7 @@ class FrictionExperiment:
     ripple_frequency: float = 7.0
     force_noise: float = 5.0
     force_rate: float = 500.0
+    counter_damping: float = 1.0e4
     duration: float = 4.0
     stop_at: float = 0.9
     min_duration: float = 0.2
@@ -351,6 +359,7 @@ def _friction(t: _Table) -> FrictionExperiment:
         ripple_frequency=t.quantity("ripple_frequency", "Hz", 7.0, ge=0.0),
         force_noise=t.quantity("force_noise", "N", 5.0, ge=0.0),
         force_rate=t.quantity("force_rate", "Hz", 500.0, gt=0.0),
+        counter_damping=t.quantity("counter_damping", "N*s/m", 1.0e4, ge=0.0),
         duration=t.quantity("duration", "s", 4.0, gt=0.0),
         stop_at=t.quantity("stop_at", "", 0.9, gt=0.0, le=1.0),
         min_duration=t.quantity("min_duration", "s", 0.2, ge=0.0),

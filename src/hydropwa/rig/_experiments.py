@@ -144,6 +144,7 @@ def _constant_runs(
                     "ripple_frequency": exp.ripple_frequency,
                     "noise": exp.force_noise,
                     "rate": exp.force_rate,
+                    "damping": exp.counter_damping,
                 }
             runs.append(
                 RunSpec(
@@ -266,7 +267,10 @@ def execute(
     load = None
     if spec.counter_force is not None:
         load = counter_force_signal(spec.counter_force, spec.duration, force_rng)
-    model = FullOrderModel(rig.params)
+    params = rig.params
+    if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
+        params = params.replace(**{"load.damping": spec.counter_force["damping"]})
+    model = FullOrderModel(params)
     result = simulate(
         model,
         spec.command,

@@ -62,6 +62,7 @@ I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
     32,
     33,
 )
+I_CLOAD = 34  # viscous damping of the attached load (counter cylinder) [N·s/m]
 N_BASE = 40
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = 40, 41, 42, 43, 44, 45, 46
@@ -133,7 +134,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
     dy[2] = dpa
     dy[3] = dpb
     dy[4] = v
-    dy[5] = piston_acceleration(pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl, stop, p[I_MASS])
+    dy[5] = piston_acceleration(pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
     if pump:
         dy[6] = pump_supply_rate(
             ps,
@@ -159,7 +160,7 @@ def rhs_reduced(y, u, ps, fl, p, dy):
     ql = load_flow(z, pl, ps, p[I_K], p[I_PTR])
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
     dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
-    dy[1] = piston_acceleration(abar * pl, _friction(v, p), fl, stop, p[I_MASS])
+    dy[1] = piston_acceleration(abar * pl, _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
     dy[2] = v
 
 
@@ -215,7 +216,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     ff = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
     dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
-    dy[1] = piston_acceleration(abar * pl, ff, fl, stop, p[I_MASS])
+    dy[1] = piston_acceleration(abar * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
     dy[2] = v
 
 
@@ -712,7 +713,7 @@ def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
         out[k, 4] = pb
         out[k, 5] = pl
         out[k, 6] = ps
-        out[k, 7] = fl
+        out[k, 7] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
         out[k, 8] = x
         out[k, 9] = v
         out[k, 10] = fr
