@@ -86,7 +86,8 @@ def test_friction_run_has_the_counter_force(rig):
     v = np.gradient(run["x"], t)
     expected = 1500.0 + exp.counter_damping * v[m]
     assert np.mean(steady) == pytest.approx(np.mean(expected), rel=0.01)
-    assert 5.0 < np.std(steady) < 100.0  # ripple and control noise (+ c·ẋ of a steady run)
+    late = f[t > exp.valve_delay + 0.5]  # rod at its steady speed: only ripple and noise vary
+    assert 5.0 < np.std(late) < 50.0
     assert run.meta["counter_force"] == 1500.0
     assert np.all(run["p_a"] < 250e5) and np.all(run["p_b"] < 250e5)
 
