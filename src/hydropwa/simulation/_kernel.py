@@ -674,10 +674,10 @@ def integrate(
 def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
     """Derived channels per output sample.
 
-    Returns an array of shape (n_done, 12) with columns
+    Returns an array of shape (12, n_done) (one contiguous row per channel) with rows
     u, spool, z, p_a, p_b, p_l, p_s, f_l, x, v, friction, cells (packed g,o,n,w as g+8o+64n+512w; -1 if not PWA).
     """
-    out = np.empty((n_done, 12))
+    out = np.empty((12, n_done))
     for k in range(n_done):
         t = t_out[k]
         y = Y[k]
@@ -706,16 +706,16 @@ def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
                 cells = g + 8.0 * o + 64.0 * nn + 512.0 * w
             pa = 0.5 * (ps + pl)
             pb = 0.5 * (ps - pl)
-        out[k, 0] = u
-        out[k, 1] = spool
-        out[k, 2] = z
-        out[k, 3] = pa
-        out[k, 4] = pb
-        out[k, 5] = pl
-        out[k, 6] = ps
-        out[k, 7] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
-        out[k, 8] = x
-        out[k, 9] = v
-        out[k, 10] = fr
-        out[k, 11] = cells
+        out[0, k] = u
+        out[1, k] = spool
+        out[2, k] = z
+        out[3, k] = pa
+        out[4, k] = pb
+        out[5, k] = pl
+        out[6, k] = ps
+        out[7, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
+        out[8, k] = x
+        out[9, k] = v
+        out[10, k] = fr
+        out[11, k] = cells
     return out

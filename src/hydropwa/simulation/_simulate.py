@@ -336,9 +336,9 @@ def simulate(
     out = K.outputs(mdl.kind, t_out, Y, n_done, p, sk, sp, st, sv, so)
     channels = {"t": t_out[:n_done].copy()}
     for i, name in enumerate(_OUT_COLS):
-        channels[name] = out[:, i].copy()
+        channels[name] = out[i]  # contiguous row, no copy needed
     if mdl.kind == K.PWA:
-        packed = out[:, 11].astype(np.int64)
+        packed = out[11].astype(np.int64)
         channels["cell_g"] = (packed % 8).astype(float)
         channels["cell_o"] = ((packed // 8) % 8).astype(float)
         channels["cell_n"] = ((packed // 64) % 8).astype(float)
