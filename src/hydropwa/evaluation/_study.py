@@ -505,9 +505,9 @@ def _corners(runs) -> dict[int, Any]:
     return out
 
 
-def _summary(metrics):
+def _summary(metrics, channel: str = "x"):
     """Position fit [%] per run (rows) and model (columns), plus the mean."""
-    x = metrics[metrics["channel"] == "x"].pivot(index="run", columns="model", values="nrmse_fit")
+    x = metrics[metrics["channel"] == channel].pivot(index="run", columns="model", values="nrmse_fit")
     x.loc["mean"] = x.mean()
     return x.reset_index()
 
@@ -566,6 +566,9 @@ def _stage_evaluate(
         cell_df = pd.concat(cells, ignore_index=True)
         files += _write_table(metrics, out / "tables" / "metrics")
         files += _write_table(_summary(metrics), out / "tables" / "position_fit", ".1f")
+        files += _write_table(
+            _summary(metrics, "x_detrended"), out / "tables" / "position_fit_detrended", ".1f"
+        )
         files += _write_table(cell_df, out / "tables" / "pwa_cells")
         from ..linearization import load_pwa
 
