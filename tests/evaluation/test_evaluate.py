@@ -63,7 +63,7 @@ def test_run_starting_mid_stroke(sine_run):
 def test_evaluate_dataset_and_errors(sine_run):
     run, params = sine_run
     df = evaluate_dataset([run], params, models=("full",))
-    assert set(df.channel) == {"x", "p_a", "p_b", "p_l", "v"}
+    assert set(df.channel) == {"x", "p_a", "p_b", "p_l", "v", "x_detrended"}
     with pytest.raises(DataError, match="unknown model variant"):
         evaluate_run(run, params, models=("nonsense",))
     with pytest.raises(DataError, match="lacks channel"):
