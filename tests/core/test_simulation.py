@@ -157,3 +157,17 @@ def test_cli_params_export_and_show(tmp_path, capsys):
     assert main(["params", "export", "paper", "-o", str(out)]) == 2  # exists, no --force
     assert main(["params", "show", str(out)]) == 0
     assert "bulk_modulus" in capsys.readouterr().out
+
+
+def test_cli_registers_every_layer(capsys):
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    for command in ("simulate", "params", "data", "rig", "identify", "linearize", "sweep", "paper"):
+        assert command in out
+
+
+@pytest.mark.parametrize("args", [["simulate", "--nope"], ["linearize", "--bogus"], ["rig", "run", "nothing"]])
+def test_cli_usage_errors_exit_2_without_traceback(capsys, args):
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "rror" in err

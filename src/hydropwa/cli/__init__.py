@@ -33,7 +33,7 @@ _SUBAPPS = (
     ("._data", "app", "data"),
     ("._rig", "app", "rig"),
     ("._identify", "app", "identify"),
-    ("._linearize", "linearize_command", "linearize"),
+    ("._linearize", "register", "linearize"),
     ("._sweep", "sweep_command", "sweep"),
     ("._paper", "paper_command", "paper"),
 )
@@ -47,12 +47,31 @@ for _mod, _attr, _name in _SUBAPPS:
     _obj = getattr(_m, _attr)
     if isinstance(_obj, typer.Typer):
         app.add_typer(_obj, name=_name)
+    elif _attr == "register":
+        _obj(app)
     else:
         app.command(_name)(_obj)
 
 
 def _showwarning(message, category, filename, lineno, file=None, line=None):
     print(f"warning: {message}", file=sys.stderr)
+
+
+def _exception_types():
+    """Exit/abort/usage-error classes of click and of typer's vendored click (typer >= 0.20)."""
+    exits, aborts, usage = [click.exceptions.Exit], [click.exceptions.Abort], [click.ClickException]
+    exits.append(getattr(typer, "Exit", click.exceptions.Exit))
+    aborts.append(getattr(typer, "Abort", click.exceptions.Abort))
+    try:
+        from typer._click import exceptions as _vendored  # type: ignore[import-not-found]
+
+        usage.append(_vendored.ClickException)
+    except ImportError:  # typer that uses click itself
+        pass
+    return tuple(exits), tuple(aborts), tuple(usage)
+
+
+_EXITS, _ABORTS, _USAGE = _exception_types()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -64,12 +83,12 @@ def main(argv: list[str] | None = None) -> int:
     except HydropwaError as exc:
         print(f"error: {exc}", file=sys.stderr)
         code = 2
-    except click.exceptions.Exit as exc:
-        code = exc.exit_code
-    except click.exceptions.Abort:
+    except _EXITS as exc:
+        code = getattr(exc, "exit_code", getattr(exc, "code", 0))
+    except _ABORTS:
         print("error: aborted", file=sys.stderr)
         code = 130
-    except click.ClickException as exc:
+    except _USAGE as exc:
         exc.show()
         code = exc.exit_code
     except KeyboardInterrupt:
