@@ -308,17 +308,7 @@ def friction_samples(t, x, p_a, p_b, f_l, area_a: float, area_b: float, mass: fl
     v = np.convolve(x, h1, mode="same")
     a = np.convolve(x, h2, mode="same")
     f = np.convolve(net, h, mode="same") - mass * a
-    ok = np.ones(x.size, dtype=bool)
-    ok[: h.size] = False
-    ok[-h.size:] = False
-    if u is not None:
-        u = np.asarray(u, dtype=float)
-        uf = float(np.median(u[u.size // 2:]))
-        changed = np.flatnonzero(np.abs(u - uf) > 1e-6 * max(abs(uf), 1e-9))
-        t_on = t[min(changed[-1] + 1, t.size - 1)] if changed.size else t[0]
-        ok &= t >= t_on + settle
-    if stroke is not None:
-        ok &= (x > stop_margin) & (x < stroke - stop_margin)
+    ok = _usable_samples(t, x, u, h.size, settle, stroke, stop_margin)
     d4 = np.diff(x, 4)
     sigma_x = 1.4826 * float(np.median(np.abs(d4 - np.median(d4)))) / np.sqrt(70.0)
     vmin = max(min_speed, 3.0 * sigma_x * float(np.sqrt(np.sum(h1**2))))
@@ -408,17 +398,7 @@ def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, s
         raise IdentificationError(f"run too short for the {h.size}-tap filter ({x.size} samples)")
     v = np.convolve(x, h1, mode="same")
     nf = np.convolve(net, h, mode="same")
-    ok = np.ones(x.size, dtype=bool)
-    ok[: h.size] = False
-    ok[-h.size:] = False
-    if u is not None:
-        u = np.asarray(u, dtype=float)
-        uf = float(np.median(u[u.size // 2:]))
-        changed = np.flatnonzero(np.abs(u - uf) > 1e-6 * max(abs(uf), 1e-9))
-        t_on = t[min(changed[-1] + 1, t.size - 1)] if changed.size else t[0]
-        ok &= t >= t_on + settle
-    if stroke is not None:
-        ok &= (x > stop_margin) & (x < stroke - stop_margin)
+    ok = _usable_samples(t, x, u, h.size, settle, stroke, stop_margin)
     if ok.sum() < 10:
         raise IdentificationError("no samples away from the stops after the command settled")
     idx = np.flatnonzero(ok)
@@ -1070,3 +1050,20 @@ class StribeckIdentifier:
         out["rms_residual_N"] = self.fit_.rms_residual
         out["method"] = self.method
         return out
+
+
+def _usable_samples(t, x, u, edge, settle, stroke, stop_margin) -> np.ndarray:
+    """Mask of samples clear of the filter edges, settled after the last command change
+    (by ``settle`` [s]) and at least ``stop_margin`` [m] away from both end stops."""
+    ok = np.ones(x.size, dtype=bool)
+    ok[:edge] = False
+    ok[-edge:] = False
+    if u is not None:
+        u = np.asarray(u, dtype=float)
+        uf = float(np.median(u[u.size // 2:]))
+        changed = np.flatnonzero(np.abs(u - uf) > 1e-6 * max(abs(uf), 1e-9))
+        t_on = t[min(changed[-1] + 1, t.size - 1)] if changed.size else t[0]
+        ok &= t >= t_on + settle
+    if stroke is not None:
+        ok &= (x > stop_margin) & (x < stroke - stop_margin)
+    return ok

@@ -227,20 +227,25 @@ class PwaModel:
         """Kernel parameter vector (base layout of ``hydropwa.models.pack_params`` + PWA cells)."""
         return pack_pwa(self)
 
+    # The PWA model has the reduced model's states [P_L, v, x]; it shares its conventions.
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes [Pa, m/s, m] used as absolute tolerances."""
-        return np.array([1e5, 1e-2, 1e-3])
+        from ..models import ReducedModel
+
+        return ReducedModel(self.params).state_scale()
 
     def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
         """Rest at ``x0`` [m] (default mid-stroke) with Ā·P_L = F_L."""
-        c = self.params.cylinder
-        x = 0.5 * c.stroke if x0 is None else x0
-        return np.array([load_force / c.mean_area, 0.0, x])
+        from ..models import ReducedModel
+
+        return ReducedModel(self.params).initial_state(x0, supply_pressure, load_force)
 
     @staticmethod
     def state_from_measurement(x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state [P_A − P_B, v, x] from measured quantities (SI)."""
-        return np.array([p_a - p_b, v, x], dtype=float)
+        from ..models import ReducedModel
+
+        return ReducedModel.state_from_measurement(x, v, p_a, p_b, p_s, spool)
 
     # --- cells --------------------------------------------------------------------------
     def _ps(self, p_s: float | None) -> float:
