@@ -15,6 +15,7 @@ __all__ = [
     "SimulationError",
     "IdentificationError",
     "PwaError",
+    "OutputExistsError",
 ]
 
 
@@ -63,3 +64,15 @@ class IdentificationError(HydropwaError):
 
 class PwaError(HydropwaError, ValueError):
     """A piecewise-affine model, its cells or its JSON document is invalid."""
+
+
+class OutputExistsError(HydropwaError, FileExistsError):
+    """An output file exists and overwriting it was not asked for (``--force``)."""
+
+
+def check_output(path, force: bool = False) -> None:
+    """Raise :class:`OutputExistsError` if ``path`` exists and ``force`` is False."""
+    from pathlib import Path
+
+    if not force and Path(path).exists():
+        raise OutputExistsError(f"{path} exists; pass --force to overwrite it (or choose another --out)")

@@ -171,3 +171,14 @@ def test_cli_usage_errors_exit_2_without_traceback(capsys, args):
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "rror" in err
+
+
+def test_cli_does_not_overwrite_without_force(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    args = ["simulate", "--model", "reduced", "--duration", "0.1", "--out", str(out)]
+    assert main(args) == 0
+    before = out.read_bytes()
+    assert main(args) == 2
+    assert "exists; pass --force" in capsys.readouterr().err
+    assert out.read_bytes() == before
+    assert main(args + ["--force"]) == 0

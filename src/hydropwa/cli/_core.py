@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from .._errors import ParameterError, SignalError
+from .._errors import ParameterError, SignalError, check_output
 from ..params import FIELD_UNITS, PRESETS, get_preset, load_params, params_to_toml, parse_quantity, save_params
 
 params_app = typer.Typer(help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True)
@@ -66,8 +66,7 @@ def params_export(
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """Write a parameter set to a hand-editable TOML file."""
-    if out.exists() and not force:
-        raise ParameterError(f"{out} exists; pass --force to overwrite it")
+    check_output(out, force)
     params = resolve_params(source)
     save_params(params, out, header=f"exported from {source}")
     typer.echo(f"wrote {out}")
@@ -86,6 +85,7 @@ def simulate_command(
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator (default 1e-3: position within 0.1 mm on the paper rig).")] = 1e-3,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output file (.csv or .parquet).")] = Path("run.csv"),
     plot: Annotated[Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
     from ..models import as_model
@@ -95,6 +95,9 @@ def simulate_command(
         raise ParameterError(f"--model {model!r} is unknown; choose full, reduced or pwa")
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")
+    check_output(out, force)
+    if plot is not None:
+        check_output(plot, force)
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
     prm = resolve_params(params)

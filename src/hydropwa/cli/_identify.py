@@ -15,7 +15,7 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError
+from hydropwa._errors import HydropwaError, check_output
 
 __all__ = ["app"]
 
@@ -27,6 +27,7 @@ Out = Annotated[Path, typer.Option("--out", "-o", help="Parameter TOML to write.
 Figures = Annotated[Path | None, typer.Option("--figures", help="Folder for the figures (PNG).")]
 Base = Annotated[str | None, typer.Option("--base-params", help="Base parameter TOML or preset (default: paper).")]
 Summary = Annotated[Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")]
+Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing parameter file.")]
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
@@ -39,13 +40,14 @@ def _warn(message, category, filename, lineno, file=None, line=None):
 
 
 def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
-         summary: Path | None) -> None:
+         summary: Path | None, force: bool = False) -> None:
     from hydropwa.identification import identify
     from hydropwa.params import load_params
 
     old = warnings.showwarning
     warnings.showwarning = _warn
     try:
+        check_output(out, force)
         params = load_params(base) if base else None
         report = identify(data_dir, parts, base_params=params)
         written = report.save(out, figures, summary)
@@ -61,30 +63,30 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
 
 @app.command("frf")
 def frf(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None, base_params: Base = None,
-        summary: Summary = None) -> None:
+        summary: Summary = None, force: Force = False) -> None:
     """Servo valve ω0 and ζ per amplitude from stepped-sine or broadband runs (Sec. VI-A)."""
-    _run(("frf",), data_dir, out, figures, base_params, summary)
+    _run(("frf",), data_dir, out, figures, base_params, summary, force)
 
 
 @app.command("deadzone")
 def deadzone(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-             base_params: Base = None, summary: Summary = None) -> None:
+             base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
     """Dead band β and creep slope from constant-input runs (Sec. VI-B)."""
-    _run(("deadzone",), data_dir, out, figures, base_params, summary)
+    _run(("deadzone",), data_dir, out, figures, base_params, summary, force)
 
 
 @app.command("friction")
 def friction(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-             base_params: Base = None, summary: Summary = None) -> None:
+             base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
     """Stribeck friction from constant-input runs against a counter force (Sec. VI-C)."""
-    _run(("friction",), data_dir, out, figures, base_params, summary)
+    _run(("friction",), data_dir, out, figures, base_params, summary, force)
 
 
 @app.command("all")
 def identify_all(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-                 base_params: Base = None, summary: Summary = None) -> None:
+                 base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
     """Valve, dead zone and friction from whatever experiments the data hold."""
-    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary)
+    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary, force)
 
 
 @app.command("emps")

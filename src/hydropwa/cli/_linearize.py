@@ -83,8 +83,12 @@ def _run(
     sample_time: Annotated[str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')] = None,
     figures: Annotated[Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")] = None,
     tables: Annotated[Path | None, typer.Option("--tables", help="Folder for Tables IV-IX (md+csv).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
 ) -> None:
     """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
+    from hydropwa._errors import check_output
+
+    check_output(out, force)
     paths = linearize_command(out, params_file, supply_pressure, cells, breakpoints, form, scheduled,
                               sample_time, figures, tables)
     for p in paths:

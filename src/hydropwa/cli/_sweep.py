@@ -49,8 +49,12 @@ def sweep_command(
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing summary table.")] = False,
 ) -> None:
     """Run every case of a sweep (in-process threads or on Dask) and write the summary table."""
+    from .._errors import check_output
+
+    check_output(out, force)
     from rich.console import Console
     from rich.progress import (
         BarColumn,
