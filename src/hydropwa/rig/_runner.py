@@ -118,6 +118,26 @@ def _complete(ds: Dataset, name: str) -> bool:
     return path.is_file() and path.stat().st_size > 0
 
 
+def _init_worker(parent_pid: int) -> None:
+    """Pool worker set-up: leave Ctrl-C to the parent, and exit if the parent dies.
+
+    A killed parent cannot shut its pool down; forked workers would wait forever on a queue
+    whose other end they hold themselves. A daemon thread notices the new parent pid instead.
+    """
+    import signal
+    import threading
+    import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.2)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="hydropwa-parent-watch").start()
+
+
 def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
     return execute(rig, spec, run_seed(seed, spec.experiment, spec.name), base_meta)
 
@@ -128,7 +148,9 @@ def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: i
     if jobs <= 1 or len(specs) <= 1:
         yield from map(fn, specs)
         return
-    with cf.ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as pool:
+    with cf.ProcessPoolExecutor(
+        max_workers=min(jobs, len(specs)), initializer=_init_worker, initargs=(os.getpid(),)
+    ) as pool:
         yield from pool.map(fn, specs, chunksize=1)
 
 
