@@ -16,6 +16,7 @@ from ._validate import (
     Plausible,
     ValidationReport,
     check_run,
+    screen_runs,
     validate_run,
 )
 
@@ -39,6 +40,7 @@ __all__ = [
     "load_emps",
     "read_dataset",
     "read_run",
+    "screen_runs",
     "to_si",
     "validate_run",
     "write_dataset",

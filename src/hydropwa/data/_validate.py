@@ -21,6 +21,7 @@ __all__ = [
     "PLAUSIBLE_RANGES",
     "ValidationReport",
     "check_run",
+    "screen_runs",
     "validate_run",
     "COMMAND_CHANNELS",
 ]
@@ -360,6 +361,8 @@ def check_run(
     clip_min_samples: int = 10,
     ranges: Mapping[str, Plausible] | None = None,
     no_clip_check: Iterable[str] = COMMAND_CHANNELS,
+    stuck_min_samples: int = 100,
+    spike_factor: float = 30.0,
 ) -> list[Issue]:
     """Check a run and return every finding; never raises for bad data.
 
@@ -378,7 +381,13 @@ def check_run(
     ranges : dict[str, Plausible], optional
         Plausible ranges per channel; default :data:`PLAUSIBLE_RANGES`.
     no_clip_check : iterable of str
-        Channels not checked for clipping (commanded signals).
+        Channels not checked for clipping, dropouts and spikes (commanded signals).
+    stuck_min_samples : int
+        Identical samples in a row, anywhere in the range, that count as a dropout (a
+        channel stuck at its last value) when the channel otherwise changes every sample.
+    spike_factor : float
+        A sample is a spike when it leaves the mean of its two neighbours, which agree with
+        each other, by more than this many robust noise scales of the channel.
 
     Returns
     -------
@@ -394,9 +403,79 @@ def check_run(
         issues += _check_finite(run, ch)
         if ch not in skip:
             issues += _check_clipping(run, ch, clip_min_samples)
+            issues += _check_stuck(run, ch, stuck_min_samples)
+            issues += _check_spikes(run, ch, spike_factor)
         if ch in ranges:
             issues += _check_range(run, ch, ranges[ch])
     return issues
+
+
+def _check_stuck(run: Run, channel: str, min_samples: int) -> list[Issue]:
+    """A dropout: the channel repeats one value for ``min_samples`` while it is otherwise live."""
+    v = run.channels[channel]
+    if v.size < 4 * min_samples:
+        return []
+    same = np.concatenate(([False], np.diff(v) == 0))
+    starts, lengths = _runs_of(same)
+    long = lengths >= min_samples
+    if not long.any():
+        return []
+    plateau = np.zeros(v.shape, dtype=bool)
+    for s0, n in zip(starts[long], lengths[long], strict=True):
+        plateau[s0 - 1 : s0 + n] = True
+    rest = np.diff(v[~plateau])
+    if rest.size == 0 or np.mean(rest == 0) > 0.5:  # quantised, slowly moving: flat is normal
+        return []
+    fin = v[np.isfinite(v)]
+    k = int(np.argmax(lengths * long))
+    level = v[starts[k]]
+    if level in (fin.max(), fin.min()):
+        return []  # at a rail: reported as clipping
+    return [
+        _issue(
+            run,
+            "stuck",
+            channel,
+            starts[k] - 1,
+            f"repeats the value {level:.6g} {run.units[channel]} for {int(lengths[k]) + 1} samples "
+            "while it changes every sample elsewhere (a sensor dropout)",
+            "exclude the stretch with select() or re-measure",
+        )
+    ]
+
+
+def _check_spikes(run: Run, channel: str, factor: float) -> list[Issue]:
+    """Isolated samples far from both neighbours, which agree with each other."""
+    v = run.channels[channel]
+    if v.size < 16:
+        return []
+    d = v[1:-1] - 0.5 * (v[:-2] + v[2:])
+    ok = np.isfinite(d)
+    if ok.sum() < 16:
+        return []
+    med = np.median(d[ok])
+    scale = 1.4826 * float(np.median(np.abs(d[ok] - med)))
+    if scale == 0.0:
+        scale = float(np.std(d[ok]))
+    if scale == 0.0:
+        return []
+    spread = np.abs(v[2:] - v[:-2])
+    hit = ok & (np.abs(d - med) > factor * scale) & (spread < np.abs(d) / 3.0)
+    idx = np.flatnonzero(hit) + 1
+    if idx.size == 0:
+        return []
+    i = int(idx[0])
+    return [
+        _issue(
+            run,
+            "spike",
+            channel,
+            i,
+            f"has {idx.size} isolated spike(s), the first {v[i]:.6g} {run.units[channel]} between "
+            f"{v[i - 1]:.6g} and {v[i + 1]:.6g}",
+            "remove them (e.g. a 3-sample median filter) or exclude the stretch with select()",
+        )
+    ]
 
 
 # ---------------------------------------------------------------------- repairs
@@ -490,3 +569,30 @@ def validate_run(
         )
         raise DataError(f"{errors[0]}{more}")
     return ValidationReport(run=run, issues=issues, repairs=repairs)
+
+
+def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]]:
+    """Split runs into sound ones and those with errors (:func:`check_run`), never silently.
+
+    Parameters
+    ----------
+    runs : iterable of Run
+    **check_options
+        Passed to :func:`check_run`.
+
+    Returns
+    -------
+    sound : list of Run
+        Runs without error-severity findings.
+    rejected : list of (str, str)
+        (run name, one-line reason with channel, sample and time) for each run left out.
+    """
+    sound, rejected = [], []
+    for run in runs:
+        errors = [i for i in check_run(run, **check_options) if i.severity == "error"]
+        if errors:
+            more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
+            rejected.append((run.name, f"{errors[0]}{more}"))
+        else:
+            sound.append(run)
+    return sound, rejected

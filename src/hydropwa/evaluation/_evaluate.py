@@ -30,6 +30,7 @@ __all__ = [
     "evaluation_start",
     "evaluate_run",
     "evaluate_dataset",
+    "sound_runs",
 ]
 
 #: Model variants evaluate_run knows: name → description.
@@ -484,6 +485,31 @@ def evaluate_run(
     )
 
 
+def sound_runs(dataset) -> list:
+    """The runs of a dataset (or iterable) that pass :func:`hydropwa.data.screen_runs`.
+
+    A run whose file cannot be read, or with a time-base error, NaN, a clipped converter, a
+    dropout or a spike, is left out with an :class:`EvaluationWarning` that names it and says
+    why; the evaluation never silently includes the bad part.
+    """
+    from ..data import screen_runs
+
+    runs = []
+    names = getattr(dataset, "names", None)
+    if names is not None:
+        for n in names:
+            try:
+                runs.append(dataset[n])
+            except DataError as exc:
+                warnings.warn(f"run {n!r} skipped: cannot be read: {exc}", EvaluationWarning, stacklevel=2)
+    else:
+        runs = list(dataset)
+    sound, rejected = screen_runs(runs)
+    for name, reason in rejected:
+        warnings.warn(f"run {name!r} skipped: bad data: {reason}", EvaluationWarning, stacklevel=2)
+    return sound
+
+
 def evaluate_dataset(
     dataset,
     params,
@@ -513,7 +539,7 @@ def evaluate_dataset(
     """
     import pandas as pd
 
-    runs = list(dataset)
+    runs = sound_runs(dataset)
     frames = []
     for k, run in enumerate(runs):
         res = evaluate_run(run, params, models=models, **kwargs)

@@ -443,7 +443,12 @@ def _sine_runs(data_root: Path) -> list:
         raise StudyError(
             f"{str(data_root / 'sine')!r} holds no runs; the evaluation needs the sine runs"
         )
-    return list(ds)
+    from ._evaluate import sound_runs
+
+    runs = sound_runs(ds)
+    if not runs:
+        raise StudyError(f"no sound sine run in {str(data_root / 'sine')!r}; see the warnings above")
+    return runs
 
 
 def _mean_supply(runs, params) -> float:

@@ -19,7 +19,7 @@ from typing import Any
 from .._errors import IdentificationError
 from .._io import atomic_write_text
 from ..params import SystemParams, get_preset, save_params
-from ._common import IdentificationWarning, SkippedRun, experiment_of
+from ._common import IdentificationWarning, SkippedRun, experiment_of, skip
 from ._deadzone import DeadZoneIdentifier
 from ._frf import ValveFrfIdentifier
 from ._friction import StribeckIdentifier
@@ -30,43 +30,64 @@ __all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
 PARTS = ("frf", "deadzone", "friction")
 
 
-def load_runs(source) -> list:
-    """All runs of a dataset folder, of a campaign folder (one dataset per sub-folder), or given runs.
+def load_runs(source, skipped: list | None = None) -> list:
+    """The sound runs of a dataset folder, of a campaign folder (one dataset per sub-folder), or given runs.
+
+    Every run is screened with :func:`hydropwa.data.screen_runs` (time base, NaN, clipped
+    converters, dropouts, spikes, implausible units); a run that fails, or whose file the
+    manifest lists but cannot be read, is left out with an :class:`IdentificationWarning`
+    naming it and the reason, and recorded in ``skipped`` when given.
 
     Parameters
     ----------
     source : path-like, Dataset, or iterable of Run
         A folder with ``manifest.json``, or a folder whose sub-folders hold datasets
         (as written by ``hydropwa rig``), or runs.
+    skipped : list, optional
+        Receives a :class:`SkippedRun` per run left out.
 
     Raises
     ------
     IdentificationError
         If a folder holds no dataset.
     """
-    from ..data import MANIFEST, read_dataset
+    from .._errors import DataError
+    from ..data import MANIFEST, read_dataset, screen_runs
+
+    skipped = [] if skipped is None else skipped
+    runs: list = []
+
+    def add_dataset(ds) -> None:
+        for n in ds.names:
+            try:
+                runs.append(ds[n])
+            except DataError as exc:
+                skip(skipped, n, f"cannot be read: {exc}")
 
     if not isinstance(source, str | os.PathLike):
         if hasattr(source, "names"):
-            return [source[n] for n in source.names]
-        return list(source)
-    root = Path(source)
-    if not root.is_dir():
-        raise IdentificationError(f"data folder {str(root)!r} not found")
-    if (root / MANIFEST).is_file():
-        ds = read_dataset(root)
-        return [ds[n] for n in ds.names]
-    subs = sorted(p for p in root.iterdir() if (p / MANIFEST).is_file())
-    if not subs:
-        raise IdentificationError(
-            f"{str(root)!r} holds no dataset (no {MANIFEST} in it or in its sub-folders); "
-            "hint: write one with `hydropwa rig run` or `hydropwa data convert`"
-        )
-    runs = []
-    for sub in subs:
-        ds = read_dataset(sub)
-        runs += [ds[n] for n in ds.names]
-    return runs
+            add_dataset(source)
+        else:
+            runs.extend(source)
+    else:
+        root = Path(source)
+        if not root.is_dir():
+            raise IdentificationError(f"data folder {str(root)!r} not found")
+        if (root / MANIFEST).is_file():
+            add_dataset(read_dataset(root, validate=False, lazy=True))
+        else:
+            subs = sorted(p for p in root.iterdir() if (p / MANIFEST).is_file())
+            if not subs:
+                raise IdentificationError(
+                    f"{str(root)!r} holds no dataset (no {MANIFEST} in it or in its sub-folders); "
+                    "hint: write one with `hydropwa rig run` or `hydropwa data convert`"
+                )
+            for sub in subs:
+                add_dataset(read_dataset(sub, validate=False, lazy=True))
+    sound, rejected = screen_runs(runs)
+    for name, reason in rejected:
+        skip(skipped, name, f"bad data: {reason}")
+    return sound
 
 
 @dataclasses.dataclass
@@ -171,13 +192,15 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
         raise IdentificationError(f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}")
     base = base_params or get_preset("paper")
     source = str(data) if isinstance(data, str | os.PathLike) else getattr(data, "root", "runs")
-    runs = load_runs(data)
+    screened: list = []
+    runs = load_runs(data, screened)
     by_kind: dict[str, list] = {p: [] for p in PARTS}
     for r in runs:
         k = experiment_of(r)
         if k in by_kind:
             by_kind[k].append(r)
     report = IdentificationReport(params=base, source=str(source))
+    report.skipped += screened
     changes: dict[str, Any] = {}
     uncertainty: dict[str, Any] = {}
     provenance: dict[str, Any] = {"source": str(source), "date": _dt.date.today().isoformat(),
