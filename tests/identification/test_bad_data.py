@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import FS, constant_input_runs, hinge_velocity, stepped_sine_runs
+from ident_support import FS, constant_input_runs, hinge_velocity, stepped_sine_runs
 from test_friction import _friction_run
 
 from hydropwa._errors import IdentificationError

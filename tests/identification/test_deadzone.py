@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import constant_input_runs, hinge_velocity
+from ident_support import constant_input_runs, hinge_velocity
 
 from hydropwa.identification import (
     DeadZoneIdentifier,

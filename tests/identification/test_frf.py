@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import FS, second_order_sine, stepped_sine_runs
+from ident_support import FS, second_order_sine, stepped_sine_runs
 from scipy import signal
 
 from hydropwa.data import Run

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import FS, stribeck_points
+from ident_support import FS, stribeck_points
 
 from hydropwa.components import stribeck_friction
 from hydropwa.data import Run

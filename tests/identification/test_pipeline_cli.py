@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import constant_input_runs, hinge_velocity, stepped_sine_runs
+from ident_support import constant_input_runs, hinge_velocity, stepped_sine_runs
 from test_friction import _friction_run
 from typer.testing import CliRunner
 

@@ -10,8 +10,6 @@ Fuzz targets use ``settings(max_examples=fuzz_examples(n))`` style scaling throu
 
 from __future__ import annotations
 
-import os
-
 from hypothesis import HealthCheck, settings
 
 _COMMON = dict(
@@ -27,11 +25,9 @@ settings.register_profile("ci", max_examples=100, deadline=2000, **_COMMON)
 settings.register_profile("long", max_examples=3000, deadline=5000, **_COMMON)
 settings.register_profile("dev", max_examples=20, deadline=None, **_COMMON)
 
-PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
-settings.load_profile(PROFILE)
+from robust_support import PHYSICS_EXAMPLES, PROFILE  # noqa: E402,F401
 
-#: Examples per physics property (each one is a short simulation).
-PHYSICS_EXAMPLES = {"ci": 8, "dev": 3, "long": 150}.get(PROFILE, 8)
+settings.load_profile(PROFILE)
 
 
 def pytest_terminal_summary(terminalreporter):

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 from _fuzzutil import COUNTS
-from conftest import PHYSICS_EXAMPLES
+from robust_support import PHYSICS_EXAMPLES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
