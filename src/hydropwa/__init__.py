@@ -29,7 +29,18 @@ from .params import (
     load_params,
     save_params,
 )
-from .simulation import Chirp, Constant, Ramp, Sampled, Sine, SimulationResult, Step, parse_signal, simulate
+from .simulation import (
+    Chirp,
+    Constant,
+    Ramp,
+    Sampled,
+    SimulationResult,
+    Sine,
+    Step,
+    parse_signal,
+    simulate,
+    simulate_batch,
+)
 
 __version__ = "0.1.0"
 
@@ -65,4 +76,5 @@ __all__ = [
     "parse_signal",
     "save_params",
     "simulate",
+    "simulate_batch",
 ]

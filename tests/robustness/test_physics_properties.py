@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 from _fuzzutil import COUNTS
-from robust_support import PHYSICS_EXAMPLES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from robust_support import PHYSICS_EXAMPLES
 
 from hydropwa import FullOrderModel, ReducedModel, get_preset, simulate
 from hydropwa.components import chamber_pressure_rates, orifice_flows, stribeck_friction

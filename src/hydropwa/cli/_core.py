@@ -9,7 +9,14 @@ from typing import Annotated
 import typer
 
 from .._errors import ParameterError, SignalError, check_output
-from ..params import FIELD_UNITS, PRESETS, get_preset, load_params, params_to_toml, parse_quantity, save_params
+from ..params import (
+    FIELD_UNITS,
+    PRESETS,
+    get_preset,
+    load_params,
+    parse_quantity,
+    save_params,
+)
 
 params_app = typer.Typer(help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True)
 

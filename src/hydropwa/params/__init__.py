@@ -22,7 +22,14 @@ from ._params import (
     flow_coefficient_from_rating,
 )
 from ._presets import PRESETS, get_preset, paper_params
-from ._toml import FIELD_UNITS, load_params, params_from_dict, params_to_toml, parse_quantity, save_params
+from ._toml import (
+    FIELD_UNITS,
+    load_params,
+    params_from_dict,
+    params_to_toml,
+    parse_quantity,
+    save_params,
+)
 
 __all__ = [
     "Cylinder",

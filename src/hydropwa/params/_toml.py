@@ -170,7 +170,7 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
             f"known: {', '.join(_COMPONENTS)}, meta, uncertainty"
         )
     changes: dict[str, Any] = {}
-    for comp, cls in _COMPONENTS.items():
+    for comp in _COMPONENTS:
         section = data.get(comp)
         if section is None:
             continue

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._errors import SignalError, SimulationError
 from . import _kernel as K
-from ._signals import Constant, Sampled, Signal, as_signal
+from ._signals import Sampled, Signal, as_signal
 
 #: Default relative tolerance. On the paper rig (10 s, 40 %, 1 Hz) it keeps the position
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
@@ -130,7 +130,7 @@ class SimulationResult:
 
         return Path(write_run(self.to_run(), Path(path), format="parquet"))
 
-    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s"), ax=None):
+    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s")):
         """Plot channels against time in engineering units (%, mm, bar); returns the figure."""
         from ..evaluation.plots import plot_result
 
@@ -375,6 +375,3 @@ def simulate(
             raise SimulationError(msg, t=float(t_fail), state=state, partial=result)
     return result
 
-
-# Constant is re-exported for convenience in type hints of callers.
-_ = Constant
