@@ -29,6 +29,7 @@ __all__ = [
     "stribeck_friction",
     "end_stop_force",
     "piston_acceleration",
+    "net_piston_force",
     "pump_supply_rate",
     "supply_flow",
 ]
@@ -212,6 +213,19 @@ def end_stop_force(x: float, v: float, stroke: float, k: float, c: float) -> flo
         f = -k * (x - stroke) - c * v
         return f if f < 0.0 else 0.0
     return 0.0
+
+
+def net_piston_force(p_a, p_b, f_l, area_a, area_b):
+    """Hydraulic force minus load, P_A·A_A − P_B·A_B − F_L [N], Eq. (10).
+
+    With the rod at steady speed this is the friction force f(ẋ) (NOTES.md item 11); minus
+    m·ẍ it is the friction force at any instant. Floats or numpy arrays.
+    """
+    return (
+        np.asarray(p_a, dtype=float) * area_a
+        - np.asarray(p_b, dtype=float) * area_b
+        - np.asarray(f_l, dtype=float)
+    )
 
 
 @njit(**_JIT)

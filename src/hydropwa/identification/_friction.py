@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .._errors import IdentificationError
-from ..components import stribeck_friction
+from ..components import net_piston_force, stribeck_friction
 from ..params import Friction, SystemParams
 from ._common import (
     ParameterEstimate,
@@ -226,7 +226,7 @@ def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: fl
     """
     t = np.asarray(t, dtype=float)
     x = np.asarray(x, dtype=float)
-    net = np.asarray(p_a) * area_a - np.asarray(p_b) * area_b - np.asarray(f_l)
+    net = net_piston_force(p_a, p_b, f_l, area_a, area_b)
     sl = steady_window(t, x, net, stroke, **window_kw)
     ts, xs = t[sl], x[sl]
     tc = ts - ts.mean()
@@ -298,16 +298,8 @@ def friction_samples(t, x, p_a, p_b, f_l, area_a: float, area_b: float, mass: fl
         Velocity [m/s] and friction force [N] of the kept samples; samples moving
         against the run's main direction (filter ringing at stick-slip corners) are dropped.
     """
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    dt = float(np.median(np.diff(t)))
-    net = np.asarray(p_a, dtype=float) * area_a - np.asarray(p_b, dtype=float) * area_b - np.asarray(f_l, dtype=float)
-    h, h1, h2 = _consistent_kernels(dt, min(cutoff, 0.45 / dt), taps)
-    if x.size <= 2 * h.size:
-        raise IdentificationError(f"run too short for the {h.size}-tap differentiator ({x.size} samples)")
-    v = np.convolve(x, h1, mode="same")
-    a = np.convolve(x, h2, mode="same")
-    f = np.convolve(net, h, mode="same") - mass * a
+    t, x, dt, h, h1, v, a, nf = _filtered_motion(t, x, p_a, p_b, f_l, area_a, area_b, cutoff, taps)
+    f = nf - mass * a
     ok = _usable_samples(t, x, u, h.size, settle, stroke, stop_margin)
     d4 = np.diff(x, 4)
     sigma_x = 1.4826 * float(np.median(np.abs(d4 - np.median(d4)))) / np.sqrt(70.0)
@@ -389,15 +381,7 @@ def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, s
     feeding oil, so the net force overshoots by m·ẍ, by ≈ 20–40 % at 15–40 mm/s on the
     virtual rig. :class:`StribeckIdentifier` therefore uses the slowest stick-slip runs only.
     """
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    dt = float(np.median(np.diff(t)))
-    net = np.asarray(p_a, dtype=float) * area_a - np.asarray(p_b, dtype=float) * area_b - np.asarray(f_l, dtype=float)
-    h, h1, _ = _consistent_kernels(dt, min(cutoff, 0.45 / dt), taps)
-    if x.size <= 2 * h.size:
-        raise IdentificationError(f"run too short for the {h.size}-tap filter ({x.size} samples)")
-    v = np.convolve(x, h1, mode="same")
-    nf = np.convolve(net, h, mode="same")
+    t, x, dt, h, h1, v, _, nf = _filtered_motion(t, x, p_a, p_b, f_l, area_a, area_b, cutoff, taps)
     ok = _usable_samples(t, x, u, h.size, settle, stroke, stop_margin)
     if ok.sum() < 10:
         raise IdentificationError("no samples away from the stops after the command settled")
@@ -1096,3 +1080,29 @@ def _usable_samples(t, x, u, edge, settle, stroke, stop_margin) -> np.ndarray:
     if stroke is not None:
         ok &= (x > stop_margin) & (x < stroke - stop_margin)
     return ok
+
+
+def _filtered_motion(t, x, p_a, p_b, f_l, area_a, area_b, cutoff, taps):
+    """Velocity, acceleration and net force (Eq. (10)) through one consistent low-pass.
+
+    Returns ``(t, x, dt, h, h1, v, a, net)``: the sample step [s], the smoothing kernel
+    (its length sets the edge samples to drop) and the first-derivative kernel, then the
+    filtered velocity [m/s], acceleration [m/s²] and net force [N].
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    h, h1, h2 = _consistent_kernels(dt, min(cutoff, 0.45 / dt), taps)
+    if x.size <= 2 * h.size:
+        raise IdentificationError(f"run too short for the {h.size}-tap filter ({x.size} samples)")
+    net = net_piston_force(p_a, p_b, f_l, area_a, area_b)
+    return (
+        t,
+        x,
+        dt,
+        h,
+        h1,
+        np.convolve(x, h1, mode="same"),
+        np.convolve(x, h2, mode="same"),
+        np.convolve(net, h, mode="same"),
+    )
