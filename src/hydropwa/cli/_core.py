@@ -142,8 +142,3 @@ def simulate_command(
         save_figure(plot_result(res), plot)
         msg += f" and {plot}"
     typer.echo(msg)
-
-
-def parse_pressure(text: str, name: str) -> float:
-    """Parse a pressure option such as '95 bar' to Pa."""
-    return parse_quantity(text, "Pa", name)
