@@ -106,10 +106,10 @@ RHS = {K.FULL: full_rhs, K.REDUCED: reduced_rhs}
 
 def check_against_kernel(kind, p, signals, y, t=0.123):
     """Largest relative difference between this RHS and the compiled one at (t, y)."""
-    from hydropwa.simulation._simulate import pack_signals
+    from hydropwa.simulation import pack_signals
 
-    sk, sp, st, sv, so = pack_signals(signals)
+    sg = pack_signals(signals)
     dy = np.empty_like(y)
-    K.rhs(kind, t, y, p, sk, sp, st, sv, so, dy)
+    K.rhs(kind, t, y, p, sg, dy)
     mine = RHS[kind](t, y, p, *signals)
     return float(np.max(np.abs(mine - dy) / (np.abs(dy) + 1e-12)))

@@ -171,7 +171,7 @@ def test_agreement_with_independent_scipy_reference(paper):
     # Radau at tight tolerance on the same vector field (kernel rhs called from Python).
     from scipy.integrate import solve_ivp
 
-    from hydropwa.simulation._simulate import pack_signals
+    from hydropwa.simulation import pack_signals
 
     model = FullOrderModel(paper)
     u = Sine(amplitude=0.4, frequency=1.0)
@@ -183,7 +183,7 @@ def test_agreement_with_independent_scipy_reference(paper):
     def f(t, y):
         dy = np.empty(7)
         with np.errstate(all="ignore"):  # Radau probes wild trial states
-            K.rhs(K.FULL, t, y, p, *packed, dy)
+            K.rhs(K.FULL, t, y, p, packed, dy)
         return dy
 
     t_eval = np.linspace(0, 1.0, 2001)

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 from hydropwa.models import as_model
 from hydropwa.simulation import _kernel as K
 from hydropwa.simulation import as_signal, simulate
-from hydropwa.simulation._simulate import pack_signals
+from hydropwa.simulation import pack_signals
 
 U = "sine:amplitude=0.4,frequency=2"
 DURATION = 1.0  # two periods: dead-zone crossings, velocity reversals and stick phases
@@ -32,12 +32,12 @@ def reference(request):
         as_signal(model.params.supply.pressure, "Pa", "p_s"),
         as_signal(0.0, "N", "f_l"),
     ]
-    sk, sp, st, sv, so = pack_signals(signals)
+    sg = pack_signals(signals)
     p = model.pack(command_amplitude=0.4)
 
     def f(t, y):
         dy = np.empty_like(y)
-        K.rhs(model.kind, t, y, p, sk, sp, st, sv, so, dy)
+        K.rhs(model.kind, t, y, p, sg, dy)
         return dy
 
     t = np.linspace(0.0, DURATION, 2001)

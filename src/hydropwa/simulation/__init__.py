@@ -1,7 +1,7 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
-from ._signals import Chirp, Constant, Ramp, Sampled, Signal, Sine, Step, as_signal, parse_signal
+from ._signals import Chirp, Constant, Ramp, Sampled, Signal, Sine, Step, as_signal, pack_signals, parse_signal
 from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "Sine",
     "Step",
     "as_signal",
+    "pack_signals",
     "parse_signal",
     "simulate",
     "simulate_batch",

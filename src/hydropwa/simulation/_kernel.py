@@ -73,24 +73,9 @@ OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _input(i, t, sk, sp, st, sv, so):
-    """Evaluate packed signal i at time t; only sampled signals need their slice of st, sv."""
-    k = sk[i]
-    if k == 0:  # constant: by far the most common supply pressure and load force
-        return sp[i, 0]
-    if k == 5:  # sampled
-        return eval_signal(k, sp[i], st[so[i, 0] : so[i, 1]], sv[so[i, 0] : so[i, 1]], t)
-    return eval_signal(k, sp[i], st, sv, t)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _inputs(t, sk, sp, st, sv, so):
-    """Evaluate the three input signals u, P_S, F_L at time t."""
-    return (
-        _input(0, t, sk, sp, st, sv, so),
-        _input(1, t, sk, sp, st, sv, so),
-        _input(2, t, sk, sp, st, sv, so),
-    )
+def _inputs(t, sg):
+    """Evaluate the three packed input signals u, P_S, F_L at time t."""
+    return eval_signal(sg, 0, t), eval_signal(sg, 1, t), eval_signal(sg, 2, t)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -174,7 +159,7 @@ def _cell(p, start, n, xv):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def pwa_cells(y, u, ps_in, p):
+def pwa_cells(pl, v, u, ps_in, p):
     """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
     ps = ps_in if p[I_SCHED] > 0.5 else p[I_PSFIX]
@@ -183,12 +168,12 @@ def pwa_cells(y, u, ps_in, p):
     z = p[s_g + ng - 1 + g] * u + p[s_g + 2 * ng - 1 + g]
     s_o = s_g + 3 * ng - 1
     sgn = 1.0 if z >= 0.0 else -1.0
-    pn = sgn * y[0] / ps
+    pn = sgn * pl / ps
     o = _cell(p, s_o, no, pn)
     s_n = s_o + 3 * no - 1
     n = _cell(p, s_n, nn, pn)
     s_w = s_n + 3 * nn - 1
-    w = _cell(p, s_w, nw, y[1])
+    w = _cell(p, s_w, nw, v)
     return g, o, n, w, z, ps, pn
 
 
@@ -201,7 +186,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     """
     pl, v, x = y[0], y[1], y[2]
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
-    g, o, n, w, z, ps, pn = pwa_cells(y, u, ps_in, p)
+    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
     s_o = I_CELLS + 3 * ng - 1
     s_n = s_o + 3 * no - 1
     s_w = s_n + 3 * nn - 1
@@ -232,9 +217,9 @@ def rhs_at(kind, y, u, ps, fl, p, dy):
 
 
 @njit(cache=True, nogil=True)
-def rhs(kind, t, y, p, sk, sp, st, sv, so, dy):
+def rhs(kind, t, y, p, sg, dy):
     """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
-    u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+    u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
@@ -267,25 +252,25 @@ def _lu(a, piv):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always")
-def _solve(a, piv, b):
-    """Solve LU x = b in place (b overwritten with x)."""
+def _solve(a, piv, B, r):
+    """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     n = a.shape[0]
     for k in range(n):
         m = piv[k]
         if m != k:
-            tmp = b[k]
-            b[k] = b[m]
-            b[m] = tmp
+            tmp = B[r, k]
+            B[r, k] = B[r, m]
+            B[r, m] = tmp
     for i in range(1, n):
-        s = b[i]
+        s = B[r, i]
         for j in range(i):
-            s -= a[i, j] * b[j]
-        b[i] = s
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s
     for i in range(n - 1, -1, -1):
-        s = b[i]
+        s = B[r, i]
         for j in range(i + 1, n):
-            s -= a[i, j] * b[j]
-        b[i] = s / a[i, i]
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s / a[i, i]
 
 
 # --- Rosenbrock tableaus -----------------------------------------------------
@@ -344,7 +329,7 @@ _E32 = 6.0 + math.sqrt(2.0)
 
 
 @njit(cache=True, nogil=True)
-def _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft):
+def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     """Finite-difference Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
     The inputs are evaluated once for the n state columns. Columns that are
@@ -368,12 +353,12 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, 
         for i in range(n):
             J[i, j] = (ft[i] - f0[i]) / dj
     nfev += n_cols
-    if sk[0] == 0 and sk[1] == 0 and sk[2] == 0:
+    if sg[0] == 0.0 and sg[1] == 0.0 and sg[2] == 0.0:  # all inputs constant
         for i in range(n):
             dfdt[i] = 0.0
     else:
         dt = sqrt_eps * max(abs(t), 1e-3)
-        u2, ps2, fl2 = _inputs(t + dt, sk, sp, st, sv, so)
+        u2, ps2, fl2 = _inputs(t + dt, sg)
         rhs_at(kind, y, u2, ps2, fl2, p, ft)
         for i in range(n):
             dfdt[i] = (ft[i] - f0[i]) / dt
@@ -394,7 +379,7 @@ def _factor(J, W, piv, hg):
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 def _step_ros34pw2(
-    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
     """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
     n = y.shape[0]
@@ -410,7 +395,7 @@ def _step_ros34pw2(
                     s += PW2_A[4 * i + j] * U[j, k]
                 yt[k] = s
             u, ps, fl = _inputs(
-                t + PW2_ALPHA[i] * h, sk, sp, st, sv, so
+                t + PW2_ALPHA[i] * h, sg
             )  # α_4 = 1: reused for f(t + h)
             rhs_at(kind, yt, u, ps, fl, p, ft)
         for k in range(n):
@@ -418,7 +403,7 @@ def _step_ros34pw2(
             for j in range(i):
                 s += PW2_C[4 * i + j] / h * U[j, k]
             U[i, k] = hg * s
-        _solve(W, piv, U[i])
+        _solve(W, piv, U, i)
     for k in range(n):
         s = y[k]
         e = 0.0
@@ -433,32 +418,31 @@ def _step_ros34pw2(
 
 @njit(cache=True, nogil=True)
 def _step_ros23(
-    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
     """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
     n = y.shape[0]
     hd = h * _D23
-    k1, k2, k3 = U[0], U[1], U[2]
     for i in range(n):
-        k1[i] = f0[i] + hd * dfdt[i]
-    _solve(W, piv, k1)
+        U[0, i] = f0[i] + hd * dfdt[i]
+    _solve(W, piv, U, 0)
     for i in range(n):
-        yt[i] = y[i] + 0.5 * h * k1[i]
-    u, ps, fl = _inputs(t + 0.5 * h, sk, sp, st, sv, so)
+        yt[i] = y[i] + 0.5 * h * U[0, i]
+    u, ps, fl = _inputs(t + 0.5 * h, sg)
     rhs_at(kind, yt, u, ps, fl, p, ft)
     for i in range(n):
-        k2[i] = ft[i] - k1[i]
-    _solve(W, piv, k2)
+        U[1, i] = ft[i] - U[0, i]
+    _solve(W, piv, U, 1)
     for i in range(n):
-        k2[i] += k1[i]
-        ynew[i] = y[i] + h * k2[i]
-    u, ps, fl = _inputs(t + h, sk, sp, st, sv, so)
+        U[1, i] += U[0, i]
+        ynew[i] = y[i] + h * U[1, i]
+    u, ps, fl = _inputs(t + h, sg)
     rhs_at(kind, ynew, u, ps, fl, p, fnew)
     for i in range(n):
-        k3[i] = fnew[i] - _E32 * (k2[i] - ft[i]) - 2.0 * (k1[i] - f0[i]) + hd * dfdt[i]
-    _solve(W, piv, k3)
+        U[2, i] = fnew[i] - _E32 * (U[1, i] - ft[i]) - 2.0 * (U[0, i] - f0[i]) + hd * dfdt[i]
+    _solve(W, piv, U, 2)
     for i in range(n):
-        yerr[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i])
+        yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
     return 2
 
 
@@ -491,11 +475,7 @@ def integrate(
     y0,
     t_out,
     p,
-    sk,
-    sp,
-    st,
-    sv,
-    so,
+    sg,
     rtol,
     scale,
     h0,
@@ -517,7 +497,7 @@ def integrate(
         Increasing output times [s]; integration runs from t_out[0] to t_out[-1].
     p : ndarray
         Packed parameters.
-    sk, sp, st, sv, so : ndarray
+    sg : ndarray
         Packed input signals (kinds, parameters, sample times, values, offsets).
     rtol : float
         Relative tolerance; the absolute tolerance of state i is rtol·scale[i].
@@ -573,7 +553,7 @@ def integrate(
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     atol = rtol * scale
-    u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+    u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, f0)
     nfev = 1
     n_jac = 0
@@ -600,9 +580,9 @@ def integrate(
             if h < hmin:
                 h = hmin
         if need_jac:
-            u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+            u, ps, fl = _inputs(t, sg)
             nfev += _jacobian(
-                kind, t, y, f0, u, ps, fl, p, sk, sp, st, sv, so, scale, J, dfdt, yt, ft
+                kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft
             )
             n_jac += 1
             need_jac = False
@@ -613,11 +593,11 @@ def integrate(
             h_fact = h
         if method == ROS34PW2:
             nfev += _step_ros34pw2(
-                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
             )
         else:
             nfev += _step_ros23(
-                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sk, sp, st, sv, so
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
             )
         err = 0.0
         finite = True
@@ -671,7 +651,7 @@ def integrate(
 
 
 @njit(cache=True, nogil=True)
-def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
+def outputs(kind, t_out, Y, n_done, p, sg):
     """Derived channels per output sample.
 
     Returns an array of shape (12, n_done) (one contiguous row per channel) with rows
@@ -680,26 +660,25 @@ def outputs(kind, t_out, Y, n_done, p, sk, sp, st, sv, so):
     out = np.empty((12, n_done))
     for k in range(n_done):
         t = t_out[k]
-        y = Y[k]
-        u, ps, fl = _inputs(t, sk, sp, st, sv, so)
+        u, ps, fl = _inputs(t, sg)
         cells = -1.0
         if kind == FULL:
-            spool = y[0]
+            spool = Y[k, 0]
             z = _opening(spool, p)
-            pa, pb = y[2], y[3]
+            pa, pb = Y[k, 2], Y[k, 3]
             if p[I_PUMP] > 0.5:
-                ps = y[6]
+                ps = Y[k, 6]
             pl = pa - pb
-            x, v = y[4], y[5]
+            x, v = Y[k, 4], Y[k, 5]
             fr = _friction(v, p)
         else:
-            pl, v, x = y[0], y[1], y[2]
+            pl, v, x = Y[k, 0], Y[k, 1], Y[k, 2]
             spool = u
             if kind == REDUCED:
                 z = _opening(u, p)
                 fr = _friction(v, p)
             else:
-                g, o, nn, w, z, ps, _pn = pwa_cells(y, u, ps, p)
+                g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
                 ng, no, nnn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
                 s_w = I_CELLS + 3 * ng - 1 + 3 * no - 1 + 3 * nnn - 1
                 fr = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]

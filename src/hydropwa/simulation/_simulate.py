@@ -13,14 +13,14 @@ import numpy as np
 
 from .._errors import SignalError, SimulationError
 from . import _kernel as K
-from ._signals import Sampled, Signal, as_signal
+from ._signals import Sampled, as_signal, pack_signals
 
 #: Default relative tolerance. On the paper rig (10 s, 40 %, 1 Hz) it keeps the position
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
 #: end-stop impacts); pass rtol=1e-5 or tighter for measurement-grade pressures.
 DEFAULT_RTOL = 1e-3
 
-__all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS", "pack_signals"]
+__all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: SI unit of every output channel.
 CHANNEL_UNITS: dict[str, str] = {
@@ -158,29 +158,6 @@ def _plain(d: dict) -> dict:
     return {k: (v.item() if hasattr(v, "item") else v) for k, v in d.items()}
 
 
-def pack_signals(signals: list[Signal]):
-    """Pack the (u, P_S, F_L) signals into the arrays the kernel evaluates."""
-    sk = np.zeros(3, dtype=np.int64)
-    sp = np.zeros((3, 8))
-    so = np.zeros((3, 2), dtype=np.int64)
-    ts_parts, vs_parts = [], []
-    pos = 0
-    for i, sig in enumerate(signals):
-        kind, par, ts, vs = sig.pack()
-        sk[i] = kind
-        sp[i] = par
-        if isinstance(sig, Sampled):
-            ts_parts.append(ts)
-            vs_parts.append(vs)
-            so[i] = (pos, pos + ts.size)
-            pos += ts.size
-        else:
-            so[i] = (0, 0)
-    st = np.concatenate(ts_parts) if ts_parts else np.zeros(1)
-    sv = np.concatenate(vs_parts) if vs_parts else np.zeros(1)
-    return sk, sp, np.ascontiguousarray(st), np.ascontiguousarray(sv), so
-
-
 def _diagnose(params, state: dict[str, float]) -> str:
     """A likely cause of a failed integration, in the user's terms."""
     c, oil = params.cylinder, params.oil
@@ -310,18 +287,14 @@ def simulate(
                 hmax = min(hmax, float(np.min(np.diff(s.t))))
     if solver not in K.SOLVERS:
         raise SignalError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
-    sk, sp, st, sv, so = pack_signals(sigs)
+    sg = pack_signals(sigs)
     t0 = _time.perf_counter()
     Y, n_done, status, t_fail, y_fail, stats = K.integrate(
         mdl.kind,
         y0,
         t_out,
         p,
-        sk,
-        sp,
-        st,
-        sv,
-        so,
+        sg,
         float(rtol),
         mdl.state_scale(),
         1e-5,
@@ -333,7 +306,7 @@ def simulate(
     )
     wall = _time.perf_counter() - t0
     Y = Y[:n_done]
-    out = K.outputs(mdl.kind, t_out, Y, n_done, p, sk, sp, st, sv, so)
+    out = K.outputs(mdl.kind, t_out, Y, n_done, p, sg)
     channels = {"t": t_out[:n_done].copy()}
     for i, name in enumerate(_OUT_COLS):
         channels[name] = out[i]  # contiguous row, no copy needed
