@@ -11,8 +11,7 @@ from scipy.integrate import solve_ivp
 
 from hydropwa.models import as_model
 from hydropwa.simulation import _kernel as K
-from hydropwa.simulation import as_signal, simulate
-from hydropwa.simulation import pack_signals
+from hydropwa.simulation import as_signal, pack_signals, simulate
 
 U = "sine:amplitude=0.4,frequency=2"
 DURATION = 1.0  # two periods: dead-zone crossings, velocity reversals and stick phases

@@ -1,7 +1,18 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
-from ._signals import Chirp, Constant, Ramp, Sampled, Signal, Sine, Step, as_signal, pack_signals, parse_signal
+from ._signals import (
+    Chirp,
+    Constant,
+    Ramp,
+    Sampled,
+    Signal,
+    Sine,
+    Step,
+    as_signal,
+    pack_signals,
+    parse_signal,
+)
 from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
 
 __all__ = [
