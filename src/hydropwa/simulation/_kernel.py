@@ -72,23 +72,23 @@ I_CELLS = 50
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t."""
     return eval_signal(sg, 0, t), eval_signal(sg, 1, t), eval_signal(sg, 2, t)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def _friction(v, p):
     return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
     nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
@@ -136,7 +136,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[6] = 0.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
@@ -149,7 +149,7 @@ def rhs_reduced(y, u, ps, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def _cell(p, start, n, xv):
     """Index of the active cell among n cells whose n-1 breakpoints start at p[start]."""
     i = 0
@@ -158,7 +158,7 @@ def _cell(p, start, n, xv):
     return i
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def pwa_cells(pl, v, u, ps_in, p):
     """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
@@ -177,7 +177,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -205,7 +205,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
@@ -223,7 +223,7 @@ def rhs(kind, t, y, p, sg, dy):
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
 def _lu(a, piv):
     """In-place LU factorisation with partial pivoting of a small dense matrix."""
     n = a.shape[0]
@@ -251,7 +251,7 @@ def _lu(a, piv):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always")
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
 def _solve(a, piv, B, r):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     n = a.shape[0]
@@ -328,7 +328,7 @@ _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, _nrt=False)
 def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     """Finite-difference Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
@@ -366,7 +366,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     return nfev
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
 def _factor(J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = J.shape[0]
@@ -377,7 +377,7 @@ def _factor(J, W, piv, hg):
     _lu(W, piv)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -416,7 +416,7 @@ def _step_ros34pw2(
     return 4
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, _nrt=False)
 def _step_ros23(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -446,7 +446,7 @@ def _step_ros23(
     return 2
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
 def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -470,7 +470,7 @@ def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
-def integrate(
+def _integrate(
     kind,
     y0,
     t_out,
@@ -648,6 +648,50 @@ def integrate(
             last_rejected = True
     stats = np.array([n_acc, n_rej, nfev, n_jac], dtype=np.int64)
     return Y, k_out, status, t, y, stats
+
+
+@njit(cache=True, nogil=True)
+def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
+    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+
+
+@njit(cache=True, nogil=True)
+def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
+    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+
+
+@njit(cache=True, nogil=True)
+def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
+    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+
+
+_ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
+
+
+def integrate(
+    kind,
+    y0,
+    t_out,
+    p,
+    sg,
+    rtol,
+    scale,
+    h0,
+    hmax,
+    max_steps,
+    method=ROS34PW2,
+    jac_reuse=True,
+    gustafsson=True,
+):
+    """Integrate model ``kind``: :func:`_integrate` compiled for that model alone.
+
+    Each model has its own entry point in which ``kind`` is a compile-time
+    constant, so its machine code holds only its own right-hand side (compiled on
+    first use, cached on disk). Releases the GIL.
+    """
+    return _ENTRY[int(kind)](
+        y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse), bool(gustafsson)
+    )
 
 
 @njit(cache=True, nogil=True)

@@ -44,7 +44,7 @@ _PAR = 16
 _DATA = _PAR + 8 * N_SIGNALS
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, _nrt=False)
 def eval_signal(sg, i: int, t: float) -> float:
     """Value of packed signal ``i`` of ``sg`` at time ``t`` [s] (compiled; see :func:`pack_signals`)."""
     kind = sg[i]
