@@ -72,6 +72,12 @@ I_CELLS = 50
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
+@njit(cache=True, nogil=True)
+def n_states(kind):
+    """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
+    return 7 if kind == FULL else 3
+
+
 @njit(cache=True, nogil=True, _nrt=False)
 def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t."""
@@ -224,9 +230,8 @@ def rhs(kind, t, y, p, sg, dy):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
-def _lu(a, piv):
-    """In-place LU factorisation with partial pivoting of a small dense matrix."""
-    n = a.shape[0]
+def _lu(a, piv, n):
+    """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
         m = k
         big = abs(a[k, k])
@@ -252,9 +257,8 @@ def _lu(a, piv):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
-def _solve(a, piv, B, r):
+def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
-    n = a.shape[0]
     for k in range(n):
         m = piv[k]
         if m != k:
@@ -336,7 +340,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     known to vanish (P_S of the full model without the pump) are skipped, and so
     is ∂f/∂t when every input is constant.
     """
-    n = y.shape[0]
+    n = n_states(kind)
     sqrt_eps = 1.4901161193847656e-08
     nfev = 0
     n_cols = n
@@ -367,14 +371,14 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
-def _factor(J, W, piv, hg):
+def _factor(kind, J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
-    n = J.shape[0]
+    n = n_states(kind)
     for i in range(n):
         for j in range(n):
             W[i, j] = -hg * J[i, j]
         W[i, i] += 1.0
-    _lu(W, piv)
+    _lu(W, piv, n)
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
@@ -382,7 +386,7 @@ def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
     """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
-    n = y.shape[0]
+    n = n_states(kind)
     hg = h * PW2_GAMMA
     for i in range(4):
         if i == 0:
@@ -403,7 +407,7 @@ def _step_ros34pw2(
             for j in range(i):
                 s += PW2_C[4 * i + j] / h * U[j, k]
             U[i, k] = hg * s
-        _solve(W, piv, U, i)
+        _solve(W, piv, U, i, n)
     for k in range(n):
         s = y[k]
         e = 0.0
@@ -421,18 +425,18 @@ def _step_ros23(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
     """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
-    n = y.shape[0]
+    n = n_states(kind)
     hd = h * _D23
     for i in range(n):
         U[0, i] = f0[i] + hd * dfdt[i]
-    _solve(W, piv, U, 0)
+    _solve(W, piv, U, 0, n)
     for i in range(n):
         yt[i] = y[i] + 0.5 * h * U[0, i]
     u, ps, fl = _inputs(t + 0.5 * h, sg)
     rhs_at(kind, yt, u, ps, fl, p, ft)
     for i in range(n):
         U[1, i] = ft[i] - U[0, i]
-    _solve(W, piv, U, 1)
+    _solve(W, piv, U, 1, n)
     for i in range(n):
         U[1, i] += U[0, i]
         ynew[i] = y[i] + h * U[1, i]
@@ -440,20 +444,20 @@ def _step_ros23(
     rhs_at(kind, ynew, u, ps, fl, p, fnew)
     for i in range(n):
         U[2, i] = fnew[i] - _E32 * (U[1, i] - ft[i]) - 2.0 * (U[0, i] - f0[i]) + hd * dfdt[i]
-    _solve(W, piv, U, 2)
+    _solve(W, piv, U, 2, n)
     for i in range(n):
         yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
     return 2
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
-def _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew):
+def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
     The interpolant matches y and f at both ends, so it is third-order accurate
     and needs no extra right-hand-side calls.
     """
-    n = y.shape[0]
+    n = n_states(kind)
     n_out = t_out.shape[0]
     t_new = t + h
     while k_out < n_out and t_out[k_out] <= t_new + 1e-12 * max(1.0, abs(t_new)):
@@ -531,7 +535,7 @@ def _integrate(
     The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
     the step factor is 0.9·err^(−1/3), clipped to [0.2, 5] (no growth right after a rejection).
     """
-    n = y0.shape[0]
+    n = n_states(kind)
     n_out = t_out.shape[0]
     Y = np.empty((n_out, n))
     gamma = PW2_GAMMA if method == ROS34PW2 else _D23
@@ -589,7 +593,7 @@ def _integrate(
             jac_age = 0
             h_fact = -1.0
         if h != h_fact:
-            _factor(J, W, piv, h * gamma)
+            _factor(kind, J, W, piv, h * gamma)
             h_fact = h
         if method == ROS34PW2:
             nfev += _step_ros34pw2(
@@ -617,7 +621,7 @@ def _integrate(
                 break
             continue
         if err <= 1.0:
-            k_out = _dense_output(Y, k_out, t_out, t, h, y, f0, ynew, fnew)
+            k_out = _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew)
             t = t + h
             for i in range(n):
                 y[i] = ynew[i]
@@ -689,6 +693,8 @@ def integrate(
     constant, so its machine code holds only its own right-hand side (compiled on
     first use, cached on disk). Releases the GIL.
     """
+    if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
+        raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
     return _ENTRY[int(kind)](
         y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse), bool(gustafsson)
     )
