@@ -704,14 +704,14 @@ def integrate(
 def outputs(kind, t_out, Y, n_done, p, sg):
     """Derived channels per output sample.
 
-    Returns an array of shape (12, n_done) (one contiguous row per channel) with rows
-    u, spool, z, p_a, p_b, p_l, p_s, f_l, x, v, friction, cells (packed g,o,n,w as g+8o+64n+512w; -1 if not PWA).
+    Returns an array of shape (11, n_done) (one contiguous row per channel) with rows
+    u, spool, z, p_a, p_b, p_l, p_s, f_l, x, v, friction; for the PWA model (15, n_done)
+    with the active cells g, o, n, w in rows 11–14.
     """
-    out = np.empty((12, n_done))
+    out = np.empty((15 if kind == PWA else 11, n_done))
     for k in range(n_done):
         t = t_out[k]
         u, ps, fl = _inputs(t, sg)
-        cells = -1.0
         if kind == FULL:
             spool = Y[k, 0]
             z = _opening(spool, p)
@@ -732,7 +732,10 @@ def outputs(kind, t_out, Y, n_done, p, sg):
                 ng, no, nnn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
                 s_w = I_CELLS + 3 * ng - 1 + 3 * no - 1 + 3 * nnn - 1
                 fr = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
-                cells = g + 8.0 * o + 64.0 * nn + 512.0 * w
+                out[11, k] = g
+                out[12, k] = o
+                out[13, k] = nn
+                out[14, k] = w
             pa = 0.5 * (ps + pl)
             pb = 0.5 * (ps - pl)
         out[0, k] = u
@@ -746,5 +749,4 @@ def outputs(kind, t_out, Y, n_done, p, sg):
         out[8, k] = x
         out[9, k] = v
         out[10, k] = fr
-        out[11, k] = cells
     return out

@@ -311,11 +311,8 @@ def simulate(
     for i, name in enumerate(_OUT_COLS):
         channels[name] = out[i]  # contiguous row, no copy needed
     if mdl.kind == K.PWA:
-        packed = out[11].astype(np.int64)
-        channels["cell_g"] = (packed % 8).astype(float)
-        channels["cell_o"] = ((packed // 8) % 8).astype(float)
-        channels["cell_n"] = ((packed // 64) % 8).astype(float)
-        channels["cell_w"] = ((packed // 512) % 64).astype(float)
+        for i, name in enumerate(("cell_g", "cell_o", "cell_n", "cell_w")):
+            channels[name] = out[11 + i]
     result = SimulationResult(
         t=channels["t"],
         channels=channels,
