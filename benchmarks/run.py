@@ -161,13 +161,13 @@ def bench_batch(n_cases: int, rtol: float) -> list[dict]:
             lambda n=name: simulate_batch(
                 n, inputs, duration=DURATION, rtol=rtol, jobs=1, summary=True
             ),
-            1,
+            3,
         )
         tp, _ = _best(
             lambda n=name: simulate_batch(
                 n, inputs, duration=DURATION, rtol=rtol, jobs=cores, summary=True
             ),
-            1,
+            3,
         )
         rows.append(
             {
@@ -228,12 +228,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rtol", type=float, default=1e-3, help="hydropwa tolerance (default 1e-3)")
     ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--batch", type=int, default=0, help="batch size (default 4 × cores)")
+    ap.add_argument("--batch", type=int, default=0, help="batch size (default 16 × cores)")
     ap.add_argument("--quick", action="store_true", help="fewer repeats and scipy tolerances")
     ap.add_argument("--json", type=Path, help="also write all numbers to this JSON file")
     args = ap.parse_args(argv)
     repeats = 3 if args.quick else args.repeats
-    n_batch = args.batch or 4 * (os.cpu_count() or 1)
+    n_batch = args.batch or 16 * (os.cpu_count() or 1)
     print(
         f"paper rig, {DURATION:g} s of a 40 % 1 Hz sine, outputs at {FS:g} Hz; hydropwa rtol {args.rtol:g}"
     )
