@@ -41,7 +41,7 @@ from ..components._physics import (
     stribeck_friction,
     supply_flow,
 )
-from ._signals import eval_signal
+from ._signals import NO_REFCOUNT, eval_signal
 
 FULL, REDUCED, PWA = 0, 1, 2
 N_STATES = (7, 3, 3)
@@ -78,23 +78,23 @@ def n_states(kind):
     return 7 if kind == FULL else 3
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t."""
     return eval_signal(sg, 0, t), eval_signal(sg, 1, t), eval_signal(sg, 2, t)
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _friction(v, p):
     return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
     nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
@@ -142,7 +142,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[6] = 0.0
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
@@ -155,7 +155,7 @@ def rhs_reduced(y, u, ps, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _cell(p, start, n, xv):
     """Index of the active cell among n cells whose n-1 breakpoints start at p[start]."""
     i = 0
@@ -164,7 +164,7 @@ def _cell(p, start, n, xv):
     return i
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def pwa_cells(pl, v, u, ps_in, p):
     """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
@@ -183,7 +183,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -211,7 +211,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
@@ -229,7 +229,7 @@ def rhs(kind, t, y, p, sg, dy):
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _lu(a, piv, n):
     """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
@@ -256,7 +256,7 @@ def _lu(a, piv, n):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     for k in range(n):
@@ -332,7 +332,7 @@ _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     """Finite-difference Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
@@ -370,7 +370,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     return nfev
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _factor(kind, J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = n_states(kind)
@@ -381,7 +381,7 @@ def _factor(kind, J, W, piv, hg):
     _lu(W, piv, n)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -420,7 +420,7 @@ def _step_ros34pw2(
     return 4
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def _step_ros23(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -450,7 +450,7 @@ def _step_ros23(
     return 2
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, _nrt=False)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 

@@ -30,6 +30,15 @@ __all__ = [
     "pack_signals",
 ]
 
+#: numba options for allocation-free helpers that only touch arrays their caller owns: no
+#: reference counting (numba's private ``_nrt`` option; dropped if this numba lacks it).
+try:
+    from numba.core.options import DefaultOptions
+
+    NO_REFCOUNT: dict = {"_nrt": False} if hasattr(DefaultOptions, "_nrt") else {}
+except ImportError:  # pragma: no cover - older/newer numba layouts
+    NO_REFCOUNT = {}
+
 _CONSTANT, _STEP, _RAMP, _SINE, _CHIRP, _SAMPLED = 0, 1, 2, 3, 4, 5
 _TWO_PI = 2.0 * math.pi
 
@@ -44,7 +53,7 @@ _PAR = 16
 _DATA = _PAR + 8 * N_SIGNALS
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
 def eval_signal(sg, i: int, t: float) -> float:
     """Value of packed signal ``i`` of ``sg`` at time ``t`` [s] (compiled; see :func:`pack_signals`)."""
     kind = sg[i]
@@ -90,10 +99,11 @@ def eval_signal(sg, i: int, t: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _eval_many(sg, t):
+def eval_packed(sg, i, t):
+    """Packed signal ``i`` of ``sg`` at every time of the array ``t`` [s]."""
     out = np.empty(t.shape[0])
     for k in range(t.shape[0]):
-        out[k] = eval_signal(sg, 0, t[k])
+        out[k] = eval_signal(sg, i, t[k])
     return out
 
 
@@ -138,7 +148,7 @@ class Signal:
 
     def __call__(self, t):
         arr = np.atleast_1d(np.asarray(t, dtype=float))
-        out = _eval_many(pack_signals([self]), arr)
+        out = eval_packed(pack_signals([self]), 0, arr)
         return out if np.ndim(t) else float(out[0])
 
     def peak(self, duration: float) -> float:

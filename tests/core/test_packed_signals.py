@@ -1,0 +1,81 @@
+"""The solver's packed input vector: every signal kind, several sampled signals in one vector.
+
+The kernel reads all three inputs (u, P_S, F_L) from one float64 vector (``pack_signals``),
+with measured samples appended and found by binary search. These tests compare each packed
+signal with an independent closed form or ``np.interp``; tolerance 1e-12 relative (the
+same formula in a different order of operations), exact for constants and held ends.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hydropwa._errors import SignalError
+from hydropwa.simulation import Chirp, Constant, Ramp, Sampled, Sine, Step, pack_signals
+from hydropwa.simulation._signals import eval_packed
+
+finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+def _interp_held(t, ts, vs):
+    return np.interp(t, ts, vs)  # np.interp holds the end values, as the kernel does
+
+
+@st.composite
+def sampled(draw):
+    n = draw(st.integers(2, 60))
+    dt = np.array(draw(st.lists(st.floats(1e-4, 1.0), min_size=n - 1, max_size=n - 1)))
+    t0 = draw(st.floats(-5.0, 5.0))
+    ts = t0 + np.concatenate([[0.0], np.cumsum(dt)])
+    vs = np.array(draw(st.lists(finite, min_size=n, max_size=n)))
+    return Sampled(ts, vs)
+
+
+@settings(max_examples=60, deadline=None)
+@given(a=sampled(), b=sampled(), amp=st.floats(-10, 10), freq=st.floats(0, 50), phase=st.floats(-3, 3))
+def test_two_sampled_signals_and_a_sine_in_one_vector(a, b, amp, freq, phase):
+    sine = Sine(amplitude=amp, frequency=freq, phase=phase, offset=0.5, start=0.1)
+    sg = pack_signals([a, sine, b])
+    lo = min(a.t[0], b.t[0]) - 1.0
+    hi = max(a.t[-1], b.t[-1]) + 1.0
+    t = np.concatenate([np.linspace(lo, hi, 501), a.t, b.t])  # also exactly on the samples
+    for i, sig in ((0, a), (2, b)):
+        got = eval_packed(sg, i, t)
+        want = _interp_held(t, sig.t, sig.values)
+        scale = np.max(np.abs(sig.values)) + 1.0
+        assert np.max(np.abs(got - want)) <= 1e-12 * scale
+    want = np.where(t < 0.1, 0.5, 0.5 + amp * np.sin(2 * math.pi * freq * (t - 0.1) + phase))
+    assert np.allclose(eval_packed(sg, 1, t), want, rtol=1e-12, atol=1e-12 * (abs(amp) + 1))
+
+
+def test_every_kind_against_its_closed_form():
+    t = np.linspace(-1.0, 4.0, 1001)
+    sigs = [Constant(3.5), Step(time=1.0, before=-2.0, after=5.0), Ramp(t0=0.5, t1=2.5, v0=1.0, v1=-3.0)]
+    sg = pack_signals(sigs)
+    assert np.all(eval_packed(sg, 0, t) == 3.5)
+    assert np.array_equal(eval_packed(sg, 1, t), np.where(t >= 1.0, 5.0, -2.0))
+    assert np.allclose(eval_packed(sg, 2, t), np.interp(t, [0.5, 2.5], [1.0, -3.0]), rtol=0, atol=1e-14)
+    chirp = Chirp(amplitude=2.0, f0=1.0, f1=9.0, duration=2.0, offset=0.25, start=0.5)
+    tau = t - 0.5
+    want = np.where(
+        (tau < 0) | (tau > 2.0), 0.25, 0.25 + 2.0 * np.sin(2 * math.pi * (tau + 0.5 * 8.0 * tau**2 / 2.0))
+    )
+    assert np.allclose(eval_packed(pack_signals([chirp]), 0, t), want, rtol=0, atol=1e-12)
+    # the Python call goes through the same packed evaluation
+    tau1 = 1.3 - 0.5
+    assert chirp(1.3) == pytest.approx(0.25 + 2.0 * math.sin(2 * math.pi * (tau1 + 2.0 * tau1**2)), abs=1e-12)
+
+
+def test_sampled_signal_with_one_sample_is_held():
+    s = Sampled(np.array([2.0]), np.array([7.0]))
+    assert np.all(eval_packed(pack_signals([s]), 0, np.array([-1.0, 2.0, 50.0])) == 7.0)
+
+
+def test_more_than_three_signals_is_refused():
+    with pytest.raises(SignalError, match="at most 3"):
+        pack_signals([Constant(0.0)] * 4)
