@@ -13,12 +13,19 @@ input signal.
 
 Integrator
 ----------
-A linearly implicit Rosenbrock method of order 2 with an embedded order-3
-error estimate (Shampine & Reichelt's ROS2(3), the method of MATLAB's
-``ode23s``), L-stable, with a finite-difference Jacobian and time derivative
-per step and its free continuous extension for dense output at the requested
-sample times. It copes with the stiffness of the chambers (E/V), the tanh
-friction and the end stops at a cost of a few right-hand-side calls per step.
+Linearly implicit Rosenbrock methods with error control: ROS34PW2 (default), an
+L-stable, stiffly accurate Rosenbrock-W method of order 3(2) that may reuse its
+Jacobian, and Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Finite-difference
+Jacobian and time derivative, Hermite dense output at the requested sample times.
+They cope with the stiffness of the chambers (E/V), the tanh friction and the end
+stops at a cost of a few right-hand-side calls per step.
+
+Speed
+-----
+``integrate`` dispatches to one compiled entry point per model, in which the model
+kind (and so the state count) is a compile-time constant; the input signals are one
+packed vector (:func:`hydropwa.simulation.pack_signals`); the allocation-free helpers
+skip numba's reference counting (``NO_REFCOUNT``). See docs/architecture_performance.md.
 """
 
 from __future__ import annotations
