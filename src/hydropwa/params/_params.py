@@ -469,17 +469,7 @@ class SystemParams:
     meta: dict = field(default_factory=dict, compare=False, hash=False)
 
     def __post_init__(self) -> None:
-        expected = {
-            "valve": ServoValve,
-            "dead_zone": DeadZone,
-            "flow": ValveFlow,
-            "cylinder": Cylinder,
-            "oil": Oil,
-            "friction": Friction,
-            "supply": Supply,
-            "load": Load,
-        }
-        for name, cls in expected.items():
+        for name, cls in COMPONENT_TYPES.items():
             if not isinstance(getattr(self, name), cls):
                 raise ParameterError(
                     f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
@@ -527,3 +517,10 @@ class SystemParams:
                     val = [list(x) for x in val]
                 out[f.name][cf.name] = val
         return out
+
+
+#: Component name in :class:`SystemParams` (and TOML table name) → its parameter class,
+#: derived from the dataclass fields so the two cannot disagree.
+COMPONENT_TYPES: dict[str, type] = {
+    f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"  # type: ignore[misc]
+}

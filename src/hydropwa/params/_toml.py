@@ -18,31 +18,10 @@ import tomli_w
 
 from .._errors import ParameterError
 from .._io import atomic_write_text
-from ._params import (
-    Cylinder,
-    DeadZone,
-    Friction,
-    Load,
-    Oil,
-    ServoValve,
-    Supply,
-    SystemParams,
-    ValveFlow,
-    flow_coefficient_from_rating,
-)
+from ._params import COMPONENT_TYPES, SystemParams, flow_coefficient_from_rating
 
 __all__ = ["load_params", "save_params", "params_to_toml", "params_from_dict", "parse_quantity", "FIELD_UNITS"]
 
-_COMPONENTS: dict[str, type] = {
-    "valve": ServoValve,
-    "dead_zone": DeadZone,
-    "flow": ValveFlow,
-    "cylinder": Cylinder,
-    "oil": Oil,
-    "friction": Friction,
-    "supply": Supply,
-    "load": Load,
-}
 
 #: SI unit of every numeric field, as a pint expression (None: not a quantity).
 FIELD_UNITS: dict[str, dict[str, str | None]] = {
@@ -163,14 +142,14 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
         params = get_preset(str(base))
     else:
         params = SystemParams()
-    unknown = set(data) - set(_COMPONENTS) - {"meta", "base", "uncertainty"}
+    unknown = set(data) - set(COMPONENT_TYPES) - {"meta", "base", "uncertainty"}
     if unknown:
         raise ParameterError(
             f"{source}: unknown section(s) {', '.join(sorted(unknown))}; "
-            f"known: {', '.join(_COMPONENTS)}, meta, uncertainty"
+            f"known: {', '.join(COMPONENT_TYPES)}, meta, uncertainty"
         )
     changes: dict[str, Any] = {}
-    for comp in _COMPONENTS:
+    for comp in COMPONENT_TYPES:
         section = data.get(comp)
         if section is None:
             continue
@@ -264,7 +243,7 @@ def params_to_toml(params: SystemParams, header: str = "") -> str:
     lines = ["# hydropwa parameter file. Plain numbers are SI; strings with units (\"100 bar\") work too."]
     if header:
         lines += [f"# {h}" for h in header.splitlines()]
-    for comp, cls in _COMPONENTS.items():
+    for comp, cls in COMPONENT_TYPES.items():
         obj = getattr(params, comp)
         lines += ["", f"[{comp}]"]
         doc_units = FIELD_UNITS[comp]
