@@ -23,6 +23,17 @@ app = typer.Typer(
 )
 
 
+#: ``--channel-map/-m``, shared by ``check`` and ``convert``.
+ChannelMapOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--channel-map",
+        "-m",
+        help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
+    ),
+]
+
+
 def _fail(exc: HydropwaError) -> typer.Exit:
     typer.echo(f"error: {exc}", err=True)
     return typer.Exit(code=2)
@@ -57,14 +68,7 @@ def check(
     source: Annotated[
         Path, typer.Argument(help="Dataset folder or run file (.csv/.parquet/.mat).")
     ],
-    channel_map: Annotated[
-        Path | None,
-        typer.Option(
-            "--channel-map",
-            "-m",
-            help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
-        ),
-    ] = None,
+    channel_map: ChannelMapOption = None,
     plain: Annotated[bool, typer.Option("--plain", help="Plain lines instead of a table.")] = False,
 ) -> None:
     """Validate a dataset or a single run file and list every issue found."""
@@ -85,14 +89,7 @@ def check(
 def convert(
     src: Annotated[Path, typer.Argument(help="Run file, dataset folder, or folder of raw files.")],
     dst: Annotated[Path, typer.Argument(help="Destination file or folder.")],
-    channel_map: Annotated[
-        Path | None,
-        typer.Option(
-            "--channel-map",
-            "-m",
-            help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
-        ),
-    ] = None,
+    channel_map: ChannelMapOption = None,
     format: Annotated[
         str | None, typer.Option("--format", "-f", help="Output format: csv, parquet or mat.")
     ] = None,
