@@ -5,7 +5,9 @@ from ._physics import (
     dead_zone,
     effective_bulk_modulus,
     end_stop_force,
+    end_stop_force_slope,
     load_flow,
+    load_flow_slope,
     load_pressure_rate,
     net_piston_force,
     orifice_flows,
@@ -13,7 +15,9 @@ from ._physics import (
     pump_supply_rate,
     servo_valve_acceleration,
     signed_sqrt,
+    signed_sqrt_slope,
     stribeck_friction,
+    stribeck_friction_slope,
     supply_flow,
 )
 from ._pwa import PiecewiseAffine
@@ -24,7 +28,9 @@ __all__ = [
     "dead_zone",
     "effective_bulk_modulus",
     "end_stop_force",
+    "end_stop_force_slope",
     "load_flow",
+    "load_flow_slope",
     "load_pressure_rate",
     "net_piston_force",
     "orifice_flows",
@@ -32,6 +38,8 @@ __all__ = [
     "pump_supply_rate",
     "servo_valve_acceleration",
     "signed_sqrt",
+    "signed_sqrt_slope",
     "stribeck_friction",
+    "stribeck_friction_slope",
     "supply_flow",
 ]

@@ -21,13 +21,17 @@ __all__ = [
     "servo_valve_acceleration",
     "dead_zone",
     "signed_sqrt",
+    "signed_sqrt_slope",
     "orifice_flows",
     "load_flow",
+    "load_flow_slope",
     "effective_bulk_modulus",
     "chamber_pressure_rates",
     "load_pressure_rate",
     "stribeck_friction",
+    "stribeck_friction_slope",
     "end_stop_force",
+    "end_stop_force_slope",
     "piston_acceleration",
     "net_piston_force",
     "pump_supply_rate",
@@ -94,6 +98,20 @@ def signed_sqrt(dp: float, p_tr: float) -> float:
 
 
 @njit(**_JIT)
+def signed_sqrt_slope(dp: float, p_tr: float) -> float:
+    """Slope d/dΔp of :func:`signed_sqrt` [1/√Pa]: 1/(2√|Δp|) outside the laminar band.
+
+    Inside, the derivative of the cubic, (1.25 − 0.75 s²)/√p_tr with s = Δp/p_tr;
+    both branches give 1/(2√p_tr) at |Δp| = p_tr (continuous, finite everywhere).
+    """
+    a = abs(dp)
+    if a >= p_tr:
+        return 0.5 / math.sqrt(a)
+    s = dp / p_tr
+    return (1.25 - 0.75 * s * s) / math.sqrt(p_tr)
+
+
+@njit(**_JIT)
 def orifice_flows(z: float, p_a: float, p_b: float, p_s: float, p_t: float, K: float, p_tr: float):
     """Flows through the valve's metering edges, Eqs. (5)–(6), signed.
 
@@ -133,6 +151,14 @@ def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> float:
     if z >= 0.0:
         return z * K * signed_sqrt(0.5 * (p_s - p_l), p_tr)
     return z * K * signed_sqrt(0.5 * (p_s + p_l), p_tr)
+
+
+@njit(**_JIT)
+def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> float:
+    """∂Q_L/∂P_L [m³/(s·Pa)] of :func:`load_flow` (≤ 0: the flow-pressure coefficient −K_c)."""
+    if z >= 0.0:
+        return -0.5 * z * K * signed_sqrt_slope(0.5 * (p_s - p_l), p_tr)
+    return 0.5 * z * K * signed_sqrt_slope(0.5 * (p_s + p_l), p_tr)
 
 
 @njit(**_JIT)
@@ -200,6 +226,24 @@ def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
 
 
 @njit(**_JIT)
+def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi: float, delta: float, gamma: float):
+    """Stribeck friction f(ẋ) [N] of Eq. (11) and its slope df/dẋ [N·s/m], for one velocity.
+
+    With B = F_c + (F_s − F_c) e^(−a^δ), a = |ẋ/χ|, and T = tanh(γẋ):
+    df/dẋ = γ(1 − T²) B − (T/ẋ)(F_s − F_c) δ a^δ e^(−a^δ) + σ,
+    where T/ẋ → γ at ẋ = 0, so the slope is finite for any shape δ > 0 (the
+    singular a^(δ−1) of the Stribeck term is cancelled by tanh). One evaluation of
+    the transcendental functions serves both values (the models' Jacobians).
+    """
+    T = math.tanh(gamma * v)
+    ad = abs(v / chi) ** delta
+    e = math.exp(-ad)
+    b = f_c + (f_s - f_c) * e
+    t_over_v = T / v if v != 0.0 else gamma
+    return T * b + sigma * v, gamma * (1.0 - T * T) * b - t_over_v * (f_s - f_c) * delta * ad * e + sigma
+
+
+@njit(**_JIT)
 def end_stop_force(x: float, v: float, stroke: float, k: float, c: float) -> float:
     """Contact force of the end stops on the piston [N], positive towards +x.
 
@@ -226,6 +270,18 @@ def net_piston_force(p_a, p_b, f_l, area_a, area_b):
         - np.asarray(p_b, dtype=float) * area_b
         - np.asarray(f_l, dtype=float)
     )
+
+
+@njit(**_JIT)
+def end_stop_force_slope(x: float, v: float, stroke: float, k: float, c: float):
+    """Partial derivatives (∂F/∂x [N/m], ∂F/∂ẋ [N·s/m]) of :func:`end_stop_force`."""
+    if x < 0.0:
+        if -k * x - c * v > 0.0:
+            return -k, -c
+    elif x > stroke:
+        if -k * (x - stroke) - c * v < 0.0:
+            return -k, -c
+    return 0.0, 0.0
 
 
 @njit(**_JIT)

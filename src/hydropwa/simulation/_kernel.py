@@ -39,13 +39,16 @@ from ..components._physics import (
     chamber_pressure_rates,
     dead_zone,
     end_stop_force,
+    end_stop_force_slope,
     load_flow,
+    load_flow_slope,
     load_pressure_rate,
     orifice_flows,
     piston_acceleration,
     pump_supply_rate,
     servo_valve_acceleration,
     stribeck_friction,
+    stribeck_friction_slope,
     supply_flow,
 )
 from ._signals import NO_REFCOUNT, eval_signal
@@ -85,10 +88,17 @@ def n_states(kind):
     return 7 if kind == FULL else 3
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
 def _inputs(t, sg):
-    """Evaluate the three packed input signals u, P_S, F_L at time t."""
-    return eval_signal(sg, 0, t), eval_signal(sg, 1, t), eval_signal(sg, 2, t)
+    """Evaluate the three packed input signals u, P_S, F_L at time t.
+
+    Inlined into its callers; constant signals (kind 0, value at sg[16 + 8i]) are read
+    here without a call, which halves the cost when P_S and F_L are constant.
+    """
+    u = sg[16] if sg[0] == 0.0 else eval_signal(sg, 0, t)
+    ps = sg[24] if sg[1] == 0.0 else eval_signal(sg, 1, t)
+    fl = sg[32] if sg[2] == 0.0 else eval_signal(sg, 2, t)
+    return u, ps, fl
 
 
 @njit(cache=True, nogil=True, **NO_REFCOUNT)
@@ -149,7 +159,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[6] = 0.0
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
@@ -190,7 +200,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -219,6 +229,72 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
 
 
 @njit(cache=True, nogil=True, **NO_REFCOUNT)
+def _mechanics_jacobian(v, x, abar, p, J):
+    """Rows ẍ and ẋ of the reduced and PWA Jacobians, apart from ∂ẍ/∂ẋ's friction slope.
+
+    ∂ẍ/∂P_L = Ā/m, ∂ẍ/∂ẋ = (∂F_stop/∂ẋ − c_load)/m, ∂ẍ/∂x = ∂F_stop/∂x/m (Eqs. (15), (22));
+    ẋ = v gives the row [0, 1, 0].
+    """
+    m = p[I_MASS]
+    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    J[1, 0] = abar / m
+    J[1, 1] = (kv - p[I_CLOAD]) / m
+    J[1, 2] = kx / m
+    J[2, 0] = 0.0
+    J[2, 1] = 1.0
+    J[2, 2] = 0.0
+
+
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+def jac_reduced(y, u, ps, fl, p, J):
+    """Exact Jacobian ∂f/∂y of :func:`rhs_reduced` (same inputs), written into J[:3, :3].
+
+    Row Ṗ_L of Eq. (14): 4E/V_t·[∂Q_L/∂P_L − C_L, −Ā, 0]; row ẍ of Eq. (15) with the
+    Stribeck slope df/dẋ (:func:`~hydropwa.components.stribeck_friction_slope`).
+    """
+    pl, v, x = y[0], y[1], y[2]
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    z = _opening(u, p)
+    J[0, 0] = c * (load_flow_slope(z, pl, ps, p[I_K], p[I_PTR]) - p[I_CL])
+    J[0, 1] = -c * abar
+    J[0, 2] = 0.0
+    _mechanics_jacobian(v, x, abar, p, J)
+    _f, slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+    J[1, 1] -= slope / p[I_MASS]
+
+
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+def jac_pwa(y, u, ps_in, fl, p, J):
+    """Exact Jacobian ∂f/∂y of :func:`rhs_pwa` inside the active cells (the state matrix A(σ)).
+
+    With p̃ = sign(z) P_L/P_S: ∂Q_L/∂P_L = z K√(P_S/2) k̂_o sign(z)/P_S
+    − c (C_qp + P_L |z| K/(4√(P_S/2)) k̂_n sign(z)/P_S); ∂ẍ/∂ẋ holds the friction cell slope.
+    """
+    pl, v, x = y[0], y[1], y[2]
+    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
+    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
+    s_o = I_CELLS + 3 * ng - 1
+    s_n = s_o + 3 * no - 1
+    s_w = s_n + 3 * nn - 1
+    root = math.sqrt(0.5 * ps)
+    K = p[I_K]
+    dpn = (1.0 if z >= 0.0 else -1.0) / ps  # ∂p̃/∂P_L
+    dql = z * K * root * p[s_o + no - 1 + o] * dpn
+    if p[I_FORM] != 0.0:
+        kz = abs(z) * K / (4.0 * root)
+        cqp = kz * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
+        dql -= p[I_FORM] * (cqp + pl * kz * p[s_n + nn - 1 + n] * dpn)
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    J[0, 0] = c * (dql - p[I_CL])
+    J[0, 1] = -c * abar
+    J[0, 2] = 0.0
+    _mechanics_jacobian(v, x, abar, p, J)
+    J[1, 1] -= p[s_w + nw - 1 + w] / p[I_MASS]
+
+
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
@@ -236,7 +312,7 @@ def rhs(kind, t, y, p, sg, dy):
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _lu(a, piv, n):
     """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
@@ -263,7 +339,7 @@ def _lu(a, piv, n):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     for k in range(n):
@@ -340,12 +416,14 @@ _E32 = 6.0 + math.sqrt(2.0)
 
 
 @njit(cache=True, nogil=True, **NO_REFCOUNT)
-def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
-    """Finite-difference Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
+def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
+    """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
-    The inputs are evaluated once for the n state columns. Columns that are
-    known to vanish (P_S of the full model without the pump) are skipped, and so
-    is ∂f/∂t when every input is constant.
+    ∂f/∂y is exact for the reduced and PWA models when ``exact`` (:func:`jac_reduced`,
+    :func:`jac_pwa`), otherwise by forward differences with the inputs evaluated
+    once for the n state columns; columns known to vanish (P_S of the full model
+    without the pump) are skipped. ∂f/∂t is a forward difference, skipped when
+    every input is constant.
     """
     n = n_states(kind)
     sqrt_eps = 1.4901161193847656e-08
@@ -355,6 +433,12 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
         n_cols = 6
         for i in range(n):
             J[i, 6] = 0.0
+    if exact and kind == REDUCED:
+        jac_reduced(y, u, ps, fl, p, J)
+        n_cols = 0
+    elif exact and kind == PWA:
+        jac_pwa(y, u, ps, fl, p, J)
+        n_cols = 0
     for j in range(n_cols):
         for i in range(n):
             yt[i] = y[i]
@@ -377,7 +461,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft):
     return nfev
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _factor(kind, J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = n_states(kind)
@@ -388,7 +472,7 @@ def _factor(kind, J, W, piv, hg):
     _lu(W, piv, n)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -457,7 +541,7 @@ def _step_ros23(
     return 2
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -495,6 +579,7 @@ def _integrate(
     method=ROS34PW2,
     jac_reuse=True,
     gustafsson=True,
+    exact_jac=True,
 ):
     """Integrate model ``kind`` from t_out[0] with a Rosenbrock method, dense output at ``t_out``.
 
@@ -524,6 +609,11 @@ def _integrate(
         ROS34PW2 only: keep the Jacobian of the last evaluation after an accepted
         step whose error was small (the W-method keeps its order); recomputed
         after every rejection and at least every 8 steps.
+    gustafsson : bool
+        Use Gustafsson's predictive step-size controller after accepted steps.
+    exact_jac : bool
+        Reduced and PWA models: exact ∂f/∂y (:func:`jac_reduced`, :func:`jac_pwa`)
+        instead of finite differences; the full model always uses differences.
 
     Returns
     -------
@@ -540,18 +630,12 @@ def _integrate(
     Notes
     -----
     The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
-    the step factor is 0.9·err^(−1/3), clipped to [0.2, 5] (no growth right after a rejection).
+    the step factor is 0.9·err^(−1/3) (a cube root, cheaper than pow), clipped to [0.2, 5] (no growth right after a rejection).
     """
     n = n_states(kind)
     n_out = t_out.shape[0]
     Y = np.empty((n_out, n))
-    gamma = PW2_GAMMA if method == ROS34PW2 else _D23
-    reuse = jac_reuse and method == ROS34PW2
     y = y0.copy()
-    t = t_out[0]
-    t_end = t_out[n_out - 1]
-    Y[0, :] = y
-    k_out = 1
     f0 = np.empty(n)
     fnew = np.empty(n)
     ft = np.empty(n)
@@ -564,6 +648,36 @@ def _integrate(
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
     atol = rtol * scale
+    stats = np.zeros(4, dtype=np.int64)
+    k_out, status, t = _march(
+        kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
+        exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+    )
+    return Y, k_out, status, t, y, stats
+
+
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+def _march(
+    kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
+    exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+):
+    """The step loop of :func:`_integrate` on arrays it owns; returns (rows filled, status, t).
+
+    Allocation-free and compiled without reference counting, so the calls of the
+    stepper, the Jacobian and the dense output pass their many work arrays for free
+    (in a reference-counted caller each array argument costs an incref/decref pair).
+    ``y`` holds y0 on entry and the last accepted state on return; ``stats`` receives
+    [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
+    """
+    n = n_states(kind)
+    n_out = t_out.shape[0]
+    gamma = PW2_GAMMA if method == ROS34PW2 else _D23
+    reuse = jac_reuse and method == ROS34PW2
+    t = t_out[0]
+    t_end = t_out[n_out - 1]
+    for i in range(n):
+        Y[0, i] = y[i]
+    k_out = 1
     u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, f0)
     nfev = 1
@@ -593,7 +707,7 @@ def _integrate(
         if need_jac:
             u, ps, fl = _inputs(t, sg)
             nfev += _jacobian(
-                kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft
+                kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact_jac
             )
             n_jac += 1
             need_jac = False
@@ -636,10 +750,10 @@ def _integrate(
             n_acc += 1
             jac_age += 1
             need_jac = not reuse or jac_age >= 8 or err > 0.5
-            fac = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0
+            fac = 0.9 / np.cbrt(err) if err > 0.0 else 5.0
             if gustafsson and h_acc > 0.0 and err > 0.0:
                 # predictive controller (Gustafsson 1994): fewer rejections in a row
-                fac = min(fac, 0.9 * (h / h_acc) * (err_acc / (err * err)) ** (1.0 / 3.0))
+                fac = min(fac, 0.9 * (h / h_acc) * np.cbrt(err_acc / (err * err)))
             h_acc = h
             err_acc = max(err, 1e-4)
             fac = min(5.0, max(0.2, fac))
@@ -654,26 +768,29 @@ def _integrate(
             last_rejected = False
         else:
             n_rej += 1
-            h *= max(0.2, 0.9 * err ** (-1.0 / 3.0))
+            h *= max(0.2, 0.9 / np.cbrt(err))
             need_jac = reuse and jac_age > 0
             last_rejected = True
-    stats = np.array([n_acc, n_rej, nfev, n_jac], dtype=np.int64)
-    return Y, k_out, status, t, y, stats
+    stats[0] = n_acc
+    stats[1] = n_rej
+    stats[2] = nfev
+    stats[3] = n_jac
+    return k_out, status, t
 
 
 @njit(cache=True, nogil=True)
-def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
-    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
 
 @njit(cache=True, nogil=True)
-def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
-    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
 
 @njit(cache=True, nogil=True)
-def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson):
-    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson)
+def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
 
 _ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
@@ -693,6 +810,7 @@ def integrate(
     method=ROS34PW2,
     jac_reuse=True,
     gustafsson=True,
+    exact_jac=True,
 ):
     """Integrate model ``kind``: :func:`_integrate` compiled for that model alone.
 
@@ -703,7 +821,8 @@ def integrate(
     if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
         raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
     return _ENTRY[int(kind)](
-        y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse), bool(gustafsson)
+        y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse), bool(gustafsson),
+        bool(exact_jac),
     )
 
 
@@ -716,6 +835,13 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     with the active cells g, o, n, w in rows 11–14.
     """
     out = np.empty((15 if kind == PWA else 11, n_done))
+    _fill_outputs(kind, t_out, Y, n_done, p, sg, out)
+    return out
+
+
+@njit(cache=True, nogil=True, **NO_REFCOUNT)
+def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
+    """Body of :func:`outputs`, compiled without reference counting (no allocation)."""
     for k in range(n_done):
         t = t_out[k]
         u, ps, fl = _inputs(t, sg)
@@ -756,4 +882,3 @@ def outputs(kind, t_out, Y, n_done, p, sg):
         out[8, k] = x
         out[9, k] = v
         out[10, k] = fr
-    return out
