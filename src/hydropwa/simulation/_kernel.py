@@ -201,6 +201,18 @@ def pwa_cells(pl, v, u, ps_in, p):
 
 
 @njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+def _pwa_layout(p):
+    """Cell counts (o, n, w) and where the o, n and w sections of the PWA cell table start in p.
+
+    Each section holds n − 1 breakpoints, then n slopes, then n offsets (see ``pack_pwa``).
+    """
+    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
+    s_o = I_CELLS + 3 * ng - 1
+    s_n = s_o + 3 * no - 1
+    return no, nn, nw, s_o, s_n, s_n + 3 * nn - 1
+
+
+@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -208,11 +220,8 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     C_qp = |z| K/(4√(P_S/2)) (k̂_n p̃ + d̂_n), p̃ = sign(z) P_L/P_S, c the paper-form flag.
     """
     pl, v, x = y[0], y[1], y[2]
-    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
     g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    s_o = I_CELLS + 3 * ng - 1
-    s_n = s_o + 3 * no - 1
-    s_w = s_n + 3 * nn - 1
+    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
     root = math.sqrt(0.5 * ps)
     K = p[I_K]
     cq = K * root * (p[s_o + no - 1 + o] * pn + p[s_o + 2 * no - 1 + o])
@@ -272,11 +281,8 @@ def jac_pwa(y, u, ps_in, fl, p, J):
     − c (C_qp + P_L |z| K/(4√(P_S/2)) k̂_n sign(z)/P_S); ∂ẍ/∂ẋ holds the friction cell slope.
     """
     pl, v, x = y[0], y[1], y[2]
-    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
     g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    s_o = I_CELLS + 3 * ng - 1
-    s_n = s_o + 3 * no - 1
-    s_w = s_n + 3 * nn - 1
+    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
     root = math.sqrt(0.5 * ps)
     K = p[I_K]
     dpn = (1.0 if z >= 0.0 else -1.0) / ps  # ∂p̃/∂P_L
@@ -862,8 +868,7 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
                 fr = _friction(v, p)
             else:
                 g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
-                ng, no, nnn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
-                s_w = I_CELLS + 3 * ng - 1 + 3 * no - 1 + 3 * nnn - 1
+                _no, _nn, nw, _so, _sn, s_w = _pwa_layout(p)
                 fr = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
                 out[11, k] = g
                 out[12, k] = o
