@@ -15,8 +15,10 @@ Integrator
 ----------
 Linearly implicit Rosenbrock methods with error control: ROS34PW2 (default), an
 L-stable, stiffly accurate Rosenbrock-W method of order 3(2) that may reuse its
-Jacobian, and Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Finite-difference
-Jacobian and time derivative, Hermite dense output at the requested sample times.
+Jacobian, and Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Exact Jacobian
+for the reduced and PWA models (:func:`jac_reduced`, :func:`jac_pwa`), finite
+differences for the full model and for the time derivative; Hermite dense output at
+the requested sample times.
 They cope with the stiffness of the chambers (E/V), the tanh friction and the end
 stops at a cost of a few right-hand-side calls per step.
 
