@@ -61,9 +61,16 @@ def test_signed_sqrt_slope_closed_forms():
 
 
 @settings(max_examples=200, deadline=None)
-@given(z=st.floats(-1.0, 1.0), pl=st.floats(-1.2e7, 1.2e7), ps=st.floats(2e6, 2.5e7))
-def test_load_flow_slope(z, pl, ps):
+@given(
+    z=st.floats(-1.0, 1.0),
+    pl=st.floats(-1.2e7, 1.2e7),
+    near=st.one_of(st.none(), st.floats(-4 * P_TR, 4 * P_TR)),
+    ps=st.floats(2e6, 2.5e7),
+)
+def test_load_flow_slope(z, pl, near, ps):
     K_ = 2.5e-7
+    if near is not None:  # put the metering-edge drop ½(P_S ∓ P_L) in or near the laminar band
+        pl = (ps - 2 * near) if z >= 0 else (2 * near - ps)
     h = 1e-4 * max(abs(pl), P_TR)
     num = _central(lambda x: load_flow(z, x, ps, K_, P_TR), pl, h)
     _close(load_flow_slope(z, pl, ps, K_, P_TR), num, rel=1e-4, floor=1e-20)
@@ -73,8 +80,7 @@ def test_load_flow_slope(z, pl, ps):
 @settings(max_examples=300, deadline=None)
 @given(v=st.one_of(st.floats(-0.5, 0.5), st.floats(-1e-5, 1e-5), st.just(0.0)))
 def test_stribeck_friction_slope(v):
-    f, slope = stribeck_friction_slope(v, *FRICTION)
-    assert f == pytest.approx(float(stribeck_friction(v, *FRICTION)), rel=1e-14, abs=1e-12)
+    slope = stribeck_friction_slope(v, *FRICTION)
     # the Stribeck term's curvature grows like |v|^(δ-2) near 0, so the step shrinks with |v|
     h = 1e-4 * max(abs(v), 1e-6)
     num = _central(lambda x: float(stribeck_friction(x, *FRICTION)), v, h)
@@ -83,12 +89,12 @@ def test_stribeck_friction_slope(v):
 
 def test_stribeck_slope_at_rest_is_gamma_times_static_plus_viscous():
     fc, fs, sigma, chi, delta, gamma = FRICTION
-    _f, slope = stribeck_friction_slope(0.0, *FRICTION)
+    slope = stribeck_friction_slope(0.0, *FRICTION)
     assert slope == pytest.approx(gamma * fs + sigma, rel=1e-14)
 
 
 @settings(max_examples=200, deadline=None)
-@given(x=st.floats(-1e-3, 0.201), v=st.floats(-0.5, 0.5))
+@given(x=st.one_of(st.floats(-1e-3, 0.0), st.floats(0.2, 0.201), st.floats(0.0, 0.2)), v=st.floats(-0.5, 0.5))
 def test_end_stop_force_slope(x, v):
     stroke, k, c = 0.2, 1e8, 2e4
     hx, hv = 1e-9, 1e-6

@@ -226,21 +226,21 @@ def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
 
 
 @njit(**_JIT)
-def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi: float, delta: float, gamma: float):
-    """Stribeck friction f(ẋ) [N] of Eq. (11) and its slope df/dẋ [N·s/m], for one velocity.
+def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi: float, delta: float, gamma: float) -> float:
+    """Slope df/dẋ [N·s/m] of the Stribeck friction of Eq. (11), for one velocity [m/s].
 
     With B = F_c + (F_s − F_c) e^(−a^δ), a = |ẋ/χ|, and T = tanh(γẋ):
     df/dẋ = γ(1 − T²) B − (T/ẋ)(F_s − F_c) δ a^δ e^(−a^δ) + σ,
-    where T/ẋ → γ at ẋ = 0, so the slope is finite for any shape δ > 0 (the
-    singular a^(δ−1) of the Stribeck term is cancelled by tanh). One evaluation of
-    the transcendental functions serves both values (the models' Jacobians).
+    where T/ẋ → γ at ẋ = 0, so the slope is finite for any shape δ > 0 (the singular
+    a^(δ−1) of the Stribeck term is cancelled by tanh); at rest it is γF_s + σ.
+    Used by the solver's Jacobians and by the tangent friction cells.
     """
     T = math.tanh(gamma * v)
     ad = abs(v / chi) ** delta
     e = math.exp(-ad)
     b = f_c + (f_s - f_c) * e
     t_over_v = T / v if v != 0.0 else gamma
-    return T * b + sigma * v, gamma * (1.0 - T * T) * b - t_over_v * (f_s - f_c) * delta * ad * e + sigma
+    return gamma * (1.0 - T * T) * b - t_over_v * (f_s - f_c) * delta * ad * e + sigma
 
 
 @njit(**_JIT)

@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from .._errors import PwaError
-from ..components import PiecewiseAffine, stribeck_friction
+from ..components import PiecewiseAffine, stribeck_friction, stribeck_friction_slope
 from ..params import DeadZone, Friction
 from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
 
@@ -172,19 +172,17 @@ def friction_function(friction: Friction):
 
 
 def friction_slope(friction: Friction):
-    """df/dẋ [N·s/m] of Eq. (11), analytic; at ẋ = 0 the limit γF_s + σ (for δ > 0)."""
+    """df/dẋ [N·s/m] of Eq. (11) as a function of velocity (arrays too); at ẋ = 0 the limit γF_s + σ.
+
+    Evaluates :func:`hydropwa.components.stribeck_friction_slope` element-wise.
+    """
     fr = friction
+    args = (fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
 
     def df(v):
         v = np.asarray(v, dtype=float)
-        a = np.abs(v / fr.stribeck_velocity)
-        e = np.exp(-(a**fr.shape))
-        sv = fr.coulomb + (fr.static - fr.coulomb) * e
-        th = np.tanh(fr.smoothness * v)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ds = -(fr.static - fr.coulomb) * e * fr.shape * a ** (fr.shape - 1.0) * np.sign(v) / fr.stribeck_velocity
-            cross = np.where(v == 0.0, 0.0, th * ds)
-        return fr.smoothness * (1.0 - th**2) * sv + cross + fr.viscous
+        out = np.array([stribeck_friction_slope(float(x), *args) for x in v.ravel()])
+        return out.reshape(v.shape)
 
     return df
 

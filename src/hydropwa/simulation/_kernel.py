@@ -95,7 +95,7 @@ def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t.
 
     Inlined into its callers; constant signals (kind 0, value at sg[16 + 8i]) are read
-    here without a call, which halves the cost when P_S and F_L are constant.
+    here without a call to :func:`eval_signal`.
     """
     u = sg[16] if sg[0] == 0.0 else eval_signal(sg, 0, t)
     ps = sg[24] if sg[1] == 0.0 else eval_signal(sg, 1, t)
@@ -271,7 +271,7 @@ def jac_reduced(y, u, ps, fl, p, J):
     J[0, 1] = -c * abar
     J[0, 2] = 0.0
     _mechanics_jacobian(v, x, abar, p, J)
-    _f, slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+    slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
     J[1, 1] -= slope / p[I_MASS]
 
 
