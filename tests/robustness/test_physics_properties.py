@@ -78,11 +78,13 @@ def test_pressures_stay_physical(params, u, load):
     transition pressure p_tr of the regularised orifice root (NOTES item 3).
     Lower bound: the effective bulk modulus falls to 0.1 % of E at the vapour pressure
     (architecture decision 5), so a chamber approaches p_vap but should not cross it; 0.01 bar
-    allows for integrator overshoot (rtol 1e-5 × 1 bar state scale) only.
+    allows for integrator overshoot at rtol 1e-5 only.
     """
     c, oil, sup = params.cylinder, params.oil, params.supply
     f_l = load * sup.pressure * min(c.area_a, c.area_b)
-    res = simulate(FullOrderModel(params), u, duration=0.3, fs=4000, load_force=f_l)
+    # rtol fixed at 1e-5 (the default was 1e-5 when this bound was set; at today's default 1e-3
+    # hypothesis found a dip of 0.01005 bar below p_vap, an integration error of the size rtol allows)
+    res = simulate(FullOrderModel(params), u, duration=0.3, fs=4000, load_force=f_l, rtol=1e-5)
     v_min = min(c.dead_volume_a, c.dead_volume_b)
     hammer = _vmax(res) * math.sqrt(params.load.mass * oil.bulk_modulus / v_min)
     ratio = max(1.0, c.area_a / c.area_b)
@@ -145,13 +147,13 @@ def test_closed_valve_leakage_conserves_oil(params, pa, pb, leak):
     The "locked" piston (m = 1e9 kg) still creeps by Δx ~ 1e-7 m under A_A·P_A − A_B·P_B, which
     changes V_A·P_A + V_B·P_B by E·(A_A − A_B)·Δx; the exact balance checked is therefore
     ∫(V_A dP_A + V_B dP_B) = −E·(A_A − A_B)·Δx (leakage leaves A and enters B: it cancels),
-    to 1e-4 of (V_A + V_B)·(|P_A − P_B| + 1 bar): ten times the solver's rtol.
+    to 1e-4 of (V_A + V_B)·(|P_A − P_B| + 1 bar): ten times the solver's rtol (fixed at 1e-5 here).
     """
     p = _locked(params).replace(**{"cylinder.leakage": leak})
     c, E = p.cylinder, p.oil.bulk_modulus
     x0 = 0.5 * c.stroke
     state = FullOrderModel.state_from_measurement(x=x0, v=0.0, p_a=pa, p_b=pb, p_s=p.supply.pressure)
-    res = simulate(FullOrderModel(p), 0.0, duration=0.2, fs=2000, initial_state=state)
+    res = simulate(FullOrderModel(p), 0.0, duration=0.2, fs=2000, initial_state=state, rtol=1e-5)
     va = c.dead_volume_a + c.area_a * res["x"]
     vb = c.dead_volume_b + c.area_b * (c.stroke - res["x"])
     vdp = np.concatenate(([0.0], np.cumsum(0.5 * (va[1:] + va[:-1]) * np.diff(res["p_a"])
