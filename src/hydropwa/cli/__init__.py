@@ -72,6 +72,7 @@ def _exception_types():
 
 
 _EXITS, _ABORTS, _USAGE = _exception_types()
+_INTERRUPTED = "error: interrupted; finished files are kept, rerun to resume"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,20 +86,20 @@ def main(argv: list[str] | None = None) -> int:
         code = 2
     except _EXITS as exc:
         code = getattr(exc, "exit_code", getattr(exc, "code", 0))
-    except _ABORTS:
-        print("error: aborted", file=sys.stderr)
+    except _ABORTS:  # click turns Ctrl-C (and EOF at a prompt) into Abort
         code = 130
     except _USAGE as exc:
         exc.show()
         code = exc.exit_code
     except KeyboardInterrupt:
-        print("error: interrupted; finished files are kept, rerun to resume", file=sys.stderr)
         code = 130
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         print(f"error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
         code = 2
     else:
         code = rv if isinstance(rv, int) else 0
+    if code == 130:  # Ctrl-C, however it arrived: typer (>= 0.20) returns it as Exit(130)
+        print(_INTERRUPTED, file=sys.stderr)
     if argv is None:
         sys.exit(code)
     return code
