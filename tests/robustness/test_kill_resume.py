@@ -92,7 +92,8 @@ def test_interrupted_paper_run_resumes_from_finished_runs(tmp_path, how):
     if how == signal.SIGINT:
         assert proc.returncode in (130, -signal.SIGINT), err.decode()
         assert b"Traceback" not in err
-        assert b"interrupted; finished files are kept" in err, err.decode()
+        if proc.returncode == 130:  # handled (a signal before Python's handler is set gives −2)
+            assert b"interrupted; finished files are kept" in err, err.decode()
     else:
         assert proc.returncode == -signal.SIGKILL
     before = _listed_runs(out)
