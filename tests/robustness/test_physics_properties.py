@@ -69,27 +69,29 @@ def _vmax(res) -> float:
 @PHYS
 @given(params=system_params(), u=command, load=st.floats(-0.3, 0.3))
 def test_pressures_stay_physical(params, u, load):
-    """vapour pressure − 0.01 bar ≤ P_A, P_B ≤ P_S·max(1, A_A/A_B) + ΔP_kin + p_tr.
+    """vapour pressure − 100 Pa ≤ P_A, P_B ≤ P_S·max(1, A_A/A_B) + ΔP_kin + p_tr.
 
     Upper bound: the supply pressure, raised by the area ratio on the rod side (intensification
     is physics, not a defect), by the water-hammer rise ΔP_kin = v_max·√(m·E/V_min) that a
     moving mass m can produce when it compresses the smallest chamber volume V_min (kinetic
     energy ½mv² into ½V·ΔP²/E), by the external load over the smaller area, and by the
     transition pressure p_tr of the regularised orifice root (NOTES item 3).
-    Lower bound: the effective bulk modulus falls to 0.1 % of E at the vapour pressure
-    (architecture decision 5), so a chamber approaches p_vap but should not cross it; 0.01 bar
-    allows for integrator overshoot at rtol 1e-5 only.
+    Lower bound: while a chamber is emptied its effective bulk modulus falls to zero at the
+    vapour pressure, and below it pulls the pressure back (cavitation, architecture decision 5),
+    so only an integration step can overshoot p_vap. At rtol 1e-5 the solver's pressure
+    tolerance there is rtol·(1 bar + |p|) ≈ 2 Pa per step; the allowance of 100 Pa is 50 of
+    those (the worst overshoot over 2000 random examples was 3.6 Pa).
     """
     c, oil, sup = params.cylinder, params.oil, params.supply
     f_l = load * sup.pressure * min(c.area_a, c.area_b)
-    # rtol fixed at 1e-5 (the default was 1e-5 when this bound was set; at today's default 1e-3
-    # hypothesis found a dip of 0.01005 bar below p_vap, an integration error of the size rtol allows)
+    # rtol 1e-5, not the default 1e-3: at 1e-3 an overshoot of ~0.015 bar at the onset of
+    # cavitation is an integration error of the size that tolerance allows
     res = simulate(FullOrderModel(params), u, duration=0.3, fs=4000, load_force=f_l, rtol=1e-5)
     v_min = min(c.dead_volume_a, c.dead_volume_b)
     hammer = _vmax(res) * math.sqrt(params.load.mass * oil.bulk_modulus / v_min)
     ratio = max(1.0, c.area_a / c.area_b)
     high = sup.pressure * ratio + hammer + abs(f_l) / min(c.area_a, c.area_b) + params.flow.transition_pressure
-    low = oil.vapour_pressure - 0.01 * BAR
+    low = oil.vapour_pressure - 100.0
     for ch in ("p_a", "p_b"):
         assert np.all(np.isfinite(res[ch]))
         assert res[ch].min() >= low, f"{ch} min {res[ch].min():.6g} Pa below vapour pressure"

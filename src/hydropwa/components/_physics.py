@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+
 __all__ = [
     "servo_valve_acceleration",
     "dead_zone",
@@ -162,17 +164,22 @@ def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> 
 
 
 @njit(**_JIT)
-def effective_bulk_modulus(p: float, E: float, p_vap: float, p_rel: float) -> float:
+def effective_bulk_modulus(p: float, E: float, p_vap: float, p_rel: float, net_flow: float = 1.0) -> float:
     """Effective bulk modulus [Pa] that keeps a chamber pressure physical.
 
-    Between the air-release pressure p_rel and the vapour pressure p_vap the
-    modulus falls linearly to 0.1 % of E, so a chamber emptied by the piston
-    approaches p_vap (≈ absolute zero) but does not cross it.
+    Between the air-release pressure p_rel and the vapour pressure p_vap the modulus
+    falls linearly with the pressure. While the chamber is being emptied (net inflow
+    ``net_flow`` [m³/s] < 0) it reaches zero at p_vap: the pressure approaches p_vap
+    (≈ absolute zero) exponentially and stays there while vapour fills the deficit
+    (cavitation). Below p_vap, which only an integration step can overshoot into, the
+    modulus turns negative, so the rate pulls the pressure back up to p_vap. While the
+    chamber is being filled the modulus keeps a floor of 0.1 % E, so a cavitated chamber
+    recovers as soon as oil flows in again.
     """
     if p >= p_rel:
         return E
     frac = (p - p_vap) / (p_rel - p_vap)
-    if frac < 1e-3:
+    if net_flow >= 0.0 and frac < 1e-3:
         frac = 1e-3
     return E * frac
 
@@ -202,10 +209,10 @@ def chamber_pressure_rates(
     """
     va = vol_a + area_a * x
     vb = vol_b + area_b * (stroke - x)
-    ea = effective_bulk_modulus(p_a, E, p_vap, p_rel)
-    eb = effective_bulk_modulus(p_b, E, p_vap, p_rel)
-    dpa = ea / va * (q_a - area_a * v + leak * (p_b - p_a))
-    dpb = eb / vb * (-q_b + area_b * v + leak * (p_a - p_b))
+    net_a = q_a - area_a * v + leak * (p_b - p_a)
+    net_b = -q_b + area_b * v + leak * (p_a - p_b)
+    dpa = effective_bulk_modulus(p_a, E, p_vap, p_rel, net_a) / va * net_a
+    dpb = effective_bulk_modulus(p_b, E, p_vap, p_rel, net_b) / vb * net_b
     return dpa, dpb
 
 
