@@ -16,6 +16,7 @@ __all__ = [
     "IdentificationError",
     "PwaError",
     "OutputExistsError",
+    "interrupt_cause",
 ]
 
 
@@ -76,3 +77,19 @@ def check_output(path, force: bool = False) -> None:
 
     if not force and Path(path).exists():
         raise OutputExistsError(f"{path} exists; pass --force to overwrite it (or choose another --out)")
+
+
+def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C behind ``exc``, if ``exc`` is how a compiled kernel reported one.
+
+    A ``KeyboardInterrupt`` that Python raises while a numba function boxes its result
+    reaches the caller as ``SystemError("... returned a result with an exception set")``
+    with the interrupt as its cause. This finds it in the cause/context chain.
+    """
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

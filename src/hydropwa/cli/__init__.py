@@ -13,7 +13,7 @@ import warnings
 import click
 import typer
 
-from .._errors import HydropwaError
+from .._errors import HydropwaError, interrupt_cause
 from ._core import params_app, simulate_command
 
 __all__ = ["app", "main"]
@@ -92,6 +92,10 @@ def main(argv: list[str] | None = None) -> int:
         exc.show()
         code = exc.exit_code
     except KeyboardInterrupt:
+        code = 130
+    except SystemError as exc:  # a Ctrl-C reported by a compiled call (see interrupt_cause)
+        if interrupt_cause(exc) is None:
+            raise
         code = 130
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         print(f"error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)

@@ -33,10 +33,13 @@ skip numba's reference counting (``NO_REFCOUNT``). See docs/architecture_perform
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import numpy as np
 from numba import njit
 
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from .._errors import interrupt_cause
 from ..components._physics import (
     chamber_pressure_rates,
     dead_zone,
@@ -804,6 +807,23 @@ def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, j
 _ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
 
 
+@contextmanager
+def _interruptible():
+    """Re-raise a Ctrl-C that a compiled call reported as ``SystemError`` as what it is.
+
+    The signal handler may run while numba boxes a result; the dispatcher then returns
+    a result with the ``KeyboardInterrupt`` set, which Python turns into a
+    ``SystemError`` caused by it. Callers (and the CLI) expect a ``KeyboardInterrupt``.
+    """
+    try:
+        yield
+    except SystemError as exc:
+        cause = interrupt_cause(exc)
+        if cause is None:
+            raise
+        raise cause.with_traceback(None) from None
+
+
 def integrate(
     kind,
     y0,
@@ -828,14 +848,21 @@ def integrate(
     """
     if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
         raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
-    return _ENTRY[int(kind)](
-        y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse), bool(gustafsson),
-        bool(exact_jac),
-    )
+    with _interruptible():
+        return _ENTRY[int(kind)](
+            y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse),
+            bool(gustafsson), bool(exact_jac),
+        )
+
+
+def outputs(kind, t_out, Y, n_done, p, sg):
+    """Derived channels per output sample (see :func:`_outputs`)."""
+    with _interruptible():
+        return _outputs(kind, t_out, Y, n_done, p, sg)
 
 
 @njit(cache=True, nogil=True)
-def outputs(kind, t_out, Y, n_done, p, sg):
+def _outputs(kind, t_out, Y, n_done, p, sg):
     """Derived channels per output sample.
 
     Returns an array of shape (11, n_done) (one contiguous row per channel) with rows

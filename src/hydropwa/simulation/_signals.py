@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 from numba import njit
 
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import SignalError
 
 __all__ = [

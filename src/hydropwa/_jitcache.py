@@ -1,0 +1,73 @@
+"""One on-disk cache stamp for all compiled modules of hydropwa.
+
+numba keys each cached function on the contents of its *own* source file. The kernels
+in ``simulation/_kernel.py`` inline the physics of ``components/_physics.py`` and the
+signal code of ``simulation/_signals.py``; after a change to one of those files alone
+(an edit in a development checkout, or an upgrade that touches only that file) numba
+would load the old kernels from ``__pycache__`` and silently run the old physics.
+
+:class:`PackageCacheLocator` keeps numba's in-tree cache folders but stamps every
+entry of these modules with one hash over all of them, so a change to any one of them
+recompiles all. Each compiled module imports this module before its first
+``@njit(cache=True)``. With a numba whose caching internals differ the locator is not
+installed and numba's own per-file stamps apply (see docs/architecture_performance.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+#: The modules holding ``@njit(cache=True)`` functions, relative to the package.
+COMPILED_MODULES = ("components/_physics.py", "simulation/_signals.py", "simulation/_kernel.py")
+
+_ROOT = Path(__file__).resolve().parent
+_FILES = frozenset(str(_ROOT / m) for m in COMPILED_MODULES)
+
+
+def source_stamp(root: str | os.PathLike = _ROOT) -> bytes:
+    """SHA-256 over the compiled modules' sources under package folder ``root``."""
+    h = hashlib.sha256()
+    for m in COMPILED_MODULES:
+        h.update(m.encode())
+        h.update((Path(root) / m).read_bytes())
+    return h.digest()
+
+
+_STAMP = source_stamp()
+
+try:
+    from numba.core.caching import CacheImpl, InTreeCacheLocator
+except ImportError:  # pragma: no cover - numba without these names: keep its own stamps
+    CacheImpl = InTreeCacheLocator = None
+
+
+if InTreeCacheLocator is not None:
+
+    class PackageCacheLocator(InTreeCacheLocator):
+        """numba's in-tree cache locator with a stamp over all compiled hydropwa modules."""
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if os.path.realpath(py_file) not in _FILES:
+                return None
+            return super().from_function(py_func, py_file)
+
+        def get_source_stamp(self):
+            return _STAMP
+
+    def _install() -> bool:
+        classes = getattr(CacheImpl, "_locator_classes", None)
+        if not isinstance(classes, list):  # pragma: no cover
+            return False
+        if PackageCacheLocator not in classes:
+            # after NUMBA_CACHE_DIR's locator (a user's explicit choice), before the in-tree one
+            user = [i for i, c in enumerate(classes) if c.__name__ == "UserProvidedCacheLocator"]
+            classes.insert(user[0] + 1 if user else 0, PackageCacheLocator)
+        return True
+
+    INSTALLED = _install()
+else:  # pragma: no cover
+    PackageCacheLocator = None
+    INSTALLED = False
