@@ -15,7 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 
@@ -41,6 +42,53 @@ __all__ = [
 ]
 
 _JIT = {"cache": True, "nogil": True, "fastmath": False}
+
+
+def smooth_sign(x):
+    """tanh(x), the smooth sign of the friction law, Eq. (11); elementwise on arrays.
+
+    Called from Python (arrays) this is NumPy's SIMD ``np.tanh``. Compiled code gets the
+    scalar form expm1(2|x|)/(expm1(2|x|) + 2) with the sign of x, and ±1 for |x| ≥ 20 where
+    tanh rounds to 1 anyway (see the overload below): within 2 ulp of libm's tanh, exactly
+    odd, and about 1 ns instead of 11 ns in the sliding regime that dominates a simulation.
+    """
+    return np.tanh(x)
+
+
+@overload(smooth_sign, jit_options={"nogil": True, "fastmath": False})
+def _smooth_sign_compiled(x):
+    if isinstance(x, types.Float):
+
+        def scalar(x):
+            ax = abs(x)
+            if ax >= 20.0:  # also ±inf; the common case in sliding friction (|γẋ| ≥ 20)
+                return math.copysign(1.0, x)
+            e = math.expm1(2.0 * ax)
+            return math.copysign(e / (e + 2.0), x)
+
+        return scalar
+    return lambda x: np.tanh(x)
+
+
+def abs_power(x, delta):
+    """|x|^δ for δ > 0, elementwise on arrays (the Stribeck decay of Eq. (11)).
+
+    Called from Python this is NumPy's power; compiled code gets exp(δ·ln|x|), 0 at x = 0
+    (about 2 ns cheaper than libm's pow, within a few ulp of it).
+    """
+    return np.abs(x) ** delta
+
+
+@overload(abs_power, jit_options={"nogil": True, "fastmath": False})
+def _abs_power_compiled(x, delta):
+    if isinstance(x, types.Float):
+
+        def scalar(x, delta):
+            ax = abs(x)
+            return math.exp(delta * math.log(ax)) if ax > 0.0 else 0.0
+
+        return scalar
+    return lambda x, delta: np.abs(x) ** delta
 
 
 @njit(**_JIT)
@@ -229,7 +277,7 @@ def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
     f = tanh(γ ẋ) (F_c + (F_s − F_c) exp(−|ẋ/χ|^δ)) + σ ẋ. Works on floats and
     on numpy arrays of velocities [m/s]; odd in ẋ by construction.
     """
-    return np.tanh(gamma * v) * (f_c + (f_s - f_c) * np.exp(-(np.abs(v / chi) ** delta))) + sigma * v
+    return smooth_sign(gamma * v) * (f_c + (f_s - f_c) * np.exp(-abs_power(v / chi, delta))) + sigma * v
 
 
 @njit(**_JIT)
@@ -242,8 +290,8 @@ def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi:
     a^(δ−1) of the Stribeck term is cancelled by tanh); at rest it is γF_s + σ.
     Used by the solver's Jacobians and by the tangent friction cells.
     """
-    T = math.tanh(gamma * v)
-    ad = abs(v / chi) ** delta
+    T = smooth_sign(gamma * v)
+    ad = abs_power(v / chi, delta)
     e = math.exp(-ad)
     b = f_c + (f_s - f_c) * e
     t_over_v = T / v if v != 0.0 else gamma

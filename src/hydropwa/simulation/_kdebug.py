@@ -1,0 +1,922 @@
+"""Compiled right-hand sides of the three models and the stiff integrator.
+
+Everything here runs in numba ``nopython`` mode: the time-stepping loop never
+calls Python. The models are assemblies of :mod:`hydropwa.components`.
+
+Model kinds and states
+----------------------
+``FULL`` (0), Eqs. (1)–(11): y = [ν, ν̇, P_A, P_B, x, ẋ, P_S]; P_S is a state
+only with the pump supply model, otherwise its rate is zero and P_S(t) is the
+input signal.
+``REDUCED`` (1), Eqs. (12)–(15): y = [P_L, ẋ, x].
+``PWA`` (2), Eqs. (16)–(23): y = [P_L, ẋ, x] with piecewise-affine cells.
+
+Integrator
+----------
+Linearly implicit Rosenbrock methods with error control: ROS34PW2 (default), an
+L-stable, stiffly accurate Rosenbrock-W method of order 3(2) that may reuse its
+Jacobian, and Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Exact Jacobian
+for the reduced and PWA models (:func:`jac_reduced`, :func:`jac_pwa`), finite
+differences for the full model and for the time derivative; Hermite dense output at
+the requested sample times.
+They cope with the stiffness of the chambers (E/V), the tanh friction and the end
+stops at a cost of a few right-hand-side calls per step.
+
+Speed
+-----
+``integrate`` dispatches to one compiled entry point per model, in which the model
+kind (and so the state count) is a compile-time constant; the input signals are one
+packed vector (:func:`hydropwa.simulation.pack_signals`); the allocation-free helpers
+skip numba's reference counting (``NO_REFCOUNT``). See docs/architecture_performance.md.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import contextmanager
+
+import numpy as np
+from numba import njit
+
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from .._errors import interrupt_cause
+from ..components._physics import (
+    chamber_pressure_rates,
+    dead_zone,
+    end_stop_force,
+    end_stop_force_slope,
+    load_flow,
+    load_flow_slope,
+    load_pressure_rate,
+    orifice_flows,
+    piston_acceleration,
+    pump_supply_rate,
+    servo_valve_acceleration,
+    stribeck_friction,
+    stribeck_friction_slope,
+    supply_flow,
+)
+from ._signals import NO_REFCOUNT, eval_signal
+
+FULL, REDUCED, PWA = 0, 1, 2
+N_STATES = (7, 3, 3)
+
+# Packed parameter vector layout (see hydropwa.models.pack_params).
+I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = 0, 1, 2, 3, 4, 5
+I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = 6, 7, 8, 9, 10, 11, 12, 13
+I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = 14, 15, 16, 17, 18
+I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = 19, 20, 21, 22, 23, 24
+I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
+    25,
+    26,
+    27,
+    28,
+    29,
+    30,
+    31,
+    32,
+    33,
+)
+I_CLOAD = 34  # viscous damping of the attached load (counter cylinder) [N·s/m]
+N_BASE = 40
+# PWA section (written by hydropwa.linearization.pack_pwa)
+I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = 40, 41, 42, 43, 44, 45, 46
+I_CELLS = 50
+
+# Status codes of integrate()
+OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
+
+
+@njit(cache=False, nogil=True)
+def n_states(kind):
+    """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
+    return 7 if kind == FULL else 3
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def _inputs(t, sg):
+    """Evaluate the three packed input signals u, P_S, F_L at time t.
+
+    Inlined into its callers; constant signals (kind 0, value at sg[16 + 8i]) are read
+    here without a call to :func:`eval_signal`.
+    """
+    u = sg[16] if sg[0] == 0.0 else eval_signal(sg, 0, t)
+    ps = sg[24] if sg[1] == 0.0 else eval_signal(sg, 1, t)
+    fl = sg[32] if sg[2] == 0.0 else eval_signal(sg, 2, t)
+    return u, ps, fl
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _friction(v, p):
+    return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _opening(nu, p):
+    return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def rhs_full(y, u, ps_in, fl, p, dy):
+    """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
+    nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
+    pump = p[I_PUMP] > 0.5
+    ps = y[6] if pump else ps_in
+    z = _opening(nu, p)
+    qa, qb = orifice_flows(z, pa, pb, ps, p[I_PT], p[I_K], p[I_PTR])
+    dpa, dpb = chamber_pressure_rates(
+        qa,
+        qb,
+        x,
+        v,
+        pa,
+        pb,
+        p[I_AA],
+        p[I_AB],
+        p[I_STROKE],
+        p[I_VA],
+        p[I_VB],
+        p[I_CL],
+        p[I_E],
+        p[I_PVAP],
+        p[I_PREL],
+    )
+    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    dy[0] = dnu
+    dy[1] = servo_valve_acceleration(nu, dnu, u, p[I_OMEGA0], p[I_ZETA])
+    dy[2] = dpa
+    dy[3] = dpb
+    dy[4] = v
+    dy[5] = piston_acceleration(pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
+    if pump:
+        dy[6] = pump_supply_rate(
+            ps,
+            supply_flow(z, qa, qb),
+            p[I_PSET],
+            p[I_QMAX],
+            p[I_DROOP],
+            p[I_VLINE],
+            p[I_E],
+            p[I_PRELIEF],
+            p[I_GRELIEF],
+        )
+    else:
+        dy[6] = 0.0
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def rhs_reduced(y, u, ps, fl, p, dy):
+    """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
+    pl, v, x = y[0], y[1], y[2]
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    z = _opening(u, p)
+    ql = load_flow(z, pl, ps, p[I_K], p[I_PTR])
+    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
+    dy[1] = piston_acceleration(abar * pl, _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
+    dy[2] = v
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _cell(p, start, n, xv):
+    """Index of the active cell among n cells whose n-1 breakpoints start at p[start]."""
+    i = 0
+    while i < n - 1 and xv >= p[start + i]:
+        i += 1
+    return i
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def pwa_cells(pl, v, u, ps_in, p):
+    """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
+    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
+    ps = ps_in if p[I_SCHED] > 0.5 else p[I_PSFIX]
+    s_g = I_CELLS
+    g = _cell(p, s_g, ng, u)
+    z = p[s_g + ng - 1 + g] * u + p[s_g + 2 * ng - 1 + g]
+    s_o = s_g + 3 * ng - 1
+    sgn = 1.0 if z >= 0.0 else -1.0
+    pn = sgn * pl / ps
+    o = _cell(p, s_o, no, pn)
+    s_n = s_o + 3 * no - 1
+    n = _cell(p, s_n, nn, pn)
+    s_w = s_n + 3 * nn - 1
+    w = _cell(p, s_w, nw, v)
+    return g, o, n, w, z, ps, pn
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def _pwa_layout(p):
+    """Cell counts (o, n, w) and where the o, n and w sections of the PWA cell table start in p.
+
+    Each section holds n − 1 breakpoints, then n slopes, then n offsets (see ``pack_pwa``).
+    """
+    ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
+    s_o = I_CELLS + 3 * ng - 1
+    s_n = s_o + 3 * no - 1
+    return no, nn, nw, s_o, s_n, s_n + 3 * nn - 1
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def rhs_pwa(y, u, ps_in, fl, p, dy):
+    """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
+
+    Q_L = z·C_q(P_L) − c·C_qp(P_L, z)·P_L with C_q = K√(P_S/2)(k̂_o p̃ + d̂_o),
+    C_qp = |z| K/(4√(P_S/2)) (k̂_n p̃ + d̂_n), p̃ = sign(z) P_L/P_S, c the paper-form flag.
+    """
+    pl, v, x = y[0], y[1], y[2]
+    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
+    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
+    root = math.sqrt(0.5 * ps)
+    K = p[I_K]
+    cq = K * root * (p[s_o + no - 1 + o] * pn + p[s_o + 2 * no - 1 + o])
+    ql = z * cq
+    if p[I_FORM] != 0.0:
+        cqp = abs(z) * K / (4.0 * root) * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
+        ql -= p[I_FORM] * cqp * pl  # -∂Q_L/∂P_L = C_qp for both signs of z
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    ff = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
+    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
+    dy[1] = piston_acceleration(abar * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
+    dy[2] = v
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _mechanics_jacobian(v, x, abar, p, J):
+    """Rows ẍ and ẋ of the reduced and PWA Jacobians, apart from ∂ẍ/∂ẋ's friction slope.
+
+    ∂ẍ/∂P_L = Ā/m, ∂ẍ/∂ẋ = (∂F_stop/∂ẋ − c_load)/m, ∂ẍ/∂x = ∂F_stop/∂x/m (Eqs. (15), (22));
+    ẋ = v gives the row [0, 1, 0].
+    """
+    m = p[I_MASS]
+    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    J[1, 0] = abar / m
+    J[1, 1] = (kv - p[I_CLOAD]) / m
+    J[1, 2] = kx / m
+    J[2, 0] = 0.0
+    J[2, 1] = 1.0
+    J[2, 2] = 0.0
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def jac_reduced(y, u, ps, fl, p, J):
+    """Exact Jacobian ∂f/∂y of :func:`rhs_reduced` (same inputs), written into J[:3, :3].
+
+    Row Ṗ_L of Eq. (14): 4E/V_t·[∂Q_L/∂P_L − C_L, −Ā, 0]; row ẍ of Eq. (15) with the
+    Stribeck slope df/dẋ (:func:`~hydropwa.components.stribeck_friction_slope`).
+    """
+    pl, v, x = y[0], y[1], y[2]
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    z = _opening(u, p)
+    J[0, 0] = c * (load_flow_slope(z, pl, ps, p[I_K], p[I_PTR]) - p[I_CL])
+    J[0, 1] = -c * abar
+    J[0, 2] = 0.0
+    _mechanics_jacobian(v, x, abar, p, J)
+    slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+    J[1, 1] -= slope / p[I_MASS]
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def jac_pwa(y, u, ps_in, fl, p, J):
+    """Exact Jacobian ∂f/∂y of :func:`rhs_pwa` inside the active cells (the state matrix A(σ)).
+
+    With p̃ = sign(z) P_L/P_S: ∂Q_L/∂P_L = z K√(P_S/2) k̂_o sign(z)/P_S
+    − c (C_qp + P_L |z| K/(4√(P_S/2)) k̂_n sign(z)/P_S); ∂ẍ/∂ẋ holds the friction cell slope.
+    """
+    pl, v, x = y[0], y[1], y[2]
+    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
+    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
+    root = math.sqrt(0.5 * ps)
+    K = p[I_K]
+    dpn = (1.0 if z >= 0.0 else -1.0) / ps  # ∂p̃/∂P_L
+    dql = z * K * root * p[s_o + no - 1 + o] * dpn
+    if p[I_FORM] != 0.0:
+        kz = abs(z) * K / (4.0 * root)
+        cqp = kz * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
+        dql -= p[I_FORM] * (cqp + pl * kz * p[s_n + nn - 1 + n] * dpn)
+    abar = 0.5 * (p[I_AA] + p[I_AB])
+    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    J[0, 0] = c * (dql - p[I_CL])
+    J[0, 1] = -c * abar
+    J[0, 2] = 0.0
+    _mechanics_jacobian(v, x, abar, p, J)
+    J[1, 1] -= p[s_w + nw - 1 + w] / p[I_MASS]
+
+
+@njit(cache=False, nogil=True, inline="always", **NO_REFCOUNT)
+def rhs_at(kind, y, u, ps, fl, p, dy):
+    """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
+    if kind == FULL:
+        rhs_full(y, u, ps, fl, p, dy)
+    elif kind == REDUCED:
+        rhs_reduced(y, u, ps, fl, p, dy)
+    else:
+        rhs_pwa(y, u, ps, fl, p, dy)
+
+
+@njit(cache=False, nogil=True)
+def rhs(kind, t, y, p, sg, dy):
+    """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
+    u, ps, fl = _inputs(t, sg)
+    rhs_at(kind, y, u, ps, fl, p, dy)
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+def _lu(a, piv, n):
+    """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
+    for k in range(n):
+        m = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                m = i
+        piv[k] = m
+        if m != k:
+            for j in range(n):
+                tmp = a[k, j]
+                a[k, j] = a[m, j]
+                a[m, j] = tmp
+        if a[k, k] == 0.0:
+            a[k, k] = 1e-300
+        inv = 1.0 / a[k, k]
+        for i in range(k + 1, n):
+            a[i, k] *= inv
+            f = a[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+def _solve(a, piv, B, r, n):
+    """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
+    for k in range(n):
+        m = piv[k]
+        if m != k:
+            tmp = B[r, k]
+            B[r, k] = B[r, m]
+            B[r, m] = tmp
+    for i in range(1, n):
+        s = B[r, i]
+        for j in range(i):
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s
+    for i in range(n - 1, -1, -1):
+        s = B[r, i]
+        for j in range(i + 1, n):
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s / a[i, i]
+
+
+# --- Rosenbrock tableaus -----------------------------------------------------
+# Solvers of integrate(): ROS23 is Shampine & Reichelt's ROS2(3) (MATLAB's ode23s);
+# ROS34PW2 is the L-stable, stiffly accurate Rosenbrock-W method of order 3 with
+# an embedded order-2 estimate (Rang & Angermann 2005). Being a W-method it keeps
+# its order with an approximate Jacobian, which is why a Jacobian may be reused.
+ROS23, ROS34PW2 = 0, 1
+SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2}
+
+
+def _transformed_tableau(alpha, gamma, b, b_hat):
+    """Coefficients of the form (I − hγJ) U_i = hγ (f(t + α_i h, y + Σ A_ij U_j) + Σ C_ij U_j / h + γ_i h f_t).
+
+    With U = Γ K (Hairer & Wanner, Sect. IV.7): A = αΓ⁻¹, C = −Γ⁻¹ (strictly lower
+    part), m = bΓ⁻¹ for the solution and e = (b − b̂)Γ⁻¹ for the error estimate.
+    """
+    g_inv = np.linalg.inv(gamma)
+    a_t = alpha @ g_inv
+    c_t = -np.tril(g_inv, -1)
+    return (
+        tuple(float(v) for v in a_t.ravel()),
+        tuple(float(v) for v in c_t.ravel()),
+        tuple(float(v) for v in alpha.sum(axis=1)),
+        tuple(float(v) for v in gamma.sum(axis=1)),
+        tuple(float(v) for v in b @ g_inv),
+        tuple(float(v) for v in (b - b_hat) @ g_inv),
+    )
+
+
+_G = 4.3586652150845900e-01
+_PW2 = _transformed_tableau(
+    np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0],
+            [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+            [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    ),
+    np.array(
+        [
+            [_G, 0.0, 0.0, 0.0],
+            [-8.7173304301691801e-01, _G, 0.0, 0.0],
+            [-9.0338057013044082e-01, 5.4180672388095326e-02, _G, 0.0],
+            [2.4212380706095346e-01, -1.2232505839045147e00, 5.4526025533510214e-01, _G],
+        ]
+    ),
+    np.array([2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, _G]),
+    np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01]),
+)
+PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E = (np.array(v) for v in _PW2)
+PW2_GAMMA = _G
+_D23 = 1.0 / (2.0 + math.sqrt(2.0))
+_E32 = 6.0 + math.sqrt(2.0)
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
+    """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
+
+    ∂f/∂y is exact for the reduced and PWA models when ``exact`` (:func:`jac_reduced`,
+    :func:`jac_pwa`), otherwise by forward differences with the inputs evaluated
+    once for the n state columns; columns known to vanish (P_S of the full model
+    without the pump) are skipped. ∂f/∂t is a forward difference, skipped when
+    every input is constant.
+    """
+    n = n_states(kind)
+    sqrt_eps = 1.4901161193847656e-08
+    nfev = 0
+    n_cols = n
+    if kind == FULL and p[I_PUMP] <= 0.5:
+        n_cols = 6
+        for i in range(n):
+            J[i, 6] = 0.0
+    if exact and kind == REDUCED:
+        jac_reduced(y, u, ps, fl, p, J)
+        n_cols = 0
+    elif exact and kind == PWA:
+        jac_pwa(y, u, ps, fl, p, J)
+        n_cols = 0
+    for j in range(n_cols):
+        for i in range(n):
+            yt[i] = y[i]
+        dj = sqrt_eps * max(abs(y[j]), scale[j])
+        yt[j] = y[j] + dj
+        rhs_at(kind, yt, u, ps, fl, p, ft)
+        for i in range(n):
+            J[i, j] = (ft[i] - f0[i]) / dj
+    nfev += n_cols
+    if sg[0] == 0.0 and sg[1] == 0.0 and sg[2] == 0.0:  # all inputs constant
+        for i in range(n):
+            dfdt[i] = 0.0
+    else:
+        dt = sqrt_eps * max(abs(t), 1e-3)
+        u2, ps2, fl2 = _inputs(t + dt, sg)
+        rhs_at(kind, y, u2, ps2, fl2, p, ft)
+        for i in range(n):
+            dfdt[i] = (ft[i] - f0[i]) / dt
+        nfev += 1
+    return nfev
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+def _factor(kind, J, W, piv, hg):
+    """W = I − hγ J, LU-factorised in place."""
+    n = n_states(kind)
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -hg * J[i, j]
+        W[i, i] += 1.0
+    _lu(W, piv, n)
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+def _step_ros34pw2(
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+):
+    """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
+    n = n_states(kind)
+    hg = h * PW2_GAMMA
+    for i in range(4):
+        if i == 0:
+            for k in range(n):
+                ft[k] = f0[k]
+        else:
+            for k in range(n):
+                s = y[k]
+                for j in range(i):
+                    s += PW2_A[4 * i + j] * U[j, k]
+                yt[k] = s
+            u, ps, fl = _inputs(
+                t + PW2_ALPHA[i] * h, sg
+            )  # α_4 = 1: reused for f(t + h)
+            rhs_at(kind, yt, u, ps, fl, p, ft)
+        for k in range(n):
+            s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
+            for j in range(i):
+                s += PW2_C[4 * i + j] / h * U[j, k]
+            U[i, k] = hg * s
+        _solve(W, piv, U, i, n)
+    for k in range(n):
+        s = y[k]
+        e = 0.0
+        for j in range(4):
+            s += PW2_M[j] * U[j, k]
+            e += PW2_E[j] * U[j, k]
+        ynew[k] = s
+        yerr[k] = e
+    rhs_at(kind, ynew, u, ps, fl, p, fnew)
+    return 4
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _step_ros23(
+    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+):
+    """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
+    n = n_states(kind)
+    hd = h * _D23
+    for i in range(n):
+        U[0, i] = f0[i] + hd * dfdt[i]
+    _solve(W, piv, U, 0, n)
+    for i in range(n):
+        yt[i] = y[i] + 0.5 * h * U[0, i]
+    u, ps, fl = _inputs(t + 0.5 * h, sg)
+    rhs_at(kind, yt, u, ps, fl, p, ft)
+    for i in range(n):
+        U[1, i] = ft[i] - U[0, i]
+    _solve(W, piv, U, 1, n)
+    for i in range(n):
+        U[1, i] += U[0, i]
+        ynew[i] = y[i] + h * U[1, i]
+    u, ps, fl = _inputs(t + h, sg)
+    rhs_at(kind, ynew, u, ps, fl, p, fnew)
+    for i in range(n):
+        U[2, i] = fnew[i] - _E32 * (U[1, i] - ft[i]) - 2.0 * (U[0, i] - f0[i]) + hd * dfdt[i]
+    _solve(W, piv, U, 2, n)
+    for i in range(n):
+        yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
+    return 2
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
+    """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
+
+    The interpolant matches y and f at both ends, so it is third-order accurate
+    and needs no extra right-hand-side calls.
+    """
+    n = n_states(kind)
+    n_out = t_out.shape[0]
+    t_new = t + h
+    while k_out < n_out and t_out[k_out] <= t_new + 1e-12 * max(1.0, abs(t_new)):
+        th = (t_out[k_out] - t) / h
+        th2 = th * th
+        h00 = 1.0 - 3.0 * th2 + 2.0 * th2 * th
+        h10 = th - 2.0 * th2 + th2 * th
+        h01 = 3.0 * th2 - 2.0 * th2 * th
+        h11 = th2 * th - th2
+        for i in range(n):
+            Y[k_out, i] = h00 * y[i] + h01 * ynew[i] + h * (h10 * f0[i] + h11 * fnew[i])
+        k_out += 1
+    return k_out
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"})
+def _integrate(
+    kind,
+    y0,
+    t_out,
+    p,
+    sg,
+    rtol,
+    scale,
+    h0,
+    hmax,
+    max_steps,
+    method=ROS34PW2,
+    jac_reuse=True,
+    gustafsson=True,
+    exact_jac=True,
+):
+    """Integrate model ``kind`` from t_out[0] with a Rosenbrock method, dense output at ``t_out``.
+
+    Parameters
+    ----------
+    kind : int
+        FULL, REDUCED or PWA.
+    y0 : ndarray
+        Initial state.
+    t_out : ndarray
+        Increasing output times [s]; integration runs from t_out[0] to t_out[-1].
+    p : ndarray
+        Packed parameters.
+    sg : ndarray
+        Packed input signals (kinds, parameters, sample times, values, offsets).
+    rtol : float
+        Relative tolerance; the absolute tolerance of state i is rtol·scale[i].
+    scale : ndarray
+        Typical magnitude of each state (SI).
+    h0, hmax : float
+        Initial and largest step [s].
+    max_steps : int
+        Step budget.
+    method : int
+        ROS34PW2 (default) or ROS23.
+    jac_reuse : bool
+        ROS34PW2 only: keep the Jacobian of the last evaluation after an accepted
+        step whose error was small (the W-method keeps its order); recomputed
+        after every rejection and at least every 8 steps.
+    gustafsson : bool
+        Use Gustafsson's predictive step-size controller after accepted steps.
+    exact_jac : bool
+        Reduced and PWA models: exact ∂f/∂y (:func:`jac_reduced`, :func:`jac_pwa`)
+        instead of finite differences; the full model always uses differences.
+
+    Returns
+    -------
+    Y : ndarray, shape (len(t_out), n)
+    n_done : int
+        Number of output rows filled.
+    status : int
+        OK, MAX_STEPS, STEP_COLLAPSE or NON_FINITE.
+    t_fail : float
+    y_fail : ndarray
+    stats : ndarray
+        [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
+
+    Notes
+    -----
+    The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
+    the step factor is 0.9·err^(−1/3) (a cube root, cheaper than pow), clipped to [0.2, 5] (no growth right after a rejection).
+    """
+    n = n_states(kind)
+    n_out = t_out.shape[0]
+    Y = np.empty((n_out, n))
+    y = y0.copy()
+    f0 = np.empty(n)
+    fnew = np.empty(n)
+    ft = np.empty(n)
+    yt = np.empty(n)
+    ynew = np.empty(n)
+    yerr = np.empty(n)
+    dfdt = np.empty(n)
+    U = np.empty((4, n))
+    J = np.empty((n, n))
+    W = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    atol = rtol * scale
+    stats = np.zeros(4 + 40000, dtype=np.int64)
+    k_out, status, t = _march(
+        kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
+        exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+    )
+    return Y, k_out, status, t, y, stats
+
+
+@njit(cache=False, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+def _march(
+    kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
+    exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+):
+    """The step loop of :func:`_integrate` on arrays it owns; returns (rows filled, status, t).
+
+    Allocation-free and compiled without reference counting, so the calls of the
+    stepper, the Jacobian and the dense output pass their many work arrays for free
+    (in a reference-counted caller each array argument costs an incref/decref pair).
+    ``y`` holds y0 on entry and the last accepted state on return; ``stats`` receives
+    [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
+    """
+    n = n_states(kind)
+    n_out = t_out.shape[0]
+    gamma = PW2_GAMMA if method == ROS34PW2 else _D23
+    reuse = jac_reuse and method == ROS34PW2
+    t = t_out[0]
+    t_end = t_out[n_out - 1]
+    for i in range(n):
+        Y[0, i] = y[i]
+    k_out = 1
+    u, ps, fl = _inputs(t, sg)
+    rhs_at(kind, y, u, ps, fl, p, f0)
+    nfev = 1
+    n_jac = 0
+    h = min(h0, hmax)
+    n_acc = 0
+    n_rej = 0
+    status = OK
+    need_jac = True
+    jac_age = 0
+    h_fact = -1.0
+    last_rejected = False
+    h_acc = -1.0
+    err_acc = 1.0
+    while k_out < n_out:
+        if n_acc + n_rej >= max_steps:
+            status = MAX_STEPS
+            break
+        hmin = 1e-14 * max(1.0, abs(t)) + 1e-15
+        if h < hmin:
+            status = STEP_COLLAPSE
+            break
+        if t + h > t_end:
+            h = t_end - t
+            if h < hmin:
+                h = hmin
+        if need_jac:
+            u, ps, fl = _inputs(t, sg)
+            nfev += _jacobian(
+                kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact_jac
+            )
+            n_jac += 1
+            need_jac = False
+            jac_age = 0
+            h_fact = -1.0
+        if h != h_fact:
+            _factor(kind, J, W, piv, h * gamma)
+            h_fact = h
+        if method == ROS34PW2:
+            nfev += _step_ros34pw2(
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+            )
+        else:
+            nfev += _step_ros23(
+                kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+            )
+        err = 0.0
+        finite = True
+        for i in range(n):
+            sc = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
+            err += (yerr[i] / sc) ** 2
+            if not math.isfinite(ynew[i]) or not math.isfinite(fnew[i]):
+                finite = False
+        err = math.sqrt(err / n)
+        if not finite or not math.isfinite(err):
+            n_rej += 1
+            h *= 0.25
+            need_jac = True
+            last_rejected = True
+            if h < hmin:
+                status = NON_FINITE
+                break
+            continue
+        if err <= 1.0:
+            k_out = _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew)
+            t = t + h
+            for i in range(n):
+                y[i] = ynew[i]
+                f0[i] = fnew[i]
+            n_acc += 1
+            if 20004 + n_acc < stats.shape[0]:
+                stats[20004 + n_acc] = int(t * 1e9)
+            jac_age += 1
+            need_jac = not reuse or jac_age >= 8 or err > 0.5
+            fac = 0.9 / np.cbrt(err) if err > 0.0 else 5.0
+            if gustafsson and h_acc > 0.0 and err > 0.0:
+                # predictive controller (Gustafsson 1994): fewer rejections in a row
+                fac = min(fac, 0.9 * (h / h_acc) * np.cbrt(err_acc / (err * err)))
+            h_acc = h
+            err_acc = max(err, 1e-4)
+            fac = min(5.0, max(0.2, fac))
+            if last_rejected and fac > 1.0:
+                fac = 1.0
+            # keep the factorisation when the step would barely change
+            if not (need_jac or fac < 1.0 or fac > 1.2):
+                fac = 1.0
+            h *= fac
+            if h > hmax:
+                h = hmax
+            last_rejected = False
+        else:
+            if 4 + n_rej < stats.shape[0]:
+                stats[4 + n_rej] = int(t * 1e9)
+            n_rej += 1
+            h *= max(0.2, 0.9 / np.cbrt(err))
+            need_jac = reuse and jac_age > 0
+            last_rejected = True
+    stats[0] = n_acc
+    stats[1] = n_rej
+    stats[2] = nfev
+    stats[3] = n_jac
+    return k_out, status, t
+
+
+@njit(cache=False, nogil=True)
+def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
+
+
+@njit(cache=False, nogil=True)
+def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
+
+
+@njit(cache=False, nogil=True)
+def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
+    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
+
+
+_ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
+
+
+@contextmanager
+def _interruptible():
+    """Re-raise a Ctrl-C that a compiled call reported as ``SystemError`` as what it is.
+
+    The signal handler may run while numba boxes a result; the dispatcher then returns
+    a result with the ``KeyboardInterrupt`` set, which Python turns into a
+    ``SystemError`` caused by it. Callers (and the CLI) expect a ``KeyboardInterrupt``.
+    """
+    try:
+        yield
+    except SystemError as exc:
+        cause = interrupt_cause(exc)
+        if cause is None:
+            raise
+        raise cause.with_traceback(None) from None
+
+
+def integrate(
+    kind,
+    y0,
+    t_out,
+    p,
+    sg,
+    rtol,
+    scale,
+    h0,
+    hmax,
+    max_steps,
+    method=ROS34PW2,
+    jac_reuse=True,
+    gustafsson=True,
+    exact_jac=True,
+):
+    """Integrate model ``kind``: :func:`_integrate` compiled for that model alone.
+
+    Each model has its own entry point in which ``kind`` is a compile-time
+    constant, so its machine code holds only its own right-hand side (compiled on
+    first use, cached on disk). Releases the GIL.
+    """
+    if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
+        raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
+    with _interruptible():
+        return _ENTRY[int(kind)](
+            y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), bool(jac_reuse),
+            bool(gustafsson), bool(exact_jac),
+        )
+
+
+def outputs(kind, t_out, Y, n_done, p, sg):
+    """Derived channels per output sample (see :func:`_outputs`)."""
+    with _interruptible():
+        return _outputs(kind, t_out, Y, n_done, p, sg)
+
+
+@njit(cache=False, nogil=True)
+def _outputs(kind, t_out, Y, n_done, p, sg):
+    """Derived channels per output sample.
+
+    Returns an array of shape (11, n_done) (one contiguous row per channel) with rows
+    u, spool, z, p_a, p_b, p_l, p_s, f_l, x, v, friction; for the PWA model (15, n_done)
+    with the active cells g, o, n, w in rows 11–14.
+    """
+    out = np.empty((15 if kind == PWA else 11, n_done))
+    _fill_outputs(kind, t_out, Y, n_done, p, sg, out)
+    return out
+
+
+@njit(cache=False, nogil=True, **NO_REFCOUNT)
+def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
+    """Body of :func:`outputs`, compiled without reference counting (no allocation)."""
+    for k in range(n_done):
+        t = t_out[k]
+        u, ps, fl = _inputs(t, sg)
+        if kind == FULL:
+            spool = Y[k, 0]
+            z = _opening(spool, p)
+            pa, pb = Y[k, 2], Y[k, 3]
+            if p[I_PUMP] > 0.5:
+                ps = Y[k, 6]
+            pl = pa - pb
+            x, v = Y[k, 4], Y[k, 5]
+            fr = _friction(v, p)
+        else:
+            pl, v, x = Y[k, 0], Y[k, 1], Y[k, 2]
+            spool = u
+            if kind == REDUCED:
+                z = _opening(u, p)
+                fr = _friction(v, p)
+            else:
+                g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
+                _no, _nn, nw, _so, _sn, s_w = _pwa_layout(p)
+                fr = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
+                out[11, k] = g
+                out[12, k] = o
+                out[13, k] = nn
+                out[14, k] = w
+            pa = 0.5 * (ps + pl)
+            pb = 0.5 * (ps - pl)
+        out[0, k] = u
+        out[1, k] = spool
+        out[2, k] = z
+        out[3, k] = pa
+        out[4, k] = pb
+        out[5, k] = pl
+        out[6, k] = ps
+        out[7, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
+        out[8, k] = x
+        out[9, k] = v
+        out[10, k] = fr
