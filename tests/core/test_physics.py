@@ -260,3 +260,45 @@ def test_dead_zone_is_odd_bounded_and_monotone(nu, beta, creep):
     assert z == -dead_zone(-nu, 1.0, beta, creep, beta)
     assert abs(z) <= 1.0
     assert dead_zone(nu + 1e-3, 1.0, beta, creep, beta * (1 - creep)) >= dead_zone(nu, 1.0, beta, creep, beta * (1 - creep)) - 1e-12
+
+
+def test_compiled_friction_elementaries_match_numpy():
+    """smooth_sign and abs_power: compiled scalar forms against NumPy (used on arrays).
+
+    expm1(2|x|)/(expm1(2|x|)+2) is within 4 ulp of tanh. exp(δ·ln|x|) carries the rounding
+    of ln|x| amplified by |δ·ln|x||, so its bound is 4 ulp·(1 + |δ·ln|x||): a few ulp for the
+    velocities of a simulation, ~10³ ulp only for |x| ~ 1e-250 where |x|^δ ≈ 0 anyway.
+    smooth_sign is exactly odd; both are exact at 0, and ±1 holds beyond |x| = 20.
+    """
+    from numba import njit
+
+    from hydropwa.components._physics import abs_power, smooth_sign
+
+    @njit
+    def compiled(xs, delta):
+        out = np.empty((2, xs.size))
+        for i in range(xs.size):
+            out[0, i] = smooth_sign(xs[i])
+            out[1, i] = abs_power(xs[i], delta)
+        return out
+
+    xs = np.concatenate([np.linspace(-25.0, 25.0, 20001), np.logspace(-300, 2, 2000), -np.logspace(-300, 2, 2000), [0.0]])
+    eps = np.finfo(float).eps
+    for delta in (0.5, 0.7305, 1.0, 2.0):
+        s, a = compiled(xs, delta)
+        assert np.all(np.abs(s - np.tanh(xs)) <= 4 * eps * np.abs(np.tanh(xs)))
+        ref = np.abs(xs) ** delta
+        with np.errstate(divide="ignore"):
+            amplification = 1.0 + np.abs(delta * np.log(np.where(xs == 0.0, 1.0, np.abs(xs))))
+        assert np.all(np.abs(a - ref) <= 4 * eps * amplification * ref)
+        assert np.array_equal(compiled(-xs, delta)[0], -s)
+    assert compiled(np.array([np.inf, -np.inf, 20.0]), 1.0)[0].tolist() == [1.0, -1.0, 1.0]
+
+
+def test_friction_channel_matches_compiled_friction(paper):
+    """The result's friction channel (NumPy over the row) equals the compiled law per sample (1e-13)."""
+    res = simulate(ReducedModel(paper), Sine(amplitude=0.3, frequency=2), duration=0.5)
+    fr = paper.friction
+    args = (fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)
+    per_sample = np.array([stribeck_friction(float(v), *args) for v in res["v"]])
+    assert np.allclose(res["friction"], per_sample, rtol=1e-13, atol=1e-12)
