@@ -572,27 +572,37 @@ def validate_run(
 
 
 def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]]:
-    """Split runs into sound ones and those with errors (:func:`check_run`), never silently.
+    """Split runs into sound ones and those left out, never silently.
 
     Parameters
     ----------
-    runs : iterable of Run
+    runs : Dataset or iterable of Run
+        A dataset (anything with ``names`` and ``dataset[name]``) is read run by run; a
+        run whose file cannot be read is left out, not raised.
     **check_options
         Passed to :func:`check_run`.
 
     Returns
     -------
     sound : list of Run
-        Runs without error-severity findings.
+        Runs that were read and have no error-severity finding of :func:`check_run`.
     rejected : list of (str, str)
-        (run name, one-line reason with channel, sample and time) for each run left out.
+        (run name, one-line reason) for each run left out: ``"cannot be read: ..."`` or
+        ``"bad data: ..."`` with the first error's channel, sample and time.
     """
     sound, rejected = [], []
+    if hasattr(runs, "names"):
+        dataset, runs = runs, []
+        for name in dataset.names:
+            try:
+                runs.append(dataset[name])
+            except DataError as exc:
+                rejected.append((name, f"cannot be read: {exc}"))
     for run in runs:
         errors = [i for i in check_run(run, **check_options) if i.severity == "error"]
         if errors:
             more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
-            rejected.append((run.name, f"{errors[0]}{more}"))
+            rejected.append((run.name, f"bad data: {errors[0]}{more}"))
         else:
             sound.append(run)
     return sound, rejected

@@ -494,19 +494,9 @@ def sound_runs(dataset) -> list:
     """
     from ..data import screen_runs
 
-    runs = []
-    names = getattr(dataset, "names", None)
-    if names is not None:
-        for n in names:
-            try:
-                runs.append(dataset[n])
-            except DataError as exc:
-                warnings.warn(f"run {n!r} skipped: cannot be read: {exc}", EvaluationWarning, stacklevel=2)
-    else:
-        runs = list(dataset)
-    sound, rejected = screen_runs(runs)
+    sound, rejected = screen_runs(dataset)
     for name, reason in rejected:
-        warnings.warn(f"run {name!r} skipped: bad data: {reason}", EvaluationWarning, stacklevel=2)
+        warnings.warn(f"run {name!r} skipped: {reason}", EvaluationWarning, stacklevel=2)
     return sound
 
 

@@ -51,30 +51,17 @@ def load_runs(source, skipped: list | None = None) -> list:
     IdentificationError
         If a folder holds no dataset.
     """
-    from .._errors import DataError
     from ..data import MANIFEST, read_dataset, screen_runs
 
     skipped = [] if skipped is None else skipped
-    runs: list = []
-
-    def add_dataset(ds) -> None:
-        for n in ds.names:
-            try:
-                runs.append(ds[n])
-            except DataError as exc:
-                skip(skipped, n, f"cannot be read: {exc}")
-
     if not isinstance(source, str | os.PathLike):
-        if hasattr(source, "names"):
-            add_dataset(source)
-        else:
-            runs.extend(source)
+        sources = [source]
     else:
         root = Path(source)
         if not root.is_dir():
             raise IdentificationError(f"data folder {str(root)!r} not found")
         if (root / MANIFEST).is_file():
-            add_dataset(read_dataset(root, validate=False, lazy=True))
+            subs = [root]
         else:
             subs = sorted(p for p in root.iterdir() if (p / MANIFEST).is_file())
             if not subs:
@@ -82,12 +69,14 @@ def load_runs(source, skipped: list | None = None) -> list:
                     f"{str(root)!r} holds no dataset (no {MANIFEST} in it or in its sub-folders); "
                     "hint: write one with `hydropwa rig run` or `hydropwa data convert`"
                 )
-            for sub in subs:
-                add_dataset(read_dataset(sub, validate=False, lazy=True))
-    sound, rejected = screen_runs(runs)
-    for name, reason in rejected:
-        skip(skipped, name, f"bad data: {reason}")
-    return sound
+        sources = [read_dataset(sub, validate=False, lazy=True) for sub in subs]
+    runs: list = []
+    for src in sources:
+        sound, rejected = screen_runs(src)
+        runs += sound
+        for name, reason in rejected:
+            skip(skipped, name, reason)
+    return runs
 
 
 @dataclasses.dataclass
