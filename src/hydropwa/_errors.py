@@ -16,6 +16,7 @@ __all__ = [
     "IdentificationError",
     "PwaError",
     "OutputExistsError",
+    "check_output",
     "interrupt_cause",
 ]
 

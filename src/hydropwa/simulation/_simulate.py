@@ -226,8 +226,9 @@ def simulate(
     rtol : float
         Relative tolerance (default :data:`DEFAULT_RTOL` = 1e-3); absolute tolerances are
         rtol × the model's state scale. See ``benchmarks/run.py`` for accuracy vs speed.
-        1e-3 already keeps the rod position of the paper rig within 0.1 mm of a
-        tight-tolerance reference (see ``tests/performance``); the default is tighter.
+        1e-3 keeps the rod position of the paper rig within 0.1 mm of a tight-tolerance
+        reference (see ``tests/performance``); pass 1e-5 or tighter for measurement-grade
+        pressures at sharp events.
     max_steps : int
         Step budget of the integrator.
     hmax : float, optional
