@@ -41,7 +41,10 @@ __all__ = [
     "supply_flow",
 ]
 
-_JIT = {"cache": True, "nogil": True, "fastmath": False}
+#: numba options of the compiled components. ``error_model="numpy"``: a division by zero gives
+#: inf or NaN, as in NumPy, instead of a test-and-raise on every division (parameters are
+#: validated positive, and the solver rejects non-finite steps).
+_JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 
 
 def smooth_sign(x):
@@ -55,7 +58,7 @@ def smooth_sign(x):
     return np.tanh(x)
 
 
-@overload(smooth_sign, jit_options={"nogil": True, "fastmath": False})
+@overload(smooth_sign, jit_options={"nogil": True, "fastmath": False, "error_model": "numpy"})
 def _smooth_sign_compiled(x):
     if isinstance(x, types.Float):
 
@@ -79,7 +82,7 @@ def abs_power(x, delta):
     return np.abs(x) ** delta
 
 
-@overload(abs_power, jit_options={"nogil": True, "fastmath": False})
+@overload(abs_power, jit_options={"nogil": True, "fastmath": False, "error_model": "numpy"})
 def _abs_power_compiled(x, delta):
     if isinstance(x, types.Float):
 
@@ -277,7 +280,8 @@ def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
     f = tanh(γ ẋ) (F_c + (F_s − F_c) exp(−|ẋ/χ|^δ)) + σ ẋ. Works on floats and
     on numpy arrays of velocities [m/s]; odd in ẋ by construction.
     """
-    return smooth_sign(gamma * v) * (f_c + (f_s - f_c) * np.exp(-abs_power(v / chi, delta))) + sigma * v
+    # v·(1/χ) rather than v/χ: the division then depends on χ alone, off the solver's critical path
+    return smooth_sign(gamma * v) * (f_c + (f_s - f_c) * np.exp(-abs_power(v * (1.0 / chi), delta))) + sigma * v
 
 
 @njit(**_JIT)
@@ -291,7 +295,7 @@ def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi:
     Used by the solver's Jacobians and by the tangent friction cells.
     """
     T = smooth_sign(gamma * v)
-    ad = abs_power(v / chi, delta)
+    ad = abs_power(v * (1.0 / chi), delta)
     e = math.exp(-ad)
     b = f_c + (f_s - f_c) * e
     t_over_v = T / v if v != 0.0 else gamma
@@ -342,7 +346,8 @@ def end_stop_force_slope(x: float, v: float, stroke: float, k: float, c: float):
 @njit(**_JIT)
 def piston_acceleration(hydraulic_force: float, friction: float, load: float, stop: float, mass: float) -> float:
     """Piston acceleration ẍ [m/s²] from Newton's law, Eqs. (10) and (15)."""
-    return (hydraulic_force - friction - load + stop) / mass
+    # times the reciprocal: the division depends on the mass alone and runs alongside the forces
+    return (hydraulic_force - friction - load + stop) * (1.0 / mass)
 
 
 @njit(**_JIT)

@@ -27,7 +27,10 @@ Speed
 ``integrate`` dispatches to one compiled entry point per model, in which the model
 kind (and so the state count) is a compile-time constant; the input signals are one
 packed vector (:func:`hydropwa.simulation.pack_signals`); the allocation-free helpers
-skip numba's reference counting (``NO_REFCOUNT``). See docs/architecture_performance.md.
+skip numba's reference counting (``NO_REFCOUNT``); ``error_model="numpy"`` drops the
+zero test numba puts before every division (non-finite results are caught per step);
+the LU factors keep the reciprocals of their pivots, so the four solves of a step
+multiply instead of divide. See docs/architecture_performance.md.
 """
 
 from __future__ import annotations
@@ -88,13 +91,13 @@ I_CELLS = 50
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def n_states(kind):
     """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
     return 7 if kind == FULL else 3
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t.
 
@@ -107,17 +110,17 @@ def _inputs(t, sg):
     return u, ps, fl
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _friction(v, p):
     return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
     nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
@@ -165,7 +168,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[6] = 0.0
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
@@ -178,7 +181,7 @@ def rhs_reduced(y, u, ps, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _cell(p, start, n, xv):
     """Index of the active cell among n cells whose n-1 breakpoints start at p[start]."""
     i = 0
@@ -187,7 +190,7 @@ def _cell(p, start, n, xv):
     return i
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def pwa_cells(pl, v, u, ps_in, p):
     """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
@@ -206,7 +209,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def _pwa_layout(p):
     """Cell counts (o, n, w) and where the o, n and w sections of the PWA cell table start in p.
 
@@ -218,7 +221,7 @@ def _pwa_layout(p):
     return no, nn, nw, s_o, s_n, s_n + 3 * nn - 1
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -243,7 +246,7 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _mechanics_jacobian(v, x, abar, p, J):
     """Rows ẍ and ẋ of the reduced and PWA Jacobians, apart from ∂ẍ/∂ẋ's friction slope.
 
@@ -260,7 +263,7 @@ def _mechanics_jacobian(v, x, abar, p, J):
     J[2, 2] = 0.0
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def jac_reduced(y, u, ps, fl, p, J):
     """Exact Jacobian ∂f/∂y of :func:`rhs_reduced` (same inputs), written into J[:3, :3].
 
@@ -279,7 +282,7 @@ def jac_reduced(y, u, ps, fl, p, J):
     J[1, 1] -= slope / p[I_MASS]
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def jac_pwa(y, u, ps_in, fl, p, J):
     """Exact Jacobian ∂f/∂y of :func:`rhs_pwa` inside the active cells (the state matrix A(σ)).
 
@@ -306,7 +309,7 @@ def jac_pwa(y, u, ps_in, fl, p, J):
     J[1, 1] -= p[s_w + nw - 1 + w] / p[I_MASS]
 
 
-@njit(cache=True, nogil=True, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
     if kind == FULL:
@@ -317,14 +320,14 @@ def rhs_at(kind, y, u, ps, fl, p, dy):
         rhs_pwa(y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def rhs(kind, t, y, p, sg, dy):
     """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
     u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _lu(a, piv, n):
     """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
@@ -343,6 +346,7 @@ def _lu(a, piv, n):
         if a[k, k] == 0.0:
             a[k, k] = 1e-300
         inv = 1.0 / a[k, k]
+        a[k, k] = inv  # the diagonal of U is stored inverted: _solve multiplies
         for i in range(k + 1, n):
             a[i, k] *= inv
             f = a[i, k]
@@ -351,7 +355,7 @@ def _lu(a, piv, n):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     for k in range(n):
@@ -369,7 +373,7 @@ def _solve(a, piv, B, r, n):
         s = B[r, i]
         for j in range(i + 1, n):
             s -= a[i, j] * B[r, j]
-        B[r, i] = s / a[i, i]
+        B[r, i] = s * a[i, i]
 
 
 # --- Rosenbrock tableaus -----------------------------------------------------
@@ -427,7 +431,7 @@ _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
@@ -473,7 +477,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     return nfev
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _factor(kind, J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = n_states(kind)
@@ -484,7 +488,7 @@ def _factor(kind, J, W, piv, hg):
     _lu(W, piv, n)
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -523,7 +527,7 @@ def _step_ros34pw2(
     return 4
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _step_ros23(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
@@ -553,7 +557,7 @@ def _step_ros23(
     return 2
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
 def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -576,7 +580,7 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     return k_out
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
 def _integrate(
     kind,
     y0,
@@ -668,7 +672,7 @@ def _integrate(
     return Y, k_out, status, t, y, stats
 
 
-@njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
 def _march(
     kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
     exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
@@ -792,17 +796,17 @@ def _march(
     return k_out, status, t
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
     return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
     return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac):
     return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, jac_reuse, gustafsson, exact_jac)
 
@@ -873,7 +877,7 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _outputs(kind, t_out, Y, n_done, p, sg):
     """Derived channels per output sample.
 
@@ -887,7 +891,7 @@ def _outputs(kind, t_out, Y, n_done, p, sg):
     return out
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
     """Body of :func:`outputs`, compiled without reference counting (no allocation)."""
     for k in range(n_done):

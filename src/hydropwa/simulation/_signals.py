@@ -54,7 +54,7 @@ _PAR = 16
 _DATA = _PAR + 8 * N_SIGNALS
 
 
-@njit(cache=True, nogil=True, **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def eval_signal(sg, i: int, t: float) -> float:
     """Value of packed signal ``i`` of ``sg`` at time ``t`` [s] (compiled; see :func:`pack_signals`)."""
     kind = sg[i]
@@ -99,7 +99,7 @@ def eval_signal(sg, i: int, t: float) -> float:
     return sg[a + n] + w * (sg[b + n] - sg[a + n])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def eval_packed(sg, i, t):
     """Packed signal ``i`` of ``sg`` at every time of the array ``t`` [s]."""
     out = np.empty(t.shape[0])
