@@ -492,7 +492,11 @@ def _factor(kind, J, W, piv, hg):
 def _step_ros34pw2(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
-    """One ROS34PW2 step from (t, y): fills ynew, fnew = f(t + h, ynew) and the error yerr."""
+    """One ROS34PW2 step from (t, y): fills ynew and the error yerr.
+
+    Returns (rhs calls, u, P_S, F_L at t + h). f(t + h, ynew) is left to the caller, which
+    evaluates it only for an accepted step (``fnew`` is untouched here).
+    """
     n = n_states(kind)
     hg = h * PW2_GAMMA
     for i in range(4):
@@ -523,15 +527,18 @@ def _step_ros34pw2(
             e += PW2_E[j] * U[j, k]
         ynew[k] = s
         yerr[k] = e
-    rhs_at(kind, ynew, u, ps, fl, p, fnew)
-    return 4
+    return 3, u, ps, fl
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _step_ros23(
     kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
 ):
-    """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2)."""
+    """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2).
+
+    Fills ynew, fnew = f(t + h, ynew) (its error estimate needs it) and yerr; returns
+    (rhs calls, u, P_S, F_L at t + h) like :func:`_step_ros34pw2`.
+    """
     n = n_states(kind)
     hd = h * _D23
     for i in range(n):
@@ -554,7 +561,7 @@ def _step_ros23(
     _solve(W, piv, U, 2, n)
     for i in range(n):
         yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
-    return 2
+    return 2, u, ps, fl
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
@@ -733,21 +740,31 @@ def _march(
             _factor(kind, J, W, piv, h * gamma)
             h_fact = h
         if method == ROS34PW2:
-            nfev += _step_ros34pw2(
+            n_rhs, u1, ps1, fl1 = _step_ros34pw2(
                 kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
             )
         else:
-            nfev += _step_ros23(
+            n_rhs, u1, ps1, fl1 = _step_ros23(
                 kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
             )
+        nfev += n_rhs
         err = 0.0
         finite = True
         for i in range(n):
             sc = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
             err += (yerr[i] / sc) ** 2
-            if not math.isfinite(ynew[i]) or not math.isfinite(fnew[i]):
+            if not math.isfinite(ynew[i]):
                 finite = False
         err = math.sqrt(err / n)
+        # ROS34PW2: f(t + h, ynew) (next step's first stage, dense output) only if accepted
+        fresh = method == ROS34PW2 and finite and err <= 1.0
+        if fresh:
+            rhs_at(kind, ynew, u1, ps1, fl1, p, fnew)
+            nfev += 1
+        if fresh or method != ROS34PW2:
+            for i in range(n):
+                if not math.isfinite(fnew[i]):
+                    finite = False
         if not finite or not math.isfinite(err):
             n_rej += 1
             h *= 0.25
