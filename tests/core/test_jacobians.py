@@ -178,3 +178,143 @@ def test_exact_and_difference_jacobians_give_the_same_motion(name):
     assert status == K.OK and n_done == len(res.t)
     # both within the benchmark's 0.1 mm of the truth, so within 0.2 mm of each other
     assert np.max(np.abs(Y[:, 2] - res["x"])) < 0.2e-3
+
+
+# --- ∂f/∂t: input rates and the models' exact time derivatives ---------------------------
+
+
+def test_dead_zone_slope_matches_differences_in_every_cell():
+    from hydropwa.components import dead_zone, dead_zone_slope
+
+    alpha, beta, creep, outer = 0.8, 0.05, 0.1, 0.045
+    for nu in (-0.95, -0.5, -0.03, 0.0, 0.02, 0.3, 0.9):  # saturated, open, band, ..., saturated
+        h = 1e-7
+        num = (dead_zone(nu + h, alpha, beta, creep, outer) - dead_zone(nu - h, alpha, beta, creep, outer)) / (2 * h)
+        assert dead_zone_slope(nu, alpha, beta, creep, outer) == pytest.approx(num, rel=1e-9, abs=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(z=st.floats(-1.0, 1.0), pl=st.floats(-1.2e7, 1.2e7), ps=st.floats(2e6, 2.5e7))
+def test_load_flow_input_slopes(z, pl, ps):
+    from hydropwa.components import load_flow_input_slopes
+
+    K_ = 2.5e-7
+    drop = 0.5 * (ps - pl) if z >= 0 else 0.5 * (ps + pl)
+    hp = 1e-4 * max(abs(ps), P_TR)
+    assume(abs(abs(drop) - P_TR) > hp)  # not across the laminar-band edge
+    dq_dz, dq_dps = load_flow_input_slopes(z, pl, ps, K_, P_TR)
+    hz = 1e-6
+    assume(z - hz >= 0 or z + hz < 0)  # the branch (sign of z) does not change in the stencil
+    _close(dq_dz, _central(lambda a: load_flow(a, pl, ps, K_, P_TR), z, hz), rel=1e-6, floor=1e-18)
+    _close(dq_dps, _central(lambda b: load_flow(z, pl, b, K_, P_TR), ps, hp), rel=1e-4, floor=1e-20)
+
+
+_SIGNALS = [
+    "sine:amplitude=0.4,frequency=1.3,phase=0.2,offset=0.1,start=0.2",
+    "chirp:amplitude=0.2,f0=1,f1=20,duration=2,offset=0.05,start=0.1",
+    "ramp:t0=0.3,t1=1.1,v0=-0.2,v1=0.5",
+    "step:time=0.5,before=0.1,after=0.3",
+    "constant:0.25",
+]
+
+
+@pytest.mark.parametrize("spec", _SIGNALS + ["sampled"])
+def test_signal_rates_match_differences(spec):
+    """eval_signal_rate is the right derivative of eval_signal for every signal kind.
+
+    Central differences (h = 1e-6 s) at times whose stencil holds no kink; tolerance
+    1e-6 relative plus 1e-9 (truncation h²·|f'''| ≤ 1e-12·(2π·20)³·0.2 ≈ 4e-7·rate).
+    """
+    from hydropwa.simulation import Sampled, as_signal
+    from hydropwa.simulation._signals import eval_packed, eval_signal_rate
+
+    if spec == "sampled":
+        ts = np.cumsum(np.r_[0.0, np.random.default_rng(1).uniform(0.01, 0.1, 40)])
+        sig = Sampled(ts, np.sin(3 * ts))
+    else:
+        sig = as_signal(spec, "", "u")
+    sg = pack_signals_one(sig)
+    h = 1e-6
+    kinks = {0.1, 0.2, 0.3, 0.5, 1.1, 2.1}
+    if spec == "sampled":
+        kinks |= set(sig.t)
+    t = np.linspace(-0.5, 3.0, 701)
+    t = t[[min(abs(tk - k) for k in kinks) > 3 * h for tk in t]]
+    num = (eval_packed(sg, 0, t + h) - eval_packed(sg, 0, t - h)) / (2 * h)
+    rate = np.array([eval_signal_rate(sg, 0, tk) for tk in t])
+    assert np.all(np.abs(rate - num) <= 1e-6 * np.abs(num) + 1e-9), np.max(np.abs(rate - num))
+    if spec.startswith("step"):  # the jump is not a rate: zero on both sides and at the jump
+        assert eval_signal_rate(sg, 0, 0.5) == 0.0
+    if spec.startswith("ramp"):  # right derivative at the corners
+        assert eval_signal_rate(sg, 0, 0.3) == pytest.approx(0.875, rel=1e-14)
+        assert eval_signal_rate(sg, 0, 1.1) == 0.0
+
+
+def pack_signals_one(sig):
+    from hydropwa.simulation import pack_signals
+
+    return pack_signals([sig])
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    kind=st.sampled_from([K.REDUCED, K.PWA]),
+    pl=st.floats(-9e6, 9e6),
+    v=st.floats(-0.3, 0.3),
+    u=st.floats(-1.0, 1.0),
+    ps=st.floats(5e6, 1.5e7),
+    rates=st.tuples(st.floats(-5.0, 5.0), st.floats(-1e8, 1e8), st.floats(-1e5, 1e5)),
+)
+def test_model_time_derivative_matches_differences(packed, pwa_scheduled, kind, pl, v, u, ps, rates):
+    """dfdt_reduced / dfdt_pwa equal Σ ∂f/∂input · rate over the inputs u, P_S, F_L.
+
+    Each partial ∂f/∂input by a central difference of rhs_at with a step of 1e-7 of the
+    input's scale (1, |P_S|, 1e4 N); the sum weighted by the rates is compared row-wise to
+    1e-4 of Σ|∂f/∂input · rate| plus the differences' rounding (PWA both with fixed and
+    with P_S-scheduled cells).
+    Stencils across a kink are skipped: the dead-zone corners, z = 0, the laminar band's
+    edges and PWA cell boundaries.
+    """
+    p = pwa_scheduled if kind == K.PWA and rates[1] > 0 else packed[kind]
+    y = np.array([pl, v, 0.1])
+    x0 = np.array([u, ps, 0.0])
+    steps = 1e-7 * np.array([1.0, ps, 1e4])
+    for i in range(2):  # the stencil stays inside the cells and on one side of every kink
+        lo, hi = x0.copy(), x0.copy()
+        lo[i] -= steps[i]
+        hi[i] += steps[i]
+        for a, b in ((lo, hi),):
+            za, zb = K._opening(a[0], p), K._opening(b[0], p)
+            assume((za >= 0) == (zb >= 0))
+            if kind == K.PWA:
+                assume(K.pwa_cells(pl, v, a[0], a[1], p)[:4] == K.pwa_cells(pl, v, b[0], b[1], p)[:4])
+    alpha, beta, outer = p[K.I_ALPHA], p[K.I_BETA], p[K.I_OUTER]
+    for corner in (beta, alpha + outer):
+        assume(abs(abs(u) - corner) > 2 * steps[0])
+    drop = 0.5 * (ps - pl) if K._opening(u, p) >= 0 else 0.5 * (ps + pl)
+    assume(abs(abs(drop) - p[K.I_PTR]) > steps[1])
+    num = np.zeros(3)
+    weight = np.zeros(3)
+    f_p, f_m = np.empty(3), np.empty(3)
+    for i in range(3):
+        hi, lo = x0.copy(), x0.copy()
+        hi[i] += steps[i]
+        lo[i] -= steps[i]
+        K.rhs_at(kind, y, hi[0], hi[1], hi[2], p, f_p)
+        K.rhs_at(kind, y, lo[0], lo[1], lo[2], p, f_m)
+        part = (f_p - f_m) / (2 * steps[i]) * rates[i]
+        num += part
+        # the partial, plus the difference's rounding (~ten ulp of f over the step)
+        weight += np.abs(part) + 1e-11 * np.maximum(np.abs(f_p), np.abs(f_m)) / steps[i] * abs(rates[i])
+    got = np.empty(3)
+    (K.dfdt_reduced if kind == K.REDUCED else K.dfdt_pwa)(y, u, ps, 0.0, *rates, p, got)
+    assert np.all(np.abs(got - num) <= 1e-4 * weight + 1e-9), (got, num)
+
+
+@pytest.fixture(scope="module")
+def pwa_scheduled():
+    """PWA cells scheduled on the measured P_S(t) (∂f/∂P_S ≠ 0)."""
+    prm = get_preset("paper")
+    p = linearize(prm).pack(command_amplitude=0.4)
+    p[K.I_SCHED] = 1.0
+    return p

@@ -23,11 +23,13 @@ from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled module
 __all__ = [
     "servo_valve_acceleration",
     "dead_zone",
+    "dead_zone_slope",
     "signed_sqrt",
     "signed_sqrt_slope",
     "orifice_flows",
     "load_flow",
     "load_flow_slope",
+    "load_flow_input_slopes",
     "effective_bulk_modulus",
     "chamber_pressure_rates",
     "load_pressure_rate",
@@ -135,6 +137,17 @@ def dead_zone(nu: float, alpha: float, beta: float, creep: float, outer_offset: 
 
 
 @njit(**_JIT)
+def dead_zone_slope(nu: float, alpha: float, beta: float, creep: float, outer_offset: float) -> float:
+    """Slope dz/dν [1] of :func:`dead_zone` (same cells): creep in the band, 1 in the open cells, 0 saturated."""
+    a = abs(nu)
+    if a < beta:
+        return creep
+    if a >= alpha + outer_offset:
+        return 0.0
+    return 1.0
+
+
+@njit(**_JIT)
 def signed_sqrt(dp: float, p_tr: float) -> float:
     """Regularised signed square root sign(Δp)·√|Δp| [√Pa] (NOTES.md item 3).
 
@@ -212,6 +225,17 @@ def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> 
     if z >= 0.0:
         return -0.5 * z * K * signed_sqrt_slope(0.5 * (p_s - p_l), p_tr)
     return 0.5 * z * K * signed_sqrt_slope(0.5 * (p_s + p_l), p_tr)
+
+
+@njit(**_JIT)
+def load_flow_input_slopes(z: float, p_l: float, p_s: float, K: float, p_tr: float):
+    """How :func:`load_flow` follows its inputs: (∂Q_L/∂z [m³/s], ∂Q_L/∂P_S [m³/(s·Pa)]).
+
+    ∂Q_L/∂z = K·√(½(P_S ∓ P_L)) is the flow gain K_q of Eq. (12); ∂Q_L/∂P_S = ½ z K
+    d√/dΔp. Used for the exact time derivative ∂f/∂t of the reduced model.
+    """
+    drop = 0.5 * (p_s - p_l) if z >= 0.0 else 0.5 * (p_s + p_l)
+    return K * signed_sqrt(drop, p_tr), 0.5 * z * K * signed_sqrt_slope(drop, p_tr)
 
 
 @njit(**_JIT)

@@ -28,6 +28,7 @@ __all__ = [
     "as_signal",
     "parse_signal",
     "eval_signal",
+    "eval_signal_rate",
     "pack_signals",
 ]
 
@@ -98,6 +99,48 @@ def eval_signal(sg, i: int, t: float) -> float:
     w = (t - sg[a]) / (sg[b] - sg[a])
     return sg[a + n] + w * (sg[b + n] - sg[a + n])
 
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def eval_signal_rate(sg, i: int, t: float) -> float:
+    """Time derivative of packed signal ``i`` at ``t`` [unit/s] (compiled; see :func:`eval_signal`).
+
+    The right derivative, as the solver steps forward: a ramp's slope on [t0, t1), a
+    sampled signal's slope on the interval [t_k, t_k+1) holding t (0 before the first
+    and from the last sample on), 0 for constants and steps (the jump itself is not a
+    rate), the analytic derivative of a sine or chirp inside its active span.
+    """
+    kind = sg[i]
+    r = _PAR + 8 * i
+    if kind == _CONSTANT or kind == _STEP:
+        return 0.0
+    if kind == _SINE:
+        if t < sg[r + 4]:
+            return 0.0
+        w = _TWO_PI * sg[r + 1]
+        return sg[r] * w * math.cos(w * (t - sg[r + 4]) + sg[r + 3])
+    if kind == _RAMP:
+        t0, t1 = sg[r], sg[r + 1]
+        return (sg[r + 3] - sg[r + 2]) / (t1 - t0) if t0 <= t < t1 else 0.0
+    if kind == _CHIRP:
+        amp, f0, f1, dur, start = sg[r], sg[r + 1], sg[r + 2], sg[r + 3], sg[r + 5]
+        tau = t - start
+        if tau < 0.0 or tau >= dur:
+            return 0.0
+        th = _TWO_PI * (f0 * tau + 0.5 * (f1 - f0) * tau * tau / dur)
+        return amp * math.cos(th) * _TWO_PI * (f0 + (f1 - f0) * tau / dur)
+    lo = int(sg[3 + i])
+    n = int(sg[6 + i])
+    if t < sg[lo] or t >= sg[lo + n - 1]:
+        return 0.0
+    a, b = lo, lo + n - 1  # sg[a] <= t < sg[b]
+    while b - a > 1:
+        m = (a + b) >> 1
+        if sg[m] <= t:
+            a = m
+        else:
+            b = m
+    return (sg[b + n] - sg[a + n]) / (sg[b] - sg[a])
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def eval_packed(sg, i, t):
