@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
@@ -231,6 +232,9 @@ class Constant(Signal):
     def peak(self, duration: float) -> float:
         return abs(self.value)
 
+    def __call__(self, t):
+        return np.full(np.shape(t), self.value) if np.ndim(t) else self.value
+
 
 @dataclass(frozen=True)
 class Step(Signal):
@@ -356,7 +360,7 @@ def as_signal(value, unit: str = "", name: str = "signal") -> Signal:
     if isinstance(value, int | float | np.floating | np.integer):
         return Constant(float(value))
     if isinstance(value, str):
-        return parse_signal(value, unit=unit, name=name)
+        return _parse_cached(value, unit, name)
     if isinstance(value, tuple) and len(value) == 2:
         return Sampled(np.asarray(value[0]), np.asarray(value[1]))
     raise SignalError(
@@ -376,6 +380,12 @@ _FIRST = {"constant": "value", "step": "after", "ramp": "v1", "sine": "amplitude
 #: Parameters that carry the signal's own unit; the rest are times/frequencies/angles.
 _VALUED = {"value", "before", "after", "v0", "v1", "amplitude", "offset"}
 _TIMED = {"time": "s", "t0": "s", "t1": "s", "start": "s", "duration": "s", "frequency": "Hz", "f0": "Hz", "f1": "Hz", "phase": "rad"}
+
+
+@lru_cache(maxsize=256)
+def _parse_cached(spec: str, unit: str, name: str) -> Signal:
+    """:func:`parse_signal`, remembered: specs parse to frozen signals, so repeats share one."""
+    return parse_signal(spec, unit, name)
 
 
 def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:

@@ -308,7 +308,8 @@ def simulate(
     wall = _time.perf_counter() - t0
     Y = Y[:n_done]
     out = K.outputs(mdl.kind, t_out, Y, n_done, p, sg)
-    channels = {"t": t_out[:n_done].copy()}
+    # the times are the caller's array when t was given: copy them then, not our own grid
+    channels = {"t": t_out[:n_done] if t is None else t_out[:n_done].copy()}
     for i, name in enumerate(_OUT_COLS):
         channels[name] = out[i]  # contiguous row, no copy needed
     if mdl.kind == K.PWA:
