@@ -90,16 +90,22 @@ def eval_signal(sg, i: int, t: float) -> float:
         return sg[lo + n]
     if t >= sg[lo + n - 1]:
         return sg[lo + 2 * n - 1]
-    a, b = lo, lo + n - 1  # sg[a] < t < sg[b]
+    a = _sample_interval(sg, lo, n, t)
+    w = (t - sg[a]) / (sg[a + 1] - sg[a])
+    return sg[a + n] + w * (sg[a + 1 + n] - sg[a + n])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _sample_interval(sg, lo, n, t):
+    """Index a of the sample interval sg[a] ≤ t < sg[a + 1] (binary search); needs sg[lo] ≤ t < sg[lo + n − 1]."""
+    a, b = lo, lo + n - 1
     while b - a > 1:
         m = (a + b) >> 1
         if sg[m] <= t:
             a = m
         else:
             b = m
-    w = (t - sg[a]) / (sg[b] - sg[a])
-    return sg[a + n] + w * (sg[b + n] - sg[a + n])
-
+    return a
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -134,14 +140,8 @@ def eval_signal_rate(sg, i: int, t: float) -> float:
     n = int(sg[6 + i])
     if t < sg[lo] or t >= sg[lo + n - 1]:
         return 0.0
-    a, b = lo, lo + n - 1  # sg[a] <= t < sg[b]
-    while b - a > 1:
-        m = (a + b) >> 1
-        if sg[m] <= t:
-            a = m
-        else:
-            b = m
-    return (sg[b + n] - sg[a + n]) / (sg[b] - sg[a])
+    a = _sample_interval(sg, lo, n, t)
+    return (sg[a + 1 + n] - sg[a + n]) / (sg[a + 1] - sg[a])
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def eval_packed(sg, i, t):
