@@ -10,9 +10,12 @@ one line. The fake kernels below raise exactly that chain.
 
 from __future__ import annotations
 
+import os
+import signal
+
 import pytest
 
-from hydropwa import ReducedModel, get_preset, simulate
+from hydropwa import ReducedModel, _interrupt, get_preset, simulate
 from hydropwa._errors import interrupt_cause
 from hydropwa.cli import main
 from hydropwa.simulation import _kernel as K
@@ -69,3 +72,76 @@ class _passthrough:
 
     def __exit__(self, *exc):
         return False
+
+
+# --- a Ctrl-C that a finalizer swallows -------------------------------------------------
+# Python runs its SIGINT handler in whatever the main thread executes; inside a finalizer
+# (here a __del__, in `hydropwa paper` multiprocessing's Finalize callbacks) the
+# KeyboardInterrupt is reported as "Exception ignored" and dropped. Seen in CI: the study
+# ran to the end after Ctrl-C and exited 0.
+
+
+def _swallowed_ctrl_c():
+    """Deliver SIGINT so that its handler runs inside a finalizer, which drops the interrupt."""
+
+    class Dropper:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000):  # the handler runs at one of these bytecodes, inside __del__
+                pass
+
+    Dropper()  # collected at once (reference count 0)
+
+
+@pytest.fixture
+def recording():
+    assert _interrupt.install(), "SIGINT is not at Python's default handler in this test run"
+    yield
+    _interrupt.uninstall()
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_a_swallowed_ctrl_c_is_recorded_and_raised_at_the_next_checkpoint(recording, capsys):
+    _swallowed_ctrl_c()  # returns normally: the finalizer dropped the KeyboardInterrupt
+    assert _interrupt.pending()
+    assert "Traceback" not in capsys.readouterr().err  # recorded by the hook, not printed
+    with pytest.raises(KeyboardInterrupt):
+        _interrupt.checkpoint()
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_a_study_stage_does_not_start_after_a_swallowed_ctrl_c(recording, tmp_path):
+    from hydropwa.evaluation._stages import StageRunner
+
+    _swallowed_ctrl_c()
+    ran = []
+    with pytest.raises(KeyboardInterrupt):
+        StageRunner(tmp_path).run("identify", "inputs", lambda: ran.append(1) or ([], {}))
+    assert not ran
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_uninstall_reports_and_forgets_the_interrupt(recording):
+    _swallowed_ctrl_c()
+    assert _interrupt.uninstall() is True
+    assert not _interrupt.pending()
+    _interrupt.checkpoint()  # library use after the CLI: a no-op
+    assert _interrupt.uninstall() is False
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(monkeypatch, tmp_path, capsys):
+    real = K._ENTRY[K.REDUCED]
+
+    def kernel_during_which_ctrl_c_is_swallowed(*args):
+        _swallowed_ctrl_c()
+        return real(*args)
+
+    monkeypatch.setitem(K._ENTRY, K.REDUCED, kernel_during_which_ctrl_c_is_swallowed)
+    code = main(["simulate", "-m", "reduced", "-d", "0.1", "-o", str(tmp_path / "r.csv")])
+    assert code == 130
+    assert capsys.readouterr().err.strip().endswith("error: interrupted; finished files are kept, rerun to resume")
+    # main() gives SIGINT back and forgets the interrupt: later library calls are not stopped
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert not _interrupt.pending()
+    _interrupt.checkpoint()

@@ -13,6 +13,7 @@ import warnings
 import click
 import typer
 
+from .. import _interrupt
 from .._errors import HydropwaError, interrupt_cause
 from ._core import params_app, simulate_command
 
@@ -79,6 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
     warnings.showwarning = _showwarning
     command = typer.main.get_command(app)
+    _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:
         rv = command.main(args=argv, prog_name="hydropwa", standalone_mode=False)
     except HydropwaError as exc:
@@ -102,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
         code = 2
     else:
         code = rv if isinstance(rv, int) else 0
+    finally:
+        interrupted = _interrupt.uninstall()
+    if interrupted:  # a Ctrl-C was recorded, even if the command ran on and returned
+        code = 130
     if code == 130:  # Ctrl-C, however it arrived: typer (>= 0.20) returns it as Exit(130)
         print(_INTERRUPTED, file=sys.stderr)
     if argv is None:

@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
+from .. import _interrupt
 from .._io import atomic_write_text
 
 __all__ = ["STAGE_DIR", "file_hash", "text_hash", "tree_files", "StageRunner"]
@@ -95,6 +96,7 @@ class StageRunner:
 
         ``work()`` returns (output files, extra manifest entries such as ``notes``).
         """
+        _interrupt.checkpoint()  # a Ctrl-C a finalizer swallowed stops before the next stage
         t0 = time.perf_counter()
         m = self.finished(name, inputs)
         reused = m is not None

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _interrupt
 from .._errors import HydropwaError
 from .._io import atomic_path, atomic_write_text
 from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
@@ -539,6 +540,7 @@ def _stage_evaluate(
         frames, cells, stage_notes, files = [], [], [], []
         example = None
         for k, run in enumerate(runs):
+            _interrupt.checkpoint()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 res = evaluate_run(run, ident, models=("full", "reduced", "pwa", "pwa-scheduled"))

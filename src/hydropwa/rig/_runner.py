@@ -19,11 +19,12 @@ import hashlib
 import json
 import os
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from .. import __version__, _interrupt
 from .._errors import DataError, ParameterError
 from .._io import atomic_write_text
 from ..data import MANIFEST, Dataset
@@ -142,16 +143,28 @@ def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
     return execute(rig, spec, run_seed(seed, spec.experiment, spec.name), base_meta)
 
 
-def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int) -> Iterator:
-    """Measured runs in plan order, computed in this process or in a process pool."""
+@contextmanager
+def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int) -> Iterator[Iterator]:
+    """Measured runs in plan order, computed in this process or in a process pool.
+
+    A context manager around the iterator, not a generator of runs: an exception in the
+    caller's loop body (a Ctrl-C while a run is written) then passes through here, and the
+    pool is shut down at once (pending runs cancelled). Left to a suspended generator, the
+    shutdown waited for garbage collection; at interpreter exit multiprocessing then joined
+    workers that never got their stop sentinel, and ``hydropwa paper`` hung after Ctrl-C.
+    """
     fn = partial(_worker, rig, seed, base_meta)
     if jobs <= 1 or len(specs) <= 1:
-        yield from map(fn, specs)
+        yield map(fn, specs)
         return
     with cf.ProcessPoolExecutor(
         max_workers=min(jobs, len(specs)), initializer=_init_worker, initargs=(os.getpid(),)
     ) as pool:
-        yield from pool.map(fn, specs, chunksize=1)
+        try:
+            yield pool.map(fn, specs, chunksize=1)
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 def _rich_progress():
@@ -223,13 +236,15 @@ def run_experiment(
         bar.start()
         task = bar.add_task(experiment.name, total=total, completed=done)
     try:
-        for run in _results(rig, specs, seed, base_meta, jobs):
-            ds.add_run(run, format=format, overwrite=True)
-            done += 1
-            if bar is not None:
-                bar.update(task, completed=done)
-            elif callable(progress):
-                progress(experiment.name, done, total)
+        with _results(rig, specs, seed, base_meta, jobs) as results:
+            for run in results:
+                ds.add_run(run, format=format, overwrite=True)
+                _interrupt.checkpoint()  # a Ctrl-C a finalizer swallowed stops here (see hydropwa._interrupt)
+                done += 1
+                if bar is not None:
+                    bar.update(task, completed=done)
+                elif callable(progress):
+                    progress(experiment.name, done, total)
     finally:
         if bar is not None:
             bar.stop()
