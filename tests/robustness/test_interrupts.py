@@ -94,10 +94,28 @@ def _swallowed_ctrl_c():
 
 
 @pytest.fixture
-def recording():
-    assert _interrupt.install(), "SIGINT is not at Python's default handler in this test run"
+def default_sigint():
+    """SIGINT at Python's default handler for the test (a test run started in the background
+    by a non-interactive shell has it ignored, and then the CLI leaves Ctrl-C alone)."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
+@pytest.fixture
+def recording(default_sigint):
+    assert _interrupt.install()
     yield
     _interrupt.uninstall()
+
+
+def test_the_cli_leaves_an_ignored_sigint_ignored():
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)  # e.g. `hydropwa paper &` from a script
+    try:
+        assert _interrupt.install() is False
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
@@ -130,7 +148,7 @@ def test_uninstall_reports_and_forgets_the_interrupt(recording):
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
-def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(monkeypatch, tmp_path, capsys):
+def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(monkeypatch, tmp_path, capsys, default_sigint):
     real = K._ENTRY[K.REDUCED]
 
     def kernel_during_which_ctrl_c_is_swallowed(*args):

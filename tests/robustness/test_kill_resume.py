@@ -36,6 +36,16 @@ def _listed_runs(out: Path) -> dict[str, str]:
     return files
 
 
+def _foreground_sigint() -> None:
+    """In the child before exec: Ctrl-C at its default, as for a job in the foreground of a terminal.
+
+    A process started in the background by a non-interactive shell (``cmd &``, as CI runners
+    and ``nohup`` do) has SIGINT ignored, and an ignored signal stays ignored across exec: the
+    study then never saw the Ctrl-C, ran to the end and exited 0 with nothing on stderr.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(out: Path) -> subprocess.Popen:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     return subprocess.Popen(
@@ -44,6 +54,7 @@ def _start(out: Path) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         env=env,
         start_new_session=True,  # its own process group, like a job in a terminal
+        preexec_fn=_foreground_sigint,
     )
 
 
