@@ -32,6 +32,7 @@ __all__ = [
     "load_flow_input_slopes",
     "effective_bulk_modulus",
     "chamber_pressure_rates",
+    "load_pressure_gain",
     "load_pressure_rate",
     "stribeck_friction",
     "stribeck_friction_slope",
@@ -292,9 +293,15 @@ def chamber_pressure_rates(
 
 
 @njit(**_JIT)
+def load_pressure_gain(E: float, total_volume: float) -> float:
+    """4E/V_t [Pa/m³]: the load-pressure rise per unit of net load flow, the factor of Eq. (14)."""
+    return 4.0 * E / total_volume
+
+
+@njit(**_JIT)
 def load_pressure_rate(q_l: float, v: float, p_l: float, mean_area: float, total_volume: float, leak: float, E: float):
     """Load-pressure rate Ṗ_L [Pa/s] of the reduced model, Eq. (14)."""
-    return 4.0 * E / total_volume * (q_l - mean_area * v - leak * p_l)
+    return load_pressure_gain(E, total_volume) * (q_l - mean_area * v - leak * p_l)
 
 
 @njit(**_JIT)

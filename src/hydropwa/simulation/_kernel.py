@@ -52,6 +52,7 @@ from ..components._physics import (
     load_flow,
     load_flow_input_slopes,
     load_flow_slope,
+    load_pressure_gain,
     load_pressure_rate,
     orifice_flows,
     piston_acceleration,
@@ -131,6 +132,18 @@ def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _mean_area(p):
+    """Ā = (A_A + A_B)/2 [m²] of the reduced and PWA models, Eqs. (14)–(15)."""
+    return 0.5 * (p[I_AA] + p[I_AB])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _load_gain(p):
+    """4E/V_t [Pa/m³] of Eq. (14) (:func:`~hydropwa.components.load_pressure_gain`)."""
+    return load_pressure_gain(p[I_E], p[I_VA] + p[I_VB])
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (NOTES item 1)."""
@@ -183,7 +196,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
     pl, v, x = y[0], y[1], y[2]
-    abar = 0.5 * (p[I_AA] + p[I_AB])
+    abar = _mean_area(p)
     z = _opening(u, p)
     ql = load_flow(z, pl, ps, p[I_K], p[I_PTR])
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
@@ -233,6 +246,20 @@ def _pwa_layout(p):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _pwa_flow_coeffs(p, o, n):
+    """Slope and offset (k̂_o, d̂_o) of flow cell o and (k̂_n, d̂_n) of flow-pressure cell n."""
+    no, nn, _nw, s_o, s_n, _s_w = _pwa_layout(p)
+    return p[s_o + no - 1 + o], p[s_o + 2 * no - 1 + o], p[s_n + nn - 1 + n], p[s_n + 2 * nn - 1 + n]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _pwa_friction_cell(p, w):
+    """Slope [N·s/m] and offset [N] of friction cell w (Table V): f = slope·ẋ + offset."""
+    _no, _nn, nw, _s_o, _s_n, s_w = _pwa_layout(p)
+    return p[s_w + nw - 1 + w], p[s_w + 2 * nw - 1 + w]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
@@ -241,16 +268,16 @@ def rhs_pwa(y, u, ps_in, fl, p, dy):
     """
     pl, v, x = y[0], y[1], y[2]
     g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
+    k_o, d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
     root = math.sqrt(0.5 * ps)
     K = p[I_K]
-    cq = K * root * (p[s_o + no - 1 + o] * pn + p[s_o + 2 * no - 1 + o])
-    ql = z * cq
+    ql = z * (K * root * (k_o * pn + d_o))  # z·C_q
     if p[I_FORM] != 0.0:
-        cqp = abs(z) * K / (4.0 * root) * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
+        cqp = abs(z) * K / (4.0 * root) * (k_n * pn + d_n)
         ql -= p[I_FORM] * cqp * pl  # -∂Q_L/∂P_L = C_qp for both signs of z
-    abar = 0.5 * (p[I_AA] + p[I_AB])
-    ff = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
+    abar = _mean_area(p)
+    f_slope, f_offset = _pwa_friction_cell(p, w)
+    ff = f_slope * v + f_offset
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
     dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
     dy[1] = piston_acceleration(abar * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
@@ -282,8 +309,8 @@ def jac_reduced(y, u, ps, fl, p, J):
     Stribeck slope df/dẋ (:func:`~hydropwa.components.stribeck_friction_slope`).
     """
     pl, v, x = y[0], y[1], y[2]
-    abar = 0.5 * (p[I_AA] + p[I_AB])
-    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    abar = _mean_area(p)
+    c = _load_gain(p)
     z = _opening(u, p)
     J[0, 0] = c * (load_flow_slope(z, pl, ps, p[I_K], p[I_PTR]) - p[I_CL])
     J[0, 1] = -c * abar
@@ -302,22 +329,22 @@ def jac_pwa(y, u, ps_in, fl, p, J):
     """
     pl, v, x = y[0], y[1], y[2]
     g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
+    k_o, _d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
     root = math.sqrt(0.5 * ps)
     K = p[I_K]
     dpn = (1.0 if z >= 0.0 else -1.0) / ps  # ∂p̃/∂P_L
-    dql = z * K * root * p[s_o + no - 1 + o] * dpn
+    dql = z * K * root * k_o * dpn
     if p[I_FORM] != 0.0:
         kz = abs(z) * K / (4.0 * root)
-        cqp = kz * (p[s_n + nn - 1 + n] * pn + p[s_n + 2 * nn - 1 + n])
-        dql -= p[I_FORM] * (cqp + pl * kz * p[s_n + nn - 1 + n] * dpn)
-    abar = 0.5 * (p[I_AA] + p[I_AB])
-    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+        cqp = kz * (k_n * pn + d_n)
+        dql -= p[I_FORM] * (cqp + pl * kz * k_n * dpn)
+    abar = _mean_area(p)
+    c = _load_gain(p)
     J[0, 0] = c * (dql - p[I_CL])
     J[0, 1] = -c * abar
     J[0, 2] = 0.0
     _mechanics_jacobian(v, x, abar, p, J)
-    J[1, 1] -= p[s_w + nw - 1 + w] / p[I_MASS]
+    J[1, 1] -= _pwa_friction_cell(p, w)[0] / p[I_MASS]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -331,7 +358,7 @@ def dfdt_reduced(y, u, ps, fl, du, dps, dfl, p, dfdt):
     z = _opening(u, p)
     dq_dz, dq_dps = load_flow_input_slopes(z, y[0], ps, p[I_K], p[I_PTR])
     dz_du = dead_zone_slope(u, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
-    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    c = _load_gain(p)
     dfdt[0] = c * (dq_dz * dz_du * du + dq_dps * dps)
     dfdt[1] = -dfl / p[I_MASS]
     dfdt[2] = 0.0
@@ -346,12 +373,10 @@ def dfdt_pwa(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
     """
     pl = y[0]
     g, o, n, w, z, ps, pn = pwa_cells(pl, y[1], u, ps_in, p)
-    no, nn, nw, s_o, s_n, s_w = _pwa_layout(p)
     k_g = p[I_CELLS + int(p[I_NG]) - 1 + g]
+    k_o, d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
     root = math.sqrt(0.5 * ps)
     K = p[I_K]
-    k_o, d_o = p[s_o + no - 1 + o], p[s_o + 2 * no - 1 + o]
-    k_n, d_n = p[s_n + nn - 1 + n], p[s_n + 2 * nn - 1 + n]
     form = p[I_FORM]
     dq_dz = K * root * (k_o * pn + d_o)  # C_q
     if form != 0.0:
@@ -364,7 +389,7 @@ def dfdt_pwa(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
         if form != 0.0:
             d_cqp = abs(z) * K * 0.25 * (-d_root / (root * root) * (k_n * pn + d_n) + k_n * d_pn / root)
             dq_dps -= form * d_cqp * pl
-    c = 4.0 * p[I_E] / (p[I_VA] + p[I_VB])
+    c = _load_gain(p)
     dfdt[0] = c * (dq_dz * k_g * du + dq_dps * dps)
     dfdt[1] = -dfl / p[I_MASS]
     dfdt[2] = 0.0
@@ -1003,8 +1028,8 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
                 fr = 0.0
             else:
                 g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
-                _no, _nn, nw, _so, _sn, s_w = _pwa_layout(p)
-                fr = p[s_w + nw - 1 + w] * v + p[s_w + 2 * nw - 1 + w]
+                f_slope, f_offset = _pwa_friction_cell(p, w)
+                fr = f_slope * v + f_offset
                 out[11, k] = g
                 out[12, k] = o
                 out[13, k] = nn
