@@ -109,7 +109,7 @@ def recording(default_sigint):
     _interrupt.uninstall()
 
 
-def test_the_cli_leaves_an_ignored_sigint_ignored():
+def test_an_ignored_sigint_stays_ignored():
     old = signal.signal(signal.SIGINT, signal.SIG_IGN)  # e.g. `hydropwa paper &` from a script
     try:
         assert _interrupt.install() is False

@@ -233,7 +233,7 @@ class Constant(Signal):
         return abs(self.value)
 
     def __call__(self, t):
-        return np.full(np.shape(t), self.value) if np.ndim(t) else self.value
+        return np.full(np.shape(t), float(self.value)) if np.ndim(t) else float(self.value)
 
 
 @dataclass(frozen=True)
