@@ -1,6 +1,12 @@
 """Component physics shared by the full, reduced and PWA models (see :mod:`._physics`)."""
 
 from ._physics import (
+    chamber_pressure_difference_slopes,
+    load_flow_drop,
+    load_capacitance_slope,
+    load_capacitance,
+    chamber_pressures_from_load,
+    asymmetric_load_pressure_rate,
     chamber_pressure_rates,
     dead_zone,
     dead_zone_slope,
@@ -27,6 +33,12 @@ from ._pwa import PiecewiseAffine
 
 __all__ = [
     "PiecewiseAffine",
+    "chamber_pressure_difference_slopes",
+    "load_flow_drop",
+    "load_capacitance_slope",
+    "load_capacitance",
+    "chamber_pressures_from_load",
+    "asymmetric_load_pressure_rate",
     "chamber_pressure_rates",
     "dead_zone",
     "dead_zone_slope",

@@ -27,6 +27,7 @@ __all__ = [
     "signed_sqrt",
     "signed_sqrt_slope",
     "orifice_flows",
+    "load_flow_drop",
     "load_flow",
     "load_flow_slope",
     "load_flow_input_slopes",
@@ -34,6 +35,11 @@ __all__ = [
     "chamber_pressure_rates",
     "load_pressure_gain",
     "load_pressure_rate",
+    "asymmetric_load_pressure_rate",
+    "chamber_pressures_from_load",
+    "chamber_pressure_difference_slopes",
+    "load_capacitance",
+    "load_capacitance_slope",
     "stribeck_friction",
     "stribeck_friction_slope",
     "end_stop_force",
@@ -210,33 +216,111 @@ def supply_flow(z: float, q_a: float, q_b: float) -> float:
 
 
 @njit(**_JIT)
-def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> float:
-    """Load flow Q_L [m³/s] of the reduced model, Eq. (12), with a signed root.
+def load_flow_drop(z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: float = 0.0) -> float:
+    """Pressure drop [Pa] across each metering edge of a single-rod cylinder under the
+    quasi-steady flow ratio Q_B = α·Q_A (α = A_B/A_A), the load pressure being P_L = P_A − α P_B.
 
-    Q_L = z K √(½ (P_S − sign(z) P_L)); for z ≥ 0 the sign is taken as +1.
+    Extension (z ≥ 0): P_S − P_A = (P_B − P_T)/α² = (P_S − α P_T − P_L)/(1 + α³).
+    Retraction (z < 0): P_A − P_T = (P_S − P_B)/α² = (α P_S − P_T + P_L)/(1 + α³).
+    With α = 1 and P_T = 0 this is ½(P_S ∓ P_L), the drop of Eq. (12).
+    See docs/models.md ("Asymmetric reduced model") for the derivation.
     """
     if z >= 0.0:
-        return z * K * signed_sqrt(0.5 * (p_s - p_l), p_tr)
-    return z * K * signed_sqrt(0.5 * (p_s + p_l), p_tr)
+        return (p_s - alpha * p_t - p_l) / (1.0 + alpha * alpha * alpha)
+    return (alpha * p_s - p_t + p_l) / (1.0 + alpha * alpha * alpha)
 
 
 @njit(**_JIT)
-def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float) -> float:
-    """∂Q_L/∂P_L [m³/(s·Pa)] of :func:`load_flow` (≤ 0: the flow-pressure coefficient −K_c)."""
-    if z >= 0.0:
-        return -0.5 * z * K * signed_sqrt_slope(0.5 * (p_s - p_l), p_tr)
-    return 0.5 * z * K * signed_sqrt_slope(0.5 * (p_s + p_l), p_tr)
+def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0) -> float:
+    """Load flow Q_L = Q_A [m³/s] into chamber A, Eq. (12) generalised to a single-rod cylinder.
+
+    Q_L = z K √Δp with the edge drop Δp of :func:`load_flow_drop` (signed, regularised
+    root). α = 1, P_T = 0 give the paper's Q_L = z K √(½ (P_S − sign(z) P_L)).
+    """
+    return z * K * signed_sqrt(load_flow_drop(z, p_l, p_s, alpha, p_t), p_tr)
 
 
 @njit(**_JIT)
-def load_flow_input_slopes(z: float, p_l: float, p_s: float, K: float, p_tr: float):
+def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0) -> float:
+    """∂Q_L/∂P_L [m³/(s·Pa)] of :func:`load_flow` (≤ 0: the flow-pressure coefficient −K_c).
+
+    ∂Δp/∂P_L = ∓1/(1 + α³) for z ≷ 0, so ∂Q_L/∂P_L = −|z| K (d√/dΔp)/(1 + α³).
+    """
+    a3 = 1.0 + alpha * alpha * alpha
+    d = signed_sqrt_slope(load_flow_drop(z, p_l, p_s, alpha, p_t), p_tr) / a3
+    return -z * K * d if z >= 0.0 else z * K * d
+
+
+@njit(**_JIT)
+def load_flow_input_slopes(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0):
     """How :func:`load_flow` follows its inputs: (∂Q_L/∂z [m³/s], ∂Q_L/∂P_S [m³/(s·Pa)]).
 
-    ∂Q_L/∂z = K·√(½(P_S ∓ P_L)) is the flow gain K_q of Eq. (12); ∂Q_L/∂P_S = ½ z K
-    d√/dΔp. Used for the exact time derivative ∂f/∂t of the reduced model.
+    ∂Q_L/∂z = K·√Δp is the flow gain K_q of Eq. (12); ∂Q_L/∂P_S = z K (d√/dΔp)·∂Δp/∂P_S
+    with ∂Δp/∂P_S = 1/(1 + α³) (extension) or α/(1 + α³) (retraction). Used for the exact
+    time derivative ∂f/∂t and the input matrix B of the reduced and PWA models.
     """
-    drop = 0.5 * (p_s - p_l) if z >= 0.0 else 0.5 * (p_s + p_l)
-    return K * signed_sqrt(drop, p_tr), 0.5 * z * K * signed_sqrt_slope(drop, p_tr)
+    drop = load_flow_drop(z, p_l, p_s, alpha, p_t)
+    a3 = 1.0 + alpha * alpha * alpha
+    dd = 1.0 / a3 if z >= 0.0 else alpha / a3
+    return K * signed_sqrt(drop, p_tr), z * K * signed_sqrt_slope(drop, p_tr) * dd
+
+
+@njit(**_JIT)
+def chamber_pressures_from_load(z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: float = 0.0):
+    """Chamber pressures (P_A, P_B) [Pa] recovered from P_L = P_A − α P_B in quasi-steady flow.
+
+    Extension: P_A = P_S − Δp, P_B = P_T + α² Δp; retraction: P_A = P_T + Δp,
+    P_B = P_S − α² Δp, Δp from :func:`load_flow_drop`. α = 1, P_T = 0 give Eq. (13),
+    P_A,B = ½ (P_S ± P_L), in both directions. Both satisfy P_A − α P_B = P_L exactly.
+    """
+    drop = load_flow_drop(z, p_l, p_s, alpha, p_t)
+    if z >= 0.0:
+        return p_s - drop, p_t + alpha * alpha * drop
+    return p_t + drop, p_s - alpha * alpha * drop
+
+
+@njit(**_JIT)
+def chamber_pressure_difference_slopes(z: float, alpha: float = 1.0):
+    """(∂(P_A − P_B)/∂P_L, ∂(P_A − P_B)/∂P_S) [1] of :func:`chamber_pressures_from_load`.
+
+    P_A − P_B = P_L + (α − 1) P_B is affine in P_L and P_S: ∂/∂P_L = (1 + α²)/(1 + α³) in both
+    directions; ∂/∂P_S = 1 − (1 + α²)/(1 + α³) (extension) or (1 + α²)α/(1 + α³) − 1
+    (retraction). Both are 1 and 0 for α = 1 (Eq. (13): P_A − P_B = P_L).
+    """
+    a3 = 1.0 + alpha * alpha * alpha
+    r = (1.0 + alpha * alpha) / a3
+    if z >= 0.0:
+        return r, 1.0 - r
+    return r, r * alpha - 1.0
+
+
+@njit(**_JIT)
+def load_capacitance(x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float):
+    """Hydraulic capacitances of the asymmetric load-pressure equation at rod position x [m].
+
+    Returns (c_q, c_l) [Pa/m³]: c_q = E (1/V_A(x) + α²/V_B(x)) multiplies the net load flow
+    Q_L − A_A ẋ, c_l = E (1/V_A(x) + α/V_B(x)) the leakage C_L (P_A − P_B), with
+    V_A = V_A0 + A_A x, V_B = V_B0 + A_B (l − x), x clipped to the stroke. From
+    Ṗ_L = Ṗ_A − α Ṗ_B with Eq. (9) and Q_B = α Q_A; α = 1 at mid-stroke gives 4E/V_t of Eq. (14).
+    """
+    xs = min(max(x, 0.0), stroke)
+    alpha = area_b / area_a
+    ia = 1.0 / (vol_a + area_a * xs)
+    ib = 1.0 / (vol_b + area_b * (stroke - xs))
+    return E * (ia + alpha * alpha * ib), E * (ia + alpha * ib)
+
+
+@njit(**_JIT)
+def load_capacitance_slope(x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float):
+    """∂(c_q, c_l)/∂x [Pa/m⁴] of :func:`load_capacitance` (zero outside the stroke, where x is clipped)."""
+    if x <= 0.0 or x >= stroke:
+        return 0.0, 0.0
+    alpha = area_b / area_a
+    va = vol_a + area_a * x
+    vb = vol_b + area_b * (stroke - x)
+    da = -area_a / (va * va)
+    db = area_b / (vb * vb)
+    return E * (da + alpha * alpha * db), E * (da + alpha * db)
 
 
 @njit(**_JIT)
@@ -300,8 +384,18 @@ def load_pressure_gain(E: float, total_volume: float) -> float:
 
 @njit(**_JIT)
 def load_pressure_rate(q_l: float, v: float, p_l: float, mean_area: float, total_volume: float, leak: float, E: float):
-    """Load-pressure rate Ṗ_L [Pa/s] of the reduced model, Eq. (14)."""
+    """Load-pressure rate Ṗ_L [Pa/s] of the paper's reduced model, Eq. (14) (mean area Ā)."""
     return load_pressure_gain(E, total_volume) * (q_l - mean_area * v - leak * p_l)
+
+
+@njit(**_JIT)
+def asymmetric_load_pressure_rate(q_l: float, v: float, dp_ab: float, area_a: float, c_q: float, c_l: float, leak: float):
+    """Load-pressure rate Ṗ_L [Pa/s] of the single-rod reduced model, P_L = P_A − α P_B.
+
+    Ṗ_L = c_q (Q_L − A_A ẋ) − c_l C_L (P_A − P_B), the capacitances c_q, c_l of
+    :func:`load_capacitance`; Ṗ_A − α Ṗ_B from Eq. (9) under Q_B = α Q_A.
+    """
+    return c_q * (q_l - area_a * v) - c_l * leak * dp_ab
 
 
 @njit(**_JIT)

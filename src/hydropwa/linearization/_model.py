@@ -35,16 +35,11 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._errors import ParameterError, PwaError
-from ..components import (
-    PiecewiseAffine,
-    dead_zone,
-    end_stop_force,
-    load_flow,
-    load_pressure_rate,
-    piston_acceleration,
-    stribeck_friction,
-)
+from .._layout import I_CELLS, N_BASE, PWA_SLOT
+from ..components import PiecewiseAffine
+from ..models import ReducedModel, pack_params
 from ..params import SystemParams
+from ..simulation import _kernel as K
 from ._cells import (
     CQ_INTERVAL,
     CQP_INTERVAL,
@@ -67,10 +62,13 @@ __all__ = [
     "FORMS",
 ]
 
-FORMS = ("consistent", "paper")
-KIND_PWA = 2
-# Packed layout agreed with hydropwa.simulation._kernel (model kind 2).
-I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW, I_CELLS, N_BASE = 40, 41, 42, 43, 44, 45, 46, 50, 40
+#: Load-flow forms: ``asymmetric`` (default, built on the single-rod reduced model), and the two
+#: forms built on the paper's mean-area reduced model, ``consistent`` (Q_L = z·C_q) and ``paper``
+#: (Eq. (17) with C_qp).
+FORMS = ("asymmetric", "consistent", "paper")
+KIND_PWA = K.PWA
+I_SCHED, I_PSFIX, I_FORM = PWA_SLOT["sched"], PWA_SLOT["psfix"], PWA_SLOT["form"]
+I_NG, I_NO, I_NN, I_NW = PWA_SLOT["ng"], PWA_SLOT["no"], PWA_SLOT["nn"], PWA_SLOT["nw"]
 DEFAULT_CELLS = {"cq": 5, "cqp": 5, "friction": 7}
 #: Default command range [1] of the exported polyhedra (beyond the saturation at 1.1).
 INPUT_RANGE = (-1.5, 1.5)
@@ -182,7 +180,7 @@ class PwaModel:
     friction : PwaFit
         Friction cells over v [m/s] → N, Eq. (22), Table V.
     form : str
-        ``consistent`` or ``paper`` (see module docstring).
+        ``asymmetric`` (default), ``consistent`` or ``paper`` (see module docstring).
     scheduled : bool
         If True the cells follow the supply-pressure input P_S(t); else P_S is fixed.
     supply_pressure : float
@@ -191,6 +189,9 @@ class PwaModel:
         Command range [1] that bounds the exported polyhedra.
     breakpoints : str
         How the cells were chosen (provenance).
+    capacitance_position : float or None
+        Rod position [m] at which the asymmetric form freezes its chamber capacitances
+        (so the cells stay affine in the state); None: mid-stroke.
     """
 
     params: SystemParams
@@ -198,11 +199,12 @@ class PwaModel:
     cq: PwaFit
     cqp: PwaFit
     friction: PwaFit
-    form: str = "consistent"
+    form: str = "asymmetric"
     scheduled: bool = False
     supply_pressure: float = 100e5
     input_range: tuple[float, float] = INPUT_RANGE
     breakpoints: str = "paper"
+    capacitance_position: float | None = None
     kind = KIND_PWA
     name = "pwa"
     state_names: tuple[str, ...] = field(default=("p_l", "v", "x"), init=False)
@@ -212,7 +214,7 @@ class PwaModel:
             raise PwaError(f"form {self.form!r} must be one of {', '.join(FORMS)}")
         if not isinstance(self.params, SystemParams):
             raise PwaError(f"PwaModel needs a SystemParams, got {type(self.params).__name__}")
-        _check_supply(self.supply_pressure, self.params)
+        _check_supply(self.supply_pressure, self.params, self.form)
 
     # --- equality (arrays inside) -------------------------------------------------------
     def __eq__(self, other: object) -> bool:
@@ -223,29 +225,55 @@ class PwaModel:
     __hash__ = None  # type: ignore[assignment]
 
     # --- protocol of hydropwa.models ----------------------------------------------------
+    @property
+    def reduced(self) -> ReducedModel:
+        """The reduced model this PWA model linearizes (its form: asymmetric or paper)."""
+        return ReducedModel(self.params, "asymmetric" if self.form == "asymmetric" else "paper")
+
+    @property
+    def area_ratio(self) -> float:
+        """α [1] of the state P_L = P_A − α P_B."""
+        return self.reduced.area_ratio
+
+    @property
+    def force_area(self) -> float:
+        """Area [m²] that turns P_L into force (A_A, or Ā for the mean-area forms)."""
+        return self.reduced.force_area
+
+    @property
+    def x_capacitance(self) -> float:
+        """Rod position [m] of the frozen chamber capacitances (asymmetric form)."""
+        c = self.params.cylinder
+        return 0.5 * c.stroke if self.capacitance_position is None else float(self.capacitance_position)
+
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (base layout of ``hydropwa.models.pack_params`` + PWA cells)."""
         return pack_pwa(self)
 
-    # The PWA model has the reduced model's states [P_L, v, x]; it shares its conventions.
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes [Pa, m/s, m] used as absolute tolerances."""
-        from ..models import ReducedModel
-
-        return ReducedModel(self.params).state_scale()
+        return self.reduced.state_scale()
 
     def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` [m] (default mid-stroke) with Ā·P_L = F_L."""
-        from ..models import ReducedModel
+        """Rest at ``x0`` [m] (default mid-stroke) with A·P_L = F_L."""
+        return self.reduced.initial_state(x0, supply_pressure, load_force)
 
-        return ReducedModel(self.params).initial_state(x0, supply_pressure, load_force)
+    def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
+        """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
+        return self.reduced.state_from_measurement(x, v, p_a, p_b, p_s, spool)
 
-    @staticmethod
-    def state_from_measurement(x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
-        """Initial state [P_A − P_B, v, x] from measured quantities (SI)."""
-        from ..models import ReducedModel
+    def edge_pressure(self, p_s: float, sign: int) -> tuple[float, float]:
+        """(P_e [Pa], flow scale √(P_e/(1 + α³)) [√Pa]) of flow direction ``sign`` at P_S.
 
-        return ReducedModel.state_from_measurement(x, v, p_a, p_b, p_s, spool)
+        p̃ = sign·P_L/P_e normalises the C_q cells; P_e = P_S − α P_T (extension) or
+        α P_S − P_T (retraction) in the asymmetric form, P_S in the mean-area forms.
+        """
+        if self.form != "asymmetric":
+            return float(p_s), math.sqrt(0.5 * p_s)
+        al = self.area_ratio
+        pt = self.params.supply.tank_pressure
+        pe = p_s - al * pt if sign > 0 else al * p_s - pt
+        return float(pe), math.sqrt(pe / (1.0 + al**3))
 
     # --- cells --------------------------------------------------------------------------
     def _ps(self, p_s: float | None) -> float:
@@ -264,13 +292,13 @@ class PwaModel:
             k_n [m³/(s·Pa²)], d_n [m³/(s·Pa)]; Tables VIII–IX), ``friction`` (v [m/s] → N).
         """
         ps = self.supply_pressure if p_s is None else float(p_s)
-        _check_supply(ps, self.params)
-        K = self.params.flow.K
-        root = math.sqrt(0.5 * ps)
+        _check_supply(ps, self.params, self.form)
+        Kv = self.params.flow.K
+        pe, root = self.edge_pressure(ps, sign)
         return {
             "dead_zone": self.dead_zone,
-            "cq": _scaled(self.cq.pwa, K * root, ps, sign),
-            "cqp": _scaled(self.cqp.pwa, K / (4.0 * root), ps, sign),
+            "cq": _scaled(self.cq.pwa, Kv * root, pe, sign),
+            "cqp": _scaled(self.cqp.pwa, Kv / (4.0 * root), pe, sign),
             "friction": self.friction.pwa,
         }
 
@@ -280,27 +308,62 @@ class PwaModel:
         g = int(self.dead_zone.cell(u))
         z = self.dead_zone.slopes[g] * u + self.dead_zone.offsets[g]
         s = _sign(z)
-        pn = s * p_l / ps
+        pn = s * p_l / self.edge_pressure(ps, s)[0]
         return CellIndex(g, s, int(self.cq.pwa.cell(pn)), int(self.cqp.pwa.cell(pn)), int(self.friction.pwa.cell(v)))
 
+    def _kernel_point(self, y, u: float, ps: float, fl: float):
+        """(f, ∂f/∂y, ∂f/∂(u, P_S, F_L)) from the compiled kernel, the one assembly."""
+        return K.point_derivatives(K.PWA, np.asarray(y, dtype=float), u, ps, fl, self._packed_fixed(ps))
+
+    def _packed_fixed(self, ps: float) -> np.ndarray:
+        """Packed vector with the cells fixed at P_S = ``ps`` (not scheduled)."""
+        p = pack_pwa(self).copy()
+        p[I_SCHED] = 0.0
+        p[I_PSFIX] = ps
+        return p
+
     def load_flow(self, p_l: float, u: float, p_s: float | None = None) -> float:
-        """PWA load flow Q_L [m³/s] (consistent or paper form, see module docstring)."""
+        """PWA load flow Q_L [m³/s] (see module docstring), evaluated by the kernel."""
         ps = self._ps(p_s)
-        K = self.params.flow.K
-        g = self.dead_zone.cell(u)
-        z = self.dead_zone.slopes[g] * u + self.dead_zone.offsets[g]
-        s = _sign(z)
-        pn = s * p_l / ps
-        root = math.sqrt(0.5 * ps)
-        q = z * K * root * float(self.cq.pwa(pn))
-        if self.form == "paper":
-            q -= abs(z) * K / (4.0 * root) * float(self.cqp.pwa(pn)) * p_l
-        return float(q)
+        return float(K.pwa_load_flow_at(float(p_l), float(u), ps, self._packed_fixed(ps)))
 
     # --- dynamics -----------------------------------------------------------------------
     def rhs(self, t: float, y, u: float, p_s: float | None = None, f_l: float | None = None) -> np.ndarray:
         """Right-hand side [Ṗ_L, v̇, ẋ]; see :func:`pwa_rhs`."""
         return pwa_rhs(t, y, u, p_s, f_l, self)
+
+    def cell_box(self, cells: CellIndex, p_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds [P_L, v, x, u] (SI) of the region of cell combination ``cells`` (see :meth:`regions`)."""
+        ps = self.supply_pressure if p_s is None else float(p_s)
+        want = tuple(cells)
+        for idx, lo, hi in self.regions(ps):
+            if idx == want or (self.form != "paper" and (idx.g, idx.s, idx.o, idx.w) == (want[0], want[1], want[2], want[4])):
+                return lo, hi
+        raise PwaError(f"cell combination {want} is empty at P_S = {ps / 1e5:g} bar")
+
+    def _row0_polynomial(self, cells: CellIndex, ps: float, fl: float) -> tuple[np.ndarray, float]:
+        """Exact polynomial of Ṗ_L inside a cell: Σ a_ij P_L^i u^j (i ≤ 2, j ≤ 1) + a_v·v.
+
+        Inside one cell the PWA right-hand side is bilinear in (P_L, u) (quadratic in P_L in
+        the paper form, Eq. (17)) and linear in v; the six coefficients are read off the
+        kernel at six points of the cell (an exact fit up to rounding). Returns the 3×2
+        array a[i, j] and a_v.
+        """
+        lo, hi = self.cell_box(cells, ps)
+        x = self.x_capacitance
+        pts = [(lo[0] + fp * (hi[0] - lo[0]), lo[3] + fu * (hi[3] - lo[3])) for fp in (0.2, 0.5, 0.8) for fu in (0.25, 0.75)]
+        v = 0.5 * (lo[1] + hi[1])
+        M, r = [], []
+        a_v = None
+        for P, u in pts:
+            f, J, _G = self._kernel_point((P, v, x), u, ps, fl)
+            M.append([1.0, P, P * P, u, u * P, u * P * P])
+            r.append(f[0])
+            a_v = J[0, 1]
+        sc = np.array([1.0, max(abs(lo[0]), abs(hi[0]), 1.0)])
+        Ms = np.array(M) / np.array([1, sc[1], sc[1] ** 2, 1, sc[1], sc[1] ** 2])
+        c = np.linalg.solve(Ms, np.array(r) - a_v * v) / np.array([1, sc[1], sc[1] ** 2, 1, sc[1], sc[1] ** 2])
+        return np.array([[c[0], c[3]], [c[1], c[4]], [c[2], c[5]]]), float(a_v)
 
     def matrices(self, p_l: float, v: float, u: float, p_s: float | None = None, f_l: float | None = None):
         """A(x), b(x), f of Eq. (23) for state x = [P_L, ẋ] in the active cells, exact in the cell.
@@ -308,52 +371,21 @@ class PwaModel:
         Returns
         -------
         A : ndarray (2, 2), b : ndarray (2,), f : ndarray (2,)
-            ẋ = A(x) x + b(x) u + f reproduces :func:`pwa_rhs` (without end stops).
-
-        Notes
-        -----
-        A₁₁ = 4E/V_t (d_g k_o − C_L − c·s·d_g (k_n P_L + d_n)), A₁₂ = −4EĀ/V_t,
-        A₂₁ = Ā/m, A₂₂ = −k_w/m; b₁ = 4E k_g/V_t (k_o P_L + d_o − c·s (k_n P_L + d_n) P_L);
-        f = (4E d_g d_o/V_t, −(d_w + F_L)/m). Printed (25)–(27) have +k_n, +d_n in place of
-        −s·k_n, −s·d_n and divide by d_g and P_L (zero in cell III and at P_L = 0).
+            ẋ = A(x) x + b(x) u + f reproduces :func:`pwa_rhs` (without end stops); f is
+            constant in the cell, A(x) and b(x) carry the bilinear u·P_L (and, in the paper
+            form, the P_L² of Eq. (17)) terms. Derived from the kernel (docs/models.md gives
+            the closed forms; the printed (25)–(27) differ as documented in docs/errata.md).
         """
-        c = self._coefficients(p_l, v, u, p_s)
-        cf = 1.0 if self.form == "paper" else 0.0
-        c4, ab, m, cl = c["c4"], c["abar"], c["m"], c["cl"]
-        qp = c["k_n"] * p_l + c["d_n"]
-        A = np.array(
-            [[c4 * (c["d_g"] * c["k_o"] - cl - cf * c["s"] * c["d_g"] * qp), -c4 * ab], [ab / m, -c["k_w"] / m]]
-        )
-        b = np.array([c4 * c["k_g"] * (c["k_o"] * p_l + c["d_o"] - cf * c["s"] * qp * p_l), 0.0])
-        fl = self.params.load.force if f_l is None else f_l
-        f = np.array([c4 * c["d_g"] * c["d_o"], -(c["d_w"] + fl) / m])
-        return A, b, f
-
-    def _coefficients(self, p_l, v, u, p_s) -> dict[str, Any]:
         ps = self._ps(p_s)
+        fl = self.params.load.force if f_l is None else float(f_l)
         idx = self.cell_index(p_l, v, u, ps)
-        cells = self.cells_at(ps, idx.s)
-        cq, cqp = cells["cq"], cells["cqp"]
-        o = int(cq.cell(p_l))
-        n = int(cqp.cell(p_l))
-        cyl = self.params.cylinder
-        return {
-            "idx": idx,
-            "ps": ps,
-            "s": idx.s,
-            "k_g": self.dead_zone.slopes[idx.g],
-            "d_g": self.dead_zone.offsets[idx.g],
-            "k_o": cq.slopes[o],
-            "d_o": cq.offsets[o],
-            "k_n": cqp.slopes[n],
-            "d_n": cqp.offsets[n],
-            "k_w": self.friction.pwa.slopes[idx.w],
-            "d_w": self.friction.pwa.offsets[idx.w],
-            "c4": 4.0 * self.params.oil.bulk_modulus / cyl.total_volume,
-            "abar": cyl.mean_area,
-            "cl": cyl.leakage,
-            "m": self.params.load.mass,
-        }
+        a, a_v = self._row0_polynomial(idx, ps, fl)
+        y = np.array([p_l, v, self.x_capacitance])
+        f_k, J, _G = self._kernel_point(y, u, ps, fl)
+        A = np.array([[a[1, 0] + a[2, 0] * p_l, a_v], [J[1, 0], J[1, 1]]])
+        b = np.array([a[0, 1] + a[1, 1] * p_l + a[2, 1] * p_l * p_l, 0.0])
+        f = np.array([a[0, 0], f_k[1] - J[1, 0] * p_l - J[1, 1] * v])
+        return A, b, f
 
     def state_space(
         self,
@@ -380,8 +412,8 @@ class PwaModel:
         Returns
         -------
         AffineDynamics
-            A, B = Jacobians of :func:`pwa_rhs` at the point (exact inside the cell, end
-            stops excluded), f = rhs − A y − B u there.
+            A = ∂f/∂y, B = ∂f/∂u from the compiled kernel at the point (exact inside the
+            cell, end stops excluded), f = rhs − A y − B u there.
         """
         ps = self.supply_pressure if p_s is None else float(p_s)
         if (point is None) == (cells is None):
@@ -393,24 +425,55 @@ class PwaModel:
             p_l, v, u = float(pt["p_l"]), float(pt["v"]), float(pt["u"])
         except KeyError as exc:
             raise PwaError(f"operating point needs p_l [Pa], v [m/s] and u [1]; missing {exc}") from None
-        x = float(pt.get("x", 0.5 * self.params.cylinder.stroke))
-        c = self._coefficients(p_l, v, u, ps)
-        cf = 1.0 if self.form == "paper" else 0.0
-        z = c["k_g"] * u + c["d_g"]
-        qp = c["k_n"] * p_l + c["d_n"]
-        c4, ab, m = c["c4"], c["abar"], c["m"]
-        A = np.zeros((3, 3))
-        A[0, 0] = c4 * (z * c["k_o"] - c["cl"] - cf * abs(z) * (2.0 * c["k_n"] * p_l + c["d_n"]))
-        A[0, 1] = -c4 * ab
-        A[1, 0] = ab / m
-        A[1, 1] = -c["k_w"] / m
-        A[2, 1] = 1.0
-        B = np.zeros((3, 1))
-        B[0, 0] = c4 * c["k_g"] * (c["k_o"] * p_l + c["d_o"] - cf * c["s"] * qp * p_l)
-        y = np.array([p_l, v, x])
-        rhs = _pwa_rhs_at(y, u, c["ps"], f_l, self, False)
-        f = rhs - A @ y - B[:, 0] * u
-        return AffineDynamics(A, B, f, c["idx"], {"p_l": p_l, "v": v, "x": x, "u": u, "p_s": ps})
+        x = float(pt.get("x", self.x_capacitance))
+        c = self.params.cylinder
+        x_in = min(max(x, 1e-9 * c.stroke), c.stroke * (1 - 1e-9))  # end stops are not part of the export
+        fl = self.params.load.force if f_l is None else float(f_l)
+        y = np.array([p_l, v, x_in])
+        f_k, J, G = self._kernel_point(y, u, ps, fl)
+        A = J.copy()
+        B = G[:, :1].copy()
+        f = f_k - A @ y - B[:, 0] * u
+        idx = self.cell_index(p_l, v, u, ps)
+        return AffineDynamics(A, B, f, idx, {"p_l": p_l, "v": v, "x": x_in, "u": u, "p_s": ps})
+
+    def error_bound(self, cells: CellIndex, dyn: AffineDynamics, lower=None, upper=None, f_l: float | None = None) -> float:
+        """Guaranteed bound [Pa/s] of |Ṗ_L(PWA) − (A y + B u + f)₀| over a cell's box.
+
+        The other rows are affine inside a cell and exact. In Ṗ_L the error of the tangent
+        plane is e(P_L, u) = poly − tangent, linear in u for fixed P_L and at most
+        quadratic in P_L for fixed u, so its extremes over the box lie at the u-edges, at
+        the P_L-edges or at the vertex of the parabola: all of them are evaluated (no
+        sampling). ``lower``/``upper`` [P_L, v, x, u] restrict the box (default the cell's).
+        """
+        ps = float(dyn.point["p_s"])
+        fl = self.params.load.force if f_l is None else float(f_l)
+        lo, hi = self.cell_box(cells, ps)
+        if lower is not None:
+            lo, hi = np.asarray(lower, float), np.asarray(upper, float)
+        a, _a_v = self._row0_polynomial(cells, ps, fl)
+        P0, u0 = dyn.point["p_l"], dyn.point["u"]
+
+        def poly(P, u):
+            return a[0, 0] + a[1, 0] * P + a[2, 0] * P * P + u * (a[0, 1] + a[1, 1] * P + a[2, 1] * P * P)
+
+        dP = a[1, 0] + 2 * a[2, 0] * P0 + u0 * (a[1, 1] + 2 * a[2, 1] * P0)
+        du = a[0, 1] + a[1, 1] * P0 + a[2, 1] * P0 * P0
+        base = poly(P0, u0)
+        worst = 0.0
+        for u in (lo[3], hi[3]):
+            cands = [lo[0], hi[0]]
+            q2 = a[2, 0] + u * a[2, 1]  # coefficient of P² of e at this u
+            if q2 != 0.0:
+                q1 = a[1, 0] + u * a[1, 1] - dP
+                pv = -q1 / (2 * q2)
+                if lo[0] < pv < hi[0]:
+                    cands.append(pv)
+            for P in cands:
+                e = poly(P, u) - (base + dP * (P - P0) + du * (u - u0))
+                worst = max(worst, abs(e))
+        scale = max(abs(base), abs(dP) * max(abs(lo[0]), abs(hi[0])), abs(du) * max(abs(lo[3]), abs(hi[3])))
+        return float(worst + 1e-9 * scale)  # rounding margin of the coefficient fit
 
     def working_point(self, cells, p_s: float | None = None) -> dict[str, float]:
         """Working point {p_l, v, x, u} [SI] of a cell combination (g, s, o, [n,] w)."""
@@ -426,8 +489,9 @@ class PwaModel:
             if not 0 <= i < n:
                 raise PwaError(f"cell index {name} = {i} outside 0..{n - 1}")
         u = float(self._input_cell_point(g, s))
-        return {"p_l": float(s * ps * self.cq.working_points[o]), "v": float(self.friction.working_points[w]),
-                "x": 0.5 * self.params.cylinder.stroke, "u": u}
+        pe = self.edge_pressure(ps, s)[0]
+        return {"p_l": float(s * pe * self.cq.working_points[o]), "v": float(self.friction.working_points[w]),
+                "x": self.x_capacitance, "u": u}
 
     def _input_cell_point(self, g: int, s: int) -> float:
         lo, hi = self._input_bounds(g, s)
@@ -455,7 +519,7 @@ class PwaModel:
         """
         ps = self.supply_pressure if p_s is None else float(p_s)
         out = []
-        pmax = ps * max(abs(self.cq.interval[0]), abs(self.cq.interval[1]))
+        span = max(abs(self.cq.interval[0]), abs(self.cq.interval[1]))
         vlo, vhi = self.friction.interval
         bw = np.concatenate(([vlo], np.clip(self.friction.pwa.breakpoints, vlo, vhi), [vhi]))
         paper = self.form == "paper"
@@ -465,10 +529,11 @@ class PwaModel:
                 z_mid = self.dead_zone.slopes[g] * 0.5 * (ulo + uhi) + self.dead_zone.offsets[g]
                 if uhi <= ulo or _sign(z_mid) != s:
                     continue
-                bo = _pressure_edges(self.cq.pwa, ps, s, pmax)
-                bn = _pressure_edges(self.cqp.pwa, ps, s, pmax) if paper else None
+                pe = self.edge_pressure(ps, s)[0]
+                bo = _pressure_edges(self.cq.pwa, pe, s, pe * span)
+                bn = _pressure_edges(self.cqp.pwa, pe, s, pe * span) if paper else None
                 for o in range(self.cq.n_cells):
-                    ns = range(self.cqp.n_cells) if paper else (int(self.cqp.pwa.cell(s * _mid(bo, o, s) / ps)),)
+                    ns = range(self.cqp.n_cells) if paper else (int(self.cqp.pwa.cell(s * _mid(bo, o, s) / pe)),)
                     for n in ns:
                         plo, phi = bo[o]
                         if paper:
@@ -521,17 +586,18 @@ def _pressure_edges(pwa: PiecewiseAffine, ps: float, s: int, pmax: float) -> lis
     return out
 
 
-def _check_supply(p_s, params: SystemParams) -> float:
+def _check_supply(p_s, params: SystemParams, form: str = "asymmetric") -> float:
     try:
         ps = float(p_s)
     except (TypeError, ValueError):
         raise PwaError(f"supply pressure {p_s!r} is not a number in Pa") from None
     if not math.isfinite(ps) or ps <= max(0.0, params.supply.tank_pressure):
         raise PwaError(f"supply pressure {ps / 1e5:g} bar must be finite and above the tank pressure")
-    p_load = abs(params.load.force) / params.cylinder.mean_area
+    area = params.cylinder.area_a if form == "asymmetric" else params.cylinder.mean_area
+    p_load = abs(params.load.force) / area
     if p_load >= ps:
         raise PwaError(
-            f"supply pressure {ps / 1e5:g} bar is below the load pressure F_L/Ā = {p_load / 1e5:g} bar "
+            f"supply pressure {ps / 1e5:g} bar is below the load pressure F_L/A = {p_load / 1e5:g} bar "
             "needed to hold the load; raise the supply pressure"
         )
     return ps
@@ -575,7 +641,7 @@ def linearize(
     supply_pressure: float | None = None,
     cells: Mapping[str, int] | None = None,
     breakpoints: str | Mapping[str, Any] = "paper",
-    form: str = "consistent",
+    form: str = "asymmetric",
     scheduled: bool = False,
     working_points: Mapping[str, Any] | None = None,
     load_pressure_range: tuple[float, float] | None = None,
@@ -661,12 +727,9 @@ def pack_pwa(model: PwaModel) -> np.ndarray:
     from p[50]: for dead zone (over u), C_q (over p̃), C_qp (over p̃), friction (over v) in
     turn: n−1 breakpoints, n slopes, n offsets (normalised k̂, d̂ for C_q and C_qp).
     """
-    try:
-        from ..models import pack_params
-
-        base = pack_params(model.params)
-    except ImportError:  # pragma: no cover - the models layer is part of the package
-        raise PwaError("hydropwa.models.pack_params is not available") from None
+    asym = model.form == "asymmetric"
+    base = pack_params(model.params, form="asymmetric" if asym else "paper",
+                       capacitance_position=model.x_capacitance if asym else None)
     if base.size != N_BASE:
         raise PwaError(f"base parameter vector has {base.size} entries, the PWA layout expects {N_BASE}")
     sets = (model.dead_zone, model.cq.pwa, model.cqp.pwa, model.friction.pwa)
@@ -681,7 +744,7 @@ def pack_pwa(model: PwaModel) -> np.ndarray:
 
 def pwa_rhs(t: float, y, u: float, p_s: float | None, f_l: float | None, model: PwaModel, *,
             end_stops: bool = True) -> np.ndarray:
-    """Reference right-hand side of the PWA model (pure numpy; the kernel must match it).
+    """Right-hand side of the PWA model at one point, evaluated by the compiled kernel.
 
     Parameters
     ----------
@@ -697,40 +760,36 @@ def pwa_rhs(t: float, y, u: float, p_s: float | None, f_l: float | None, model: 
         Load force [N]; None: ``params.load.force``.
     model : PwaModel
     end_stops : bool
-        Include the end-stop contact force (as the kernel does).
+        Include the end-stop contact force (as the simulation does); False clips x into
+        the stroke, where the contact force is zero.
 
     Returns
     -------
     ndarray, shape (3,)
-        [Ṗ_L (Pa/s), v̇ (m/s²), ẋ (m/s)], Eqs. (14)–(17), (20)–(22); formula in the module
-        docstring.
+        [Ṗ_L (Pa/s), v̇ (m/s²), ẋ (m/s)]; formula in the module docstring.
     """
     ps = model.supply_pressure if (p_s is None or not model.scheduled) else float(p_s)
-    return _pwa_rhs_at(y, u, ps, f_l, model, end_stops)
+    fl = model.params.load.force if f_l is None else float(f_l)
+    return model._kernel_point(_no_stop(y, model.params, end_stops), u, ps, fl)[0]
 
 
-def _pwa_rhs_at(y, u: float, ps: float, f_l: float | None, model: PwaModel, end_stops: bool) -> np.ndarray:
-    """:func:`pwa_rhs` with the supply pressure [Pa] already resolved."""
-    prm = model.params
-    cyl = prm.cylinder
-    fl = prm.load.force if f_l is None else float(f_l)
-    p_l, v, x = (float(c) for c in y)
-    ql = model.load_flow(p_l, u, ps)
-    ff = float(model.friction.pwa(v))
-    stop = end_stop_force(x, v, cyl.stroke, cyl.end_stop_stiffness, cyl.end_stop_damping) if end_stops else 0.0
-    dp = load_pressure_rate(ql, v, p_l, cyl.mean_area, cyl.total_volume, cyl.leakage, prm.oil.bulk_modulus)
-    dv = piston_acceleration(cyl.mean_area * p_l, ff, fl, stop, prm.load.mass)
-    return np.array([dp, dv, v])
+def _no_stop(y, params: SystemParams, end_stops: bool) -> np.ndarray:
+    y = np.array(y, dtype=float)
+    if not end_stops:
+        y[2] = min(max(y[2], 0.0), params.cylinder.stroke)
+    return y
 
 
 def reduced_rhs(t: float, y, u: float, p_s: float, f_l: float | None, params: SystemParams, *,
-                end_stops: bool = True) -> np.ndarray:
-    """Right-hand side of the reduced model, Eqs. (12), (14), (15), from the components.
+                end_stops: bool = True, form: str = "asymmetric") -> np.ndarray:
+    """Right-hand side of the reduced model at one point, evaluated by the compiled kernel.
 
     Parameters
     ----------
     y : array_like, shape (3,)
         [P_L (Pa), v (m/s), x (m)]; u [1]; p_s [Pa]; f_l [N] (None: params.load.force).
+    form : {"asymmetric", "paper"}
+        Load-pressure form (see :class:`hydropwa.models.ReducedModel`).
 
     Returns
     -------
@@ -739,13 +798,6 @@ def reduced_rhs(t: float, y, u: float, p_s: float, f_l: float | None, params: Sy
     """
     if not isinstance(params, SystemParams):
         raise ParameterError("reduced_rhs needs a SystemParams")
-    dz, cyl, fr = params.dead_zone, params.cylinder, params.friction
     fl = params.load.force if f_l is None else float(f_l)
-    p_l, v, x = (float(c) for c in y)
-    z = dead_zone(float(u), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset)
-    ql = load_flow(z, p_l, float(p_s), params.flow.K, params.flow.transition_pressure)
-    ff = float(stribeck_friction(v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness))
-    stop = end_stop_force(x, v, cyl.stroke, cyl.end_stop_stiffness, cyl.end_stop_damping) if end_stops else 0.0
-    dp = load_pressure_rate(ql, v, p_l, cyl.mean_area, cyl.total_volume, cyl.leakage, params.oil.bulk_modulus)
-    dv = piston_acceleration(cyl.mean_area * p_l, ff, fl, stop, params.load.mass)
-    return np.array([dp, dv, v])
+    p = ReducedModel(params, form).pack()
+    return K.point_derivatives(K.REDUCED, _no_stop(y, params, end_stops), float(u), float(p_s), fl, p)[0]

@@ -9,18 +9,25 @@ kernel right-hand sides in :mod:`hydropwa.simulation._kernel`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from .._errors import ParameterError
 from ..params import SystemParams, get_preset
+from .._layout import BASE_SLOTS, N_BASE, SLOT
 from ..simulation import _kernel as K
 
-__all__ = ["FullOrderModel", "ReducedModel", "Model", "pack_params", "as_model"]
+__all__ = ["FullOrderModel", "ReducedModel", "Model", "pack_params", "as_model", "REDUCED_FORMS"]
+
+#: Load-pressure forms of the reduced and PWA models: the single-rod model (default) and the
+#: paper's mean-area model of Eqs. (12)–(15), kept so that Sec. VII stays reproducible.
+REDUCED_FORMS = ("asymmetric", "paper")
 
 
-def pack_params(params: SystemParams, omega0: float | None = None) -> np.ndarray:
-    """Pack parameters into the kernel's float vector (layout in ``_kernel``).
+def pack_params(params: SystemParams, omega0: float | None = None, *, form: str = "asymmetric",
+                capacitance_position: float | None = None) -> np.ndarray:
+    """Pack parameters into the kernel's float vector (layout table: :mod:`hydropwa._layout`).
 
     Parameters
     ----------
@@ -28,53 +35,24 @@ def pack_params(params: SystemParams, omega0: float | None = None) -> np.ndarray
     omega0 : float, optional
         Valve natural frequency [rad/s] to use (after the amplitude schedule);
         default ``params.valve.omega0``.
+    form : {"asymmetric", "paper"}
+        Load-pressure form of the reduced and PWA models (ignored by the full model).
+    capacitance_position : float, optional
+        Rod position [m] at which the chamber capacitances are frozen (the PWA model);
+        None: they follow the state x (the reduced model).
     """
-    p = np.zeros(K.N_BASE)
-    v, dz, fl, c, oil, fr, s, ld = (
-        params.valve,
-        params.dead_zone,
-        params.flow,
-        params.cylinder,
-        params.oil,
-        params.friction,
-        params.supply,
-        params.load,
-    )
-    p[K.I_OMEGA0] = v.omega0 if omega0 is None else omega0
-    p[K.I_ZETA] = v.zeta
-    p[K.I_ALPHA] = dz.alpha
-    p[K.I_BETA] = dz.beta
-    p[K.I_CREEP] = dz.creep_slope
-    p[K.I_OUTER] = dz.outer_offset
-    p[K.I_K] = fl.K
-    p[K.I_PTR] = fl.transition_pressure
-    p[K.I_AA] = c.area_a
-    p[K.I_AB] = c.area_b
-    p[K.I_STROKE] = c.stroke
-    p[K.I_VA] = c.dead_volume_a
-    p[K.I_VB] = c.dead_volume_b
-    p[K.I_CL] = c.leakage
-    p[K.I_KSTOP] = c.end_stop_stiffness
-    p[K.I_CSTOP] = c.end_stop_damping
-    p[K.I_E] = oil.bulk_modulus
-    p[K.I_PVAP] = oil.vapour_pressure
-    p[K.I_PREL] = oil.release_pressure
-    p[K.I_FC] = fr.coulomb
-    p[K.I_FS] = fr.static
-    p[K.I_SIGMA] = fr.viscous
-    p[K.I_CHI] = fr.stribeck_velocity
-    p[K.I_DELTA] = fr.shape
-    p[K.I_GAMMA] = fr.smoothness
-    p[K.I_PT] = s.tank_pressure
-    p[K.I_PUMP] = 1.0 if s.model == "pump" else 0.0
-    p[K.I_PSET] = s.pressure
-    p[K.I_QMAX] = s.pump_flow
-    p[K.I_DROOP] = s.compensator_droop
-    p[K.I_VLINE] = s.line_volume
-    p[K.I_PRELIEF] = s.relief_pressure
-    p[K.I_GRELIEF] = s.relief_gain
-    p[K.I_MASS] = ld.mass
-    p[K.I_CLOAD] = ld.damping
+    if form not in REDUCED_FORMS:
+        raise ParameterError(f"reduced-model form {form!r} must be one of {', '.join(REDUCED_FORMS)}")
+    p = np.zeros(N_BASE)
+    for name, src in BASE_SLOTS:
+        if src is not None:
+            comp, fld = src.split(".")
+            p[SLOT[name]] = getattr(getattr(params, comp), fld)
+    if omega0 is not None:
+        p[SLOT["omega0"]] = omega0
+    p[SLOT["pump"]] = 1.0 if params.supply.model == "pump" else 0.0
+    p[SLOT["rform"]] = 0.0 if form == "asymmetric" else 1.0
+    p[SLOT["xcap"]] = -1.0 if capacitance_position is None else float(capacitance_position)
     return p
 
 
@@ -85,7 +63,7 @@ class Model:
     params: SystemParams = field(default_factory=lambda: get_preset("paper"))
     kind = -1
     name = "model"
-    state_names: tuple[str, ...] = ()
+    state_names: ClassVar[tuple[str, ...]] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, SystemParams):
@@ -112,7 +90,7 @@ class FullOrderModel(Model):
 
     kind = K.FULL
     name = "full"
-    state_names: tuple[str, ...] = ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
+    state_names: ClassVar[tuple[str, ...]] = ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
 
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
@@ -135,24 +113,57 @@ class FullOrderModel(Model):
 
 @dataclass(frozen=True)
 class ReducedModel(Model):
-    """Reduced model, Eqs. (12)–(15): load pressure P_L [Pa], ẋ [m/s], x [m] (integrated output)."""
+    """Reduced model: load pressure P_L [Pa], ẋ [m/s], x [m]; valve dynamics dropped (ν = u).
 
+    Parameters
+    ----------
+    params : SystemParams
+    form : {"asymmetric", "paper"}
+        ``asymmetric`` (default): the single-rod load-pressure model, P_L = P_A − α P_B with
+        α = A_B/A_A, flows from both orifice equations (5)–(6) under Q_B = α Q_A, force
+        A_A P_L, position-dependent chamber capacitances; the rod drifts as a real
+        single-rod axis does. ``paper``: Eqs. (12)–(15) with the mean area Ā (no drift).
+        Derivation: docs/models.md.
+    """
+
+    form: str = "asymmetric"
     kind = K.REDUCED
     name = "reduced"
-    state_names: tuple[str, ...] = ("p_l", "v", "x")
+    state_names: ClassVar[tuple[str, ...]] = ("p_l", "v", "x")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.form not in REDUCED_FORMS:
+            raise ParameterError(f"reduced-model form {self.form!r} must be one of {', '.join(REDUCED_FORMS)}")
+
+    def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
+        """Kernel parameter vector (ω0 unused: the reduced model has no valve dynamics)."""
+        return pack_params(self.params, form=self.form)
+
+    @property
+    def area_ratio(self) -> float:
+        """α [1] of the load pressure P_L = P_A − α P_B: A_B/A_A, or 1 in the paper form."""
+        c = self.params.cylinder
+        return c.area_b / c.area_a if self.form == "asymmetric" else 1.0
+
+    @property
+    def force_area(self) -> float:
+        """Area [m²] that turns P_L into the hydraulic force: A_A, or Ā in the paper form."""
+        c = self.params.cylinder
+        return c.area_a if self.form == "asymmetric" else c.mean_area
 
     def state_scale(self) -> np.ndarray:
         return np.array([1e5, 1e-2, 1e-3])
 
     def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` (default mid-stroke) with Ā·P_L = F_L."""
+        """Rest at ``x0`` (default mid-stroke) with A·P_L = F_L (A = A_A, or Ā in the paper form)."""
         c = self.params.cylinder
         x = 0.5 * c.stroke if x0 is None else x0
-        return np.array([load_force / c.mean_area, 0.0, x])
+        return np.array([load_force / self.force_area, 0.0, x])
 
-    @staticmethod
-    def state_from_measurement(x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
-        return np.array([p_a - p_b, v, x], dtype=float)
+    def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
+        """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
+        return np.array([p_a - self.area_ratio * p_b, v, x], dtype=float)
 
 
 _BY_NAME = {"full": FullOrderModel, "reduced": ReducedModel}

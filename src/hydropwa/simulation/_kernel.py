@@ -43,8 +43,14 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import interrupt_cause
+from .._layout import I_CELLS, N_BASE, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS, PWA_SLOT, PWA_SLOTS, SLOT
 from ..components._physics import (
+    asymmetric_load_pressure_rate,
+    chamber_pressure_difference_slopes,
     chamber_pressure_rates,
+    chamber_pressures_from_load,
+    load_capacitance,
+    load_capacitance_slope,
     dead_zone,
     dead_zone_slope,
     end_stop_force,
@@ -53,7 +59,6 @@ from ..components._physics import (
     load_flow_input_slopes,
     load_flow_slope,
     load_pressure_gain,
-    load_pressure_rate,
     orifice_flows,
     piston_acceleration,
     pump_supply_rate,
@@ -68,27 +73,21 @@ FULL, REDUCED, PWA = 0, 1, 2
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
 N_STATES = (7, 3, 3)
 
-# Packed parameter vector layout (see hydropwa.models.pack_params).
-I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = 0, 1, 2, 3, 4, 5
-I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = 6, 7, 8, 9, 10, 11, 12, 13
-I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = 14, 15, 16, 17, 18
-I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = 19, 20, 21, 22, 23, 24
+# Packed parameter vector layout: generated from the one table in hydropwa._layout.
+I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (SLOT[k] for k in ("omega0", "zeta", "alpha", "beta", "creep", "outer"))
+I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = (SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl"))
+I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = (SLOT[k] for k in ("kstop", "cstop", "e", "pvap", "prel"))
+I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = (SLOT[k] for k in ("fc", "fs", "sigma", "chi", "delta", "gamma"))
 I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
-    25,
-    26,
-    27,
-    28,
-    29,
-    30,
-    31,
-    32,
-    33,
+    SLOT[k] for k in ("pt", "pump", "pset", "qmax", "droop", "vline", "prelief", "grelief", "mass")
 )
-I_CLOAD = 34  # viscous damping of the attached load (counter cylinder) [N·s/m]
-N_BASE = 40
+I_CLOAD = SLOT["cload"]  # viscous damping of the attached load (counter cylinder) [N·s/m]
+I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (mean area)
+I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
 # PWA section (written by hydropwa.linearization.pack_pwa)
-I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = 40, 41, 42, 43, 44, 45, 46
-I_CELLS = 50
+I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
+#: Number of output rows of the full/reduced models and of the PWA model.
+N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_CHANNELS)
 
 # Status codes of integrate()
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
@@ -193,16 +192,82 @@ def rhs_full(y, u, ps_in, fl, p, dy):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
-def rhs_reduced(y, u, ps, fl, p, dy):
-    """Reduced model, Eqs. (12)–(15): valve dynamics dropped (ν = u), load pressure P_L."""
+def _reduced_terms(x, p):
+    """Geometry of the load-pressure equation in the packed form (I_RFORM) at rod position x.
+
+    Returns (α_f, P_T, A, c_q, c_l, ∂c_q/∂x, ∂c_l/∂x): the flow ratio and tank pressure of
+    the edge drop (:func:`~hydropwa.components.load_flow_drop`), the force and flow area A,
+    and the capacitances of :func:`~hydropwa.components.asymmetric_load_pressure_rate`.
+    Asymmetric form: α = A_B/A_A, P_T, A_A, c_q, c_l of
+    :func:`~hydropwa.components.load_capacitance` at x (the PWA model: at the fixed I_XCAP).
+    Paper form, Eqs. (12)–(14): α = 1, P_T = 0, Ā, c_q = c_l = 4E/V_t.
+    """
+    if p[I_RFORM] != 0.0:
+        c = _load_gain(p)
+        return 1.0, 0.0, _mean_area(p), c, c, 0.0, 0.0
+    fixed = p[I_XCAP] >= 0.0
+    xc = p[I_XCAP] if fixed else x
+    cq, cl = load_capacitance(xc, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_E])
+    dcq, dcl = 0.0, 0.0
+    if not fixed:
+        dcq, dcl = load_capacitance_slope(xc, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_E])
+    return p[I_AB] / p[I_AA], p[I_PT], p[I_AA], cq, cl, dcq, dcl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _load_and_mechanics(ql, ff, y, z, ps, fl, p, dy):
+    """Ṗ_L, v̇, ẋ of the reduced and PWA models given the load flow Q_L and friction force.
+
+    Ṗ_L = c_q (Q_L − A ẋ) − c_l C_L (P_A − P_B) (Eq. (14), generalised), v̇ from Eq. (15) with
+    the force A·P_L (= A_A P_A − A_B P_B in the asymmetric form), the load F_L + c_load ẋ and
+    the end stops.
+    """
     pl, v, x = y[0], y[1], y[2]
-    abar = _mean_area(p)
-    z = _opening(u, p)
-    ql = load_flow(z, pl, ps, p[I_K], p[I_PTR])
+    al, pt, area, cq, cl, _dcq, _dcl = _reduced_terms(x, p)
+    pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
-    dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
-    dy[1] = piston_acceleration(abar * pl, _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
+    dy[0] = asymmetric_load_pressure_rate(ql, v, pa - pb, area, cq, cl, p[I_CL])
+    dy[1] = piston_acceleration(area * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
     dy[2] = v
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _load_jacobian(dql, ql, y, z, ps, ff_slope, p, J):
+    """Exact ∂f/∂y of :func:`_load_and_mechanics` given ∂Q_L/∂P_L and the friction slope."""
+    pl, v, x = y[0], y[1], y[2]
+    al, pt, area, cq, cl, dcq, dcl = _reduced_terms(x, p)
+    ddp_dpl, _ddp_dps = chamber_pressure_difference_slopes(z, al)
+    J[0, 0] = cq * dql - cl * p[I_CL] * ddp_dpl
+    J[0, 1] = -cq * area
+    J[0, 2] = 0.0
+    if dcq != 0.0 or dcl != 0.0:
+        pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
+        J[0, 2] = dcq * (ql - area * v) - dcl * p[I_CL] * (pa - pb)
+    _mechanics_jacobian(v, x, area, p, J)
+    J[1, 1] -= ff_slope / p[I_MASS]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _load_input_rates(dq_du, dq_dps, y, z, ps, du, dps, dfl, p, dfdt):
+    """Exact ∂f/∂t of :func:`_load_and_mechanics` given ∂Q_L/∂u, ∂Q_L/∂P_S and the input rates."""
+    al, _pt, _area, cq, cl, _dcq, _dcl = _reduced_terms(y[2], p)
+    _ddp_dpl, ddp_dps = chamber_pressure_difference_slopes(z, al)
+    dfdt[0] = cq * (dq_du * du + dq_dps * dps) - cl * p[I_CL] * ddp_dps * dps
+    dfdt[1] = -dfl / p[I_MASS]
+    dfdt[2] = 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def rhs_reduced(y, u, ps, fl, p, dy):
+    """Reduced model: valve dynamics dropped (ν = u), load pressure P_L = P_A − α P_B.
+
+    Asymmetric form (default): the single-rod load-pressure model (docs/models.md), flows
+    from both orifice equations (5)–(6) under Q_B = α Q_A; paper form: Eqs. (12)–(15).
+    """
+    al, pt = (1.0, 0.0) if p[I_RFORM] != 0.0 else (p[I_AB] / p[I_AA], p[I_PT])
+    z = _opening(u, p)
+    ql = load_flow(z, y[0], ps, p[I_K], p[I_PTR], al, pt)
+    _load_and_mechanics(ql, _friction(y[1], p), y, z, ps, fl, p, dy)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -214,9 +279,29 @@ def _cell(p, start, n, xv):
     return i
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _edge_scale(z, ps, p):
+    """Normalising pressure P_e [Pa] of the flow cells and the flow scale √(P_e/(1 + α³)) [√Pa].
+
+    The edge drop of :func:`~hydropwa.components.load_flow_drop` is P_e/(1 + α³)·(1 − p̃),
+    p̃ = sign(z) P_L/P_e, with P_e = P_S − α P_T (extension) or α P_S − P_T (retraction):
+    one set of normalised cells √(1 − p̃) serves both flow directions. Paper form: P_e = P_S,
+    scale √(P_S/2). Also returns ∂P_e/∂P_S.
+    """
+    if p[I_RFORM] != 0.0:
+        return ps, math.sqrt(0.5 * ps), 1.0
+    al = p[I_AB] / p[I_AA]
+    a3 = 1.0 + al * al * al
+    if z >= 0.0:
+        pe, dpe = ps - al * p[I_PT], 1.0
+    else:
+        pe, dpe = al * ps - p[I_PT], al
+    return pe, math.sqrt(pe / a3), dpe
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def pwa_cells(pl, v, u, ps_in, p):
-    """Active cells (g, o, n, w), opening z and the scheduled P_S of the PWA model."""
+    """Active cells (g, o, n, w), opening z, the scheduled P_S and p̃ = sign(z) P_L/P_e of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
     ps = ps_in if p[I_SCHED] > 0.5 else p[I_PSFIX]
     s_g = I_CELLS
@@ -224,7 +309,8 @@ def pwa_cells(pl, v, u, ps_in, p):
     z = p[s_g + ng - 1 + g] * u + p[s_g + 2 * ng - 1 + g]
     s_o = s_g + 3 * ng - 1
     sgn = 1.0 if z >= 0.0 else -1.0
-    pn = sgn * pl / ps
+    pe, _root, _dpe = _edge_scale(z, ps, p)
+    pn = sgn * pl / pe
     o = _cell(p, s_o, no, pn)
     s_n = s_o + 3 * no - 1
     n = _cell(p, s_n, nn, pn)
@@ -260,40 +346,49 @@ def _pwa_friction_cell(p, w):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _pwa_load_flow(pl, z, ps, pn, o, n, p):
+    """PWA load flow Q_L = z·C_q − c·C_qp·P_L and ∂Q_L/∂P_L inside cells o, n.
+
+    C_q = K√(P_e/(1 + α³))(k̂_o p̃ + d̂_o); C_qp = |z| K/(4√(P_S/2)) (k̂_n p̃ + d̂_n) (paper
+    form only, c = 1).
+    """
+    k_o, d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
+    pe, root, _dpe = _edge_scale(z, ps, p)
+    K = p[I_K]
+    dpn = (1.0 if z >= 0.0 else -1.0) / pe  # ∂p̃/∂P_L
+    ql = z * (K * root * (k_o * pn + d_o))  # z·C_q
+    dql = z * K * root * k_o * dpn
+    if p[I_FORM] != 0.0:
+        kz = abs(z) * K / (4.0 * root)
+        cqp = kz * (k_n * pn + d_n)
+        ql -= p[I_FORM] * cqp * pl  # -∂Q_L/∂P_L = C_qp for both signs of z
+        dql -= p[I_FORM] * (cqp + pl * kz * k_n * dpn)
+    return ql, dql
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def rhs_pwa(y, u, ps_in, fl, p, dy):
     """Linearized piecewise-affine model, Eqs. (16)–(23), cells scheduled on P_S.
 
-    Q_L = z·C_q(P_L) − c·C_qp(P_L, z)·P_L with C_q = K√(P_S/2)(k̂_o p̃ + d̂_o),
-    C_qp = |z| K/(4√(P_S/2)) (k̂_n p̃ + d̂_n), p̃ = sign(z) P_L/P_S, c the paper-form flag.
+    Q_L of :func:`_pwa_load_flow`, friction from cell w, the rest as the reduced model
+    (:func:`_load_and_mechanics`) with the capacitances at the fixed position I_XCAP.
     """
-    pl, v, x = y[0], y[1], y[2]
-    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    k_o, d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
-    root = math.sqrt(0.5 * ps)
-    K = p[I_K]
-    ql = z * (K * root * (k_o * pn + d_o))  # z·C_q
-    if p[I_FORM] != 0.0:
-        cqp = abs(z) * K / (4.0 * root) * (k_n * pn + d_n)
-        ql -= p[I_FORM] * cqp * pl  # -∂Q_L/∂P_L = C_qp for both signs of z
-    abar = _mean_area(p)
+    g, o, n, w, z, ps, pn = pwa_cells(y[0], y[1], u, ps_in, p)
+    ql, _dql = _pwa_load_flow(y[0], z, ps, pn, o, n, p)
     f_slope, f_offset = _pwa_friction_cell(p, w)
-    ff = f_slope * v + f_offset
-    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
-    dy[0] = load_pressure_rate(ql, v, pl, abar, p[I_VA] + p[I_VB], p[I_CL], p[I_E])
-    dy[1] = piston_acceleration(abar * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
-    dy[2] = v
+    _load_and_mechanics(ql, f_slope * y[1] + f_offset, y, z, ps, fl, p, dy)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _mechanics_jacobian(v, x, abar, p, J):
+def _mechanics_jacobian(v, x, area, p, J):
     """Rows ẍ and ẋ of the reduced and PWA Jacobians, apart from ∂ẍ/∂ẋ's friction slope.
 
-    ∂ẍ/∂P_L = Ā/m, ∂ẍ/∂ẋ = (∂F_stop/∂ẋ − c_load)/m, ∂ẍ/∂x = ∂F_stop/∂x/m (Eqs. (15), (22));
+    ∂ẍ/∂P_L = A/m, ∂ẍ/∂ẋ = (∂F_stop/∂ẋ − c_load)/m, ∂ẍ/∂x = ∂F_stop/∂x/m (Eqs. (15), (22));
     ẋ = v gives the row [0, 1, 0].
     """
     m = p[I_MASS]
     kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
-    J[1, 0] = abar / m
+    J[1, 0] = area / m
     J[1, 1] = (kv - p[I_CLOAD]) / m
     J[1, 2] = kx / m
     J[2, 0] = 0.0
@@ -305,63 +400,40 @@ def _mechanics_jacobian(v, x, abar, p, J):
 def jac_reduced(y, u, ps, fl, p, J):
     """Exact Jacobian ∂f/∂y of :func:`rhs_reduced` (same inputs), written into J[:3, :3].
 
-    Row Ṗ_L of Eq. (14): 4E/V_t·[∂Q_L/∂P_L − C_L, −Ā, 0]; row ẍ of Eq. (15) with the
-    Stribeck slope df/dẋ (:func:`~hydropwa.components.stribeck_friction_slope`).
+    Row Ṗ_L: [c_q ∂Q_L/∂P_L − c_l C_L ∂(P_A − P_B)/∂P_L, −c_q A, ∂c_q/∂x (Q_L − A ẋ) −
+    ∂c_l/∂x C_L (P_A − P_B)]; row ẍ of Eq. (15) with the Stribeck slope df/dẋ.
     """
-    pl, v, x = y[0], y[1], y[2]
-    abar = _mean_area(p)
-    c = _load_gain(p)
+    al, pt = (1.0, 0.0) if p[I_RFORM] != 0.0 else (p[I_AB] / p[I_AA], p[I_PT])
     z = _opening(u, p)
-    J[0, 0] = c * (load_flow_slope(z, pl, ps, p[I_K], p[I_PTR]) - p[I_CL])
-    J[0, 1] = -c * abar
-    J[0, 2] = 0.0
-    _mechanics_jacobian(v, x, abar, p, J)
+    pl, v = y[0], y[1]
+    ql = load_flow(z, pl, ps, p[I_K], p[I_PTR], al, pt)
+    dql = load_flow_slope(z, pl, ps, p[I_K], p[I_PTR], al, pt)
     slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
-    J[1, 1] -= slope / p[I_MASS]
+    _load_jacobian(dql, ql, y, z, ps, slope, p, J)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def jac_pwa(y, u, ps_in, fl, p, J):
-    """Exact Jacobian ∂f/∂y of :func:`rhs_pwa` inside the active cells (the state matrix A(σ)).
-
-    With p̃ = sign(z) P_L/P_S: ∂Q_L/∂P_L = z K√(P_S/2) k̂_o sign(z)/P_S
-    − c (C_qp + P_L |z| K/(4√(P_S/2)) k̂_n sign(z)/P_S); ∂ẍ/∂ẋ holds the friction cell slope.
-    """
-    pl, v, x = y[0], y[1], y[2]
-    g, o, n, w, z, ps, pn = pwa_cells(pl, v, u, ps_in, p)
-    k_o, _d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
-    root = math.sqrt(0.5 * ps)
-    K = p[I_K]
-    dpn = (1.0 if z >= 0.0 else -1.0) / ps  # ∂p̃/∂P_L
-    dql = z * K * root * k_o * dpn
-    if p[I_FORM] != 0.0:
-        kz = abs(z) * K / (4.0 * root)
-        cqp = kz * (k_n * pn + d_n)
-        dql -= p[I_FORM] * (cqp + pl * kz * k_n * dpn)
-    abar = _mean_area(p)
-    c = _load_gain(p)
-    J[0, 0] = c * (dql - p[I_CL])
-    J[0, 1] = -c * abar
-    J[0, 2] = 0.0
-    _mechanics_jacobian(v, x, abar, p, J)
-    J[1, 1] -= _pwa_friction_cell(p, w)[0] / p[I_MASS]
+    """Exact Jacobian ∂f/∂y of :func:`rhs_pwa` inside the active cells (the state matrix A(σ))."""
+    g, o, n, w, z, ps, pn = pwa_cells(y[0], y[1], u, ps_in, p)
+    ql, dql = _pwa_load_flow(y[0], z, ps, pn, o, n, p)
+    _load_jacobian(dql, ql, y, z, ps, _pwa_friction_cell(p, w)[0], p, J)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def dfdt_reduced(y, u, ps, fl, du, dps, dfl, p, dfdt):
     """Exact ∂f/∂t of :func:`rhs_reduced` given the input rates u̇, Ṗ_S, Ḟ_L, written into dfdt[:3].
 
-    The model depends on time through its inputs only: Ṗ_L of Eq. (14) through
-    Q_L(z(u), P_S) of Eq. (12), ẍ of Eq. (15) through F_L, so
-    ∂f/∂t = [4E/V_t (∂Q_L/∂z · dz/du · u̇ + ∂Q_L/∂P_S · Ṗ_S), −Ḟ_L/m, 0].
+    The model depends on time through its inputs only: Ṗ_L through Q_L(z(u), P_S) and the
+    recovered P_A − P_B(P_S), ẍ through F_L, so
+    ∂f/∂t = [c_q (∂Q_L/∂z · dz/du · u̇ + ∂Q_L/∂P_S · Ṗ_S) − c_l C_L ∂(P_A − P_B)/∂P_S · Ṗ_S, −Ḟ_L/m, 0].
+    With (u̇, Ṗ_S, Ḟ_L) = (1, 0, 0) it is the input column ∂f/∂u.
     """
+    al, pt = (1.0, 0.0) if p[I_RFORM] != 0.0 else (p[I_AB] / p[I_AA], p[I_PT])
     z = _opening(u, p)
-    dq_dz, dq_dps = load_flow_input_slopes(z, y[0], ps, p[I_K], p[I_PTR])
+    dq_dz, dq_dps = load_flow_input_slopes(z, y[0], ps, p[I_K], p[I_PTR], al, pt)
     dz_du = dead_zone_slope(u, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
-    c = _load_gain(p)
-    dfdt[0] = c * (dq_dz * dz_du * du + dq_dps * dps)
-    dfdt[1] = -dfl / p[I_MASS]
-    dfdt[2] = 0.0
+    _load_input_rates(dq_dz * dz_du, dq_dps, y, z, ps, du, dps, dfl, p, dfdt)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -369,30 +441,29 @@ def dfdt_pwa(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
     """Exact ∂f/∂t of :func:`rhs_pwa` inside the active cells, given the input rates.
 
     z = k̂_g u + d̂_g, so ∂Q_L/∂u = k̂_g (C_q − c sign(z) P_L K/(4√(P_S/2)) (k̂_n p̃ + d̂_n));
-    with the cells scheduled on P_S, ∂Q_L/∂P_S follows from √(P_S/2) and p̃ = sign(z) P_L/P_S.
+    with the cells scheduled on P_S, ∂Q_L/∂P_S follows from √(P_e/(1 + α³)) and
+    p̃ = sign(z) P_L/P_e. With (u̇, Ṗ_S, Ḟ_L) = (1, 0, 0) it is the input column B(σ).
     """
     pl = y[0]
     g, o, n, w, z, ps, pn = pwa_cells(pl, y[1], u, ps_in, p)
     k_g = p[I_CELLS + int(p[I_NG]) - 1 + g]
     k_o, d_o, k_n, d_n = _pwa_flow_coeffs(p, o, n)
-    root = math.sqrt(0.5 * ps)
+    pe, root, dpe = _edge_scale(z, ps, p)
     K = p[I_K]
     form = p[I_FORM]
     dq_dz = K * root * (k_o * pn + d_o)  # C_q
     if form != 0.0:
         dq_dz -= form * (1.0 if z >= 0.0 else -1.0) * K / (4.0 * root) * (k_n * pn + d_n) * pl
     dq_dps = 0.0
-    if p[I_SCHED] > 0.5:  # P_S(t) enters C_q and C_qp
-        d_root = 0.25 / root  # d√(P_S/2)/dP_S
-        d_pn = -pn / ps
+    sched = p[I_SCHED] > 0.5
+    if sched:  # P_S(t) enters C_q and C_qp
+        d_root = 0.5 * dpe / (root * (pe / (root * root)))  # d√(P_e/(1+α³))/dP_S
+        d_pn = -pn / pe * dpe
         dq_dps = z * K * (d_root * (k_o * pn + d_o) + root * k_o * d_pn)
         if form != 0.0:
             d_cqp = abs(z) * K * 0.25 * (-d_root / (root * root) * (k_n * pn + d_n) + k_n * d_pn / root)
             dq_dps -= form * d_cqp * pl
-    c = _load_gain(p)
-    dfdt[0] = c * (dq_dz * k_g * du + dq_dps * dps)
-    dfdt[1] = -dfl / p[I_MASS]
-    dfdt[2] = 0.0
+    _load_input_rates(dq_dz * k_g, dq_dps, y, z, ps, du, dps if sched else 0.0, dfl, p, dfdt)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -404,6 +475,62 @@ def rhs_at(kind, y, u, ps, fl, p, dy):
         rhs_reduced(y, u, ps, fl, p, dy)
     else:
         rhs_pwa(y, u, ps, fl, p, dy)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def pwa_load_flow_at(pl, u, ps_in, p):
+    """PWA load flow Q_L [m³/s] at P_L [Pa], command u [1] and P_S [Pa] (:func:`_pwa_load_flow`)."""
+    g, o, n, w, z, ps, pn = pwa_cells(pl, 0.0, u, ps_in, p)
+    return _pwa_load_flow(pl, z, ps, pn, o, n, p)[0]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _point(kind, y, u, ps, fl, p, f, J, G):
+    if kind == REDUCED:
+        rhs_reduced(y, u, ps, fl, p, f)
+        jac_reduced(y, u, ps, fl, p, J)
+        dfdt_reduced(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
+        dfdt_reduced(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
+        dfdt_reduced(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+    else:
+        rhs_pwa(y, u, ps, fl, p, f)
+        jac_pwa(y, u, ps, fl, p, J)
+        dfdt_pwa(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
+        dfdt_pwa(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
+        dfdt_pwa(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+
+
+def point_derivatives(kind, y, u, ps, fl, p):
+    """Right-hand side and exact derivatives of the reduced or PWA model at one point.
+
+    The one assembly used by every Python-side consumer (matrices, exports, identification
+    helpers): nothing outside this kernel re-derives the reduced or PWA dynamics.
+
+    Parameters
+    ----------
+    kind : {REDUCED, PWA}
+    y : array_like, shape (3,)
+        State [P_L (Pa), v (m/s), x (m)].
+    u, ps, fl : float
+        Valve command [1], supply pressure [Pa], load force [N].
+    p : ndarray
+        Packed parameters (``model.pack()``).
+
+    Returns
+    -------
+    f : ndarray, shape (3,)
+        [Ṗ_L, v̇, ẋ].
+    J : ndarray, shape (3, 3)
+        ∂f/∂y (exact; inside the active cells for the PWA model).
+    G : ndarray, shape (3, 3)
+        ∂f/∂(u, P_S, F_L) (columns); G[:, 0] is the input matrix B.
+    """
+    if int(kind) not in (REDUCED, PWA):
+        raise ValueError("point_derivatives serves the reduced and PWA models")
+    f, J, G = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
+    G = np.asfortranarray(G)
+    _point(int(kind), np.asarray(y, dtype=float), float(u), float(ps), float(fl), p, f, J, G)
+    return f, J, np.ascontiguousarray(G)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -1000,7 +1127,7 @@ def _outputs(kind, t_out, Y, n_done, p, sg):
     with the active cells g, o, n, w in rows 11–14. The friction row of the full and
     reduced models is left at zero for :func:`outputs` to fill.
     """
-    out = np.empty((15 if kind == PWA else 11, n_done))
+    out = np.empty((N_OUT_PWA if kind == PWA else N_OUT, n_done))
     _fill_outputs(kind, t_out, Y, n_done, p, sg, out)
     return out
 
@@ -1034,8 +1161,8 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
                 out[12, k] = o
                 out[13, k] = nn
                 out[14, k] = w
-            pa = 0.5 * (ps + pl)
-            pb = 0.5 * (ps - pl)
+            al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
+            pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)  # Eq. (13), generalised
         out[0, k] = u
         out[1, k] = spool
         out[2, k] = z

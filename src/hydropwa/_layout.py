@@ -1,0 +1,91 @@
+"""The one layout table of the compiled kernel's packed parameter vector and output channels.
+
+The kernel (:mod:`hydropwa.simulation._kernel`) reads its parameters from one float vector.
+Every slot is declared here once: its name, and where its value comes from in a
+:class:`~hydropwa.params.SystemParams` (a dotted ``component.field`` path, or ``None`` for
+slots that the model object sets itself, such as the reduced model's form). The kernel's
+``I_*`` indices, :func:`hydropwa.models.pack_params` and the PWA packing are generated from
+this table, and so are the names of the output channels. Adding a parameter is one line here.
+
+This module is a leaf: it imports nothing from the package.
+"""
+
+from __future__ import annotations
+
+#: (slot name, source in SystemParams or None) in kernel order. Slots with ``None`` are
+#: written by the model object (see ``hydropwa.models``).
+BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
+    ("omega0", "valve.omega0"),
+    ("zeta", "valve.zeta"),
+    ("alpha", "dead_zone.alpha"),
+    ("beta", "dead_zone.beta"),
+    ("creep", "dead_zone.creep_slope"),
+    ("outer", "dead_zone.outer_offset"),
+    ("K", "flow.K"),
+    ("ptr", "flow.transition_pressure"),
+    ("aa", "cylinder.area_a"),
+    ("ab", "cylinder.area_b"),
+    ("stroke", "cylinder.stroke"),
+    ("va", "cylinder.dead_volume_a"),
+    ("vb", "cylinder.dead_volume_b"),
+    ("cl", "cylinder.leakage"),
+    ("kstop", "cylinder.end_stop_stiffness"),
+    ("cstop", "cylinder.end_stop_damping"),
+    ("e", "oil.bulk_modulus"),
+    ("pvap", "oil.vapour_pressure"),
+    ("prel", "oil.release_pressure"),
+    ("fc", "friction.coulomb"),
+    ("fs", "friction.static"),
+    ("sigma", "friction.viscous"),
+    ("chi", "friction.stribeck_velocity"),
+    ("delta", "friction.shape"),
+    ("gamma", "friction.smoothness"),
+    ("pt", "supply.tank_pressure"),
+    ("pump", None),  # 1.0 with the pump supply model (P_S a state), else 0.0
+    ("pset", "supply.pressure"),
+    ("qmax", "supply.pump_flow"),
+    ("droop", "supply.compensator_droop"),
+    ("vline", "supply.line_volume"),
+    ("prelief", "supply.relief_pressure"),
+    ("grelief", "supply.relief_gain"),
+    ("mass", "load.mass"),
+    ("cload", "load.damping"),
+    # reduced / PWA load-pressure form: 0 asymmetric single-rod model, 1 the paper's mean area
+    ("rform", None),
+    # rod position [m] at which the PWA model evaluates its chamber capacitances; < 0: the state x
+    ("xcap", None),
+)
+
+#: Index of each base slot.
+SLOT: dict[str, int] = {name: i for i, (name, _src) in enumerate(BASE_SLOTS)}
+#: Size of the base block (room for a few more slots before the PWA section).
+N_BASE = 40
+assert len(BASE_SLOTS) <= N_BASE
+
+#: PWA section (after the base block): flags and cell counts, then the cell table from I_CELLS.
+PWA_SLOTS: tuple[str, ...] = ("sched", "psfix", "form", "ng", "no", "nn", "nw")
+PWA_SLOT: dict[str, int] = {name: N_BASE + i for i, name in enumerate(PWA_SLOTS)}
+I_CELLS = 50
+
+#: Output channels of every model, in the kernel's row order, with their SI units.
+OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
+    ("u", "1"),
+    ("spool", "1"),
+    ("z", "1"),
+    ("p_a", "Pa"),
+    ("p_b", "Pa"),
+    ("p_l", "Pa"),
+    ("p_s", "Pa"),
+    ("f_l", "N"),
+    ("x", "m"),
+    ("v", "m/s"),
+    ("friction", "N"),
+)
+#: Extra output rows of the PWA model (active cells), after :data:`OUTPUT_CHANNELS`.
+PWA_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
+    ("cell_g", "1"),
+    ("cell_o", "1"),
+    ("cell_n", "1"),
+    ("cell_w", "1"),
+)
+OUT: dict[str, int] = {name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)}
