@@ -201,8 +201,14 @@ def test_asymmetric_cylinder_drifts_to_positive_x(paper):
     res = simulate(FullOrderModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
     x_periods = res["x"][::2000]  # position at the start of each period
     assert np.all(np.diff(x_periods[1:]) > 1e-4)
+    drift_full = res["x"][-1] - res["x"][0]
+    # the asymmetric reduced model drifts as the full model does (the quasi-steady flow ratio
+    # Q_B = αQ_A carries the √α speed asymmetry; 5 %: what the dropped valve and chamber
+    # dynamics may cost at 1 Hz), the paper's mean-area form cannot drift (Sec. VII)
     red = simulate(ReducedModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
-    assert abs(red["x"][-1] - red["x"][0]) < 0.1 * abs(res["x"][-1] - res["x"][0])
+    assert red["x"][-1] - red["x"][0] == pytest.approx(drift_full, rel=0.05)
+    pap = simulate(ReducedModel(paper, "paper"), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
+    assert abs(pap["x"][-1] - pap["x"][0]) < 0.1 * abs(drift_full)
 
 
 def test_agreement_with_independent_scipy_reference(paper):

@@ -29,9 +29,9 @@ def params():
     return get_preset("paper").replace(**{"flow.transition_pressure": 10.0})
 
 
-@pytest.fixture(scope="module")
-def tangent_model(params):
-    return linearize(params, supply_pressure=93.8e5, breakpoints="tangent",
+@pytest.fixture(scope="module", params=["asymmetric", "consistent"])
+def tangent_model(params, request):
+    return linearize(params, supply_pressure=93.8e5, breakpoints="tangent", form=request.param,
                      working_points={"friction": FRICTION_WP})
 
 
@@ -48,9 +48,16 @@ def _fd_jacobian(fun, y, u, h):
 
 @pytest.mark.parametrize("g", [0, 1, 2, 3, 4])
 def test_cell_dynamics_equal_fd_linearization_of_reduced_model(tangent_model, params, g):
-    """Consistent form: A, B, f of each cell = FD linearization of Eqs. (12), (14), (15)."""
+    """A, B, f of each cell = FD linearization of the reduced model the PWA model is built on.
+
+    Consistent form: Eqs. (12), (14), (15); asymmetric form: the single-rod model, whose PWA
+    cells freeze the chamber capacitances at the working position (mid-stroke), so their
+    ∂/∂x column is zero where the reduced model's is ∂c/∂x·(...): that column is left out.
+    """
     m = tangent_model
     ps = m.supply_pressure
+    rform = "asymmetric" if m.form == "asymmetric" else "paper"
+    cols = [0, 1] if m.form == "asymmetric" else [0, 1, 2]
     for s in (1, -1):
         ulo, uhi = m._input_bounds(g, s)
         z = m.dead_zone(np.array(0.5 * (ulo + uhi)))
@@ -63,20 +70,22 @@ def test_cell_dynamics_equal_fd_linearization_of_reduced_model(tangent_model, pa
                 y = np.array([pt["p_l"], pt["v"], pt["x"]])
 
                 def fun(yy, uu):
-                    return reduced_rhs(0.0, yy, uu, ps, None, params, end_stops=False)
+                    return reduced_rhs(0.0, yy, uu, ps, None, params, end_stops=False, form=rform)
 
                 # tiny step at v = 0: |v|^δ (δ < 1) in Eq. (11) spoils central differences there
-                h = np.array([1e-4 * ps * (1 - PAPER_WORKING_POINTS[o]), 1e-10 if pt["v"] == 0 else 1e-7, 1e-6])
+                pe = m.edge_pressure(ps, s)[0]
+                h = np.array([1e-4 * pe * (1 - PAPER_WORKING_POINTS[o]), 1e-10 if pt["v"] == 0 else 1e-7, 1e-6])
                 A, B, f = _fd_jacobian(fun, y, pt["u"], h)
                 scale = np.abs(np.hstack((A, B))).max(axis=1) + 1e-30
-                np.testing.assert_allclose(dyn.A / scale[:, None], A / scale[:, None], atol=2e-5)
+                np.testing.assert_allclose(dyn.A[:, cols] / scale[:, None], A[:, cols] / scale[:, None], atol=2e-5)
                 np.testing.assert_allclose(dyn.B[:, 0] / scale, B[:, 0] / scale, atol=2e-5)
-                rhs = fun(y, pt["u"])
+                rhs = m.rhs(0.0, y, pt["u"])
+                np.testing.assert_allclose(rhs, fun(y, pt["u"]), rtol=1e-9, atol=1e-6 * np.abs(rhs).max())
                 np.testing.assert_allclose(dyn.A @ y + dyn.B[:, 0] * pt["u"] + dyn.f, rhs,
                                            rtol=1e-9, atol=1e-6 * np.abs(rhs).max())
 
 
-@pytest.mark.parametrize("form", ["consistent", "paper"])
+@pytest.mark.parametrize("form", ["asymmetric", "consistent", "paper"])
 def test_matrices_of_eq_23_reproduce_rhs(params, form):
     m = linearize(params, form=form)
     rng = np.random.default_rng(1)
@@ -89,31 +98,58 @@ def test_matrices_of_eq_23_reproduce_rhs(params, form):
 
 
 def test_printed_eq_25_27_need_minus_sign_on_cqp(params):
-    """(25)–(27) as printed, with k_n, d_n → −s·k_n, −s·d_n, equal the derived matrices."""
+    """(25)–(27) as printed, with k_n, d_n → −s·k_n, −s·d_n, equal the derived matrices.
+
+    The closed forms are written here from the physical cells (Tables VI–IX), independently
+    of the kernel that :meth:`PwaModel.matrices` reads.
+    """
     m = linearize(params, form="paper")
     p_l, v, u = 30e5, 0.02, 0.6
     A, b, f = m.matrices(p_l, v, u)
-    c = m._coefficients(p_l, v, u, None)
-    kn, dn = -c["s"] * c["k_n"], -c["s"] * c["d_n"]
-    c4 = c["c4"]
-    A11 = c4 * c["d_g"] * (c["k_o"] + kn * p_l + dn - c["cl"] / c["d_g"])
-    b1 = c4 * c["k_g"] * p_l * (c["k_o"] + c["d_o"] / p_l + kn * p_l + dn)
-    assert A[0, 0] == pytest.approx(A11, rel=1e-12)
-    assert b[0] == pytest.approx(b1, rel=1e-12)
-    assert f[0] == pytest.approx(c4 * c["d_o"] * c["d_g"], rel=1e-12)
+    idx = m.cell_index(p_l, v, u)
+    cells = m.cells_at(None, idx.s)
+    o, n = int(cells["cq"].cell(p_l)), int(cells["cqp"].cell(p_l))
+    k_o, d_o = cells["cq"].slopes[o], cells["cq"].offsets[o]
+    k_n, d_n = cells["cqp"].slopes[n], cells["cqp"].offsets[n]
+    k_g, d_g = m.dead_zone.slopes[idx.g], m.dead_zone.offsets[idx.g]
+    cyl = params.cylinder
+    kn, dn = -idx.s * k_n, -idx.s * d_n
+    c4 = 4 * params.oil.bulk_modulus / cyl.total_volume
+    A11 = c4 * d_g * (k_o + kn * p_l + dn - cyl.leakage / d_g)
+    b1 = c4 * k_g * p_l * (k_o + d_o / p_l + kn * p_l + dn)
+    assert A[0, 0] == pytest.approx(A11, rel=1e-8)
+    assert b[0] == pytest.approx(b1, rel=1e-8)
+    assert f[0] == pytest.approx(c4 * d_o * d_g, rel=1e-8)
+    # the load damping is part of A₂₂ (it was lost in an earlier Python copy of the assembly)
+    mass = params.load.mass
+    assert A[1, 1] == pytest.approx(-(m.friction.pwa.slopes[idx.w] + params.load.damping) / mass, rel=1e-12)
 
 
 def test_paper_form_double_counts_pressure(params):
     ps = 100e5
-    cons = linearize(params, supply_pressure=ps, breakpoints="optimized")
+    cons = linearize(params, supply_pressure=ps, breakpoints="optimized", form="consistent")
     pap = linearize(params, supply_pressure=ps, form="paper", breakpoints={"cq": "optimized", "cqp": "paper"})
     exact = params.flow.K * np.sqrt(0.25 * ps)
     assert cons.load_flow(0.5 * ps, 1.2) == pytest.approx(exact, rel=0.03)
     assert pap.load_flow(0.5 * ps, 1.2) / exact == pytest.approx(0.5, abs=0.03)
 
 
-def test_scheduling_rescales_cells_exactly(params):
+def test_scheduling_rescales_cells_exactly_asymmetric(params):
     m = linearize(params, scheduled=True)
+    al = params.cylinder.area_b / params.cylinder.area_a
+    for ps in (60e5, 95e5, 140e5):
+        for s, pe in ((1, ps), (-1, al * ps)):  # tank at 0 bar
+            cq = m.cells_at(ps, s)["cq"]
+            p_hat = s * pe * np.array(PAPER_WORKING_POINTS)
+            exact = params.flow.K * np.sqrt(pe * (1 - s * p_hat / pe) / (1 + al**3))
+            np.testing.assert_allclose(cq(p_hat), exact, rtol=1e-12)
+        y = np.array([0.3 * ps, 0.01, 0.1])
+        q = m.load_flow(y[0], 0.8, ps)
+        assert q == pytest.approx(0.7 * params.flow.K * np.sqrt((ps - y[0]) / (1 + al**3)), rel=1e-12)
+
+
+def test_scheduling_rescales_cells_exactly(params):
+    m = linearize(params, scheduled=True, form="consistent")
     for ps in (60e5, 95e5, 140e5):
         cq = m.cells_at(ps)["cq"]
         p_hat = ps * np.array(PAPER_WORKING_POINTS)

@@ -351,19 +351,28 @@ class PwaModel:
         """
         lo, hi = self.cell_box(cells, ps)
         x = self.x_capacitance
-        pts = [(lo[0] + fp * (hi[0] - lo[0]), lo[3] + fu * (hi[3] - lo[3])) for fp in (0.2, 0.5, 0.8) for fu in (0.25, 0.75)]
+        quad = self.form == "paper"
+        fps = (0.2, 0.5, 0.8) if quad else (0.25, 0.75)
+        pc, ph = 0.5 * (lo[0] + hi[0]), max(0.5 * (hi[0] - lo[0]), 1.0)
         v = 0.5 * (lo[1] + hi[1])
         M, r = [], []
-        a_v = None
-        for P, u in pts:
-            f, J, _G = self._kernel_point((P, v, x), u, ps, fl)
-            M.append([1.0, P, P * P, u, u * P, u * P * P])
-            r.append(f[0])
-            a_v = J[0, 1]
-        sc = np.array([1.0, max(abs(lo[0]), abs(hi[0]), 1.0)])
-        Ms = np.array(M) / np.array([1, sc[1], sc[1] ** 2, 1, sc[1], sc[1] ** 2])
-        c = np.linalg.solve(Ms, np.array(r) - a_v * v) / np.array([1, sc[1], sc[1] ** 2, 1, sc[1], sc[1] ** 2])
-        return np.array([[c[0], c[3]], [c[1], c[4]], [c[2], c[5]]]), float(a_v)
+        a_v = 0.0
+        for fp in fps:
+            for fu in (0.25, 0.75):
+                P, u = lo[0] + fp * (hi[0] - lo[0]), lo[3] + fu * (hi[3] - lo[3])
+                f, J, _G = self._kernel_point((P, v, x), u, ps, fl)
+                t = (P - pc) / ph  # scaled pressure: a well-conditioned fit
+                M.append([1.0, t, u, u * t] + ([t * t, u * t * t] if quad else []))
+                r.append(f[0] - J[0, 1] * v)
+                a_v = J[0, 1]
+        c = np.linalg.solve(np.array(M), np.array(r))
+        b2 = (c[4], c[5]) if quad else (0.0, 0.0)
+        a = np.zeros((3, 2))
+        for j, (b0, b1, bq) in enumerate(((c[0], c[1], b2[0]), (c[2], c[3], b2[1]))):
+            a[2, j] = bq / ph**2
+            a[1, j] = b1 / ph - 2.0 * bq * pc / ph**2
+            a[0, j] = b0 - b1 * pc / ph + bq * pc**2 / ph**2
+        return a, float(a_v)
 
     def matrices(self, p_l: float, v: float, u: float, p_s: float | None = None, f_l: float | None = None):
         """A(x), b(x), f of Eq. (23) for state x = [P_L, ẋ] in the active cells, exact in the cell.
