@@ -121,8 +121,14 @@ def simulate_command(
         u = input if input is not None else "sine:amplitude=0.4,frequency=1"
     duration = 5.0 if duration is None else duration
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
+    mdl = as_model(model, prm)
+    if model == "pwa" and supply_pressure is not None:
+        from ..linearization import linearize
+
+        # the cells follow the given P_S (constant or a signal) online: the scheduled model
+        mdl = linearize(prm, scheduled=True)
     res = simulate(
-        as_model(model, prm),
+        mdl,
         u,
         duration=duration,
         supply_pressure=supply_pressure,

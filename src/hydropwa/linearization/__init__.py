@@ -18,7 +18,7 @@ from ._cells import (
     friction_function,
     table_v_residual,
 )
-from ._export import SCHEMA, export_pwa, load_pwa, save_pwa
+from ._export import SCHEMA, UNITS, export_pwa, load_pwa, pwa_statespaces, save_pwa, save_pwa_mat
 from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
 from ._model import (
     FORMS,
@@ -26,6 +26,7 @@ from ._model import (
     CellIndex,
     PwaModel,
     linearize,
+    machine_velocity_range,
     pack_pwa,
     pwa_rhs,
     reduced_rhs,
@@ -79,6 +80,7 @@ __all__ = [
     "friction_cells",
     "friction_function",
     "linearize",
+    "machine_velocity_range",
     "load_pwa",
     "pack_pwa",
     "pwa_rhs",
@@ -89,6 +91,9 @@ __all__ = [
     "reproduce_table_v",
     "reproduce_tables_vi_ix",
     "save_pwa",
+    "save_pwa_mat",
+    "pwa_statespaces",
+    "UNITS",
     "table_v_residual",
     "tangent_coefficients",
     "tangent_pwa",

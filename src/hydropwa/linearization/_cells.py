@@ -32,6 +32,7 @@ __all__ = [
     "cq_cells",
     "cqp_cells",
     "friction_cells",
+    "machine_friction_cells",
     "friction_function",
     "friction_slope",
 ]
@@ -210,7 +211,9 @@ def friction_cells(
         Stribeck parameters of Eq. (11).
     n : int
         Number of cells (7 in the paper).
-    mode : {"paper", "optimized", "optimized-rms", "given", "tangent"}
+    mode : {"machine", "paper", "optimized", "optimized-rms", "given", "tangent"}
+        ``machine``: :func:`machine_friction_cells` (breakpoints from the machine's own
+        Stribeck velocity, optimised over ``interval``);
         ``paper``: least-squares fit on Table V's breakpoints (±0.79, ±14.5, ±54.4 mm/s);
         ``optimized``: minimax-optimal breakpoints; ``given``: minimax fit on
         ``breakpoints`` [m/s]; ``tangent``: tangents at ``working_points`` [m/s].
@@ -232,6 +235,8 @@ def friction_cells(
         if working_points is None:
             raise PwaError("tangent friction cells need working_points [m/s]")
         return tangent_pwa(func, working_points, interval, friction_slope(friction))
+    if mode == "machine":
+        return machine_friction_cells(friction, n, tuple(float(v) for v in interval))
     if mode in ("optimized", "optimized-rms"):
         return _optimized_friction(friction, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax")
     if mode == "given":
@@ -240,6 +245,52 @@ def friction_cells(
             raise PwaError(f"{len(np.atleast_1d(breakpoints))} friction breakpoints make {fit.n_cells} cells, not {n}")
         return fit
     raise PwaError(f"unknown breakpoint mode {mode!r} for friction")
+
+
+#: Table V's breakpoints (±0.79, ±14.5, ±54.4 mm/s) in units of the paper's Stribeck velocity
+#: χ = 15.7 mm/s: where a 7-cell fit of a Stribeck curve wants its breakpoints.
+_STRIBECK_BREAKPOINTS = (0.05, 0.92, 3.47)
+
+
+@lru_cache(maxsize=32)
+def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, float]) -> PwaFit:
+    """Friction cells for the machine's own velocity range, Eq. (22).
+
+    Symmetric breakpoints start from Table V's pattern scaled by the machine's Stribeck
+    velocity χ (0.05χ, 0.92χ, 3.5χ for 7 cells; a geometric spread from 1/γ to a third of
+    the range for other counts) and are then optimised (Nelder–Mead on their logarithms,
+    minimax error of the least-squares-continuous fit over ``interval``). Cached per
+    (friction, n, interval).
+    """
+    from scipy.optimize import minimize  # deferred: scipy.optimize is slow to import
+
+    n = _check_cells(n, "friction")
+    func = friction_function(friction)
+    lo, hi = interval
+    vmax = min(abs(lo), abs(hi))
+    if n < 3 or n % 2 == 0 or vmax <= 0.0:
+        return _optimized_friction(friction, interval, n, "minimax")
+    k = (n - 1) // 2
+    chi = friction.stribeck_velocity
+    if k == 3:
+        b0 = np.array(_STRIBECK_BREAKPOINTS) * chi
+    else:
+        b0 = np.geomspace(min(1.0 / max(friction.smoothness, 1e-9), 0.05 * chi), max(3.5 * chi, vmax / 3), k)
+    b0 = np.clip(b0, 1e-6 * vmax, 0.95 * vmax)
+
+    def fit(logb):
+        b = np.sort(np.exp(logb))
+        if b[-1] >= 0.98 * vmax or np.any(np.diff(b) <= 1e-9 * vmax):
+            return None
+        return fit_pwa(func, interval, breakpoints=np.concatenate((-b[::-1], b)), method="minimax")
+
+    def cost(logb):
+        f = fit(logb)
+        return np.inf if f is None else f.max_error
+
+    res = minimize(cost, np.log(b0), method="Nelder-Mead", options={"maxiter": 20 * k, "xatol": 1e-3, "fatol": 1e-2})
+    best = fit(res.x) if np.isfinite(res.fun) and res.fun <= cost(np.log(b0)) else fit(np.log(b0))
+    return best
 
 
 @lru_cache(maxsize=32)

@@ -28,18 +28,19 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError, PwaError
-from .._io import atomic_write_text
+from .._io import atomic_path, atomic_write_text
 from ..components import PiecewiseAffine
 from ._fit import PwaFit
 
-__all__ = ["SCHEMA", "model_to_dict", "model_from_dict", "export_pwa", "save_pwa", "load_pwa"]
+__all__ = ["SCHEMA", "UNITS", "model_to_dict", "model_from_dict", "export_pwa", "save_pwa", "load_pwa",
+           "pwa_statespaces", "save_pwa_mat"]
 
 SCHEMA = "hydropwa.pwa/1"
 _STATE = [{"name": "p_l", "unit": "Pa"}, {"name": "v", "unit": "m/s"}, {"name": "x", "unit": "m"}]
 _INPUT = [{"name": "u", "unit": "1"}]
 _SETS = {
     "dead_zone": ("u", "1", "1"),
-    "cq": ("p_tilde = sign(z) P_L / P_S", "1", "C_q / (K sqrt(P_S/2))"),
+    "cq": ("p_tilde = sign(z) P_L / P_e", "1", "C_q / (K sqrt(P_e/(1 + alpha^3)))"),
     "cqp": ("p_tilde = sign(z) P_L / P_S", "1", "C_qp / (|z| K / (4 sqrt(P_S/2)))"),
     "friction": ("v", "m/s", "N"),
 }
@@ -70,6 +71,8 @@ def model_to_dict(model) -> dict[str, Any]:
         "supply_pressure": model.supply_pressure,
         "input_range": list(model.input_range),
         "breakpoints": model.breakpoints,
+        "capacitance_position": model.capacitance_position,
+        "area_ratio": model.area_ratio,
         "state": _STATE,
         "input": _INPUT,
         "params": model.params.to_dict(),
@@ -128,6 +131,7 @@ def model_from_dict(data: dict[str, Any]):
             supply_pressure=float(_need(data, "supply_pressure", "document")),
             input_range=(float(ir[0]), float(ir[1])),
             breakpoints=str(_need(data, "breakpoints", "document")),
+            capacitance_position=data.get("capacitance_position"),
         )
     except PwaError:
         raise
@@ -150,7 +154,45 @@ def _box_rows(lower: np.ndarray, upper: np.ndarray) -> tuple[list, list]:
     return H, h
 
 
-def export_pwa(model, *, supply_pressure: float | None = None, sample_time: float | None = None) -> dict[str, Any]:
+#: Unit systems of the exported matrices: factor from SI to the unit, per variable of [P_L, v, x, u].
+UNITS: dict[str, tuple[tuple[str, float], ...]] = {
+    "si": (("Pa", 1.0), ("m/s", 1.0), ("m", 1.0), ("1", 1.0)),
+    "engineering": (("bar", 1e-5), ("mm/s", 1e3), ("mm", 1e3), ("%", 100.0)),
+}
+#: Most bisections of one cell while refining it below ``refine_tol``.
+MAX_REFINE_DEPTH = 12
+
+
+def _state_doc(model, units: str) -> tuple[list, list]:
+    (pu, _), (vu, _), (xu, _), (uu, _) = UNITS[units]
+    al = model.area_ratio
+    state = [
+        {"name": "p_l", "unit": pu, "definition": f"P_A - alpha*P_B, alpha = {al:.6g}"},
+        {"name": "v", "unit": vu, "definition": "rod velocity dx/dt"},
+        {"name": "x", "unit": xu, "definition": "rod position"},
+    ]
+    return state, [{"name": "u", "unit": uu, "definition": "valve command (1 = 100 % opening)"}]
+
+
+def _split(lower: np.ndarray, upper: np.ndarray, depth: int, model, idx, ps, tol, wp_v, poly):
+    """Boxes (lower, upper, dynamics, bound) covering one cell, bisected until bound <= tol."""
+    wp = {"p_l": 0.5 * (lower[0] + upper[0]), "v": float(np.clip(wp_v, lower[1], upper[1])),
+          "x": model.x_capacitance, "u": 0.5 * (lower[3] + upper[3])}
+    dyn = model.state_space(wp, p_s=ps)
+    bound = model.error_bound(idx, dyn, lower, upper, polynomial=poly)
+    if tol is None or bound <= tol or depth >= MAX_REFINE_DEPTH:
+        return [(lower, upper, dyn, bound)]
+    # e = c·ΔP·Δu (bilinear): halve the side with the larger share of the error, P_L first
+    k = 0 if depth % 2 == 0 else 3
+    mid = 0.5 * (lower[k] + upper[k])
+    up1, lo2 = upper.copy(), lower.copy()
+    up1[k], lo2[k] = mid, mid
+    return (_split(lower, up1, depth + 1, model, idx, ps, tol, wp_v, poly)
+            + _split(lo2, upper, depth + 1, model, idx, ps, tol, wp_v, poly))
+
+
+def export_pwa(model, *, supply_pressure: float | None = None, sample_time: float | None = None,
+               refine_tol: float | None = None, units: str = "si") -> dict[str, Any]:
     """The model with one affine system per cell, continuous or ZOH-discretised.
 
     Parameters
@@ -161,45 +203,151 @@ def export_pwa(model, *, supply_pressure: float | None = None, sample_time: floa
     sample_time : float, optional
         If given, each cell is discretised with a zero-order hold of this period [s]
         (affine term included, see :meth:`AffineDynamics.discretize`).
+    refine_tol : float, optional
+        Bisect each cell (in P_L and u) until its guaranteed vector-field error bound is at
+        most this many Pa/s of Ṗ_L (at most ``MAX_REFINE_DEPTH`` bisections per cell).
+    units : {"si", "engineering"}
+        ``si``: Pa, m/s, m, command in [1]; ``engineering``: bar, mm/s, mm, command in %,
+        so that the matrices are well conditioned. The document names its units.
 
     Returns
     -------
     dict
-        JSON-ready document (module docstring); ``cells`` lists every non-empty cell.
+        JSON-ready document (module docstring); ``cells`` lists every non-empty cell (or
+        refined piece of one) with A, B, f, the polyhedron H·[y; u] <= h, the working point
+        and ``error_bound``: the guaranteed maximum of |Ṗ_L(PWA) − (A y + B u + f)₀| over
+        the polyhedron (the other rows are exact), in the document's pressure unit per second.
     """
+    if units not in UNITS:
+        raise PwaError(f"units {units!r} must be one of {', '.join(UNITS)}")
+    if refine_tol is not None and not (isinstance(refine_tol, int | float) and refine_tol > 0):
+        raise PwaError(f"refine tolerance {refine_tol!r} must be a positive number of Pa/s")
     ps = model.supply_pressure if supply_pressure is None else float(supply_pressure)
     doc = model_to_dict(model)
+    doc["state"], doc["input"] = _state_doc(model, units)
+    doc["units"] = units
+    doc["variable_order"] = ["p_l", "v", "x", "u"]
     doc["export_supply_pressure"] = ps
     doc["time"] = "continuous" if sample_time is None else "discrete"
     doc["sample_time"] = None if sample_time is None else float(sample_time)
+    doc["refine_tol"] = refine_tol
+    doc["error_bound_note"] = (
+        "error_bound: guaranteed max over the cell of |dP_L/dt of the PWA model - (A y + B u + f)[0]| "
+        "of the continuous-time vector field, in the state's pressure unit per second; other rows exact"
+    )
+    sc = np.array([f for _u, f in UNITS[units]])
+    T = np.diag(sc[:3])
+    Ti = np.diag(1.0 / sc[:3])
     cells = []
     for idx, lower, upper in model.regions(ps):
         wp = model.working_point((idx.g, idx.s, idx.o, idx.w), ps)
-        wp["p_l"] = float(np.clip(wp["p_l"], lower[0], upper[0]))
-        wp["v"] = float(np.clip(wp["v"], lower[1], upper[1]))
-        if model.form == "paper":
-            wp["p_l"] = 0.5 * (lower[0] + upper[0]) if not lower[0] <= wp["p_l"] < upper[0] else wp["p_l"]
-        dyn = model.state_space(wp, p_s=ps)
-        if sample_time is not None:
-            dyn = dyn.discretize(sample_time)
-        H, h = _box_rows(lower, upper)
-        cells.append({
-            "index": idx._asdict(),
-            "H": H,
-            "h": h,
-            "A": dyn.A.tolist(),
-            "B": dyn.B.tolist(),
-            "f": dyn.f.tolist(),
-            "working_point": dyn.point,
-        })
+        poly = model._row0_polynomial(idx, ps, model.params.load.force, (lower, upper))
+        for lo, hi, dyn, bound in _split(lower, upper, 0, model, idx, ps, refine_tol, wp["v"], poly):
+            if sample_time is not None:
+                dyn = dyn.discretize(sample_time)
+            H, h = _box_rows(lo * sc, hi * sc)
+            point = {k: float(dyn.point[k]) * f for k, f in zip(("p_l", "v", "x", "u"), sc, strict=True)}
+            point["p_s"] = float(dyn.point["p_s"]) * sc[0]
+            cells.append({
+                "index": idx._asdict(),
+                "H": H,
+                "h": h,
+                "A": (T @ dyn.A @ Ti).tolist(),
+                "B": (T @ dyn.B / sc[3]).tolist(),
+                "f": (T @ dyn.f).tolist(),
+                "working_point": point,
+                "error_bound": bound * sc[0],
+            })
     doc["cells"] = cells
+    doc["max_error_bound"] = max(c["error_bound"] for c in cells) if cells else 0.0
     return doc
 
 
+def pwa_statespaces(model, *, supply_pressure: float | None = None, sample_time: float | None = None,
+                    refine_tol: float | None = None, units: str = "si") -> list[dict[str, Any]]:
+    """python-control ``StateSpace`` objects of all cells, with f as an extra input.
+
+    Returns
+    -------
+    list of dict
+        One entry per exported cell: ``sys`` (``control.StateSpace`` with inputs
+        ``["u", "one"]``, ``B = [B, f]``: feed the constant 1 on the second input; outputs =
+        states), ``H``, ``h`` (polyhedron over [y; u]), ``index``, ``working_point``,
+        ``error_bound`` — in the units of :func:`export_pwa`.
+    """
+    import control  # deferred: python-control is only needed here
+
+    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
+                     units=units)
+    names = [v["name"] for v in doc["state"]]
+    out = []
+    for c in doc["cells"]:
+        A, B, f = np.array(c["A"]), np.array(c["B"]), np.array(c["f"])
+        args = (A, np.hstack((B, f[:, None])), np.eye(3), np.zeros((3, 2)))
+        if doc["sample_time"] is not None:
+            args = args + (doc["sample_time"],)
+        sys = control.ss(*args, inputs=["u", "one"], outputs=names, states=names)
+        out.append({"sys": sys, "H": np.array(c["H"]), "h": np.array(c["h"]), "index": c["index"],
+                    "working_point": c["working_point"], "error_bound": c["error_bound"]})
+    return out
+
+
+def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | None = None,
+                 sample_time: float | None = None, refine_tol: float | None = None, units: str = "si",
+                 overwrite: bool = False) -> Path:
+    """MPT3-style MATLAB export: cell arrays A, B, f, H, h (regions H·[x; u] <= h).
+
+    In MATLAB (MPT3)::
+
+        d = load('pwa.mat');
+        for i = 1:numel(d.A)
+            sys(i) = LTISystem('A', d.A{i}, 'B', d.B{i}, 'f', d.f{i}, 'Ts', d.Ts);
+            sys(i).setDomain('xu', Polyhedron('A', d.H{i}, 'b', d.h{i}));
+        end
+        pwa = PWASystem(sys);
+
+    ``Ts`` is 0 for continuous time; ``state_names``, ``state_units``, ``error_bound`` and
+    ``cell_index`` (g, s, o, n, w per row) come along.
+    """
+    from scipy.io import savemat
+
+    target = Path(path)
+    if target.exists() and not overwrite:
+        raise PwaError(f"{target} exists; pass overwrite=True (--force) to replace it")
+    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
+                     units=units)
+
+    def cells(key):
+        arr = np.empty((len(doc["cells"]), 1), dtype=object)
+        for i, c in enumerate(doc["cells"]):
+            v = np.array(c[key], dtype=float)
+            arr[i, 0] = v[:, None] if v.ndim == 1 else v
+        return arr
+
+    data = {
+        "A": cells("A"), "B": cells("B"), "f": cells("f"), "H": cells("H"), "h": cells("h"),
+        "Ts": 0.0 if doc["sample_time"] is None else doc["sample_time"],
+        "error_bound": np.array([c["error_bound"] for c in doc["cells"]]),
+        "cell_index": np.array([[c["index"][k] for k in ("g", "s", "o", "n", "w")] for c in doc["cells"]], dtype=float),
+        "state_names": np.array([v["name"] for v in doc["state"]], dtype=object),
+        "state_units": np.array([v["unit"] for v in doc["state"]], dtype=object),
+        "input_unit": doc["input"][0]["unit"],
+        "supply_pressure_Pa": doc["export_supply_pressure"],
+        "area_ratio": model.area_ratio,
+    }
+    try:
+        with atomic_path(target, suffix=".mat") as tmp:
+            savemat(tmp, data, do_compression=True)
+    except OSError as exc:
+        raise PwaError(f"cannot write {target}: {exc.strerror}") from None
+    return target
+
+
 def save_pwa(model, path: str | os.PathLike, *, supply_pressure: float | None = None,
-             sample_time: float | None = None) -> Path:
+             sample_time: float | None = None, refine_tol: float | None = None, units: str = "si") -> Path:
     """Write :func:`export_pwa` as JSON (atomically) and return the path."""
-    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time)
+    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
+                     units=units)
     return atomic_write_text(path, json.dumps(doc, indent=1) + "\n")
 
 

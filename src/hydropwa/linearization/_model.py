@@ -60,6 +60,7 @@ __all__ = [
     "pwa_rhs",
     "reduced_rhs",
     "FORMS",
+    "machine_velocity_range",
 ]
 
 #: Load-flow forms: ``asymmetric`` (default, built on the single-rod reduced model), and the two
@@ -72,7 +73,7 @@ I_NG, I_NO, I_NN, I_NW = PWA_SLOT["ng"], PWA_SLOT["no"], PWA_SLOT["nn"], PWA_SLO
 DEFAULT_CELLS = {"cq": 5, "cqp": 5, "friction": 7}
 #: Default command range [1] of the exported polyhedra (beyond the saturation at 1.1).
 INPUT_RANGE = (-1.5, 1.5)
-_MODES = ("paper", "tangent", "optimized", "optimized-rms")
+_MODES = ("machine", "paper", "tangent", "optimized", "optimized-rms")
 
 
 class CellIndex(NamedTuple):
@@ -316,10 +317,16 @@ class PwaModel:
         return K.point_derivatives(K.PWA, np.asarray(y, dtype=float), u, ps, fl, self._packed_fixed(ps))
 
     def _packed_fixed(self, ps: float) -> np.ndarray:
-        """Packed vector with the cells fixed at P_S = ``ps`` (not scheduled)."""
-        p = pack_pwa(self).copy()
-        p[I_SCHED] = 0.0
-        p[I_PSFIX] = ps
+        """Packed vector with the cells fixed at P_S = ``ps`` (not scheduled); memoised per P_S."""
+        cache = self.__dict__.setdefault("_packed_cache", {})
+        p = cache.get(ps)
+        if p is None:
+            p = pack_pwa(self).copy()
+            p[I_SCHED] = 0.0
+            p[I_PSFIX] = ps
+            if len(cache) > 64:
+                cache.clear()
+            cache[ps] = p
         return p
 
     def load_flow(self, p_l: float, u: float, p_s: float | None = None) -> float:
@@ -341,7 +348,7 @@ class PwaModel:
                 return lo, hi
         raise PwaError(f"cell combination {want} is empty at P_S = {ps / 1e5:g} bar")
 
-    def _row0_polynomial(self, cells: CellIndex, ps: float, fl: float) -> tuple[np.ndarray, float]:
+    def _row0_polynomial(self, cells: CellIndex, ps: float, fl: float, box=None) -> tuple[np.ndarray, float]:
         """Exact polynomial of Ṗ_L inside a cell: Σ a_ij P_L^i u^j (i ≤ 2, j ≤ 1) + a_v·v.
 
         Inside one cell the PWA right-hand side is bilinear in (P_L, u) (quadratic in P_L in
@@ -349,7 +356,7 @@ class PwaModel:
         kernel at six points of the cell (an exact fit up to rounding). Returns the 3×2
         array a[i, j] and a_v.
         """
-        lo, hi = self.cell_box(cells, ps)
+        lo, hi = self.cell_box(cells, ps) if box is None else box
         x = self.x_capacitance
         quad = self.form == "paper"
         fps = (0.2, 0.5, 0.8) if quad else (0.25, 0.75)
@@ -446,21 +453,23 @@ class PwaModel:
         idx = self.cell_index(p_l, v, u, ps)
         return AffineDynamics(A, B, f, idx, {"p_l": p_l, "v": v, "x": x_in, "u": u, "p_s": ps})
 
-    def error_bound(self, cells: CellIndex, dyn: AffineDynamics, lower=None, upper=None, f_l: float | None = None) -> float:
+    def error_bound(self, cells: CellIndex, dyn: AffineDynamics, lower=None, upper=None, f_l: float | None = None,
+                    polynomial=None) -> float:
         """Guaranteed bound [Pa/s] of |Ṗ_L(PWA) − (A y + B u + f)₀| over a cell's box.
 
         The other rows are affine inside a cell and exact. In Ṗ_L the error of the tangent
         plane is e(P_L, u) = poly − tangent, linear in u for fixed P_L and at most
         quadratic in P_L for fixed u, so its extremes over the box lie at the u-edges, at
         the P_L-edges or at the vertex of the parabola: all of them are evaluated (no
-        sampling). ``lower``/``upper`` [P_L, v, x, u] restrict the box (default the cell's).
+        sampling). ``lower``/``upper`` [P_L, v, x, u] restrict the box (default the cell's);
+        ``polynomial`` is the cell's ``_row0_polynomial`` if already known.
         """
         ps = float(dyn.point["p_s"])
         fl = self.params.load.force if f_l is None else float(f_l)
         lo, hi = self.cell_box(cells, ps)
         if lower is not None:
             lo, hi = np.asarray(lower, float), np.asarray(upper, float)
-        a, _a_v = self._row0_polynomial(cells, ps, fl)
+        a, _a_v = self._row0_polynomial(cells, ps, fl) if polynomial is None else polynomial
         P0, u0 = dyn.point["p_l"], dyn.point["u"]
 
         def poly(P, u):
@@ -632,6 +641,10 @@ def _spec(breakpoints, key: str):
     if isinstance(breakpoints, str):
         if breakpoints not in _MODES:
             raise PwaError(f"breakpoints {breakpoints!r} must be one of {', '.join(_MODES)} or a mapping")
+        if breakpoints == "machine":  # cells over the machine's own operating range
+            # C_q/C_qp cells live in p̃ = P_L/P_e, already scaled to the machine's pressures:
+            # the tangent cells of Tables VI–IX serve every machine
+            return ("machine" if key == "friction" else "paper"), None
         return breakpoints, None
     if isinstance(breakpoints, Mapping):
         unknown = set(breakpoints) - set(DEFAULT_CELLS)
@@ -649,12 +662,13 @@ def linearize(
     *,
     supply_pressure: float | None = None,
     cells: Mapping[str, int] | None = None,
-    breakpoints: str | Mapping[str, Any] = "paper",
+    breakpoints: str | Mapping[str, Any] = "machine",
     form: str = "asymmetric",
     scheduled: bool = False,
     working_points: Mapping[str, Any] | None = None,
     load_pressure_range: tuple[float, float] | None = None,
-    friction_range: tuple[float, float] = FRICTION_INTERVAL,
+    friction_range: tuple[float, float] | None = None,
+    capacitance_position: float | None = None,
 ) -> PwaModel:
     """Build the piecewise-affine model of Sec. IV from a parameter set.
 
@@ -667,21 +681,28 @@ def linearize(
     cells : mapping, optional
         Cell counts {"cq": 5, "cqp": 5, "friction": 7}; the dead zone has 5 cells.
     breakpoints : str or mapping
-        ``paper`` (tangents at the recovered working points for C_q/C_qp, Table V's
-        breakpoints for friction), ``tangent`` (tangents at ``working_points``),
+        ``machine`` (default: minimax-optimal cells, the friction cells over the machine's
+        own velocity range, see :func:`machine_velocity_range`), ``paper`` (tangents at the
+        recovered working points for C_q/C_qp, Table V's breakpoints for friction over
+        ±0.2 m/s), ``tangent`` (tangents at ``working_points``),
         ``optimized`` (minimax-optimal breakpoints), ``optimized-rms``, or a mapping
         {cell set: mode or breakpoints}; C_q/C_qp breakpoints are in p̃ = P_L/P_S [1],
         friction breakpoints in m/s.
-    form : {"consistent", "paper"}
-        Load-flow form (see the module docstring).
+    form : {"asymmetric", "consistent", "paper"}
+        Load-flow form (see the module docstring): the single-rod model (default) or the
+        paper's mean-area model with Q_L = z·C_q or Eq. (17) as printed.
     scheduled : bool
         Follow the P_S(t) input (cells rescaled online at no cost) instead of a fixed P_S.
     working_points : mapping, optional
         Tangent points for ``tangent`` mode: {"cq": p̃ [1], "cqp": p̃ [1], "friction": m/s}.
     load_pressure_range : (float, float), optional
         P_L range [Pa] the cells must cover; must lie within ±P_S. Default ±P_S.
-    friction_range : (float, float)
-        Velocity range [m/s] of the friction fit.
+    friction_range : (float, float), optional
+        Velocity range [m/s] of the friction fit; default the machine's range
+        (:func:`machine_velocity_range`), or ±0.2 m/s (Table V) with ``breakpoints="paper"``.
+    capacitance_position : float, optional
+        Rod position [m] at which the asymmetric form freezes the chamber capacitances;
+        default mid-stroke.
 
     Returns
     -------
@@ -696,8 +717,16 @@ def linearize(
         raise PwaError(f"linearize needs a SystemParams, got {type(params).__name__}")
     if form not in FORMS:
         raise PwaError(f"form {form!r} must be one of {', '.join(FORMS)}")
-    ps = _check_supply(params.supply.pressure if supply_pressure is None else supply_pressure, params)
+    ps = _check_supply(params.supply.pressure if supply_pressure is None else supply_pressure, params, form)
     n = _parse_cells(cells)
+    if capacitance_position is not None:
+        xc = float(capacitance_position)
+        if not (math.isfinite(xc) and 0.0 <= xc <= params.cylinder.stroke):
+            raise PwaError(f"capacitance position {xc:g} m must lie within the stroke 0 … {params.cylinder.stroke:g} m")
+    fr_mode = breakpoints if isinstance(breakpoints, str) else breakpoints.get("friction", "paper") \
+        if isinstance(breakpoints, Mapping) else None
+    if friction_range is None:
+        friction_range = FRICTION_INTERVAL if fr_mode == "paper" else machine_velocity_range(params, ps, form)
     wp = dict(working_points or {})
     cq_int, cqp_int = CQ_INTERVAL, CQP_INTERVAL
     if load_pressure_range is not None:
@@ -725,7 +754,33 @@ def linearize(
     label = breakpoints if isinstance(breakpoints, str) else json.dumps(
         {k: (v if isinstance(v, str) else np.asarray(v, float).tolist()) for k, v in breakpoints.items()})
     return PwaModel(params, dead_zone_cells(params.dead_zone), cq, cqp, fr, form, bool(scheduled), ps,
-                    INPUT_RANGE, label)
+                    INPUT_RANGE, label, capacitance_position)
+
+
+def machine_velocity_range(params: SystemParams, supply_pressure: float | None = None,
+                           form: str = "asymmetric") -> tuple[float, float]:
+    """Rod velocity range [m/s] the machine reaches: no-load speeds at full opening.
+
+    v = z_max K √Δp / A with the edge drop Δp of the reduced model at P_L = 0 (the valve's
+    flow at P_S): extension P_e/(1 + α³) with P_e = P_S − α P_T over A_A, retraction
+    (α P_S − P_T)/(1 + α³) over A_A (mean-area forms: ½ P_S over Ā). z_max is the saturated
+    opening of the dead zone. The friction cells are fitted over this range by default.
+    """
+    from ..components import dead_zone as _dz
+
+    ps = params.supply.pressure if supply_pressure is None else float(supply_pressure)
+    dz = params.dead_zone
+    zmax = float(_dz(INPUT_RANGE[1], dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset))
+    c = params.cylinder
+    Kv = params.flow.K
+    if form == "asymmetric":
+        al, pt = c.area_b / c.area_a, params.supply.tank_pressure
+        a3 = 1.0 + al**3
+        v_ext = zmax * Kv * math.sqrt(max(ps - al * pt, 0.0) / a3) / c.area_a
+        v_ret = zmax * Kv * math.sqrt(max(al * ps - pt, 0.0) / a3) / c.area_a
+    else:
+        v_ext = v_ret = zmax * Kv * math.sqrt(0.5 * ps) / c.mean_area
+    return (-float(v_ret), float(v_ext))
 
 
 def pack_pwa(model: PwaModel) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._errors import SignalError, SimulationError
 from . import _kernel as K
-from ._signals import Sampled, as_signal, pack_signals
+from ._signals import Constant, Sampled, as_signal, pack_signals
 
 #: Default relative tolerance. On the paper rig (10 s, 40 %, 1 Hz) it keeps the position
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
@@ -269,6 +269,14 @@ def simulate(
     u_sig = as_signal(u, "", "u")
     ps_sig = as_signal(prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure")
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
+    if mdl.kind == K.PWA and supply_pressure is not None and not getattr(mdl, "scheduled", True):
+        fixed = float(getattr(mdl, "supply_pressure", np.nan))
+        if not (isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)):
+            raise SignalError(
+                f"this PWA model's cells are fixed at P_S = {fixed / 1e5:g} bar and would ignore the "
+                "supply_pressure input; build it with linearize(params, scheduled=True) to follow P_S(t), "
+                "or linearize(params, supply_pressure=...) for another constant P_S"
+            )
     sigs = [u_sig, ps_sig, fl_sig]
     p = mdl.pack(command_amplitude=u_sig.peak(duration))
     ps0 = ps_sig(t_out[0])
