@@ -36,10 +36,12 @@ __all__ = [
 #: Model variants evaluate_run knows: name → description.
 MODELS: dict[str, str] = {
     "full": "full-order model, measured P_S(t)",
-    "reduced": "reduced model, average P_S (paper)",
-    "reduced-scheduled": "reduced model, measured P_S(t)",
-    "pwa": "PWA model, cells at the average P_S (paper)",
-    "pwa-scheduled": "PWA model, cells scheduled on the measured P_S(t)",
+    "reduced": "asymmetric reduced model, average P_S",
+    "reduced-scheduled": "asymmetric reduced model, measured P_S(t)",
+    "pwa": "asymmetric PWA model, cells at the average P_S",
+    "pwa-scheduled": "asymmetric PWA model, cells scheduled on the measured P_S(t)",
+    "reduced-paper": "the paper's mean-area reduced model, average P_S (Sec. VII)",
+    "pwa-paper": "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
 }
 #: Channels scored per run.
 CHANNELS = ("x", "p_a", "p_b", "p_l", "v")
@@ -164,13 +166,18 @@ def evaluation_start(
     )
 
 
-def _measured(run, start: EvaluationStart, slope_window: float) -> dict[str, np.ndarray]:
-    """Measured channels from the start on, with P_L and a smoothed-derivative velocity."""
+def _area_ratio(params) -> float:
+    """α = A_B/A_A: the evaluation's load pressure is P_L = P_A − α P_B for every model."""
+    return params.cylinder.area_b / params.cylinder.area_a
+
+
+def _measured(run, start: EvaluationStart, slope_window: float, alpha: float = 1.0) -> dict[str, np.ndarray]:
+    """Measured channels from the start on, with P_L = P_A − α P_B and a smoothed-derivative velocity."""
     from scipy.signal import savgol_filter
 
     i = start.index
     ch = {k: np.asarray(v[i:], dtype=float) for k, v in run.channels.items()}
-    ch["p_l"] = ch["p_a"] - ch["p_b"]
+    ch["p_l"] = ch["p_a"] - alpha * ch["p_b"]
     if "v" not in ch:
         dt = float(np.median(np.diff(ch["t"])))
         win = max(5, int(round(2 * slope_window / dt)) | 1)
@@ -192,7 +199,8 @@ class EvaluationResult:
     start : EvaluationStart
         Start of the comparison and the initial state taken from the measurement.
     measured : dict[str, ndarray]
-        Measured channels from the start on (SI), with p_l = p_a − p_b and v from x.
+        Measured channels from the start on (SI), with p_l = p_a − α p_b (α = A_B/A_A; the simulations' p_l is the same
+        quantity from their chamber pressures) and v from x.
     simulations : dict[str, SimulationResult]
         Per model variant (see :data:`MODELS`).
     metrics : pandas.DataFrame
@@ -297,8 +305,12 @@ def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
         return ReducedModel(params), ps_mean
     if name == "reduced-scheduled":
         return ReducedModel(params), ps_signal
+    if name == "reduced-paper":
+        return ReducedModel(params, "paper"), ps_mean
     if name == "pwa":
-        return linearize(params, supply_pressure=ps_mean), ps_mean
+        return linearize(params, supply_pressure=ps_mean), None
+    if name == "pwa-paper":
+        return linearize(params, supply_pressure=ps_mean, form="consistent"), None
     return linearize(params, supply_pressure=ps_mean, scheduled=True), ps_signal
 
 
@@ -323,6 +335,9 @@ def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
         rtol=rtol,
         raise_on_failure=False,
     )
+    # one load pressure for every model, P_A − α P_B = F_hyd/A_A: the state of the asymmetric
+    # models, the force-equivalent pressure of the full and the paper-form models
+    res.channels["p_l"] = res.channels["p_a"] - _area_ratio(params) * res.channels["p_b"]
     if res.stats.get("status", 0) != 0:
         notes.append(
             f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
@@ -357,8 +372,8 @@ def _metric_rows(run_name, meas, sims, start) -> list[dict]:
                 row["drift_measured"] = drift_per_period(meas["t"], meas["x"], start.period)
                 row["drift_model"] = drift_per_period(meas["t"], y_hat, start.period)
             rows.append(row)
-        # The reduced and PWA models use the mean piston area and cannot drift (Sec. VII);
-        # the position fit with each signal's own linear trend removed scores the shape.
+        # The paper's mean-area models cannot drift (Sec. VII); the position fit with each
+        # signal's own linear trend removed scores the shape apart from the drift.
         y_hat = _padded(res, "x", n)
         rows.append(
             {
@@ -464,7 +479,7 @@ def evaluate_run(
     start = evaluation_start(run, settle_periods, slope_window)
     notes: list[str] = []
     ps_signal, ps_mean = _supply(run, params, start, notes)
-    meas = _measured(run, start, slope_window)
+    meas = _measured(run, start, slope_window, _area_ratio(params))
     sims = {
         name: _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
         for name in names

@@ -31,6 +31,8 @@ MODEL_STYLE = {
     "reduced-scheduled": ("tab:olive", "--", "reduced (P_S(t))"),
     "pwa": ("tab:red", "-.", "PWA (mean P_S)"),
     "pwa-scheduled": ("tab:purple", ":", "PWA scheduled (P_S(t))"),
+    "reduced-paper": ("tab:gray", "--", "reduced, paper form (mean area)"),
+    "pwa-paper": ("tab:brown", "-.", "PWA, paper form (mean area)"),
 }
 
 

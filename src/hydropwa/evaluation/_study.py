@@ -543,7 +543,7 @@ def _stage_evaluate(
             _interrupt.checkpoint()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                res = evaluate_run(run, ident, models=("full", "reduced", "pwa", "pwa-scheduled"))
+                res = evaluate_run(run, ident, models=("full", "reduced", "pwa", "pwa-scheduled", "reduced-paper", "pwa-paper"))
                 if true is not None:
                     ref = evaluate_run(run, true, models=("full",))
             stage_notes.extend(f"{run.name}: {n}" for n in res.notes)

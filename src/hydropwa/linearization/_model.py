@@ -469,28 +469,29 @@ class PwaModel:
         lo, hi = self.cell_box(cells, ps)
         if lower is not None:
             lo, hi = np.asarray(lower, float), np.asarray(upper, float)
-        a, _a_v = self._row0_polynomial(cells, ps, fl) if polynomial is None else polynomial
-        P0, u0 = dyn.point["p_l"], dyn.point["u"]
+        a, a_v = self._row0_polynomial(cells, ps, fl) if polynomial is None else polynomial
+        A0, B0, f0 = dyn.A[0], float(dyn.B[0, 0]), float(dyn.f[0])
 
-        def poly(P, u):
-            return a[0, 0] + a[1, 0] * P + a[2, 0] * P * P + u * (a[0, 1] + a[1, 1] * P + a[2, 1] * P * P)
+        def err(P, u, v, x):  # PWA Ṗ_L minus the exported affine row, exact inside the cell
+            poly = a[0, 0] + a[1, 0] * P + a[2, 0] * P * P + u * (a[0, 1] + a[1, 1] * P + a[2, 1] * P * P)
+            return poly + a_v * v - (A0[0] * P + A0[1] * v + A0[2] * x + B0 * u + f0)
 
-        dP = a[1, 0] + 2 * a[2, 0] * P0 + u0 * (a[1, 1] + 2 * a[2, 1] * P0)
-        du = a[0, 1] + a[1, 1] * P0 + a[2, 1] * P0 * P0
-        base = poly(P0, u0)
         worst = 0.0
+        # e is linear in u, v and x and at most quadratic in P_L: extremes at the edges in u, v,
+        # x, and in P_L at the edges or the vertex of the parabola
         for u in (lo[3], hi[3]):
             cands = [lo[0], hi[0]]
-            q2 = a[2, 0] + u * a[2, 1]  # coefficient of P² of e at this u
+            q2 = a[2, 0] + u * a[2, 1]
             if q2 != 0.0:
-                q1 = a[1, 0] + u * a[1, 1] - dP
-                pv = -q1 / (2 * q2)
+                pv = -(a[1, 0] + u * a[1, 1] - A0[0]) / (2.0 * q2)
                 if lo[0] < pv < hi[0]:
                     cands.append(pv)
             for P in cands:
-                e = poly(P, u) - (base + dP * (P - P0) + du * (u - u0))
-                worst = max(worst, abs(e))
-        scale = max(abs(base), abs(dP) * max(abs(lo[0]), abs(hi[0])), abs(du) * max(abs(lo[3]), abs(hi[3])))
+                for v in (lo[1], hi[1]):
+                    for x in (lo[2], hi[2]):
+                        worst = max(worst, abs(err(P, u, v, x)))
+        scale = max(abs(f0), abs(A0[0]) * max(abs(lo[0]), abs(hi[0])), abs(B0) * max(abs(lo[3]), abs(hi[3])),
+                    abs(a_v) * max(abs(lo[1]), abs(hi[1])))
         return float(worst + 1e-9 * scale)  # rounding margin of the coefficient fit
 
     def working_point(self, cells, p_s: float | None = None) -> dict[str, float]:

@@ -1168,7 +1168,7 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
         out[2, k] = z
         out[3, k] = pa
         out[4, k] = pb
-        out[5, k] = pa - pb  # P_A − P_B for every model (the state of the asymmetric form is P_A − α P_B)
+        out[5, k] = pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
         out[6, k] = ps
         out[7, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
         out[8, k] = x
