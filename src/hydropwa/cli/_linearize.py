@@ -40,19 +40,23 @@ def linearize_command(
     params_file: Path | None = None,
     supply_pressure: str | None = None,
     cells: str | None = None,
-    breakpoints: str = "paper",
-    form: str = "consistent",
+    breakpoints: str = "machine",
+    form: str = "asymmetric",
     scheduled: bool = False,
     sample_time: str | None = None,
     figures: Path | None = None,
     tables: Path | None = None,
+    refine_tol: str | None = None,
+    units: str = "si",
+    mat: Path | None = None,
+    force: bool = False,
 ) -> list[Path]:
     """Build, export and document the PWA model; returns the written paths.
 
     Parameters mirror the command-line options; quantities are strings with units
     (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
-    from hydropwa.linearization import linearize, save_pwa
+    from hydropwa.linearization import export_pwa, linearize, save_pwa, save_pwa_mat
     from hydropwa.params import get_preset, load_params, parse_quantity
 
     params = load_params(params_file) if params_file is not None else get_preset("paper")
@@ -60,7 +64,14 @@ def linearize_command(
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
     model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
                       form=form, scheduled=scheduled)
-    written = [save_pwa(model, out, sample_time=dt)]
+    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units)]
+    doc = export_pwa(model, refine_tol=tol, units=units)
+    unit = doc["state"][0]["unit"]
+    typer.echo(f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
+               f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)")
+    if mat is not None:
+        written.append(save_pwa_mat(model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force))
     if figures is not None:
         from hydropwa.linearization._report import write_figures
 
@@ -77,20 +88,25 @@ def _run(
     params_file: Annotated[Path | None, typer.Option("--params", help="Parameter TOML (default: paper preset).")] = None,
     supply_pressure: Annotated[str | None, typer.Option("--supply-pressure", help='Fixed P_S, e.g. "95 bar".')] = None,
     cells: Annotated[str | None, typer.Option("--cells", help="Cell counts, e.g. cq=5,cqp=5,friction=7.")] = None,
-    breakpoints: Annotated[str, typer.Option("--breakpoints", help="paper, tangent, optimized or optimized-rms.")] = "paper",
-    form: Annotated[str, typer.Option("--form", help="consistent (Q_L = z·C_q) or paper (Eq. (17) as printed).")] = "consistent",
+    breakpoints: Annotated[str, typer.Option("--breakpoints", help="machine (cells from the machine's range), paper (Table V), tangent, optimized or optimized-rms.")] = "machine",
+    form: Annotated[str, typer.Option("--form", help="asymmetric (single-rod, default), consistent (mean area, Q_L = z·C_q) or paper (Eq. (17) as printed).")] = "asymmetric",
     scheduled: Annotated[bool, typer.Option("--scheduled", help="Cells follow the P_S(t) input.")] = False,
     sample_time: Annotated[str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')] = None,
     figures: Annotated[Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")] = None,
     tables: Annotated[Path | None, typer.Option("--tables", help="Folder for Tables IV-IX (md+csv).")] = None,
+    refine_tol: Annotated[str | None, typer.Option("--refine-tol", help='Split cells until the error bound is below this, e.g. "50 bar/s" or 5e6 (Pa/s).')] = None,
+    units: Annotated[str, typer.Option("--units", help="si (Pa, m/s, m, 1) or engineering (bar, mm/s, mm, %).")] = "si",
+    mat: Annotated[Path | None, typer.Option("--mat", help="Also write an MPT3-style MATLAB file (A, B, f, H, h).")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
 ) -> None:
     """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
     from hydropwa._errors import check_output
 
     check_output(out, force)
+    if mat is not None:
+        check_output(mat, force)
     paths = linearize_command(out, params_file, supply_pressure, cells, breakpoints, form, scheduled,
-                              sample_time, figures, tables)
+                              sample_time, figures, tables, refine_tol, units, mat, force)
     for p in paths:
         typer.echo(f"wrote {p}")
 
