@@ -223,7 +223,7 @@ def load_flow_drop(z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: fl
     Extension (z ≥ 0): P_S − P_A = (P_B − P_T)/α² = (P_S − α P_T − P_L)/(1 + α³).
     Retraction (z < 0): P_A − P_T = (P_S − P_B)/α² = (α P_S − P_T + P_L)/(1 + α³).
     With α = 1 and P_T = 0 this is ½(P_S ∓ P_L), the drop of Eq. (12).
-    See docs/models.md ("Asymmetric reduced model") for the derivation.
+    See docs/reduced_asymmetric.md ("Asymmetric reduced model") for the derivation.
     """
     if z >= 0.0:
         return (p_s - alpha * p_t - p_l) / (1.0 + alpha * alpha * alpha)

@@ -389,7 +389,7 @@ class PwaModel:
         A : ndarray (2, 2), b : ndarray (2,), f : ndarray (2,)
             ẋ = A(x) x + b(x) u + f reproduces :func:`pwa_rhs` (without end stops); f is
             constant in the cell, A(x) and b(x) carry the bilinear u·P_L (and, in the paper
-            form, the P_L² of Eq. (17)) terms. Derived from the kernel (docs/models.md gives
+            form, the P_L² of Eq. (17)) terms. Derived from the kernel (docs/reduced_asymmetric.md gives
             the closed forms; the printed (25)–(27) differ as documented in docs/errata.md).
         """
         ps = self._ps(p_s)

@@ -123,7 +123,7 @@ class ReducedModel(Model):
         α = A_B/A_A, flows from both orifice equations (5)–(6) under Q_B = α Q_A, force
         A_A P_L, position-dependent chamber capacitances; the rod drifts as a real
         single-rod axis does. ``paper``: Eqs. (12)–(15) with the mean area Ā (no drift).
-        Derivation: docs/models.md.
+        Derivation: docs/reduced_asymmetric.md.
     """
 
     form: str = "asymmetric"

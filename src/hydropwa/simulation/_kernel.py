@@ -261,7 +261,7 @@ def _load_input_rates(dq_du, dq_dps, y, z, ps, du, dps, dfl, p, dfdt):
 def rhs_reduced(y, u, ps, fl, p, dy):
     """Reduced model: valve dynamics dropped (ν = u), load pressure P_L = P_A − α P_B.
 
-    Asymmetric form (default): the single-rod load-pressure model (docs/models.md), flows
+    Asymmetric form (default): the single-rod load-pressure model (docs/reduced_asymmetric.md), flows
     from both orifice equations (5)–(6) under Q_B = α Q_A; paper form: Eqs. (12)–(15).
     """
     al, pt = (1.0, 0.0) if p[I_RFORM] != 0.0 else (p[I_AB] / p[I_AA], p[I_PT])
