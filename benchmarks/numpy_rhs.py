@@ -101,7 +101,34 @@ def reduced_rhs(t, y, p, u_of_t, ps_of_t, fl_of_t):
     return np.array([dpl, force / p[K.I_MASS], v])
 
 
-RHS = {K.FULL: full_rhs, K.REDUCED: reduced_rhs}
+def reduced_rhs_asymmetric(t, y, p, u_of_t, ps_of_t, fl_of_t):
+    """The single-rod reduced model (docs/reduced_asymmetric.md) as a plain Python function."""
+    pl, v, x = y[0], y[1], y[2]
+    u, ps, fl = u_of_t(t), ps_of_t(t), fl_of_t(t)
+    z = _dead_zone(u, p)
+    kk, ptr, pt = p[K.I_K], p[K.I_PTR], p[K.I_PT]
+    aa, ab = p[K.I_AA], p[K.I_AB]
+    al = ab / aa
+    a3 = 1.0 + al**3
+    if z >= 0:
+        drop = (ps - al * pt - pl) / a3
+        pa, pb = ps - drop, pt + al * al * drop
+    else:
+        drop = (al * ps - pt + pl) / a3
+        pa, pb = pt + drop, ps - al * al * drop
+    ql = z * kk * _signed_sqrt(drop, ptr)
+    xs = min(max(x, 0.0), p[K.I_STROKE])
+    ia = 1.0 / (p[K.I_VA] + aa * xs)
+    ib = 1.0 / (p[K.I_VB] + ab * (p[K.I_STROKE] - xs))
+    e = p[K.I_E]
+    dpl = e * (ia + al * al * ib) * (ql - aa * v) - e * (ia + al * ib) * p[K.I_CL] * (pa - pb)
+    force = aa * pl - _friction(v, p) - fl - p[K.I_CLOAD] * v + _end_stop(x, v, p)
+    return np.array([dpl, force / p[K.I_MASS], v])
+
+
+RHS = {K.FULL: full_rhs, K.REDUCED: reduced_rhs_asymmetric}
+#: The reduced model's right-hand side by form (the kernel reads p[K.I_RFORM]).
+REDUCED_RHS = {"asymmetric": reduced_rhs_asymmetric, "paper": reduced_rhs}
 
 
 def check_against_kernel(kind, p, signals, y, t=0.123):
@@ -111,5 +138,6 @@ def check_against_kernel(kind, p, signals, y, t=0.123):
     sg = pack_signals(signals)
     dy = np.empty_like(y)
     K.rhs(kind, t, y, p, sg, dy)
-    mine = RHS[kind](t, y, p, *signals)
+    f = RHS[kind] if kind != K.REDUCED or p[K.I_RFORM] == 0.0 else REDUCED_RHS["paper"]
+    mine = f(t, y, p, *signals)
     return float(np.max(np.abs(mine - dy) / (np.abs(dy) + 1e-12)))

@@ -39,7 +39,7 @@ from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from numpy_rhs import RHS  # noqa: E402
+from numpy_rhs import REDUCED_RHS, RHS  # noqa: E402
 
 from hydropwa.models import as_model  # noqa: E402
 from hydropwa.params import get_preset  # noqa: E402
@@ -53,14 +53,17 @@ X_INDEX = {K.FULL: 4, K.REDUCED: 2, K.PWA: 2}
 
 def _models():
     params = get_preset("paper")
-    out = {"full": as_model("full", params), "reduced": as_model("reduced", params)}
-    try:
-        from hydropwa.linearization import linearize
+    from hydropwa.linearization import linearize
+    from hydropwa.models import ReducedModel
 
-        out["pwa"] = linearize(params)
-    except ImportError:  # the PWA layer is not there yet
-        pass
-    return out
+    # the default (asymmetric) reduced and PWA models next to the paper's mean-area forms
+    return {
+        "full": as_model("full", params),
+        "reduced": ReducedModel(params),
+        "pwa": linearize(params),
+        "reduced-paper": ReducedModel(params, "paper"),
+        "pwa-paper": linearize(params, form="consistent", breakpoints="paper"),
+    }
 
 
 def _best(fn, repeats: int) -> tuple[float, object]:
@@ -84,7 +87,7 @@ def _scipy_rhs(model):
         from hydropwa.linearization import pwa_rhs
 
         return lambda t, y: pwa_rhs(t, y, u(t), ps(t), fl(t), model)
-    f = RHS[model.kind]
+    f = REDUCED_RHS[model.form] if model.kind == K.REDUCED else RHS[model.kind]
     return lambda t, y: f(t, y, p, u, ps, fl)
 
 
@@ -110,6 +113,13 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
     t_out = np.linspace(0.0, DURATION, int(DURATION * FS) + 1)
     for name, model in _models().items():
         ix = X_INDEX[model.kind]
+        if model.kind != K.PWA:  # the scipy baseline must be the same vector field
+            from numpy_rhs import check_against_kernel
+
+            sig = (as_signal(U, "", "u"), as_signal(model.params.supply.pressure, "Pa", "p_s"),
+                   as_signal(0.0, "N", "f_l"))
+            y = model.initial_state() + np.r_[[1e5, 0.01, 0.0] if model.kind == K.REDUCED else np.zeros(7)]
+            assert check_against_kernel(model.kind, model.pack(0.4), sig, y) < 1e-9, name
         ref = simulate(
             model, U, duration=DURATION, fs=FS, rtol=1e-9, solver="ros23", max_steps=50_000_000
         )
@@ -252,6 +262,11 @@ def main(argv=None) -> int:
             "scipy_rtol": "{:.0e}",
         },
     )
+    by = {r["case"]: r for r in single}
+    for form in ("reduced", "pwa"):
+        print(f"{form}: asymmetric (default) / paper mean-area form, end-to-end time "
+              f"{by[form]['hydropwa_s'] / by[form + '-paper']['hydropwa_s']:.2f}x "
+              f"(target <= 1: at least as fast as the paper form)")
     batch = bench_batch(n_batch, args.rtol)
     _print_table(
         "batch (cases per second)",

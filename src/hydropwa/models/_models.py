@@ -14,8 +14,8 @@ from typing import ClassVar
 import numpy as np
 
 from .._errors import ParameterError
-from ..params import SystemParams, get_preset
 from .._layout import BASE_SLOTS, N_BASE, SLOT
+from ..params import SystemParams, get_preset
 from ..simulation import _kernel as K
 
 __all__ = ["FullOrderModel", "ReducedModel", "Model", "pack_params", "as_model", "REDUCED_FORMS"]

@@ -43,18 +43,25 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import interrupt_cause
-from .._layout import I_CELLS, N_BASE, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS, PWA_SLOT, PWA_SLOTS, SLOT
+from .._layout import (
+    I_CELLS,
+    OUTPUT_CHANNELS,
+    PWA_OUTPUT_CHANNELS,
+    PWA_SLOT,
+    PWA_SLOTS,
+    SLOT,
+)
 from ..components._physics import (
     asymmetric_load_pressure_rate,
     chamber_pressure_difference_slopes,
     chamber_pressure_rates,
     chamber_pressures_from_load,
-    load_capacitance,
-    load_capacitance_slope,
     dead_zone,
     dead_zone_slope,
     end_stop_force,
     end_stop_force_slope,
+    load_capacitance,
+    load_capacitance_slope,
     load_flow,
     load_flow_input_slopes,
     load_flow_slope,
