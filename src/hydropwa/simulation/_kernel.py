@@ -45,6 +45,7 @@ from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled module
 from .._errors import interrupt_cause
 from .._layout import (
     I_CELLS,
+    OUT,
     OUTPUT_CHANNELS,
     PWA_OUTPUT_CHANNELS,
     PWA_SLOT,
@@ -93,6 +94,10 @@ I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (m
 I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
+#: Output rows, named in the layout table.
+O_U, O_SPOOL, O_Z, O_P_A, O_P_B, O_P_L, O_P_S, O_F_L, O_X, O_V, O_FRICTION = (
+    OUT[k] for k in ("u", "spool", "z", "p_a", "p_b", "p_l", "p_s", "f_l", "x", "v", "friction")
+)
 #: Number of output rows of the full/reduced models and of the PWA model.
 N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_CHANNELS)
 
@@ -1121,7 +1126,7 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     with _interruptible():
         out = _outputs(kind, t_out, Y, n_done, p, sg)
     if kind != PWA:
-        out[10] = stribeck_friction.py_func(out[9], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+        out[O_FRICTION] = stribeck_friction.py_func(out[O_V], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
     return out
 
 
@@ -1164,20 +1169,20 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
                 g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
                 f_slope, f_offset = _pwa_friction_cell(p, w)
                 fr = f_slope * v + f_offset
-                out[11, k] = g
-                out[12, k] = o
-                out[13, k] = nn
-                out[14, k] = w
+                out[N_OUT, k] = g
+                out[N_OUT + 1, k] = o
+                out[N_OUT + 2, k] = nn
+                out[N_OUT + 3, k] = w
             al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
             pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)  # Eq. (13), generalised
-        out[0, k] = u
-        out[1, k] = spool
-        out[2, k] = z
-        out[3, k] = pa
-        out[4, k] = pb
-        out[5, k] = pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
-        out[6, k] = ps
-        out[7, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
-        out[8, k] = x
-        out[9, k] = v
-        out[10, k] = fr
+        out[O_U, k] = u
+        out[O_SPOOL, k] = spool
+        out[O_Z, k] = z
+        out[O_P_A, k] = pa
+        out[O_P_B, k] = pb
+        out[O_P_L, k] = pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
+        out[O_P_S, k] = ps
+        out[O_F_L, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
+        out[O_X, k] = x
+        out[O_V, k] = v
+        out[O_FRICTION, k] = fr

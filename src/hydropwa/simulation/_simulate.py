@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import SignalError, SimulationError
+from .._layout import OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
 from . import _kernel as K
 from ._signals import Constant, Sampled, as_signal, pack_signals
 
@@ -22,26 +23,10 @@ DEFAULT_RTOL = 1e-3
 
 __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
-#: SI unit of every output channel.
-CHANNEL_UNITS: dict[str, str] = {
-    "t": "s",
-    "u": "1",
-    "spool": "1",
-    "z": "1",
-    "p_a": "Pa",
-    "p_b": "Pa",
-    "p_l": "Pa",
-    "p_s": "Pa",
-    "f_l": "N",
-    "x": "m",
-    "v": "m/s",
-    "friction": "N",
-    "cell_g": "1",
-    "cell_o": "1",
-    "cell_n": "1",
-    "cell_w": "1",
-}
-_OUT_COLS = ("u", "spool", "z", "p_a", "p_b", "p_l", "p_s", "f_l", "x", "v", "friction")
+#: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
+CHANNEL_UNITS: dict[str, str] = {"t": "s", **dict(OUTPUT_CHANNELS), **dict(PWA_OUTPUT_CHANNELS)}
+_OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
+_PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
 _STATUS = {
     K.MAX_STEPS: "the step budget (max_steps) was exhausted; raise max_steps or loosen rtol",
     K.STEP_COLLAPSE: "the step size collapsed below machine precision (the dynamics are too stiff or discontinuous here)",
@@ -321,8 +306,8 @@ def simulate(
     for i, name in enumerate(_OUT_COLS):
         channels[name] = out[i]  # contiguous row, no copy needed
     if mdl.kind == K.PWA:
-        for i, name in enumerate(("cell_g", "cell_o", "cell_n", "cell_w")):
-            channels[name] = out[11 + i]
+        for i, name in enumerate(_PWA_COLS):
+            channels[name] = out[len(_OUT_COLS) + i]
     result = SimulationResult(
         t=channels["t"],
         channels=channels,
