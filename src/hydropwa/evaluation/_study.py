@@ -463,13 +463,19 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
     def work():
         import pandas as pd
 
-        from ..linearization import linearize, save_pwa
+        from ..linearization import export_pwa, linearize, save_pwa
         from ._evaluate import evaluation_params
         from ._figures import plot_cq, plot_cqp, plot_stribeck
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
         files = [save_pwa(pwa, out / "pwa.json")]
+        # the guaranteed vector-field error of each exported cell (docs/reduced_asymmetric.md)
+        cells = export_pwa(pwa, units="engineering")["cells"]
+        bounds = pd.DataFrame([{**c["index"], "error_bound_bar_per_s": c["error_bound"]} for c in cells])
+        summary = bounds.groupby("g")["error_bound_bar_per_s"].agg(["count", "median", "max"]).reset_index()
+        summary.columns = ["dead-zone cell g", "cells", "median bound [bar/s]", "max bound [bar/s]"]
+        files += _write_table(summary, out / "tables" / "pwa_error_bounds")
         files += _save(plot_cq(pwa), out / "figures" / "fig01_cq")
         files += _save(plot_cqp(pwa), out / "figures" / "fig02_cqp")
         pts_file = out / "tables" / "friction_points.csv"
