@@ -97,7 +97,8 @@ def convert(
         bool, typer.Option("--resample", help="Resample non-uniform time bases (explicit repair).")
     ] = False,
     overwrite: Annotated[
-        bool, typer.Option("--overwrite", help="Replace an existing destination dataset.")
+        bool,
+        typer.Option("--force", "--overwrite", help="Replace an existing destination file or dataset."),
     ] = False,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""

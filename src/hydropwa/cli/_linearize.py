@@ -83,12 +83,29 @@ def _run(
     sample_time: Annotated[str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')] = None,
     figures: Annotated[Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")] = None,
     tables: Annotated[Path | None, typer.Option("--tables", help="Folder for Tables IV-IX (md+csv).")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file, figures and tables.")] = False,
 ) -> None:
     """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
     from hydropwa._errors import check_output
 
-    check_output(out, force)
+    if out.suffix.lower() != ".json":
+        raise PwaError(f"--out {out} must end in .json")
+    check_output(out, force, option="--out")
+    for option, folder in (("--figures", figures), ("--tables", tables)):
+        if folder is not None:
+            check_output(folder, force, folder=True, option=option)
+    if supply_pressure is not None:
+        from hydropwa._limits import check_supply_pressure
+        from hydropwa.params import get_preset, load_params, parse_quantity
+
+        base = load_params(params_file) if params_file is not None else get_preset("paper")
+        check_supply_pressure(parse_quantity(supply_pressure, "Pa", "--supply-pressure"), base, 1.0)
+    if sample_time is not None:
+        from hydropwa.params import parse_quantity
+
+        dt = parse_quantity(sample_time, "s", "--sample-time")
+        if not (0.0 < dt <= 1.0):
+            raise PwaError(f"--sample-time {sample_time!r} must be in (0, 1] s, e.g. '1 ms'")
     paths = linearize_command(out, params_file, supply_pressure, cells, breakpoints, form, scheduled,
                               sample_time, figures, tables)
     for p in paths:
