@@ -203,16 +203,20 @@ def check_output(
 
 
 # ----------------------------------------------------------------------------- locks
-def remove_stale_temps(folder: str | os.PathLike, recursive: bool = True) -> list[Path]:
+def remove_stale_temps(
+    folder: str | os.PathLike, recursive: bool = True, target: str | None = None
+) -> list[Path]:
     """Remove the temporary files of :func:`atomic_path` that a killed writer left.
 
     Call only while no other writer can be active in ``folder`` (under
-    :func:`output_lock`). Returns the removed paths.
+    :func:`output_lock`). With ``target``, only the temporary files of that file name.
+    Returns the removed paths.
     """
     folder = Path(folder)
     if not folder.is_dir():
         return []
-    found = folder.rglob(".*") if recursive else folder.glob(".*")
+    pattern = f".{target}.*" if target is not None else ".*"
+    found = folder.rglob(pattern) if recursive else folder.glob(pattern)
     removed = []
     for p in found:
         if _TEMP.match(p.name) and p.is_file() and not p.is_symlink():
@@ -231,13 +235,17 @@ def _lock_owner(path: Path) -> str:
 
 
 @contextlib.contextmanager
-def output_lock(folder: str | os.PathLike, command: str = "hydropwa") -> Iterator[Path]:
+def output_lock(
+    folder: str | os.PathLike, command: str = "hydropwa", *, name: str = LOCK_NAME,
+    clean: bool = True,
+) -> Iterator[Path]:
     """Hold the lock of an output folder for the duration of the block.
 
-    The lock file ``folder/.hydropwa.lock`` records the owner (pid, host, start) and is
-    held with ``flock``, which the kernel releases when the owner dies: a lock left by a
-    killed run is stale and is taken over. Taking the lock removes the temporary files of
-    earlier, interrupted writers (:func:`remove_stale_temps`).
+    The lock file ``folder/.hydropwa.lock`` (or ``name``) records the owner (pid, host,
+    start) and is held with ``flock``, which the kernel releases when the owner dies: a lock
+    left by a killed run is stale and is taken over. With ``clean``, taking the lock removes
+    the temporary files of earlier, interrupted writers in the folder tree
+    (:func:`remove_stale_temps`).
 
     Raises
     ------
@@ -250,7 +258,7 @@ def output_lock(folder: str | os.PathLike, command: str = "hydropwa") -> Iterato
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    path = folder / LOCK_NAME
+    path = folder / name
     for _attempt in range(5):
         try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -288,7 +296,8 @@ def output_lock(folder: str | os.PathLike, command: str = "hydropwa") -> Iterato
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
         os.ftruncate(fd, 0)
         os.write(fd, (json.dumps(info) + "\n").encode())
-        remove_stale_temps(folder)
+        if clean:
+            remove_stale_temps(folder)
     except OSError as exc:
         os.close(fd)
         raise _named(exc, path) from None
