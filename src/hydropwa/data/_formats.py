@@ -243,9 +243,13 @@ def _parquet_column(pa, col, field, path: Path, ch: str) -> np.ndarray:
     """
     typ = field.type
     if pa.types.is_timestamp(typ) or pa.types.is_duration(typ):
-        ticks = np.asarray(col.cast(pa.int64()).to_numpy(zero_copy_only=False), dtype=float)
-        sec = ticks * _TIME_UNITS[typ.unit]
-        return sec - sec[0] if pa.types.is_timestamp(typ) and sec.size else sec
+        ticks = np.asarray(col.cast(pa.int64()).fill_null(0).to_numpy(zero_copy_only=False))
+        if pa.types.is_timestamp(typ) and ticks.size:
+            ticks = ticks - ticks[0]  # in integers: epoch ns do not fit a float64 exactly
+        sec = ticks.astype(float) * _TIME_UNITS[typ.unit]
+        if col.null_count:
+            sec[np.asarray(col.is_null().to_numpy(zero_copy_only=False))] = np.nan
+        return sec
     if pa.types.is_date(typ) or pa.types.is_time(typ) or pa.types.is_interval(typ):
         raise DataError(
             f"{str(path)!r}, channel {ch!r}: column of type {typ} is a calendar value, not a "
