@@ -24,7 +24,15 @@ from _fuzzutil import cli_violation, run_cli
 from hydropwa import DataError, HydropwaError, ParameterError
 from hydropwa._errors import OutputExistsError, OutputLockedError
 from hydropwa._io import LOCK_NAME, atomic_path, atomic_write_text, output_lock
-from hydropwa.data import Run, check_dataset, convert, read_dataset, read_run, write_dataset, write_run
+from hydropwa.data import (
+    Run,
+    check_dataset,
+    convert,
+    read_dataset,
+    read_run,
+    write_dataset,
+    write_run,
+)
 from hydropwa.sweep import SweepJournal, check_scheduler, load_sweep, parse_sweep, run_sweep
 
 
