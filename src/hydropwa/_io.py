@@ -274,7 +274,6 @@ def output_lock(
             ) from None
         except OSError:  # a file system without flock: fall back to the pid check
             os.close(fd)
-            fd = None
             if _pid_lock_taken(path):
                 raise OutputLockedError(
                     f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait "

@@ -120,6 +120,7 @@ def simulate_command(
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
     prm = resolve_params(params)
+    u: Sampled | str
     if input_file is not None:
         from ..data import read_run
 

@@ -334,7 +334,7 @@ def run_sweep(
         progress(len(rows), total)
 
     def on_done(case: SweepCase, row: dict, res) -> None:
-        if res is not None:
+        if res is not None and traj_dir is not None:
             _write_trajectory(traj_dir, case, res)
         if journal is not None:
             journal.add([row])

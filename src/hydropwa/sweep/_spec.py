@@ -53,7 +53,7 @@ def _unknown(kind: str, name: str, allowed) -> ParameterError:
     )
 
 
-def _field_unit(key: str) -> tuple[str, str, str]:
+def _field_unit(key: str) -> tuple[str, str, str | None]:
     """Split ``"group.field"`` and return (group, field, SI unit); names the valid choices on error."""
     group, _, name = key.partition(".")
     if group not in FIELD_UNITS or name not in FIELD_UNITS[group]:
@@ -128,7 +128,7 @@ class SweepSpec:
             rng = np.random.default_rng(self.seed)
             cols = {k: _draw(rng, *spec, self.n_random) for k, spec in self.random.items()}
             draws = [{k: float(cols[k][i]) for k in cols} for i in range(self.n_random)]
-        out = []
+        out: list[SweepCase] = []
         for point in points:
             for draw in draws:
                 ov = dict(zip(keys, (float(v) for v in point), strict=True))
