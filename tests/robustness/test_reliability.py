@@ -457,3 +457,33 @@ def test_valid_commands_still_work(tmp_path):
     assert len(list((tmp_path / "traj").glob("case_*.parquet"))) == 4
     assert any(p.suffix == ".csv" for p in (tmp_path / "empty").iterdir())
     assert not any(p.name.endswith(".lock") or ".tmp" in p.name for p in tmp_path.rglob(".*"))
+
+
+def test_a_case_lost_on_dask_keeps_the_finished_ones(tmp_path, monkeypatch):
+    """A case that never comes back (here: its task fails on the worker, as a dead worker's
+    KilledWorker does) is reported in one error after the others ran; they are journaled
+    and a rerun runs only the lost one."""
+    from dask.distributed import LocalCluster
+
+    import hydropwa.sweep._run as sweep_run
+
+    spec = parse_sweep({"grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
+                        "input": {"duration": 0.02, "model": "reduced", "fs": 500}})
+    real = sweep_run.run_case
+
+    def dies_on_case_2(spec_, case, keep_result=False):
+        if case.index == 2:
+            raise RuntimeError("worker lost")
+        return real(spec_, case, keep_result)
+
+    monkeypatch.setattr(sweep_run, "run_case", dies_on_case_2)  # threads: workers see the patch
+    journal = tmp_path / "j.jsonl"
+    with LocalCluster(n_workers=1, processes=False, protocol="tcp://", dashboard_address=None) as cluster:
+        with pytest.raises(HydropwaError, match=r"1 of 4 cases did not finish on Dask \(first: case 2"):
+            run_sweep(spec, scheduler=cluster.scheduler_address, journal=journal)
+        assert sorted(SweepJournal(journal, spec).rows) == [0, 1, 3]
+        monkeypatch.setattr(sweep_run, "run_case", real)
+        ran = []
+        table = run_sweep(spec, scheduler=cluster.scheduler_address, journal=journal,
+                          progress=lambda d, t: ran.append(d))
+    assert ran == [3, 4] and list(table["case"]) == [0, 1, 2, 3]
