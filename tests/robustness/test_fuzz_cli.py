@@ -40,7 +40,7 @@ from hydropwa.params import get_preset, save_params
 from hydropwa.sweep import load_sweep
 
 #: Examples per CLI target: each is one in-process command (some simulate briefly).
-CLI_EXAMPLES = {"ci": 25, "dev": 8, "long": 600}.get(PROFILE, 25)
+CLI_EXAMPLES = {"ci": 25, "dev": 8, "long": 400}.get(PROFILE, 25)
 #: Examples per loader target (no simulation).
 LOADER_EXAMPLES = {"ci": 100, "dev": 20, "long": 3000}.get(PROFILE, 100)
 
