@@ -36,11 +36,17 @@ _ENGINEERING = {
 _NOT_PERCENT = {"zeta", "shape", "creep_slope"}
 
 
-def resolve_params(source: str | None):
-    """A preset name or a TOML path (``None``: the paper preset)."""
+def resolve_params(source):
+    """A preset name or a TOML path (``None``: the paper preset).
+
+    A file nested too deeply for the TOML parser is one :class:`ParameterError` naming it.
+    """
     if source is None:
         return get_preset("paper")
-    return load_params(source)
+    try:
+        return load_params(source)
+    except RecursionError:
+        raise ParameterError(f"{source}: nested too deeply to be a parameter file") from None
 
 
 @params_app.command("show")

@@ -42,7 +42,8 @@ def _warn(message, category, filename, lineno, file=None, line=None):
 def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
          summary: Path | None, force: bool = False) -> None:
     from hydropwa.identification import identify
-    from hydropwa.params import load_params
+
+    from ._core import resolve_params
 
     old = warnings.showwarning
     warnings.showwarning = _warn
@@ -56,7 +57,7 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
         check_output(summary_path, force, option="--summary")
         if figures is not None:
             check_output(figures, force, folder=True, option="--figures")
-        params = load_params(base) if base else None
+        params = resolve_params(base) if base else None
         report = identify(data_dir, parts, base_params=params)
         written = report.save(out, figures, summary)
     except HydropwaError as exc:

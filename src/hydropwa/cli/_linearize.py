@@ -53,9 +53,11 @@ def linearize_command(
     (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
     from hydropwa.linearization import linearize, save_pwa
-    from hydropwa.params import get_preset, load_params, parse_quantity
+    from hydropwa.params import parse_quantity
 
-    params = load_params(params_file) if params_file is not None else get_preset("paper")
+    from ._core import resolve_params
+
+    params = resolve_params(params_file)
     ps = None if supply_pressure is None else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
     model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
@@ -96,9 +98,11 @@ def _run(
             check_output(folder, force, folder=True, option=option)
     if supply_pressure is not None:
         from hydropwa._limits import check_supply_pressure
-        from hydropwa.params import get_preset, load_params, parse_quantity
+        from hydropwa.params import parse_quantity
 
-        base = load_params(params_file) if params_file is not None else get_preset("paper")
+        from ._core import resolve_params
+
+        base = resolve_params(params_file)
         check_supply_pressure(parse_quantity(supply_pressure, "Pa", "--supply-pressure"), base, 1.0)
     if sample_time is not None:
         from hydropwa.params import parse_quantity
