@@ -346,7 +346,7 @@ _JSON = st.recursive(
     lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c, max_size=4),
     max_leaves=12,
 )
-_FILES = ["r.csv", "../secret/secret.csv", "/etc/passwd", "sub/../r.csv", "sub/../../x.csv", "link.csv",
+_FILES = ["s.csv", "sub/s.csv", "./s.csv", "r.csv", "../secret/secret.csv", "/etc/passwd", "sub/../r.csv", "sub/../../x.csv", "link.csv",
           "r.txt", "", ".", "..", "r.csv\x00", "\\..\\x.csv", "C:/x.csv"]
 
 
@@ -366,7 +366,8 @@ def _manifest_doc(draw):
                 e[draw(st.sampled_from(["name", "file", "format", "kind", "fs", "n_samples", "channels",
                                         "meta"]))] = draw(_JSON)
         elif where == "file" and isinstance(doc.get("runs"), list):
-            doc["runs"].append(_entry(draw(st.sampled_from(_FILES)), name=draw(st.text(max_size=4))))
+            name = draw(st.sampled_from(["s", "t"]) | st.text(max_size=4))
+            doc["runs"].append(_entry(draw(st.sampled_from(_FILES)), name=name))
         elif where == "add" and isinstance(doc.get("runs"), list):
             doc["runs"].append(draw(_JSON))
         else:
@@ -385,7 +386,9 @@ def test_fuzz_manifest(doc):
     """Manifests of any shape: load only runs inside the folder, or raise DataError."""
     d = _W["root"] / "mf" / "ds"
     d.mkdir(parents=True, exist_ok=True)
-    write_run(_run(), d / "r.csv")
+    for f in ("r.csv", "s.csv", "sub/s.csv"):
+        if not (d / f).exists():
+            write_run(_run(), d / f)
     with contextlib.suppress(FileExistsError):
         (d / "link.csv").symlink_to(_W["root"] / "secret" / "secret.csv")
     (d / "manifest.json").write_text(json.dumps(doc))
