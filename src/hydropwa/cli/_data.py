@@ -35,7 +35,7 @@ ChannelMapOption = Annotated[
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
     return typer.Exit(code=2)
 
 

@@ -31,7 +31,7 @@ Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing para
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
     return typer.Exit(code=2)
 
 
