@@ -490,3 +490,50 @@ def test_a_case_lost_on_dask_keeps_the_finished_ones(tmp_path, monkeypatch):
         table = run_sweep(spec, scheduler=cluster.scheduler_address, journal=journal,
                           progress=lambda d, t: ran.append(d))
     assert ran == [3, 4] and list(table["case"]) == [0, 1, 2, 3]
+
+
+@pytest.mark.parametrize("how", ["SIGKILL", "SIGINT"], ids=["killed", "ctrl-c"])
+def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, how):
+    """`hydropwa sweep` in a subprocess, stopped once some cases are journaled; the rerun runs
+    only the rest, and its table equals an uninterrupted one (apart from wall time)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "spec.toml").write_text(
+        '[grid]\n"load.mass" = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]\n"supply.pressure" = ["80 bar", "100 bar"]\n'
+        '[input]\nduration = 0.5\nmodel = "full"\nfs = 200\nrtol = 1e-5\n'
+    )
+    argv = [sys.executable, "-m", "hydropwa", "sweep", "spec.toml", "-q", "--jobs", "1", "--out", "s.csv",
+            "--trajectories", "traj"]
+    proc = subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    journal = tmp_path / ".s.csv.sweep.jsonl"
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 300:
+        if proc.poll() is not None:
+            pytest.fail(f"the sweep ended (code {proc.returncode}) before it could be stopped")
+        if journal.is_file() and len(journal.read_text().splitlines()) >= 3:  # header + 2 cases
+            break
+        time.sleep(0.01)
+    os.killpg(proc.pid, getattr(signal, how))
+    _, err = proc.communicate(timeout=120)
+    if how == "SIGINT":
+        assert proc.returncode == 130 and err.decode().strip().splitlines()[-1].startswith("error: interrupted")
+    kept = [json.loads(line)["case"] for line in journal.read_text().splitlines()[1:] if line.endswith("}")]
+    assert len(kept) >= 2 and not (tmp_path / "s.csv").exists()
+    stamps = {}
+    for case in kept:  # every journaled case has its complete trajectory
+        path = tmp_path / "traj" / f"case_{case:05d}.parquet"
+        assert len(pd.read_parquet(path)) == 101
+        stamps[path] = path.stat().st_mtime_ns
+    done = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert all(p.stat().st_mtime_ns == t for p, t in stamps.items())  # finished cases not rerun
+    table = pd.read_csv(tmp_path / "s.csv")
+    assert list(table["case"]) == list(range(16)) and not journal.exists()
+    reference = run_sweep(load_sweep(tmp_path / "spec.toml"), jobs=1)
+    cols = [c for c in reference.columns if c != "wall_time"]
+    pd.testing.assert_frame_equal(table[cols], reference[cols], check_dtype=False, check_exact=True)
