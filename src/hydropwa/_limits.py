@@ -91,6 +91,11 @@ def check_samples(duration: float, fs: float, what: str = "--duration", copies: 
         if not isinstance(v, int | float) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
             raise ParameterError(f"{name} = {v!r} {unit} must be a positive, finite number")
     n = duration * fs + 1
+    if round(duration * fs) < 1:
+        raise ParameterError(
+            f"{what} {duration:g} s at {fs:g} Hz gives fewer than two output samples; lengthen "
+            "the duration or raise the output rate fs"
+        )
     need = n * BYTES_PER_SAMPLE * max(1, copies)
     budget = memory_budget()
     if need > budget:

@@ -370,6 +370,7 @@ def test_scheduler_addresses_fail_fast(address, expect):
     (["nosuch"], "No such command"),
     (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
     (["simulate", "--fs", "1e12", "--out", "o.csv"], "samples, about"),
+    (["simulate", "--duration", "1e-6", "--out", "o.csv"], "fewer than two output samples"),
     (["simulate", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"], "--plot x.xyz must end in"),
     (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
     (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
