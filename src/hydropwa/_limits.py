@@ -26,6 +26,7 @@ __all__ = [
     "check_position",
     "memory_budget",
     "human_bytes",
+    "check_jobs",
 ]
 
 #: Accepted relative tolerances of the integrator: tighter than 1e-12 is below what
@@ -141,4 +142,16 @@ def check_position(x0: float | None, params, where: str = "--x0") -> None:
         raise ParameterError(
             f"{where} = {x0:g} m is off the stroke [0, {stroke:g}] m; give a position on it "
             "(e.g. '100 mm')"
+        )
+
+
+def check_jobs(jobs: int | None, where: str = "--jobs") -> None:
+    """Workers: at most 4 per core (more processes or threads only thrash)."""
+    if jobs is None:
+        return
+    cores = os.cpu_count() or 1
+    if jobs > 4 * cores:
+        raise ParameterError(
+            f"{where} {jobs} is more than 4 workers per core ({cores} cores here); give at most "
+            f"{4 * cores}"
         )

@@ -538,3 +538,13 @@ def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, 
     reference = run_sweep(load_sweep(tmp_path / "spec.toml"), jobs=1)
     cols = [c for c in reference.columns if c != "wall_time"]
     pd.testing.assert_frame_equal(table[cols], reference[cols], check_dtype=False, check_exact=True)
+
+
+def test_more_workers_than_four_per_core_are_refused(tmp_path):
+    jobs = str(4 * (os.cpu_count() or 1) + 1)
+    (tmp_path / "spec.toml").write_text(SWEEP)
+    for argv in (["sweep", "spec.toml", "-q", "--out", "o.csv", "--jobs", jobs],
+                 ["rig", "run", "frf", "--out", "rig", "--jobs", jobs]):
+        code, _, line = cli(tmp_path, *argv)
+        assert code == 2 and "--jobs" in line, line
+    assert not (tmp_path / "rig").exists()

@@ -67,8 +67,10 @@ def run_command(
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
     from hydropwa._io import check_output, output_lock
+    from hydropwa._limits import check_jobs
     from hydropwa.rig import Rig, load_campaign, run_campaign
 
+    check_jobs(jobs)
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
     rig = Rig.from_params(params)
     camp = load_campaign(campaign)

@@ -69,6 +69,9 @@ def sweep_command(
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")
     check_output(out, force, option="--out")
+    from .._limits import check_jobs
+
+    check_jobs(jobs)
     if trajectories is not None:
         check_output(trajectories, True, folder=True, option="--trajectories")
     from ..sweep import SweepJournal, check_scheduler, load_sweep, run_sweep
