@@ -92,10 +92,15 @@ def check_samples(duration: float, fs: float, what: str = "--duration", copies: 
         if not isinstance(v, int | float) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
             raise ParameterError(f"{name} = {v!r} {unit} must be a positive, finite number")
     n = duration * fs + 1
-    if round(duration * fs) < 1:
+    if duration * fs < 0.5:  # rounds to one sample (and inf, from 1e308 s, is caught below)
         raise ParameterError(
             f"{what} {duration:g} s at {fs:g} Hz gives fewer than two output samples; lengthen "
             "the duration or raise the output rate fs"
+        )
+    if not math.isfinite(n):
+        raise ParameterError(
+            f"{what} {duration:g} s at {fs:g} Hz is more output samples than can be counted; "
+            "shorten the duration or lower the output rate fs"
         )
     need = n * BYTES_PER_SAMPLE * max(1, copies)
     budget = memory_budget()

@@ -371,6 +371,7 @@ def test_scheduler_addresses_fail_fast(address, expect):
     (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
     (["simulate", "--fs", "1e12", "--out", "o.csv"], "samples, about"),
     (["simulate", "--duration", "1e-6", "--out", "o.csv"], "fewer than two output samples"),
+    (["simulate", "--duration", "1e308", "--out", "o.csv"], "more output samples than can be counted"),
     (["simulate", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"], "--plot x.xyz must end in"),
     (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
     (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
