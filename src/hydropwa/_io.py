@@ -150,7 +150,12 @@ def _exists_message(path: Path, option: str | None = None) -> str:
 
 
 def check_output(
-    path: str | os.PathLike, force: bool = False, *, folder: bool = False, option: str | None = None
+    path: str | os.PathLike,
+    force: bool = False,
+    *,
+    folder: bool = False,
+    option: str | None = None,
+    files: tuple[str, ...] | None = None,
 ) -> None:
     """Refuse to write over an existing output unless ``force``.
 
@@ -164,6 +169,10 @@ def check_output(
         The output is a folder: an empty folder is fine, a non-empty one needs ``force``.
     option : str, optional
         The command-line option that named the path (for the message).
+    files : tuple of str, optional
+        With ``folder=True``: the names (glob patterns) the writer puts into the folder; only
+        these need ``force``, so one folder can collect the figures of several commands.
+        Default: any entry makes the folder occupied.
 
     Raises
     ------
@@ -188,10 +197,17 @@ def check_output(
             raise HydropwaError(
                 f"{where}: is a file, where a folder is expected; remove it or choose another path"
             )
-        if not force and path.is_dir() and any(p.name != LOCK_NAME for p in path.iterdir()):
+        if force or not path.is_dir():
+            return
+        if files is None:
+            taken = sorted(p.name for p in path.iterdir() if p.name != LOCK_NAME)
+        else:
+            taken = sorted({p.name for pattern in files for p in path.glob(pattern)})
+        if taken:
+            shown = ", ".join(taken[:3]) + (", ..." if len(taken) > 3 else "")
             raise OutputExistsError(
-                f"{where}: the folder is not empty; pass --force (force=True) to write into it, "
-                "or choose another folder"
+                f"{where}: the folder already holds {shown}; pass --force (force=True) to "
+                "overwrite, or choose another folder"
             )
         return
     if path.is_dir():

@@ -101,15 +101,16 @@ def test_atomic_no_clobber_refuses_and_leaves_no_temp(tmp_path):
     (["identify", "frf", "nowhere", "--out", "id.toml", "--summary", "keep.md"], "keep.md"),
     (["identify", "frf", "nowhere", "--out", "keep.toml"], "keep.toml"),
     (["identify", "emps", "keep.mat", "--summary", "keep.md"], "keep.md"),
-    (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/k.png"),
-    (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/k.png"),
+    (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig1_cq.png"),
+    (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/V_friction.csv"),
     (["simulate", "--duration", "0.02", "--out", "new.csv", "--plot", "keep.png"], "keep.png"),
     (["params", "export", "--out", "keep.toml"], "keep.toml"),
-    (["sweep", "spec.toml", "-q", "--out", "new.csv", "--trajectories", "keepdir"], "keepdir/k.png"),
+    (["sweep", "spec.toml", "-q", "--out", "new.csv", "--trajectories", "keepdir"], "keepdir/case_00001.parquet"),
     (["sweep", "spec.toml", "-q", "--out", "keep.csv"], "keep.csv"),
+    (["identify", "frf", "nowhere", "--out", "id.toml", "--figures", "keepdir"], "keepdir/valve_bode.png"),
 ])
 def test_every_writer_refuses_existing_output_without_force(tmp_path, argv, victim):
-    for name in ("keep.md", "keep.toml", "keep.png", "keep.csv", "keepdir/k.png"):
+    for name in ("keep.md", "keep.toml", "keep.png", "keep.csv", victim):
         (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_bytes(b"precious " + name.encode())
     (tmp_path / "keep.mat").write_bytes(b"x")  # emps: the summary check comes before the read
@@ -118,6 +119,18 @@ def test_every_writer_refuses_existing_output_without_force(tmp_path, argv, vict
     assert code == 2, line
     assert "--force" in line and victim.split("/")[0] in line
     assert (tmp_path / victim).read_bytes() == b"precious " + victim.encode()
+
+
+def test_a_figures_folder_may_hold_other_files(tmp_path):
+    """Only the files a command writes need --force: one folder collects several commands' figures."""
+    (tmp_path / "figs").mkdir()
+    (tmp_path / "figs" / "valve_bode.png").write_bytes(b"from identify")
+    code, _, line = cli(tmp_path, "linearize", "--out", "l.json", "--figures", "figs")
+    assert code == 0, line
+    assert (tmp_path / "figs" / "valve_bode.png").read_bytes() == b"from identify"
+    assert (tmp_path / "figs" / "fig1_cq.png").is_file()
+    code, _, line = cli(tmp_path, "linearize", "--out", "l2.json", "--figures", "figs")
+    assert code == 2 and "fig1_cq" in line
 
 
 def test_sweep_keeps_finished_cases_and_resumes(tmp_path):

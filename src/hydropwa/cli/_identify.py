@@ -30,6 +30,10 @@ Summary = Annotated[Path | None, typer.Option("--summary", help="Markdown summar
 Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing parameter file, summary and figures.")]
 
 
+#: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
+_FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
+
+
 def _fail(exc: HydropwaError) -> typer.Exit:
     typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
     return typer.Exit(code=2)
@@ -56,7 +60,7 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
             raise ParameterError("--summary and --out name the same file; give two names")
         check_output(summary_path, force, option="--summary")
         if figures is not None:
-            check_output(figures, force, folder=True, option="--figures")
+            check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
         params = resolve_params(base) if base else None
         report = identify(data_dir, parts, base_params=params)
         written = report.save(out, figures, summary)
@@ -120,7 +124,7 @@ def emps(
         if summary is not None:
             check_output(summary, force, option="--summary")
         if figures is not None:
-            check_output(figures, force, folder=True, option="--figures")
+            check_output(figures, force, folder=True, option="--figures", files=("emps_force.png",))
         res = identify_emps(file, validation, asymmetric=asymmetric)
         text = res.summary_markdown()
         if summary is not None:

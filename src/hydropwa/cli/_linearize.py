@@ -93,9 +93,10 @@ def _run(
     if out.suffix.lower() != ".json":
         raise PwaError(f"--out {out} must end in .json")
     check_output(out, force, option="--out")
+    names = {"--figures": ("fig1_cq.*", "fig2_cqp.*"), "--tables": ("*.csv", "*.md")}
     for option, folder in (("--figures", figures), ("--tables", tables)):
         if folder is not None:
-            check_output(folder, force, folder=True, option=option)
+            check_output(folder, force, folder=True, option=option, files=names[option])
     if supply_pressure is not None:
         from hydropwa._limits import check_supply_pressure
         from hydropwa.params import parse_quantity

@@ -85,7 +85,8 @@ def sweep_command(
         resume = journal_path.is_file() and not force
         if trajectories is not None:
             if not resume:
-                check_output(trajectories, force, folder=True, option="--trajectories")
+                check_output(trajectories, force, folder=True, option="--trajectories",
+                             files=("case_*.parquet",))
             _check_disk(sweep, trajectories)
             remove_stale_temps(trajectories, recursive=False)
         journal = SweepJournal(journal_path, sweep, fresh=not resume)
