@@ -16,6 +16,7 @@ __all__ = [
     "IdentificationError",
     "PwaError",
     "OutputExistsError",
+    "OutputLockedError",
     "check_output",
     "interrupt_cause",
 ]
@@ -72,12 +73,16 @@ class OutputExistsError(HydropwaError, FileExistsError):
     """An output file exists and overwriting it was not asked for (``--force``)."""
 
 
-def check_output(path, force: bool = False) -> None:
-    """Raise :class:`OutputExistsError` if ``path`` exists and ``force`` is False."""
-    from pathlib import Path
+class OutputLockedError(HydropwaError):
+    """Another run holds the lock of the output folder (see ``hydropwa._io.output_lock``)."""
 
-    if not force and Path(path).exists():
-        raise OutputExistsError(f"{path} exists; pass --force to overwrite it (or choose another --out)")
+
+def check_output(path, force: bool = False, *, folder: bool = False, option: str | None = None,
+                 files: tuple[str, ...] | None = None) -> None:
+    """Refuse an existing output unless ``force`` (see :func:`hydropwa._io.check_output`)."""
+    from ._io import check_output as _check
+
+    _check(path, force, folder=folder, option=option, files=files)
 
 
 def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:

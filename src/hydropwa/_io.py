@@ -1,57 +1,372 @@
-"""Atomic file writing shared by every writer of the package.
+"""File writing shared by every writer of the package: atomic, no-clobber, locked.
 
-Files are written to a temporary file in the destination folder and renamed
-into place, so an interrupted run never leaves a half-written file behind.
+- :func:`atomic_path` / :func:`atomic_write_text` / :func:`atomic_write_bytes`: files are
+  written to a temporary file in the destination folder and renamed into place, so an
+  interrupted run never leaves a half-written file behind. With ``overwrite=False`` the
+  final step is a hard link, which fails atomically when the target appeared meanwhile.
+- :func:`check_output`: refuse an existing file, a non-empty folder, or a file where a
+  folder is expected (and the reverse) unless ``force``.
+- :func:`output_lock`: one writer per output folder (a lock file held with ``flock``; a
+  lock left by a killed process is stale and taken over), which also removes the
+  temporary files such a process left behind (:func:`remove_stale_temps`).
+- :func:`os_error_message`: one line naming the path and what to do, for every ``OSError``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
+import json
 import os
+import re
+import socket
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes"]
+__all__ = [
+    "atomic_path",
+    "atomic_write_text",
+    "atomic_write_bytes",
+    "check_output",
+    "output_lock",
+    "remove_stale_temps",
+    "os_error_message",
+    "LOCK_NAME",
+]
+
+#: Name of the lock file that :func:`output_lock` keeps in an output folder.
+LOCK_NAME = ".hydropwa.lock"
+
+#: Temporary files of :func:`atomic_path`: ``.{name}.{8 random chars}.tmp{suffix}``.
+_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp(\.[A-Za-z0-9]+)?$")
+
+
+def _named(exc: OSError, path: Path) -> OSError:
+    """The same OSError, naming ``path`` (the target) instead of a temporary file."""
+    if exc.errno is None:
+        return exc
+    new = type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(path))
+    new.__cause__ = exc
+    return new
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+def atomic_path(
+    path: str | os.PathLike, suffix: str | None = None, *, overwrite: bool = True
+) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; move it onto ``path`` on success.
 
     Use for writers that need a file name (pandas, pyarrow, matplotlib)::
 
         with atomic_path("out.parquet") as tmp:
             df.to_parquet(tmp)
+
+    Parameters
+    ----------
+    path : path-like
+        The target file.
+    suffix : str, optional
+        Suffix of the temporary file (default: the target's, so writers that pick the
+        format from the name pick the right one).
+    overwrite : bool
+        Replace an existing target (default). With False, an existing target raises
+        :class:`~hydropwa.OutputExistsError` and nothing is changed, even if the target
+        appears while the file is written.
+
+    Raises
+    ------
+    OSError
+        Naming the target (not the temporary file): read-only file system, disk full, ...
     """
+    from ._errors import OutputExistsError
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    sfx = suffix if suffix is not None else path.suffix
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{sfx}", dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual permissions
+    if not overwrite and os.path.lexists(path):
+        raise OutputExistsError(_exists_message(path))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        sfx = suffix if suffix is not None else path.suffix
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{sfx}", dir=path.parent)
+        os.close(fd)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual permissions
+    except FileExistsError as exc:  # a file where a folder of the path should be
+        raise _named(exc, path.parent) from None
+    except NotADirectoryError as exc:
+        raise _named(exc, path.parent) from None
+    except OSError as exc:
+        raise _named(exc, path) from None
     tmp_path = Path(tmp)
     try:
         yield tmp_path
-        os.replace(tmp_path, path)
+        if overwrite:
+            os.replace(tmp_path, path)
+        else:
+            try:
+                os.link(tmp_path, path)  # fails if the target exists, atomically
+            except FileExistsError:
+                raise OutputExistsError(_exists_message(path)) from None
+            tmp_path.unlink()
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp_path.unlink()
+        if isinstance(exc, FileExistsError) and not exc.errno:
+            raise
+        raise _named(exc, path) from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+        with contextlib.suppress(OSError):
             tmp_path.unlink()
         raise
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically and return the path."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, overwrite: bool = True) -> Path:
+    """Write ``data`` to ``path`` atomically and return the path (see :func:`atomic_path`)."""
+    with atomic_path(path, overwrite=overwrite) as tmp:
+        try:
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            raise _named(exc, Path(path)) from None
     return Path(path)
 
 
-def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically and return the path."""
-    return atomic_write_bytes(path, text.encode(encoding))
+def atomic_write_text(
+    path: str | os.PathLike, text: str, encoding: str = "utf-8", *, overwrite: bool = True
+) -> Path:
+    """Write ``text`` to ``path`` atomically and return the path (see :func:`atomic_path`)."""
+    return atomic_write_bytes(path, text.encode(encoding), overwrite=overwrite)
+
+
+# ----------------------------------------------------------------------------- targets
+def _exists_message(path: Path, option: str | None = None) -> str:
+    what = "folder" if path.is_dir() else "file"
+    alt = f"choose another {option}" if option else "choose another path"
+    return f"{path}: the {what} exists; pass --force (force=True) to overwrite it, or {alt}"
+
+
+def check_output(
+    path: str | os.PathLike,
+    force: bool = False,
+    *,
+    folder: bool = False,
+    option: str | None = None,
+    files: tuple[str, ...] | None = None,
+) -> None:
+    """Refuse to write over an existing output unless ``force``.
+
+    Parameters
+    ----------
+    path : path-like
+        The output file, or folder with ``folder=True``.
+    force : bool
+        Allow replacing an existing file / writing into a non-empty folder.
+    folder : bool
+        The output is a folder: an empty folder is fine, a non-empty one needs ``force``.
+    option : str, optional
+        The command-line option that named the path (for the message).
+    files : tuple of str, optional
+        With ``folder=True``: the names (glob patterns) the writer puts into the folder; only
+        these need ``force``, so one folder can collect the figures of several commands.
+        Default: any entry makes the folder occupied.
+
+    Raises
+    ------
+    OutputExistsError
+        The target exists (a file, or a non-empty folder) and ``force`` is False.
+    HydropwaError
+        A folder is where a file is expected, or a file where a folder is expected
+        (also for any parent folder of the path): ``force`` does not change this.
+    """
+    from ._errors import HydropwaError, OutputExistsError
+
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    for parent in path.parents:
+        if parent.exists() and not parent.is_dir():
+            raise HydropwaError(
+                f"{where}: {parent} is a file, where a folder is expected; remove it or choose "
+                "another path"
+            )
+    if folder:
+        if path.exists() and not path.is_dir():
+            raise HydropwaError(
+                f"{where}: is a file, where a folder is expected; remove it or choose another path"
+            )
+        if force or not path.is_dir():
+            return
+        if files is None:
+            taken = sorted(p.name for p in path.iterdir() if p.name != LOCK_NAME)
+        else:
+            taken = sorted({p.name for pattern in files for p in path.glob(pattern)})
+        if taken:
+            shown = ", ".join(taken[:3]) + (", ..." if len(taken) > 3 else "")
+            raise OutputExistsError(
+                f"{where}: the folder already holds {shown}; pass --force (force=True) to "
+                "overwrite, or choose another folder"
+            )
+        return
+    if path.is_dir():
+        raise HydropwaError(
+            f"{where}: is a folder, where a file is expected; give a file name"
+        )
+    if not force and os.path.lexists(path):
+        raise OutputExistsError(_exists_message(path, option))
+
+
+# ----------------------------------------------------------------------------- locks
+def remove_stale_temps(
+    folder: str | os.PathLike, recursive: bool = True, target: str | None = None
+) -> list[Path]:
+    """Remove the temporary files of :func:`atomic_path` that a killed writer left.
+
+    Call only while no other writer can be active in ``folder`` (under
+    :func:`output_lock`). With ``target``, only the temporary files of that file name.
+    Returns the removed paths.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    pattern = f".{target}.*" if target is not None else ".*"
+    found = folder.rglob(pattern) if recursive else folder.glob(pattern)
+    removed = []
+    for p in found:
+        if _TEMP.match(p.name) and p.is_file() and not p.is_symlink():
+            with contextlib.suppress(OSError):
+                p.unlink()
+                removed.append(p)
+    return removed
+
+
+def _lock_owner(path: Path) -> str:
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+        return f"process {info['pid']} on {info['host']} since {info['started']}"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "another process"
+
+
+@contextlib.contextmanager
+def output_lock(
+    folder: str | os.PathLike, command: str = "hydropwa", *, name: str = LOCK_NAME,
+    clean: bool = True,
+) -> Iterator[Path]:
+    """Hold the lock of an output folder for the duration of the block.
+
+    The lock file ``folder/.hydropwa.lock`` (or ``name``) records the owner (pid, host,
+    start) and is held with ``flock``, which the kernel releases when the owner dies: a lock
+    left by a killed run is stale and is taken over. With ``clean``, taking the lock removes
+    the temporary files of earlier, interrupted writers in the folder tree
+    (:func:`remove_stale_temps`).
+
+    Raises
+    ------
+    OutputLockedError
+        Another live process holds the lock.
+    """
+    import fcntl
+
+    from ._errors import OutputLockedError
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / name
+    for _attempt in range(5):
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise _named(exc, path) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise OutputLockedError(
+                f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait for "
+                f"it to finish or choose another folder (if no run is active, delete {path})"
+            ) from None
+        except OSError:  # a file system without flock: fall back to the pid check
+            os.close(fd)
+            if _pid_lock_taken(path):
+                raise OutputLockedError(
+                    f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait "
+                    f"for it to finish or choose another folder (if no run is active, delete {path})"
+                ) from None
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:  # the previous owner removed the file between our open and flock
+            os.close(fd)
+            continue
+        break
+    else:  # pragma: no cover - five races in a row
+        raise OutputLockedError(f"{folder}: could not take the lock {path}; try again")
+    try:
+        info = {"pid": os.getpid(), "host": socket.gethostname(), "command": command,
+                "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        os.ftruncate(fd, 0)
+        os.write(fd, (json.dumps(info) + "\n").encode())
+        if clean:
+            remove_stale_temps(folder)
+    except OSError as exc:
+        os.close(fd)
+        raise _named(exc, path) from None
+    try:
+        yield path
+    finally:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        os.close(fd)
+
+
+def _pid_lock_taken(path: Path) -> bool:
+    """Without flock: the lock is taken if it names a live process on this host."""
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+        pid, host = int(info["pid"]), str(info["host"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    if host != socket.gethostname():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return pid != os.getpid()
+
+
+# ----------------------------------------------------------------------------- messages
+_HINTS = {
+    errno.EROFS: "the file system is read-only; choose an output on a writable disk",
+    errno.ENOSPC: "no space left on the device; free some space or choose another disk",
+    errno.EDQUOT: "the disk quota is exhausted; free some space or choose another disk",
+    errno.EACCES: "permission denied; choose a path you may write to (or read)",
+    errno.EPERM: "operation not permitted; choose another path",
+    errno.ENOENT: "no such file or folder; check the path",
+    errno.EEXIST: "a file is where a folder is expected; remove it or choose another path",
+    errno.ENOTDIR: "a file is where a folder is expected; remove it or choose another path",
+    errno.EISDIR: "is a folder, where a file is expected; give a file name",
+    errno.ENAMETOOLONG: "the name is too long; choose a shorter path",
+    errno.ELOOP: "too many levels of symbolic links; check the links",
+    errno.EMFILE: "too many open files; raise the limit (ulimit -n) or use fewer jobs",
+    errno.EIO: "input/output error; check the disk",
+    errno.ENOTEMPTY: "the folder is not empty; remove it or choose another path",
+}
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an ``OSError``: the path(s), what went wrong and what to do."""
+    paths = [str(p) for p in (exc.filename, getattr(exc, "filename2", None)) if p is not None]
+    where = " -> ".join(paths) if paths else "file system"
+    hint = _HINTS.get(exc.errno) if exc.errno is not None else None
+    text = hint or (exc.strerror or str(exc) or type(exc).__name__)
+    if hint is None and exc.errno is not None:
+        text = f"{text} (errno {exc.errno})"
+    return " ".join(f"{where}: {text}".split())

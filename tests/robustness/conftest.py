@@ -40,7 +40,15 @@ def pytest_terminal_summary(terminalreporter):
         return
     terminalreporter.section(f"fuzz input counts (profile {PROFILE!r})")
     for name in sorted(COUNTS):
-        tried, ok, rejected = COUNTS[name]
-        terminalreporter.write_line(f"{name:40s} tried {tried:7d}  loaded {ok:7d}  rejected {rejected:7d}")
+        tried, ok, rejected, bad = COUNTS[name]
+        terminalreporter.write_line(
+            f"{name:40s} tried {tried:7d}  loaded {ok:7d}  rejected {rejected:7d}"
+            + (f"  VIOLATIONS {bad:5d}" if bad else "")
+        )
+    total = [sum(v[i] for v in COUNTS.values()) for i in range(4)]
+    terminalreporter.write_line(
+        f"{'total':40s} tried {total[0]:7d}  loaded {total[1]:7d}  rejected {total[2]:7d}  "
+        f"violations {total[3]}"
+    )
     for (target, exc, site), (args, msg) in sorted(DEFECTS.items()):
         terminalreporter.write_line(f"DEFECT {target}: {exc} at {site}: {msg}\n    input {args}")

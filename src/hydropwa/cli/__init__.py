@@ -15,6 +15,7 @@ import typer
 
 from .. import _interrupt
 from .._errors import HydropwaError, interrupt_cause
+from .._io import os_error_message
 from ._core import params_app, simulate_command
 
 __all__ = ["app", "main"]
@@ -76,6 +77,37 @@ _EXITS, _ABORTS, _USAGE = _exception_types()
 _INTERRUPTED = "error: interrupted; finished files are kept, rerun to resume"
 
 
+def _error_line(message: str) -> None:
+    """Print ``error: message`` as one line on stderr."""
+    print("error: " + " ".join(message.split()), file=sys.stderr)
+
+
+def _usage_error(exc) -> int:
+    """A click/typer usage error as one ``error:`` line (exit 2); bare group names show help."""
+    ctx = getattr(exc, "ctx", None)
+    if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
+        print(ctx.get_help())
+        return 0
+    where = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
+    _error_line(f"{exc.format_message()}{where}")
+    return 2
+
+
+def _internal_error(exc: BaseException) -> int:
+    """An exception the package did not mean to raise: one line, exit 1."""
+    import os
+
+    if os.environ.get("HYDROPWA_DEBUG"):
+        import traceback
+
+        traceback.print_exception(exc)
+    _error_line(
+        f"internal error ({type(exc).__name__}: {exc}); this is a bug in hydropwa, please report "
+        "it with the command line (HYDROPWA_DEBUG=1 prints the traceback)"
+    )
+    return 1
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
     warnings.showwarning = _showwarning
@@ -84,24 +116,32 @@ def main(argv: list[str] | None = None) -> int:
     try:
         rv = command.main(args=argv, prog_name="hydropwa", standalone_mode=False)
     except HydropwaError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        _error_line(str(exc))
         code = 2
     except _EXITS as exc:
         code = getattr(exc, "exit_code", getattr(exc, "code", 0))
     except _ABORTS:  # click turns Ctrl-C (and EOF at a prompt) into Abort
         code = 130
     except _USAGE as exc:
-        exc.show()
-        code = exc.exit_code
+        code = _usage_error(exc)
     except KeyboardInterrupt:
         code = 130
     except SystemError as exc:  # a Ctrl-C reported by a compiled call (see interrupt_cause)
         if interrupt_cause(exc) is None:
-            raise
-        code = 130
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        print(f"error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
+            code = _internal_error(exc)
+        else:
+            code = 130
+    except OSError as exc:  # read-only file system, disk full, a file where a folder is expected...
+        _error_line(os_error_message(exc))
         code = 2
+    except MemoryError:
+        _error_line("out of memory; ask for less (shorter --duration, lower --fs, fewer cases)")
+        code = 2
+    except RecursionError:
+        _error_line("an input file is nested too deeply to read; check that it is the file you meant")
+        code = 2
+    except Exception as exc:  # a bug: still one line, exit 1 (HYDROPWA_DEBUG=1 shows the traceback)
+        code = _internal_error(exc)
     else:
         code = rv if isinstance(rv, int) else 0
     finally:

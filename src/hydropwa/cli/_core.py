@@ -18,6 +18,9 @@ from ..params import (
     save_params,
 )
 
+#: File types of ``--plot`` (matplotlib picks the format from the suffix).
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
 params_app = typer.Typer(help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True)
 
 #: SI unit → (display unit, factor) for `params show`.
@@ -33,11 +36,17 @@ _ENGINEERING = {
 _NOT_PERCENT = {"zeta", "shape", "creep_slope"}
 
 
-def resolve_params(source: str | None):
-    """A preset name or a TOML path (``None``: the paper preset)."""
+def resolve_params(source):
+    """A preset name or a TOML path (``None``: the paper preset).
+
+    A file nested too deeply for the TOML parser is one :class:`ParameterError` naming it.
+    """
     if source is None:
         return get_preset("paper")
-    return load_params(source)
+    try:
+        return load_params(source)
+    except RecursionError:
+        raise ParameterError(f"{source}: nested too deeply to be a parameter file") from None
 
 
 @params_app.command("show")
@@ -73,7 +82,9 @@ def params_export(
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """Write a parameter set to a hand-editable TOML file."""
-    check_output(out, force)
+    if out.suffix.lower() != ".toml":
+        raise ParameterError(f"--out {out} must end in .toml")
+    check_output(out, force, option="--out")
     params = resolve_params(source)
     save_params(params, out, header=f"exported from {source}")
     typer.echo(f"wrote {out}")
@@ -100,14 +111,22 @@ def simulate_command(
 
     if model not in ("full", "reduced", "pwa"):
         raise ParameterError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    from .._limits import check_position, check_rtol, check_samples, check_supply_pressure
+
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")
-    check_output(out, force)
+    if plot is not None and plot.suffix.lower() not in PLOT_SUFFIXES:
+        raise ParameterError(f"--plot {plot} must end in {', '.join(PLOT_SUFFIXES)}")
+    check_output(out, force, option="--out")
     if plot is not None:
-        check_output(plot, force)
+        check_output(plot, force, option="--plot")
+        if plot.resolve() == out.resolve():
+            raise ParameterError("--plot and --out name the same file; give two names")
+    check_rtol(rtol)
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
     prm = resolve_params(params)
+    u: Sampled | str
     if input_file is not None:
         from ..data import read_run
 
@@ -120,7 +139,10 @@ def simulate_command(
     else:
         u = input if input is not None else "sine:amplitude=0.4,frequency=1"
     duration = 5.0 if duration is None else duration
+    check_samples(duration, fs)
+    check_supply_pressure(supply_pressure, prm, duration)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
+    check_position(x_init, prm)
     mdl = as_model(model, prm)
     if model == "pwa" and supply_pressure is not None:
         from ..linearization import linearize

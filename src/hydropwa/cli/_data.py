@@ -35,7 +35,7 @@ ChannelMapOption = Annotated[
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
     return typer.Exit(code=2)
 
 
@@ -97,7 +97,8 @@ def convert(
         bool, typer.Option("--resample", help="Resample non-uniform time bases (explicit repair).")
     ] = False,
     overwrite: Annotated[
-        bool, typer.Option("--overwrite", help="Replace an existing destination dataset.")
+        bool,
+        typer.Option("--force", "--overwrite", help="Replace an existing destination file or dataset."),
     ] = False,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""

@@ -15,7 +15,7 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError, check_output
+from hydropwa._errors import HydropwaError, ParameterError, check_output
 
 __all__ = ["app"]
 
@@ -27,11 +27,15 @@ Out = Annotated[Path, typer.Option("--out", "-o", help="Parameter TOML to write.
 Figures = Annotated[Path | None, typer.Option("--figures", help="Folder for the figures (PNG).")]
 Base = Annotated[str | None, typer.Option("--base-params", help="Base parameter TOML or preset (default: paper).")]
 Summary = Annotated[Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")]
-Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing parameter file.")]
+Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing parameter file, summary and figures.")]
+
+
+#: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
+_FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo(f"error: {exc}", err=True)
+    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
     return typer.Exit(code=2)
 
 
@@ -42,13 +46,22 @@ def _warn(message, category, filename, lineno, file=None, line=None):
 def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
          summary: Path | None, force: bool = False) -> None:
     from hydropwa.identification import identify
-    from hydropwa.params import load_params
+
+    from ._core import resolve_params
 
     old = warnings.showwarning
     warnings.showwarning = _warn
     try:
-        check_output(out, force)
-        params = load_params(base) if base else None
+        if out.suffix.lower() != ".toml":
+            raise ParameterError(f"--out {out} must end in .toml")
+        check_output(out, force, option="--out")
+        summary_path = summary if summary is not None else out.with_suffix(".md")
+        if summary_path.resolve() == out.resolve():
+            raise ParameterError("--summary and --out name the same file; give two names")
+        check_output(summary_path, force, option="--summary")
+        if figures is not None:
+            check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
+        params = resolve_params(base) if base else None
         report = identify(data_dir, parts, base_params=params)
         written = report.save(out, figures, summary)
     except HydropwaError as exc:
@@ -97,6 +110,7 @@ def emps(
     figures: Figures = None,
     summary: Annotated[Path | None, typer.Option("--summary", help="Markdown summary to write.")] = None,
     asymmetric: Annotated[bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")] = False,
+    force: Force = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
     from hydropwa.identification import identify_emps, plot_inverse_dynamics
@@ -107,12 +121,16 @@ def emps(
     try:
         if not file.is_file():
             raise FileNotFoundError(2, "no such file", str(file))
+        if summary is not None:
+            check_output(summary, force, option="--summary")
+        if figures is not None:
+            check_output(figures, force, folder=True, option="--figures", files=("emps_force.png",))
         res = identify_emps(file, validation, asymmetric=asymmetric)
         text = res.summary_markdown()
         if summary is not None:
             from hydropwa._io import atomic_write_text
 
-            atomic_write_text(summary, text)
+            atomic_write_text(summary, text, overwrite=force)
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
             plot_inverse_dynamics(res, figures / "emps_force.png")

@@ -57,9 +57,11 @@ def linearize_command(
     (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
     from hydropwa.linearization import export_pwa, linearize, save_pwa, save_pwa_mat
-    from hydropwa.params import get_preset, load_params, parse_quantity
+    from hydropwa.params import parse_quantity
 
-    params = load_params(params_file) if params_file is not None else get_preset("paper")
+    from ._core import resolve_params
+
+    params = resolve_params(params_file)
     ps = None if supply_pressure is None else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
     model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
@@ -97,14 +99,38 @@ def _run(
     refine_tol: Annotated[str | None, typer.Option("--refine-tol", help='Split cells until the error bound is below this, e.g. "50 bar/s" or 5e6 (Pa/s).')] = None,
     units: Annotated[str, typer.Option("--units", help="si (Pa, m/s, m, 1) or engineering (bar, mm/s, mm, %).")] = "si",
     mat: Annotated[Path | None, typer.Option("--mat", help="Also write an MPT3-style MATLAB file (A, B, f, H, h).")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file, MAT file, figures and tables.")] = False,
 ) -> None:
     """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
     from hydropwa._errors import check_output
 
-    check_output(out, force)
+    if out.suffix.lower() != ".json":
+        raise PwaError(f"--out {out} must end in .json")
+    check_output(out, force, option="--out")
     if mat is not None:
-        check_output(mat, force)
+        if mat.suffix.lower() != ".mat":
+            raise PwaError(f"--mat {mat} must end in .mat")
+        check_output(mat, force, option="--mat")
+    names = {"--figures": ("fig1_cq.*", "fig2_cqp.*"), "--tables": ("*.csv", "*.md")}
+    for option, folder in (("--figures", figures), ("--tables", tables)):
+        if folder is not None:
+            check_output(folder, force, folder=True, option=option, files=names[option])
+    if supply_pressure is not None:
+        from hydropwa._limits import check_supply_pressure
+        from hydropwa.params import parse_quantity
+
+        from ._core import resolve_params
+
+        base = resolve_params(params_file)
+        check_supply_pressure(parse_quantity(supply_pressure, "Pa", "--supply-pressure"), base, 1.0)
+    if sample_time is not None:
+        from hydropwa.params import parse_quantity
+
+        dt = parse_quantity(sample_time, "s", "--sample-time")
+        if not (0.0 < dt <= 1.0):
+            raise PwaError(f"--sample-time {sample_time!r} must be in (0, 1] s, e.g. '1 ms'")
+    if units not in ("si", "engineering"):
+        raise PwaError(f"--units {units!r} must be si or engineering")
     paths = linearize_command(out, params_file, supply_pressure, cells, breakpoints, form, scheduled,
                               sample_time, figures, tables, refine_tol, units, mat, force)
     for p in paths:

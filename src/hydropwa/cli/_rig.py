@@ -53,11 +53,12 @@ def run_command(
         str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
     ] = "paper",
     seed: Annotated[
-        int | None, typer.Option("--seed", help="Campaign seed (default: the campaign's).")
+        int | None,
+        typer.Option("--seed", min=0, max=2**63 - 1, help="Campaign seed ≥ 0 (default: the campaign's)."),
     ] = None,
     jobs: Annotated[
         int,
-        typer.Option("--jobs", "-j", min=1, help="Worker processes (results do not depend on it)."),
+        typer.Option("--jobs", "-j", min=1, max=1024, help="Worker processes (results do not depend on it)."),
     ] = 1,
     force: Annotated[
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")
@@ -65,15 +66,20 @@ def run_command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
+    from hydropwa._io import check_output, output_lock
+    from hydropwa._limits import check_jobs
     from hydropwa.rig import Rig, load_campaign, run_campaign
 
+    check_jobs(jobs)
+    check_output(out, True, folder=True, option="--out")  # a file there is not a folder
     rig = Rig.from_params(params)
     camp = load_campaign(campaign)
     names = None if experiment is Which.all else [experiment.value]
     t0 = time.perf_counter()
-    datasets = run_campaign(
-        rig, camp, out, experiments=names, seed=seed, jobs=jobs, progress=not quiet, force=force
-    )
+    with output_lock(out, "hydropwa rig run"):  # one campaign per folder; clears stale temps
+        datasets = run_campaign(
+            rig, camp, out, experiments=names, seed=seed, jobs=jobs, progress=not quiet, force=force
+        )
     runs = sum(len(ds) for ds in datasets.values())
     typer.echo(
         f"wrote {runs} runs in {len(datasets)} dataset(s) under {out} "

@@ -14,7 +14,7 @@ def _write_table(df, out: Path) -> None:
     """CSV or Parquet by suffix, written atomically."""
     from .._io import atomic_path
 
-    with atomic_path(out) as tmp:
+    with atomic_path(out, overwrite=True) as tmp:
         if out.suffix.lower() == ".parquet":
             df.to_parquet(tmp, index=False)
         else:
@@ -38,7 +38,7 @@ def sweep_command(
     jobs: Annotated[
         int | None,
         typer.Option(
-            "--jobs", "-j", min=1, help="Threads, or LocalCluster workers (default: all cores)."
+            "--jobs", "-j", min=1, max=1024, help="Threads, or LocalCluster workers (default: all cores)."
         ),
     ] = None,
     scheduler: Annotated[
@@ -49,12 +49,74 @@ def sweep_command(
         ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing summary table.")] = False,
+    force: Annotated[
+        bool,
+        typer.Option(
+            "--force",
+            help="Overwrite an existing summary table and trajectories; start an interrupted sweep over.",
+        ),
+    ] = False,
 ) -> None:
-    """Run every case of a sweep (in-process threads or on Dask) and write the summary table."""
-    from .._errors import check_output
+    """Run every case of a sweep (in-process threads or on Dask) and write the summary table.
 
-    check_output(out, force)
+    Finished cases are kept as they finish (a journal beside the summary table, and the
+    trajectory files): after a Ctrl-C, a kill or a dead Dask worker, the same command runs
+    only the cases that are left.
+    """
+    from .._errors import check_output
+    from .._io import output_lock, remove_stale_temps
+
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise ParameterError(f"--out {out} must end in .csv or .parquet")
+    check_output(out, force, option="--out")
+    from .._limits import check_jobs
+
+    check_jobs(jobs)
+    if trajectories is not None:
+        check_output(trajectories, True, folder=True, option="--trajectories")
+    from ..sweep import SweepJournal, check_scheduler, load_sweep, run_sweep
+
+    sweep = load_sweep(spec)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+    journal_path = out.parent / f".{out.name}.sweep.jsonl"
+    with output_lock(out.parent, "hydropwa sweep", name=f".{out.name}.lock", clean=False):
+        remove_stale_temps(out.parent, recursive=False, target=out.name)
+        resume = journal_path.is_file() and not force
+        if trajectories is not None:
+            if not resume:
+                check_output(trajectories, force, folder=True, option="--trajectories",
+                             files=("case_*.parquet",))
+            _check_disk(sweep, trajectories)
+            remove_stale_temps(trajectories, recursive=False)
+        journal = SweepJournal(journal_path, sweep, fresh=not resume)
+        _run(sweep, out, trajectories, jobs, scheduler, quiet, journal, run_sweep)
+        journal.remove()
+
+
+#: Bytes per sample of a trajectory file (12 float64 channels; Parquet compresses little).
+_TRAJECTORY_BYTES_PER_SAMPLE = 12 * 8
+
+
+def _check_disk(sweep, folder: Path) -> None:
+    """Refuse trajectories that cannot fit on the disk, with the estimate."""
+    import shutil
+
+    from .._limits import human_bytes
+
+    fs = float(sweep.options.get("fs", 2000.0))
+    need = sweep.n_cases * (sweep.duration * fs + 1) * _TRAJECTORY_BYTES_PER_SAMPLE
+    where = folder if folder.exists() else next((p for p in folder.parents if p.exists()), Path("."))
+    free = shutil.disk_usage(where).free
+    if need > free:
+        raise ParameterError(
+            f"--trajectories {folder}: {sweep.n_cases} cases of {sweep.duration:g} s at {fs:g} Hz "
+            f"need about {human_bytes(need)} and {human_bytes(free)} are free there; write the "
+            "summary only, or choose another disk"
+        )
+
+
+def _run(sweep, out, trajectories, jobs, scheduler, quiet, journal, run_sweep) -> None:
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -64,13 +126,10 @@ def sweep_command(
         TimeRemainingColumn,
     )
 
-    from ..sweep import load_sweep, run_sweep
-
-    if not spec.is_file():
-        raise ParameterError(f"sweep file {spec} does not exist")
-    sweep = load_sweep(spec)
-    n = len(sweep.cases())
+    n = sweep.n_cases
     console = Console(stderr=True)
+    if journal.rows and not quiet:
+        console.print(f"resuming: {len(journal.rows)} of {n} cases finished earlier")
     columns = (TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     with Progress(*columns, console=console, disable=quiet) as bar:
         task = bar.add_task("sweep", total=n)
@@ -80,6 +139,7 @@ def sweep_command(
             scheduler=scheduler,
             trajectories=trajectories,
             progress=lambda done, total: bar.update(task, completed=done),
+            journal=journal,
         )
     _write_table(df, out)
     failed = int((df["status"] != 0).sum()) if "status" in df else 0

@@ -316,6 +316,11 @@ def _lookup(raw: Mapping[str, Any], path: str, where: str):
 
 
 def _column(node, column: int | None, where: str) -> np.ndarray:
+    if np.iscomplexobj(node):
+        raise DataError(
+            f"{where}: the values are complex; a measured signal is real; hint: store the real "
+            "part or the magnitude explicitly"
+        )
     try:
         arr = np.asarray(node, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -358,7 +363,10 @@ def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -
         if not value.startswith("@"):
             raise DataError(f"{where}: {what} = {value!r}; hint: give a number or '@variable'")
         try:
-            arr = np.asarray(_lookup(raw, value[1:], f"{where}, {what} {value!r}"), dtype=float)
+            node = _lookup(raw, value[1:], f"{where}, {what} {value!r}")
+            if np.iscomplexobj(node):
+                raise TypeError("complex")
+            arr = np.asarray(node, dtype=float)
         except (TypeError, ValueError):
             raise DataError(
                 f"{where}: {what} {value!r} is not numeric; hint: reference a 1x1 numeric variable"

@@ -34,7 +34,16 @@ from ._formats import FORMATS, format_of, read_run, suffix_of, write_run
 from ._run import Run
 from ._validate import Issue, check_run
 
-__all__ = ["Dataset", "read_dataset", "write_dataset", "check_dataset", "convert", "MANIFEST"]
+__all__ = [
+    "Dataset",
+    "read_dataset",
+    "write_dataset",
+    "check_dataset",
+    "convert",
+    "MANIFEST",
+    "manifest_problems",
+    "contained_path",
+]
 
 #: File name of the dataset manifest.
 MANIFEST = "manifest.json"
@@ -49,28 +58,147 @@ def _empty_manifest(meta: Mapping | None) -> dict[str, Any]:
 def _read_manifest(root: Path) -> dict[str, Any]:
     path = root / MANIFEST
     if not path.is_file():
+        if root.exists() and not root.is_dir():
+            raise DataError(
+                f"{str(root)!r}: is a file, not a dataset folder; hint: give the folder that "
+                f"holds {MANIFEST}"
+            )
         raise DataError(
             f"{str(root)!r}: no {MANIFEST}, so it is not a hydropwa dataset; hint: "
             "create one with write_dataset() or `hydropwa data convert SRC_DIR DST_DIR`"
         )
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
+        doc = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise DataError(
+            f"{str(path)!r}: byte {exc.start} is not UTF-8 text; hint: save the manifest as "
+            "UTF-8 JSON or rewrite the dataset"
+        ) from None
+    except RecursionError:
+        raise DataError(
+            f"{str(path)!r}: the JSON is nested too deeply to be a manifest; hint: rewrite the "
+            "dataset with write_dataset()"
+        ) from None
+    except (OSError, ValueError) as exc:
         raise DataError(
             f"{str(path)!r}: manifest unreadable ({exc}); hint: fix the JSON or rewrite the dataset"
         ) from exc
-    if doc.get("format") != _FORMAT or not isinstance(doc.get("runs"), list):
+    problems = manifest_problems(doc, root)
+    if problems:
+        listed = "; ".join(f"({i}) {p}" for i, p in enumerate(problems[:10], start=1))
+        more = f"; and {len(problems) - 10} more" if len(problems) > 10 else ""
         raise DataError(
-            f'{str(path)!r}: not a hydropwa manifest (needs "format": "{_FORMAT}" '
-            'and a "runs" list); hint: rewrite the dataset with write_dataset()'
-        )
-    names = [e.get("name") for e in doc["runs"]]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise DataError(
-            f"{str(path)!r}: runs {dup} listed twice; hint: remove the duplicate entries"
+            f"{str(path)!r}: {len(problems)} problem(s) in the manifest: {listed}{more}; "
+            "hint: fix the entries or rewrite the dataset with write_dataset()"
         )
     return doc
+
+
+#: Manifest entry field -> accepted JSON types (``None``: the field may be null or absent).
+_ENTRY_FIELDS: dict[str, tuple[type, ...]] = {
+    "format": (str, type(None)),
+    "kind": (str, type(None)),
+    "fs": (int, float, type(None)),
+    "n_samples": (int, type(None)),
+    "duration": (int, float, type(None)),
+    "channels": (dict, type(None)),
+    "meta": (dict, type(None)),
+}
+
+
+def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:
+    """Check a manifest document against the schema; one message per problem (empty: valid).
+
+    The schema: an object with ``"format": "hydropwa-dataset"``, an integer
+    ``format_version`` not newer than this package's, an optional ``meta`` object, and a
+    ``runs`` list of objects, each with a unique non-empty ``name`` and a unique ``file``:
+    a relative path with a run-file suffix that resolves (symbolic links followed) to a
+    file inside the dataset folder. Optional entry fields must have their JSON types
+    (``fs``, ``duration`` numbers; ``n_samples`` an integer; ``channels``, ``meta`` objects).
+    """
+    if not isinstance(doc, dict):
+        return [f"the document is a JSON {type(doc).__name__}, expected an object with a runs list"]
+    problems = []
+    if doc.get("format") != _FORMAT:
+        problems.append(f'"format" is {doc.get("format")!r:.40}, expected "{_FORMAT}"')
+    version = doc.get("format_version", _VERSION)
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        problems.append(f'"format_version" {version!r:.40} is not a positive integer')
+    elif version > _VERSION:
+        problems.append(
+            f'"format_version" {version} is newer than this hydropwa reads ({_VERSION}); update hydropwa'
+        )
+    if not isinstance(doc.get("meta", {}), dict):
+        problems.append('"meta" must be an object')
+    runs = doc.get("runs")
+    if not isinstance(runs, list):
+        problems.append('"runs" must be a list of run entries')
+        return problems
+    names: dict[str, int] = {}
+    files: dict[str, int] = {}
+    for i, e in enumerate(runs):
+        where = f"runs[{i}]"
+        if not isinstance(e, dict):
+            problems.append(f"{where} is a JSON {type(e).__name__}, expected an object")
+            continue
+        name, file = e.get("name"), e.get("file")
+        if not isinstance(name, str) or not name.strip():
+            problems.append(f'{where} needs a "name" (a non-empty string), has {name!r:.40}')
+        else:
+            where = f"runs[{i}] ({name!r:.40})"
+            if name in names:
+                problems.append(f"{where}: the name is also runs[{names[name]}]'s")
+            names.setdefault(name, i)
+        if not isinstance(file, str) or not file.strip():
+            problems.append(f'{where} needs a "file" (a path in the folder), has {file!r:.40}')
+        else:
+            try:
+                contained_path(root, file, what=f"{where} file")
+            except DataError as exc:
+                problems.append(str(exc).partition("; hint: ")[0])
+            if Path(file).suffix.lower() not in FORMATS:
+                problems.append(f"{where}: file {file!r:.60} has no run-file suffix (.csv, .parquet, .mat)")
+            if file in files:
+                problems.append(f"{where}: file {file!r:.60} is also runs[{files[file]}]'s")
+            files.setdefault(file, i)
+        for key, types in _ENTRY_FIELDS.items():
+            v = e.get(key)
+            if not isinstance(v, types) or isinstance(v, bool):
+                problems.append(f"{where}: {key!r} = {v!r:.40} has the wrong type ({type(v).__name__})")
+        fmt = e.get("format")
+        if isinstance(fmt, str) and fmt.lower() not in ("csv", "parquet", "mat"):
+            problems.append(f"{where}: format {fmt!r:.20} is not csv, parquet or mat")
+    return problems
+
+
+def contained_path(root: str | os.PathLike, file: str | os.PathLike, what: str = "file") -> Path:
+    """``root / file``, refused unless it resolves (symbolic links followed) inside ``root``.
+
+    Raises
+    ------
+    DataError
+        An absolute path, a path with ``..`` that leaves the folder, or a symbolic link that
+        points out of it.
+    """
+    root = Path(root)
+    rel = Path(file)
+    if rel.is_absolute() or "\\" in str(file) or Path(str(file)).drive:
+        raise DataError(
+            f"{what} {str(file)!r:.80} is an absolute path; a dataset may only name files inside "
+            "its folder; hint: give the path relative to the dataset folder"
+        )
+    path = root / rel
+    try:
+        inside = path.resolve().is_relative_to(root.resolve())
+    except (OSError, RuntimeError, ValueError):  # a symlink loop, a NUL byte
+        inside = False
+    if not inside:
+        raise DataError(
+            f"{what} {str(file)!r:.80} leads out of the dataset folder {str(root)!r} (via '..' or "
+            "a symbolic link); a dataset may only read files inside its folder; hint: copy the "
+            "file into the folder"
+        )
+    return path
 
 
 def _entry(run: Run, file: str, fmt: str) -> dict[str, Any]:
@@ -174,6 +302,12 @@ class Dataset:
                 "the run or pass overwrite=True"
             )
         file = run.name + suffix_of(fmt)
+        if Path(file).name != file or run.name in (".", ".."):
+            raise DataError(
+                f"dataset {str(self.root)!r}: run name {run.name!r} is not a file name; hint: "
+                "rename the run (no '/' or '\\')"
+            )
+        contained_path(self.root, file, what=f"run {run.name!r}: file")
         path = write_run(run, self.root / file, fmt, units)
         runs = [e for e in self.manifest["runs"] if e["name"] != run.name]
         runs.append(_entry(run, file, fmt))
@@ -216,8 +350,8 @@ class Dataset:
         )
 
     def path_of(self, name: str) -> Path:
-        """Path of the file of run ``name``."""
-        return self.root / self.entry(name)["file"]
+        """Path of the file of run ``name`` (refused unless it lies inside the folder)."""
+        return contained_path(self.root, self.entry(name)["file"], what=f"run {name!r}: file")
 
     def __getitem__(self, name: str) -> Run:
         if name not in self._cache:
@@ -382,11 +516,15 @@ def _check_files(files: list[Path], cmap: ChannelMap | None, options: dict) -> l
 
 
 def _raw_files(folder: Path) -> list[Path]:
-    return sorted(
+    """Run files of a folder without manifest; one that links out of the folder is refused."""
+    files = sorted(
         p
         for p in folder.iterdir()
         if p.is_file() and p.suffix.lower() in FORMATS and not p.name.startswith(".")
     )
+    for p in files:
+        contained_path(folder, p.name, what=f"{str(folder)!r}:")
+    return files
 
 
 def convert(
@@ -429,10 +567,29 @@ def convert(
     if src.is_file():
         if dst.is_dir():
             dst = dst / (src.stem + suffix_of(format or "parquet"))
+        if dst.exists() and not overwrite:
+            raise DataError(
+                f"{str(dst)!r}: the file exists; hint: pass --force (overwrite=True) to replace "
+                "it, or choose another destination"
+            )
+        if dst.exists() and dst.resolve() == src.resolve():
+            raise DataError(f"{str(dst)!r}: is the source file; hint: choose another destination")
         run = read_run(src, cmap, **validate_options)
-        return write_run(run, dst, format, units)
+        return write_run(run, dst, format, units, overwrite=overwrite)
     if not src.is_dir():
         raise DataError(f"{str(src)!r}: no such file or folder; hint: check the path")
+    if dst.exists() and not dst.is_dir():
+        raise DataError(
+            f"{str(dst)!r}: is a file, where the destination folder of a dataset is expected; "
+            "hint: choose a folder"
+        )
+    if dst.is_dir() and dst.resolve() == src.resolve():
+        raise DataError(f"{str(dst)!r}: is the source folder; hint: choose another destination")
+    if dst.is_dir() and any(dst.iterdir()) and not overwrite:
+        raise DataError(
+            f"{str(dst)!r}: the folder is not empty; hint: pass --force (overwrite=True) to "
+            "write into it, or choose an empty or new folder"
+        )
     fmt = format or "parquet"
     if (src / MANIFEST).is_file():
         ds = Dataset(src, validate=False)

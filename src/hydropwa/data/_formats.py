@@ -92,14 +92,14 @@ def _file_columns(run: Run, units: Mapping[str, str] | None) -> tuple[dict, dict
 
 
 # ---------------------------------------------------------------------- CSV
-def _write_csv(run: Run, path: Path, units) -> None:
+def _write_csv(run: Run, path: Path, units, overwrite: bool = True) -> None:
     cols, file_units = _file_columns(run, units)
     buf = io.StringIO()
     buf.write(f"{_META_PREFIX} {json.dumps(_header(run, file_units), allow_nan=False)}\n")
     buf.write(",".join(format_column_label(k, file_units[k]) for k in cols) + "\n")
     for row in zip(*(c.tolist() for c in cols.values()), strict=True):
         buf.write(",".join(map(repr, row)) + "\n")
-    atomic_write_text(path, buf.getvalue())
+    atomic_write_text(path, buf.getvalue(), overwrite=overwrite)
 
 
 def _read_csv(path: Path) -> tuple[dict, dict, dict]:
@@ -108,7 +108,7 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
     header: dict[str, Any] = {}
     n_comment = 0
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the text
     except UnicodeDecodeError as exc:
         raise DataError(
             f"{str(path)!r}: byte {exc.start} is not UTF-8 text; hint: save the CSV as UTF-8 "
@@ -130,7 +130,7 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
     try:
         df = pd.read_csv(
             path,
-            encoding="utf-8",
+            encoding="utf-8-sig",
             skiprows=n_comment,
             skipinitialspace=True,
             dtype=str,
@@ -170,7 +170,7 @@ def _numeric_column(text: np.ndarray, path: Path, ch: str, n_comment: int) -> np
 
 
 # ---------------------------------------------------------------------- Parquet
-def _write_parquet(run: Run, path: Path, units) -> None:
+def _write_parquet(run: Run, path: Path, units, overwrite: bool = True) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -180,7 +180,7 @@ def _write_parquet(run: Run, path: Path, units) -> None:
         fields, metadata={"hydropwa": json.dumps(_header(run, file_units), allow_nan=False)}
     )
     table = pa.table({k: pa.array(v, type=pa.float64()) for k, v in cols.items()}, schema=schema)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         pq.write_table(table, tmp)
 
 
@@ -220,7 +220,7 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
                     "hint: re-write the file with a readable unit"
                 ) from None
         try:
-            raw[ch] = np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
+            raw[ch] = _parquet_column(pa, col, field, path, ch)
         except (TypeError, ValueError, pa.ArrowInvalid) as exc:
             raise DataError(
                 f"{str(path)!r}, channel {ch!r}: column of type {field.type} is not "
@@ -230,6 +230,35 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
             units[ch] = unit
     units = {**units, **(header.get("units") or {})}
     return raw, units, header
+
+
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+
+
+def _parquet_column(pa, col, field, path: Path, ch: str) -> np.ndarray:
+    """A Parquet column as float64 in the file's unit; timestamps and durations as seconds.
+
+    A timestamp column becomes seconds since its first sample; reading its raw integer
+    ticks (ms, µs or ns) would put the time base 1e3-1e9 times off.
+    """
+    typ = field.type
+    if pa.types.is_timestamp(typ) or pa.types.is_duration(typ):
+        ticks = np.asarray(col.cast(pa.int64()).fill_null(0).to_numpy(zero_copy_only=False))
+        if pa.types.is_timestamp(typ) and ticks.size:
+            ticks = ticks - ticks[0]  # in integers: epoch ns do not fit a float64 exactly
+        sec = ticks.astype(float) * _TIME_UNITS[typ.unit]
+        if col.null_count:
+            sec[np.asarray(col.is_null().to_numpy(zero_copy_only=False))] = np.nan
+        return sec
+    if pa.types.is_date(typ) or pa.types.is_time(typ) or pa.types.is_interval(typ):
+        raise DataError(
+            f"{str(path)!r}, channel {ch!r}: column of type {typ} is a calendar value, not a "
+            "signal; hint: store time as float64 seconds or as a timestamp"
+        )
+    if not (pa.types.is_integer(typ) or pa.types.is_floating(typ) or pa.types.is_decimal(typ)
+            or pa.types.is_null(typ) or pa.types.is_dictionary(typ) or pa.types.is_boolean(typ)):
+        raise TypeError(f"type {typ}")
+    return np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
 
 
 _HEADER_TYPES: dict[str, tuple[type, ...]] = {
@@ -283,7 +312,7 @@ def _check_header(header: Any, path: Path) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------- MAT
-def _write_mat(run: Run, path: Path, units) -> None:
+def _write_mat(run: Run, path: Path, units, overwrite: bool = True) -> None:
     import scipy.io
 
     cols, file_units = _file_columns(run, units)
@@ -297,7 +326,7 @@ def _write_mat(run: Run, path: Path, units) -> None:
     header["channels"] = list(cols)
     variables = {k: v.reshape(-1, 1) for k, v in cols.items()}
     variables["hydropwa"] = json.dumps(header, allow_nan=False)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         scipy.io.savemat(tmp, variables, do_compression=True, oned_as="column")
 
 
@@ -400,6 +429,8 @@ def write_run(
     path: str | os.PathLike,
     format: str | None = None,
     units: Mapping[str, str] | None = None,
+    *,
+    overwrite: bool = True,
 ) -> Path:
     """Write a run atomically as CSV, Parquet or MAT.
 
@@ -413,6 +444,9 @@ def write_run(
         File format.
     units : dict[str, str], optional
         Units to write per channel (e.g. ``{"p_a": "bar", "x": "mm"}``); SI otherwise.
+    overwrite : bool
+        Replace an existing file (default). With False an existing ``path`` raises
+        :class:`~hydropwa.OutputExistsError`, also when it appears while the run is written.
 
     Returns
     -------
@@ -421,5 +455,5 @@ def write_run(
     """
     path = Path(path)
     fmt = format_of(path, format)
-    _WRITERS[fmt](run, path, units)
+    _WRITERS[fmt](run, path, units, overwrite)
     return path

@@ -37,6 +37,11 @@ def format_column_label(name: str, unit: str) -> str:
 
 
 def _as_channel(name: str, run: str, values) -> np.ndarray:
+    if np.iscomplexobj(values):
+        raise DataError(
+            f"run {run!r}, channel {name!r}: the values are complex; a measured signal is real; "
+            "hint: store the real part or the magnitude explicitly"
+        )
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError) as exc:

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import _interrupt
 from .._errors import HydropwaError
-from .._io import atomic_path, atomic_write_text
+from .._io import LOCK_NAME, atomic_path, atomic_write_text, check_output, output_lock
 from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
 
 __all__ = ["StudyError", "StudyResult", "run_paper_study", "EXPERIMENT_NAMES", "STUDY_VERSION"]
@@ -158,7 +158,7 @@ def _claim(out: Path, key: str, force: bool) -> None:
                 f"{str(out)!r} holds a report made from other inputs; pass --force (force=True) "
                 "to overwrite it, or choose another folder"
             )
-    elif out.is_dir() and any(out.iterdir()) and not force:
+    elif out.is_dir() and any(p.name != LOCK_NAME for p in out.iterdir()) and not force:
         raise StudyError(
             f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (force=True) "
             "to write into it, or choose another folder"
@@ -656,7 +656,14 @@ def run_paper_study(
     """
     t0 = time.perf_counter()
     inp = _resolve(out, data, params, campaign)
+    check_output(inp.out, True, folder=True, option="--out")  # a file there is not a folder
     inp.out.mkdir(parents=True, exist_ok=True)
+    with output_lock(inp.out, "hydropwa paper"):  # one run per folder; clears stale temp files
+        return _run_study(inp, fresh, force, progress, t0)
+
+
+def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
+    """The stages of :func:`run_paper_study`, under the folder's lock."""
     _claim(inp.out, inp.key(), force)
     notes: list[str] = []
     if inp.data is not None and _true_params(inp, inp.data) is None:

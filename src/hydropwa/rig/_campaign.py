@@ -441,7 +441,10 @@ def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
         )
         source = f"{name_or_path}.toml"
     elif p.is_file():
-        text = p.read_text(encoding="utf-8")
+        try:
+            text = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise ParameterError(f"{p}: byte {exc.start} is not UTF-8 text; save the campaign as UTF-8") from None
         source = str(p)
     else:
         raise ParameterError(
@@ -452,4 +455,6 @@ def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{source}: invalid TOML ({exc})") from None
+    except RecursionError:
+        raise ParameterError(f"{source}: nested too deeply to be a campaign") from None
     return parse_campaign(data, source)

@@ -433,6 +433,8 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
             raise SignalError(f"{name}: {item.strip()!r} in {spec!r} needs the form key=value")
         if key not in allowed:
             raise SignalError(f"{name}: {kind} has no parameter {key!r}; known: {', '.join(allowed)}")
+        if key in kwargs:
+            raise SignalError(f"{name}: {key!r} is given twice in {spec!r}; give it once")
         target = unit if key in _VALUED else _TIMED.get(key, "")
         try:
             kwargs[key] = parse_quantity(val.strip(), target, f"{name} {key}")

@@ -5,7 +5,16 @@ it with :func:`~hydropwa.simulation.simulate_batch` (threads) or on a Dask
 cluster and returns one row of summary metrics per case.
 """
 
-from ._run import run_case, run_sweep
+from ._run import SweepJournal, check_scheduler, run_case, run_sweep
 from ._spec import SweepCase, SweepSpec, load_sweep, parse_sweep
 
-__all__ = ["SweepCase", "SweepSpec", "load_sweep", "parse_sweep", "run_case", "run_sweep"]
+__all__ = [
+    "SweepCase",
+    "SweepSpec",
+    "load_sweep",
+    "parse_sweep",
+    "run_case",
+    "run_sweep",
+    "SweepJournal",
+    "check_scheduler",
+]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import os
 import tomllib
 from dataclasses import dataclass, field
@@ -30,22 +31,40 @@ from typing import Any
 
 import numpy as np
 
-from .._errors import ParameterError
+from .._errors import HydropwaError, ParameterError
 from ..params import FIELD_UNITS, SystemParams, get_preset, load_params, parse_quantity
 
 __all__ = ["SweepCase", "SweepSpec", "load_sweep", "parse_sweep"]
 
 _DISTRIBUTIONS = ("uniform", "loguniform", "normal")
 _INPUT_KEYS = {"u", "duration", "model", "fs", "rtol", "supply_pressure", "load_force", "solver"}
+_SECTIONS = ("base", "grid", "random", "input")
+_MODELS = ("full", "reduced", "pwa")
 
 
-def _field_unit(key: str) -> tuple[str, str, str]:
+def _unknown(kind: str, name: str, allowed) -> ParameterError:
+    """An unknown key, with the closest allowed one suggested."""
+    import difflib
+
+    close = difflib.get_close_matches(str(name), list(allowed), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return ParameterError(
+        f"unknown {kind} {name!r} in the sweep{hint} (allowed: {', '.join(sorted(allowed))})"
+    )
+
+
+def _field_unit(key: str) -> tuple[str, str, str | None]:
     """Split ``"group.field"`` and return (group, field, SI unit); names the valid choices on error."""
     group, _, name = key.partition(".")
     if group not in FIELD_UNITS or name not in FIELD_UNITS[group]:
+        import difflib
+
         groups = ", ".join(FIELD_UNITS)
+        every = [f"{g}.{f}" for g, fields in FIELD_UNITS.items() for f in fields]
+        close = difflib.get_close_matches(key, every, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ParameterError(
-            f"unknown parameter {key!r} in sweep; use 'group.field' with group one of {groups}"
+            f"unknown parameter {key!r} in sweep{hint}; use 'group.field' with group one of {groups}"
         )
     return group, name, FIELD_UNITS[group][name]
 
@@ -92,6 +111,14 @@ class SweepSpec:
     model: str = "full"
     options: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def n_cases(self) -> int:
+        """Number of cases, without building them: grid points × random draws."""
+        n = 1
+        for values in self.grid.values():
+            n *= len(values)
+        return n * (self.n_random if self.random and self.n_random > 0 else 1)
+
     def cases(self) -> list[SweepCase]:
         """All cases: each grid point combined with each random draw (draws reproducible from ``seed``)."""
         keys = list(self.grid)
@@ -101,7 +128,7 @@ class SweepSpec:
             rng = np.random.default_rng(self.seed)
             cols = {k: _draw(rng, *spec, self.n_random) for k, spec in self.random.items()}
             draws = [{k: float(cols[k][i]) for k in cols} for i in range(self.n_random)]
-        out = []
+        out: list[SweepCase] = []
         for point in points:
             for draw in draws:
                 ov = dict(zip(keys, (float(v) for v in point), strict=True))
@@ -132,9 +159,18 @@ def apply_overrides(base: SystemParams, overrides: dict[str, float]) -> SystemPa
     return dataclasses.replace(base, **changes)
 
 
+def _count(table: dict, key: str, default: int) -> int:
+    v = table.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        raise ParameterError(f"[random] {key} = {v!r} must be a whole number ≥ 0")
+    return v
+
+
 def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, float]]]:
-    n = int(table.get("n", 0))
-    seed = int(table.get("seed", 0))
+    if not isinstance(table, dict):
+        raise ParameterError("[random] must be a table: n, seed and 'group.field' = {uniform = [a, b]}")
+    n = _count(table, "n", 0)
+    seed = _count(table, "seed", 0)
     out = {}
     for key, spec in table.items():
         if key in ("n", "seed"):
@@ -149,31 +185,77 @@ def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, fl
         if not isinstance(bounds, list) or len(bounds) != 2:
             raise ParameterError(f"random parameter {key!r}: {dist} needs two values [a, b]")
         a, b = (parse_quantity(v, unit or "", key) for v in bounds)
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise ParameterError(f"random parameter {key!r}: {dist} bounds must be finite")
+        if dist == "uniform" and not a < b:
+            raise ParameterError(
+                f"random parameter {key!r}: uniform [{a:g}, {b:g}] needs a < b; swap the bounds"
+            )
+        if dist == "loguniform" and not 0 < a < b:
+            raise ParameterError(
+                f"random parameter {key!r}: loguniform [{a:g}, {b:g}] needs 0 < a < b"
+            )
+        if dist == "normal" and not b > 0:
+            raise ParameterError(
+                f"random parameter {key!r}: normal [mean, std] needs std > 0, got {b:g}"
+            )
         out[key] = (dist, a, b)
     if out and n <= 0:
         raise ParameterError("[random] needs n ≥ 1 draws")
+    if n > 0 and not out:
+        raise ParameterError("[random] has n draws but no parameter to draw; add 'group.field' = {uniform = [a, b]}")
     return n, seed, out
 
 
 def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
-    """Build a :class:`SweepSpec` from a TOML document (already parsed to a dict)."""
+    """Build a :class:`SweepSpec` from a TOML document (already parsed to a dict).
+
+    Everything is checked here, before any case runs: unknown sections and keys (with the
+    closest valid name suggested), empty grid lists, bounds of random draws, the input
+    quantities (with the bounds of the parameter files), and the sweep's size.
+    """
+    from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
+
+    if not isinstance(data, dict):
+        raise ParameterError("a sweep file is a TOML table with [grid], [random] and [input]")
+    for key in data:
+        if key not in _SECTIONS:
+            raise _unknown("section" if isinstance(data[key], dict) else "key", key, _SECTIONS)
     base_src = data.get("base", "paper")
+    if not isinstance(base_src, str) or not base_src.strip():
+        raise ParameterError(f"base = {base_src!r} must be a preset name or a parameter TOML file")
     base_path = Path(root) / str(base_src)
     base = load_params(base_path) if str(base_src).endswith(".toml") else get_preset(str(base_src))
     grid = {}
-    for key, values in data.get("grid", {}).items():
+    grid_table = data.get("grid", {})
+    if not isinstance(grid_table, dict):
+        raise ParameterError("[grid] must be a table of 'group.field' = [values]")
+    for key, values in grid_table.items():
         _g, _f, unit = _field_unit(key)
         vals = values if isinstance(values, list) else [values]
+        if not vals:
+            raise ParameterError(f"[grid] {key!r} is an empty list; give at least one value")
         grid[key] = [parse_quantity(v, unit or "", key) for v in vals]
+        for v in grid[key]:  # each value must make valid parameters on its own
+            try:
+                apply_overrides(base, {key: v})
+            except ParameterError as exc:
+                raise ParameterError(f"[grid] {key!r}: {exc}") from None
     n_random, seed, random = _parse_random(data.get("random", {}))
-    inp = dict(data.get("input", {}))
-    unknown = set(inp) - _INPUT_KEYS
-    if unknown:
-        raise ParameterError(
-            f"unknown [input] keys {sorted(unknown)}; allowed: {sorted(_INPUT_KEYS)}"
-        )
+    both = sorted(set(grid) & set(random))
+    if both:
+        raise ParameterError(f"{both} are in both [grid] and [random]; vary each parameter in one")
+    inp_table = data.get("input", {})
+    if not isinstance(inp_table, dict):
+        raise ParameterError("[input] must be a table (u, duration, model, fs, rtol, ...)")
+    inp = dict(inp_table)
+    for key in inp:
+        if key not in _INPUT_KEYS:
+            raise _unknown("[input] key", key, _INPUT_KEYS)
     duration = parse_quantity(inp.pop("duration", 1.0), "s", "input.duration")
-    model = str(inp.pop("model", "full"))
+    model = inp.pop("model", "full")
+    if model not in _MODELS:
+        raise ParameterError(f"input.model = {model!r} is unknown; choose {', '.join(_MODELS)}")
     u = inp.pop("u", 0.0)
     options = {}
     for key, value in inp.items():
@@ -190,10 +272,28 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
         elif key == "fs":
             options[key] = parse_quantity(value, "Hz", "input.fs")
         elif key == "rtol":
-            options[key] = float(value)
+            options[key] = check_rtol(value, "input.rtol")
+        elif key == "solver":
+            if not isinstance(value, str):
+                raise ParameterError(f"input.solver = {value!r} must be a solver name")
+            options[key] = value
         else:
             options[key] = value
-    return SweepSpec(base, grid, random, n_random, seed, u, float(duration), model, options)
+    check_samples(float(duration), float(options.get("fs", 2000.0)), "input.duration")
+    from ..simulation import as_signal
+
+    as_signal(u, "", "u")  # a malformed command spec fails here, not in every case
+    if "load_force" in options:
+        as_signal(options["load_force"], "N", "load_force")
+    check_supply_pressure(options.get("supply_pressure"), base, float(duration), "input.supply_pressure")
+    spec = SweepSpec(base, grid, random, n_random, seed, u, float(duration), model, options)
+    if spec.n_cases > MAX_SWEEP_CASES:
+        sizes = " × ".join([str(len(v)) for v in grid.values()] + ([str(n_random)] if random else []))
+        raise ParameterError(
+            f"the sweep has {spec.n_cases:.3g} cases ({sizes}); at most {MAX_SWEEP_CASES:,} are "
+            "run in one sweep: split it, or draw fewer random cases"
+        )
+    return spec
 
 
 def _is_spec(value) -> bool:
@@ -203,6 +303,18 @@ def _is_spec(value) -> bool:
 def load_sweep(path: str | os.PathLike) -> SweepSpec:
     """Read a sweep definition from a TOML file (see the module docstring for the format)."""
     path = Path(path)
-    with path.open("rb") as fh:
-        data = tomllib.load(fh)
-    return parse_sweep(data, root=path.parent)
+    if not path.is_file():
+        what = "is a folder, not a sweep file" if path.is_dir() else "does not exist"
+        raise ParameterError(f"sweep file {path} {what}; give a TOML file")
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"sweep file {path}: byte {exc.start} is not UTF-8 text; save it as UTF-8") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"sweep file {path}: not valid TOML ({exc}); fix the line it names") from None
+    except RecursionError:
+        raise ParameterError(f"sweep file {path}: nested too deeply to be a sweep file") from None
+    try:
+        return parse_sweep(data, root=path.parent)
+    except HydropwaError as exc:
+        raise ParameterError(f"sweep file {path}: {exc}") from None
