@@ -20,9 +20,9 @@ from ._campaign import (
     parse_campaign,
 )
 from ._experiments import RunSpec, counter_force_signal, execute, plan, run_seed
-from ._rig import Rig, paper_supply
+from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
-from ._sensors import MEASURED_CHANNELS, SensorModel, measure, paper_sensors
+from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
 
 __all__ = [
     "EXPERIMENTS",
@@ -42,6 +42,8 @@ __all__ = [
     "counter_force_signal",
     "execute",
     "load_campaign",
+    "machine_sensors",
+    "machine_supply",
     "measure",
     "paper_sensors",
     "paper_supply",

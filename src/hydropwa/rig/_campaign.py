@@ -298,6 +298,13 @@ class Campaign:
     description : str
     source : str
         File the campaign came from.
+    sensors : dict
+        ``[sensors]`` overrides: per channel (``x``, ``p_a``, ``p_b``, ``p_s``, ``f_l``,
+        ``spool``; ``pressure`` for all three pressures) the :class:`SensorModel` fields to
+        replace, in SI. Empty: the rig sizes its sensors from the machine.
+    supply : dict
+        ``[supply]`` overrides of the rig's pump unit (``pump_flow``, ``compensator_droop``,
+        ``line_volume``, ``relief_pressure``, ``relief_gain``), SI.
     """
 
     name: str
@@ -305,6 +312,8 @@ class Campaign:
     experiments: dict[str, Experiment] = field(default_factory=dict)
     description: str = ""
     source: str = ""
+    sensors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    supply: dict[str, float] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> Experiment:
         try:
@@ -380,6 +389,54 @@ def _sine(t: _Table) -> SineExperiment:
     )
 
 
+_SENSOR_UNITS = {"x": "m", "p_a": "Pa", "p_b": "Pa", "p_s": "Pa", "pressure": "Pa", "f_l": "N", "spool": ""}
+_SUPPLY_FIELDS = {"pump_flow": "m**3/s", "compensator_droop": "Pa", "line_volume": "m**3",
+                  "relief_pressure": "Pa", "relief_gain": "m**3/s/Pa"}
+
+
+def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
+    """``[sensors]``: per channel, SensorModel fields (range, noise_std, offset, gain, adc_bits, adc_span, name)."""
+    out: dict[str, dict[str, Any]] = {}
+    for ch in list(t.data):
+        if ch not in _SENSOR_UNITS:
+            raise ParameterError(f"{t.key(ch)}: unknown sensor; known: {', '.join(_SENSOR_UNITS)}")
+        unit = _SENSOR_UNITS[ch]
+        st = _Table(t.raw(ch), t.key(ch))
+        over: dict[str, Any] = {}
+        if "range" in st.data:
+            r = st.raw("range")
+            if not isinstance(r, list) or len(r) != 2:
+                raise ParameterError(f"{st.key('range')} = {r!r} must be [low, high], e.g. [\"0 bar\", \"400 bar\"]")
+            over["range"] = tuple(parse_quantity(v, unit, f"{st.key('range')}[{i}]") for i, v in enumerate(r))
+        if "noise_std" in st.data:
+            over["noise_std"] = st.quantity("noise_std", unit, ge=0.0)
+        if "offset" in st.data:
+            over["offset"] = st.quantity("offset", unit)
+        if "gain" in st.data:
+            over["gain"] = st.quantity("gain", f"V/({unit})" if unit else "V", gt=0.0)
+        if "adc_bits" in st.data:
+            over["adc_bits"] = st.integer("adc_bits", ge=1)
+        if "adc_span" in st.data:
+            sp = st.raw("adc_span")
+            if not isinstance(sp, list) or len(sp) != 2:
+                raise ParameterError(f"{st.key('adc_span')} = {sp!r} must be [low, high] in V")
+            over["adc_span"] = tuple(parse_quantity(v, "V", f"{st.key('adc_span')}[{i}]") for i, v in enumerate(sp))
+        if "name" in st.data:
+            over["name"] = st.text("name")
+        st.finish()
+        for c in (("p_a", "p_b", "p_s") if ch == "pressure" else (ch,)):
+            out.setdefault(c, {}).update(over)
+        t.used.add(ch)
+    return out
+
+
+def _supply(t: _Table) -> dict[str, float]:
+    """``[supply]``: overrides of the rig's pump unit (SI or strings with units)."""
+    out = {k: t.quantity(k, u, gt=0.0) for k, u in _SUPPLY_FIELDS.items() if k in t.data}
+    t.finish()
+    return out
+
+
 _PARSERS: dict[str, Callable[[_Table], Experiment]] = {
     "frf": _frf,
     "deadzone": _deadzone,
@@ -408,15 +465,19 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
             t = _Table(top.raw(exp_name), f"{source}: [{exp_name}]")
             experiments[exp_name] = _PARSERS[exp_name](t)
             t.finish()
+    sensors = _sensors(_Table(top.raw("sensors", {}), f"{source}: [sensors]"))
+    supply = _supply(_Table(top.raw("supply", {}), f"{source}: [supply]"))
     extra = sorted(set(data) - top.used - set(EXPERIMENTS))
     if extra:
         raise ParameterError(
-            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, {', '.join(EXPERIMENTS)}"
+            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, "
+            f"{', '.join(EXPERIMENTS)}"
         )
     if not experiments:
         raise ParameterError(f"{source}: no experiment tables; add one of {', '.join(EXPERIMENTS)}")
     return Campaign(
-        name=name, seed=seed, experiments=experiments, description=description, source=source
+        name=name, seed=seed, experiments=experiments, description=description, source=source,
+        sensors=sensors, supply=supply,
     )
 
 

@@ -198,7 +198,7 @@ def plan(experiment: Experiment, rig: Rig) -> list[RunSpec]:
 
 # --------------------------------------------------------------------- execution
 def counter_force_signal(
-    settings: dict[str, float], duration: float, rng: np.random.Generator
+    settings: dict[str, float], duration: float, rng: np.random.Generator, static: float = 0.0
 ) -> Sampled:
     """Load force F_L(t) of the second cylinder: smooth ramp-up, ripple and control noise.
 
@@ -211,6 +211,8 @@ def counter_force_signal(
         Length of the signal [s].
     rng : numpy.random.Generator
         Source of the control noise.
+    static : float
+        The machine's own constant load F_0 [N] (``Load.force``); the counter force adds to it.
 
     Returns
     -------
@@ -219,7 +221,7 @@ def counter_force_signal(
 
     Notes
     -----
-    F_L(t) = F·s(t)·(1 + r·sin 2πf_r t) + s(t)·n(t), with the raised-cosine ramp
+    F_L(t) = F_0 + F·s(t)·(1 + r·sin 2πf_r t) + s(t)·n(t), with the raised-cosine ramp
     s(t) = (1 − cos(π t/T))/2 for t < T, 1 after, and white noise n of the given std.
     """
     rate = settings["rate"]
@@ -228,7 +230,7 @@ def counter_force_signal(
     s = np.where(t < settings["ramp"], 0.5 * (1.0 - np.cos(np.pi * t / settings["ramp"])), 1.0)
     ripple = 1.0 + settings["ripple"] * np.sin(2 * np.pi * settings["ripple_frequency"] * t)
     noise = rng.normal(0.0, settings["noise"], size=n) if settings["noise"] > 0 else np.zeros(n)
-    return Sampled(t, settings["force"] * s * ripple + s * noise)
+    return Sampled(t, static + settings["force"] * s * ripple + s * noise)
 
 
 def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec) -> int:
@@ -266,7 +268,7 @@ def execute(
     force_rng, sensor_rng = (np.random.default_rng(s) for s in seed.spawn(2))
     load = None
     if spec.counter_force is not None:
-        load = counter_force_signal(spec.counter_force, spec.duration, force_rng)
+        load = counter_force_signal(spec.counter_force, spec.duration, force_rng, rig.params.load.force)
     params = rig.params
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
