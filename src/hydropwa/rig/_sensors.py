@@ -123,6 +123,14 @@ class SensorModel:
         """
         return self.range[0]
 
+    @property
+    def recorded_limits(self) -> tuple[float, float]:
+        """Lowest and highest value the chain can record [unit] (range ends on the code grid)."""
+        step = self.quantization_step
+        top = self.zero_level + (2**self.adc_bits - 1) * step
+        hi = self.zero_level + np.rint((min(self.range[1], top) - self.zero_level) / step) * step
+        return (float(self.zero_level), float(hi))
+
     def apply(self, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Measure ``values`` [unit]: offset, noise, range clipping, quantization.
 
@@ -319,4 +327,6 @@ def measure(
         if ch not in channels:
             channels[ch] = sensor.apply(result.channels[ch], rng)
     units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
-    return Run(name=name, channels=channels, units=units, fs=fs, meta=dict(meta or {}))
+    meta = dict(meta or {})
+    meta["converter_limits"] = {ch: list(sensors[ch].recorded_limits) for ch in channels if ch in sensors}
+    return Run(name=name, channels=channels, units=units, fs=fs, meta=meta)
