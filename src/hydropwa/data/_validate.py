@@ -24,6 +24,7 @@ __all__ = [
     "screen_runs",
     "validate_run",
     "COMMAND_CHANNELS",
+    "converter_limits",
 ]
 
 #: Channels that are commanded, not measured: not checked for clipping (a saturated
@@ -659,7 +660,7 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
         dataset, runs = runs, []
         if "limits" not in check_options:
             sensors = (getattr(dataset, "meta", None) or {}).get("rig", {}).get("sensors", {})
-            lim = _limits_from_sensors(sensors)
+            lim = converter_limits(sensors)
             if lim:
                 check_options = {**check_options, "limits": lim}
         for name in dataset.names:
@@ -677,7 +678,7 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
     return sound, rejected
 
 
-def _limits_from_sensors(sensors: Mapping) -> dict[str, tuple[float, float]]:
+def converter_limits(sensors: Mapping | None) -> dict[str, tuple[float, float]]:
     """Converter limits per channel from a rig's sensor description (``range``, ``quantization_step``)."""
     out = {}
     for ch, d in (sensors or {}).items():

@@ -29,6 +29,9 @@ __all__ = [
     "experiment_of",
     "signal_value",
     "EXPERIMENT_ALIASES",
+    "ESTIMATOR_CHANNELS",
+    "estimator_view",
+    "screen_for_estimator",
 ]
 
 
@@ -267,3 +270,80 @@ def require_usable(items: list, skipped: list[SkippedRun], what: str, minimum: i
 def is_hydropwa_error(exc: BaseException) -> bool:
     """Whether ``exc`` is a user error of the package (to be reported, not raised as a bug)."""
     return isinstance(exc, HydropwaError | DataError)
+
+
+# --------------------------------------------------------------------------- screening
+
+#: Channels each estimator reads (besides ``t``). Screening judges only these, so a chamber
+#: at 0 bar in an FRF run (whose estimator reads the spool) does not cost the run.
+ESTIMATOR_CHANNELS: dict[str, tuple[str, ...]] = {
+    "frf": ("u", "spool"),
+    "deadzone": ("u", "x"),
+    "friction": ("u", "x", "p_a", "p_b", "f_l"),
+}
+
+
+def estimator_view(run, kind: str | None, stroke: float | None = None, stop_margin: float = 2e-3):
+    """The part of a run that the estimator of ``kind`` reads: its channels over its time span.
+
+    Parameters
+    ----------
+    run : Run
+    kind : str or None
+        ``"frf"``, ``"deadzone"``, ``"friction"``; any other kind (``"sine"``, ``None``) gives
+        the whole run (the evaluation reads every channel).
+    stroke : float, optional
+        Stroke [m]; for friction runs the samples within ``stop_margin`` [m] of either stop and
+        those before ``meta["valve_delay"]`` are outside the span (Eq. (10) is evaluated on the
+        steady stretch away from the stops, where a chamber emptied at the stop does not matter).
+
+    Returns
+    -------
+    Run
+        A run with ``t`` and the estimator's channels present in ``run``, cut to the first–last
+        sample of the span (contiguous, so the time-base checks still apply).
+    """
+    from ..data import Run
+
+    used = ESTIMATOR_CHANNELS.get(kind or "")
+    if used is None:
+        return run
+    names = ["t"] + [c for c in used if c in run.channels]
+    ch = {c: np.asarray(run.channels[c]) for c in names}
+    t = ch["t"]
+    keep = np.ones(t.size, dtype=bool)
+    if kind == "friction" and t.size:
+        delay = signal_value(run, "valve_delay", default=0.0)
+        try:
+            keep &= t >= t[0] + float(delay)
+        except (TypeError, ValueError):
+            pass
+        if stroke is not None and "x" in ch:
+            x = np.asarray(ch["x"], dtype=float)
+            with np.errstate(invalid="ignore"):
+                keep &= (x > stop_margin) & (x < stroke - stop_margin)
+    idx = np.flatnonzero(keep)
+    if idx.size >= 16 and idx.size < t.size:
+        sl = slice(int(idx[0]), int(idx[-1]) + 1)
+        ch = {c: v[sl] for c, v in ch.items()}
+    units = {c: u for c, u in run.units.items() if c in ch}
+    return Run(name=run.name, channels=ch, units=units, fs=run.fs, meta=run.meta)
+
+
+def screen_for_estimator(run, kind: str | None, stroke: float | None = None,
+                         limits: Mapping[str, tuple[float, float]] | None = None) -> str | None:
+    """Why a run is unusable for the estimator of its kind, or ``None`` when it is sound.
+
+    The run's view (:func:`estimator_view`) goes through :func:`hydropwa.data.check_run`
+    with the converter limits (``limits``, else the run's ``meta["converter_limits"]``);
+    the first error-severity finding is the reason.
+    """
+    from ..data import check_run
+
+    view = estimator_view(run, kind, stroke)
+    lim = run.meta.get("converter_limits") or limits or None
+    errors = [i for i in check_run(view, limits=lim) if i.severity == "error"]
+    if not errors:
+        return None
+    more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"bad data: {errors[0]}{more}"
