@@ -35,6 +35,8 @@ __all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
 
 #: What :func:`identify` can identify, in order.
 PARTS = ("frf", "deadzone", "friction")
+#: Keys of a base parameter file's ``[meta]`` that describe each part (dropped once it is identified).
+_META_KEYS = {"frf": ("valve", "omega0", "zeta"), "deadzone": ("dead_zone", "beta"), "friction": ("friction",)}
 
 
 def load_runs(source, skipped: list | None = None, base_params: SystemParams | None = None) -> list:
@@ -276,8 +278,13 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
             report.dead_zone = est
             changes["dead_zone"] = est.dead_zone_  # alpha (saturation) comes from the base
             uncertainty["dead_zone"] = est.uncertainty()
-            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, hinge fit; "
-                                       "creep_slope = creep velocity slope / mean outer gain; alpha from base")
+            fit = est.fit_
+            drift = ("" if fit.drift_pos is None else
+                     f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / {1e3 * fit.drift_neg.value:.3g} mm/s "
+                     "for u ≥ 0 / u < 0, kept out of the creep")
+            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, "
+                                       f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
+                                       f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}")
         else:
             report.friction = est
             changes["friction"] = est.friction_
@@ -295,7 +302,13 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
         )
     provenance["identified"] = done
     provenance["skipped"] = [str(s) for s in report.skipped]
-    meta = {**{k: v for k, v in base.meta.items() if k != "uncertainty"},
+    # the base's provenance lines about what was identified here are stale now
+    identified_keys = {"source", "uncertainty", "identification", "base_source"} | {
+        k for part in done for k in _META_KEYS[part]}
+    meta = {**{k: v for k, v in base.meta.items() if k not in identified_keys},
+            "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
+                      "the other values from the base parameters",
+            "base_source": str(base.meta.get("source", "defaults of hydropwa.params")),
             "identification": provenance, "uncertainty": uncertainty}
     report.params = dataclasses.replace(base, meta=meta, **changes)
     return report
@@ -321,7 +334,10 @@ def _summary(rep: IdentificationReport) -> str:
                   "|---|---|---|---|"]
         for name, e in (("β (symmetric)", f.beta), ("β+", f.beta_pos), ("β−", f.beta_neg),
                         ("k_g (creep opening slope)", f.creep_slope), ("creep velocity slope", f.creep_velocity_slope),
-                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg)):
+                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg),
+                        ("drift u ≥ 0 (leakage, load)", f.drift_pos), ("drift u < 0 (leakage, load)", f.drift_neg)):
+            if e is None:
+                continue
             lines.append(f"| {name} | {_fmt_est(e)} |")
         lines += ["", f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.", ""]
     if rep.friction is not None:
