@@ -25,6 +25,7 @@ __all__ = [
     "SkippedRun",
     "ParameterEstimate",
     "covariance_from_jacobian",
+    "sandwich_covariance",
     "as_runs",
     "experiment_of",
     "signal_value",
@@ -138,6 +139,54 @@ def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: i
         cov[unseen, :] = np.nan
         cov[:, unseen] = np.nan
         cov[unseen, unseen] = np.inf
+    return cov
+
+
+def sandwich_covariance(jac: np.ndarray, residuals: np.ndarray) -> np.ndarray:
+    """Heteroskedasticity-robust (sandwich, HC1) covariance of a least-squares fit.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the residuals at the optimum.
+    residuals : ndarray, shape (n,)
+        Residuals at the optimum.
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        n/(n − p) · (JᵀJ)⁻¹ Jᵀ diag(r²) J (JᵀJ)⁻¹, from the SVD of J; a direction the data do
+        not determine gets an infinite variance (as :func:`covariance_from_jacobian`).
+
+    Notes
+    -----
+    s²(JᵀJ)⁻¹ assumes every residual has the same variance and that the model is exact.
+    Where points differ in quality (slow runs, bins of low coherence) or the model misses
+    the data by more at some points than at others, it is too narrow; the sandwich form
+    takes each point's own squared residual, so its intervals hold under both (White 1980).
+    Each residual here is one run (or one frequency), so it is a run-level estimate.
+    """
+    jac = np.asarray(jac, dtype=float)
+    r = np.asarray(residuals, dtype=float)
+    n, p = jac.shape
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    tol = sv.max() * max(jac.shape) * 1e-10 if sv.size and sv.max() > 0 else 0.0
+    good = sv > tol
+    pinv_t = (vt[good].T / sv[good] ** 2) @ vt[good]  # (JᵀJ)⁻¹ on the seen subspace
+    meat = (jac * r[:, None] ** 2).T @ jac
+    cov = pinv_t @ meat @ pinv_t * (n / max(n - p, 1))
+    # never narrower than the homoskedastic estimate: with few points the sandwich's own
+    # spread can make it smaller by chance
+    cov_h = covariance_from_jacobian(jac, r)
+    fin = np.isfinite(np.diag(cov_h))
+    if fin.all():
+        if np.all(np.diag(cov_h) > np.diag(cov)):
+            cov = cov_h
+        else:
+            scale = np.sqrt(np.maximum(np.diag(cov_h), np.diag(cov)) / np.maximum(np.diag(cov), 1e-300))
+            cov = cov * np.outer(scale, scale)
+    else:
+        cov = cov_h
     return cov
 
 

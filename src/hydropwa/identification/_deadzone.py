@@ -27,9 +27,9 @@ from ._common import (
     SkippedRun,
     as_runs,
     channels_of,
-    covariance_from_jacobian,
     estimate,
     require_usable,
+    sandwich_covariance,
     signal_value,
     skip,
     t_quantile,
@@ -342,7 +342,7 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95, drift: bo
     jac = _hinge_jacobian(u, best, continuous)
     free = [0, 1, 2, 3, 4] + [5 + i for i, on in enumerate(best_sides) if on]
     cov = np.zeros((7, 7))
-    cov[np.ix_(free, free)] = covariance_from_jacobian(jac[:, free], resid)
+    cov[np.ix_(free, free)] = sandwich_covariance(jac[:, free], resid)
     q = t_quantile(level, u.size - len(free))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     gp, gn, bp, bn, c, dp, dn = best

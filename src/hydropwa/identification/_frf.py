@@ -25,9 +25,9 @@ from ._common import (
     as_runs,
     channels_of,
     correlation,
-    covariance_from_jacobian,
     estimate,
     require_usable,
+    sandwich_covariance,
     signal_value,
     skip,
     t_quantile,
@@ -215,7 +215,8 @@ class FrequencyResponse:
 
 
 def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = None,
-                    amplitude: float | None = None, name: str = "") -> FrequencyResponse:
+                    amplitude: float | None = None, name: str = "",
+                    f_min: float | None = None) -> FrequencyResponse:
     """H1 estimate H = S_uy/S_uu with coherence from a broadband run (chirp, noise).
 
     Parameters
@@ -225,9 +226,12 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     nperseg : int, optional
         Welch segment length [samples]; default N/8 (at least 64).
     f_max : float, optional
-        Highest frequency kept [Hz] (default: Nyquist).
+        Highest frequency kept [Hz] (default: Nyquist). Give the excited band's upper
+        end: bins the command does not excite hold noise over noise (+100 dB, any phase).
     amplitude : float, optional
         Command amplitude [1] the FRF is filed under (default: peak |u − mean u|).
+    f_min : float, optional
+        Lowest frequency kept [Hz] (the excited band's lower end).
 
     Returns
     -------
@@ -249,6 +253,8 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     keep = (f > 0) & (s_uu > 0)
     if f_max is not None:
         keep &= f <= f_max
+    if f_min is not None:
+        keep &= f >= f_min
     h = s_uy[keep] / s_uu[keep]
     coh = np.abs(s_uy[keep]) ** 2 / (s_uu[keep] * s_yy[keep])
     amp = float(amplitude) if amplitude is not None else float(np.max(np.abs(u - np.mean(u))))
@@ -294,7 +300,7 @@ class SecondOrderFit:
 
 
 def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: float = 0.95,
-                     f_max: float | None = None) -> SecondOrderFit:
+                     f_max: float | None = None, f_min: float | None = None) -> SecondOrderFit:
     """Fit ω0 and ζ of Eq. (1) to a measured FRF by complex least squares.
 
     Parameters
@@ -305,8 +311,8 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
         Smallest coherence [1] of an H1 point that is used.
     level : float
         Confidence level of the intervals [1].
-    f_max : float, optional
-        Highest frequency used [Hz].
+    f_max, f_min : float, optional
+        Band used [Hz] (the excited band of a broadband run).
 
     Returns
     -------
@@ -315,26 +321,42 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
     Notes
     -----
     Residuals are Re and Im of log(G(jω)/H(jω)): the relative magnitude error and
-    the phase error in rad. Starts on a grid of ω0 over the measured band and
-    ζ ∈ {0.3, 0.7, 1.5}; the best optimum is kept. Intervals are ±t·std with the
-    covariance s²(JᵀJ)⁻¹ of the Jacobian at the optimum (Table II gives no intervals).
+    the phase error in rad. For an H1 estimate each bin is weighted by
+    √(γ²/(1 − γ²)) (the inverse of the relative standard error of H1, which is
+    ∝ √((1 − γ²)/γ²)), capped at γ² = 0.999; stepped-sine points weigh equally. Starts
+    on a grid of ω0 over the measured band and ζ ∈ {0.3, 0.7, 1.5}; the best optimum is
+    kept. Intervals are ±t·std with the sandwich covariance of the weighted residuals
+    (:func:`sandwich_covariance`; for H1 the variance is also multiplied by the Hann
+    window's equivalent noise bandwidth, 1.5 bins, since neighbouring bins are correlated).
     """
     w = frf.omega
     h = np.asarray(frf.response)
+    f_hz = np.asarray(frf.frequency)
     keep = np.isfinite(h) & (np.abs(h) > 0)
     if frf.coherence is not None:
         keep &= np.asarray(frf.coherence) >= min_coherence
     if f_max is not None:
-        keep &= np.asarray(frf.frequency) <= f_max
+        keep &= f_hz <= f_max
+    if f_min is not None:
+        keep &= f_hz >= f_min
     w, h = w[keep], h[keep]
     if w.size < 3:
         raise IdentificationError(
             f"FRF at amplitude {frf.amplitude:g} has {w.size} usable points; need at least 3 for ω0 and ζ"
         )
+    if frf.coherence is not None:
+        g2 = np.clip(np.asarray(frf.coherence)[keep], 1e-6, 0.999)
+        wt = np.sqrt(g2 / (1.0 - g2))
+        wt = wt / np.mean(wt)
+        bin_factor = 1.5
+    else:
+        wt = np.ones(w.size)
+        bin_factor = 1.0
+    wt2 = np.concatenate([wt, wt])
 
     def resid(theta):
         r = np.log(second_order_response(w, theta[0], theta[1]) / h)
-        return np.concatenate([r.real, r.imag])
+        return wt2 * np.concatenate([r.real, r.imag])
 
     best = None
     for w0 in np.geomspace(max(w.min(), 1.0), w.max() * 4.0, 6):
@@ -344,10 +366,10 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
             if best is None or res.cost < best.cost:
                 best = res
     assert best is not None
-    cov = covariance_from_jacobian(best.jac, best.fun)
-    q = t_quantile(level, best.fun.size - 2)
+    cov = bin_factor * sandwich_covariance(best.jac, best.fun)
+    q = t_quantile(level, w.size - 2)
     sd = np.sqrt(np.diag(cov))
-    re, im = resid(best.x).reshape(2, -1)
+    re, im = (resid(best.x) / wt2).reshape(2, -1)
     rms = float(np.sqrt(np.mean(re**2 + im**2)))
     return SecondOrderFit(
         omega0=estimate(best.x[0], sd[0], q, "rad/s", level),
@@ -391,6 +413,10 @@ class ValveFrfIdentifier:
         Confidence level [1] of the intervals.
     amplitude_decimals : int
         Command amplitudes are grouped after rounding to this many decimals.
+    band : (float, float), optional
+        Frequency band [Hz] used for every FRF (``--band`` of ``hydropwa identify``);
+        default: a broadband run's own excited band (meta ``band`` or ``f0``/``f1``), all
+        stepped-sine points.
 
     Attributes
     ----------
@@ -416,7 +442,7 @@ class ValveFrfIdentifier:
 
     def __init__(self, n_periods: int = 4, trend: bool = True, min_coherence: float = 0.8,
                  nperseg: int | None = None, f_max: float | None = None, level: float = 0.95,
-                 amplitude_decimals: int = 3) -> None:
+                 amplitude_decimals: int = 3, band: tuple[float, float] | None = None) -> None:
         self.n_periods = n_periods
         self.trend = trend
         self.min_coherence = min_coherence
@@ -424,6 +450,20 @@ class ValveFrfIdentifier:
         self.f_max = f_max
         self.level = level
         self.amplitude_decimals = amplitude_decimals
+        self.band = band
+
+    def _band(self, run) -> tuple[float | None, float | None]:
+        """Excited band [Hz] of a broadband run: ``band`` if given, else the run's ``band``/``f0``–``f1``."""
+        if self.band is not None:
+            return float(self.band[0]), float(self.band[1])
+        b = signal_value(run, "band")
+        if isinstance(b, list | tuple) and len(b) == 2:
+            return float(b[0]), float(b[1])
+        f0, f1 = signal_value(run, "f0"), signal_value(run, "f1")
+        if f0 is not None and f1 is not None:
+            lo, hi = sorted((float(f0), float(f1)))
+            return lo, hi
+        return None, self.f_max
 
     # ---------------------------------------------------------------- per run
     def _segments(self, run, t):
@@ -434,13 +474,31 @@ class ValveFrfIdentifier:
         return [(t[0], t[-1], None if f is None else float(f))]
 
     def _broadband(self, run) -> bool:
-        kind = str(signal_value(run, "type", "signal_type", default="")).lower()
+        kinds = {str(signal_value(run, k, default="")).lower() for k in ("type", "signal_type", "excitation")}
         exp = str((run.meta or {}).get("experiment", (run.meta or {}).get("kind", ""))).lower()
-        return kind in _BROADBAND or exp in _BROADBAND
+        return bool(kinds & _BROADBAND) or exp in _BROADBAND
 
     def _amplitude(self, run, measured: float) -> float:
+        """Command amplitude [1] from the metadata, checked against the measured command.
+
+        A value above full opening that is 100× the measured amplitude (within 20 %) was
+        written in percent (``amplitude = 10`` for 10 %) and is read so; a string with a unit
+        (``"10 %"``) is converted; any other value above 1.5 is an error with a hint.
+        """
+        from ..params import parse_quantity
+
         a = signal_value(run, "amplitude", "opening", default=None)
-        a = measured if a is None else abs(float(a))
+        if a is None:
+            return round(measured, self.amplitude_decimals)
+        a = abs(parse_quantity(a, "", f"run {run.name!r} meta amplitude"))
+        if a > 1.5:
+            if measured > 0 and abs(a / 100.0 - measured) <= 0.2 * measured:
+                a = a / 100.0
+            else:
+                raise IdentificationError(
+                    f"meta amplitude {a:g} is {100 * a:g} % of full opening but the command's amplitude is "
+                    f"{measured:.3g}; write it as a fraction ({a / 100:g}) or with a unit ('{a:g} %')"
+                )
         return round(a, self.amplitude_decimals)
 
     def fit(self, data) -> ValveFrfIdentifier:
@@ -466,12 +524,13 @@ class ValveFrfIdentifier:
                 continue
             t, u, y = ch["t"], ch["u"], ch["spool"]
             if self._broadband(run):
+                f_lo, f_hi = self._band(run)
                 try:
-                    frf = estimate_frf_h1(t, u, y, self.nperseg, self.f_max, None, run.name)
+                    frf = estimate_frf_h1(t, u, y, self.nperseg, f_hi, None, run.name, f_lo)
+                    amp = self._amplitude(run, frf.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, run.name, str(exc))
                     continue
-                amp = self._amplitude(run, frf.amplitude)
                 broadband.setdefault(amp, []).append(dataclasses.replace(frf, amplitude=amp))
                 continue
             for t0, t1, f in self._segments(run, t):
@@ -480,10 +539,10 @@ class ValveFrfIdentifier:
                 try:
                     freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
                     h, fu, _ = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
+                    amp = self._amplitude(run, fu.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, label, str(exc))
                     continue
-                amp = self._amplitude(run, fu.amplitude)
                 points.setdefault(amp, []).append((freq, h, label))
         frfs: dict[float, FrequencyResponse] = {}
         for amp, pts in points.items():
@@ -497,7 +556,8 @@ class ValveFrfIdentifier:
         fits: dict[float, SecondOrderFit] = {}
         for amp in sorted(frfs):
             try:
-                fits[amp] = fit_second_order(frfs[amp], self.min_coherence, self.level, self.f_max)
+                lo, hi = (self.band if self.band is not None else (None, self.f_max))
+                fits[amp] = fit_second_order(frfs[amp], self.min_coherence, self.level, hi, lo)
             except IdentificationError as exc:
                 skip(skipped, ",".join(frfs[amp].runs) or f"amplitude {amp:g}", str(exc))
         require_usable(list(fits), skipped, "valve FRF identification")

@@ -8,6 +8,7 @@ experiment and ``true_params.toml``. ``measure`` applies the sensor chain to any
 
 from ._campaign import (
     EXPERIMENTS,
+    BroadbandSweep,
     Campaign,
     DeadZoneExperiment,
     Experiment,
@@ -28,6 +29,7 @@ __all__ = [
     "EXPERIMENTS",
     "MEASURED_CHANNELS",
     "TRUE_PARAMS",
+    "BroadbandSweep",
     "Campaign",
     "DeadZoneExperiment",
     "Experiment",

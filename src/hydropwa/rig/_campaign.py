@@ -23,6 +23,7 @@ from ..params import parse_quantity
 
 __all__ = [
     "EXPERIMENTS",
+    "BroadbandSweep",
     "Campaign",
     "DeadZoneExperiment",
     "Experiment",
@@ -154,6 +155,33 @@ class FrfSweep:
 
 
 @dataclass(frozen=True)
+class BroadbandSweep:
+    """One broadband valve run (chirp or multisine) at one opening, for an H1 estimate.
+
+    Attributes
+    ----------
+    opening : float
+        Peak command [1] (fraction of full opening).
+    f0, f1 : float
+        Excited band [Hz]; the identification fits only inside it.
+    duration : float
+        Length of the excitation [s].
+    signal : str
+        ``"chirp"`` (linear sweep f0 → f1) or ``"multisine"`` (Schroeder-phased sines on a
+        1/``period`` grid in the band, repeated).
+    period : float
+        Period of the multisine [s] (its frequency resolution is 1/period).
+    """
+
+    opening: float
+    f0: float
+    f1: float
+    duration: float = 4.0
+    signal: str = "chirp"
+    period: float = 0.5
+
+
+@dataclass(frozen=True)
 class FrfExperiment:
     """Valve FRF by stepped sines, Sec. VI-A: spool position measured.
 
@@ -169,6 +197,8 @@ class FrfExperiment:
         Extra periods recorded after them.
     start_position : float
         Initial rod position [1] (fraction of the stroke).
+    broadband : tuple of BroadbandSweep
+        Broadband runs (``[[frf.broadband]]``), H1-estimated over their band.
     """
 
     name = "frf"
@@ -177,6 +207,7 @@ class FrfExperiment:
     periods: int = 4
     margin_periods: int = 2
     start_position: float = 0.5
+    broadband: tuple[BroadbandSweep, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -325,10 +356,43 @@ class Campaign:
 
 
 # --------------------------------------------------------------------- parsing
+def _broadband(t: _Table) -> tuple[BroadbandSweep, ...]:
+    items = t.raw("broadband", [])
+    if not isinstance(items, list):
+        raise ParameterError(f"{t.key('broadband')} must be an array of tables [[frf.broadband]]")
+    out = []
+    for i, b in enumerate(items):
+        bt = _Table(b, f"{t.key('broadband')}[{i}]")
+        sig = bt.text("signal", "chirp")
+        if sig not in ("chirp", "multisine"):
+            raise ParameterError(f"{bt.key('signal')} = {sig!r} must be 'chirp' or 'multisine'")
+        bb = BroadbandSweep(
+            opening=bt.quantity("opening", "", gt=0.0, le=1.0),
+            f0=bt.quantity("f0", "Hz", gt=0.0),
+            f1=bt.quantity("f1", "Hz", gt=0.0),
+            duration=bt.quantity("duration", "s", 4.0, gt=0.0),
+            signal=sig,
+            period=bt.quantity("period", "s", 0.5, gt=0.0),
+        )
+        bt.finish()
+        if bb.f1 <= bb.f0:
+            raise ParameterError(f"{bt.key('f1')} = {bb.f1:g} Hz must exceed f0 = {bb.f0:g} Hz")
+        if bb.signal == "multisine" and bb.f0 < 1.0 / bb.period:
+            raise ParameterError(
+                f"{bt.key('f0')} = {bb.f0:g} Hz lies below the multisine's resolution 1/period = "
+                f"{1 / bb.period:g} Hz; lengthen period or raise f0"
+            )
+        out.append(bb)
+    return tuple(out)
+
+
 def _frf(t: _Table) -> FrfExperiment:
-    sweeps = t.raw("sweep")
-    if not isinstance(sweeps, list) or not sweeps:
-        raise ParameterError(f"{t.key('sweep')} must be a non-empty array of tables [[frf.sweep]]")
+    sweeps = t.raw("sweep", [])
+    broadband = _broadband(t)
+    if not isinstance(sweeps, list) or not (sweeps or broadband):
+        raise ParameterError(
+            f"{t.key('sweep')} must be a non-empty array of tables [[frf.sweep]] (or give [[frf.broadband]])"
+        )
     out = []
     for i, s in enumerate(sweeps):
         st = _Table(s, f"{t.key('sweep')}[{i}]")
@@ -344,6 +408,7 @@ def _frf(t: _Table) -> FrfExperiment:
         periods=t.integer("periods", 4, ge=1),
         margin_periods=t.integer("margin_periods", 2, ge=0),
         start_position=t.quantity("start_position", "", 0.5, ge=0.0, le=1.0),
+        broadband=broadband,
     )
 
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..models import FullOrderModel
-from ..simulation import Constant, Sampled, Signal, Sine, Step, simulate
+from ..simulation import Chirp, Constant, Sampled, Signal, Sine, Step, simulate
 from ._campaign import (
     DeadZoneExperiment,
     Experiment,
@@ -120,7 +120,57 @@ def _plan_frf(exp: FrfExperiment, rig: Rig) -> list[RunSpec]:
                     },
                 )
             )
+    for bb in exp.broadband:
+        runs.append(_broadband_run(bb, x0))
     return runs
+
+
+def multisine(opening: float, f0: float, f1: float, period: float, duration: float,
+              rate: float) -> Sampled:
+    """Schroeder-phased multisine: equal sines at k/period in [f0, f1], peak ``opening``.
+
+    Parameters
+    ----------
+    opening : float
+        Peak |u| [1].
+    f0, f1 : float
+        Band [Hz].
+    period : float
+        Period [s]; the lines lie on the grid k/period.
+    duration : float
+        Length [s] (whole periods are repeated).
+    rate : float
+        Rate [Hz] of the samples (linear interpolation between them).
+
+    Returns
+    -------
+    Sampled
+        u(t) [1]. Schroeder phases φ_k = −πk(k−1)/K keep the crest factor low, so the band
+        gets more power at the same peak opening than with random phases.
+    """
+    k = np.arange(math.ceil(f0 * period - 1e-9), math.floor(f1 * period + 1e-9) + 1)
+    freqs = k / period
+    phases = -np.pi * np.arange(k.size) * (np.arange(k.size) - 1) / k.size
+    t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
+    u = np.sum(np.sin(2 * np.pi * freqs[:, None] * t[None, :] + phases[:, None]), axis=0)
+    one = np.sum(np.sin(2 * np.pi * freqs[:, None] * (t[t < period])[None, :] + phases[:, None]), axis=0)
+    return Sampled(t, opening * u / np.max(np.abs(one)))
+
+
+def _broadband_run(bb, x0: float) -> RunSpec:
+    if bb.signal == "chirp":
+        cmd: Signal = Chirp(amplitude=bb.opening, f0=bb.f0, f1=bb.f1, duration=bb.duration)
+    else:
+        cmd = multisine(bb.opening, bb.f0, bb.f1, bb.period, bb.duration, 8.0 * max(2000.0, 10 * bb.f1))
+    return RunSpec(
+        name=f"frf_{bb.signal}_a{_pct(bb.opening)}",
+        experiment="frf",
+        command=cmd,
+        duration=bb.duration,
+        start_position=x0,
+        meta={"opening": bb.opening, "amplitude": bb.opening, "band": [bb.f0, bb.f1],
+              "excitation": bb.signal, **({"period": bb.period} if bb.signal == "multisine" else {})},
+    )
 
 
 def _constant_runs(
