@@ -25,6 +25,7 @@ from ._common import (
     as_runs,
     channels_of,
     correlation,
+    covariance_from_jacobian,
     estimate,
     require_usable,
     sandwich_covariance,
@@ -174,6 +175,12 @@ def stepped_sine_point(t, u, y, frequency: float, n_periods: int = 4, trend: boo
     return fy.phasor / fu.phasor, fu, fy
 
 
+def _relative_std(fit: SineFit, fs: float) -> float:
+    """Standard error of log(phasor) per component [1]: σ_coef/A with σ_coef = rms·√(2/N)."""
+    n = max((fit.window[1] - fit.window[0]) * fs, 8.0)
+    return float(fit.rms_residual * np.sqrt(2.0 / n) / max(fit.amplitude, 1e-300))
+
+
 @dataclasses.dataclass(frozen=True)
 class FrequencyResponse:
     """A measured frequency response of the valve at one command amplitude.
@@ -190,6 +197,9 @@ class FrequencyResponse:
         Command amplitude |u| [1] the FRF belongs to.
     runs : tuple of str
         Names of the runs it came from.
+    std : ndarray, shape (K,) or None
+        Relative standard error of each point [1] (stepped sines: from the sinusoid fits'
+        residuals, see :func:`stepped_sine_point`).
     """
 
     frequency: np.ndarray
@@ -197,6 +207,7 @@ class FrequencyResponse:
     coherence: np.ndarray | None = None
     amplitude: float = float("nan")
     runs: tuple[str, ...] = ()
+    std: np.ndarray | None = None
 
     @property
     def omega(self) -> np.ndarray:
@@ -344,11 +355,18 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
         raise IdentificationError(
             f"FRF at amplitude {frf.amplitude:g} has {w.size} usable points; need at least 3 for ω0 and ζ"
         )
+    known = frf.std is not None and frf.coherence is None
+    if known:
+        sd_pts = np.asarray(frf.std, dtype=float)[keep]
+        known = bool(np.all(np.isfinite(sd_pts) & (sd_pts > 0)))
     if frf.coherence is not None:
         g2 = np.clip(np.asarray(frf.coherence)[keep], 1e-6, 0.999)
         wt = np.sqrt(g2 / (1.0 - g2))
         wt = wt / np.mean(wt)
         bin_factor = 1.5
+    elif known:
+        wt = 1.0 / sd_pts
+        bin_factor = 1.0
     else:
         wt = np.ones(w.size)
         bin_factor = 1.0
@@ -366,8 +384,17 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
             if best is None or res.cost < best.cost:
                 best = res
     assert best is not None
-    cov = bin_factor * sandwich_covariance(best.jac, best.fun)
-    q = t_quantile(level, w.size - 2)
+    if known:
+        # each point's noise is known from its sinusoid fits: (JᵀWJ)⁻¹, widened by the lack of
+        # fit χ²/dof when the points scatter more than their noise (model error); a variance
+        # estimated from 7-8 points alone is itself too uncertain (issue 18: 2-4σ misses)
+        dof = max(best.fun.size - 2, 1)
+        chi2 = float(best.fun @ best.fun) / dof
+        cov = covariance_from_jacobian(best.jac, best.fun) * max(1.0, chi2) / max(chi2, 1e-300)
+        q = t_quantile(level, 10**6) if chi2 <= 1.0 else t_quantile(level, w.size - 2)
+    else:
+        cov = bin_factor * sandwich_covariance(best.jac, best.fun)
+        q = t_quantile(level, w.size - 2)
     sd = np.sqrt(np.diag(cov))
     re, im = (resid(best.x) / wt2).reshape(2, -1)
     rms = float(np.sqrt(np.mean(re**2 + im**2)))
@@ -538,17 +565,19 @@ class ValveFrfIdentifier:
                 label = run.name if f is None or len(self._segments(run, t)) == 1 else f"{run.name}@{f:g}Hz"
                 try:
                     freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
-                    h, fu, _ = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
+                    h, fu, fy = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
                     amp = self._amplitude(run, fu.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, label, str(exc))
                     continue
-                points.setdefault(amp, []).append((freq, h, label))
+                fs = 1.0 / float(np.median(np.diff(t)))
+                sd = float(np.hypot(_relative_std(fy, fs), _relative_std(fu, fs)))
+                points.setdefault(amp, []).append((freq, h, label, sd))
         frfs: dict[float, FrequencyResponse] = {}
         for amp, pts in points.items():
             pts.sort()
             frfs[amp] = FrequencyResponse(np.array([p[0] for p in pts]), np.array([p[1] for p in pts]),
-                                          None, amp, tuple(p[2] for p in pts))
+                                          None, amp, tuple(p[2] for p in pts), np.array([p[3] for p in pts]))
         for amp, lst in broadband.items():
             if amp in frfs:  # stepped sine wins; keep the broadband one under its own key
                 amp = amp + 10.0 ** -(self.amplitude_decimals + 1)
@@ -599,6 +628,10 @@ def _pooled(ests: list[ParameterEstimate], level: float, unit: str) -> Parameter
         wts = 1.0 / s**2
         m = float(np.sum(wts * v) / np.sum(wts))
         sd = float(np.sqrt(1.0 / np.sum(wts)))
+        # Birge ratio: estimates that disagree by more than their errors (ζ is not exactly
+        # the same at every amplitude, or an error is too small) widen the pooled interval
+        birge = float(np.sum(wts * (v - m) ** 2) / (v.size - 1))
+        sd *= float(np.sqrt(max(1.0, birge)))
     return estimate(m, sd, t_quantile(level, 1000), unit, level)
 
 
