@@ -34,7 +34,7 @@ CAMPAIGN = {
         ],
     },
     "deadzone": {"inputs": {"start": "1 %", "stop": "14 %", "step": "1 %"}, "duration": "2 s"},
-    "friction": {"inputs": {"start": "7 %", "stop": "40 %", "step": "3 %"}, "counter_force": "1 kN",
+    "friction": {"inputs": {"start": "4 %", "stop": "40 %", "step": "3 %"}, "counter_force": "1 kN",
                  "duration": "2.5 s"},
 }
 
@@ -62,7 +62,7 @@ def _intervals(rep):
     return out
 
 
-def coverage(machine: str, seeds, tmp: Path) -> dict[str, list[bool]]:
+def coverage(machine: str, seeds, tmp: Path, jobs: int = 1, log=None) -> dict[str, list[bool]]:
     """Per parameter, whether each seed's 95 % interval holds the truth."""
     p = load_params(MACHINES / f"{machine}.toml")
     truth = _truths(p)
@@ -70,7 +70,7 @@ def coverage(machine: str, seeds, tmp: Path) -> dict[str, list[bool]]:
     for seed in seeds:
         out = tmp / f"{machine}_{seed}"
         camp = parse_campaign({"campaign": {"name": "coverage", "seed": int(seed)}, **CAMPAIGN})
-        run_campaign(Rig(params=p), camp, out)
+        run_campaign(Rig(params=p), camp, out, jobs=jobs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentificationWarning)
             rep = identify(out, base_params=p)
@@ -78,6 +78,9 @@ def coverage(machine: str, seeds, tmp: Path) -> dict[str, list[bool]]:
         for k, v in truth.items():
             lo, hi = est[k].ci
             hits[k].append(bool(lo <= v <= hi))
+            if log is not None:
+                print(f"{machine} seed {seed} {k}: {est[k].value:.6g} CI [{lo:.6g}, {hi:.6g}] true {v:.6g}",
+                      file=log, flush=True)
     return hits
 
 
@@ -108,5 +111,5 @@ if __name__ == "__main__":  # the table for the docs: python tests/identificatio
 
     n = int(sys.argv[1]) if len(sys.argv) > 1 else SEEDS
     with tempfile.TemporaryDirectory() as d:
-        res = {m: coverage(m, range(1, n + 1), Path(d)) for m in sys.argv[2:] or ("industrial", "small")}
+        res = {m: coverage(m, range(1, n + 1), Path(d), log=sys.stderr) for m in sys.argv[2:] or ("industrial", "small")}
     print(table(res))

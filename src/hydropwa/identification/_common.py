@@ -398,5 +398,12 @@ def screen_for_estimator(run, kind: str | None, stroke: float | None = None,
     errors = [i for i in check_run(view, limits=lim) if i.severity == "error"]
     if not errors:
         return None
+    if view is not run and view.t.size < run.t.size:
+        # the span decides whether a channel is bad; the whole record names the fault best
+        # (a dropout cut by the span's start looks like a plateau at the channel's extreme)
+        cols = {c: run.channels[c] for c in view.channels}
+        whole = run.replace(channels=cols, units={c: u for c, u in run.units.items() if c in cols})
+        by_channel = {i.channel: i for i in check_run(whole, limits=lim) if i.severity == "error"}
+        errors = [by_channel.get(i.channel, i) for i in errors]
     more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
     return f"bad data: {errors[0]}{more}"
