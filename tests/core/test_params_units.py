@@ -99,3 +99,12 @@ def test_signal_spec_with_units_or_fractions_is_accepted():
     assert parse_signal("sine:amplitude=0.4,frequency=1").amplitude == pytest.approx(0.4)
     assert parse_signal("95 bar", "Pa")(0.0) == pytest.approx(95e5)
     assert parse_signal("9.5e6", "Pa")(0.0) == pytest.approx(9.5e6)
+
+
+def test_cli_bare_supply_pressure_is_rejected_with_the_unit(tmp_path, capsys):
+    from hydropwa.cli import main
+
+    code = main(["simulate", "--model", "reduced", "--supply-pressure", "95", "--duration", "0.01",
+                 "--out", str(tmp_path / "r.csv")])
+    assert code == 2
+    assert "did you mean '95 bar'" in capsys.readouterr().err
