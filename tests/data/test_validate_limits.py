@@ -55,3 +55,19 @@ def test_data_check_accepts_a_campaign_folder(tmp_path, capsys):
     run_campaign(Rig(), camp, tmp_path / "c")
     assert main(["data", "check", str(tmp_path / "c")]) == 0
     assert "no issues" in capsys.readouterr().out
+
+
+def test_simulate_then_identify_uses_every_simulated_run():
+    """simulate → Run → identify: the package's own runs are not screened out (issue 18, item 8)."""
+    from hydropwa.identification import identify
+
+    p = get_preset("paper")
+    runs = []
+    for u in (0.03, 0.06, 0.09, 0.12, 0.15, 0.18, 0.21):
+        for sign in (1, -1):
+            x0 = 0.0 if sign > 0 else p.cylinder.stroke
+            res = simulate(FullOrderModel(p), sign * u, duration=0.6, x0=x0, fs=1000)
+            runs.append(res.to_run(f"dz_{sign * u:+.2f}", meta={"kind": "deadzone", "level": sign * u}))
+    rep = identify(runs, ["deadzone"], base_params=p)
+    assert rep.skipped == [] and len(rep.dead_zone.points_) == len(runs)
+    assert abs(rep.params.dead_zone.beta - p.dead_zone.beta) < 0.005
