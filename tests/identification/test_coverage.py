@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from hydropwa.identification import IdentificationWarning, identify
-from hydropwa.params import load_params
+from hydropwa.params import get_preset, load_params
 from hydropwa.rig import Rig, parse_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"
@@ -64,7 +64,7 @@ def _intervals(rep):
 
 def coverage(machine: str, seeds, tmp: Path, jobs: int = 1, log=None) -> dict[str, list[bool]]:
     """Per parameter, whether each seed's 95 % interval holds the truth."""
-    p = load_params(MACHINES / f"{machine}.toml")
+    p = get_preset("paper") if machine == "paper" else load_params(MACHINES / f"{machine}.toml")
     truth = _truths(p)
     hits: dict[str, list[bool]] = {k: [] for k in truth}
     for seed in seeds:

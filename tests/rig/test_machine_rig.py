@@ -104,3 +104,18 @@ def test_counter_force_adds_to_the_static_load(industrial):
     v = np.polyfit(t[late], x[late], 1)[0]
     expected = 2000.0 + 1000.0 + camp["friction"].counter_damping * v
     assert np.median(f[late]) == pytest.approx(expected, abs=3 * rig.sensors["f_l"].quantization_step + 5.0)
+
+
+def test_rig_cli_says_what_it_sized(tmp_path, capsys):
+    from hydropwa.cli import main
+
+    camp = tmp_path / "c.toml"
+    camp.write_text('[deadzone]\ninputs = ["10 %"]\ndirections = ["extend"]\nduration = "0.2 s"\n'
+                    '[supply]\nrelief_pressure = "250 bar"\n')
+    assert main(["rig", "run", "deadzone", "--params", str(MACHINES / "industrial.toml"), "--campaign", str(camp),
+                 "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert main(["rig", "run", "deadzone", "--params", str(MACHINES / "industrial.toml"), "--campaign", str(camp),
+                 "--out", str(tmp_path / "p")]) == 0
+    out = capsys.readouterr().out
+    assert "position -62.5…562.5 mm, pressures 0–400 bar, load cell ±200 kN" in out
+    assert "relief 250 bar" in out
