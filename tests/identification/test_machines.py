@@ -23,6 +23,9 @@ from hydropwa.rig import Rig, load_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"
 
+# two campaigns of ≈ 110 runs and two `identify all`: ≈ 25 s on an idle 2-core machine
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module", params=["industrial", "small"])
 def identified(request, tmp_path_factory):
