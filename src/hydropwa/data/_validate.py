@@ -449,7 +449,7 @@ def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Iss
         lo, hi = (float(x) for x in limit)
     except (TypeError, ValueError):
         return []
-    tol = 1e-9 * max(abs(hi - lo), 1e-300)
+    tol = 1e-6 * max(abs(hi - lo), 1e-300)  # below half a 16-bit code, above CSV rounding
     out = []
     for level, side in ((hi, "highest"), (lo, "lowest")):
         at = np.abs(v - level) <= tol
