@@ -200,6 +200,9 @@ class FrequencyResponse:
     std : ndarray, shape (K,) or None
         Relative standard error of each point [1] (stepped sines: from the sinusoid fits'
         residuals, see :func:`stepped_sine_point`).
+    independent_bins : bool
+        H1 bins are uncorrelated (whole-period rectangular segments of a periodic excitation);
+        otherwise neighbouring Hann-window bins share 1.5 bins of noise bandwidth.
     """
 
     frequency: np.ndarray
@@ -208,6 +211,7 @@ class FrequencyResponse:
     amplitude: float = float("nan")
     runs: tuple[str, ...] = ()
     std: np.ndarray | None = None
+    independent_bins: bool = False
 
     @property
     def omega(self) -> np.ndarray:
@@ -227,7 +231,7 @@ class FrequencyResponse:
 
 def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = None,
                     amplitude: float | None = None, name: str = "",
-                    f_min: float | None = None) -> FrequencyResponse:
+                    f_min: float | None = None, period: float | None = None) -> FrequencyResponse:
     """H1 estimate H = S_uy/S_uu with coherence from a broadband run (chirp, noise).
 
     Parameters
@@ -243,6 +247,11 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
         Command amplitude [1] the FRF is filed under (default: peak |u − mean u|).
     f_min : float, optional
         Lowest frequency kept [Hz] (the excited band's lower end).
+    period : float, optional
+        Period [s] of a periodic excitation (multisine). Segments are then whole periods with a
+        rectangular window and no overlap, so every bin is one excited line, free of leakage,
+        and bins are independent (a Hann window on segments that cut the period smears the
+        lines into each other: ζ biased by 1.5σ on the small axis).
 
     Returns
     -------
@@ -256,11 +265,20 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     n = u.size
     if n < 256:
         raise IdentificationError(f"broadband run has {n} samples; need at least 256 for an H1 estimate")
-    nper = int(nperseg or max(64, n // 8))
-    nper = min(nper, n)
-    f, s_uy = signal.csd(u, y, fs=fs, nperseg=nper, detrend="linear")
-    _, s_uu = signal.welch(u, fs=fs, nperseg=nper, detrend="linear")
-    _, s_yy = signal.welch(y, fs=fs, nperseg=nper, detrend="linear")
+    if period is not None and period * fs >= 16 and n >= 2 * period * fs:
+        nper = int(round(period * fs))
+        kw = dict(window="boxcar", noverlap=0, detrend="constant")
+        u = u[n - (n // nper) * nper:]  # whole periods, the start-up transient dropped first
+        y = y[n - (n // nper) * nper:]
+        if n // nper > 2:  # leave the first period out: the valve's transient
+            u, y = u[nper:], y[nper:]
+    else:
+        nper = int(nperseg or max(64, n // 8))
+        nper = min(nper, n)
+        kw = dict(detrend="linear")
+    f, s_uy = signal.csd(u, y, fs=fs, nperseg=nper, **kw)
+    _, s_uu = signal.welch(u, fs=fs, nperseg=nper, **kw)
+    _, s_yy = signal.welch(y, fs=fs, nperseg=nper, **kw)
     keep = (f > 0) & (s_uu > 0)
     if f_max is not None:
         keep &= f <= f_max
@@ -269,7 +287,8 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     h = s_uy[keep] / s_uu[keep]
     coh = np.abs(s_uy[keep]) ** 2 / (s_uu[keep] * s_yy[keep])
     amp = float(amplitude) if amplitude is not None else float(np.max(np.abs(u - np.mean(u))))
-    return FrequencyResponse(f[keep], h, coh, amp, (name,) if name else ())
+    return FrequencyResponse(f[keep], h, coh, amp, (name,) if name else (),
+                             independent_bins=period is not None and kw.get("window") == "boxcar")
 
 
 def second_order_response(omega, omega0: float, zeta: float) -> np.ndarray:
@@ -363,7 +382,7 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
         g2 = np.clip(np.asarray(frf.coherence)[keep], 1e-6, 0.999)
         wt = np.sqrt(g2 / (1.0 - g2))
         wt = wt / np.mean(wt)
-        bin_factor = 1.5
+        bin_factor = 1.0 if frf.independent_bins else 1.5
     elif known:
         wt = 1.0 / sd_pts
         bin_factor = 1.0
@@ -553,7 +572,10 @@ class ValveFrfIdentifier:
             if self._broadband(run):
                 f_lo, f_hi = self._band(run)
                 try:
-                    frf = estimate_frf_h1(t, u, y, self.nperseg, f_hi, None, run.name, f_lo)
+                    period = signal_value(run, "period") if "multisine" in {
+                        str(signal_value(run, k, default="")).lower() for k in ("excitation", "type")} else None
+                    frf = estimate_frf_h1(t, u, y, self.nperseg, f_hi, None, run.name, f_lo,
+                                          None if period is None else float(period))
                     amp = self._amplitude(run, frf.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, run.name, str(exc))
