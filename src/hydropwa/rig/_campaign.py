@@ -302,6 +302,10 @@ class SineExperiment:
     start_position : float
         Initial rod position [1] (fraction of the stroke). The asymmetric cylinder
         drifts to +x, so runs start low in the stroke.
+    stop_margin : float
+        A run ends (after at least one period) once the rod comes within this fraction of
+        the stroke of an end stop [1]: on a short fast axis a large slow sine reaches the
+        stop, where a chamber empties below the pressure converter's range.
     """
 
     name = "sine"
@@ -309,6 +313,7 @@ class SineExperiment:
     amplitudes: tuple[float, ...]
     periods: int = 5
     start_position: float = 0.1
+    stop_margin: float = 0.02
 
 
 Experiment = FrfExperiment | DeadZoneExperiment | FrictionExperiment | SineExperiment
@@ -451,6 +456,7 @@ def _sine(t: _Table) -> SineExperiment:
         amplitudes=t.values("amplitudes", "", gt=0.0, le=1.0),
         periods=t.integer("periods", 5, ge=1),
         start_position=t.quantity("start_position", "", 0.1, ge=0.0, le=1.0),
+        stop_margin=t.quantity("stop_margin", "", 0.02, ge=0.0, le=0.4),
     )
 
 

@@ -52,6 +52,9 @@ class RunSpec:
         End the run once the rod has travelled this distance [m] (dead-zone, friction).
     min_duration : float
         Shortest run when ``stop_at`` is reached early [s].
+    stop_margin : float or None
+        End the run once the rod comes within this distance [m] of either end stop (sine
+        runs: a chamber emptied against the stop reads below the pressure converter's range).
     counter_force : dict or None
         Counter-force settings (friction runs); the signal is drawn per run.
     meta : dict
@@ -65,6 +68,7 @@ class RunSpec:
     start_position: float
     stop_at: float | None = None
     min_duration: float = 0.0
+    stop_margin: float | None = None
     counter_force: dict[str, float] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
@@ -226,6 +230,8 @@ def _plan_sine(exp: SineExperiment, rig: Rig) -> list[RunSpec]:
             command=Sine(amplitude=a, frequency=f),
             duration=exp.periods / f,
             start_position=x0,
+            stop_margin=exp.stop_margin * rig.params.cylinder.stroke,
+            min_duration=1.0 / f,
             meta={"amplitude": a, "frequency": f, "periods": exp.periods},
         )
         for f in exp.frequencies
@@ -283,12 +289,15 @@ def counter_force_signal(
     return Sampled(t, static + settings["force"] * s * ripple + s * noise)
 
 
-def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec) -> int:
-    """Number of samples to keep: up to where the rod has used ``stop_at`` of travel."""
-    if spec.stop_at is None:
+def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec, stroke: float = np.inf) -> int:
+    """Number of samples to keep: up to where the rod has used ``stop_at`` of travel
+    (or come within ``stop_margin`` of an end stop)."""
+    if spec.stop_at is None and spec.stop_margin is None:
         return x.size
-    travelled = np.abs(x - spec.start_position)
-    hit = np.flatnonzero(travelled >= spec.stop_at)
+    if spec.stop_at is not None:
+        hit = np.flatnonzero(np.abs(x - spec.start_position) >= spec.stop_at)
+    else:
+        hit = np.flatnonzero((x <= spec.stop_margin) | (x >= stroke - spec.stop_margin))
     if hit.size == 0:
         return x.size
     keep_until = max(t[hit[0]], spec.min_duration)
@@ -332,7 +341,7 @@ def execute(
         fs=rig.fs,
         rtol=rig.rtol,
     )
-    n = _stop_index(result.channels["x"], result.t, spec)
+    n = _stop_index(result.channels["x"], result.t, spec, rig.params.cylinder.stroke)
     if n < result.t.size:
         result.channels = {k: v[:n] for k, v in result.channels.items()}
         result.t = result.channels["t"]
