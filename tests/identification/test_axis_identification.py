@@ -19,8 +19,9 @@ from hydropwa.identification import (
     identify,
     load_runs,
     plot_bode,
+    sandwich_covariance,
 )
-from hydropwa.identification._common import covariance_from_jacobian, sandwich_covariance
+from hydropwa.identification._common import covariance_from_jacobian
 from hydropwa.params import load_params, save_params
 from hydropwa.rig import Rig, parse_campaign, run_campaign
 

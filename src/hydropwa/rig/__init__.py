@@ -20,7 +20,7 @@ from ._campaign import (
     load_campaign,
     parse_campaign,
 )
-from ._experiments import RunSpec, counter_force_signal, execute, plan, run_seed
+from ._experiments import RunSpec, counter_force_signal, execute, multisine, plan, run_seed
 from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
 from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
@@ -46,6 +46,7 @@ __all__ = [
     "load_campaign",
     "machine_sensors",
     "machine_supply",
+    "multisine",
     "measure",
     "paper_sensors",
     "paper_supply",

@@ -27,7 +27,7 @@ from ._campaign import (
 from ._rig import Rig
 from ._sensors import measure
 
-__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal"]
+__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal", "multisine"]
 
 _DIRNAME = {1: "extend", -1: "retract"}
 
