@@ -133,7 +133,9 @@ def test_replace_with_dotted_names(paper):
     area=st.floats(5e-5, 1e-2),
 )
 def test_toml_round_trip_property(tmp_path_factory, p, mass, area):
-    params = SystemParams().replace(**{"supply.pressure": p, "load.mass": mass, "cylinder.area_a": area})
+    params = SystemParams().replace(
+        **{"supply.pressure": p, "load.mass": mass, "cylinder.area_a": area, "cylinder.area_b": 0.6 * area}
+    )
     path = save_params(params, tmp_path_factory.mktemp("t") / "p.toml")
     assert load_params(path) == params
 

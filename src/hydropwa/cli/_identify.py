@@ -32,6 +32,34 @@ Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing para
 
 #: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
 _FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
+Band = Annotated[str | None, typer.Option(
+    "--band", help="FRF band used in the fit, 'F0:F1' ('2:150' in Hz, or '2 Hz:0.15 kHz'); default: each "
+                   "broadband run's excited band, all stepped-sine points.")]
+DeadZoneForm = Annotated[str | None, typer.Option(
+    "--dead-zone-form", help="Dead-zone form fitted: 'table' (Table IV, with the jump) or 'continuous'; "
+                             "default: the form of --base-params.")]
+
+
+def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
+    """Estimator settings from the CLI options (``ParameterError`` on bad values)."""
+    from hydropwa._errors import ParameterError
+    from hydropwa.params import parse_quantity
+
+    frf: dict = {}
+    dz: dict = {}
+    if band is not None:
+        lo, sep, hi = band.partition(":")
+        if not sep:
+            raise ParameterError(f"--band {band!r} must be 'F0:F1', e.g. '2:150' (Hz)")
+        f0, f1 = parse_quantity(lo.strip(), "Hz", "--band F0"), parse_quantity(hi.strip(), "Hz", "--band F1")
+        if not (0 < f0 < f1):
+            raise ParameterError(f"--band {band!r}: need 0 < F0 < F1")
+        frf["band"] = (f0, f1)
+    if dead_zone_form is not None:
+        if dead_zone_form not in ("table", "continuous"):
+            raise ParameterError(f"--dead-zone-form {dead_zone_form!r} must be 'table' or 'continuous'")
+        dz["continuous"] = dead_zone_form == "continuous"
+    return frf, dz
 
 
 def _fail(exc: HydropwaError) -> typer.Exit:
@@ -44,7 +72,8 @@ def _warn(message, category, filename, lineno, file=None, line=None):
 
 
 def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
-         summary: Path | None, force: bool = False) -> None:
+         summary: Path | None, force: bool = False, band: str | None = None,
+         dead_zone_form: str | None = None) -> None:
     from hydropwa.identification import identify
 
     from ._core import resolve_params
@@ -61,8 +90,9 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
         check_output(summary_path, force, option="--summary")
         if figures is not None:
             check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
+        frf_opts, dz_opts = _options(band, dead_zone_form)
         params = resolve_params(base) if base else None
-        report = identify(data_dir, parts, base_params=params)
+        report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
         written = report.save(out, figures, summary)
     except HydropwaError as exc:
         raise _fail(exc) from None
@@ -76,16 +106,17 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
 
 @app.command("frf")
 def frf(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None, base_params: Base = None,
-        summary: Summary = None, force: Force = False) -> None:
+        summary: Summary = None, force: Force = False, band: Band = None) -> None:
     """Servo valve ω0 and ζ per amplitude from stepped-sine or broadband runs (Sec. VI-A)."""
-    _run(("frf",), data_dir, out, figures, base_params, summary, force)
+    _run(("frf",), data_dir, out, figures, base_params, summary, force, band=band)
 
 
 @app.command("deadzone")
 def deadzone(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-             base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
+             base_params: Base = None, summary: Summary = None, force: Force = False,
+             dead_zone_form: DeadZoneForm = None) -> None:
     """Dead band β and creep slope from constant-input runs (Sec. VI-B)."""
-    _run(("deadzone",), data_dir, out, figures, base_params, summary, force)
+    _run(("deadzone",), data_dir, out, figures, base_params, summary, force, dead_zone_form=dead_zone_form)
 
 
 @app.command("friction")
@@ -97,9 +128,11 @@ def friction(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Fig
 
 @app.command("all")
 def identify_all(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-                 base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
+                 base_params: Base = None, summary: Summary = None, force: Force = False, band: Band = None,
+                 dead_zone_form: DeadZoneForm = None) -> None:
     """Valve, dead zone and friction from whatever experiments the data hold."""
-    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary, force)
+    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary, force, band=band,
+         dead_zone_form=dead_zone_form)
 
 
 @app.command("emps")

@@ -72,8 +72,10 @@ def run_command(
 
     check_jobs(jobs)
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
-    rig = Rig.from_params(params)
     camp = load_campaign(campaign)
+    rig = Rig.from_params(params).with_overrides(camp.sensors, camp.supply)
+    if not quiet:
+        typer.echo(_describe(rig))
     names = None if experiment is Which.all else [experiment.value]
     t0 = time.perf_counter()
     with output_lock(out, "hydropwa rig run"):  # one campaign per folder; clears stale temps
@@ -85,6 +87,24 @@ def run_command(
         f"wrote {runs} runs in {len(datasets)} dataset(s) under {out} "
         f"({', '.join(datasets)}) in {time.perf_counter() - t0:.1f} s"
     )
+
+
+def _describe(rig) -> str:
+    """One line: the sensors and supply the rig uses for this machine (sized or overridden)."""
+    s, sup = rig.sensors, rig.supply
+    x = s.get("x")
+    p = s.get("p_a")
+    f = s.get("f_l")
+    parts = []
+    if x is not None:
+        parts.append(f"position {1e3 * x.range[0]:g}…{1e3 * x.range[1]:g} mm")
+    if p is not None:
+        parts.append(f"pressures {p.range[0] / 1e5:g}–{p.range[1] / 1e5:g} bar")
+    if f is not None:
+        parts.append(f"load cell ±{f.range[1] / 1e3:g} kN")
+    parts.append(f"pump {sup.pump_flow * 6e4:.3g} L/min at {sup.pressure / 1e5:g} bar, relief "
+                 f"{sup.relief_pressure / 1e5:g} bar")
+    return "rig: " + ", ".join(parts)
 
 
 @app.command("campaigns")

@@ -465,7 +465,8 @@ def check_dataset(
     Parameters
     ----------
     source : path-like or Dataset
-        Dataset folder, run file, or an open :class:`Dataset`.
+        Dataset folder, run file, an open :class:`Dataset`, or a campaign folder whose
+        sub-folders are datasets (as ``hydropwa rig`` writes; each is checked).
     channel_map : ChannelMap or path-like, optional
         Map for raw files (single-file sources).
     **check_options
@@ -487,6 +488,9 @@ def check_dataset(
         return check_run(read_run(source, channel_map, validate=False), **check_options)
     if not isinstance(source, Dataset) and not (Path(source) / MANIFEST).exists():
         files = _raw_files(Path(source))
+        subs = sorted(p for p in Path(source).iterdir() if (p / MANIFEST).is_file())
+        if not files and subs:  # a campaign folder: one dataset per experiment
+            return [i for sub in subs for i in check_dataset(sub, channel_map, **check_options)]
         if not files:
             _read_manifest(Path(source))  # raises the "not a dataset" error
         return _check_files(files, resolve_channel_map(channel_map), check_options)

@@ -24,6 +24,7 @@ __all__ = [
     "screen_runs",
     "validate_run",
     "COMMAND_CHANNELS",
+    "converter_limits",
 ]
 
 #: Channels that are commanded, not measured: not checked for clipping (a saturated
@@ -363,6 +364,8 @@ def check_run(
     no_clip_check: Iterable[str] = COMMAND_CHANNELS,
     stuck_min_samples: int = 100,
     spike_factor: float = 30.0,
+    limits: Mapping[str, tuple[float, float]] | None = None,
+    measured: bool | None = None,
 ) -> list[Issue]:
     """Check a run and return every finding; never raises for bad data.
 
@@ -388,6 +391,16 @@ def check_run(
     spike_factor : float
         A sample is a spike when it leaves the mean of its two neighbours, which agree with
         each other, by more than this many robust noise scales of the channel.
+    limits : dict[str, (float, float)], optional
+        Lowest and highest value each channel's converter can record [SI unit]; default
+        ``run.meta["converter_limits"]`` (the virtual rig writes them). A channel at one of
+        them for ``clip_min_samples`` or more, the whole run included, is clipped.
+    measured : bool, optional
+        Whether the run comes from sensors. The sensor-fault checks (clipping, dropouts,
+        spikes) look for what sensors and converters do to a signal; a simulation's
+        noise-free channels have exact plateaus and kinks that these heuristics mistake for
+        faults, so they are skipped for ``meta["source"] == "simulation"`` (the default
+        ``None`` reads that key). Time base, NaN and plausibility are always checked.
 
     Returns
     -------
@@ -396,18 +409,70 @@ def check_run(
     """
     ranges = PLAUSIBLE_RANGES if ranges is None else ranges
     skip = set(no_clip_check)
+    if measured is None:
+        measured = run.meta.get("source") != "simulation"
+    if limits is None:
+        limits = run.meta.get("converter_limits") or {}
     issues = _check_time(run, dt_rtol, gap_factor, fs_rtol)
     for ch in run.channels:
         if ch == "t":
             continue
         issues += _check_finite(run, ch)
-        if ch not in skip:
+        if ch in limits and ch not in skip:
+            issues += _check_at_limit(run, ch, limits[ch], clip_min_samples)
+        if ch not in skip and measured:
             issues += _check_clipping(run, ch, clip_min_samples)
             issues += _check_stuck(run, ch, stuck_min_samples)
             issues += _check_spikes(run, ch, spike_factor)
         if ch in ranges:
             issues += _check_range(run, ch, ranges[ch])
-    return issues
+    return _unique(issues)
+
+
+def _unique(issues: list[Issue]) -> list[Issue]:
+    """One clipping finding per channel (the limit check and the plateau check may both see it)."""
+    seen: set[tuple[str, str | None]] = set()
+    out = []
+    for i in issues:
+        key = (i.code, i.channel)
+        if i.code == "clipped" and key in seen:
+            continue
+        seen.add(key)
+        out.append(i)
+    return out
+
+
+def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Issue]:
+    """Samples at the converter's lowest or highest code, the whole run included."""
+    v = run.channels[channel]
+    try:
+        lo, hi = (float(x) for x in limit)
+    except (TypeError, ValueError):
+        return []
+    tol = 1e-6 * max(abs(hi - lo), 1e-300)  # below half a 16-bit code, above CSV rounding
+    out = []
+    for level, side in ((hi, "highest"), (lo, "lowest")):
+        at = np.abs(v - level) <= tol
+        starts, lengths = _runs_of(at)
+        if lengths.size == 0 or lengths.max() < min_samples:
+            continue
+        k = int(np.argmax(lengths))
+        whole = int(lengths[k]) == v.size
+        out.append(
+            _issue(
+                run,
+                "clipped",
+                channel,
+                starts[k],
+                (f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for the whole run"
+                 if whole else
+                 f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for "
+                 f"{int(lengths[k])} samples"),
+                "the sensor's range does not cover the signal; use a sensor with a larger range "
+                "(the rig: [sensors] in the campaign) or exclude the stretch with select()",
+            )
+        )
+    return out
 
 
 def _check_stuck(run: Run, channel: str, min_samples: int) -> list[Issue]:
@@ -593,6 +658,11 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
     sound, rejected = [], []
     if hasattr(runs, "names"):
         dataset, runs = runs, []
+        if "limits" not in check_options:
+            sensors = (getattr(dataset, "meta", None) or {}).get("rig", {}).get("sensors", {})
+            lim = converter_limits(sensors)
+            if lim:
+                check_options = {**check_options, "limits": lim}
         for name in dataset.names:
             try:
                 runs.append(dataset[name])
@@ -606,3 +676,17 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
         else:
             sound.append(run)
     return sound, rejected
+
+
+def converter_limits(sensors: Mapping | None) -> dict[str, tuple[float, float]]:
+    """Converter limits per channel from a rig's sensor description (``range``, ``quantization_step``)."""
+    out = {}
+    for ch, d in (sensors or {}).items():
+        try:
+            lo, hi = (float(x) for x in d["range"])
+            step = float(d["quantization_step"])
+            bits = int(d.get("adc_bits", 16))
+        except (KeyError, TypeError, ValueError):
+            continue
+        out[ch] = (lo, min(hi, lo + (2**bits - 1) * step))
+    return out

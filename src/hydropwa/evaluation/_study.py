@@ -255,9 +255,14 @@ def _stage_data(
     return root, text_hash(m["outputs"])
 
 
+#: Columns of the identified-parameter table (also when nothing was identified).
+_ESTIMATE_COLUMNS = ["parameter", "unit", "identified", "std", "ci_low", "ci_high", "true", "true_in_ci"]
+
+
 def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> list[dict]:
     rows = []
     for name, unit, est, true in name_unit_est:
+        inside = "" if true is None else ("yes" if est.ci[0] <= true <= est.ci[1] else "NO")
         rows.append(
             {
                 "parameter": name,
@@ -267,36 +272,38 @@ def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> 
                 "ci_low": est.ci[0],
                 "ci_high": est.ci[1],
                 "true": np.nan if true is None else true,
+                "true_in_ci": inside,
             }
         )
     return rows
 
 
 def _identify(data_root: Path, base, notes: list[str]):
-    """Run the three identifiers on the study's data; missing experiments keep the base values."""
-    from ..identification import (
-        DeadZoneIdentifier,
-        IdentificationWarning,
-        StribeckIdentifier,
-        ValveFrfIdentifier,
-    )
+    """Identify from the study's data with :func:`hydropwa.identification.identify`.
+
+    The same entry point as ``hydropwa identify all``, so both read the same runs with the
+    same findings. Experiments that are missing (or hold no usable run) keep the base
+    values, and the notes say so.
+    """
+    from .._errors import IdentificationError
+    from ..identification import PARTS, IdentificationWarning, identify
 
     fitted: dict[str, Any] = {}
-    for exp, make in (
-        ("frf", lambda: ValveFrfIdentifier()),
-        ("deadzone", lambda: DeadZoneIdentifier(base_params=base)),
-        ("friction", lambda: StribeckIdentifier(base_params=base)),
-    ):
-        ds = _read(data_root, exp)
-        if ds is None or len(ds) == 0:
-            notes.append(f"no {exp}/ dataset: its parameters are kept from the base parameters")
-            continue
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", IdentificationWarning)
-            fitted[exp] = make().fit(ds)
-        notes.extend(
-            f"{exp}: {w.message}" for w in caught if issubclass(w.category, IdentificationWarning)
-        )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", IdentificationWarning)
+        try:
+            rep = identify(data_root, PARTS, base_params=base)
+        except IdentificationError as exc:
+            rep = None
+            notes.append(f"nothing identified ({exc}); every parameter is kept from the base parameters")
+    notes.extend(str(w.message) for w in caught if issubclass(w.category, IdentificationWarning))
+    if rep is not None:
+        for part, est in (("frf", rep.valve), ("deadzone", rep.dead_zone), ("friction", rep.friction)):
+            if est is not None:
+                fitted[part] = est
+    for part, what in (("frf", "valve ω0 and ζ"), ("deadzone", "dead zone"), ("friction", "friction")):
+        if part not in fitted:
+            notes.append(f"no usable {part}/ runs: the {what} parameters are kept from the base parameters")
     return fitted
 
 
@@ -405,7 +412,8 @@ def _stage_identify(
             )
         ]
         files += _write_table(
-            pd.DataFrame(_parameter_table(fitted, true)), out / "tables" / "identified"
+            pd.DataFrame(_parameter_table(fitted, true), columns=_ESTIMATE_COLUMNS),
+            out / "tables" / "identified",
         )
         if "frf" in fitted:
             f = fitted["frf"]

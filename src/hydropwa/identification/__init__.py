@@ -7,7 +7,15 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 ``identify_inverse_dynamics``) work on plain arrays.
 """
 
-from ._common import IdentificationWarning, ParameterEstimate, SkippedRun
+from ._common import (
+    ESTIMATOR_CHANNELS,
+    IdentificationWarning,
+    ParameterEstimate,
+    SkippedRun,
+    estimator_view,
+    sandwich_covariance,
+    screen_for_estimator,
+)
 from ._deadzone import (
     DeadZoneFit,
     DeadZoneIdentifier,
@@ -50,6 +58,10 @@ from ._pipeline import PARTS, IdentificationReport, identify, load_runs
 from ._plots import plot_bode, plot_dead_zone, plot_inverse_dynamics, plot_stribeck
 
 __all__ = [
+    "ESTIMATOR_CHANNELS",
+    "estimator_view",
+    "sandwich_covariance",
+    "screen_for_estimator",
     "DeadZoneFit",
     "IdentificationReport",
     "PARTS",

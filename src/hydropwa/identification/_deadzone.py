@@ -27,9 +27,9 @@ from ._common import (
     SkippedRun,
     as_runs,
     channels_of,
-    covariance_from_jacobian,
     estimate,
     require_usable,
+    sandwich_covariance,
     signal_value,
     skip,
     t_quantile,
@@ -129,8 +129,9 @@ def velocity_from_position(t, x, direction: float = 0.0, stroke: float | None = 
 
 
 def dead_zone_velocity(u, gain_pos: float, gain_neg: float, beta_pos: float, beta_neg: float,
-                       creep: float, continuous: bool = False) -> np.ndarray:
-    """Hinge model of rod velocity against command [m/s] (Fig. 6).
+                       creep: float, continuous: bool = False, drift_pos: float = 0.0,
+                       drift_neg: float = 0.0) -> np.ndarray:
+    """Hinge model of rod velocity against command [m/s] (Fig. 6), with a drift per direction.
 
     Parameters
     ----------
@@ -141,15 +142,20 @@ def dead_zone_velocity(u, gain_pos: float, gain_neg: float, beta_pos: float, bet
     beta_pos, beta_neg : float
         Band edges β₊, β₋ [1] (both positive; the band is −β₋ ≤ u ≤ β₊).
     creep : float
-        Slope c inside the band [m/s per unit command].
+        Slope c inside the band [m/s per unit command] (valve creep, Table IV's k_g).
     continuous : bool
         Lift the outer lines by c·β± so the curve is continuous.
+    drift_pos, drift_neg : float
+        Velocity [m/s] added to every run with u ≥ 0 / u < 0: motion that does not come
+        from the valve opening, such as piston leakage under the load (a run with u > 0
+        starts retracted and one with u < 0 extended, so the two differ).
     """
     u = np.asarray(u, dtype=float)
     lift_p = creep * beta_pos if continuous else 0.0
     lift_n = creep * beta_neg if continuous else 0.0
-    return np.where(u > beta_pos, gain_pos * (u - beta_pos) + lift_p,
+    core = np.where(u > beta_pos, gain_pos * (u - beta_pos) + lift_p,
                     np.where(u < -beta_neg, gain_neg * (u + beta_neg) - lift_n, creep * u))
+    return core + np.where(u >= 0, drift_pos, drift_neg)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -174,8 +180,11 @@ class DeadZoneFit:
         Number of velocity points.
     continuous : bool
         Model variant fitted.
-    covariance : ndarray, shape (5, 5)
-        Covariance of (g₊, g₋, β₊, β₋, c).
+    covariance : ndarray, shape (7, 7)
+        Covariance of (g₊, g₋, β₊, β₋, c, d₊, d₋); rows of a drift that was not fitted are 0.
+    drift_pos, drift_neg : ParameterEstimate
+        Velocity not proportional to the opening [m/s] for u ≥ 0 and u < 0 (piston leakage
+        under the load); exactly 0 with std 0 where it was not fitted.
     """
 
     beta: ParameterEstimate
@@ -189,41 +198,65 @@ class DeadZoneFit:
     n_points: int
     continuous: bool
     covariance: np.ndarray
+    drift_pos: ParameterEstimate | None = None
+    drift_neg: ParameterEstimate | None = None
 
     def velocity(self, u) -> np.ndarray:
         """Fitted velocity [m/s] at command ``u`` [1]."""
+        dp = self.drift_pos.value if self.drift_pos is not None else 0.0
+        dn = self.drift_neg.value if self.drift_neg is not None else 0.0
         return dead_zone_velocity(u, self.gain_pos.value, self.gain_neg.value, self.beta_pos.value,
-                                  self.beta_neg.value, self.creep_velocity_slope.value, self.continuous)
+                                  self.beta_neg.value, self.creep_velocity_slope.value, self.continuous,
+                                  dp, dn)
 
     def dead_zone(self, alpha: float = 1.0) -> DeadZone:
-        """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ)."""
+        """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ).
+
+        The drift is not part of the valve: it stays out of ``creep_slope``, so a model
+        with the cylinder's leakage does not count it twice.
+        """
         return DeadZone(alpha=alpha, beta=float(np.clip(self.beta.value, 0.0, 0.999)),
                         creep_slope=float(np.clip(self.creep_slope.value, 0.0, 0.999)),
                         continuous=self.continuous)
 
 
-def _fixed_beta_fit(u, v, bp, bn, continuous):
-    """Slopes (g₊, g₋, c) by linear least squares for fixed band edges; returns θ and the cost."""
+def _design(u, bp, bn, continuous, sides):
+    """Design matrix in (g₊, g₋, c, d₊, d₋) for fixed band edges; ``sides`` = (fit d₊, fit d₋)."""
     pos, neg = u > bp, u < -bn
     inner = ~(pos | neg)
-    X = np.zeros((u.size, 3))
+    X = np.zeros((u.size, 5))
     X[pos, 0] = u[pos] - bp
     X[neg, 1] = u[neg] + bn
     X[inner, 2] = u[inner]
     if continuous:
         X[pos, 2] = bp
         X[neg, 2] = -bn
+    if sides[0]:
+        X[u >= 0, 3] = 1.0
+    if sides[1]:
+        X[u < 0, 4] = 1.0
+    return X
+
+
+def _fixed_beta_fit(u, v, bp, bn, continuous, sides=(False, False)):
+    """Slopes and drifts by linear least squares for fixed band edges; returns θ and the cost.
+
+    θ = (g₊, g₋, β₊, β₋, c, d₊, d₋).
+    """
+    X = _design(u, bp, bn, continuous, sides)
     coef, *_ = np.linalg.lstsq(X, v, rcond=None)
-    theta = np.array([coef[0], coef[1], bp, bn, coef[2]])
+    theta = np.array([coef[0], coef[1], bp, bn, coef[2], coef[3], coef[4]])
     return theta, float(np.sum((X @ coef - v) ** 2))
 
 
-def _split_fit(u, v, k_pos, k_neg, up, un, continuous):
+def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift):
     """Best hinge fit with the first ``k_pos`` positive and ``k_neg`` negative commands inside the band.
 
-    For a fixed split the model is linear in (g₊, a₊, g₋, a₋, c) with the outer lines
-    g·u + a; β₊ = −a₊/g₊ (or a₊/(c − g₊) when continuous). A β outside the split's
-    interval is clamped to it and the slopes are solved again.
+    For a fixed split the model is linear in (g₊, a₊, g₋, a₋, c, d₊, d₋) with the outer lines
+    g·u + a and the inner c·u + d; β₊ = (d₊ − a₊)/g₊ (or (a₊ − d₊)/(c − g₊) when continuous).
+    A side's drift is fitted only when ``drift`` and the side has a command inside the band
+    (otherwise it cannot be told from the band edge). A β outside the split's interval is
+    clamped to it and the slopes are solved again.
     """
     lo_p = up[k_pos - 1] if k_pos > 0 else 0.0
     hi_p = up[k_pos]
@@ -231,21 +264,27 @@ def _split_fit(u, v, k_pos, k_neg, up, un, continuous):
     hi_n = un[k_neg]
     pos, neg = u >= hi_p, u <= -hi_n
     inner = ~(pos | neg)
-    X = np.zeros((u.size, 5))
+    sides = (drift and bool(np.any(inner & (u >= 0))), drift and bool(np.any(inner & (u < 0))))
+    X = np.zeros((u.size, 7))
     X[pos, 0], X[pos, 1] = u[pos], 1.0
     X[neg, 2], X[neg, 3] = u[neg], 1.0
     X[inner, 4] = u[inner]
+    if sides[0]:
+        X[inner & (u >= 0), 5] = 1.0
+    if sides[1]:
+        X[inner & (u < 0), 6] = 1.0
     coef, *_ = np.linalg.lstsq(X, v, rcond=None)
-    gp, ap, gn, an, c = coef
+    gp, ap, gn, an, c, dp, dn = coef
     with np.errstate(divide="ignore", invalid="ignore"):
-        bp = ap / (c - gp) if continuous else -ap / gp
-        bn = -an / (c - gn) if continuous else an / gn
+        bp = (ap - dp) / (c - gp) if continuous else (dp - ap) / gp
+        bn = -(an - dn) / (c - gn) if continuous else (an - dn) / gn
     bp = float(np.clip(np.nan_to_num(bp, nan=lo_p), lo_p, hi_p * (1 - 1e-9)))
     bn = float(np.clip(np.nan_to_num(bn, nan=lo_n), lo_n, hi_n * (1 - 1e-9)))
-    return _fixed_beta_fit(u, v, bp, bn, continuous)
+    theta, cost = _fixed_beta_fit(u, v, bp, bn, continuous, sides)
+    return theta, cost, sides
 
 
-def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZoneFit:
+def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95, drift: bool = True) -> DeadZoneFit:
     """Fit the hinge model to velocity-against-command points (Sec. VI-B, Fig. 6).
 
     Parameters
@@ -258,6 +297,10 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZo
         Fit the continuous variant (see :func:`dead_zone_velocity`).
     level : float
         Confidence level [1].
+    drift : bool
+        Fit a velocity per direction that does not depend on the opening (piston leakage
+        under the load). Without it, leakage under load reads as valve creep and an
+        asymmetric band (issue 18).
 
     Returns
     -------
@@ -272,9 +315,11 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZo
     -----
     Exhaustive search over the splits of the commands into inside/outside the band
     (per direction at least two points outside): for each split the model is linear
-    (outer lines g·u + a, inner c·u), β± follow from the intercepts and are kept inside
+    (outer lines g·u + a, inner c·u + d±), β± follow from the intercepts and are kept inside
     the split's interval. The best split is the global least-squares optimum. The
-    covariance of (g₊, g₋, β₊, β₋, c) comes from the Jacobian of the hinge model there.
+    covariance of (g₊, g₋, β₊, β₋, c, d₊, d₋) comes from the Jacobian of the model there.
+    The drift d± shifts the whole branch (inside and outside the band) of its direction:
+    leakage flow under a steady load difference is nearly the same with the valve open.
     """
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
@@ -286,24 +331,26 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZo
         )
     up = np.unique(u[u > 0])
     un = np.unique(-u[u < 0])
-    best, best_cost = None, np.inf
+    best, best_cost, best_sides = None, np.inf, (False, False)
     for kp in range(up.size - 1):
         for kn in range(un.size - 1):
-            theta, cost = _split_fit(u, v, kp, kn, up, un, continuous)
-            if cost < best_cost:
-                best, best_cost = theta, cost
+            theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift)
+            if cost < best_cost * (1 - 1e-12):
+                best, best_cost, best_sides = theta, cost, sides
     assert best is not None
-    resid = dead_zone_velocity(u, *best, continuous=continuous) - v
+    resid = dead_zone_velocity(u, *best[:5], continuous=continuous, drift_pos=best[5], drift_neg=best[6]) - v
     jac = _hinge_jacobian(u, best, continuous)
-    cov = covariance_from_jacobian(jac, resid)
-    q = t_quantile(level, u.size - 5)
+    free = [0, 1, 2, 3, 4] + [5 + i for i, on in enumerate(best_sides) if on]
+    cov = np.zeros((7, 7))
+    cov[np.ix_(free, free)] = sandwich_covariance(jac[:, free], resid)
+    q = t_quantile(level, u.size - len(free))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    gp, gn, bp, bn, c = best
+    gp, gn, bp, bn, c, dp, dn = best
     beta = 0.5 * (bp + bn)
     beta_sd = 0.5 * np.sqrt(max(cov[2, 2] + cov[3, 3] + 2 * cov[2, 3], 0.0))
     gbar = 0.5 * (gp + gn)
     kg = c / gbar
-    grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar])
+    grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar, 0.0, 0.0])
     kg_sd = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
     return DeadZoneFit(
         beta=estimate(beta, beta_sd, q, "1", level),
@@ -317,15 +364,17 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95) -> DeadZo
         n_points=int(u.size),
         continuous=continuous,
         covariance=cov,
+        drift_pos=estimate(dp, sd[5], q, "m/s", level),
+        drift_neg=estimate(dn, sd[6], q, "m/s", level),
     )
 
 
 def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool) -> np.ndarray:
-    """Analytic Jacobian of :func:`dead_zone_velocity` in (g₊, g₋, β₊, β₋, c)."""
-    gp, gn, bp, bn, c = th
+    """Analytic Jacobian of :func:`dead_zone_velocity` in (g₊, g₋, β₊, β₋, c, d₊, d₋)."""
+    gp, gn, bp, bn, c = th[:5]
     pos, neg = u > bp, u < -bn
     inner = ~(pos | neg)
-    J = np.zeros((u.size, 5))
+    J = np.zeros((u.size, 7))
     J[pos, 0] = u[pos] - bp
     J[neg, 1] = u[neg] + bn
     J[pos, 2] = -gp + (c if continuous else 0.0)
@@ -334,6 +383,8 @@ def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool) -> np.ndarr
     if continuous:
         J[pos, 4] = bp
         J[neg, 4] = -bn
+    J[u >= 0, 5] = 1.0
+    J[u < 0, 6] = 1.0
     return J
 
 
@@ -350,10 +401,14 @@ class DeadZoneIdentifier:
         Time [s] dropped at the start of each run.
     min_duration : float
         Shortest usable stretch of a run [s].
-    continuous : bool
-        Fit the continuous dead-zone variant.
+    continuous : bool or None
+        Fit the continuous dead-zone variant; ``None`` (default) keeps the form of
+        ``base_params.dead_zone`` (``continuous = true`` in a ``--base-params`` file stays).
     level : float
         Confidence level [1].
+    drift : bool
+        Fit a velocity per direction that does not come from the valve (piston leakage
+        under the load), so it does not read as valve creep (see :func:`fit_dead_zone`).
 
     Attributes
     ----------
@@ -373,14 +428,15 @@ class DeadZoneIdentifier:
     """
 
     def __init__(self, base_params: SystemParams | None = None, stop_margin: float = 1e-3,
-                 settle: float = 0.05, min_duration: float = 0.1, continuous: bool = False,
-                 level: float = 0.95) -> None:
+                 settle: float = 0.05, min_duration: float = 0.1, continuous: bool | None = None,
+                 level: float = 0.95, drift: bool = True) -> None:
         self.base_params = base_params
         self.stop_margin = stop_margin
         self.settle = settle
         self.min_duration = min_duration
         self.continuous = continuous
         self.level = level
+        self.drift = drift
 
     def fit(self, data) -> DeadZoneIdentifier:
         """Estimate one velocity per run and fit the hinge model.
@@ -422,7 +478,8 @@ class DeadZoneIdentifier:
         require_usable(rows, skipped, "dead-zone identification", minimum=7)
         pts = pd.DataFrame(rows).sort_values("u", ignore_index=True)
         self.points_ = pts
-        self.fit_ = fit_dead_zone(pts["u"].to_numpy(), pts["v"].to_numpy(), self.continuous, self.level)
+        continuous = base.dead_zone.continuous if self.continuous is None else bool(self.continuous)
+        self.fit_ = fit_dead_zone(pts["u"].to_numpy(), pts["v"].to_numpy(), continuous, self.level, self.drift)
         self.dead_zone_ = self.fit_.dead_zone(base.dead_zone.alpha)
         self.skipped_ = skipped
         return self
@@ -433,7 +490,9 @@ class DeadZoneIdentifier:
         return {"beta": f.beta.to_dict(), "creep_slope": f.creep_slope.to_dict(),
                 "beta_pos": f.beta_pos.to_dict(), "beta_neg": f.beta_neg.to_dict(),
                 "gain_pos": f.gain_pos.to_dict(), "gain_neg": f.gain_neg.to_dict(),
-                "creep_velocity_slope": f.creep_velocity_slope.to_dict()}
+                "creep_velocity_slope": f.creep_velocity_slope.to_dict(),
+                **({"drift_pos": f.drift_pos.to_dict(), "drift_neg": f.drift_neg.to_dict()}
+                   if f.drift_pos is not None else {})}
 
 
 def command_level(run) -> float | None:

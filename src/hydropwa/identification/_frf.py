@@ -28,6 +28,7 @@ from ._common import (
     covariance_from_jacobian,
     estimate,
     require_usable,
+    sandwich_covariance,
     signal_value,
     skip,
     t_quantile,
@@ -174,6 +175,12 @@ def stepped_sine_point(t, u, y, frequency: float, n_periods: int = 4, trend: boo
     return fy.phasor / fu.phasor, fu, fy
 
 
+def _relative_std(fit: SineFit, fs: float) -> float:
+    """Standard error of log(phasor) per component [1]: σ_coef/A with σ_coef = rms·√(2/N)."""
+    n = max((fit.window[1] - fit.window[0]) * fs, 8.0)
+    return float(fit.rms_residual * np.sqrt(2.0 / n) / max(fit.amplitude, 1e-300))
+
+
 @dataclasses.dataclass(frozen=True)
 class FrequencyResponse:
     """A measured frequency response of the valve at one command amplitude.
@@ -190,6 +197,12 @@ class FrequencyResponse:
         Command amplitude |u| [1] the FRF belongs to.
     runs : tuple of str
         Names of the runs it came from.
+    std : ndarray, shape (K,) or None
+        Relative standard error of each point [1] (stepped sines: from the sinusoid fits'
+        residuals, see :func:`stepped_sine_point`).
+    independent_bins : bool
+        H1 bins are uncorrelated (whole-period rectangular segments of a periodic excitation);
+        otherwise neighbouring Hann-window bins share 1.5 bins of noise bandwidth.
     """
 
     frequency: np.ndarray
@@ -197,6 +210,8 @@ class FrequencyResponse:
     coherence: np.ndarray | None = None
     amplitude: float = float("nan")
     runs: tuple[str, ...] = ()
+    std: np.ndarray | None = None
+    independent_bins: bool = False
 
     @property
     def omega(self) -> np.ndarray:
@@ -215,7 +230,8 @@ class FrequencyResponse:
 
 
 def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = None,
-                    amplitude: float | None = None, name: str = "") -> FrequencyResponse:
+                    amplitude: float | None = None, name: str = "",
+                    f_min: float | None = None, period: float | None = None) -> FrequencyResponse:
     """H1 estimate H = S_uy/S_uu with coherence from a broadband run (chirp, noise).
 
     Parameters
@@ -225,9 +241,17 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     nperseg : int, optional
         Welch segment length [samples]; default N/8 (at least 64).
     f_max : float, optional
-        Highest frequency kept [Hz] (default: Nyquist).
+        Highest frequency kept [Hz] (default: Nyquist). Give the excited band's upper
+        end: bins the command does not excite hold noise over noise (+100 dB, any phase).
     amplitude : float, optional
         Command amplitude [1] the FRF is filed under (default: peak |u − mean u|).
+    f_min : float, optional
+        Lowest frequency kept [Hz] (the excited band's lower end).
+    period : float, optional
+        Period [s] of a periodic excitation (multisine). Segments are then whole periods with a
+        rectangular window and no overlap, so every bin is one excited line, free of leakage,
+        and bins are independent (a Hann window on segments that cut the period smears the
+        lines into each other: ζ biased by 1.5σ on the small axis).
 
     Returns
     -------
@@ -241,18 +265,30 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     n = u.size
     if n < 256:
         raise IdentificationError(f"broadband run has {n} samples; need at least 256 for an H1 estimate")
-    nper = int(nperseg or max(64, n // 8))
-    nper = min(nper, n)
-    f, s_uy = signal.csd(u, y, fs=fs, nperseg=nper, detrend="linear")
-    _, s_uu = signal.welch(u, fs=fs, nperseg=nper, detrend="linear")
-    _, s_yy = signal.welch(y, fs=fs, nperseg=nper, detrend="linear")
+    if period is not None and period * fs >= 16 and n >= 2 * period * fs:
+        nper = int(round(period * fs))
+        kw = dict(window="boxcar", noverlap=0, detrend="constant")
+        u = u[n - (n // nper) * nper:]  # whole periods, the start-up transient dropped first
+        y = y[n - (n // nper) * nper:]
+        if n // nper > 2:  # leave the first period out: the valve's transient
+            u, y = u[nper:], y[nper:]
+    else:
+        nper = int(nperseg or max(64, n // 8))
+        nper = min(nper, n)
+        kw = dict(detrend="linear")
+    f, s_uy = signal.csd(u, y, fs=fs, nperseg=nper, **kw)
+    _, s_uu = signal.welch(u, fs=fs, nperseg=nper, **kw)
+    _, s_yy = signal.welch(y, fs=fs, nperseg=nper, **kw)
     keep = (f > 0) & (s_uu > 0)
     if f_max is not None:
         keep &= f <= f_max
+    if f_min is not None:
+        keep &= f >= f_min
     h = s_uy[keep] / s_uu[keep]
     coh = np.abs(s_uy[keep]) ** 2 / (s_uu[keep] * s_yy[keep])
     amp = float(amplitude) if amplitude is not None else float(np.max(np.abs(u - np.mean(u))))
-    return FrequencyResponse(f[keep], h, coh, amp, (name,) if name else ())
+    return FrequencyResponse(f[keep], h, coh, amp, (name,) if name else (),
+                             independent_bins=period is not None and kw.get("window") == "boxcar")
 
 
 def second_order_response(omega, omega0: float, zeta: float) -> np.ndarray:
@@ -294,7 +330,7 @@ class SecondOrderFit:
 
 
 def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: float = 0.95,
-                     f_max: float | None = None) -> SecondOrderFit:
+                     f_max: float | None = None, f_min: float | None = None) -> SecondOrderFit:
     """Fit ω0 and ζ of Eq. (1) to a measured FRF by complex least squares.
 
     Parameters
@@ -305,8 +341,8 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
         Smallest coherence [1] of an H1 point that is used.
     level : float
         Confidence level of the intervals [1].
-    f_max : float, optional
-        Highest frequency used [Hz].
+    f_max, f_min : float, optional
+        Band used [Hz] (the excited band of a broadband run).
 
     Returns
     -------
@@ -315,26 +351,49 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
     Notes
     -----
     Residuals are Re and Im of log(G(jω)/H(jω)): the relative magnitude error and
-    the phase error in rad. Starts on a grid of ω0 over the measured band and
-    ζ ∈ {0.3, 0.7, 1.5}; the best optimum is kept. Intervals are ±t·std with the
-    covariance s²(JᵀJ)⁻¹ of the Jacobian at the optimum (Table II gives no intervals).
+    the phase error in rad. For an H1 estimate each bin is weighted by
+    √(γ²/(1 − γ²)) (the inverse of the relative standard error of H1, which is
+    ∝ √((1 − γ²)/γ²)), capped at γ² = 0.999; stepped-sine points weigh equally. Starts
+    on a grid of ω0 over the measured band and ζ ∈ {0.3, 0.7, 1.5}; the best optimum is
+    kept. Intervals are ±t·std with the sandwich covariance of the weighted residuals
+    (:func:`sandwich_covariance`; for H1 the variance is also multiplied by the Hann
+    window's equivalent noise bandwidth, 1.5 bins, since neighbouring bins are correlated).
     """
     w = frf.omega
     h = np.asarray(frf.response)
+    f_hz = np.asarray(frf.frequency)
     keep = np.isfinite(h) & (np.abs(h) > 0)
     if frf.coherence is not None:
         keep &= np.asarray(frf.coherence) >= min_coherence
     if f_max is not None:
-        keep &= np.asarray(frf.frequency) <= f_max
+        keep &= f_hz <= f_max
+    if f_min is not None:
+        keep &= f_hz >= f_min
     w, h = w[keep], h[keep]
     if w.size < 3:
         raise IdentificationError(
             f"FRF at amplitude {frf.amplitude:g} has {w.size} usable points; need at least 3 for ω0 and ζ"
         )
+    known = frf.std is not None and frf.coherence is None
+    if known:
+        sd_pts = np.asarray(frf.std, dtype=float)[keep]
+        known = bool(np.all(np.isfinite(sd_pts) & (sd_pts > 0)))
+    if frf.coherence is not None:
+        g2 = np.clip(np.asarray(frf.coherence)[keep], 1e-6, 0.999)
+        wt = np.sqrt(g2 / (1.0 - g2))
+        wt = wt / np.mean(wt)
+        bin_factor = 1.0 if frf.independent_bins else 1.5
+    elif known:
+        wt = 1.0 / sd_pts
+        bin_factor = 1.0
+    else:
+        wt = np.ones(w.size)
+        bin_factor = 1.0
+    wt2 = np.concatenate([wt, wt])
 
     def resid(theta):
         r = np.log(second_order_response(w, theta[0], theta[1]) / h)
-        return np.concatenate([r.real, r.imag])
+        return wt2 * np.concatenate([r.real, r.imag])
 
     best = None
     for w0 in np.geomspace(max(w.min(), 1.0), w.max() * 4.0, 6):
@@ -344,10 +403,19 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
             if best is None or res.cost < best.cost:
                 best = res
     assert best is not None
-    cov = covariance_from_jacobian(best.jac, best.fun)
-    q = t_quantile(level, best.fun.size - 2)
+    if known:
+        # each point's noise is known from its sinusoid fits: (JᵀWJ)⁻¹, widened by the lack of
+        # fit χ²/dof when the points scatter more than their noise (model error); a variance
+        # estimated from 7-8 points alone is itself too uncertain (issue 18: 2-4σ misses)
+        dof = max(best.fun.size - 2, 1)
+        chi2 = float(best.fun @ best.fun) / dof
+        cov = covariance_from_jacobian(best.jac, best.fun) * max(1.0, chi2) / max(chi2, 1e-300)
+        q = t_quantile(level, 10**6) if chi2 <= 1.0 else t_quantile(level, w.size - 2)
+    else:
+        cov = bin_factor * sandwich_covariance(best.jac, best.fun)
+        q = t_quantile(level, w.size - 2)
     sd = np.sqrt(np.diag(cov))
-    re, im = resid(best.x).reshape(2, -1)
+    re, im = (resid(best.x) / wt2).reshape(2, -1)
     rms = float(np.sqrt(np.mean(re**2 + im**2)))
     return SecondOrderFit(
         omega0=estimate(best.x[0], sd[0], q, "rad/s", level),
@@ -391,6 +459,10 @@ class ValveFrfIdentifier:
         Confidence level [1] of the intervals.
     amplitude_decimals : int
         Command amplitudes are grouped after rounding to this many decimals.
+    band : (float, float), optional
+        Frequency band [Hz] used for every FRF (``--band`` of ``hydropwa identify``);
+        default: a broadband run's own excited band (meta ``band`` or ``f0``/``f1``), all
+        stepped-sine points.
 
     Attributes
     ----------
@@ -416,7 +488,7 @@ class ValveFrfIdentifier:
 
     def __init__(self, n_periods: int = 4, trend: bool = True, min_coherence: float = 0.8,
                  nperseg: int | None = None, f_max: float | None = None, level: float = 0.95,
-                 amplitude_decimals: int = 3) -> None:
+                 amplitude_decimals: int = 3, band: tuple[float, float] | None = None) -> None:
         self.n_periods = n_periods
         self.trend = trend
         self.min_coherence = min_coherence
@@ -424,6 +496,20 @@ class ValveFrfIdentifier:
         self.f_max = f_max
         self.level = level
         self.amplitude_decimals = amplitude_decimals
+        self.band = band
+
+    def _band(self, run) -> tuple[float | None, float | None]:
+        """Excited band [Hz] of a broadband run: ``band`` if given, else the run's ``band``/``f0``–``f1``."""
+        if self.band is not None:
+            return float(self.band[0]), float(self.band[1])
+        b = signal_value(run, "band")
+        if isinstance(b, list | tuple) and len(b) == 2:
+            return float(b[0]), float(b[1])
+        f0, f1 = signal_value(run, "f0"), signal_value(run, "f1")
+        if f0 is not None and f1 is not None:
+            lo, hi = sorted((float(f0), float(f1)))
+            return lo, hi
+        return None, self.f_max
 
     # ---------------------------------------------------------------- per run
     def _segments(self, run, t):
@@ -434,13 +520,31 @@ class ValveFrfIdentifier:
         return [(t[0], t[-1], None if f is None else float(f))]
 
     def _broadband(self, run) -> bool:
-        kind = str(signal_value(run, "type", "signal_type", default="")).lower()
+        kinds = {str(signal_value(run, k, default="")).lower() for k in ("type", "signal_type", "excitation")}
         exp = str((run.meta or {}).get("experiment", (run.meta or {}).get("kind", ""))).lower()
-        return kind in _BROADBAND or exp in _BROADBAND
+        return bool(kinds & _BROADBAND) or exp in _BROADBAND
 
     def _amplitude(self, run, measured: float) -> float:
+        """Command amplitude [1] from the metadata, checked against the measured command.
+
+        A value above full opening that is 100× the measured amplitude (within 20 %) was
+        written in percent (``amplitude = 10`` for 10 %) and is read so; a string with a unit
+        (``"10 %"``) is converted; any other value above 1.5 is an error with a hint.
+        """
+        from ..params import parse_quantity
+
         a = signal_value(run, "amplitude", "opening", default=None)
-        a = measured if a is None else abs(float(a))
+        if a is None:
+            return round(measured, self.amplitude_decimals)
+        a = abs(parse_quantity(a, "", f"run {run.name!r} meta amplitude"))
+        if a > 1.5:
+            if measured > 0 and abs(a / 100.0 - measured) <= 0.2 * measured:
+                a = a / 100.0
+            else:
+                raise IdentificationError(
+                    f"meta amplitude {a:g} is {100 * a:g} % of full opening but the command's amplitude is "
+                    f"{measured:.3g}; write it as a fraction ({a / 100:g}) or with a unit ('{a:g} %')"
+                )
         return round(a, self.amplitude_decimals)
 
     def fit(self, data) -> ValveFrfIdentifier:
@@ -466,12 +570,16 @@ class ValveFrfIdentifier:
                 continue
             t, u, y = ch["t"], ch["u"], ch["spool"]
             if self._broadband(run):
+                f_lo, f_hi = self._band(run)
                 try:
-                    frf = estimate_frf_h1(t, u, y, self.nperseg, self.f_max, None, run.name)
+                    period = signal_value(run, "period") if "multisine" in {
+                        str(signal_value(run, k, default="")).lower() for k in ("excitation", "type")} else None
+                    frf = estimate_frf_h1(t, u, y, self.nperseg, f_hi, None, run.name, f_lo,
+                                          None if period is None else float(period))
+                    amp = self._amplitude(run, frf.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, run.name, str(exc))
                     continue
-                amp = self._amplitude(run, frf.amplitude)
                 broadband.setdefault(amp, []).append(dataclasses.replace(frf, amplitude=amp))
                 continue
             for t0, t1, f in self._segments(run, t):
@@ -479,17 +587,19 @@ class ValveFrfIdentifier:
                 label = run.name if f is None or len(self._segments(run, t)) == 1 else f"{run.name}@{f:g}Hz"
                 try:
                     freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
-                    h, fu, _ = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
+                    h, fu, fy = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
+                    amp = self._amplitude(run, fu.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, label, str(exc))
                     continue
-                amp = self._amplitude(run, fu.amplitude)
-                points.setdefault(amp, []).append((freq, h, label))
+                fs = 1.0 / float(np.median(np.diff(t)))
+                sd = float(np.hypot(_relative_std(fy, fs), _relative_std(fu, fs)))
+                points.setdefault(amp, []).append((freq, h, label, sd))
         frfs: dict[float, FrequencyResponse] = {}
         for amp, pts in points.items():
             pts.sort()
             frfs[amp] = FrequencyResponse(np.array([p[0] for p in pts]), np.array([p[1] for p in pts]),
-                                          None, amp, tuple(p[2] for p in pts))
+                                          None, amp, tuple(p[2] for p in pts), np.array([p[3] for p in pts]))
         for amp, lst in broadband.items():
             if amp in frfs:  # stepped sine wins; keep the broadband one under its own key
                 amp = amp + 10.0 ** -(self.amplitude_decimals + 1)
@@ -497,7 +607,8 @@ class ValveFrfIdentifier:
         fits: dict[float, SecondOrderFit] = {}
         for amp in sorted(frfs):
             try:
-                fits[amp] = fit_second_order(frfs[amp], self.min_coherence, self.level, self.f_max)
+                lo, hi = (self.band if self.band is not None else (None, self.f_max))
+                fits[amp] = fit_second_order(frfs[amp], self.min_coherence, self.level, hi, lo)
             except IdentificationError as exc:
                 skip(skipped, ",".join(frfs[amp].runs) or f"amplitude {amp:g}", str(exc))
         require_usable(list(fits), skipped, "valve FRF identification")
@@ -539,6 +650,10 @@ def _pooled(ests: list[ParameterEstimate], level: float, unit: str) -> Parameter
         wts = 1.0 / s**2
         m = float(np.sum(wts * v) / np.sum(wts))
         sd = float(np.sqrt(1.0 / np.sum(wts)))
+        # Birge ratio: estimates that disagree by more than their errors (ζ is not exactly
+        # the same at every amplitude, or an error is too small) widen the pooled interval
+        birge = float(np.sum(wts * (v - m) ** 2) / (v.size - 1))
+        sd *= float(np.sqrt(max(1.0, birge)))
     return estimate(m, sd, t_quantile(level, 1000), unit, level)
 
 

@@ -32,8 +32,8 @@ from ._common import (
     as_runs,
     channels_of,
     correlation,
-    covariance_from_jacobian,
     require_usable,
+    sandwich_covariance,
     skip,
     t_quantile,
 )
@@ -718,7 +718,9 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
         best = min(robust, key=lambda r: r.cost)
     th = full(best.x)
     r = best.fun[: v.size] * fscale
-    cov = covariance_from_jacobian(best.jac * fscale, best.fun * fscale) if best.jac.size else np.zeros((0, 0))
+    # run-level robust (sandwich) covariance: one point per run, and the points differ in
+    # quality (slow runs creep, fast ones do not), which s²(JᵀJ)⁻¹ ignores (issue 18)
+    cov = sandwich_covariance(best.jac * fscale, best.fun * fscale) if best.jac.size else np.zeros((0, 0))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     q = t_quantile(level, v.size - len(free_idx))
     est: dict[str, ParameterEstimate] = {}

@@ -19,7 +19,14 @@ from typing import Any
 from .._errors import IdentificationError
 from .._io import atomic_write_text
 from ..params import SystemParams, get_preset, save_params
-from ._common import IdentificationWarning, SkippedRun, experiment_of, skip
+from ._common import (
+    EXPERIMENT_ALIASES,
+    IdentificationWarning,
+    SkippedRun,
+    experiment_of,
+    screen_for_estimator,
+    skip,
+)
 from ._deadzone import DeadZoneIdentifier
 from ._frf import ValveFrfIdentifier
 from ._friction import StribeckIdentifier
@@ -28,15 +35,22 @@ __all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
 
 #: What :func:`identify` can identify, in order.
 PARTS = ("frf", "deadzone", "friction")
+#: Keys of a base parameter file's ``[meta]`` that describe each part (dropped once it is identified).
+_META_KEYS = {"frf": ("valve", "omega0", "zeta"), "deadzone": ("dead_zone", "beta"), "friction": ("friction",)}
 
 
-def load_runs(source, skipped: list | None = None) -> list:
+def load_runs(source, skipped: list | None = None, base_params: SystemParams | None = None) -> list:
     """The sound runs of a dataset folder, of a campaign folder (one dataset per sub-folder), or given runs.
 
-    Every run is screened with :func:`hydropwa.data.screen_runs` (time base, NaN, clipped
-    converters, dropouts, spikes, implausible units); a run that fails, or whose file the
-    manifest lists but cannot be read, is left out with an :class:`IdentificationWarning`
-    naming it and the reason, and recorded in ``skipped`` when given.
+    Each run is routed to its estimator (``meta["experiment"]``/``meta["kind"]``, else the
+    name of the folder it was read from: ``frf/``, ``deadzone/``, ``friction/``, ...) and
+    screened with :func:`screen_for_estimator`: only the channels and the time span that
+    estimator reads are checked (time base, NaN, converter limits, clipping, dropouts,
+    spikes, implausible units); runs of other kinds (``sine``) are checked whole, as the
+    evaluation does. A run that fails, or whose file the manifest lists but cannot be read,
+    is left out with an :class:`IdentificationWarning` naming it and the reason, and
+    recorded in ``skipped`` when given. ``hydropwa identify`` and ``hydropwa paper`` both
+    read their runs here, so they identify from the same set with the same findings.
 
     Parameters
     ----------
@@ -45,17 +59,22 @@ def load_runs(source, skipped: list | None = None) -> list:
         (as written by ``hydropwa rig``), or runs.
     skipped : list, optional
         Receives a :class:`SkippedRun` per run left out.
+    base_params : SystemParams, optional
+        Gives the stroke for the friction runs' span (default: the ``paper`` preset).
 
     Raises
     ------
     IdentificationError
         If a folder holds no dataset.
     """
-    from ..data import MANIFEST, read_dataset, screen_runs
+    from ..data import MANIFEST, read_dataset
+    from ..data._validate import converter_limits
 
     skipped = [] if skipped is None else skipped
+    stroke = (base_params or get_preset("paper")).cylinder.stroke
+    groups: list[tuple[Any, str | None, dict]] = []  # (runs or dataset, folder kind, limits)
     if not isinstance(source, str | os.PathLike):
-        sources = [source]
+        groups.append((source, None, {}))
     else:
         root = Path(source)
         if not root.is_dir():
@@ -69,14 +88,40 @@ def load_runs(source, skipped: list | None = None) -> list:
                     f"{str(root)!r} holds no dataset (no {MANIFEST} in it or in its sub-folders); "
                     "hint: write one with `hydropwa rig run` or `hydropwa data convert`"
                 )
-        sources = [read_dataset(sub, validate=False, lazy=True) for sub in subs]
+        for sub in subs:
+            ds = read_dataset(sub, validate=False, lazy=True)
+            folder = EXPERIMENT_ALIASES.get(sub.name.lower())
+            groups.append((ds, folder, converter_limits((ds.meta or {}).get("rig", {}).get("sensors"))))
     runs: list = []
-    for src in sources:
-        sound, rejected = screen_runs(src)
-        runs += sound
-        for name, reason in rejected:
-            skip(skipped, name, reason)
+    for src, folder, limits in groups:
+        for run in _read_each(src, skipped):
+            kind = experiment_of(run)
+            if kind is None and folder is not None:
+                run = dataclasses.replace(run, meta={**run.meta, "kind": folder, "kind_from": "folder"})
+                kind = folder
+            reason = screen_for_estimator(run, kind, stroke, limits)
+            if reason is None:
+                runs.append(run)
+            else:
+                skip(skipped, run.name, reason)
     return runs
+
+
+def _read_each(src, skipped: list) -> list:
+    """The runs of a dataset (unreadable ones skipped with their reason), or the given runs."""
+    from .._errors import DataError
+
+    if hasattr(src, "names") and hasattr(src, "__getitem__"):
+        out = []
+        for name in src.names:
+            try:
+                out.append(src[name])
+            except DataError as exc:
+                skip(skipped, name, f"cannot be read: {exc}")
+        return out
+    if hasattr(src, "channels") and hasattr(src, "name"):
+        return [src]
+    return list(src)
 
 
 @dataclasses.dataclass
@@ -182,12 +227,15 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
     base = base_params or get_preset("paper")
     source = str(data) if isinstance(data, str | os.PathLike) else getattr(data, "root", "runs")
     screened: list = []
-    runs = load_runs(data, screened)
+    runs = load_runs(data, screened, base)
     by_kind: dict[str, list] = {p: [] for p in PARTS}
+    unlabelled = []
     for r in runs:
         k = experiment_of(r)
         if k in by_kind:
             by_kind[k].append(r)
+        elif k is None:
+            unlabelled.append(r.name)
     report = IdentificationReport(params=base, source=str(source))
     report.skipped += screened
     changes: dict[str, Any] = {}
@@ -204,7 +252,12 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
         selected = by_kind[part]
         try:
             if not selected:
-                raise IdentificationError(f"no runs of kind {part!r} in {source}")
+                why = ""
+                if unlabelled:
+                    why = (f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
+                           f"\"kind\": \"{part}\" to their metadata, or put them in a dataset folder "
+                           f"named {part}/")
+                raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
             est = makers[part]().fit(selected)
         except IdentificationError as exc:
             if len(parts) == 1:
@@ -225,8 +278,13 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
             report.dead_zone = est
             changes["dead_zone"] = est.dead_zone_  # alpha (saturation) comes from the base
             uncertainty["dead_zone"] = est.uncertainty()
-            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, hinge fit; "
-                                       "creep_slope = creep velocity slope / mean outer gain; alpha from base")
+            fit = est.fit_
+            drift = ("" if fit.drift_pos is None else
+                     f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / {1e3 * fit.drift_neg.value:.3g} mm/s "
+                     "for u ≥ 0 / u < 0, kept out of the creep")
+            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, "
+                                       f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
+                                       f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}")
         else:
             report.friction = est
             changes["friction"] = est.friction_
@@ -244,7 +302,13 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
         )
     provenance["identified"] = done
     provenance["skipped"] = [str(s) for s in report.skipped]
-    meta = {**{k: v for k, v in base.meta.items() if k != "uncertainty"},
+    # the base's provenance lines about what was identified here are stale now
+    identified_keys = {"source", "uncertainty", "identification", "base_source"} | {
+        k for part in done for k in _META_KEYS[part]}
+    meta = {**{k: v for k, v in base.meta.items() if k not in identified_keys},
+            "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
+                      "the other values from the base parameters",
+            "base_source": str(base.meta.get("source", "defaults of hydropwa.params")),
             "identification": provenance, "uncertainty": uncertainty}
     report.params = dataclasses.replace(base, meta=meta, **changes)
     return report
@@ -270,7 +334,10 @@ def _summary(rep: IdentificationReport) -> str:
                   "|---|---|---|---|"]
         for name, e in (("β (symmetric)", f.beta), ("β+", f.beta_pos), ("β−", f.beta_neg),
                         ("k_g (creep opening slope)", f.creep_slope), ("creep velocity slope", f.creep_velocity_slope),
-                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg)):
+                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg),
+                        ("drift u ≥ 0 (leakage, load)", f.drift_pos), ("drift u < 0 (leakage, load)", f.drift_neg)):
+            if e is None:
+                continue
             lines.append(f"| {name} | {_fmt_est(e)} |")
         lines += ["", f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.", ""]
     if rep.friction is not None:

@@ -43,13 +43,21 @@ def plot_bode(valve, path: str | os.PathLike | None = None):
     path : path-like, optional
         Where to write the figure.
     """
-    fig, (ax_m, ax_p) = _figure(2, 1, sharex=True)
+    broadband = any(frf.coherence is not None for frf in valve.frf_.values())
+    if broadband:  # H1 estimates: a coherence panel shows which bins the fit could trust
+        fig, (ax_m, ax_p, ax_c) = _figure(3, 1, sharex=True, figsize=(7.0, 6.5),
+                                           gridspec_kw={"height_ratios": [3, 3, 1.5]})
+    else:
+        fig, (ax_m, ax_p) = _figure(2, 1, sharex=True)
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     for k, (amp, frf) in enumerate(valve.frf_.items()):
         c = colors[k % len(colors)]
         label = f"|u| = {100 * amp:.3g} %"
-        ax_m.semilogx(frf.frequency, frf.magnitude_db, "o", ms=3, color=c, label=f"{label} data")
-        ax_p.semilogx(frf.frequency, frf.phase_deg, "o", ms=3, color=c)
+        style = dict(ls="-", lw=0.8, alpha=0.7) if frf.coherence is not None else dict(ls="", marker="o", ms=3)
+        ax_m.semilogx(frf.frequency, frf.magnitude_db, color=c, label=f"{label} data", **style)
+        ax_p.semilogx(frf.frequency, frf.phase_deg, color=c, **style)
+        if broadband and frf.coherence is not None:
+            ax_c.semilogx(frf.frequency, frf.coherence, color=c, lw=0.8)
         fit = valve.fits_.get(amp)
         if fit is not None:
             f = np.geomspace(frf.frequency.min(), frf.frequency.max(), 200)
@@ -59,7 +67,14 @@ def plot_bode(valve, path: str | os.PathLike | None = None):
             ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), "-", color=c)
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
-    ax_p.set_xlabel("frequency [Hz]")
+    if broadband:
+        ax_c.set_ylabel("coherence γ²")
+        ax_c.set_ylim(0.0, 1.05)
+        ax_c.axhline(getattr(valve, "min_coherence", 0.8), color="k", lw=0.6, ls="--")
+        ax_c.grid(True, which="both", alpha=0.3)
+        ax_c.set_xlabel("frequency [Hz]")
+    else:
+        ax_p.set_xlabel("frequency [Hz]")
     ax_m.legend(fontsize=7)
     ax_m.grid(True, which="both", alpha=0.3)
     ax_p.grid(True, which="both", alpha=0.3)

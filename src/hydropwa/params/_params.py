@@ -165,7 +165,9 @@ class DeadZone:
         return self.alpha + self.outer_offset
 
 
-def flow_coefficient_from_rating(nominal_flow: float, nominal_pressure_drop: float) -> float:
+def flow_coefficient_from_rating(
+    nominal_flow: float, nominal_pressure_drop: float, per: str = "land"
+) -> float:
     """Valve flow coefficient K from a datasheet rating, Eq. (8).
 
     Parameters
@@ -173,24 +175,35 @@ def flow_coefficient_from_rating(nominal_flow: float, nominal_pressure_drop: flo
     nominal_flow : float
         Rated flow Q_n [m³/s] at full opening.
     nominal_pressure_drop : float
-        Pressure drop p_n [Pa] at which Q_n is rated (whole valve, both lands).
+        Pressure drop p_n [Pa] at which Q_n is rated.
+    per : {"land", "valve"}
+        What ``nominal_pressure_drop`` is across. ``"land"`` (default): one metering
+        edge, the drop K multiplies in Eqs. (5)–(6). ``"valve"``: both edges in series
+        (P→A and B→T), as most datasheets state it ("60 L/min at 70 bar valve
+        pressure drop" = 35 bar per land), so each edge sees p_n/2.
 
     Returns
     -------
     float
-        K = Q_n / √p_n [m³/(s·√Pa)].
+        K = Q_n / √p_land [m³/(s·√Pa)], with p_land = p_n (``per="land"``) or
+        p_n/2 (``per="valve"``).
 
     Notes
     -----
-    The paper's K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) (NOTES.md item 9).
+    K is per metering edge: Q_A = z·K·√(P_S − P_A) (Eq. (5)). The paper's
+    K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) taken per land (NOTES.md
+    item 9); the same rating read per valve gives √2 more flow per edge.
     """
+    if per not in ("land", "valve"):
+        raise ParameterError(f"valve rating per = {per!r} must be 'land' or 'valve'")
     if not (nominal_flow > 0 and math.isfinite(nominal_flow)):
         raise ParameterError(f"nominal flow {nominal_flow!r} m³/s must be positive and finite")
     if not (nominal_pressure_drop > 0 and math.isfinite(nominal_pressure_drop)):
         raise ParameterError(
             f"nominal pressure drop {nominal_pressure_drop!r} Pa must be positive and finite"
         )
-    return nominal_flow / math.sqrt(nominal_pressure_drop)
+    per_land = nominal_pressure_drop if per == "land" else 0.5 * nominal_pressure_drop
+    return nominal_flow / math.sqrt(per_land)
 
 
 @dataclass(frozen=True, slots=True)
@@ -256,6 +269,12 @@ class Cylinder:
         _check(self, "leakage", "m³/(s·Pa)", ge=0.0, lt=1e-6)
         _check(self, "end_stop_stiffness", "N/m", gt=0.0)
         _check(self, "end_stop_damping", "N·s/m", ge=0.0)
+        if self.area_b > self.area_a * (1.0 + 1e-9):
+            raise ParameterError(
+                f"Cylinder.area_b = {self.area_b:g} m² exceeds Cylinder.area_a = {self.area_a:g} m²; "
+                "A is the piston side and B the rod-side annulus (A_B = A_A − rod area): "
+                "are the two areas swapped?"
+            )
         swept = self.area_a * self.stroke
         for name in ("dead_volume_a", "dead_volume_b"):
             v = getattr(self, name)

@@ -60,6 +60,56 @@ FIELD_UNITS: dict[str, dict[str, str | None]] = {
     "load": {"mass": "kg", "force": "N", "damping": "N*s/m"},
 }
 
+#: Plausible SI range of a bare (unitless) number per field, and the units a user who
+#: wrote a number outside it most likely meant: (low, high, ((unit, SI factor), ...)).
+#: A bare number outside the range is an error naming the likely unit; with a unit
+#: (``"100 bar"``) any value the component accepts is taken as written.
+_PLAUSIBLE: dict[tuple[str, str], tuple[float, float, tuple[tuple[str, float], ...]]] = {
+    ("supply", "pressure"): (1e5, 1e8, (("bar", 1e5), ("MPa", 1e6), ("psi", 6894.757))),
+    ("supply", "relief_pressure"): (1e5, 1e8, (("bar", 1e5), ("MPa", 1e6), ("psi", 6894.757))),
+    ("supply", "compensator_droop"): (1e3, 1e8, (("bar", 1e5), ("MPa", 1e6))),
+    ("supply", "pump_flow"): (1e-6, 1.0, (("L/min", 1e-3 / 60), ("L/s", 1e-3))),
+    ("supply", "line_volume"): (1e-7, 1.0, (("L", 1e-3), ("cm³", 1e-6))),
+    ("flow", "transition_pressure"): (1e2, 1e7, (("bar", 1e5),)),
+    ("oil", "bulk_modulus"): (1e7, 1e11, (("MPa", 1e6), ("GPa", 1e9), ("bar", 1e5))),
+    ("oil", "density"): (300.0, 3000.0, (("g/cm³", 1e3),)),
+    ("cylinder", "area_a"): (1e-6, 0.5, (("mm²", 1e-6), ("cm²", 1e-4))),
+    ("cylinder", "area_b"): (1e-6, 0.5, (("mm²", 1e-6), ("cm²", 1e-4))),
+    ("cylinder", "stroke"): (1e-3, 20.0, (("mm", 1e-3), ("cm", 1e-2))),
+    ("cylinder", "dead_volume_a"): (1e-9, 1.0, (("L", 1e-3), ("cm³", 1e-6))),
+    ("cylinder", "dead_volume_b"): (1e-9, 1.0, (("L", 1e-3), ("cm³", 1e-6))),
+    ("dead_zone", "beta"): (0.0, 1.0, (("%", 1e-2),)),
+    ("dead_zone", "creep_slope"): (0.0, 1.0, (("%", 1e-2),)),
+    ("dead_zone", "alpha"): (0.0, 2.0, (("%", 1e-2),)),
+}
+
+_UNIT_TEXT = {"cm³": "cm**3", "mm²": "mm**2", "cm²": "cm**2", "g/cm³": "g/cm**3"}
+
+
+def _check_bare(comp: str, key: str, value: Any, unit: str, where: str) -> None:
+    """Reject a bare number implausible for its field, naming the unit it was likely meant in."""
+    if isinstance(value, bool) or (comp, key) not in _PLAUSIBLE:
+        return
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            return  # it carries a unit
+    if not isinstance(value, int | float) or not math.isfinite(value):
+        return
+    lo, hi, candidates = _PLAUSIBLE[(comp, key)]
+    if lo <= value <= hi:
+        return
+    shown = _DISPLAY.get(unit, unit) or "1"
+    guess = [u for u, f in candidates if lo <= value * f <= hi]
+    hint = (f"; did you mean {value:g} {guess[0]}? write it with its unit, e.g. {key} = \"{value:g} {guess[0]}\""
+            if guess else "; write it with its unit, e.g. \"100 bar\"")
+    raise ParameterError(
+        f"{where} = {value:g} read as {value:g} {shown} is implausible for this field "
+        f"(expected {lo:g} to {hi:g} {shown} as a bare SI number){hint}"
+    )
+
+
 #: Units written next to SI numbers in saved files, for the human reader.
 _DISPLAY = {"": "1", "m**3/s/Pa**0.5": "m³/(s·√Pa)", "m**2": "m²", "m**3": "m³", "m**3/s/Pa": "m³/(s·Pa)",
             "N*s/m": "N·s/m", "kg/m**3": "kg/m³", "m**3/s": "m³/s"}
@@ -127,9 +177,14 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
 def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemParams:
     """Build :class:`SystemParams` from a nested dict as read from TOML.
 
-    Missing components and fields take the defaults of the dataclasses. The
-    ``[flow]`` table may give ``rating = {flow = "40 L/min", pressure_drop = "70 bar"}``
-    instead of ``K`` (Eq. (8)).
+    Missing components and fields take the defaults of the dataclasses (or of the preset
+    named by ``base``; :func:`load_params` requires every section of a file without
+    ``base``). The ``[flow]`` table may give
+    ``rating = {flow = "60 L/min", pressure_drop = "70 bar", per = "valve"}`` instead of
+    ``K`` (Eq. (8)): ``per = "valve"`` for a drop across the whole valve (both metering
+    edges, the usual datasheet rating), ``per = "land"`` (default) across one edge.
+    Bare numbers are SI, but one implausible for its field (``pressure = 100``: 100 Pa)
+    is an error naming the likely unit.
     """
     if not isinstance(data, dict):
         raise ParameterError(
@@ -161,10 +216,30 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
             where = f"{source}: {comp}.{key}"
             if comp == "flow" and key == "rating":
                 if not isinstance(value, dict) or {"flow", "pressure_drop"} - set(value):
-                    raise ParameterError(f"{where} must be a table with 'flow' and 'pressure_drop'")
+                    raise ParameterError(
+                        f"{where} must be a table such as {{flow = \"60 L/min\", pressure_drop = "
+                        f"\"70 bar\", per = \"valve\"}}"
+                    )
+                extra = set(value) - {"flow", "pressure_drop", "per"}
+                if extra:
+                    raise ParameterError(f"{where}: unknown key(s) {', '.join(sorted(extra))}; "
+                                         "known: flow, pressure_drop, per")
+                per = value.get("per", "land")
+                if per not in ("land", "valve"):
+                    raise ParameterError(
+                        f"{where}.per = {per!r} must be 'land' (drop across one metering edge) or "
+                        "'valve' (across the whole valve, P→A→B→T, as most datasheets rate it)"
+                    )
                 qn = parse_quantity(value["flow"], "m**3/s", where + ".flow")
                 pn = parse_quantity(value["pressure_drop"], "Pa", where + ".pressure_drop")
-                kwargs["K"] = flow_coefficient_from_rating(qn, pn)
+                if isinstance(value["pressure_drop"], int | float) and not isinstance(value["pressure_drop"], bool) \
+                        and 0 < pn < 1e4:
+                    raise ParameterError(f"{where}.pressure_drop = {pn:g} read as Pa is implausible; "
+                                         f"did you mean \"{pn:g} bar\"?")
+                if isinstance(value["flow"], int | float) and not isinstance(value["flow"], bool) and qn > 1.0:
+                    raise ParameterError(f"{where}.flow = {qn:g} read as m³/s is implausible; "
+                                         f"did you mean \"{qn:g} L/min\"?")
+                kwargs["K"] = flow_coefficient_from_rating(qn, pn, per)
                 continue
             if key not in units:
                 raise ParameterError(f"{where}: unknown field; known: {', '.join(units)}")
@@ -181,6 +256,7 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
                         raise ParameterError(f"{where} must be a list of [amplitude, omega0] pairs") from None
                 kwargs[key] = value
             else:
+                _check_bare(comp, key, value, unit, where)
                 kwargs[key] = parse_quantity(value, unit, where)
         try:
             changes[comp] = dataclasses.replace(getattr(params, comp), **kwargs)
@@ -219,6 +295,13 @@ def load_params(path: str | os.PathLike) -> SystemParams:
         raise ParameterError(f"{p}: not a text file; expected a TOML parameter file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{p}: invalid TOML ({exc})") from None
+    if "base" not in data:
+        missing = [c for c in COMPONENT_TYPES if c not in data]
+        if missing:
+            raise ParameterError(
+                f"{p}: missing section(s) {', '.join(f'[{c}]' for c in missing)}; give them, or put "
+                f"base = \"paper\" (a preset name) at the top to take the rest from it"
+            )
     return params_from_dict(data, source=str(p))
 
 

@@ -8,6 +8,7 @@ experiment and ``true_params.toml``. ``measure`` applies the sensor chain to any
 
 from ._campaign import (
     EXPERIMENTS,
+    BroadbandSweep,
     Campaign,
     DeadZoneExperiment,
     Experiment,
@@ -19,15 +20,16 @@ from ._campaign import (
     load_campaign,
     parse_campaign,
 )
-from ._experiments import RunSpec, counter_force_signal, execute, plan, run_seed
-from ._rig import Rig, paper_supply
+from ._experiments import RunSpec, counter_force_signal, execute, multisine, plan, run_seed
+from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
-from ._sensors import MEASURED_CHANNELS, SensorModel, measure, paper_sensors
+from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
 
 __all__ = [
     "EXPERIMENTS",
     "MEASURED_CHANNELS",
     "TRUE_PARAMS",
+    "BroadbandSweep",
     "Campaign",
     "DeadZoneExperiment",
     "Experiment",
@@ -42,6 +44,9 @@ __all__ = [
     "counter_force_signal",
     "execute",
     "load_campaign",
+    "machine_sensors",
+    "machine_supply",
+    "multisine",
     "measure",
     "paper_sensors",
     "paper_supply",

@@ -23,6 +23,7 @@ from ..params import parse_quantity
 
 __all__ = [
     "EXPERIMENTS",
+    "BroadbandSweep",
     "Campaign",
     "DeadZoneExperiment",
     "Experiment",
@@ -154,6 +155,33 @@ class FrfSweep:
 
 
 @dataclass(frozen=True)
+class BroadbandSweep:
+    """One broadband valve run (chirp or multisine) at one opening, for an H1 estimate.
+
+    Attributes
+    ----------
+    opening : float
+        Peak command [1] (fraction of full opening).
+    f0, f1 : float
+        Excited band [Hz]; the identification fits only inside it.
+    duration : float
+        Length of the excitation [s].
+    signal : str
+        ``"chirp"`` (linear sweep f0 → f1) or ``"multisine"`` (Schroeder-phased sines on a
+        1/``period`` grid in the band, repeated).
+    period : float
+        Period of the multisine [s] (its frequency resolution is 1/period).
+    """
+
+    opening: float
+    f0: float
+    f1: float
+    duration: float = 4.0
+    signal: str = "chirp"
+    period: float = 0.5
+
+
+@dataclass(frozen=True)
 class FrfExperiment:
     """Valve FRF by stepped sines, Sec. VI-A: spool position measured.
 
@@ -169,6 +197,8 @@ class FrfExperiment:
         Extra periods recorded after them.
     start_position : float
         Initial rod position [1] (fraction of the stroke).
+    broadband : tuple of BroadbandSweep
+        Broadband runs (``[[frf.broadband]]``), H1-estimated over their band.
     """
 
     name = "frf"
@@ -177,6 +207,7 @@ class FrfExperiment:
     periods: int = 4
     margin_periods: int = 2
     start_position: float = 0.5
+    broadband: tuple[BroadbandSweep, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -271,6 +302,10 @@ class SineExperiment:
     start_position : float
         Initial rod position [1] (fraction of the stroke). The asymmetric cylinder
         drifts to +x, so runs start low in the stroke.
+    stop_margin : float
+        A run ends (after at least one period) once the rod comes within this fraction of
+        the stroke of an end stop [1]: on a short fast axis a large slow sine reaches the
+        stop, where a chamber empties below the pressure converter's range.
     """
 
     name = "sine"
@@ -278,6 +313,7 @@ class SineExperiment:
     amplitudes: tuple[float, ...]
     periods: int = 5
     start_position: float = 0.1
+    stop_margin: float = 0.02
 
 
 Experiment = FrfExperiment | DeadZoneExperiment | FrictionExperiment | SineExperiment
@@ -298,6 +334,13 @@ class Campaign:
     description : str
     source : str
         File the campaign came from.
+    sensors : dict
+        ``[sensors]`` overrides: per channel (``x``, ``p_a``, ``p_b``, ``p_s``, ``f_l``,
+        ``spool``; ``pressure`` for all three pressures) the :class:`SensorModel` fields to
+        replace, in SI. Empty: the rig sizes its sensors from the machine.
+    supply : dict
+        ``[supply]`` overrides of the rig's pump unit (``pump_flow``, ``compensator_droop``,
+        ``line_volume``, ``relief_pressure``, ``relief_gain``), SI.
     """
 
     name: str
@@ -305,6 +348,8 @@ class Campaign:
     experiments: dict[str, Experiment] = field(default_factory=dict)
     description: str = ""
     source: str = ""
+    sensors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    supply: dict[str, float] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> Experiment:
         try:
@@ -316,10 +361,43 @@ class Campaign:
 
 
 # --------------------------------------------------------------------- parsing
+def _broadband(t: _Table) -> tuple[BroadbandSweep, ...]:
+    items = t.raw("broadband", [])
+    if not isinstance(items, list):
+        raise ParameterError(f"{t.key('broadband')} must be an array of tables [[frf.broadband]]")
+    out = []
+    for i, b in enumerate(items):
+        bt = _Table(b, f"{t.key('broadband')}[{i}]")
+        sig = bt.text("signal", "chirp")
+        if sig not in ("chirp", "multisine"):
+            raise ParameterError(f"{bt.key('signal')} = {sig!r} must be 'chirp' or 'multisine'")
+        bb = BroadbandSweep(
+            opening=bt.quantity("opening", "", gt=0.0, le=1.0),
+            f0=bt.quantity("f0", "Hz", gt=0.0),
+            f1=bt.quantity("f1", "Hz", gt=0.0),
+            duration=bt.quantity("duration", "s", 4.0, gt=0.0),
+            signal=sig,
+            period=bt.quantity("period", "s", 0.5, gt=0.0),
+        )
+        bt.finish()
+        if bb.f1 <= bb.f0:
+            raise ParameterError(f"{bt.key('f1')} = {bb.f1:g} Hz must exceed f0 = {bb.f0:g} Hz")
+        if bb.signal == "multisine" and bb.f0 < 1.0 / bb.period:
+            raise ParameterError(
+                f"{bt.key('f0')} = {bb.f0:g} Hz lies below the multisine's resolution 1/period = "
+                f"{1 / bb.period:g} Hz; lengthen period or raise f0"
+            )
+        out.append(bb)
+    return tuple(out)
+
+
 def _frf(t: _Table) -> FrfExperiment:
-    sweeps = t.raw("sweep")
-    if not isinstance(sweeps, list) or not sweeps:
-        raise ParameterError(f"{t.key('sweep')} must be a non-empty array of tables [[frf.sweep]]")
+    sweeps = t.raw("sweep", [])
+    broadband = _broadband(t)
+    if not isinstance(sweeps, list) or not (sweeps or broadband):
+        raise ParameterError(
+            f"{t.key('sweep')} must be a non-empty array of tables [[frf.sweep]] (or give [[frf.broadband]])"
+        )
     out = []
     for i, s in enumerate(sweeps):
         st = _Table(s, f"{t.key('sweep')}[{i}]")
@@ -335,6 +413,7 @@ def _frf(t: _Table) -> FrfExperiment:
         periods=t.integer("periods", 4, ge=1),
         margin_periods=t.integer("margin_periods", 2, ge=0),
         start_position=t.quantity("start_position", "", 0.5, ge=0.0, le=1.0),
+        broadband=broadband,
     )
 
 
@@ -377,7 +456,56 @@ def _sine(t: _Table) -> SineExperiment:
         amplitudes=t.values("amplitudes", "", gt=0.0, le=1.0),
         periods=t.integer("periods", 5, ge=1),
         start_position=t.quantity("start_position", "", 0.1, ge=0.0, le=1.0),
+        stop_margin=t.quantity("stop_margin", "", 0.02, ge=0.0, le=0.4),
     )
+
+
+_SENSOR_UNITS = {"x": "m", "p_a": "Pa", "p_b": "Pa", "p_s": "Pa", "pressure": "Pa", "f_l": "N", "spool": ""}
+_SUPPLY_FIELDS = {"pump_flow": "m**3/s", "compensator_droop": "Pa", "line_volume": "m**3",
+                  "relief_pressure": "Pa", "relief_gain": "m**3/s/Pa"}
+
+
+def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
+    """``[sensors]``: per channel, SensorModel fields (range, noise_std, offset, gain, adc_bits, adc_span, name)."""
+    out: dict[str, dict[str, Any]] = {}
+    for ch in list(t.data):
+        if ch not in _SENSOR_UNITS:
+            raise ParameterError(f"{t.key(ch)}: unknown sensor; known: {', '.join(_SENSOR_UNITS)}")
+        unit = _SENSOR_UNITS[ch]
+        st = _Table(t.raw(ch), t.key(ch))
+        over: dict[str, Any] = {}
+        if "range" in st.data:
+            r = st.raw("range")
+            if not isinstance(r, list) or len(r) != 2:
+                raise ParameterError(f"{st.key('range')} = {r!r} must be [low, high], e.g. [\"0 bar\", \"400 bar\"]")
+            over["range"] = tuple(parse_quantity(v, unit, f"{st.key('range')}[{i}]") for i, v in enumerate(r))
+        if "noise_std" in st.data:
+            over["noise_std"] = st.quantity("noise_std", unit, ge=0.0)
+        if "offset" in st.data:
+            over["offset"] = st.quantity("offset", unit)
+        if "gain" in st.data:
+            over["gain"] = st.quantity("gain", f"V/({unit})" if unit else "V", gt=0.0)
+        if "adc_bits" in st.data:
+            over["adc_bits"] = st.integer("adc_bits", ge=1)
+        if "adc_span" in st.data:
+            sp = st.raw("adc_span")
+            if not isinstance(sp, list) or len(sp) != 2:
+                raise ParameterError(f"{st.key('adc_span')} = {sp!r} must be [low, high] in V")
+            over["adc_span"] = tuple(parse_quantity(v, "V", f"{st.key('adc_span')}[{i}]") for i, v in enumerate(sp))
+        if "name" in st.data:
+            over["name"] = st.text("name")
+        st.finish()
+        for c in (("p_a", "p_b", "p_s") if ch == "pressure" else (ch,)):
+            out.setdefault(c, {}).update(over)
+        t.used.add(ch)
+    return out
+
+
+def _supply(t: _Table) -> dict[str, float]:
+    """``[supply]``: overrides of the rig's pump unit (SI or strings with units)."""
+    out = {k: t.quantity(k, u, gt=0.0) for k, u in _SUPPLY_FIELDS.items() if k in t.data}
+    t.finish()
+    return out
 
 
 _PARSERS: dict[str, Callable[[_Table], Experiment]] = {
@@ -408,15 +536,19 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
             t = _Table(top.raw(exp_name), f"{source}: [{exp_name}]")
             experiments[exp_name] = _PARSERS[exp_name](t)
             t.finish()
+    sensors = _sensors(_Table(top.raw("sensors", {}), f"{source}: [sensors]"))
+    supply = _supply(_Table(top.raw("supply", {}), f"{source}: [supply]"))
     extra = sorted(set(data) - top.used - set(EXPERIMENTS))
     if extra:
         raise ParameterError(
-            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, {', '.join(EXPERIMENTS)}"
+            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, "
+            f"{', '.join(EXPERIMENTS)}"
         )
     if not experiments:
         raise ParameterError(f"{source}: no experiment tables; add one of {', '.join(EXPERIMENTS)}")
     return Campaign(
-        name=name, seed=seed, experiments=experiments, description=description, source=source
+        name=name, seed=seed, experiments=experiments, description=description, source=source,
+        sensors=sensors, supply=supply,
     )
 
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..models import FullOrderModel
-from ..simulation import Constant, Sampled, Signal, Sine, Step, simulate
+from ..simulation import Chirp, Constant, Sampled, Signal, Sine, Step, simulate
 from ._campaign import (
     DeadZoneExperiment,
     Experiment,
@@ -27,7 +27,7 @@ from ._campaign import (
 from ._rig import Rig
 from ._sensors import measure
 
-__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal"]
+__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal", "multisine"]
 
 _DIRNAME = {1: "extend", -1: "retract"}
 
@@ -52,6 +52,9 @@ class RunSpec:
         End the run once the rod has travelled this distance [m] (dead-zone, friction).
     min_duration : float
         Shortest run when ``stop_at`` is reached early [s].
+    stop_margin : float or None
+        End the run once the rod comes within this distance [m] of either end stop (sine
+        runs: a chamber emptied against the stop reads below the pressure converter's range).
     counter_force : dict or None
         Counter-force settings (friction runs); the signal is drawn per run.
     meta : dict
@@ -65,6 +68,7 @@ class RunSpec:
     start_position: float
     stop_at: float | None = None
     min_duration: float = 0.0
+    stop_margin: float | None = None
     counter_force: dict[str, float] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
@@ -120,7 +124,57 @@ def _plan_frf(exp: FrfExperiment, rig: Rig) -> list[RunSpec]:
                     },
                 )
             )
+    for bb in exp.broadband:
+        runs.append(_broadband_run(bb, x0))
     return runs
+
+
+def multisine(opening: float, f0: float, f1: float, period: float, duration: float,
+              rate: float) -> Sampled:
+    """Schroeder-phased multisine: equal sines at k/period in [f0, f1], peak ``opening``.
+
+    Parameters
+    ----------
+    opening : float
+        Peak |u| [1].
+    f0, f1 : float
+        Band [Hz].
+    period : float
+        Period [s]; the lines lie on the grid k/period.
+    duration : float
+        Length [s] (whole periods are repeated).
+    rate : float
+        Rate [Hz] of the samples (linear interpolation between them).
+
+    Returns
+    -------
+    Sampled
+        u(t) [1]. Schroeder phases φ_k = −πk(k−1)/K keep the crest factor low, so the band
+        gets more power at the same peak opening than with random phases.
+    """
+    k = np.arange(math.ceil(f0 * period - 1e-9), math.floor(f1 * period + 1e-9) + 1)
+    freqs = k / period
+    phases = -np.pi * np.arange(k.size) * (np.arange(k.size) - 1) / k.size
+    t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
+    u = np.sum(np.sin(2 * np.pi * freqs[:, None] * t[None, :] + phases[:, None]), axis=0)
+    one = np.sum(np.sin(2 * np.pi * freqs[:, None] * (t[t < period])[None, :] + phases[:, None]), axis=0)
+    return Sampled(t, opening * u / np.max(np.abs(one)))
+
+
+def _broadband_run(bb, x0: float) -> RunSpec:
+    if bb.signal == "chirp":
+        cmd: Signal = Chirp(amplitude=bb.opening, f0=bb.f0, f1=bb.f1, duration=bb.duration)
+    else:
+        cmd = multisine(bb.opening, bb.f0, bb.f1, bb.period, bb.duration, 8.0 * max(2000.0, 10 * bb.f1))
+    return RunSpec(
+        name=f"frf_{bb.signal}_a{_pct(bb.opening)}",
+        experiment="frf",
+        command=cmd,
+        duration=bb.duration,
+        start_position=x0,
+        meta={"opening": bb.opening, "amplitude": bb.opening, "band": [bb.f0, bb.f1],
+              "excitation": bb.signal, **({"period": bb.period} if bb.signal == "multisine" else {})},
+    )
 
 
 def _constant_runs(
@@ -176,6 +230,8 @@ def _plan_sine(exp: SineExperiment, rig: Rig) -> list[RunSpec]:
             command=Sine(amplitude=a, frequency=f),
             duration=exp.periods / f,
             start_position=x0,
+            stop_margin=exp.stop_margin * rig.params.cylinder.stroke,
+            min_duration=1.0 / f,
             meta={"amplitude": a, "frequency": f, "periods": exp.periods},
         )
         for f in exp.frequencies
@@ -198,7 +254,7 @@ def plan(experiment: Experiment, rig: Rig) -> list[RunSpec]:
 
 # --------------------------------------------------------------------- execution
 def counter_force_signal(
-    settings: dict[str, float], duration: float, rng: np.random.Generator
+    settings: dict[str, float], duration: float, rng: np.random.Generator, static: float = 0.0
 ) -> Sampled:
     """Load force F_L(t) of the second cylinder: smooth ramp-up, ripple and control noise.
 
@@ -211,6 +267,8 @@ def counter_force_signal(
         Length of the signal [s].
     rng : numpy.random.Generator
         Source of the control noise.
+    static : float
+        The machine's own constant load F_0 [N] (``Load.force``); the counter force adds to it.
 
     Returns
     -------
@@ -219,7 +277,7 @@ def counter_force_signal(
 
     Notes
     -----
-    F_L(t) = F·s(t)·(1 + r·sin 2πf_r t) + s(t)·n(t), with the raised-cosine ramp
+    F_L(t) = F_0 + F·s(t)·(1 + r·sin 2πf_r t) + s(t)·n(t), with the raised-cosine ramp
     s(t) = (1 − cos(π t/T))/2 for t < T, 1 after, and white noise n of the given std.
     """
     rate = settings["rate"]
@@ -228,15 +286,18 @@ def counter_force_signal(
     s = np.where(t < settings["ramp"], 0.5 * (1.0 - np.cos(np.pi * t / settings["ramp"])), 1.0)
     ripple = 1.0 + settings["ripple"] * np.sin(2 * np.pi * settings["ripple_frequency"] * t)
     noise = rng.normal(0.0, settings["noise"], size=n) if settings["noise"] > 0 else np.zeros(n)
-    return Sampled(t, settings["force"] * s * ripple + s * noise)
+    return Sampled(t, static + settings["force"] * s * ripple + s * noise)
 
 
-def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec) -> int:
-    """Number of samples to keep: up to where the rod has used ``stop_at`` of travel."""
-    if spec.stop_at is None:
+def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec, stroke: float = np.inf) -> int:
+    """Number of samples to keep: up to where the rod has used ``stop_at`` of travel
+    (or come within ``stop_margin`` of an end stop)."""
+    if spec.stop_at is None and spec.stop_margin is None:
         return x.size
-    travelled = np.abs(x - spec.start_position)
-    hit = np.flatnonzero(travelled >= spec.stop_at)
+    if spec.stop_at is not None:
+        hit = np.flatnonzero(np.abs(x - spec.start_position) >= spec.stop_at)
+    else:
+        hit = np.flatnonzero((x <= spec.stop_margin) | (x >= stroke - spec.stop_margin))
     if hit.size == 0:
         return x.size
     keep_until = max(t[hit[0]], spec.min_duration)
@@ -266,7 +327,7 @@ def execute(
     force_rng, sensor_rng = (np.random.default_rng(s) for s in seed.spawn(2))
     load = None
     if spec.counter_force is not None:
-        load = counter_force_signal(spec.counter_force, spec.duration, force_rng)
+        load = counter_force_signal(spec.counter_force, spec.duration, force_rng, rig.params.load.force)
     params = rig.params
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
@@ -280,7 +341,7 @@ def execute(
         fs=rig.fs,
         rtol=rig.rtol,
     )
-    n = _stop_index(result.channels["x"], result.t, spec)
+    n = _stop_index(result.channels["x"], result.t, spec, rig.params.cylinder.stroke)
     if n < result.t.size:
         result.channels = {k: v[:n] for k, v in result.channels.items()}
         result.t = result.channels["t"]

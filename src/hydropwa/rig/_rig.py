@@ -10,9 +10,43 @@ from typing import Any
 
 from .._errors import ParameterError
 from ..params import Supply, SystemParams, get_preset, load_params
-from ._sensors import SensorModel, paper_sensors
+from ._sensors import SensorModel, machine_sensors
 
-__all__ = ["Rig", "paper_supply"]
+__all__ = ["Rig", "paper_supply", "machine_supply"]
+
+#: Catalogue pump sizes [L/min] from which a machine's pump is chosen.
+PUMP_SIZES_LPM = (10, 16, 25, 40, 63, 80, 100, 120, 160, 200, 250, 315, 400, 500, 630, 800, 1000)
+
+
+def machine_supply(params: SystemParams) -> Supply:
+    """Supply unit sized for a machine: pump, compensator, line and relief from its parameters.
+
+    Parameters
+    ----------
+    params : SystemParams
+        The machine: supply set pressure P_S [Pa] and valve flow coefficient K.
+
+    Returns
+    -------
+    Supply
+        ``model="pump"``: pump flow the smallest catalogue size (``PUMP_SIZES_LPM``) at or above
+        2.5 × the valve's largest flow K·√P_S per edge, compensator droop 15 % of P_S, line volume
+        1 L per 120 L/min (at least 0.1 L), relief at P_S + max(20 bar, 10 % of P_S). For the
+        paper's rig (K·√P_S = 48 L/min at 100 bar) this is :func:`paper_supply`.
+    """
+    ps = params.supply.pressure
+    q_valve = params.flow.K * math.sqrt(ps) * 60e3  # L/min
+    pump = next((q for q in PUMP_SIZES_LPM if q >= 2.5 * q_valve), 2.5 * q_valve)
+    return Supply(
+        pressure=ps,
+        tank_pressure=params.supply.tank_pressure,
+        model="pump",
+        pump_flow=pump / 60e3,
+        compensator_droop=0.15 * ps,
+        line_volume=max(1.0e-3 * pump / 120.0, 1e-4),
+        relief_pressure=ps + max(20e5, 0.1 * ps),
+        relief_gain=1e-9,
+    )
 
 
 def paper_supply(pressure: float = 100e5) -> Supply:
@@ -48,12 +82,14 @@ class Rig:
     ----------
     params : SystemParams
         True parameters of the cylinder drive. Their ``supply`` is replaced by ``supply``.
-    sensors : dict[str, SensorModel]
-        Sensor per recorded channel (default :func:`~hydropwa.rig.paper_sensors`).
+    sensors : dict[str, SensorModel] or None
+        Sensor per recorded channel; ``None`` (default) sizes them for the machine
+        (:func:`~hydropwa.rig.machine_sensors`: the paper's sensors on the paper's rig).
     fs : float
         Sampling rate [Hz] (2 kHz on the Speedgoat, Sec. V).
     supply : Supply or None
-        Supply unit; ``None`` uses :func:`paper_supply` at ``params.supply.pressure``.
+        Supply unit; ``None`` takes ``params.supply`` when it is a pump model, otherwise
+        :func:`machine_supply` (the paper's pump on the paper's rig).
     rtol : float
         Relative tolerance of the simulation [1].
 
@@ -66,7 +102,7 @@ class Rig:
     """
 
     params: SystemParams = field(default_factory=lambda: get_preset("paper"))
-    sensors: Mapping[str, SensorModel] = field(default_factory=paper_sensors)
+    sensors: Mapping[str, SensorModel] | None = None
     fs: float = 2000.0
     supply: Supply | None = None
     rtol: float = 1e-5
@@ -76,17 +112,81 @@ class Rig:
             raise ParameterError(f"rig fs = {self.fs!r} Hz must be a positive number")
         if not (0 < self.rtol < 1):
             raise ParameterError(f"rig rtol = {self.rtol!r} must lie in (0, 1)")
-        supply = (
-            self.supply if self.supply is not None else paper_supply(self.params.supply.pressure)
-        )
+        if self.supply is not None:
+            supply = self.supply
+        elif self.params.supply.model == "pump":
+            supply = self.params.supply
+        else:
+            supply = machine_supply(self.params)
         object.__setattr__(self, "supply", supply)
         object.__setattr__(self, "params", self.params.replace(supply=supply))
-        for ch, s in self.sensors.items():
+        object.__setattr__(self, "_auto_sensors", self.sensors is None)
+        sensors = machine_sensors(self.params, supply) if self.sensors is None else self.sensors
+        for ch, s in sensors.items():
             if not isinstance(s, SensorModel) or s.channel != ch:
                 raise ParameterError(
                     f"rig sensors[{ch!r}] must be a SensorModel for channel {ch!r}"
                 )
-        object.__setattr__(self, "sensors", dict(self.sensors))
+        object.__setattr__(self, "sensors", dict(sensors))
+        self._cross_check()
+
+    def _cross_check(self) -> None:
+        """Settings that cannot work together: relief below the set pressure, sensors too small."""
+        sup = self.supply
+        assert sup is not None
+        if sup.relief_pressure <= sup.pressure:
+            raise ParameterError(
+                f"rig supply: relief pressure {sup.relief_pressure / 1e5:g} bar is not above the set "
+                f"pressure {sup.pressure / 1e5:g} bar, so the pump could never reach it; set "
+                f"[supply] relief_pressure = \"{(sup.pressure + max(20e5, 0.1 * sup.pressure)) / 1e5:g} bar\" "
+                "in the campaign (or supply.relief_pressure in the parameter file)"
+            )
+        stroke = self.params.cylinder.stroke
+        x = self.sensors.get("x")
+        if x is not None and not (x.range[0] < 0.0 and x.range[1] > stroke):
+            m = 0.125 * stroke
+            raise ParameterError(
+                f"rig sensor 'x' ({x.name}) reads {1e3 * x.range[0]:g}…{1e3 * x.range[1]:g} mm but the rod "
+                f"moves 0…{1e3 * stroke:g} mm (and a little past both ends at the stops): runs would sit at the "
+                f"converter's limit; set [sensors.x] range = [\"{-1e3 * m:g} mm\", \"{1e3 * (stroke + m):g} mm\"] "
+                "in the campaign, or leave [sensors] out to size it from the stroke"
+            )
+        for ch in ("p_a", "p_b", "p_s"):
+            s = self.sensors.get(ch)
+            if s is not None and s.range[1] < sup.relief_pressure:
+                raise ParameterError(
+                    f"rig sensor {ch!r} ({s.name}) reads up to {s.range[1] / 1e5:g} bar, below the relief "
+                    f"pressure {sup.relief_pressure / 1e5:g} bar: pressures would clip at the converter; "
+                    f"use a larger range ([sensors.{ch}] range = [\"0 bar\", "
+                    f"\"{1e-5 * machine_sensors(self.params, sup)[ch].range[1]:g} bar\"]) or leave "
+                    "[sensors] out to size it from the machine"
+                )
+
+    def with_overrides(self, sensors: Mapping[str, Mapping[str, Any]] | None = None,
+                       supply: Mapping[str, Any] | None = None) -> Rig:
+        """This rig with sensor and supply settings replaced (a campaign's ``[sensors]``, ``[supply]``).
+
+        Parameters
+        ----------
+        sensors : dict, optional
+            Per channel, :class:`SensorModel` fields to replace (SI units).
+        supply : dict, optional
+            :class:`~hydropwa.params.Supply` fields to replace (SI units).
+
+        Returns
+        -------
+        Rig
+            Sensors that were sized from the machine are sized again for the new supply
+            before the overrides apply; the result is cross-checked.
+        """
+        sup = dataclasses.replace(self.supply, **supply) if supply else self.supply
+        params = self.params.replace(supply=sup)
+        base = machine_sensors(params, sup) if getattr(self, "_auto_sensors", False) else dict(self.sensors)
+        for ch, over in (sensors or {}).items():
+            if ch not in base:
+                raise ParameterError(f"[sensors.{ch}]: the rig has no sensor {ch!r}; known: {', '.join(base)}")
+            base[ch] = dataclasses.replace(base[ch], **over)
+        return Rig(params=params, sensors=base, fs=self.fs, supply=sup, rtol=self.rtol)
 
     @classmethod
     def from_params(cls, params: SystemParams | str | None = None, **kwargs: Any) -> Rig:

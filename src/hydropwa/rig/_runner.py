@@ -289,6 +289,8 @@ def run_campaign(
         if n not in EXPERIMENTS:
             raise ParameterError(f"unknown experiment {n!r}; choose from {', '.join(EXPERIMENTS)}")
     seed = campaign.seed if seed is None else int(seed)
+    if campaign.sensors or campaign.supply:
+        rig = rig.with_overrides(campaign.sensors, campaign.supply)
     return {
         n: run_experiment(
             rig,

@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from .._errors import ParameterError
 
-__all__ = ["SensorModel", "paper_sensors", "measure", "MEASURED_CHANNELS"]
+__all__ = ["SensorModel", "paper_sensors", "machine_sensors", "measure", "MEASURED_CHANNELS"]
 
 #: Channels the rig records: the command it sends and what its sensors measure.
 MEASURED_CHANNELS = ("u", "spool", "p_a", "p_b", "p_s", "x", "f_l")
@@ -123,6 +123,14 @@ class SensorModel:
         """
         return self.range[0]
 
+    @property
+    def recorded_limits(self) -> tuple[float, float]:
+        """Lowest and highest value the chain can record [unit] (range ends on the code grid)."""
+        step = self.quantization_step
+        top = self.zero_level + (2**self.adc_bits - 1) * step
+        hi = self.zero_level + np.rint((min(self.range[1], top) - self.zero_level) / step) * step
+        return (float(self.zero_level), float(hi))
+
     def apply(self, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Measure ``values`` [unit]: offset, noise, range clipping, quantization.
 
@@ -211,6 +219,69 @@ def paper_sensors() -> dict[str, SensorModel]:
     }
 
 
+#: Standard measurement ranges of catalogue parts, from which a machine's sensors are chosen.
+PRESSURE_RANGES_BAR = (10, 16, 25, 40, 60, 100, 160, 250, 400, 600, 1000, 1600)
+FORCE_RANGES_KN = (0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000)
+#: Noise of each sensor as a fraction of its full scale (the paper rig's defaults:
+#: 0.05 bar of 250 bar, 5 µm of 250 mm, 5 N of 100 kN).
+NOISE_FRACTION = {"pressure": 2e-4, "x": 2e-5, "f_l": 5e-5}
+#: Position sensor travel beyond each end of the stroke, as a fraction of the stroke
+#: (the paper rig: 25 mm each side of 200 mm, so the end stops stay on the converter).
+POSITION_MARGIN = 0.125
+
+
+def _standard(need: float, choices) -> float:
+    for c in choices:
+        if c >= need:
+            return float(c)
+    return float(need)
+
+
+def machine_sensors(params, supply=None) -> dict[str, SensorModel]:
+    """Sensors sized for a machine: ranges cover its stroke, pressures and forces with margin.
+
+    Parameters
+    ----------
+    params : SystemParams
+        The machine (stroke, areas, supply pressure).
+    supply : Supply, optional
+        The rig's supply unit (its relief pressure bounds the pressures); default ``params.supply``.
+
+    Returns
+    -------
+    dict[str, SensorModel]
+        ``x``: −m·l … (1 + m)·l with m = 12.5 % of the stroke l; ``p_a``, ``p_b``, ``p_s``: the
+        smallest catalogue range (``PRESSURE_RANGES_BAR``) at or above 1.1 × the larger of the
+        relief pressure and the rod-side intensification P_S·A_A/A_B (a closed valve on a moving
+        single-rod cylinder); ``f_l``: ± the smallest catalogue range at or above 1.5 × relief ×
+        A_A; ``spool``: ±1. Noise is the paper rig's fraction of full scale
+        (``NOISE_FRACTION``), so for the paper's rig this equals :func:`paper_sensors`.
+    """
+    supply = params.supply if supply is None else supply
+    cyl = params.cylinder
+    peak_p = max(supply.relief_pressure, supply.pressure * cyl.area_a / cyl.area_b)
+    p_hi = 1e5 * _standard(1.1 * peak_p / 1e5, PRESSURE_RANGES_BAR)
+    f_hi = 1e3 * _standard(1.5 * supply.relief_pressure * cyl.area_a / 1e3, FORCE_RANGES_KN)
+    margin = POSITION_MARGIN * cyl.stroke
+    x_lo, x_hi = -margin, cyl.stroke + margin
+    out = paper_sensors()
+
+    def sized(ch: str, name: str, rng: tuple[float, float], noise: float) -> SensorModel:
+        # the paper's part where it fits the machine (same range), a generic one otherwise
+        same = np.allclose(out[ch].range, rng, rtol=1e-12, atol=0.0)
+        return replace(out[ch], name=out[ch].name if same else name, range=rng,
+                       noise_std=out[ch].noise_std if same else noise)
+
+    for ch in ("p_a", "p_b", "p_s"):
+        out[ch] = sized(ch, f"pressure transmitter 0-{p_hi / 1e5:g} bar", (0.0, p_hi),
+                        NOISE_FRACTION["pressure"] * p_hi)
+    out["x"] = sized("x", f"position sensor, {1e3 * (x_hi - x_lo):g} mm travel", (x_lo, x_hi),
+                     NOISE_FRACTION["x"] * (x_hi - x_lo))
+    out["f_l"] = sized("f_l", f"load cell ±{f_hi / 1e3:g} kN with amplifier", (-f_hi, f_hi),
+                       NOISE_FRACTION["f_l"] * 2 * f_hi)
+    return out
+
+
 def measure(
     result,
     sensors: Mapping[str, SensorModel],
@@ -256,4 +327,6 @@ def measure(
         if ch not in channels:
             channels[ch] = sensor.apply(result.channels[ch], rng)
     units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
-    return Run(name=name, channels=channels, units=units, fs=fs, meta=dict(meta or {}))
+    meta = dict(meta or {})
+    meta["converter_limits"] = {ch: list(sensors[ch].recorded_limits) for ch in channels if ch in sensors}
+    return Run(name=name, channels=channels, units=units, fs=fs, meta=meta)

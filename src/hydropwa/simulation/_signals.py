@@ -382,6 +382,40 @@ _VALUED = {"value", "before", "after", "v0", "v1", "amplitude", "offset"}
 _TIMED = {"time": "s", "t0": "s", "t1": "s", "start": "s", "duration": "s", "frequency": "Hz", "f0": "Hz", "f1": "Hz", "phase": "rad"}
 
 
+#: A bare number (no unit) for a signal of this unit is ambiguous beyond these magnitudes:
+#: (largest plausible SI magnitude or None, smallest plausible nonzero SI magnitude or None,
+#: the unit a user most likely meant).
+_BARE_LIMITS: dict[str, tuple[float | None, float | None, str]] = {
+    "": (1.5, None, "%"),
+    "Pa": (None, 1e4, "bar"),
+}
+
+
+def _bare_checked(value: float, text: str, unit: str, where: str) -> float:
+    """Reject a unitless number whose size says it was written in another unit.
+
+    ``sine:amplitude=40`` reads as 40 (4000 % of full opening) and ``constant:95`` for a
+    pressure as 95 Pa; both are almost certainly 40 % and 95 bar. A number with an
+    explicit unit (``"40 %"``, ``"95 bar"``, ``"95 Pa"``) is taken as written.
+    """
+    try:
+        float(text)
+    except ValueError:
+        return value  # it carries a unit
+    hi, lo, hint = _BARE_LIMITS.get(unit, (None, None, ""))
+    if hi is not None and abs(value) > hi:
+        raise SignalError(
+            f"{where} = {text} is {100 * value:g} % of full opening; write '{text} %' for percent "
+            f"or a fraction such as {value / 100:g} (1 = fully open)"
+        )
+    if lo is not None and value != 0 and abs(value) < lo:
+        raise SignalError(
+            f"{where} = {text} reads as {text} Pa; did you mean '{text} {hint}'? "
+            f"(write the unit, or give SI Pa such as {value * 1e5:g})"
+        )
+    return value
+
+
 @lru_cache(maxsize=256)
 def _parse_cached(spec: str, unit: str, name: str) -> Signal:
     """:func:`parse_signal`, remembered: specs parse to frozen signals, so repeats share one."""
@@ -408,7 +442,9 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
     text = spec.strip()
     if ":" not in text:
         try:
-            return Constant(parse_quantity(text, unit, name))
+            return Constant(_bare_checked(parse_quantity(text, unit, name), text, unit, name))
+        except SignalError:
+            raise
         except Exception as exc:
             if "wrong dimension" in str(exc):
                 raise SignalError(str(exc)) from None
@@ -437,7 +473,12 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
             raise SignalError(f"{name}: {key!r} is given twice in {spec!r}; give it once")
         target = unit if key in _VALUED else _TIMED.get(key, "")
         try:
-            kwargs[key] = parse_quantity(val.strip(), target, f"{name} {key}")
+            value = parse_quantity(val.strip(), target, f"{name} {key}")
+            if key in _VALUED:
+                value = _bare_checked(value, val.strip(), unit, f"{name} {key}")
+            kwargs[key] = value
+        except SignalError:
+            raise
         except Exception as exc:
             raise SignalError(f"{name}: {exc}") from None
     try:
