@@ -389,11 +389,13 @@ def test_scheduler_addresses_fail_fast(address, expect):
     (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
     (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
     (["rig", "run", "frf", "--campaign", "binary.toml", "--out", "x"], "binary.toml: byte 0 is not UTF-8"),
+    (["data", "check", "r.csv", "--channel-map", "binary.toml"], "channel map .*binary.toml.* not UTF-8"),
     (["rig", "run", "frf", "--campaign", "deep.toml", "--out", "x"], "deep.toml: nested too deeply"),
 ])
 def test_bad_arguments_are_one_error_line(tmp_path, argv, expect):
     (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
     (tmp_path / "binary.toml").write_bytes(b"\xff\xfe junk")
+    write_run(_run(), tmp_path / "r.csv")
     (tmp_path / "spec.toml").write_text(SWEEP)
     code, _, line = cli(tmp_path, *argv)
     assert code == 2
