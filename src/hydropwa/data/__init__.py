@@ -6,6 +6,7 @@ Units are converted only here, where data enters or leaves the package; every
 
 from ._channel_map import ChannelMap, ChannelSpec, builtin_channel_map
 from ._dataset import MANIFEST, Dataset, check_dataset, convert, read_dataset, write_dataset
+from ._dataset import contained_path, manifest_problems
 from ._emps import load_emps
 from ._formats import FORMATS, read_run, write_run
 from ._run import Run
@@ -45,4 +46,6 @@ __all__ = [
     "validate_run",
     "write_dataset",
     "write_run",
+    "contained_path",
+    "manifest_problems",
 ]

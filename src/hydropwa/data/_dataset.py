@@ -184,8 +184,8 @@ def contained_path(root: str | os.PathLike, file: str | os.PathLike, what: str =
     rel = Path(file)
     if rel.is_absolute() or "\\" in str(file) or Path(str(file)).drive:
         raise DataError(
-            f"{what} {str(file)!r:.80} is an absolute path; a dataset may only name files inside "
-            "its folder; hint: give the path relative to the dataset folder"
+            f"{what} {str(file)!r:.80} is an absolute path or uses '\\'; a dataset may only name "
+            "files inside its folder; hint: give the path relative to the dataset folder, with '/'"
         )
     path = root / rel
     try:
