@@ -441,6 +441,14 @@ def test_parquet_timestamp_time_base_is_seconds(tmp_path, unit, scale):
     assert run.fs == pytest.approx(1000.0)
 
 
+@pytest.mark.parametrize("dst, fmt", [("b.parquet", "csv"), ("b.dat", "csv"), ("b.csv", "mat")])
+def test_convert_output_format_follows_the_suffix(tmp_path, dst, fmt):
+    write_run(_run(), tmp_path / "a.csv")
+    code, _, line = cli(tmp_path, "data", "convert", "a.csv", dst, "--format", fmt)
+    assert code == 2 and dst in line and "suffix" in line
+    assert not (tmp_path / dst).exists()
+
+
 def test_complex_mat_channels_are_refused(tmp_path):
     write_run(_run(), tmp_path / "r.mat")
     data = scipy.io.loadmat(tmp_path / "r.mat")

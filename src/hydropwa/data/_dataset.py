@@ -527,6 +527,21 @@ def _raw_files(folder: Path) -> list[Path]:
     return files
 
 
+def _check_suffix(dst: Path, format: str | None) -> None:
+    """A destination file's suffix must name its format (``format`` only confirms it)."""
+    by_suffix = FORMATS.get(dst.suffix.lower())
+    if by_suffix is None:
+        raise DataError(
+            f"{str(dst)!r}: cannot tell the format from suffix {dst.suffix!r}; hint: name the "
+            "file with .csv, .parquet or .mat"
+        )
+    if format is not None and format_of("", format) != by_suffix:
+        raise DataError(
+            f"{str(dst)!r}: the suffix says {by_suffix} but format={format!r}; hint: name the "
+            f"file with {suffix_of(format)} or drop --format"
+        )
+
+
 def convert(
     src: str | os.PathLike,
     dst: str | os.PathLike,
@@ -567,6 +582,7 @@ def convert(
     if src.is_file():
         if dst.is_dir():
             dst = dst / (src.stem + suffix_of(format or "parquet"))
+        _check_suffix(dst, format)
         if dst.exists() and not overwrite:
             raise DataError(
                 f"{str(dst)!r}: the file exists; hint: pass --force (overwrite=True) to replace "
