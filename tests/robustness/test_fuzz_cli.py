@@ -256,6 +256,44 @@ def test_fuzz_cli_simulate(argv, fault):
     _check("cli simulate", argv, fault)
 
 
+#: simulate options: (valid values, hostile values). A valid command with at most one hostile
+#: option: the valid path runs often, and each error is met alone.
+_SIM_OPTIONS = {
+    "--model": (["full", "reduced"], ["bogus", "", "FULL "]),  # pwa: a linearization per run, slow
+    "--params": (["paper", "symmetric", "params.toml"], ["deep.toml", "binary.toml", "afile", "nosuch"]),
+    "--input": (_SIGNALS[:5], _SIGNALS[5:]),
+    "--duration": (["0.02", "0.05", "20 ms"], ["0", "-1", "nan", "1e9", "1e308", "1e-9", "x"]),
+    "--fs": (["500", "1000", "2e3"], ["0", "-5", "inf", "1e12", "x"]),
+    "--rtol": (["1e-3", "1e-5", "0.01"], ["0", "-1", "2", "nan"]),
+    "--supply-pressure": (["95 bar", "1e7", "sine:offset=95e5,amplitude=1e5,frequency=1"], _QTY[1:4] + _QTY[6:9]),
+    "--load-force": (["500 N", "-1 kN", "step:after=200"], ["nan", "5 bar", "x"]),
+    "--x0": (["100 mm", "0.05 m"], ["-1 m", "5 m", "1 bar"]),
+    "--plot": (["NEW.png", "NEW.svg"], ["NEW.xyz", "keep.csv", "afile/x.png", "adir"]),
+}
+
+
+@st.composite
+def _simulate_one_bad(draw):
+    names = draw(st.lists(st.sampled_from(sorted(_SIM_OPTIONS)), unique=True, max_size=5))
+    bad = draw(st.sampled_from([None, *names]))
+    argv = ["simulate", "--out", draw(st.sampled_from(["NEW.csv", "NEW.parquet"]))]
+    if "--duration" not in names:
+        argv += ["--duration", "0.02"]
+    for n in names:
+        good, hostile = _SIM_OPTIONS[n]
+        argv += [n, draw(st.sampled_from(hostile if n == bad else good))]
+    return argv
+
+
+@_CLI
+@given(argv=_simulate_one_bad())
+def test_fuzz_cli_simulate_valid_or_one_bad(argv):
+    argv = _fresh(argv)
+    code = _check("cli simulate (one bad option)", argv)
+    out = _W["root"] / argv[2]
+    assert (code == 0) == out.is_file(), f"hydropwa {argv}: exit {code}, output written: {out.is_file()}"
+
+
 @_CLI
 @given(argv=st.one_of(
     st.tuples(st.sampled_from(_IN_DS + _IN_RUN), _argv([], [("--channel-map", ["emps", "afile", "nosuch",

@@ -389,11 +389,13 @@ def test_scheduler_addresses_fail_fast(address, expect):
     (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
     (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
     (["rig", "run", "frf", "--campaign", "binary.toml", "--out", "x"], "binary.toml: byte 0 is not UTF-8"),
+    (["data", "check", "r.csv", "--channel-map", "binary.toml"], "channel map .*binary.toml.* not UTF-8"),
     (["rig", "run", "frf", "--campaign", "deep.toml", "--out", "x"], "deep.toml: nested too deeply"),
 ])
 def test_bad_arguments_are_one_error_line(tmp_path, argv, expect):
     (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
     (tmp_path / "binary.toml").write_bytes(b"\xff\xfe junk")
+    write_run(_run(), tmp_path / "r.csv")
     (tmp_path / "spec.toml").write_text(SWEEP)
     code, _, line = cli(tmp_path, *argv)
     assert code == 2
@@ -437,6 +439,14 @@ def test_parquet_timestamp_time_base_is_seconds(tmp_path, unit, scale):
     run = read_run(tmp_path / "ts.parquet", validate=False)
     np.testing.assert_allclose(run.t, np.arange(n) * 1e-3, rtol=0, atol=1e-9)
     assert run.fs == pytest.approx(1000.0)
+
+
+@pytest.mark.parametrize("dst, fmt", [("b.parquet", "csv"), ("b.dat", "csv"), ("b.csv", "mat")])
+def test_convert_output_format_follows_the_suffix(tmp_path, dst, fmt):
+    write_run(_run(), tmp_path / "a.csv")
+    code, _, line = cli(tmp_path, "data", "convert", "a.csv", dst, "--format", fmt)
+    assert code == 2 and dst in line and "suffix" in line
+    assert not (tmp_path / dst).exists()
 
 
 def test_complex_mat_channels_are_refused(tmp_path):

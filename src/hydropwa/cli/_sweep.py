@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import Annotated
 
@@ -80,10 +81,15 @@ def sweep_command(
     if scheduler is not None:
         check_scheduler(scheduler)
     journal_path = out.parent / f".{out.name}.sweep.jsonl"
-    with output_lock(out.parent, "hydropwa sweep", name=f".{out.name}.lock", clean=False):
+    with contextlib.ExitStack() as locks:
+        locks.enter_context(
+            output_lock(out.parent, "hydropwa sweep", name=f".{out.name}.lock", clean=False)
+        )
         remove_stale_temps(out.parent, recursive=False, target=out.name)
         resume = journal_path.is_file() and not force
         if trajectories is not None:
+            # the trajectories folder is this sweep's alone while it runs
+            locks.enter_context(output_lock(trajectories, "hydropwa sweep", clean=False))
             if not resume:
                 check_output(trajectories, force, folder=True, option="--trajectories",
                              files=("case_*.parquet",))

@@ -5,7 +5,16 @@ Units are converted only here, where data enters or leaves the package; every
 """
 
 from ._channel_map import ChannelMap, ChannelSpec, builtin_channel_map
-from ._dataset import MANIFEST, Dataset, check_dataset, convert, read_dataset, write_dataset
+from ._dataset import (
+    MANIFEST,
+    Dataset,
+    check_dataset,
+    contained_path,
+    convert,
+    manifest_problems,
+    read_dataset,
+    write_dataset,
+)
 from ._emps import load_emps
 from ._formats import FORMATS, read_run, write_run
 from ._run import Run
@@ -45,4 +54,6 @@ __all__ = [
     "validate_run",
     "write_dataset",
     "write_run",
+    "contained_path",
+    "manifest_problems",
 ]

@@ -200,6 +200,13 @@ class ChannelMap:
                 f"channel map {str(path)!r}: invalid TOML ({exc}); "
                 "hint: fix the syntax at the position given"
             ) from exc
+        except UnicodeDecodeError as exc:
+            raise DataError(
+                f"channel map {str(path)!r}: byte {exc.start} is not UTF-8 text; hint: give the "
+                "map's TOML file (saved as UTF-8)"
+            ) from None
+        except RecursionError:
+            raise DataError(f"channel map {str(path)!r}: nested too deeply to be a channel map") from None
         return cls.from_dict(doc, origin=f"channel map {str(path)!r}")
 
     # ------------------------------------------------------------------ apply

@@ -184,8 +184,8 @@ def contained_path(root: str | os.PathLike, file: str | os.PathLike, what: str =
     rel = Path(file)
     if rel.is_absolute() or "\\" in str(file) or Path(str(file)).drive:
         raise DataError(
-            f"{what} {str(file)!r:.80} is an absolute path; a dataset may only name files inside "
-            "its folder; hint: give the path relative to the dataset folder"
+            f"{what} {str(file)!r:.80} is an absolute path or uses '\\'; a dataset may only name "
+            "files inside its folder; hint: give the path relative to the dataset folder, with '/'"
         )
     path = root / rel
     try:
@@ -531,6 +531,21 @@ def _raw_files(folder: Path) -> list[Path]:
     return files
 
 
+def _check_suffix(dst: Path, format: str | None) -> None:
+    """A destination file's suffix must name its format (``format`` only confirms it)."""
+    by_suffix = FORMATS.get(dst.suffix.lower())
+    if by_suffix is None:
+        raise DataError(
+            f"{str(dst)!r}: cannot tell the format from suffix {dst.suffix!r}; hint: name the "
+            "file with .csv, .parquet or .mat"
+        )
+    if format is not None and format_of("", format) != by_suffix:
+        raise DataError(
+            f"{str(dst)!r}: the suffix says {by_suffix} but format={format!r}; hint: name the "
+            f"file with {suffix_of(format)} or drop --format"
+        )
+
+
 def convert(
     src: str | os.PathLike,
     dst: str | os.PathLike,
@@ -571,6 +586,7 @@ def convert(
     if src.is_file():
         if dst.is_dir():
             dst = dst / (src.stem + suffix_of(format or "parquet"))
+        _check_suffix(dst, format)
         if dst.exists() and not overwrite:
             raise DataError(
                 f"{str(dst)!r}: the file exists; hint: pass --force (overwrite=True) to replace "
