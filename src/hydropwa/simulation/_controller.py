@@ -75,10 +75,17 @@ def dead_zone_inverse(c, offset, width):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
-def measure(kind, y):
-    """Measured channels (x [m], ẋ [m/s], P_L [Pa]) from the state of model ``kind``."""
+def measure(kind, y, a_a, a_b):
+    """Measured channels (x [m], ẋ [m/s], P_L [Pa]) from the state of model ``kind``.
+
+    For the full model P_L is the force-equivalent load pressure
+    (P_A·A_A − P_B·A_B)/Ā, the quantity the reduced and PWA models' P_L stands for in
+    Eq. (15) (Ā·P_L is the net hydraulic force). For a single-rod cylinder P_A − P_B
+    differs from it at rest by P_S(A_A − A_B)/(A_A + A_B) (−26 bar on the paper rig),
+    which a state feedback designed on the PWA model would read as a load.
+    """
     if kind == 0:  # full: [ν, ν̇, P_A, P_B, x, ẋ, P_S]
-        return y[4], y[5], y[2] - y[3]
+        return y[4], y[5], (y[2] * a_a - y[3] * a_b) / (0.5 * (a_a + a_b))
     return y[2], y[1], y[0]  # reduced, PWA: [P_L, ẋ, x]
 
 
@@ -110,15 +117,16 @@ def select_row(ctl, pl, v, x, c):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def controller_sample(kind, k, t, y, ctl, cst, ref, dref, sg, log):
+def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
 
+    ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
     Writes the command applied from t on into the packed valve-command slot sg[16] (a
     constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
     ``cst`` and fills row k of ``log``. ``ref[k]``, ``dref[k]``: reference position [m]
     and its rate [m/s] at t.
     """
-    x, v, pl = measure(kind, y)
+    x, v, pl = measure(kind, y, a_a, a_b)
     ts = ctl[C_TS]
     r = ref[k]
     e = r - x

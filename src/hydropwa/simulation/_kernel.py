@@ -813,7 +813,7 @@ def _march(
     t_stop = t_end
     k_smp = 0
     if closed:  # first sample at t_0, the next one ends the first steps
-        controller_sample(kind, 0, t, y, ctl, cst, ref, dref, sg, log)
+        controller_sample(kind, 0, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
         k_smp = 1
         if k_smp < log.shape[0]:
             t_stop = min(t_end, t_out[0] + k_smp * ctl[0])
@@ -901,7 +901,7 @@ def _march(
             need_jac = not reuse or jac_age >= 8 or err > jac_err
             if closed and k_smp < log.shape[0] and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
                 t = t_stop
-                controller_sample(kind, k_smp, t, y, ctl, cst, ref, dref, sg, log)
+                controller_sample(kind, k_smp, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
                 k_smp += 1
                 t_stop = min(t_end, t_out[0] + k_smp * ctl[0]) if k_smp < log.shape[0] else t_end
                 u, ps, fl = _inputs(t, sg)

@@ -414,7 +414,12 @@ def _closed_loop_setup(controller, reference, t_out):
     ts = float(ctl[0]) if ctl.size else 0.0
     if ctl.size < 16 or not (ts > 0) or not math.isfinite(ts):
         raise SignalError("controller vector is malformed (sample time must be a positive number of seconds)")
-    ref_sig = as_signal(reference, "m", "reference")
+    if isinstance(reference, str):  # motion profiles and files are specs of the control layer
+        from ..control import as_reference
+
+        ref_sig = as_reference(reference)
+    else:
+        ref_sig = as_signal(reference, "m", "reference")
     span = float(t_out[-1] - t_out[0])
     n_smp = int(math.floor(span / ts + 1e-9)) + 1
     tk = t_out[0] + ts * np.arange(n_smp)
