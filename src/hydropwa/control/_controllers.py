@@ -97,7 +97,12 @@ class DeadZoneInverse:
 
 @dataclass(frozen=True, kw_only=True)
 class _Discrete:
-    """Settings shared by every controller: sampling, limits, anti-windup, dead-zone inverse."""
+    """Settings shared by every controller: sampling, limits, anti-windup, dead-zone inverse.
+
+    ``pressure_washout`` T_w [s] (0: off): the load-pressure gains act on P_L − P̄_L, P̄_L
+    its first-order low-pass, so they damp the pressure dynamics without fighting a static
+    load (which the integral then carries, whichever gain row is active).
+    """
 
     sample_time: float = DEFAULT_SAMPLE_TIME
     delay: bool = False
@@ -106,6 +111,7 @@ class _Discrete:
     anti_windup: str = "clamp"
     tracking_gain: float = 0.0
     dead_zone_inverse: DeadZoneInverse | None = None
+    pressure_washout: float = 0.0
 
     kind = "controller"
 
@@ -128,6 +134,7 @@ class _Discrete:
                 f"{type(self).__name__}.anti_windup = {self.anti_windup!r}; choose one of {', '.join(ANTI_WINDUP)}"
             )
         _finite(self, "tracking_gain", "1/s", ge=0.0)
+        _finite(self, "pressure_washout", "s", ge=0.0)
         if self.anti_windup == "back-calculation" and self.tracking_gain == 0.0:
             raise ControlError(
                 f"{type(self).__name__}: back-calculation anti-windup needs tracking_gain > 0 1/s "
@@ -163,6 +170,8 @@ class _Discrete:
         tf = self._pressure_filter()
         v[C.C_FILT] = math.exp(-self.sample_time / tf) if tf > 0.0 else 0.0
         v[C.C_NROWS] = rows.shape[0]
+        tw = self.pressure_washout
+        v[C.C_WASH] = math.exp(-self.sample_time / tw) if tw > 0.0 else 0.0
         v[C.C_SCALE : C.C_SCALE + 4] = BOX_SCALES
         v[C.C_ROWS :] = rows.ravel()
         return v
@@ -176,6 +185,7 @@ class _Discrete:
             "u_max": self.u_max,
             "anti_windup": self.anti_windup,
             "tracking_gain": self.tracking_gain,
+            "pressure_washout": self.pressure_washout,
             "dead_zone_inverse": None
             if self.dead_zone_inverse is None
             else {"offset": self.dead_zone_inverse.offset, "width": self.dead_zone_inverse.width},
@@ -223,6 +233,8 @@ class PIController(_Discrete):
         See the module docstring: sample time [s] (default 0.5 ms, 2 kHz), one-sample
         computation delay, command limits [1], ``"clamp"`` | ``"back-calculation"`` |
         ``"none"``, back-calculation gain [1/s], :class:`DeadZoneInverse` or None.
+    pressure_washout
+        T_w [s] of the high-pass on P_L for ``kpl`` (0: the plain P_L).
     """
 
     kp: float = 0.0

@@ -227,6 +227,7 @@ def design_state_feedback(
     u_limits: tuple[float, float] = (-1.0, 1.0),
     anti_windup: str = "clamp",
     friction_slopes: str = "clip",
+    pressure_washout: float = 0.1,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -265,6 +266,12 @@ def design_state_feedback(
         (k_w = 1.8e5 N·s/m) is a force limit, not a damper: gains designed on either
         exactly drive the full model's valve into a limit cycle (measured: bang-bang
         ±1). ``"exact"`` designs on the cells as they are.
+    pressure_washout : float
+        T_w [s] of the high-pass on P_L for the k_pl gains (default 0.1 s, below the
+        slowest cell's bandwidth; 0 feeds back the plain P_L). The cells' gains differ, so
+        k_pl acting on a static load pressure (14.6 bar at 1.5 kN) changes the command by
+        Δk_pl·P_L at every cell switch; measured on the full model at ±1.5 kN without the
+        washout: a 0.5 mm limit cycle at the target.
 
     Returns
     -------
@@ -353,6 +360,7 @@ def design_state_feedback(
     info = {
         "method": method, "sample_time": ts, "delay": bool(delay), "model": "pwa", "form": model.form,
         "supply_pressure": model.supply_pressure, "friction_slopes": friction_slopes, "notes": notes,
+        "pressure_washout": float(pressure_washout),
         "load_force": float(prm.load.force if load_force is None else load_force),
         "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True)) | {"u": u_max},
     }
@@ -360,7 +368,7 @@ def design_state_feedback(
         info["poles"] = [[p.real, p.imag] for p in poles]  # type: ignore[union-attr]
     ctrl = StateFeedbackController(
         rows=tuple(rows), sample_time=ts, delay=bool(delay), u_min=float(u_limits[0]), u_max=float(u_limits[1]),
-        anti_windup=anti_windup, dead_zone_inverse=dzi, design=info,
+        anti_windup=anti_windup, dead_zone_inverse=dzi, design=info, pressure_washout=float(pressure_washout),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
 

@@ -13,6 +13,7 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     u_max = 1.0
     anti_windup = "clamp"
     tracking_gain = "0 1/s"
+    pressure_washout = "100 ms"        # P_L high-pass for k_pl (0: plain P_L)
     law = "u = sat(DZinv(u_ff - k_pl*P_L - k_v*v + k_x*(r - x) + k_i*integral(r - x)))"
     [dead_zone_inverse]                # absent: no inverse
     offset = 0.1
@@ -43,8 +44,8 @@ __all__ = ["save_controller", "load_controller", "controller_to_dict", "controll
 
 SCHEMA = "hydropwa.controller/1"
 _LAW = {
-    "pi": "u = sat(DZinv(k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*P_L - k_dpl*dP_L/dt)), e = r - x",
-    "state_feedback": "u = sat(DZinv(u_ff - k_pl*P_L - k_v*v + k_x*(r - x) + k_i*integral(r - x)))",
+    "pi": "u = sat(DZinv(k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt)), e = r - x",
+    "state_feedback": "u = sat(DZinv(u_ff - k_pl*(P_L - lowpass(P_L)) - k_v*v + k_x*(r - x) + k_i*integral(r - x)))",
 }
 #: field → (display unit, factor from SI to display unit, SI unit for pint)
 _PI_GAINS = {
@@ -97,6 +98,7 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         "u_max": ctrl.u_max,
         "anti_windup": ctrl.anti_windup,
         "tracking_gain": _q(ctrl.tracking_gain, "1/s", 1.0),
+        "pressure_washout": _q(ctrl.pressure_washout, "ms", 1e3),
         "law": _LAW[ctrl.kind],
     }
     if ctrl.dead_zone_inverse is not None:
@@ -144,6 +146,7 @@ def controller_from_dict(d: dict[str, Any]):
             "u_max": _read(d.get("u_max", 1.0), "", "u_max"),
             "anti_windup": d.get("anti_windup", "clamp"),
             "tracking_gain": _read(d.get("tracking_gain", 0.0), "1/s", "tracking_gain"),
+            "pressure_washout": _read(d.get("pressure_washout", 0.0), "s", "pressure_washout"),
         }
         dzi = d.get("dead_zone_inverse")
         if dzi is not None:

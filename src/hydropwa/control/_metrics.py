@@ -34,7 +34,8 @@ def tracking_metrics(result, t0: float | None = None, t1: float | None = None, b
     result : SimulationResult
         From ``simulate(..., controller=..., reference=...)``.
     t0, t1 : float, optional
-        Window [s]; default the whole run. For a step, start the window at the step.
+        Window [s]; default the whole run. For a step, start the window at the step: the
+        move is measured from the output sample before t0.
     band : float, optional
         Settling band [m]; default 2 % of the step, at least 0.05 mm.
 
@@ -63,15 +64,18 @@ def tracking_metrics(result, t0: float | None = None, t1: float | None = None, b
         raise ControlError(f"window [{a:g}, {b:g}] s holds fewer than 3 output samples")
     tt, x, r = t[m], result["x"][m], result["reference"][m]
     e = r - x
-    r_a, r_b = float(r[0]), float(r[-1])
+    # the move starts from the sample before the window (a step at t0 is in the window)
+    i0 = max(int(np.argmax(m)) - 1, 0)
+    r_a, r_b = float(result["reference"][i0]), float(r[-1])
+    x_a = float(result["x"][i0])
     step = r_b - r_a
     out: dict[str, float] = {"step": step * 1e3}
     nan = math.nan
     if abs(step) > 0:
-        prog = (x - x[0]) / step  # 0 → 1 along the move (x[0] is where the move starts)
+        prog = (x - x_a) / step  # 0 → 1 along the move
         i10 = np.flatnonzero(prog >= 0.1)
         i90 = np.flatnonzero(prog >= 0.9)
-        out["rise_time"] = (tt[i90[0]] - tt[i10[0]]) * 1e3 if i10.size and i90.size else nan
+        out["rise_time"] = float(tt[i90[0]] - tt[i10[0]]) * 1e3 if i10.size and i90.size else nan
         out["overshoot"] = max(0.0, float(np.max((x - r_b) * np.sign(step)))) / abs(step) * 100.0
         bw = band if band is not None else max(0.02 * abs(step), 5e-5)
         outside = np.flatnonzero(np.abs(x - r_b) > bw)
@@ -80,7 +84,7 @@ def tracking_metrics(result, t0: float | None = None, t1: float | None = None, b
         elif outside[-1] == tt.size - 1:
             out["settling_time"] = nan
         else:
-            out["settling_time"] = (tt[outside[-1] + 1] - a) * 1e3
+            out["settling_time"] = float(tt[outside[-1] + 1] - a) * 1e3
     else:
         out["rise_time"] = out["overshoot"] = out["settling_time"] = nan
     tail = tt >= b - 0.1 * (b - a)

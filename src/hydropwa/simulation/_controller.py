@@ -16,6 +16,9 @@ ctl[6]    dead-zone inverse on (1) / off (0); ctl[7] outer offset [1];
           ctl[8] blend width z_w [1] (see :func:`dead_zone_inverse`)
 ctl[9]    pressure-rate filter coefficient a = exp(−T_s/T_f) (0: no filter)
 ctl[10]   number of gain rows (1 for a fixed-gain controller)
+ctl[11]   pressure washout coefficient a_w = exp(−T_s/T_w) (0: none); with it
+          the gains k_pl act on P_L − P̄_L, P̄_L the low-pass of P_L (time
+          constant T_w), so a static load pressure is left to the integral
 ctl[12:16] scales [Pa, m/s, m, 1] of the box distance used to pick a row
 ctl[16:]  rows of ``ROW`` values: box lower [P_L, ẋ, x, c_prev] (4), upper (4),
           then k_p [1/m], k_i [1/(m·s)], k_ff [s/m], k_v [s/m], k_pl [1/Pa],
@@ -25,7 +28,7 @@ ctl[16:]  rows of ``ROW`` values: box lower [P_L, ẋ, x, c_prev] (4), upper (4)
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
 
-    c = u_ff + k_p e + k_i I + k_ff ṙ − k_v ẋ − k_pl P_L − k_dpl Ṗ_L
+    c = u_ff + k_p e + k_i I + k_ff ṙ − k_v ẋ − k_pl P_L − k_dpl Ṗ_L   (P_L washed out if ctl[11] > 0)
     u = sat(DZ⁻¹(c))  (or sat(c) without the inverse)
 
 State feedback with integral action (LQR per PWA cell) is the same law with the gains
@@ -41,15 +44,16 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
-C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS = range(11)
+C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH = range(12)
 C_SCALE = 12
 C_ROWS = 16
 ROW = 15
 R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = 0, 4, 8, 9, 10, 11, 12, 13, 14
 AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
-#: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row
-S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW = range(6)
-N_CST = 6
+#: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
+#: low-passed P_L (washout)
+S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
+N_CST = 7
 #: per-sample log columns
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW = range(8)
 N_LOG = 8
@@ -133,8 +137,15 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     if k == 0:
         cst[S_PL] = pl
         cst[S_DPL] = 0.0
+        cst[S_PLBAR] = pl
     a = ctl[C_FILT]
     dpl = a * cst[S_DPL] + (1.0 - a) * (pl - cst[S_PL]) / ts
+    aw_ = ctl[C_WASH]
+    if aw_ > 0.0:
+        cst[S_PLBAR] = aw_ * cst[S_PLBAR] + (1.0 - aw_) * pl
+        pl_fb = pl - cst[S_PLBAR]
+    else:
+        pl_fb = pl
     row = select_row(ctl, pl, v, x, cst[S_CPREV])
     b = C_ROWS + ROW * row
     ki = ctl[b + R_KI]
@@ -144,7 +155,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
         + ki * cst[S_INT]
         + ctl[b + R_KFF] * dref[k]
         - ctl[b + R_KV] * v
-        - ctl[b + R_KPL] * pl
+        - ctl[b + R_KPL] * pl_fb
         - ctl[b + R_KDPL] * dpl
     )
     u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW]) if ctl[C_DZINV] > 0.5 else c_raw
