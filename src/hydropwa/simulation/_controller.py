@@ -54,7 +54,7 @@ AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
 #: low-passed P_L (washout)
 S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
 N_CST = 7
-#: per-sample log columns
+#: per-sample log rows (log has shape (N_LOG, samples))
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW = range(8)
 N_LOG = 8
 
@@ -94,24 +94,37 @@ def measure(kind, y, a_a, a_b):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def select_row(ctl, pl, v, x, c):
-    """Gain row whose box holds [P_L, ẋ, x, c]; outside all boxes the nearest (scaled distance)."""
+def _box_distance(ctl, r, pl, v, x, c):
+    """Scaled distance of [P_L, ẋ, x, c] from the box of row r (0 inside)."""
+    b = C_ROWS + ROW * r
+    d = 0.0
+    for j in range(4):
+        m = pl if j == 0 else (v if j == 1 else (x if j == 2 else c))
+        lo = ctl[b + R_LO + j]
+        hi = ctl[b + R_HI + j]
+        if m < lo:
+            d += (lo - m) / ctl[C_SCALE + j]
+        elif m > hi:
+            d += (m - hi) / ctl[C_SCALE + j]
+    return d
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def select_row(ctl, pl, v, x, c, last):
+    """Gain row whose box holds [P_L, ẋ, x, c]; outside all boxes the nearest (scaled distance).
+
+    The row of the last sample is tried first: the state rarely leaves its cell between
+    two samples, and the search over all rows (70 on the paper rig) then costs nothing.
+    """
     n = int(ctl[C_NROWS])
     if n <= 1:
         return 0
+    if 0 <= last < n and _box_distance(ctl, last, pl, v, x, c) == 0.0:
+        return last
     best = 0
     best_d = math.inf
     for r in range(n):
-        b = C_ROWS + ROW * r
-        d = 0.0
-        for j in range(4):
-            m = pl if j == 0 else (v if j == 1 else (x if j == 2 else c))
-            lo = ctl[b + R_LO + j]
-            hi = ctl[b + R_HI + j]
-            if m < lo:
-                d += (lo - m) / ctl[C_SCALE + j]
-            elif m > hi:
-                d += (m - hi) / ctl[C_SCALE + j]
+        d = _box_distance(ctl, r, pl, v, x, c)
         if d == 0.0:
             return r
         if d < best_d:
@@ -127,7 +140,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
     Writes the command applied from t on into the packed valve-command slot sg[16] (a
     constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
-    ``cst`` and fills row k of ``log``. ``ref[k]``, ``dref[k]``: reference position [m]
+    ``cst`` and fills column k of ``log`` (one contiguous row per quantity). ``ref[k]``, ``dref[k]``: reference position [m]
     and its rate [m/s] at t.
     """
     x, v, pl = measure(kind, y, a_a, a_b)
@@ -146,7 +159,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
         pl_fb = pl - cst[S_PLBAR]
     else:
         pl_fb = pl
-    row = select_row(ctl, pl, v, x, cst[S_CPREV])
+    row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
     b = C_ROWS + ROW * row
     ki = ctl[b + R_KI]
     c_raw = (
@@ -161,7 +174,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW]) if ctl[C_DZINV] > 0.5 else c_raw
     u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
     c_sat = c_raw - (u_raw - u)  # the inverse has slope 1 where the command saturates
-    log[k, L_INT] = cst[S_INT]
+    log[L_INT, k] = cst[S_INT]
     if ki != 0.0:
         aw = int(ctl[C_AW])
         if aw == AW_CLAMP:
@@ -182,13 +195,13 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     cst[S_DPL] = dpl
     cst[S_CPREV] = c_sat
     cst[S_ROW] = row
-    log[k, L_T] = t
-    log[k, L_U] = u_apply
-    log[k, L_R] = r
-    log[k, L_E] = e
-    log[k, L_C] = c_raw
-    log[k, L_ROW] = row
-    log[k, L_UNEW] = u
+    log[L_T, k] = t
+    log[L_U, k] = u_apply
+    log[L_R, k] = r
+    log[L_E, k] = e
+    log[L_C, k] = c_raw
+    log[L_ROW, k] = row
+    log[L_UNEW, k] = u
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -769,7 +769,7 @@ def _integrate(
     k_out, status, t = _march(
         kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
         exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
-        none, none, none, none, np.empty((0, N_LOG)),
+        none, none, none, none, np.empty((N_LOG, 0)),
     )
     return Y, k_out, status, t, y, stats
 
@@ -789,7 +789,7 @@ def _march(
     [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
 
     Closed loop (``ctl`` not empty, see :mod:`._controller`): the steps end on every
-    sample instant t_k = t_0 + k·ctl[0] (k < ``log.shape[0]``), where
+    sample instant t_k = t_0 + k·ctl[0] (k < ``log.shape[1]``), where
     :func:`~._controller.controller_sample` writes the new valve command into the
     constant input slot sg[16]; f is re-evaluated there (and the exact Jacobians of the
     reduced and PWA models, which depend on u, refreshed; the full model's ∂f/∂y does
@@ -815,7 +815,7 @@ def _march(
     if closed:  # first sample at t_0, the next one ends the first steps
         controller_sample(kind, 0, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
         k_smp = 1
-        if k_smp < log.shape[0]:
+        if k_smp < log.shape[1]:
             t_stop = min(t_end, t_out[0] + k_smp * ctl[0])
     u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, f0)
@@ -899,11 +899,11 @@ def _march(
             n_acc += 1
             jac_age += 1
             need_jac = not reuse or jac_age >= 8 or err > jac_err
-            if closed and k_smp < log.shape[0] and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
+            if closed and k_smp < log.shape[1] and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
                 t = t_stop
                 controller_sample(kind, k_smp, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
                 k_smp += 1
-                t_stop = min(t_end, t_out[0] + k_smp * ctl[0]) if k_smp < log.shape[0] else t_end
+                t_stop = min(t_end, t_out[0] + k_smp * ctl[0]) if k_smp < log.shape[1] else t_end
                 u, ps, fl = _inputs(t, sg)
                 rhs_at(kind, y, u, ps, fl, p, f0)
                 nfev += 1
@@ -964,7 +964,7 @@ def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, 
     ``sg`` must hold the valve command as a constant signal; its value slot is the
     controller's output. ``ref``, ``dref``: reference position [m] and rate [m/s] at the
     sample instants t_0 + k·ctl[0], k < len(ref). Returns :func:`_integrate`'s tuple and
-    the per-sample log (columns in :mod:`._controller`).
+    the per-sample log, shape (N_LOG, len(ref)) (rows in :mod:`._controller`).
     """
     n = n_states(kind)
     n_out = t_out.shape[0]
@@ -984,7 +984,7 @@ def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, 
     atol = rtol * scale
     stats = np.zeros(4, dtype=np.int64)
     cst = np.zeros(N_CST)
-    log = np.full((ref.shape[0], N_LOG), np.nan)
+    log = np.full((N_LOG, ref.shape[0]), np.nan)
     k_out, status, t = _march(
         kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, True, True,
         True, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,

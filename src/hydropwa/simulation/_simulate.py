@@ -361,11 +361,11 @@ def simulate(
     if closed:
         control = _control_record(controller, ctl, log)
         tt = channels["t"]
-        j = np.clip(np.floor((tt - t_out[0]) / ctl[0] + 1e-6).astype(int), 0, log.shape[0] - 1)
+        j = np.clip(np.floor((tt - t_out[0]) / ctl[0] + 1e-6).astype(int), 0, log.shape[1] - 1)
         channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
         channels["error"] = channels["reference"] - channels["x"]
-        channels["command"] = log[j, 4]
-        channels["cell_ctl"] = log[j, 5]
+        channels["command"] = log[4, j]
+        channels["cell_ctl"] = log[5, j]
     result = SimulationResult(
         t=channels["t"],
         channels=channels,
@@ -435,8 +435,7 @@ def _closed_loop_setup(controller, reference, t_out):
 
 def _held_command(log: np.ndarray, t0: float) -> Sampled:
     """The applied command of every sample interval as a staircase signal (zero-order hold)."""
-    ok = np.isfinite(log[:, 0])
-    tk, uk = log[ok, 0], log[ok, 1]
+    tk, uk = _done(log, 0), _done(log, 1)
     if tk.size < 2:
         u0 = float(uk[0]) if uk.size else 0.0
         return Sampled(np.array([t0, t0 + 1.0]), np.array([u0, u0]))
@@ -449,17 +448,24 @@ def _held_command(log: np.ndarray, t0: float) -> Sampled:
     return Sampled(tt, vv)
 
 
+def _done(log: np.ndarray, row: int) -> np.ndarray:
+    """Row ``row`` of the log over the samples reached (a failed run stops early; no copy otherwise)."""
+    n = log.shape[1]
+    if n and not np.isfinite(log[0, n - 1]):
+        n = int(np.count_nonzero(np.isfinite(log[0])))
+    return log[row, :n]
+
+
 def _control_record(controller, ctl, log) -> dict[str, Any]:
     """The controller's per-sample log as named arrays (see ``SimulationResult.control``)."""
-    ok = np.isfinite(log[:, 0])
     rec: dict[str, Any] = {
-        "t": log[ok, 0].copy(),
-        "u": log[ok, 1].copy(),
-        "reference": log[ok, 2].copy(),
-        "error": log[ok, 3].copy(),
-        "command": log[ok, 4].copy(),
-        "row": log[ok, 5].astype(int),
-        "integral": log[ok, 6].copy(),
+        "t": _done(log, 0),
+        "u": _done(log, 1),
+        "reference": _done(log, 2),
+        "error": _done(log, 3),
+        "command": _done(log, 4),
+        "row": _done(log, 5).astype(np.int64),
+        "integral": _done(log, 6),
         "sample_time": float(ctl[0]),
         "u_limits": (float(ctl[2]), float(ctl[3])),
     }
