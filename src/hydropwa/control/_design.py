@@ -112,10 +112,15 @@ def cell_plant(model, *, cells=None, point=None, f_l: float | None = None, openi
 
 
 def _discrete(A, B, ts):
-    import control
+    """Zero-order-hold discretisation: expm([[A, B], [0, 0]]·T_s) (what ``control.sample_system`` does)."""
+    from scipy.linalg import expm
 
-    sysd = control.sample_system(control.ss(A, B, np.eye(A.shape[0]), np.zeros((A.shape[0], 1))), ts, method="zoh")
-    return np.asarray(sysd.A), np.asarray(sysd.B)
+    n, m = A.shape[0], B.shape[1]
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    E = expm(M * ts)
+    return E[:n, :n], E[:n, n:]
 
 
 def _augment(Ad, Bd, ts):
@@ -177,7 +182,8 @@ def _pole_stats(Acl, ts, Br, C):
     f = np.logspace(-1, math.log10(0.499 / ts), 400)
     zz = np.exp(2j * math.pi * f * ts)
     n = Acl.shape[0]
-    g = np.array([(C @ np.linalg.solve(zk * np.eye(n) - Acl, Br))[0, 0] for zk in zz])
+    M = zz[:, None, None] * np.eye(n)[None] - Acl[None]  # all frequencies in one batched solve
+    g = (C[0] @ np.linalg.solve(M, np.broadcast_to(Br.astype(complex), (zz.size, n, 1)))[..., 0].T).ravel()
     g0 = abs(g[0])
     below = np.flatnonzero(np.abs(g) < g0 / math.sqrt(2.0))
     bw = float(f[below[0]]) if below.size else float(f[-1])
