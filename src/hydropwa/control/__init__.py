@@ -23,7 +23,8 @@ from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, desi
 from ._figures import plot_closed_loop, save_control_figure
 from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
-from ._reference import MotionProfile, StepSequence, as_reference, parse_reference
+from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
+from ._study import POSITIONING_TASK, closed_loop_study
 
 __all__ = [
     "ANTI_WINDUP",
@@ -36,11 +37,14 @@ __all__ = [
     "DeadZoneInverse",
     "GainRow",
     "MotionProfile",
+    "MoveSequence",
+    "POSITIONING_TASK",
     "PIController",
     "StateFeedbackController",
     "StepSequence",
     "as_reference",
     "cell_plant",
+    "closed_loop_study",
     "compare_models",
     "controller_from_dict",
     "controller_to_dict",

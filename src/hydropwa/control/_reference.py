@@ -18,7 +18,7 @@ from .._errors import HydropwaError, SignalError
 from ..simulation import Sampled, Signal, as_signal
 from ._controllers import ControlError
 
-__all__ = ["MotionProfile", "StepSequence", "parse_reference", "as_reference"]
+__all__ = ["MotionProfile", "MoveSequence", "StepSequence", "parse_reference", "as_reference"]
 
 _SAMPLED = 5  # kind of a sampled signal in the packed layout (simulation._signals)
 
@@ -135,6 +135,45 @@ class MotionProfile(Signal):
 
     def peak(self, duration: float) -> float:
         return max(abs(self.start_position), abs(self.end_position))
+
+
+@dataclass(frozen=True)
+class MoveSequence(Signal):
+    """Point-to-point moves one after the other: each :class:`MotionProfile` starts where the last ended."""
+
+    moves: tuple = ()
+    _kind = _SAMPLED
+
+    def __post_init__(self) -> None:
+        moves = tuple(self.moves)
+        if not moves or not all(isinstance(m, MotionProfile) for m in moves):
+            raise ControlError("MoveSequence needs one or more MotionProfile moves")
+        for a, b in zip(moves[:-1], moves[1:], strict=True):
+            if b.start_time < a.start_time + a.duration - 1e-12:
+                raise ControlError(f"move at {b.start_time:g} s starts before the previous one ends "
+                                   f"({a.start_time + a.duration:g} s)")
+            if abs(b.start_position - a.end_position) > 1e-12:
+                raise ControlError(f"move at {b.start_time:g} s starts at {b.start_position:g} m, "
+                                   f"not where the previous one ended ({a.end_position:g} m)")
+        object.__setattr__(self, "moves", moves)
+
+    def __call__(self, t):
+        out = self.moves[0].start_position + sum(np.asarray(m(t)) - m.start_position for m in self.moves)
+        return out if np.ndim(t) else float(out)
+
+    def rate(self, t):
+        """Velocity [m/s] (analytic)."""
+        out = sum(np.asarray(m.rate(t)) for m in self.moves)
+        return out if np.ndim(t) else float(out)
+
+    def pack(self):
+        last = self.moves[-1]
+        t1 = last.start_time + last.duration
+        ts = np.linspace(0.0, t1, max(3, int(math.ceil(t1 * 1e4)) + 1))
+        return _SAMPLED, np.zeros(8), ts, np.asarray(self(ts), dtype=float)
+
+    def peak(self, duration: float) -> float:
+        return max(m.peak(duration) for m in self.moves)
 
 
 @dataclass(frozen=True)
