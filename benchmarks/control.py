@@ -68,7 +68,9 @@ def main() -> None:
     dur = args.duration
 
     def closed():
-        return simulate("full", params=prm, duration=dur, controller=ctrl, reference=REFERENCE, x0=0.1)
+        return simulate(
+            "full", params=prm, duration=dur, controller=ctrl, reference=REFERENCE, x0=0.1
+        )
 
     closed()  # compile / warm caches
     cw, ck, cres = _best(closed, args.repeat)
@@ -86,14 +88,25 @@ def main() -> None:
     rw, rk, rres = _best(replay, args.repeat)
     sw, sk, sres = _best(sine, args.repeat)
     x_err = np.max(np.abs(rres["x"] - cres["x"])) * 1e3
-    print(f"full model, {dur:g} s, controller {1 / ctrl.sample_time:g} Hz ({len(ctrl.rows)} gain rows), outputs 2 kHz")
+    print(
+        f"full model, {dur:g} s, controller {1 / ctrl.sample_time:g} Hz ({len(ctrl.rows)} gain rows), outputs 2 kHz"
+    )
     print(f"{'case':<28}{'steps':>8}{'rhs':>9}{'kernel ms':>11}{'simulate ms':>13}")
-    for name, res, k, w in (("closed loop", cres, ck, cw), ("open loop, replayed command", rres, rk, rw),
-                            ("open loop, 40 % 1 Hz sine", sres, sk, sw)):
-        print(f"{name:<28}{res.stats['steps']:>8}{res.stats['rhs_evaluations']:>9}{k * 1e3:>11.1f}{w * 1e3:>13.1f}")
-    print(f"ratio closed / replayed command: kernel {ck / rk:.2f}x, simulate {cw / rw:.2f}x (target <= 1.5x)")
+    for name, res, k, w in (
+        ("closed loop", cres, ck, cw),
+        ("open loop, replayed command", rres, rk, rw),
+        ("open loop, 40 % 1 Hz sine", sres, sk, sw),
+    ):
+        print(
+            f"{name:<28}{res.stats['steps']:>8}{res.stats['rhs_evaluations']:>9}{k * 1e3:>11.1f}{w * 1e3:>13.1f}"
+        )
+    print(
+        f"ratio closed / replayed command: kernel {ck / rk:.2f}x, simulate {cw / rw:.2f}x (target <= 1.5x)"
+    )
     print(f"ratio closed / smooth sine input: kernel {ck / sk:.2f}x, simulate {cw / sw:.2f}x")
-    print(f"replay reproduces the closed-loop position within {x_err:.3f} mm (linear vs held command between samples)")
+    print(
+        f"replay reproduces the closed-loop position within {x_err:.3f} mm (linear vs held command between samples)"
+    )
     print(f"closed loop: real time factor {dur / cw:.0f}x")
 
 

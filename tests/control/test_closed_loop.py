@@ -64,12 +64,23 @@ def test_p_loop_on_reduced_model_matches_python_control(linear_valve):
     tau_lin = -1.0 / s.real[np.argmin(np.abs(s.real))]
 
     ctrl = PIController(kp=KP, sample_time=TS)
-    r = simulate("reduced", params=prm, duration=0.45, fs=20000.0, controller=ctrl, x0=x_eq, rtol=1e-7,
-                 reference=f"step:time=0.2,before={x_eq},after={x_eq + step}", load_force=prm.load.force)
+    r = simulate(
+        "reduced",
+        params=prm,
+        duration=0.45,
+        fs=20000.0,
+        controller=ctrl,
+        x0=x_eq,
+        rtol=1e-7,
+        reference=f"step:time=0.2,before={x_eq},after={x_eq + step}",
+        load_force=prm.load.force,
+    )
     t, e = r.t, r["error"]
     e_ss_before = e[(t > 0.15) & (t < 0.2)].mean()
     e_ss_after = e[t > 0.4].mean()
-    assert e_lin == pytest.approx(6.8e-5, rel=0.05)  # z/k_p of the docstring: the set-up is what we think
+    assert e_lin == pytest.approx(
+        6.8e-5, rel=0.05
+    )  # z/k_p of the docstring: the set-up is what we think
     assert e_ss_before == pytest.approx(e_lin, rel=0.03)
     assert e_ss_after == pytest.approx(e_lin, rel=0.03)
     # time constant: slope of ln(remaining error) on 40 %..95 % of the move
@@ -86,14 +97,28 @@ def test_dead_zone_inverse_removes_the_dead_band_error(paper):
     the inverse the rod stops with 0.5-1.05 of β/k_p (1.1 mm) left; with it the remaining band is
     the inverse's blend width z_w = 0.01 β, so |e| <= 1.05·z_w/k_p (25 times less).
     """
-    prm = paper.replace(**{"dead_zone.creep_slope": 0.0, "friction.coulomb": 0.0, "friction.static": 0.0,
-                           "friction.viscous": 1000.0})
+    prm = paper.replace(
+        **{
+            "dead_zone.creep_slope": 0.0,
+            "friction.coulomb": 0.0,
+            "friction.static": 0.0,
+            "friction.viscous": 1000.0,
+        }
+    )
     band = prm.dead_zone.beta / KP
     ref = "step:time=0.01,before=0.1,after=0.105"
-    plain = simulate("reduced", params=prm, duration=0.6, controller=PIController(kp=KP), reference=ref, x0=0.1)
+    plain = simulate(
+        "reduced", params=prm, duration=0.6, controller=PIController(kp=KP), reference=ref, x0=0.1
+    )
     dzi = DeadZoneInverse.from_params(prm.dead_zone)
-    inv = simulate("reduced", params=prm, duration=0.6, controller=PIController(kp=KP, dead_zone_inverse=dzi),
-                   reference=ref, x0=0.1)
+    inv = simulate(
+        "reduced",
+        params=prm,
+        duration=0.6,
+        controller=PIController(kp=KP, dead_zone_inverse=dzi),
+        reference=ref,
+        x0=0.1,
+    )
     e_plain = tracking_metrics(plain, 0.01)["steady_state_error"] * 1e-3
     e_inv = tracking_metrics(inv, 0.01)["steady_state_error"] * 1e-3
     assert 0.5 * band < e_plain <= 1.05 * band
@@ -108,18 +133,30 @@ def test_dead_zone_inverse_is_the_inverse_outside_its_blend(paper):
     dz = paper.dead_zone
     inv = DeadZoneInverse.from_params(dz)
     for c in np.concatenate((np.linspace(-0.9, -inv.width, 50), np.linspace(inv.width, 0.9, 50))):
-        assert dead_zone(inv(c), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset) == pytest.approx(c, abs=1e-12)
+        assert dead_zone(
+            inv(c), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset
+        ) == pytest.approx(c, abs=1e-12)
     # inside the blend the creep band gives unit small-signal gain (the default width's purpose)
     c = 0.5 * inv.width * dz.beta / (inv.width + dz.beta)
-    assert dead_zone(inv(c), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset) == pytest.approx(c, rel=1e-9)
+    assert dead_zone(inv(c), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset) == pytest.approx(
+        c, rel=1e-9
+    )
 
 
 def _continuous_p_loop(prm, kp, r_of_t, x0, t_end):
     def f(t, y):
         return reduced_rhs(t, y, kp * (r_of_t(t) - y[2]), prm.supply.pressure, prm.load.force, prm)
 
-    return solve_ivp(f, (0.0, t_end), [0.0, 0.0, x0], method="Radau", rtol=1e-9, atol=[1.0, 1e-9, 1e-11],
-                     dense_output=True, max_step=1e-3)
+    return solve_ivp(
+        f,
+        (0.0, t_end),
+        [0.0, 0.0, x0],
+        method="Radau",
+        rtol=1e-9,
+        atol=[1.0, 1e-9, 1e-11],
+        dense_output=True,
+        max_step=1e-3,
+    )
 
 
 def test_discrete_controller_converges_to_the_continuous_design(linear_valve):
@@ -134,8 +171,16 @@ def test_discrete_controller_converges_to_the_continuous_design(linear_valve):
     sol = _continuous_p_loop(linear_valve, KP, lambda t: x0 + step * (t >= 0.01), x0, 0.2)
     errs = []
     for fs_ctl in (2000.0, 20000.0):
-        r = simulate("reduced", params=linear_valve, duration=0.2, fs=20000.0, rtol=1e-8, x0=x0,
-                     controller=PIController(kp=KP, sample_time=1.0 / fs_ctl), reference=ref)
+        r = simulate(
+            "reduced",
+            params=linear_valve,
+            duration=0.2,
+            fs=20000.0,
+            rtol=1e-8,
+            x0=x0,
+            controller=PIController(kp=KP, sample_time=1.0 / fs_ctl),
+            reference=ref,
+        )
         errs.append(np.max(np.abs(r["x"] - sol.sol(r.t)[2])) / step)
     assert errs[0] < 0.03
     assert errs[1] < errs[0] / 5
@@ -153,10 +198,20 @@ def test_anti_windup_bounds_the_overshoot_after_a_saturating_step(linear_valve):
     ki = KP * 10.0  # integral corner at 10 1/s, a fifth of the 50 1/s crossover
     out = {}
     for aw, step in (("clamp", 0.1), ("back-calculation", 0.1), ("none", 0.1), ("linear", 0.002)):
-        c = PIController(kp=KP, ki=ki, anti_windup="none" if aw == "linear" else aw,
-                         tracking_gain=50.0 if aw == "back-calculation" else 0.0)
-        r = simulate("reduced", params=linear_valve, duration=1.2, controller=c, x0=0.05,
-                     reference=f"step:time=0.01,before=0.05,after={0.05 + step}")
+        c = PIController(
+            kp=KP,
+            ki=ki,
+            anti_windup="none" if aw == "linear" else aw,
+            tracking_gain=50.0 if aw == "back-calculation" else 0.0,
+        )
+        r = simulate(
+            "reduced",
+            params=linear_valve,
+            duration=1.2,
+            controller=c,
+            x0=0.05,
+            reference=f"step:time=0.01,before=0.05,after={0.05 + step}",
+        )
         out[aw] = tracking_metrics(r, 0.01)
     assert out["linear"]["saturation"] == 0.0 and out["clamp"]["saturation"] > 5.0
     small = out["linear"]["overshoot"]
@@ -196,8 +251,15 @@ def test_lqr_designed_on_pwa_positions_the_full_model(paper, lqr, load):
     """
     times = np.array([0.0, 0.05, 0.85, 1.65, 2.45])
     pos = np.array([0.01, 0.18, 0.02, 0.10, 0.099])
-    r = simulate("full", params=paper, duration=3.0, controller=lqr.controller,
-                 reference=StepSequence(times, pos), x0=0.01, load_force=load)
+    r = simulate(
+        "full",
+        params=paper,
+        duration=3.0,
+        controller=lqr.controller,
+        reference=StepSequence(times, pos),
+        x0=0.01,
+        load_force=load,
+    )
     t, x = r.t, r["x"]
     for t_end, target in zip(np.append(times[2:], 3.0), pos[1:], strict=True):
         hold = (t > t_end - 0.1) & (t < t_end - 1e-9)

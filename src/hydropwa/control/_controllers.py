@@ -40,7 +40,9 @@ class ControlError(HydropwaError, ValueError):
     """A controller, reference or design request that cannot be used as given."""
 
 
-def _finite(obj, name: str, unit: str, *, gt: float | None = None, ge: float | None = None) -> float:
+def _finite(
+    obj, name: str, unit: str, *, gt: float | None = None, ge: float | None = None
+) -> float:
     v = getattr(obj, name)
     if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
         raise ControlError(f"{type(obj).__name__}.{name} = {v!r} must be a number in {unit}")
@@ -75,7 +77,9 @@ class DeadZoneInverse:
         _finite(self, "offset", "1", ge=0.0)
         _finite(self, "width", "1", ge=0.0)
         if self.offset >= 1.0:
-            raise ControlError(f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)")
+            raise ControlError(
+                f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)"
+            )
 
     @classmethod
     def from_params(cls, dead_zone, width: float | None = None) -> DeadZoneInverse:
@@ -125,9 +129,13 @@ class _Discrete:
         _finite(self, "u_min", "1")
         _finite(self, "u_max", "1")
         if not self.u_min < self.u_max:
-            raise ControlError(f"{type(self).__name__}: u_min = {self.u_min:g} must be below u_max = {self.u_max:g}")
+            raise ControlError(
+                f"{type(self).__name__}: u_min = {self.u_min:g} must be below u_max = {self.u_max:g}"
+            )
         if not isinstance(self.delay, bool | np.bool_):
-            raise ControlError(f"{type(self).__name__}.delay = {self.delay!r} must be true or false")
+            raise ControlError(
+                f"{type(self).__name__}.delay = {self.delay!r} must be true or false"
+            )
         object.__setattr__(self, "delay", bool(self.delay))
         if self.anti_windup not in ANTI_WINDUP:
             raise ControlError(
@@ -140,8 +148,12 @@ class _Discrete:
                 f"{type(self).__name__}: back-calculation anti-windup needs tracking_gain > 0 1/s "
                 "(about the integral's corner frequency)"
             )
-        if self.dead_zone_inverse is not None and not isinstance(self.dead_zone_inverse, DeadZoneInverse):
-            raise ControlError(f"{type(self).__name__}.dead_zone_inverse must be a DeadZoneInverse or None")
+        if self.dead_zone_inverse is not None and not isinstance(
+            self.dead_zone_inverse, DeadZoneInverse
+        ):
+            raise ControlError(
+                f"{type(self).__name__}.dead_zone_inverse must be a DeadZoneInverse or None"
+            )
 
     @property
     def sample_rate(self) -> float:
@@ -249,8 +261,14 @@ class PIController(_Discrete):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        for name, unit in (("kp", "1/m"), ("ki", "1/(m*s)"), ("kff", "s/m"), ("kv", "s/m"), ("kpl", "1/Pa"),
-                           ("kdpl", "s/Pa")):
+        for name, unit in (
+            ("kp", "1/m"),
+            ("ki", "1/(m*s)"),
+            ("kff", "s/m"),
+            ("kv", "s/m"),
+            ("kpl", "1/Pa"),
+            ("kdpl", "s/Pa"),
+        ):
             _finite(self, name, unit)
         _finite(self, "pressure_filter", "s", ge=0.0)
 
@@ -263,8 +281,15 @@ class PIController(_Discrete):
     def describe(self) -> dict[str, Any]:
         """Plain dict of every setting (SI), as written to controller files."""
         d = self._common()
-        d.update(kp=self.kp, ki=self.ki, kff=self.kff, kv=self.kv, kpl=self.kpl, kdpl=self.kdpl,
-                 pressure_filter=self.pressure_filter)
+        d.update(
+            kp=self.kp,
+            ki=self.ki,
+            kff=self.kff,
+            kv=self.kv,
+            kpl=self.kpl,
+            kdpl=self.kdpl,
+            pressure_filter=self.pressure_filter,
+        )
         return d
 
 
@@ -285,8 +310,8 @@ class GainRow:
         The cell, e.g. ``"s=+1 o=2 w=3"``.
     """
 
-    lower: tuple[float, float, float, float]
-    upper: tuple[float, float, float, float]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
     k_pl: float
     k_v: float
     k_x: float
@@ -297,11 +322,25 @@ class GainRow:
     def __post_init__(self) -> None:
         lo = np.asarray(self.lower, dtype=float).ravel()
         hi = np.asarray(self.upper, dtype=float).ravel()
-        if lo.size != 4 or hi.size != 4 or np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(hi < lo):
-            raise ControlError(f"gain row {self.label!r}: lower/upper must be 4 bounds [Pa, m/s, m, 1] with lower <= upper")
+        if (
+            lo.size != 4
+            or hi.size != 4
+            or np.any(np.isnan(lo))
+            or np.any(np.isnan(hi))
+            or np.any(hi < lo)
+        ):
+            raise ControlError(
+                f"gain row {self.label!r}: lower/upper must be 4 bounds [Pa, m/s, m, 1] with lower <= upper"
+            )
         object.__setattr__(self, "lower", tuple(float(v) for v in lo))
         object.__setattr__(self, "upper", tuple(float(v) for v in hi))
-        for name, unit in (("k_pl", "1/Pa"), ("k_v", "s/m"), ("k_x", "1/m"), ("k_i", "1/(m*s)"), ("u_ff", "1")):
+        for name, unit in (
+            ("k_pl", "1/Pa"),
+            ("k_v", "s/m"),
+            ("k_x", "1/m"),
+            ("k_i", "1/(m*s)"),
+            ("u_ff", "1"),
+        ):
             _finite(self, name, unit)
 
 
@@ -334,13 +373,26 @@ class StateFeedbackController(_Discrete):
         object.__setattr__(self, "rows", rows)
 
     def _rows(self) -> np.ndarray:
-        return np.stack([_row(r.lower, r.upper, r.k_x, r.k_i, 0.0, r.k_v, r.k_pl, 0.0, r.u_ff) for r in self.rows])
+        return np.stack(
+            [
+                _row(r.lower, r.upper, r.k_x, r.k_i, 0.0, r.k_v, r.k_pl, 0.0, r.u_ff)
+                for r in self.rows
+            ]
+        )
 
     def describe(self) -> dict[str, Any]:
         d = self._common()
         d["cells"] = [
-            {"label": r.label, "lower": list(r.lower), "upper": list(r.upper), "k_pl": r.k_pl, "k_v": r.k_v,
-             "k_x": r.k_x, "k_i": r.k_i, "u_ff": r.u_ff}
+            {
+                "label": r.label,
+                "lower": list(r.lower),
+                "upper": list(r.upper),
+                "k_pl": r.k_pl,
+                "k_v": r.k_v,
+                "k_x": r.k_x,
+                "k_i": r.k_i,
+                "u_ff": r.u_ff,
+            }
             for r in self.rows
         ]
         d["design"] = dict(self.design)

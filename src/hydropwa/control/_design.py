@@ -70,7 +70,9 @@ class ControlDesign:
     def summary(self) -> str:
         """Text summary: the method, the worst cell and the warnings."""
         t = self.table
-        lines = [f"{self.info.get('method', '?')} design, {len(t)} cell(s), T_s = {self.info.get('sample_time', 0) * 1e3:g} ms"]
+        lines = [
+            f"{self.info.get('method', '?')} design, {len(t)} cell(s), T_s = {self.info.get('sample_time', 0) * 1e3:g} ms"
+        ]
         if len(t):
             lines.append(
                 f"closed loop: damping >= {t['damping_min'].min():.3f}, bandwidth {t['bandwidth_hz'].min():.1f}"
@@ -81,7 +83,9 @@ class ControlDesign:
         return "\n".join(lines)
 
 
-def cell_plant(model, *, cells=None, point=None, f_l: float | None = None, opening_input: bool = True):
+def cell_plant(
+    model, *, cells=None, point=None, f_l: float | None = None, opening_input: bool = True
+):
     """Continuous (A, B) of the PWA model in one cell, y = [P_L, ẋ, x], input c or u.
 
     Parameters
@@ -106,7 +110,9 @@ def cell_plant(model, *, cells=None, point=None, f_l: float | None = None, openi
     if opening_input:
         k_g = float(model.dead_zone.slopes[dyn.cells.g])
         if k_g == 0.0:
-            raise ControlError(f"cell {tuple(dyn.cells)} is saturated (k_g = 0): no input to design with")
+            raise ControlError(
+                f"cell {tuple(dyn.cells)} is saturated (k_g = 0): no input to design with"
+            )
         B = B / k_g
     return dyn.A.copy(), B, dyn
 
@@ -141,7 +147,7 @@ def _valve_loop_radius(A, B, K, ts, omega0, zeta, delay):
     Av[:n, :n] = A
     Av[:n, n] = B[:, 0]  # the plant sees the spool position ν
     Av[n, n + 1] = 1.0
-    Av[n + 1, n] = -omega0**2
+    Av[n + 1, n] = -(omega0**2)
     Av[n + 1, n + 1] = -2.0 * zeta * omega0
     Bv = np.zeros((n + 2, 1))
     Bv[n + 1, 0] = omega0**2
@@ -173,7 +179,9 @@ def _radius(Aa, Ba, K, delay: bool) -> float:
 def _pole_stats(Acl, ts, Br, C):
     """Continuous-equivalent poles, min damping, dominant natural frequency [Hz], bandwidth [Hz]."""
     z = np.linalg.eigvals(Acl).astype(complex)
-    z = np.where(np.abs(z) < 1e-300, 1e-300, z)  # a pole at z = 0: s = ln(1e-300)/T_s, "infinitely" fast
+    z = np.where(
+        np.abs(z) < 1e-300, 1e-300, z
+    )  # a pole at z = 0: s = ln(1e-300)/T_s, "infinitely" fast
     s = np.log(z) / ts
     wn = np.abs(s)
     zeta = np.where(wn > 0, -s.real / np.where(wn > 0, wn, 1.0), 1.0)
@@ -183,7 +191,9 @@ def _pole_stats(Acl, ts, Br, C):
     zz = np.exp(2j * math.pi * f * ts)
     n = Acl.shape[0]
     M = zz[:, None, None] * np.eye(n)[None] - Acl[None]  # all frequencies in one batched solve
-    g = (C[0] @ np.linalg.solve(M, np.broadcast_to(Br.astype(complex), (zz.size, n, 1)))[..., 0].T).ravel()
+    g = (
+        C[0] @ np.linalg.solve(M, np.broadcast_to(Br.astype(complex), (zz.size, n, 1)))[..., 0].T
+    ).ravel()
     g0 = abs(g[0])
     below = np.flatnonzero(np.abs(g) < g0 / math.sqrt(2.0))
     bw = float(f[below[0]]) if below.size else float(f[-1])
@@ -290,17 +300,28 @@ def design_state_feedback(
         raise ControlError(f"friction_slopes {friction_slopes!r} must be 'clip' or 'exact'")
     if method not in ("lqr", "place"):
         raise ControlError(f"method {method!r} must be 'lqr' or 'place'")
-    if not (isinstance(sample_time, int | float) and math.isfinite(sample_time) and 0 < sample_time <= 0.1):
+    if not (
+        isinstance(sample_time, int | float)
+        and math.isfinite(sample_time)
+        and 0 < sample_time <= 0.1
+    ):
         raise ControlError(f"sample_time {sample_time!r} s must be in (0, 0.1]")
     ts = float(sample_time)
     maxima, u_max = _scaling(weights or {})
     if method == "place":
         if poles is None:
             w = 2 * math.pi * 15.0
-            poles = (complex(-0.8 * w, 0.6 * w), complex(-0.8 * w, -0.6 * w), complex(-2 * w), complex(-3 * w))
+            poles = (
+                complex(-0.8 * w, 0.6 * w),
+                complex(-0.8 * w, -0.6 * w),
+                complex(-2 * w),
+                complex(-3 * w),
+            )
         poles = tuple(complex(p) for p in poles)
         if len(poles) != 4 or any(p.real >= 0 for p in poles):
-            raise ControlError("pole placement needs four continuous-time poles with negative real parts [1/s]")
+            raise ControlError(
+                "pole placement needs four continuous-time poles with negative real parts [1/s]"
+            )
         zp = np.exp(np.array(poles) * ts)
     prm = model.params
     T = np.diag(_SCALE)
@@ -346,35 +367,70 @@ def design_state_feedback(
         if not controllable:
             warns.append(f"cell {label}: not controllable (σ_min/σ_max = {ctrb[-1] / ctrb[0]:.2e})")
         if radius >= 1.0:
-            warns.append(f"cell {label}: closed loop unstable on the PWA cell (spectral radius {radius:.4f})")
+            warns.append(
+                f"cell {label}: closed loop unstable on the PWA cell (spectral radius {radius:.4f})"
+            )
         elif radius_v >= 1.0:
-            warns.append(f"cell {label}: unstable with the servo valve's dynamics (spectral radius {radius_v:.4f})")
+            warns.append(
+                f"cell {label}: unstable with the servo valve's dynamics (spectral radius {radius_v:.4f})"
+            )
         row = GainRow(lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label)
         rows.append(row)
-        recs.append({
-            "cell": label, "g": key[0], "s": key[1], "o": key[2], "w": key[3],
-            "p_l_lo_bar": lo[0] / 1e5, "p_l_hi_bar": hi[0] / 1e5, "v_lo_mm_s": lo[1] * 1e3, "v_hi_mm_s": hi[1] * 1e3,
-            "k_pl_per_bar": row.k_pl * 1e5, "k_v_s_per_m": row.k_v, "k_x_per_mm": row.k_x * 1e-3,
-            "k_i_per_mm_s": row.k_i * 1e-3, "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
-            "damping_min": zmin, "natural_freq_hz": fdom, "bandwidth_hz": bw, "radius": radius,
-            "radius_valve": radius_v, "controllable": controllable, "stable": radius < 1.0,
-            "friction_clipped": clipped,
-        })
+        recs.append(
+            {
+                "cell": label,
+                "g": key[0],
+                "s": key[1],
+                "o": key[2],
+                "w": key[3],
+                "p_l_lo_bar": lo[0] / 1e5,
+                "p_l_hi_bar": hi[0] / 1e5,
+                "v_lo_mm_s": lo[1] * 1e3,
+                "v_hi_mm_s": hi[1] * 1e3,
+                "k_pl_per_bar": row.k_pl * 1e5,
+                "k_v_s_per_m": row.k_v,
+                "k_x_per_mm": row.k_x * 1e-3,
+                "k_i_per_mm_s": row.k_i * 1e-3,
+                "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
+                "damping_min": zmin,
+                "natural_freq_hz": fdom,
+                "bandwidth_hz": bw,
+                "radius": radius,
+                "radius_valve": radius_v,
+                "controllable": controllable,
+                "stable": radius < 1.0,
+                "friction_clipped": clipped,
+            }
+        )
     if not rows:
         raise ControlError("no cell could be designed: " + "; ".join(warns))
     dzi = DeadZoneInverse.from_params(prm.dead_zone) if dead_zone_inverse else None
     info = {
-        "method": method, "sample_time": ts, "delay": bool(delay), "model": "pwa", "form": model.form,
-        "supply_pressure": model.supply_pressure, "friction_slopes": friction_slopes, "notes": notes,
+        "method": method,
+        "sample_time": ts,
+        "delay": bool(delay),
+        "model": "pwa",
+        "form": model.form,
+        "supply_pressure": model.supply_pressure,
+        "friction_slopes": friction_slopes,
+        "notes": notes,
         "pressure_washout": float(pressure_washout),
         "load_force": float(prm.load.force if load_force is None else load_force),
-        "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True)) | {"u": u_max},
+        "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True))
+        | {"u": u_max},
     }
     if method == "place":
         info["poles"] = [[p.real, p.imag] for p in poles]  # type: ignore[union-attr]
     ctrl = StateFeedbackController(
-        rows=tuple(rows), sample_time=ts, delay=bool(delay), u_min=float(u_limits[0]), u_max=float(u_limits[1]),
-        anti_windup=anti_windup, dead_zone_inverse=dzi, design=info, pressure_washout=float(pressure_washout),
+        rows=tuple(rows),
+        sample_time=ts,
+        delay=bool(delay),
+        u_min=float(u_limits[0]),
+        u_max=float(u_limits[1]),
+        anti_windup=anti_windup,
+        dead_zone_inverse=dzi,
+        design=info,
+        pressure_washout=float(pressure_washout),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
 
@@ -424,7 +480,9 @@ def design_pi(
     # steady velocity per unit input of the [P_L, ẋ] subsystem
     k_v = float(-(np.linalg.solve(A[:2, :2], B[:2, 0]))[1])
     if not k_v > 0:
-        raise ControlError(f"velocity gain {k_v:g} m/s at the working point is not positive; choose another point")
+        raise ControlError(
+            f"velocity gain {k_v:g} m/s at the working point is not positive; choose another point"
+        )
     plant = control.ss(A, B, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1)))
     if include_valve:
         w0, z0 = prm.valve.omega0, prm.valve.zeta
@@ -437,7 +495,11 @@ def design_pi(
     for wc in np.geomspace(0.5 * w_nyq, 1.0, 240):
         kp = wc / k_v
         ki = kp * integral_ratio * wc if integral else 0.0
-        cz = control.tf([kp + ki * ts, -kp], [1.0, -1.0], ts) if integral else control.tf([kp], [1.0], ts)
+        cz = (
+            control.tf([kp + ki * ts, -kp], [1.0, -1.0], ts)
+            if integral
+            else control.tf([kp], [1.0], ts)
+        )
         loop = control.series(cz, pd_)
         gm, pm, _sm, _wg, _wp, _ws = control.stability_margins(loop)
         gm_db = 20 * math.log10(gm) if gm is not None and np.isfinite(gm) and gm > 0 else math.inf
@@ -457,18 +519,42 @@ def design_pi(
     bw = float(f[below[0]]) if below.size else float(f[-1])
     dzi = DeadZoneInverse.from_params(prm.dead_zone) if dead_zone_inverse else None
     ctrl = PIController(
-        kp=kp, ki=ki, kff=(1.0 / k_v if feedforward else 0.0), sample_time=ts, delay=bool(delay),
-        u_min=float(u_limits[0]), u_max=float(u_limits[1]), anti_windup=anti_windup, dead_zone_inverse=dzi,
+        kp=kp,
+        ki=ki,
+        kff=(1.0 / k_v if feedforward else 0.0),
+        sample_time=ts,
+        delay=bool(delay),
+        u_min=float(u_limits[0]),
+        u_max=float(u_limits[1]),
+        anti_windup=anti_windup,
+        dead_zone_inverse=dzi,
     )
     rec = {
-        "cell": "s={:+d} o={} w={}".format(dyn.cells.s, dyn.cells.o, dyn.cells.w),
-        "p_l_bar": point["p_l"] / 1e5, "v_mm_s": point["v"] * 1e3, "velocity_gain_m_s": k_v,
-        "crossover_hz": wc / (2 * math.pi), "kp_per_mm": kp * 1e-3, "ki_per_mm_s": ki * 1e-3,
-        "kff_s_per_m": ctrl.kff, "gain_margin_db": gm_db, "phase_margin_deg": pm,
-        "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s), "damping_min": zeta, "bandwidth_hz": bw,
-        "radius": float(np.max(np.abs(cl.poles()))), "radius_valve": float(np.max(np.abs(cl.poles()))),
-        "controllable": True, "stable": True,
+        "cell": f"s={dyn.cells.s:+d} o={dyn.cells.o} w={dyn.cells.w}",
+        "p_l_bar": point["p_l"] / 1e5,
+        "v_mm_s": point["v"] * 1e3,
+        "velocity_gain_m_s": k_v,
+        "crossover_hz": wc / (2 * math.pi),
+        "kp_per_mm": kp * 1e-3,
+        "ki_per_mm_s": ki * 1e-3,
+        "kff_s_per_m": ctrl.kff,
+        "gain_margin_db": gm_db,
+        "phase_margin_deg": pm,
+        "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
+        "damping_min": zeta,
+        "bandwidth_hz": bw,
+        "radius": float(np.max(np.abs(cl.poles()))),
+        "radius_valve": float(np.max(np.abs(cl.poles()))),
+        "controllable": True,
+        "stable": True,
     }
-    info = {"method": "pi", "sample_time": ts, "delay": bool(delay), "point": dict(point),
-            "include_valve": bool(include_valve), "phase_margin": phase_margin, "gain_margin_db": gain_margin_db}
+    info = {
+        "method": "pi",
+        "sample_time": ts,
+        "delay": bool(delay),
+        "point": dict(point),
+        "include_valve": bool(include_valve),
+        "phase_margin": phase_margin,
+        "gain_margin_db": gain_margin_db,
+    }
     return ControlDesign(ctrl, pd.DataFrame.from_records([rec]), [], info)

@@ -38,7 +38,9 @@ def plot_closed_loop(results, title: str | None = None):
             first = False
         ax[0].plot(t, res["x"] * 1e3, color=c, lw=1.0, label=name)
         ax[1].plot(t, res["error"] * 1e3, color=c, lw=1.0, label=name)
-        ax[2].step(res.control["t"], res.control["u"] * 100.0, where="post", color=c, lw=0.8, label=name)
+        ax[2].step(
+            res.control["t"], res.control["u"] * 100.0, where="post", color=c, lw=0.8, label=name
+        )
     ax[0].set_ylabel("rod position [mm]")
     ax[1].set_ylabel("following error [mm]")
     ax[2].set_ylabel("valve command [%]")

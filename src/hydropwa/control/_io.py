@@ -38,9 +38,21 @@ from typing import Any
 
 from .._errors import HydropwaError
 from .._io import atomic_write_text
-from ._controllers import ControlError, DeadZoneInverse, GainRow, PIController, StateFeedbackController
+from ._controllers import (
+    ControlError,
+    DeadZoneInverse,
+    GainRow,
+    PIController,
+    StateFeedbackController,
+)
 
-__all__ = ["save_controller", "load_controller", "controller_to_dict", "controller_from_dict", "SCHEMA"]
+__all__ = [
+    "save_controller",
+    "load_controller",
+    "controller_to_dict",
+    "controller_from_dict",
+    "SCHEMA",
+]
 
 SCHEMA = "hydropwa.controller/1"
 _LAW = {
@@ -63,7 +75,12 @@ _ROW_GAINS = {
     "k_x": ("1/mm", 1e-3, "1/m"),
     "k_i": ("1/(mm*s)", 1e-3, "1/(m*s)"),
 }
-_BOX = (("p_l", "bar", 1e-5, "Pa"), ("v", "mm/s", 1e3, "m/s"), ("x", "mm", 1e3, "m"), ("c", "", 1.0, ""))
+_BOX = (
+    ("p_l", "bar", 1e-5, "Pa"),
+    ("v", "mm/s", 1e3, "m/s"),
+    ("x", "mm", 1e3, "m"),
+    ("c", "", 1.0, ""),
+)
 
 
 def _q(value: float, unit: str, factor: float) -> str | float:
@@ -87,7 +104,9 @@ def _read(value: Any, si_unit: str, where: str) -> float:
 def controller_to_dict(ctrl) -> dict[str, Any]:
     """The controller as a TOML/JSON-ready dict with units (see the module docstring)."""
     if not isinstance(ctrl, PIController | StateFeedbackController):
-        raise ControlError(f"cannot write a {type(ctrl).__name__}; give a PIController or StateFeedbackController")
+        raise ControlError(
+            f"cannot write a {type(ctrl).__name__}; give a PIController or StateFeedbackController"
+        )
     d: dict[str, Any] = {
         "schema": SCHEMA,
         "kind": ctrl.kind,
@@ -102,7 +121,10 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         "law": _LAW[ctrl.kind],
     }
     if ctrl.dead_zone_inverse is not None:
-        d["dead_zone_inverse"] = {"offset": ctrl.dead_zone_inverse.offset, "width": ctrl.dead_zone_inverse.width}
+        d["dead_zone_inverse"] = {
+            "offset": ctrl.dead_zone_inverse.offset,
+            "width": ctrl.dead_zone_inverse.width,
+        }
     if isinstance(ctrl, PIController):
         d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
     else:
@@ -136,7 +158,9 @@ def _plain(obj):
 def controller_from_dict(d: dict[str, Any]):
     """Rebuild a controller from :func:`controller_to_dict` output (units converted to SI)."""
     if not isinstance(d, dict) or d.get("schema") != SCHEMA:
-        raise ControlError(f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not {SCHEMA!r}")
+        raise ControlError(
+            f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not {SCHEMA!r}"
+        )
     kind = d.get("kind")
     try:
         common: dict[str, Any] = {
@@ -158,18 +182,35 @@ def controller_from_dict(d: dict[str, Any]):
             g = d.get("gains", {})
             unknown = set(g) - set(_PI_GAINS)
             if unknown:
-                raise ControlError(f"controller file: unknown gains {sorted(unknown)}; known: {', '.join(_PI_GAINS)}")
-            gains = {k: _read(v, _PI_GAINS[k][2], f"gains.{k}") for k, v in g.items()}
+                raise ControlError(
+                    f"controller file: unknown gains {sorted(unknown)}; known: {', '.join(_PI_GAINS)}"
+                )
+            gains: dict[str, Any] = {
+                k: _read(v, _PI_GAINS[k][2], f"gains.{k}") for k, v in g.items()
+            }
             return PIController(**common, **gains)
         if kind == "state_feedback":
             rows = []
             for i, c in enumerate(d["cells"]):
-                lo = tuple(_read(c["lower"][n], si, f"cells[{i}].lower.{n}") for n, _u, _f, si in _BOX)
-                hi = tuple(_read(c["upper"][n], si, f"cells[{i}].upper.{n}") for n, _u, _f, si in _BOX)
+                lo = tuple(
+                    _read(c["lower"][n], si, f"cells[{i}].lower.{n}") for n, _u, _f, si in _BOX
+                )
+                hi = tuple(
+                    _read(c["upper"][n], si, f"cells[{i}].upper.{n}") for n, _u, _f, si in _BOX
+                )
                 g = {k: _read(c[k], _ROW_GAINS[k][2], f"cells[{i}].{k}") for k in _ROW_GAINS}
-                rows.append(GainRow(lo, hi, **g, u_ff=_read(c.get("u_ff", 0.0), "", f"cells[{i}].u_ff"),
-                                    label=str(c.get("label", ""))))
-            return StateFeedbackController(rows=tuple(rows), design=dict(d.get("design", {})), **common)
+                rows.append(
+                    GainRow(
+                        lo,
+                        hi,
+                        **g,
+                        u_ff=_read(c.get("u_ff", 0.0), "", f"cells[{i}].u_ff"),
+                        label=str(c.get("label", "")),
+                    )
+                )
+            return StateFeedbackController(
+                rows=tuple(rows), design=dict(d.get("design", {})), **common
+            )
     except KeyError as exc:
         raise ControlError(f"controller file ({kind}) lacks {exc}") from None
     except (TypeError, AttributeError) as exc:

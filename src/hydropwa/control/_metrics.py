@@ -26,7 +26,9 @@ METRIC_UNITS = {
 }
 
 
-def tracking_metrics(result, t0: float | None = None, t1: float | None = None, band: float | None = None) -> dict[str, float]:
+def tracking_metrics(
+    result, t0: float | None = None, t1: float | None = None, band: float | None = None
+) -> dict[str, float]:
     """Tracking metrics of a closed-loop result over the window [t0, t1] [s].
 
     Parameters
@@ -55,7 +57,9 @@ def tracking_metrics(result, t0: float | None = None, t1: float | None = None, b
     """
     ctl = getattr(result, "control", None)
     if not ctl:
-        raise ControlError("tracking metrics need a closed-loop result (simulate(..., controller=..., reference=...))")
+        raise ControlError(
+            "tracking metrics need a closed-loop result (simulate(..., controller=..., reference=...))"
+        )
     t = result.t
     a = float(t[0]) if t0 is None else float(t0)
     b = float(t[-1]) if t1 is None else float(t1)
@@ -175,8 +179,14 @@ def compare_models(
         else:
             mdl = name
         results[name] = simulate(
-            mdl, duration=duration, params=params, controller=controller, reference=ref, x0=start,
-            load_force=load_force, rtol=DEFAULT_RTOL if rtol is None else rtol,
+            mdl,
+            duration=duration,
+            params=params,
+            controller=controller,
+            reference=ref,
+            x0=start,
+            load_force=load_force,
+            rtol=DEFAULT_RTOL if rtol is None else rtol,
         )
     w = window or (None, None)
     table = pd.DataFrame({name: tracking_metrics(res, *w) for name, res in results.items()}).T

@@ -28,7 +28,9 @@ def _check(obj, name: str, unit: str, *, gt: float | None = None, ge: float | No
     try:
         v = float(v)
     except (TypeError, ValueError):
-        raise ControlError(f"{type(obj).__name__}.{name} = {v!r} must be a number in {unit}") from None
+        raise ControlError(
+            f"{type(obj).__name__}.{name} = {v!r} must be a number in {unit}"
+        ) from None
     if not math.isfinite(v) or (gt is not None and not v > gt) or (ge is not None and not v >= ge):
         bound = f" > {gt:g}" if gt is not None else (f" >= {ge:g}" if ge is not None else "")
         raise ControlError(f"{type(obj).__name__}.{name} = {v:g} {unit} must be finite{bound}")
@@ -150,15 +152,21 @@ class MoveSequence(Signal):
             raise ControlError("MoveSequence needs one or more MotionProfile moves")
         for a, b in zip(moves[:-1], moves[1:], strict=True):
             if b.start_time < a.start_time + a.duration - 1e-12:
-                raise ControlError(f"move at {b.start_time:g} s starts before the previous one ends "
-                                   f"({a.start_time + a.duration:g} s)")
+                raise ControlError(
+                    f"move at {b.start_time:g} s starts before the previous one ends "
+                    f"({a.start_time + a.duration:g} s)"
+                )
             if abs(b.start_position - a.end_position) > 1e-12:
-                raise ControlError(f"move at {b.start_time:g} s starts at {b.start_position:g} m, "
-                                   f"not where the previous one ended ({a.end_position:g} m)")
+                raise ControlError(
+                    f"move at {b.start_time:g} s starts at {b.start_position:g} m, "
+                    f"not where the previous one ended ({a.end_position:g} m)"
+                )
         object.__setattr__(self, "moves", moves)
 
     def __call__(self, t):
-        out = self.moves[0].start_position + sum(np.asarray(m(t)) - m.start_position for m in self.moves)
+        out = self.moves[0].start_position + sum(
+            np.asarray(m(t)) - m.start_position for m in self.moves
+        )
         return out if np.ndim(t) else float(out)
 
     def rate(self, t):
@@ -187,7 +195,12 @@ class StepSequence(Signal):
     def __post_init__(self) -> None:
         t = np.ascontiguousarray(self.times, dtype=float).ravel()
         x = np.ascontiguousarray(self.positions, dtype=float).ravel()
-        if t.size != x.size or t.size < 1 or not np.all(np.isfinite(t)) or not np.all(np.isfinite(x)):
+        if (
+            t.size != x.size
+            or t.size < 1
+            or not np.all(np.isfinite(t))
+            or not np.all(np.isfinite(x))
+        ):
             raise ControlError("StepSequence needs equally many finite times [s] and positions [m]")
         if np.any(np.diff(t) <= 0):
             raise ControlError("StepSequence times must be strictly increasing")
@@ -217,8 +230,11 @@ class StepSequence(Signal):
         return float(np.max(np.abs(self.positions)))
 
     def __eq__(self, other):
-        return (isinstance(other, StepSequence) and np.array_equal(self.times, other.times)
-                and np.array_equal(self.positions, other.positions))
+        return (
+            isinstance(other, StepSequence)
+            and np.array_equal(self.times, other.times)
+            and np.array_equal(self.positions, other.positions)
+        )
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -262,14 +278,18 @@ def parse_reference(spec: str) -> Signal:
                 name, unit = _PROFILE_KEYS[key]
                 kw[name] = parse_quantity(val.strip(), unit, f"reference {key}")
             if kind == "scurve" and "jerk_time" not in kw:
-                raise ControlError("reference: an scurve needs jerk_time=... (e.g. jerk_time=20 ms)")
+                raise ControlError(
+                    "reference: an scurve needs jerk_time=... (e.g. jerk_time=20 ms)"
+                )
             return MotionProfile(**kw)
         if kind == "steps":
             times, pos = [], []
             for item in (p for p in rest.split(",") if p.strip()):
                 key, eq, val = item.partition("=")
                 if not eq:
-                    raise ControlError(f"reference: {item.strip()!r} in {spec!r} must read 'time=position'")
+                    raise ControlError(
+                        f"reference: {item.strip()!r} in {spec!r} must read 'time=position'"
+                    )
                 times.append(parse_quantity(key.strip(), "s", "reference step time"))
                 pos.append(parse_quantity(val.strip(), "m", "reference step position"))
             return StepSequence(np.array(times), np.array(pos))
@@ -290,10 +310,14 @@ def _from_file(path: Path, channel: str) -> Sampled:
         raise ControlError(f"reference file {path} does not exist")
     run = read_run(path, validate=False)
     if not run.has(channel):
-        raise ControlError(f"reference file {path} has no channel {channel!r}; write file:PATH#channel")
+        raise ControlError(
+            f"reference file {path} has no channel {channel!r}; write file:PATH#channel"
+        )
     unit = run.units.get(channel, "m")
     if unit not in ("m", ""):
-        raise ControlError(f"reference channel {channel!r} of {path} is in {unit}, not a position in m")
+        raise ControlError(
+            f"reference channel {channel!r} of {path} is in {unit}, not a position in m"
+        )
     return Sampled(run.t, run[channel])
 
 

@@ -16,7 +16,9 @@ _X0 = 0.05
 def _reference():
     from ._reference import MotionProfile, MoveSequence
 
-    return MoveSequence((MotionProfile(0.05, 0.15, 0.05, **_MOVE), MotionProfile(0.15, 0.05, 1.05, **_MOVE)))
+    return MoveSequence(
+        (MotionProfile(0.05, 0.15, 0.05, **_MOVE), MotionProfile(0.15, 0.05, 1.05, **_MOVE))
+    )
 
 
 def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any]:
@@ -46,13 +48,23 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
     design = design_state_feedback(pwa)
     ref = _reference()
     runs: dict[str, Any] = {}
-    for name, mdl, prm in (("full", "full", pwa.params), ("reduced", "reduced", pwa.params), ("pwa", pwa, pwa.params)):
-        runs[name] = simulate(mdl, duration=_DURATION, params=prm, controller=design.controller, reference=ref,
-                              x0=_X0)
+    for name, mdl, prm in (
+        ("full", "full", pwa.params),
+        ("reduced", "reduced", pwa.params),
+        ("pwa", pwa, pwa.params),
+    ):
+        runs[name] = simulate(
+            mdl, duration=_DURATION, params=prm, controller=design.controller, reference=ref, x0=_X0
+        )
     if verify_params is not None:
-        runs["full (true params)"] = simulate("full", duration=_DURATION, params=verify_params,
-                                              controller=design.controller, reference=ref,
-                                              x0=_X0)
+        runs["full (true params)"] = simulate(
+            "full",
+            duration=_DURATION,
+            params=verify_params,
+            controller=design.controller,
+            reference=ref,
+            x0=_X0,
+        )
     rows = {}
     for name, res in runs.items():
         m = tracking_metrics(res, 0.05, 1.05)  # the move out, its settling and hold

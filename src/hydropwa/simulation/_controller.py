@@ -44,7 +44,9 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
-C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH = range(12)
+C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH = range(
+    12
+)
 C_SCALE = 12
 C_ROWS = 16
 ROW = 15
