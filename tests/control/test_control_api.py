@@ -274,3 +274,79 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     assert code == 2 and err.startswith("error: ") and err.count("\n") == 1
     assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 2
     assert "exists; pass --force" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("model", ["reduced", "full"])
+def test_compiled_law_is_the_documented_law(paper, model):
+    """Every term of the PI law, recomputed in NumPy from the logged samples, gives the command.
+
+    c = k_p e + k_i I + k_ff ṙ − k_v ẋ − k_pl (P_L − P̄_L) − k_dpl Ṗ_L with P̄_L the low-pass
+    (T_w) and Ṗ_L the filtered (T_f) backward difference; the full model's P_L is the
+    force-equivalent (P_A A_A − P_B A_B)/Ā. Outputs at the 2 kHz sample instants.
+    """
+    c = PIController(
+        kp=150.0,
+        ki=800.0,
+        kff=1.5,
+        kv=0.3,
+        kpl=2e-8,
+        kdpl=1e-11,
+        pressure_filter=1e-3,
+        pressure_washout=0.05,
+    )
+    r = simulate(
+        model,
+        params=paper,
+        duration=0.3,
+        controller=c,
+        x0=0.05,
+        reference="trapezoid:from=50 mm,to=80 mm,v=0.2,a=5,start=0.02",
+    )
+    rec = r.control
+    ts = c.sample_time
+    assert np.allclose(r.t, rec["t"])
+    cyl = paper.cylinder
+    pl = (
+        (r["p_a"] * cyl.area_a - r["p_b"] * cyl.area_b) / cyl.mean_area
+        if model == "full"
+        else r["p_l"]
+    )
+    a_f, a_w = np.exp(-ts / c.pressure_filter), np.exp(-ts / c.pressure_washout)
+    dpl = np.zeros_like(pl)
+    plbar = np.empty_like(pl)
+    plbar[0] = pl[0]
+    for k in range(1, pl.size):
+        dpl[k] = a_f * dpl[k - 1] + (1 - a_f) * (pl[k] - pl[k - 1]) / ts
+        plbar[k] = a_w * plbar[k - 1] + (1 - a_w) * pl[k]
+    e = rec["reference"] - r["x"]
+    integral = np.concatenate(([0.0], np.cumsum(ts * e)[:-1]))
+    rate = MotionProfile(0.05, 0.08, 0.02, 0.2, 5.0).rate(rec["t"])
+    law = (
+        c.kp * e
+        + c.ki * integral
+        + c.kff * rate
+        - c.kv * r["v"]
+        - c.kpl * (pl - plbar)
+        - c.kdpl * dpl
+    )
+    np.testing.assert_allclose(rec["error"], e, atol=1e-12)
+    np.testing.assert_allclose(rec["integral"], integral, atol=1e-12)
+    np.testing.assert_allclose(rec["command"], law, atol=1e-9)
+    np.testing.assert_allclose(rec["u"], np.clip(law, -1, 1), atol=1e-9)
+
+
+def test_margins_agree_with_python_control():
+    import control
+
+    from hydropwa.control._design import _margins
+
+    ts = 5e-4
+    plant = control.sample_system(
+        control.tf([628.0**2 * 0.5], [1.0, 2 * 0.7 * 628.0, 628.0**2, 0.0]), ts
+    )
+    loop = control.series(control.tf([120.0 + 5.0, -120.0], [1.0, -1.0], ts), plant)
+    gm, pm, *_ = control.stability_margins(loop, method="frd")
+    w = np.geomspace(1e-2, 0.999 * np.pi / ts, 4000)
+    gm_db, pm_mine = _margins(np.asarray(loop(np.exp(1j * w * ts)), dtype=complex).ravel())
+    assert gm_db == pytest.approx(20 * np.log10(gm), abs=0.01)
+    assert pm_mine == pytest.approx(pm, abs=0.05)
