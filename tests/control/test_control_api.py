@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from hydropwa import SignalError
 from hydropwa.control import (
     ControlError,
     DeadZoneInverse,
@@ -20,7 +21,6 @@ from hydropwa.control import (
     save_controller,
     tracking_metrics,
 )
-from hydropwa import SignalError
 from hydropwa.simulation import simulate
 
 
