@@ -16,6 +16,7 @@ from hydropwa.control import (
     StateFeedbackController,
     StepSequence,
     design_pi,
+    design_state_feedback,
     load_controller,
     parse_reference,
     save_controller,
@@ -350,3 +351,42 @@ def test_margins_agree_with_python_control():
     gm_db, pm_mine = _margins(np.asarray(loop(np.exp(1j * w * ts)), dtype=complex).ravel())
     assert gm_db == pytest.approx(20 * np.log10(gm), abs=0.01)
     assert pm_mine == pytest.approx(pm, abs=0.05)
+
+
+def test_pole_placement_puts_every_cell_at_the_requested_poles(paper):
+    """control.place per cell: the table's closed-loop poles (ln z / T_s) are the requested ones."""
+    from hydropwa.linearization import linearize
+
+    w = 2 * np.pi * 10.0
+    poles = (
+        complex(-0.7 * w, 0.7 * w),
+        complex(-0.7 * w, -0.7 * w),
+        complex(-2 * w),
+        complex(-3 * w),
+    )
+    d = design_state_feedback(linearize(paper), method="place", poles=poles)
+    want = np.sort_complex(np.array(poles))
+    for text in d.table["poles"]:
+        got = np.sort_complex(
+            np.array([complex(p.replace("j", "") + "j") for p in text.split("; ")])
+        )
+        np.testing.assert_allclose(got, want, atol=1.0)  # printed to 1 1/s
+    assert (d.table["radius"] < 1.0).all()
+
+
+def test_closed_loop_figure_shows_the_runs(paper):
+    from hydropwa.control import plot_closed_loop
+
+    r = simulate(
+        "reduced",
+        params=paper,
+        duration=0.05,
+        controller=PIController(kp=100.0),
+        reference=0.11,
+        x0=0.1,
+    )
+    fig = plot_closed_loop({"reduced": r}, "P loop")
+    ax = fig.axes
+    assert len(ax) == 3 and ax[0].get_title() == "P loop"
+    np.testing.assert_allclose(ax[0].lines[1].get_ydata(), r["x"] * 1e3)
+    np.testing.assert_allclose(ax[1].lines[0].get_ydata(), r["error"] * 1e3)
