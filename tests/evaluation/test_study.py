@@ -40,6 +40,7 @@ def test_study_writes_the_report_folder(small_study):
     ):
         assert (out / rel).is_file(), rel
     assert len(list((out / "figures").glob("fig1[0-3]_*.png"))) == 4
+    assert "<h2>Closed loop</h2>" in (out / "index.html").read_text(encoding="utf-8")
     assert small_study.position_fit("full").min() >= 90.0
     assert set(small_study.metrics.model) >= {
         "full",
