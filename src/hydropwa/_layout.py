@@ -88,4 +88,11 @@ PWA_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("cell_n", "1"),
     ("cell_w", "1"),
 )
+#: Channels added in closed loop (``simulate(..., controller=...)``), filled from the controller log.
+CONTROL_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
+    ("reference", "m"),
+    ("error", "m"),
+    ("command", "1"),
+    ("cell_ctl", "1"),
+)
 OUT: dict[str, int] = {name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)}

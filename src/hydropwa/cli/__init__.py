@@ -38,6 +38,7 @@ _SUBAPPS = (
     ("._linearize", "register", "linearize"),
     ("._sweep", "sweep_command", "sweep"),
     ("._paper", "paper_command", "paper"),
+    ("._control", "app", "control"),
 )
 for _mod, _attr, _name in _SUBAPPS:
     try:

@@ -36,6 +36,7 @@ _CAPTIONS = {
     "fig12": "Fig. 12: low amplitude, high frequency",
     "fig13": "Fig. 13: high amplitude, high frequency",
     "pwa_cells": "PWA cell occupancy and partition",
+    "closed_loop": "Closed loop: one controller on the full, reduced and PWA models",
 }
 
 
@@ -109,6 +110,24 @@ def _params_section(out: Path) -> str:
     )
 
 
+def _closed_loop_section(out: Path) -> str:
+    import pandas as pd
+
+    f = out / "tables" / "closed_loop.csv"
+    if not f.is_file():
+        return ""
+    from ..control import POSITIONING_TASK
+
+    return f"""<h2>Closed loop</h2>
+<p>Positioning task: {html.escape(POSITIONING_TASK)}. The gain-scheduled LQR (one gain row per
+cell, integral action, dead-zone inverse; controller.toml) is designed on the identified PWA model
+only and verified on the full model. Times in ms, errors in mm, IAE in mm·s, saturation in %,
+chattering in sign changes of the command per second; step metrics of the move out, overshoot and
+settling of the move back in the last columns.</p>
+{_table(pd.read_csv(f), "tracking metrics per model")}
+{_figures(out, ("closed_loop",))}"""
+
+
 def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     """Write ``out/index.html`` from the study's tables and figures; returns its path."""
     import pandas as pd
@@ -164,6 +183,8 @@ shape of the motion:</p>
 <h2>Piecewise-affine model (Figs. 1, 2, cells)</h2>
 <p class="small">pwa.json holds the model with one affine system per cell.</p>
 {_figures(out, ("fig01", "fig02", "pwa_cells"))}
+
+{_closed_loop_section(out)}
 
 <h2>All metrics</h2>
 <p class="small">Per run, model and channel; RMSE and peak error in mm, bar, mm/s; drift of the

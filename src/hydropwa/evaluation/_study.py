@@ -607,6 +607,27 @@ def _stage_evaluate(
     return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
 
 
+def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
+    """Closed loop: an LQR designed on the identified PWA model, verified on the full model."""
+    out = inp.out
+
+    def work():
+        from ..control import closed_loop_study, plot_closed_loop, save_controller
+        from ..linearization import load_pwa
+
+        runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
+        files = [save_controller(design.controller, out / "controller.toml", force=True)]
+        files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
+        files += _write_table(design.table, out / "tables" / "closed_loop_cells")
+        shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa")}
+        files += _save(plot_closed_loop(shown, "LQR designed on the identified PWA model"),
+                       out / "figures" / "closed_loop")
+        return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
+
+    runner.run("control", text_hash(inp.key(), key, "control"), work)
+    return runner.outputs_hash("control")
+
+
 def _stage_report(
     inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict
 ):
@@ -695,7 +716,8 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
             "supply_pressure": ps,
             "n_sine_runs": len(runs),
         }
-        _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, info), notes, info)
+        k4 = _stage_control(inp, runner, true, k2)
+        _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, k4, info), notes, info)
     return StudyResult(
         out=inp.out,
         report=inp.out / "index.html",

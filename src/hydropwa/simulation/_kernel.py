@@ -75,6 +75,7 @@ from ..components._physics import (
     stribeck_friction_slope,
     supply_flow,
 )
+from ._controller import N_CST, N_LOG, controller_sample
 from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
 
 FULL, REDUCED, PWA = 0, 1, 2
@@ -903,9 +904,11 @@ def _integrate(
     piv = np.empty(n, dtype=np.int64)
     atol = rtol * scale
     stats = np.zeros(4, dtype=np.int64)
+    none = np.empty(0)
     k_out, status, t = _march(
         kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
         exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+        none, none, none, none, np.empty((N_LOG, 0)),
     )
     return Y, k_out, status, t, y, stats
 
@@ -914,6 +917,7 @@ def _integrate(
 def _march(
     kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
     exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+    ctl, cst, ref, dref, log,
 ):
     """The step loop of :func:`_integrate` on arrays it owns; returns (rows filled, status, t).
 
@@ -922,9 +926,17 @@ def _march(
     (in a reference-counted caller each array argument costs an incref/decref pair).
     ``y`` holds y0 on entry and the last accepted state on return; ``stats`` receives
     [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
+
+    Closed loop (``ctl`` not empty, see :mod:`._controller`): the steps end on every
+    sample instant t_k = t_0 + k·ctl[0] (k < ``log.shape[1]``), where
+    :func:`~._controller.controller_sample` writes the new valve command into the
+    constant input slot sg[16]; f is re-evaluated there (and the exact Jacobians of the
+    reduced and PWA models, which depend on u, refreshed; the full model's ∂f/∂y does
+    not depend on u, so its Jacobian is kept).
     """
     n = n_states(kind)
     n_out = t_out.shape[0]
+    closed = ctl.shape[0] > 0
     gamma = PW2_GAMMA if method == ROS34PW2 else _D23
     reuse = jac_reuse and method == ROS34PW2
     # after an accepted step whose error exceeds this fraction of the tolerance the Jacobian
@@ -937,6 +949,13 @@ def _march(
     for i in range(n):
         Y[0, i] = y[i]
     k_out = 1
+    t_stop = t_end
+    k_smp = 0
+    if closed:  # first sample at t_0, the next one ends the first steps
+        controller_sample(kind, 0, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
+        k_smp = 1
+        if k_smp < log.shape[1]:
+            t_stop = min(t_end, t_out[0] + k_smp * ctl[0])
     u, ps, fl = _inputs(t, sg)
     rhs_at(kind, y, u, ps, fl, p, f0)
     nfev = 1
@@ -959,8 +978,8 @@ def _march(
         if h < hmin:
             status = STEP_COLLAPSE
             break
-        if t + h > t_end:
-            h = t_end - t
+        if t + h > t_stop or (closed and t + 1.1 * h > t_stop):
+            h = t_stop - t  # closed loop: also no sliver of a step left before the sample
             if h < hmin:
                 h = hmin
         if need_jac:
@@ -1019,6 +1038,16 @@ def _march(
             n_acc += 1
             jac_age += 1
             need_jac = not reuse or jac_age >= 8 or err > jac_err
+            if closed and k_smp < log.shape[1] and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
+                t = t_stop
+                controller_sample(kind, k_smp, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
+                k_smp += 1
+                t_stop = min(t_end, t_out[0] + k_smp * ctl[0]) if k_smp < log.shape[1] else t_end
+                u, ps, fl = _inputs(t, sg)
+                rhs_at(kind, y, u, ps, fl, p, f0)
+                nfev += 1
+                if kind != FULL:
+                    need_jac = True
             cb = np.cbrt(err) if err > 0.0 else 0.0
             fac = 0.9 / cb if err > 0.0 else 5.0
             if gustafsson and h_acc > 0.0 and err > 0.0:
@@ -1065,6 +1094,76 @@ def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, j
 
 
 _ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
+
+
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
+def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+    """:func:`_integrate` with the discrete controller ``ctl`` in the loop (see :mod:`._controller`).
+
+    ``sg`` must hold the valve command as a constant signal; its value slot is the
+    controller's output. ``ref``, ``dref``: reference position [m] and rate [m/s] at the
+    sample instants t_0 + k·ctl[0], k < len(ref). Returns :func:`_integrate`'s tuple and
+    the per-sample log, shape (N_LOG, len(ref)) (rows in :mod:`._controller`).
+    """
+    n = n_states(kind)
+    n_out = t_out.shape[0]
+    Y = np.empty((n_out, n))
+    y = y0.copy()
+    f0 = np.empty(n)
+    fnew = np.empty(n)
+    ft = np.empty(n)
+    yt = np.empty(n)
+    ynew = np.empty(n)
+    yerr = np.empty(n)
+    dfdt = np.empty(n)
+    U = np.empty((4, n))
+    J = np.empty((n, n))
+    W = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    atol = rtol * scale
+    stats = np.zeros(4, dtype=np.int64)
+    cst = np.zeros(N_CST)
+    log = np.full((N_LOG, ref.shape[0]), np.nan)
+    k_out, status, t = _march(
+        kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, True, True,
+        True, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
+        ctl, cst, ref, dref, log,
+    )
+    return Y, k_out, status, t, y, stats, log
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _closed_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+    return _integrate_closed(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _closed_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+    return _integrate_closed(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _closed_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+    return _integrate_closed(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+
+
+_CLOSED = {FULL: _closed_full, REDUCED: _closed_reduced, PWA: _closed_pwa}
+
+
+def integrate_closed_loop(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+    """Closed-loop :func:`integrate`: the compiled controller ``ctl`` sets the valve command.
+
+    Returns (Y, rows filled, status, t, y, stats, log); see :func:`_integrate_closed`.
+    """
+    if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
+        raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
+    if sg[0] != 0.0:
+        raise ValueError("closed loop: the valve command must be packed as a constant signal")
+    with _interruptible():
+        return _CLOSED[int(kind)](
+            y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method),
+            ctl, ref, dref,
+        )
 
 
 @contextmanager

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import SignalError, SimulationError
-from .._layout import OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
+from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
 from . import _kernel as K
 from ._signals import Constant, Sampled, as_signal, pack_signals
 
@@ -24,7 +24,9 @@ DEFAULT_RTOL = 1e-3
 __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
-CHANNEL_UNITS: dict[str, str] = {"t": "s", **dict(OUTPUT_CHANNELS), **dict(PWA_OUTPUT_CHANNELS)}
+CHANNEL_UNITS: dict[str, str] = {
+    "t": "s", **dict(OUTPUT_CHANNELS), **dict(PWA_OUTPUT_CHANNELS), **dict(CONTROL_OUTPUT_CHANNELS)
+}
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
 _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
 _STATUS = {
@@ -57,6 +59,11 @@ class SimulationResult:
         Description of the input signals.
     stats : dict
         Solver statistics: steps, rejected, rhs_evaluations, wall_time [s], rtol.
+    control : dict
+        Closed loop only: the controller's per-sample record (``t`` [s], ``u`` applied
+        command [1], ``reference`` [m], ``error`` [m], ``command`` before the dead-zone
+        inverse and saturation [1], ``row`` gain row, ``integral`` [m·s]), its
+        ``sample_time`` [s], ``u_limits`` and ``description``; empty in open loop.
     """
 
     t: np.ndarray
@@ -67,6 +74,7 @@ class SimulationResult:
     params: Any
     inputs: dict[str, dict] = field(default_factory=dict)
     stats: dict[str, Any] = field(default_factory=dict)
+    control: dict[str, Any] = field(default_factory=dict)
 
     @property
     def units(self) -> dict[str, str]:
@@ -184,6 +192,8 @@ def simulate(
     hmax: float | None = None,
     raise_on_failure: bool = True,
     solver: str = "ros34pw2",
+    controller=None,
+    reference=None,
 ) -> SimulationResult:
     """Simulate any model (full, reduced or PWA) with time-varying inputs.
 
@@ -224,6 +234,15 @@ def simulate(
     solver : {"ros34pw2", "ros23"}
         Rosenbrock method: the third-order W-method ROS34PW2 (default, reuses
         its Jacobian across steps) or the second-order ROS2(3) of ``ode23s``.
+    controller : hydropwa.control controller, optional
+        Close the loop: a discrete controller (anything with ``pack()`` returning the
+        vector of :mod:`hydropwa.simulation._controller`, e.g.
+        :class:`hydropwa.control.PIController`) sets the valve command at its sample
+        instants (zero-order hold); ``u`` must then be left at 0.
+    reference : float, str, Signal or (t, values), optional
+        Closed loop: reference position r(t) [m] (a number, a spec such as
+        ``"step:time=0.05,before=0.1,after=0.12"``, a Signal, e.g.
+        :class:`hydropwa.control.MotionProfile`, or samples). Required with ``controller``.
 
     Returns
     -------
@@ -251,6 +270,15 @@ def simulate(
         if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
             raise SignalError("t must hold at least two finite, strictly increasing times [s]")
         duration = float(t_out[-1] - t_out[0])
+    closed = controller is not None
+    if closed:
+        if not (isinstance(u, int | float) and u == 0.0):
+            raise SignalError("give either a valve command u or a controller, not both")
+        if reference is None:
+            raise SignalError("a controller needs a reference position (reference=...)")
+        u = 0.0
+    elif reference is not None:
+        raise SignalError("reference is the set point of a controller; pass controller=... as well")
     u_sig = as_signal(u, "", "u")
     ps_sig = as_signal(prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure")
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
@@ -264,6 +292,8 @@ def simulate(
             )
     sigs = [u_sig, ps_sig, fl_sig]
     p = mdl.pack(command_amplitude=u_sig.peak(duration))
+    if closed:  # the command amplitude is not known beforehand: the valve's nominal ω0
+        p[K.I_OMEGA0] = prm.valve.omega0
     ps0 = ps_sig(t_out[0])
     fl0 = fl_sig(t_out[0])
     if initial_state is None:
@@ -282,24 +312,34 @@ def simulate(
     if solver not in K.SOLVERS:
         raise SignalError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
     sg = pack_signals(sigs)
+    if closed:
+        ctl, ref_sig, ref, dref = _closed_loop_setup(controller, reference, t_out)
     t0 = _time.perf_counter()
-    Y, n_done, status, t_fail, y_fail, stats = K.integrate(
-        mdl.kind,
-        y0,
-        t_out,
-        p,
-        sg,
-        float(rtol),
-        mdl.state_scale(),
-        1e-5,
-        float(hmax),
-        int(max_steps),
-        K.SOLVERS[solver],
-        True,
-        True,
-    )
+    if closed:
+        Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
+            mdl.kind, y0, t_out, p, sg, float(rtol), mdl.state_scale(), 1e-5, float(hmax), int(max_steps),
+            K.SOLVERS[solver], ctl, ref, dref,
+        )
+    else:
+        Y, n_done, status, t_fail, y_fail, stats = K.integrate(
+            mdl.kind,
+            y0,
+            t_out,
+            p,
+            sg,
+            float(rtol),
+            mdl.state_scale(),
+            1e-5,
+            float(hmax),
+            int(max_steps),
+            K.SOLVERS[solver],
+            True,
+            True,
+        )
     wall = _time.perf_counter() - t0
     Y = Y[:n_done]
+    if closed:  # derived channels see the held command of each sample interval
+        sg = pack_signals([_held_command(log, t_out[0]), ps_sig, fl_sig])
     out = K.outputs(mdl.kind, t_out, Y, n_done, p, sg)
     # the times are the caller's array when t was given: copy them then, not our own grid
     channels = {"t": t_out[:n_done] if t is None else t_out[:n_done].copy()}
@@ -308,6 +348,15 @@ def simulate(
     if mdl.kind == K.PWA:
         for i, name in enumerate(_PWA_COLS):
             channels[name] = out[len(_OUT_COLS) + i]
+    control: dict[str, Any] = {}
+    if closed:
+        control = _control_record(controller, ctl, log)
+        tt = channels["t"]
+        j = np.clip(np.floor((tt - t_out[0]) / ctl[0] + 1e-6).astype(int), 0, log.shape[1] - 1)
+        channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
+        channels["error"] = channels["reference"] - channels["x"]
+        channels["command"] = log[4, j]
+        channels["cell_ctl"] = log[5, j]
     result = SimulationResult(
         t=channels["t"],
         channels=channels,
@@ -327,6 +376,7 @@ def simulate(
             "status": int(status),
             "omega0": float(p[K.I_OMEGA0]),
         },
+        control=control,
     )
     if status != K.OK:
         state = {name: float(v) for name, v in zip(mdl.state_names, y_fail, strict=True)}
@@ -340,3 +390,76 @@ def simulate(
             raise SimulationError(msg, t=float(t_fail), state=state, partial=result)
     return result
 
+
+
+def _closed_loop_setup(controller, reference, t_out):
+    """Packed controller, reference signal and reference samples/rates at the sample instants."""
+    from ._controller import eval_rates
+
+    try:
+        ctl = np.ascontiguousarray(controller.pack(), dtype=float)
+    except AttributeError:
+        raise SignalError(
+            f"cannot use a {type(controller).__name__} as a controller; give one of hydropwa.control's controllers"
+        ) from None
+    ts = float(ctl[0]) if ctl.size else 0.0
+    if ctl.size < 16 or not (ts > 0) or not math.isfinite(ts):
+        raise SignalError("controller vector is malformed (sample time must be a positive number of seconds)")
+    if isinstance(reference, str):  # motion profiles and files are specs of the control layer
+        from ..control import as_reference
+
+        ref_sig = as_reference(reference)
+    else:
+        ref_sig = as_signal(reference, "m", "reference")
+    span = float(t_out[-1] - t_out[0])
+    n_smp = int(math.floor(span / ts + 1e-9)) + 1
+    tk = t_out[0] + ts * np.arange(n_smp)
+    ref = np.ascontiguousarray(ref_sig(tk), dtype=float)
+    if hasattr(ref_sig, "rate"):
+        dref = np.ascontiguousarray(ref_sig.rate(tk), dtype=float)
+    else:
+        dref = eval_rates(pack_signals([ref_sig]), 0, tk)
+    if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(dref))):
+        raise SignalError("reference is not finite at every sample instant")
+    return ctl, ref_sig, ref, dref
+
+
+def _held_command(log: np.ndarray, t0: float) -> Sampled:
+    """The applied command of every sample interval as a staircase signal (zero-order hold)."""
+    tk, uk = _done(log, 0), _done(log, 1)
+    if tk.size < 2:
+        u0 = float(uk[0]) if uk.size else 0.0
+        return Sampled(np.array([t0, t0 + 1.0]), np.array([u0, u0]))
+    d = 1e-7 * float(np.min(np.diff(tk)))
+    tt = np.empty(2 * tk.size - 1)
+    vv = np.empty_like(tt)
+    tt[0], vv[0] = tk[0], uk[0]
+    tt[1::2], vv[1::2] = tk[1:] - 2.0 * d, uk[:-1]
+    tt[2::2], vv[2::2] = tk[1:] - d, uk[1:]
+    return Sampled(tt, vv)
+
+
+def _done(log: np.ndarray, row: int) -> np.ndarray:
+    """Row ``row`` of the log over the samples reached (a failed run stops early; no copy otherwise)."""
+    n = log.shape[1]
+    if n and not np.isfinite(log[0, n - 1]):
+        n = int(np.count_nonzero(np.isfinite(log[0])))
+    return log[row, :n]
+
+
+def _control_record(controller, ctl, log) -> dict[str, Any]:
+    """The controller's per-sample log as named arrays (see ``SimulationResult.control``)."""
+    rec: dict[str, Any] = {
+        "t": _done(log, 0),
+        "u": _done(log, 1),
+        "reference": _done(log, 2),
+        "error": _done(log, 3),
+        "command": _done(log, 4),
+        "row": _done(log, 5).astype(np.int64),
+        "integral": _done(log, 6),
+        "sample_time": float(ctl[0]),
+        "u_limits": (float(ctl[2]), float(ctl[3])),
+    }
+    describe = getattr(controller, "describe", None)
+    rec["description"] = describe() if callable(describe) else {"kind": type(controller).__name__}
+    return rec

@@ -1,0 +1,250 @@
+"""``hydropwa control``: design a controller on the PWA model and simulate it in closed loop.
+
+``hydropwa control design --params P.toml --out ctrl.toml`` and
+``hydropwa control simulate --model full --controller ctrl.toml --reference "..." --out run.parquet --plot run.png``.
+Thin wrappers over :mod:`hydropwa.control`; user errors are :class:`~hydropwa.HydropwaError`.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .._errors import check_output
+
+__all__ = ["app", "design_command", "simulate_command"]
+
+app = typer.Typer(
+    help="Closed-loop position control: design on the PWA model, verify on any model.",
+    no_args_is_help=True,
+)
+
+
+def _pwa_model(params_src: str | None, pwa_file: Path | None):
+    from ..linearization import linearize, load_pwa
+    from ._core import resolve_params
+
+    if pwa_file is not None:
+        return load_pwa(pwa_file)
+    return linearize(resolve_params(params_src))
+
+
+def _weights(text: str | None) -> dict[str, float]:
+    from ..control import DEFAULT_WEIGHTS, ControlError
+    from ..params import parse_quantity
+
+    units = {"p_l": "Pa", "v": "m/s", "x": "m", "integral": "m*s", "u": ""}
+    out: dict[str, float] = {}
+    for part in (p for p in (text or "").split(",") if p.strip()):
+        key, eq, val = part.partition("=")
+        key = key.strip()
+        if not eq or key not in DEFAULT_WEIGHTS:
+            raise ControlError(
+                f"--weights {text!r}: write key=value with key one of {', '.join(DEFAULT_WEIGHTS)}"
+            )
+        out[key] = parse_quantity(val.strip(), units[key], f"--weights {key}")
+    return out
+
+
+def _sample_time(rate: str) -> float:
+    from ..control import ControlError
+    from ..params import parse_quantity
+
+    f = parse_quantity(rate, "Hz", "--rate")
+    if not f > 0:
+        raise ControlError(f"--rate {rate!r} must be a positive rate, e.g. '2 kHz'")
+    return 1.0 / f
+
+
+@app.command("design")
+def design_command(
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Controller file to write (.toml or .json).")
+    ],
+    params: Annotated[
+        str | None,
+        typer.Option("--params", "-p", help="Preset or parameter TOML (default: paper)."),
+    ] = None,
+    pwa: Annotated[
+        Path | None, typer.Option("--pwa", help="Design on this PWA JSON document instead.")
+    ] = None,
+    method: Annotated[
+        str, typer.Option("--method", help="lqr (per cell), place (per cell) or pi.")
+    ] = "lqr",
+    rate: Annotated[
+        str, typer.Option("--rate", help="Controller sample rate, e.g. '2 kHz'.")
+    ] = "2 kHz",
+    delay: Annotated[
+        bool, typer.Option("--delay", help="One sample of computation delay.")
+    ] = False,
+    weights: Annotated[
+        str | None,
+        typer.Option(
+            "--weights", help="LQR Bryson maxima, e.g. 'x=2 mm,integral=1e-4,v=1,p_l=100 bar'."
+        ),
+    ] = None,
+    load_force: Annotated[
+        str | None,
+        typer.Option("--load-force", help="Load force the cells are linearized at ('500 N')."),
+    ] = None,
+    no_dead_zone_inverse: Annotated[
+        bool,
+        typer.Option("--no-dead-zone-inverse", help="Leave the valve dead zone uncompensated."),
+    ] = False,
+    table: Annotated[
+        Path | None, typer.Option("--table", help="Also write the per-cell table (CSV).")
+    ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Design a controller on the PWA model and write it with its per-cell table."""
+    from ..control import ControlError, design_pi, design_state_feedback, save_controller
+    from ..params import parse_quantity
+
+    check_output(out, force)
+    if table is not None:
+        check_output(table, force)
+    if out.suffix.lower() not in (".toml", ".json"):
+        raise ControlError(f"--out {out} must end in .toml or .json")
+    model = _pwa_model(params, pwa)
+    ts = _sample_time(rate)
+    dzi = not no_dead_zone_inverse
+    if method == "pi":
+        d = design_pi(model, sample_time=ts, delay=delay, dead_zone_inverse=dzi)
+    elif method in ("lqr", "place"):
+        fl = None if load_force is None else parse_quantity(load_force, "N", "--load-force")
+        d = design_state_feedback(
+            model,
+            method=method,
+            sample_time=ts,
+            delay=delay,
+            weights=_weights(weights),
+            load_force=fl,
+            dead_zone_inverse=dzi,
+        )
+    else:
+        raise ControlError(f"--method {method!r} must be lqr, place or pi")
+    save_controller(d.controller, out, force=force)
+    for w in d.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    typer.echo(d.summary().split("\nwarning:")[0])
+    written = [str(out)]
+    if table is not None:
+        from .._io import atomic_write_text
+
+        atomic_write_text(table, d.table.to_csv(index=False))
+        written.append(str(table))
+    typer.echo(f"wrote {', '.join(written)}")
+
+
+@app.command("simulate")
+def simulate_command(
+    controller: Annotated[
+        Path,
+        typer.Option(
+            "--controller", "-c", help="Controller file (.toml/.json) from 'control design'."
+        ),
+    ],
+    reference: Annotated[
+        str,
+        typer.Option(
+            "--reference",
+            "-r",
+            help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'.",
+        ),
+    ],
+    model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
+    params: Annotated[
+        str | None,
+        typer.Option("--params", "-p", help="Preset or parameter TOML (default: paper)."),
+    ] = None,
+    pwa: Annotated[
+        Path | None,
+        typer.Option("--pwa", help="PWA JSON document (model pwa; default: linearize the params)."),
+    ] = None,
+    duration: Annotated[
+        float | None,
+        typer.Option(
+            "--duration",
+            "-d",
+            help="Simulated time [s] (default: end of the move + 0.5 s, else 2 s).",
+        ),
+    ] = None,
+    x0: Annotated[
+        str | None,
+        typer.Option("--x0", help="Initial position ('100 mm'); default the reference at t = 0."),
+    ] = None,
+    load_force: Annotated[
+        str | None, typer.Option("--load-force", help="Constant ('500 N') or signal spec for F_L.")
+    ] = None,
+    supply_pressure: Annotated[
+        str | None,
+        typer.Option("--supply-pressure", help="Constant ('95 bar') or signal spec for P_S."),
+    ] = None,
+    rtol: Annotated[
+        float, typer.Option("--rtol", help="Relative tolerance of the integrator.")
+    ] = 1e-3,
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Trajectory (.csv or .parquet) with reference, error, command."
+        ),
+    ] = Path("run.parquet"),
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")
+    ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Simulate a model under a controller file and print the tracking metrics."""
+    from ..control import (
+        METRIC_UNITS,
+        ControlError,
+        MotionProfile,
+        as_reference,
+        load_controller,
+        plot_closed_loop,
+        save_control_figure,
+        tracking_metrics,
+    )
+    from ..params import parse_quantity
+    from ..simulation import simulate
+    from ._core import resolve_params
+
+    if model not in ("full", "reduced", "pwa"):
+        raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise ControlError(f"--out {out} must end in .csv or .parquet")
+    check_output(out, force)
+    if plot is not None:
+        check_output(plot, force)
+    ctrl = load_controller(controller)
+    ref = as_reference(reference)
+    if duration is None:
+        duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+    prm = resolve_params(params)
+    mdl = _pwa_model(params, pwa) if model == "pwa" else model
+    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    res = simulate(
+        mdl,
+        duration=duration,
+        params=prm,
+        controller=ctrl,
+        reference=ref,
+        x0=start,
+        load_force=load_force,
+        supply_pressure=supply_pressure,
+        rtol=rtol,
+    )
+    if out.suffix.lower() == ".csv":
+        res.to_csv(out)
+    else:
+        res.to_parquet(out)
+    m = tracking_metrics(res)
+    typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
+    msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
+    if plot is not None:
+        save_control_figure(plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"), plot)
+        msg += f" and {plot}"
+    typer.echo(msg)

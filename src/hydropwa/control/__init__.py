@@ -1,0 +1,59 @@
+"""Closed-loop position control: design on the PWA model, verify on the full model.
+
+Controllers (:class:`PIController`, :class:`StateFeedbackController`) are frozen
+objects that pack into a float vector evaluated inside the compiled integrator at
+every sample instant (``simulate(model, controller=..., reference=...)``); design with
+python-control on the PWA cells (:func:`design_state_feedback`, :func:`design_pi`);
+tracking metrics and the comparison of one controller on the three models
+(:func:`tracking_metrics`, :func:`compare_models`, :func:`plot_closed_loop`); controller
+files with units (:func:`save_controller`, :func:`load_controller`). See
+docs/architecture_control.md.
+"""
+
+from ._controllers import (
+    ANTI_WINDUP,
+    DEFAULT_SAMPLE_TIME,
+    ControlError,
+    DeadZoneInverse,
+    GainRow,
+    PIController,
+    StateFeedbackController,
+)
+from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
+from ._figures import plot_closed_loop, save_control_figure
+from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
+from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
+from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
+from ._study import POSITIONING_TASK, closed_loop_study
+
+__all__ = [
+    "ANTI_WINDUP",
+    "DEFAULT_SAMPLE_TIME",
+    "DEFAULT_WEIGHTS",
+    "METRIC_UNITS",
+    "SCHEMA",
+    "ControlDesign",
+    "ControlError",
+    "DeadZoneInverse",
+    "GainRow",
+    "MotionProfile",
+    "MoveSequence",
+    "POSITIONING_TASK",
+    "PIController",
+    "StateFeedbackController",
+    "StepSequence",
+    "as_reference",
+    "cell_plant",
+    "closed_loop_study",
+    "compare_models",
+    "controller_from_dict",
+    "controller_to_dict",
+    "design_pi",
+    "design_state_feedback",
+    "load_controller",
+    "parse_reference",
+    "plot_closed_loop",
+    "save_control_figure",
+    "save_controller",
+    "tracking_metrics",
+]

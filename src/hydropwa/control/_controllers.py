@@ -1,0 +1,409 @@
+"""Discrete position controllers as frozen, validated objects that pack for the compiled loop.
+
+Every controller runs at a fixed sample time with a zero-order hold, an optional
+one-sample computation delay, valve-command saturation and anti-windup, and an
+optional dead-zone inverse; :meth:`pack` gives the float vector that
+:func:`hydropwa.simulation._controller.controller_sample` evaluates inside the
+integrator, so ``simulate(model, controller=..., reference=...)`` calls no Python
+per sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._errors import HydropwaError
+from ..simulation import _controller as C
+
+__all__ = [
+    "ControlError",
+    "DeadZoneInverse",
+    "PIController",
+    "GainRow",
+    "StateFeedbackController",
+    "ANTI_WINDUP",
+    "DEFAULT_SAMPLE_TIME",
+]
+
+#: 2 kHz, the rig's real-time target (Sec. V of the paper).
+DEFAULT_SAMPLE_TIME = 5e-4
+ANTI_WINDUP = {"none": C.AW_NONE, "clamp": C.AW_CLAMP, "back-calculation": C.AW_BACK}
+#: scales [Pa, m/s, m, 1] of the distance to a gain row's box (1 bar, 1 mm/s, 1 mm, 1 %)
+BOX_SCALES = (1e5, 1e-3, 1e-3, 1e-2)
+
+
+class ControlError(HydropwaError, ValueError):
+    """A controller, reference or design request that cannot be used as given."""
+
+
+def _finite(
+    obj, name: str, unit: str, *, gt: float | None = None, ge: float | None = None
+) -> float:
+    v = getattr(obj, name)
+    if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
+        raise ControlError(f"{type(obj).__name__}.{name} = {v!r} must be a number in {unit}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ControlError(f"{type(obj).__name__}.{name} = {v} {unit} is not finite")
+    if gt is not None and not v > gt:
+        raise ControlError(f"{type(obj).__name__}.{name} = {v:g} {unit} must be > {gt:g}")
+    if ge is not None and not v >= ge:
+        raise ControlError(f"{type(obj).__name__}.{name} = {v:g} {unit} must be >= {ge:g}")
+    object.__setattr__(obj, name, v)
+    return v
+
+
+@dataclass(frozen=True)
+class DeadZoneInverse:
+    """Inverse of the valve dead zone, Eq. (2) / Table IV, placed after the controller.
+
+    Attributes
+    ----------
+    offset : float
+        Outer-cell offset [1] of the dead zone (β, or β(1 − creep) if continuous).
+    width : float
+        Blend width z_w [1]: for |c| < z_w the inverse is the line through zero that
+        meets u = c + offset·sign(c) at |c| = z_w (no ±offset switching near zero).
+    """
+
+    offset: float = 0.1
+    width: float = 0.0
+
+    def __post_init__(self) -> None:
+        _finite(self, "offset", "1", ge=0.0)
+        _finite(self, "width", "1", ge=0.0)
+        if self.offset >= 1.0:
+            raise ControlError(
+                f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)"
+            )
+
+    @classmethod
+    def from_params(cls, dead_zone, width: float | None = None) -> DeadZoneInverse:
+        """Inverse of an identified :class:`~hydropwa.params.DeadZone` (Table IV cells).
+
+        The default width makes the small-signal gain through the creep band one:
+        creep·(z_w + β)/z_w = 1, i.e. z_w = creep·β/(1 − creep) (4.2e-3 for Table IV);
+        without creep z_w = 0.01·β.
+        """
+        creep, beta = float(dead_zone.creep_slope), float(dead_zone.beta)
+        if width is None:
+            width = creep * beta / (1.0 - creep) if creep > 0.0 else 0.01 * beta
+        return cls(offset=float(dead_zone.outer_offset), width=float(width))
+
+    def __call__(self, c: float) -> float:
+        """Valve command u [1] for the desired opening c [1]."""
+        return float(C.dead_zone_inverse(float(c), self.offset, self.width))
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Discrete:
+    """Settings shared by every controller: sampling, limits, anti-windup, dead-zone inverse.
+
+    ``pressure_washout`` T_w [s] (0: off): the load-pressure gains act on P_L − P̄_L, P̄_L
+    its first-order low-pass, so they damp the pressure dynamics without fighting a static
+    load (which the integral then carries, whichever gain row is active).
+    ``load_pressure``: the definition of P_L the gains were designed for, ``asymmetric``
+    (P_A − α P_B, the default models) or ``mean-area`` (the paper's form); on the full model
+    the controller measures that quantity from the chamber pressures.
+    """
+
+    sample_time: float = DEFAULT_SAMPLE_TIME
+    delay: bool = False
+    u_min: float = -1.0
+    u_max: float = 1.0
+    anti_windup: str = "clamp"
+    tracking_gain: float = 0.0
+    dead_zone_inverse: DeadZoneInverse | None = None
+    pressure_washout: float = 0.0
+    load_pressure: str = "asymmetric"
+
+    kind = "controller"
+
+    def __post_init__(self) -> None:
+        ts = _finite(self, "sample_time", "s", gt=0.0)
+        if ts > 0.1:
+            raise ControlError(
+                f"{type(self).__name__}.sample_time = {ts:g} s is longer than 0.1 s; did you give a rate in Hz? "
+                "(2 kHz is 0.0005 s)"
+            )
+        _finite(self, "u_min", "1")
+        _finite(self, "u_max", "1")
+        if not self.u_min < self.u_max:
+            raise ControlError(
+                f"{type(self).__name__}: u_min = {self.u_min:g} must be below u_max = {self.u_max:g}"
+            )
+        if not isinstance(self.delay, bool | np.bool_):
+            raise ControlError(
+                f"{type(self).__name__}.delay = {self.delay!r} must be true or false"
+            )
+        object.__setattr__(self, "delay", bool(self.delay))
+        if self.anti_windup not in ANTI_WINDUP:
+            raise ControlError(
+                f"{type(self).__name__}.anti_windup = {self.anti_windup!r}; choose one of {', '.join(ANTI_WINDUP)}"
+            )
+        _finite(self, "tracking_gain", "1/s", ge=0.0)
+        _finite(self, "pressure_washout", "s", ge=0.0)
+        if self.load_pressure not in ("asymmetric", "mean-area"):
+            raise ControlError(
+                f"{type(self).__name__}.load_pressure = {self.load_pressure!r}; choose asymmetric or mean-area"
+            )
+        if self.anti_windup == "back-calculation" and self.tracking_gain == 0.0:
+            raise ControlError(
+                f"{type(self).__name__}: back-calculation anti-windup needs tracking_gain > 0 1/s "
+                "(about the integral's corner frequency)"
+            )
+        if self.dead_zone_inverse is not None and not isinstance(
+            self.dead_zone_inverse, DeadZoneInverse
+        ):
+            raise ControlError(
+                f"{type(self).__name__}.dead_zone_inverse must be a DeadZoneInverse or None"
+            )
+
+    @property
+    def sample_rate(self) -> float:
+        """Sample rate [Hz]."""
+        return 1.0 / self.sample_time
+
+    def _rows(self) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _pressure_filter(self) -> float:
+        return 0.0
+
+    def pack(self) -> np.ndarray:
+        """Float vector of the compiled controller (layout in :mod:`hydropwa.simulation._controller`)."""
+        rows = self._rows()
+        v = np.zeros(C.C_ROWS + C.ROW * rows.shape[0])
+        v[C.C_TS] = self.sample_time
+        v[C.C_DELAY] = 1.0 if self.delay else 0.0
+        v[C.C_UMIN], v[C.C_UMAX] = self.u_min, self.u_max
+        v[C.C_AW] = ANTI_WINDUP[self.anti_windup]
+        v[C.C_KT] = self.tracking_gain
+        if self.dead_zone_inverse is not None:
+            v[C.C_DZINV] = 1.0
+            v[C.C_DZOFF] = self.dead_zone_inverse.offset
+            v[C.C_DZW] = self.dead_zone_inverse.width
+        tf = self._pressure_filter()
+        v[C.C_FILT] = math.exp(-self.sample_time / tf) if tf > 0.0 else 0.0
+        v[C.C_NROWS] = rows.shape[0]
+        tw = self.pressure_washout
+        v[C.C_WASH] = math.exp(-self.sample_time / tw) if tw > 0.0 else 0.0
+        v[C.C_PLMEAN] = 1.0 if self.load_pressure == "mean-area" else 0.0
+        v[C.C_SCALE : C.C_SCALE + 4] = BOX_SCALES
+        v[C.C_ROWS :] = rows.ravel()
+        return v
+
+    def _common(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "sample_time": self.sample_time,
+            "delay": self.delay,
+            "u_min": self.u_min,
+            "u_max": self.u_max,
+            "anti_windup": self.anti_windup,
+            "tracking_gain": self.tracking_gain,
+            "pressure_washout": self.pressure_washout,
+            "load_pressure": self.load_pressure,
+            "dead_zone_inverse": None
+            if self.dead_zone_inverse is None
+            else {"offset": self.dead_zone_inverse.offset, "width": self.dead_zone_inverse.width},
+        }
+
+
+def _row(lo, hi, kp=0.0, ki=0.0, kff=0.0, kv=0.0, kpl=0.0, kdpl=0.0, uff=0.0) -> np.ndarray:
+    r = np.zeros(C.ROW)
+    r[C.R_LO : C.R_LO + 4] = lo
+    r[C.R_HI : C.R_HI + 4] = hi
+    r[C.R_KP], r[C.R_KI], r[C.R_KFF], r[C.R_KV] = kp, ki, kff, kv
+    r[C.R_KPL], r[C.R_KDPL], r[C.R_UFF] = kpl, kdpl, uff
+    return r
+
+
+_EVERYWHERE = (np.full(4, -np.inf), np.full(4, np.inf))
+
+
+@dataclass(frozen=True, kw_only=True)
+class PIController(_Discrete):
+    """P / PI position controller with velocity feed-forward and pressure feedback.
+
+    c = k_p e + k_i ∫e dt + k_ff ṙ − k_v ẋ − k_pl P_L − k_dpl Ṗ_L,  e = r − x,
+    u = sat(DZ⁻¹(c)), evaluated every ``sample_time`` (Ṗ_L a backward difference,
+    low-pass filtered with ``pressure_filter``).
+
+    Attributes
+    ----------
+    kp : float
+        Position gain [1/m] (valve fraction per metre of error).
+    ki : float
+        Integral gain [1/(m·s)].
+    kff : float
+        Velocity feed-forward [s/m]: 1/K_v, K_v the velocity gain [m/s per unit command].
+    kv : float
+        Velocity feedback [s/m].
+    kpl : float
+        Load-pressure feedback [1/Pa] (active damping; a high-pass of P_L is the usual
+        rig form, here the plain P_L with k_pl small, or its rate via ``kdpl``).
+    kdpl : float
+        Load-pressure rate feedback [s/Pa].
+    pressure_filter : float
+        Time constant T_f [s] of the first-order filter on Ṗ_L (0: unfiltered).
+    sample_time, delay, u_min, u_max, anti_windup, tracking_gain, dead_zone_inverse
+        See the module docstring: sample time [s] (default 0.5 ms, 2 kHz), one-sample
+        computation delay, command limits [1], ``"clamp"`` | ``"back-calculation"`` |
+        ``"none"``, back-calculation gain [1/s], :class:`DeadZoneInverse` or None.
+    pressure_washout
+        T_w [s] of the high-pass on P_L for ``kpl`` (0: the plain P_L).
+    """
+
+    kp: float = 0.0
+    ki: float = 0.0
+    kff: float = 0.0
+    kv: float = 0.0
+    kpl: float = 0.0
+    kdpl: float = 0.0
+    pressure_filter: float = 0.0
+
+    kind = "pi"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for name, unit in (
+            ("kp", "1/m"),
+            ("ki", "1/(m*s)"),
+            ("kff", "s/m"),
+            ("kv", "s/m"),
+            ("kpl", "1/Pa"),
+            ("kdpl", "s/Pa"),
+        ):
+            _finite(self, name, unit)
+        _finite(self, "pressure_filter", "s", ge=0.0)
+
+    def _rows(self) -> np.ndarray:
+        return _row(*_EVERYWHERE, self.kp, self.ki, self.kff, self.kv, self.kpl, self.kdpl)[None, :]
+
+    def _pressure_filter(self) -> float:
+        return self.pressure_filter
+
+    def describe(self) -> dict[str, Any]:
+        """Plain dict of every setting (SI), as written to controller files."""
+        d = self._common()
+        d.update(
+            kp=self.kp,
+            ki=self.ki,
+            kff=self.kff,
+            kv=self.kv,
+            kpl=self.kpl,
+            kdpl=self.kdpl,
+            pressure_filter=self.pressure_filter,
+        )
+        return d
+
+
+@dataclass(frozen=True)
+class GainRow:
+    """State-feedback gains of one PWA cell and the box over [P_L, ẋ, x, c] where they apply.
+
+    u = u_ff − k_pl P_L − k_v ẋ + k_x (r − x) + k_i ∫(r − x) dt.
+
+    Attributes
+    ----------
+    lower, upper : tuple of 4 floats
+        Box bounds [Pa, m/s, m, 1] over load pressure, velocity, position and the last
+        command c (its sign is the flow direction s of the cell); ±inf allowed.
+    k_pl : float
+        [1/Pa]. k_v : [s/m]. k_x : [1/m]. k_i : [1/(m·s)]. u_ff : [1].
+    label : str
+        The cell, e.g. ``"s=+1 o=2 w=3"``.
+    """
+
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    k_pl: float
+    k_v: float
+    k_x: float
+    k_i: float = 0.0
+    u_ff: float = 0.0
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        lo = np.asarray(self.lower, dtype=float).ravel()
+        hi = np.asarray(self.upper, dtype=float).ravel()
+        if (
+            lo.size != 4
+            or hi.size != 4
+            or np.any(np.isnan(lo))
+            or np.any(np.isnan(hi))
+            or np.any(hi < lo)
+        ):
+            raise ControlError(
+                f"gain row {self.label!r}: lower/upper must be 4 bounds [Pa, m/s, m, 1] with lower <= upper"
+            )
+        object.__setattr__(self, "lower", tuple(float(v) for v in lo))
+        object.__setattr__(self, "upper", tuple(float(v) for v in hi))
+        for name, unit in (
+            ("k_pl", "1/Pa"),
+            ("k_v", "s/m"),
+            ("k_x", "1/m"),
+            ("k_i", "1/(m*s)"),
+            ("u_ff", "1"),
+        ):
+            _finite(self, name, unit)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StateFeedbackController(_Discrete):
+    """Gain-scheduled state feedback with integral action: one gain row per PWA cell.
+
+    At each sample the row whose box holds [P_L, ẋ, x, c_{k−1}] is used (the nearest
+    box outside all of them); the integral of r − x is shared by all rows, so a cell
+    change is bumpless. Designed by :func:`hydropwa.control.design_state_feedback`.
+
+    Attributes
+    ----------
+    rows : tuple of GainRow
+    design : dict
+        Provenance (method, weights, model) written to controller files; not used in
+        the loop.
+    """
+
+    rows: tuple[GainRow, ...] = ()
+    design: dict = field(default_factory=dict, compare=False)
+
+    kind = "state_feedback"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        rows = tuple(self.rows)
+        if not rows or not all(isinstance(r, GainRow) for r in rows):
+            raise ControlError("StateFeedbackController needs at least one GainRow")
+        object.__setattr__(self, "rows", rows)
+
+    def _rows(self) -> np.ndarray:
+        return np.stack(
+            [
+                _row(r.lower, r.upper, r.k_x, r.k_i, 0.0, r.k_v, r.k_pl, 0.0, r.u_ff)
+                for r in self.rows
+            ]
+        )
+
+    def describe(self) -> dict[str, Any]:
+        d = self._common()
+        d["cells"] = [
+            {
+                "label": r.label,
+                "lower": list(r.lower),
+                "upper": list(r.upper),
+                "k_pl": r.k_pl,
+                "k_v": r.k_v,
+                "k_x": r.k_x,
+                "k_i": r.k_i,
+                "u_ff": r.u_ff,
+            }
+            for r in self.rows
+        ]
+        d["design"] = dict(self.design)
+        return d

@@ -1,0 +1,593 @@
+"""Controller design on the PWA model with python-control.
+
+The plant of every cell is the PWA model's affine dynamics (Eqs. (23)–(28),
+:meth:`~hydropwa.linearization.PwaModel.state_space`) for y = [P_L, ẋ, x], with the
+valve command replaced by the orifice opening c the dead-zone inverse asks for
+(B/k_g: the inverse cancels the outer cells' slope and offset). The design is
+discrete at the controller's sample time (ZOH, ``control.sample_system``), on states
+scaled to engineering units (bar, mm/s, mm), so the Riccati equation and the pole
+placement see numbers of order one.
+
+* :func:`design_state_feedback`: LQR (``control.dlqr``) or pole placement
+  (``control.place``) per cell (s, o, w) with an integral state; one
+  :class:`GainRow` per cell, the cell's polyhedron as its box.
+* :func:`design_pi`: P/PI with velocity feed-forward at one working point, the
+  crossover chosen as high as the gain and phase margins allow.
+
+Both return the controller and a per-cell table (closed-loop poles, damping,
+bandwidth, margins) with warnings for cells that are not controllable or not
+stabilised, also with the servo valve's own dynamics (Eq. (1)) in the loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._controllers import (
+    DEFAULT_SAMPLE_TIME,
+    ControlError,
+    DeadZoneInverse,
+    GainRow,
+    PIController,
+    StateFeedbackController,
+)
+
+__all__ = ["ControlDesign", "cell_plant", "design_pi", "design_state_feedback", "DEFAULT_WEIGHTS"]
+
+#: Bryson maxima of the LQR: P_L [Pa], ẋ [m/s], x [m], ∫e [m·s], command [1].
+DEFAULT_WEIGHTS = {"p_l": 100e5, "v": 1.0, "x": 2e-3, "integral": 1e-4, "u": 1.0}
+_SCALE = np.array([1e5, 1e-3, 1e-3, 1e-5])  # bar, mm/s, mm, mm·10 ms: states of order one
+
+
+@dataclass
+class ControlDesign:
+    """A designed controller and what the design knows about it.
+
+    Attributes
+    ----------
+    controller : PIController or StateFeedbackController
+    table : pandas.DataFrame
+        One row per cell (or the one working point): gains, closed-loop poles (as
+        continuous-time equivalents ln(z)/T_s), smallest damping, dominant natural
+        frequency [Hz], closed-loop bandwidth r → x [Hz], spectral radius without and
+        with the valve dynamics, controllable/stable flags.
+    warnings : list of str
+        Cells where the design is not controllable or not stable.
+    info : dict
+        Method, weights or poles, sample time, model description.
+    """
+
+    controller: Any
+    table: Any
+    warnings: list[str] = field(default_factory=list)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """Text summary: the method, the worst cell and the warnings."""
+        t = self.table
+        lines = [
+            f"{self.info.get('method', '?')} design, {len(t)} cell(s), T_s = {self.info.get('sample_time', 0) * 1e3:g} ms"
+        ]
+        if len(t):
+            lines.append(
+                f"closed loop: damping >= {t['damping_min'].min():.3f}, bandwidth {t['bandwidth_hz'].min():.1f}"
+                f"..{t['bandwidth_hz'].max():.1f} Hz, spectral radius <= {t['radius'].max():.4f} "
+                f"(with valve dynamics {t['radius_valve'].max():.4f})"
+            )
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+
+def cell_plant(
+    model, *, cells=None, point=None, f_l: float | None = None, opening_input: bool = True
+):
+    """Continuous (A, B) of the PWA model in one cell, y = [P_L, ẋ, x], input c or u.
+
+    Parameters
+    ----------
+    model : PwaModel
+    cells : tuple, optional
+        (g, s, o, w) cell combination (its working point is used).
+    point : mapping, optional
+        {"p_l": Pa, "v": m/s, "u": 1} instead of ``cells``.
+    f_l : float, optional
+        Load force [N].
+    opening_input : bool
+        Input is the opening c demanded through the dead-zone inverse (B/k_g) instead
+        of the valve command u.
+
+    Returns
+    -------
+    A : ndarray (3, 3), B : ndarray (3, 1), dyn : AffineDynamics
+    """
+    dyn = model.state_space(point, cells=cells, f_l=f_l)
+    B = dyn.B.copy()
+    if opening_input:
+        k_g = float(model.dead_zone.slopes[dyn.cells.g])
+        if k_g == 0.0:
+            raise ControlError(
+                f"cell {tuple(dyn.cells)} is saturated (k_g = 0): no input to design with"
+            )
+        B = B / k_g
+    return dyn.A.copy(), B, dyn
+
+
+def _discrete(A, B, ts):
+    """Zero-order-hold discretisation: expm([[A, B], [0, 0]]·T_s) (what ``control.sample_system`` does)."""
+    from scipy.linalg import expm
+
+    n, m = A.shape[0], B.shape[1]
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    E = expm(M * ts)
+    return E[:n, :n], E[:n, n:]
+
+
+def _augment(Ad, Bd, ts):
+    """Discrete plant with the controller's integral I_{k+1} = I_k + T_s (r − x_k), at r = 0."""
+    Aa = np.zeros((4, 4))
+    Aa[:3, :3] = Ad
+    Aa[3, 2] = -ts
+    Aa[3, 3] = 1.0
+    Ba = np.zeros((4, 1))
+    Ba[:3] = Bd
+    return Aa, Ba
+
+
+def _valve_loop_radius(A, B, K, ts, omega0, zeta, delay):
+    """Spectral radius of the closed loop with the servo valve (Eq. (1)) between command and plant."""
+    n = A.shape[0]
+    Av = np.zeros((n + 2, n + 2))
+    Av[:n, :n] = A
+    Av[:n, n] = B[:, 0]  # the plant sees the spool position ν
+    Av[n, n + 1] = 1.0
+    Av[n + 1, n] = -(omega0**2)
+    Av[n + 1, n + 1] = -2.0 * zeta * omega0
+    Bv = np.zeros((n + 2, 1))
+    Bv[n + 1, 0] = omega0**2
+    Ad, Bd = _discrete(Av, Bv, ts)
+    Aa = np.zeros((n + 3, n + 3))
+    Aa[: n + 2, : n + 2] = Ad
+    Aa[n + 2, 2] = -ts
+    Aa[n + 2, n + 2] = 1.0
+    Ba = np.zeros((n + 3, 1))
+    Ba[: n + 2] = Bd
+    Kf = np.zeros((1, n + 3))
+    Kf[0, :3] = K[0, :3]
+    Kf[0, n + 2] = K[0, 3]
+    return _radius(Aa, Ba, Kf, delay)
+
+
+def _radius(Aa, Ba, K, delay: bool) -> float:
+    """Spectral radius of x⁺ = Aa x + Ba u, u = −K x (with one sample of delay if asked)."""
+    if not delay:
+        return float(np.max(np.abs(np.linalg.eigvals(Aa - Ba @ K))))
+    n = Aa.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n] = Aa
+    M[:n, n] = Ba[:, 0]
+    M[n, :n] = -K[0]
+    return float(np.max(np.abs(np.linalg.eigvals(M))))
+
+
+def _pole_stats(Acl, ts, Br, C):
+    """Continuous-equivalent poles, min damping, dominant natural frequency [Hz], bandwidth [Hz]."""
+    z = np.linalg.eigvals(Acl).astype(complex)
+    z = np.where(
+        np.abs(z) < 1e-300, 1e-300, z
+    )  # a pole at z = 0: s = ln(1e-300)/T_s, "infinitely" fast
+    s = np.log(z) / ts
+    wn = np.abs(s)
+    zeta = np.where(wn > 0, -s.real / np.where(wn > 0, wn, 1.0), 1.0)
+    dom = int(np.argmin(np.where(s.real < 0, -s.real, np.inf))) if np.any(s.real < 0) else 0
+    # closed-loop r -> x frequency response on a grid up to Nyquist
+    f = np.logspace(-1, math.log10(0.499 / ts), 400)
+    zz = np.exp(2j * math.pi * f * ts)
+    n = Acl.shape[0]
+    M = zz[:, None, None] * np.eye(n)[None] - Acl[None]  # all frequencies in one batched solve
+    g = (
+        C[0] @ np.linalg.solve(M, np.broadcast_to(Br.astype(complex), (zz.size, n, 1)))[..., 0].T
+    ).ravel()
+    g0 = abs(g[0])
+    below = np.flatnonzero(np.abs(g) < g0 / math.sqrt(2.0))
+    bw = float(f[below[0]]) if below.size else float(f[-1])
+    return s, float(np.min(zeta)), float(wn[dom] / (2 * math.pi)), bw
+
+
+def _scaling(weights: Mapping[str, float]) -> tuple[np.ndarray, float]:
+    w = dict(DEFAULT_WEIGHTS)
+    for k, v in weights.items():
+        if k not in w:
+            raise ControlError(f"unknown LQR weight {k!r}; choose from {', '.join(w)}")
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise ControlError(f"LQR weight {k} = {v!r} must be a positive maximum in SI units")
+        w[k] = float(v)
+    return np.array([w["p_l"], w["v"], w["x"], w["integral"]]), w["u"]
+
+
+def _cell_boxes(model, f_l):
+    """(label, (g, s, o, w), lower, upper) per cell over [P_L, ẋ, x, c]; c's sign is s."""
+    out = {}
+    for idx, lo, hi in model.regions():
+        g_out = int(model.dead_zone.cell(0.5 * idx.s))
+        if idx.g != g_out:
+            continue
+        key = (idx.g, idx.s, idx.o, idx.w)
+        c_lo, c_hi = (0.0, math.inf) if idx.s > 0 else (-math.inf, 0.0)
+        box_lo = (lo[0], lo[1], -math.inf, c_lo)
+        box_hi = (hi[0], hi[1], math.inf, c_hi)
+        if key in out:  # paper form: several n cells per (o, w); merge their pressure ranges
+            plo, phi = out[key][2][0], out[key][3][0]
+            box_lo = (min(plo, lo[0]),) + box_lo[1:]
+            box_hi = (max(phi, hi[0]),) + box_hi[1:]
+        out[key] = (f"s={idx.s:+d} o={idx.o} w={idx.w}", key, box_lo, box_hi)
+    return list(out.values())
+
+
+def design_state_feedback(
+    model,
+    *,
+    method: str = "lqr",
+    sample_time: float = DEFAULT_SAMPLE_TIME,
+    weights: Mapping[str, float] | None = None,
+    poles: tuple[complex, ...] | None = None,
+    delay: bool = False,
+    load_force: float | None = None,
+    dead_zone_inverse: bool = True,
+    u_limits: tuple[float, float] = (-1.0, 1.0),
+    anti_windup: str = "clamp",
+    friction_slopes: str = "clip",
+    pressure_washout: float = 0.1,
+) -> ControlDesign:
+    """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
+
+    Parameters
+    ----------
+    model : PwaModel
+        The (identified) PWA model; cells (s, o, w) are designed in the outer dead-zone
+        cell of each flow direction (the dead-zone inverse removes the band).
+    method : {"lqr", "place"}
+        ``control.dlqr`` with Bryson weights, or ``control.place`` at ``poles``.
+    sample_time : float
+        T_s [s] (default 0.5 ms, 2 kHz).
+    weights : mapping, optional
+        Bryson maxima (:data:`DEFAULT_WEIGHTS`): {"p_l": Pa, "v": m/s, "x": m,
+        "integral": m·s, "u": 1}; Q = diag(1/max²), R = 1/u_max².
+    poles : tuple of complex, optional
+        ``place``: four continuous-time closed-loop poles [1/s] (mapped to e^{pT_s});
+        default a 15 Hz, ζ = 0.8 pair and real poles at 2× and 3× that frequency.
+    delay : bool
+        Whether the controller runs with a one-sample computation delay (the table's
+        radius then includes it; the gains are designed without).
+    load_force : float, optional
+        Load force [N] at which the cells are linearized (default params.load.force).
+    dead_zone_inverse : bool
+        Put the identified dead zone's inverse before the valve (default).
+    u_limits : (float, float)
+        Valve command limits [1].
+    anti_windup : str
+        ``"clamp"``, ``"back-calculation"`` or ``"none"``.
+    friction_slopes : {"clip", "exact"}
+        ``"clip"`` (default) designs every cell with its friction slope k_w clipped to
+        [0, largest slope of the two outermost (viscous) cells], and lists the clipped
+        cells in ``notes``. On the paper rig the falling Stribeck branch (Table V cells
+        III and V, k_w < 0) makes the cell open-loop unstable at about +1400 1/s, faster
+        than the servo valve (ω0 = 628 rad/s) can act, and the stiction cell IV
+        (k_w = 1.8e5 N·s/m) is a force limit, not a damper: gains designed on either
+        exactly drive the full model's valve into a limit cycle (measured: bang-bang
+        ±1). ``"exact"`` designs on the cells as they are.
+    pressure_washout : float
+        T_w [s] of the high-pass on P_L for the k_pl gains (default 0.1 s, below the
+        slowest cell's bandwidth; 0 feeds back the plain P_L). The cells' gains differ, so
+        k_pl acting on a static load pressure (14.6 bar at 1.5 kN) changes the command by
+        Δk_pl·P_L at every cell switch; measured on the full model at ±1.5 kN without the
+        washout: a 0.5 mm limit cycle at the target.
+
+    Returns
+    -------
+    ControlDesign
+    """
+    import control
+    import pandas as pd
+
+    if friction_slopes not in ("clip", "exact"):
+        raise ControlError(f"friction_slopes {friction_slopes!r} must be 'clip' or 'exact'")
+    if method not in ("lqr", "place"):
+        raise ControlError(f"method {method!r} must be 'lqr' or 'place'")
+    if not (
+        isinstance(sample_time, int | float)
+        and math.isfinite(sample_time)
+        and 0 < sample_time <= 0.1
+    ):
+        raise ControlError(f"sample_time {sample_time!r} s must be in (0, 0.1]")
+    ts = float(sample_time)
+    maxima, u_max = _scaling(weights or {})
+    if method == "place":
+        if poles is None:
+            w = 2 * math.pi * 15.0
+            poles = (
+                complex(-0.8 * w, 0.6 * w),
+                complex(-0.8 * w, -0.6 * w),
+                complex(-2 * w),
+                complex(-3 * w),
+            )
+        poles = tuple(complex(p) for p in poles)
+        if len(poles) != 4 or any(p.real >= 0 for p in poles):
+            raise ControlError(
+                "pole placement needs four continuous-time poles with negative real parts [1/s]"
+            )
+        zp = np.exp(np.array(poles) * ts)
+    prm = model.params
+    T = np.diag(_SCALE)
+    Tinv = np.diag(1.0 / _SCALE)
+    q = (_SCALE / maxima) ** 2  # Q in scaled states
+    R = np.array([[1.0 / u_max**2]])
+    rows, recs, warns, notes = [], [], [], []
+    slopes = model.friction.pwa.slopes
+    k_w_max = float(max(slopes[0], slopes[-1], 0.0))
+    for label, key, lo, hi in _cell_boxes(model, load_force):
+        A, B, _dyn = cell_plant(model, cells=key, f_l=load_force, opening_input=dead_zone_inverse)
+        k_w = -A[1, 1] * prm.load.mass
+        clipped = friction_slopes == "clip" and not 0.0 <= k_w <= k_w_max
+        if clipped:
+            growth = float(np.max(np.linalg.eigvals(A).real))
+            notes.append(
+                f"cell {label}: friction slope {k_w:.4g} N·s/m (open-loop eigenvalue real part up to {growth:+.0f} 1/s) "
+                f"clipped to {min(max(k_w, 0.0), k_w_max):.4g} N·s/m for the design"
+            )
+            A[1, 1] = -min(max(k_w, 0.0), k_w_max) / prm.load.mass
+        Ad, Bd = _discrete(A, B, ts)
+        Aa, Ba = _augment(Ad, Bd, ts)
+        As, Bs = Tinv @ Aa @ T, Tinv @ Ba
+        ctrb = np.linalg.svd(control.ctrb(As, Bs), compute_uv=False)
+        controllable = bool(ctrb[-1] > 1e-9 * ctrb[0])
+        try:
+            if method == "lqr":
+                Ks, _, _ = control.dlqr(As, Bs, np.diag(q), R)
+            else:
+                Ks = control.place(As, Bs, zp)
+            Ks = np.atleast_2d(np.asarray(Ks, dtype=float))
+        except Exception as exc:  # python-control raises several types for a singular design
+            warns.append(f"cell {label}: design failed ({exc})")
+            continue
+        K = Ks @ Tinv
+        radius = _radius(Aa, Ba, K, delay)
+        radius_v = _valve_loop_radius(A, B, K, ts, prm.valve.omega0, prm.valve.zeta, delay)
+        Acl = Aa - Ba @ K
+        Br = np.zeros((4, 1))
+        Br[:3, 0] = Bd[:, 0] * K[0, 2]
+        Br[3, 0] = ts
+        s, zmin, fdom, bw = _pole_stats(Acl, ts, Br, np.array([[0.0, 0.0, 1.0, 0.0]]))
+        if not controllable:
+            warns.append(f"cell {label}: not controllable (σ_min/σ_max = {ctrb[-1] / ctrb[0]:.2e})")
+        if radius >= 1.0:
+            warns.append(
+                f"cell {label}: closed loop unstable on the PWA cell (spectral radius {radius:.4f})"
+            )
+        elif radius_v >= 1.0:
+            warns.append(
+                f"cell {label}: unstable with the servo valve's dynamics (spectral radius {radius_v:.4f})"
+            )
+        row = GainRow(lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label)
+        rows.append(row)
+        recs.append(
+            {
+                "cell": label,
+                "g": key[0],
+                "s": key[1],
+                "o": key[2],
+                "w": key[3],
+                "p_l_lo_bar": lo[0] / 1e5,
+                "p_l_hi_bar": hi[0] / 1e5,
+                "v_lo_mm_s": lo[1] * 1e3,
+                "v_hi_mm_s": hi[1] * 1e3,
+                "k_pl_per_bar": row.k_pl * 1e5,
+                "k_v_s_per_m": row.k_v,
+                "k_x_per_mm": row.k_x * 1e-3,
+                "k_i_per_mm_s": row.k_i * 1e-3,
+                "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
+                "damping_min": zmin,
+                "natural_freq_hz": fdom,
+                "bandwidth_hz": bw,
+                "radius": radius,
+                "radius_valve": radius_v,
+                "controllable": controllable,
+                "stable": radius < 1.0,
+                "friction_clipped": clipped,
+            }
+        )
+    if not rows:
+        raise ControlError("no cell could be designed: " + "; ".join(warns))
+    dzi = DeadZoneInverse.from_params(prm.dead_zone) if dead_zone_inverse else None
+    info = {
+        "method": method,
+        "sample_time": ts,
+        "delay": bool(delay),
+        "model": "pwa",
+        "form": model.form,
+        "supply_pressure": model.supply_pressure,
+        "friction_slopes": friction_slopes,
+        "notes": notes,
+        "pressure_washout": float(pressure_washout),
+        "load_force": float(prm.load.force if load_force is None else load_force),
+        "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True))
+        | {"u": u_max},
+    }
+    if method == "place":
+        info["poles"] = [[p.real, p.imag] for p in poles]  # type: ignore[union-attr]
+    ctrl = StateFeedbackController(
+        rows=tuple(rows),
+        sample_time=ts,
+        delay=bool(delay),
+        u_min=float(u_limits[0]),
+        u_max=float(u_limits[1]),
+        anti_windup=anti_windup,
+        dead_zone_inverse=dzi,
+        design=info,
+        pressure_washout=float(pressure_washout),
+        load_pressure=_load_pressure_of(model),
+    )
+    return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
+
+
+def _margins(L: np.ndarray) -> tuple[float, float]:
+    """Gain margin [dB] and phase margin [deg] of a loop's frequency response on a grid.
+
+    Smallest over all crossings: |L| = 1 (phase margin 180° + ∠L) and ∠L = −180° (gain
+    margin −20 log|L|), located by linear interpolation between grid points.
+    """
+    mag = np.abs(L)
+    ph = np.unwrap(np.angle(L))
+    pm = math.inf
+    for i in np.flatnonzero(np.diff(np.sign(mag - 1.0)) != 0):
+        f = (1.0 - mag[i]) / (mag[i + 1] - mag[i])
+        p = math.degrees(ph[i] + f * (ph[i + 1] - ph[i]))
+        pm = min(pm, (p + 180.0 + 180.0) % 360.0 - 180.0)
+    gm = math.inf
+    pc = (ph + math.pi) / (2 * math.pi)  # integer at phase −180° (mod 360°)
+    for i in np.flatnonzero(np.diff(np.floor(pc)) != 0):
+        k = math.floor(max(pc[i], pc[i + 1]))
+        f = (k - pc[i]) / (pc[i + 1] - pc[i])
+        gm = min(gm, -20.0 * math.log10(mag[i] + f * (mag[i + 1] - mag[i])))
+    return gm, pm
+
+
+def design_pi(
+    model,
+    *,
+    point: Mapping[str, float] | None = None,
+    sample_time: float = DEFAULT_SAMPLE_TIME,
+    delay: bool = False,
+    integral: bool = True,
+    feedforward: bool = True,
+    phase_margin: float = 60.0,
+    gain_margin_db: float = 10.0,
+    integral_ratio: float = 0.2,
+    dead_zone_inverse: bool = True,
+    include_valve: bool = True,
+    u_limits: tuple[float, float] = (-1.0, 1.0),
+    anti_windup: str = "clamp",
+) -> ControlDesign:
+    """P/PI position controller with velocity feed-forward, designed at one working point.
+
+    The plant is the PWA cell at ``point`` (default: moving out at 50 mm/s against the
+    parameter set's load), with the servo valve's second-order dynamics (Eq. (1)) if
+    ``include_valve``, discretised with ZOH (and a sample of delay). The loop gain
+    k_p K_v (K_v the velocity gain ∂ẋ/∂c in steady state [m/s]) is the crossover
+    frequency; the largest one with both margins is taken. The integral corner sits
+    at ``integral_ratio`` × crossover (k_i = k_p·ratio·ω_c) and the feed-forward is
+    k_ff = 1/K_v [s/m].
+
+    Returns
+    -------
+    ControlDesign
+        ``table`` holds the one working point: gains, margins, crossover, poles.
+    """
+    import control
+    import pandas as pd
+
+    prm = model.params
+    ts = float(sample_time)
+    if not (math.isfinite(ts) and 0 < ts <= 0.1):
+        raise ControlError(f"sample_time {sample_time!r} s must be in (0, 0.1]")
+    if point is None:
+        p_l = prm.load.force / (model.force_area if hasattr(model, "force_area") else prm.cylinder.mean_area)
+        point = {"p_l": p_l, "v": 0.05, "u": 0.3}
+    A, B, dyn = cell_plant(model, point=point, opening_input=dead_zone_inverse)
+    # steady velocity per unit input of the [P_L, ẋ] subsystem
+    k_v = float(-(np.linalg.solve(A[:2, :2], B[:2, 0]))[1])
+    if not k_v > 0:
+        raise ControlError(
+            f"velocity gain {k_v:g} m/s at the working point is not positive; choose another point"
+        )
+    plant = control.ss(A, B, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1)))
+    if include_valve:
+        w0, z0 = prm.valve.omega0, prm.valve.zeta
+        plant = control.series(control.tf([w0**2], [1.0, 2 * z0 * w0, w0**2]), plant)
+    pd_ = control.sample_system(plant, ts, method="zoh")
+    if delay:
+        pd_ = control.series(control.tf([1.0], [1.0, 0.0], ts), pd_)
+    best = None
+    w_nyq = math.pi / ts
+    # the plant's frequency response once; the controller's is analytic in kp, ki
+    w = np.geomspace(1e-2, 0.999 * w_nyq, 4000)
+    zz = np.exp(1j * w * ts)
+    P = np.asarray(pd_(zz), dtype=complex).ravel()
+    for wc in np.geomspace(0.5 * w_nyq, 1.0, 240):
+        kp = wc / k_v
+        ki = kp * integral_ratio * wc if integral else 0.0
+        gm_db, pm = _margins((kp + ki * ts * zz / (zz - 1.0)) * P)
+        if gm_db < gain_margin_db or pm < phase_margin:
+            continue
+        cz = (
+            control.tf([kp + ki * ts, -kp], [1.0, -1.0], ts)
+            if integral
+            else control.tf([kp], [1.0], ts)
+        )
+        cl = control.feedback(control.series(cz, pd_), 1)
+        if np.max(np.abs(cl.poles())) < 1.0:
+            best = (wc, kp, ki, gm_db, pm, cl)
+            break
+    if best is None:
+        raise ControlError("no crossover meets the margins; relax phase_margin / gain_margin_db")
+    wc, kp, ki, gm_db, pm, cl = best
+    s = np.log(cl.poles().astype(complex)) / ts
+    wn = np.abs(s)
+    zeta = float(np.min(-s.real / np.where(wn > 0, wn, 1.0)))
+    f = np.logspace(-1, math.log10(0.499 / ts), 400)
+    mag = np.abs(cl(np.exp(2j * math.pi * f * ts)))
+    below = np.flatnonzero(mag < abs(cl(1.0)) / math.sqrt(2.0))
+    bw = float(f[below[0]]) if below.size else float(f[-1])
+    dzi = DeadZoneInverse.from_params(prm.dead_zone) if dead_zone_inverse else None
+    ctrl = PIController(
+        load_pressure=_load_pressure_of(model),
+        kp=kp,
+        ki=ki,
+        kff=(1.0 / k_v if feedforward else 0.0),
+        sample_time=ts,
+        delay=bool(delay),
+        u_min=float(u_limits[0]),
+        u_max=float(u_limits[1]),
+        anti_windup=anti_windup,
+        dead_zone_inverse=dzi,
+    )
+    rec = {
+        "cell": f"s={dyn.cells.s:+d} o={dyn.cells.o} w={dyn.cells.w}",
+        "p_l_bar": point["p_l"] / 1e5,
+        "v_mm_s": point["v"] * 1e3,
+        "velocity_gain_m_s": k_v,
+        "crossover_hz": wc / (2 * math.pi),
+        "kp_per_mm": kp * 1e-3,
+        "ki_per_mm_s": ki * 1e-3,
+        "kff_s_per_m": ctrl.kff,
+        "gain_margin_db": gm_db,
+        "phase_margin_deg": pm,
+        "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
+        "damping_min": zeta,
+        "bandwidth_hz": bw,
+        "radius": float(np.max(np.abs(cl.poles()))),
+        "radius_valve": float(np.max(np.abs(cl.poles()))),
+        "controllable": True,
+        "stable": True,
+    }
+    info = {
+        "method": "pi",
+        "sample_time": ts,
+        "delay": bool(delay),
+        "point": dict(point),
+        "include_valve": bool(include_valve),
+        "phase_margin": phase_margin,
+        "gain_margin_db": gain_margin_db,
+    }
+    return ControlDesign(ctrl, pd.DataFrame.from_records([rec]), [], info)
+
+
+def _load_pressure_of(model) -> str:
+    """The P_L definition of the design model: asymmetric (P_A − α P_B) or the paper's mean-area form."""
+    return "asymmetric" if getattr(model, "form", "asymmetric") == "asymmetric" else "mean-area"

@@ -1,0 +1,252 @@
+"""Controller files (TOML or JSON, schema ``hydropwa.controller/1``) that a real-time target can read.
+
+Every dimensioned value is written as a string with its unit in the units a
+hydraulics engineer reads (``"0.5 ms"``, ``"-54.17 bar"``, ``"0.2226 1/mm"``); the
+reader accepts any unit of the right dimension (pint) or a plain number in SI.
+Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
+
+    schema = "hydropwa.controller/1"
+    kind = "state_feedback"            # or "pi"
+    sample_time = "0.5 ms"
+    delay = false
+    u_min = -1.0
+    u_max = 1.0
+    anti_windup = "clamp"
+    tracking_gain = "0 1/s"
+    pressure_washout = "100 ms"        # P_L high-pass for k_pl (0: plain P_L)
+    law = "u = sat(DZinv(u_ff - k_pl*P_L - k_v*v + k_x*(r - x) + k_i*integral(r - x)))"
+    [dead_zone_inverse]                # absent: no inverse
+    offset = 0.1
+    width = 0.004167
+    [[cells]]                          # one per PWA cell; the first box holding
+    label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
+    lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }
+    upper = { p_l = "54.17 bar", v = "54.26 mm/s", x = "inf", c = "inf" }
+    k_pl = "0.0978 1/bar"
+    ...
+    [design]                           # provenance, not read back into the loop
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from .._errors import HydropwaError
+from .._io import atomic_write_text
+from ._controllers import (
+    ControlError,
+    DeadZoneInverse,
+    GainRow,
+    PIController,
+    StateFeedbackController,
+)
+
+__all__ = [
+    "save_controller",
+    "load_controller",
+    "controller_to_dict",
+    "controller_from_dict",
+    "SCHEMA",
+]
+
+SCHEMA = "hydropwa.controller/1"
+_LAW = {
+    "pi": "u = sat(DZinv(k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt)), e = r - x",
+    "state_feedback": "u = sat(DZinv(u_ff - k_pl*(P_L - lowpass(P_L)) - k_v*v + k_x*(r - x) + k_i*integral(r - x)))",
+}
+#: field → (display unit, factor from SI to display unit, SI unit for pint)
+_PI_GAINS = {
+    "kp": ("1/mm", 1e-3, "1/m"),
+    "ki": ("1/(mm*s)", 1e-3, "1/(m*s)"),
+    "kff": ("s/m", 1.0, "s/m"),
+    "kv": ("s/m", 1.0, "s/m"),
+    "kpl": ("1/bar", 1e5, "1/Pa"),
+    "kdpl": ("s/bar", 1e5, "s/Pa"),
+    "pressure_filter": ("ms", 1e3, "s"),
+}
+_ROW_GAINS = {
+    "k_pl": ("1/bar", 1e5, "1/Pa"),
+    "k_v": ("s/m", 1.0, "s/m"),
+    "k_x": ("1/mm", 1e-3, "1/m"),
+    "k_i": ("1/(mm*s)", 1e-3, "1/(m*s)"),
+}
+_BOX = (
+    ("p_l", "bar", 1e-5, "Pa"),
+    ("v", "mm/s", 1e3, "m/s"),
+    ("x", "mm", 1e3, "m"),
+    ("c", "", 1.0, ""),
+)
+
+
+def _q(value: float, unit: str, factor: float) -> str | float:
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    v = float(value) * factor
+    return f"{v:.10g} {unit}" if unit else float(f"{v:.10g}")
+
+
+def _read(value: Any, si_unit: str, where: str) -> float:
+    from ..params import parse_quantity
+
+    if isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "-inf"):
+        return -math.inf if value.strip().startswith("-") else math.inf
+    try:
+        return float(parse_quantity(value, si_unit, where))
+    except HydropwaError as exc:
+        raise ControlError(f"controller file: {exc}") from None
+
+
+def controller_to_dict(ctrl) -> dict[str, Any]:
+    """The controller as a TOML/JSON-ready dict with units (see the module docstring)."""
+    if not isinstance(ctrl, PIController | StateFeedbackController):
+        raise ControlError(
+            f"cannot write a {type(ctrl).__name__}; give a PIController or StateFeedbackController"
+        )
+    d: dict[str, Any] = {
+        "schema": SCHEMA,
+        "kind": ctrl.kind,
+        "sample_time": _q(ctrl.sample_time, "ms", 1e3),
+        "sample_rate": _q(1.0 / ctrl.sample_time, "Hz", 1.0),
+        "delay": ctrl.delay,
+        "u_min": ctrl.u_min,
+        "u_max": ctrl.u_max,
+        "anti_windup": ctrl.anti_windup,
+        "tracking_gain": _q(ctrl.tracking_gain, "1/s", 1.0),
+        "pressure_washout": _q(ctrl.pressure_washout, "ms", 1e3),
+        "load_pressure": ctrl.load_pressure,
+        "law": _LAW[ctrl.kind],
+    }
+    if ctrl.dead_zone_inverse is not None:
+        d["dead_zone_inverse"] = {
+            "offset": ctrl.dead_zone_inverse.offset,
+            "width": ctrl.dead_zone_inverse.width,
+        }
+    if isinstance(ctrl, PIController):
+        d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
+    else:
+        cells = []
+        for r in ctrl.rows:
+            c: dict[str, Any] = {"label": r.label}
+            c["lower"] = {n: _q(v, u, f) for (n, u, f, _si), v in zip(_BOX, r.lower, strict=True)}
+            c["upper"] = {n: _q(v, u, f) for (n, u, f, _si), v in zip(_BOX, r.upper, strict=True)}
+            for k, (u, f, _si) in _ROW_GAINS.items():
+                c[k] = _q(getattr(r, k), u, f)
+            c["u_ff"] = r.u_ff
+            cells.append(c)
+        d["cells"] = cells
+        d["design"] = _plain(ctrl.design)
+    return d
+
+
+def _plain(obj):
+    """Design provenance without None (TOML has no null) and with plain numbers."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items() if v is not None}
+    if isinstance(obj, list | tuple):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return str(obj)
+    if hasattr(obj, "item"):
+        return obj.item()
+    return obj
+
+
+def controller_from_dict(d: dict[str, Any]):
+    """Rebuild a controller from :func:`controller_to_dict` output (units converted to SI)."""
+    if not isinstance(d, dict) or d.get("schema") != SCHEMA:
+        raise ControlError(
+            f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not {SCHEMA!r}"
+        )
+    kind = d.get("kind")
+    try:
+        common: dict[str, Any] = {
+            "sample_time": _read(d["sample_time"], "s", "sample_time"),
+            "delay": d.get("delay", False),
+            "u_min": _read(d.get("u_min", -1.0), "", "u_min"),
+            "u_max": _read(d.get("u_max", 1.0), "", "u_max"),
+            "anti_windup": d.get("anti_windup", "clamp"),
+            "tracking_gain": _read(d.get("tracking_gain", 0.0), "1/s", "tracking_gain"),
+            "pressure_washout": _read(d.get("pressure_washout", 0.0), "s", "pressure_washout"),
+            "load_pressure": d.get("load_pressure", "asymmetric"),
+        }
+        dzi = d.get("dead_zone_inverse")
+        if dzi is not None:
+            common["dead_zone_inverse"] = DeadZoneInverse(
+                offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
+                width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
+            )
+        if kind == "pi":
+            g = d.get("gains", {})
+            unknown = set(g) - set(_PI_GAINS)
+            if unknown:
+                raise ControlError(
+                    f"controller file: unknown gains {sorted(unknown)}; known: {', '.join(_PI_GAINS)}"
+                )
+            gains: dict[str, Any] = {
+                k: _read(v, _PI_GAINS[k][2], f"gains.{k}") for k, v in g.items()
+            }
+            return PIController(**common, **gains)
+        if kind == "state_feedback":
+            rows = []
+            for i, c in enumerate(d["cells"]):
+                lo = tuple(
+                    _read(c["lower"][n], si, f"cells[{i}].lower.{n}") for n, _u, _f, si in _BOX
+                )
+                hi = tuple(
+                    _read(c["upper"][n], si, f"cells[{i}].upper.{n}") for n, _u, _f, si in _BOX
+                )
+                g = {k: _read(c[k], _ROW_GAINS[k][2], f"cells[{i}].{k}") for k in _ROW_GAINS}
+                rows.append(
+                    GainRow(
+                        lo,
+                        hi,
+                        **g,
+                        u_ff=_read(c.get("u_ff", 0.0), "", f"cells[{i}].u_ff"),
+                        label=str(c.get("label", "")),
+                    )
+                )
+            return StateFeedbackController(
+                rows=tuple(rows), design=dict(d.get("design", {})), **common
+            )
+    except KeyError as exc:
+        raise ControlError(f"controller file ({kind}) lacks {exc}") from None
+    except (TypeError, AttributeError) as exc:
+        raise ControlError(f"controller file does not match schema {SCHEMA}: {exc}") from None
+    raise ControlError(f"controller file kind {kind!r} must be 'pi' or 'state_feedback'")
+
+
+def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:
+    """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``force``."""
+    from .._errors import check_output
+
+    path = Path(path)
+    check_output(path, force)
+    d = controller_to_dict(ctrl)
+    if path.suffix.lower() == ".json":
+        return atomic_write_text(path, json.dumps(d, indent=2) + "\n")
+    if path.suffix.lower() == ".toml":
+        import tomli_w
+
+        return atomic_write_text(path, tomli_w.dumps(d))
+    raise ControlError(f"controller file {path} must end in .toml or .json")
+
+
+def load_controller(path: str | os.PathLike):
+    """Read a controller file written by :func:`save_controller` (or by hand, same schema)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ControlError(f"controller file {path} does not exist")
+    text = path.read_text(encoding="utf-8")
+    try:
+        if path.suffix.lower() == ".json":
+            d = json.loads(text)
+        else:
+            d = tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ControlError(f"controller file {path} cannot be parsed: {exc}") from None
+    return controller_from_dict(d)
