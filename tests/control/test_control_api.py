@@ -307,11 +307,9 @@ def test_compiled_law_is_the_documented_law(paper, model):
     ts = c.sample_time
     assert np.allclose(r.t, rec["t"])
     cyl = paper.cylinder
-    pl = (
-        (r["p_a"] * cyl.area_a - r["p_b"] * cyl.area_b) / cyl.mean_area
-        if model == "full"
-        else r["p_l"]
-    )
+    # the full model's load pressure as the design model defines it: F_hyd/A_A (asymmetric)
+    area = cyl.area_a if c.load_pressure == "asymmetric" else cyl.mean_area
+    pl = (r["p_a"] * cyl.area_a - r["p_b"] * cyl.area_b) / area if model == "full" else r["p_l"]
     a_f, a_w = np.exp(-ts / c.pressure_filter), np.exp(-ts / c.pressure_washout)
     dpl = np.zeros_like(pl)
     plbar = np.empty_like(pl)
