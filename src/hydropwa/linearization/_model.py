@@ -1,6 +1,6 @@
 """The piecewise-affine model of Sec. IV: cells, right-hand side, state-space form (23)–(28).
 
-Load flow, two forms (NOTES.md item 7; docs/architecture_pwa.md):
+Load flow, two forms (docs/errata.md E7; docs/architecture_pwa.md):
 
 ``consistent`` (default)
     Q_L = z·C_q(P_L). C_q is the PWA of Ĉ_q = K√(½(P_S − sign(z)P_L)), so z·C_q already

@@ -182,7 +182,7 @@ def flow_coefficient_from_rating(nominal_flow: float, nominal_pressure_drop: flo
 
     Notes
     -----
-    The paper's K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) (NOTES.md item 9).
+    The paper's K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) (docs/errata.md E9).
     """
     if not (nominal_flow > 0 and math.isfinite(nominal_flow)):
         raise ParameterError(f"nominal flow {nominal_flow!r} m³/s must be positive and finite")
@@ -203,7 +203,7 @@ class ValveFlow:
         Flow coefficient K [m³/(s·√Pa)] per metering edge at full opening.
     transition_pressure : float
         Pressure drop p_tr [Pa] below which the square root is replaced by a
-        cubic laminar law with the same value and slope at p_tr (NOTES.md item 3).
+        cubic laminar law with the same value and slope at p_tr (docs/errata.md E3).
     """
 
     K: float = flow_coefficient_from_rating(40e-3 / 60.0, 70e5)
@@ -262,7 +262,7 @@ class Cylinder:
             if v > 100.0 * swept:
                 warnings.warn(
                     f"Cylinder.{name} = {v:g} m³ is {v / swept:.0f}× the cylinder volume "
-                    f"({swept:.3g} m³); did you mean {v:g} L = {v * 1e-3:g} m³? (NOTES.md item 2)",
+                    f"({swept:.3g} m³); did you mean {v:g} L = {v * 1e-3:g} m³? (docs/errata.md E2)",
                     UserWarning,
                     stacklevel=3,
                 )
