@@ -1142,7 +1142,15 @@ def prepare(dispatcher, args, what="solver"):
         _compile_notice(
             f"compiling the {what} solver (once per installation, ~10 s; later runs load it from the cache)"
         )
-    dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+    import warnings
+
+    from numba.core.errors import NumbaIRAssumptionWarning
+
+    with warnings.catch_warnings():
+        # numba's pedantic scope check after inlining rhs_pwa through _rhs_for (a variable set
+        # on both branches of an if); the IR is valid and the results are tested.
+        warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
+        dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
     dt = time.perf_counter() - t0
     compile_seconds += dt
     return dt
