@@ -475,6 +475,45 @@ class SystemParams:
                     f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
                 )
 
+    def _headline(self) -> list[tuple[str, str]]:
+        """Headline quantities in engineering units, for the reprs."""
+        from .._display import engineering
+
+        return [
+            ("supply pressure P_S", engineering(self.supply.pressure, "Pa")),
+            ("flow coefficient K", f"{self.flow.K:.4g} m³/(s·√Pa)"),
+            ("areas A_A / A_B", f"{self.cylinder.area_a * 1e4:.4g} / {self.cylinder.area_b * 1e4:.4g} cm²"),
+            ("stroke", engineering(self.cylinder.stroke, "m")),
+            ("mass", f"{self.load.mass:.4g} kg"),
+            ("bulk modulus E", f"{self.oil.bulk_modulus / 1e9:.4g} GPa"),
+            ("valve ω0 / ζ", f"{self.valve.omega0:.4g} rad/s / {self.valve.zeta:.3g}"),
+        ]
+
+    def __repr__(self) -> str:
+        src = self.meta.get("source") if isinstance(self.meta, dict) else None
+        head = ", ".join(f"{k.split(' ')[-1]}={v}" for k, v in self._headline()[:5] if " / " not in v)
+        return f"SystemParams({f'{src!r}, ' if src else ''}{head})"
+
+    def _repr_html_(self) -> str:
+        """Headline values, then every field of every component (SI) in a collapsible block."""
+        from .._display import html_table
+
+        rows = []
+        for comp in self.__dataclass_fields__:
+            if comp == "meta":
+                continue
+            part = getattr(self, comp)
+            units = _field_units().get(comp, {})
+            for fld in dataclasses.fields(part):
+                unit = units.get(fld.name) or ""
+                value = getattr(part, fld.name)
+                text = f"{value:.6g}" if isinstance(value, float) else str(value)
+                rows.append((comp, fld.name, text, unit.replace("**", "^")))
+        src = self.meta.get("source", "") if isinstance(self.meta, dict) else ""
+        top = html_table(f"SystemParams {src}".strip(), ("quantity", "value"), self._headline())
+        full = html_table("", ("component", "field", "value", "unit (SI)"), rows)
+        return f"{top}<details><summary>all parameters</summary>{full}</details>"
+
     def replace(self, **changes: Any) -> SystemParams:
         """Return a copy with components or dotted fields replaced.
 
@@ -524,3 +563,9 @@ class SystemParams:
 COMPONENT_TYPES: dict[str, type] = {
     f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"  # type: ignore[misc]
 }
+
+
+def _field_units() -> dict:
+    from ._toml import FIELD_UNITS  # _toml imports this module
+
+    return FIELD_UNITS

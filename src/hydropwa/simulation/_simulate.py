@@ -97,16 +97,30 @@ class SimulationResult:
             raise KeyError(f"no channel {name!r}; available: {', '.join(self.channels)}") from None
 
     def __repr__(self) -> str:
-        return (
-            f"SimulationResult(model={self.model!r}, n={self.t.size}, t=[{self.t[0]:g}, {self.t[-1]:g}] s, "
-            f"channels={list(self.channels)}, steps={self.stats.get('steps')})"
-        )
+        t = f"t=[{self.t[0]:g}, {self.t[-1]:g}] s" if self.t.size else "empty"
+        wall = self.stats.get("wall_time")
+        speed = f", {wall * 1e3:.3g} ms" if wall else ""
+        return f"SimulationResult(model={self.model!r}, n={self.t.size}, {t}, steps={self.stats.get('steps')}{speed})"
+
+    def _repr_html_(self) -> str:
+        from .._display import channel_rows, html_table
+
+        st = self.stats
+        note = (f"{st.get('steps')} steps, {st.get('wall_time', 0.0) * 1e3:.3g} ms"
+                + (f" (+ {st['compile_time']:.1f} s compiling, once)" if st.get("compile_time", 0.0) > 0.5 else "")
+                + f", rtol {st.get('rtol')}; values in engineering units")
+        title = f"SimulationResult: {self.model} model, {self.t.size} samples, {self.t[-1] - self.t[0] if self.t.size else 0:.4g} s"
+        return html_table(title, ("channel", "unit", "min", "max"), channel_rows(self.channels, self.units), note=note)
 
     def to_pandas(self):
-        """DataFrame indexed by time with one column per channel (SI units in ``df.attrs['units']``)."""
+        """DataFrame with one column per channel, ``t`` [s] first (as :meth:`Run.to_pandas`).
+
+        The index holds the same times (named ``time``) for ``df.plot()``; SI units are in
+        ``df.attrs['units']``, the model name in ``df.attrs['model']``.
+        """
         import pandas as pd
 
-        df = pd.DataFrame({k: v for k, v in self.channels.items() if k != "t"}, index=pd.Index(self.t, name="t"))
+        df = pd.DataFrame(dict(self.channels), index=pd.Index(self.t, name="time"))
         df.attrs["units"] = self.units
         df.attrs["model"] = self.model
         return df
