@@ -230,7 +230,7 @@ class FrequencyResponse:
         """
         import control
 
-        label = name or (f"valve_{100 * self.amplitude:g}pct" if np.isfinite(self.amplitude) else "valve")
+        label = name or (f"valve_{round(100 * self.amplitude)}pct" if np.isfinite(self.amplitude) else "valve")
         label = label.replace(".", "p")
         return control.frd(
             np.asarray(self.response, dtype=complex), self.omega, name=label, inputs="u", outputs="spool"
