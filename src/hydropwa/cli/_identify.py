@@ -49,8 +49,12 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
     try:
         check_output(out, force)
         params = load_params(base) if base else None
-        report = identify(data_dir, parts, base_params=params)
-        written = report.save(out, figures, summary)
+        from ._progress import step
+
+        with step(f"identifying {', '.join(parts)} from {data_dir}"):
+            report = identify(data_dir, parts, base_params=params)
+        with step("writing parameters, figures and summary"):
+            written = report.save(out, figures, summary)
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:

@@ -58,17 +58,23 @@ def linearize_command(
     params = load_params(params_file) if params_file is not None else get_preset("paper")
     ps = None if supply_pressure is None else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
-    model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
-                      form=form, scheduled=scheduled)
-    written = [save_pwa(model, out, sample_time=dt)]
+    from ._progress import step
+
+    with step("fitting the PWA cells"):
+        model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
+                          form=form, scheduled=scheduled)
+    with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
+        written = [save_pwa(model, out, sample_time=dt)]
     if figures is not None:
         from hydropwa.linearization._report import write_figures
 
-        written += write_figures(model, figures)
+        with step("writing Figs. 1-2"):
+            written += write_figures(model, figures)
     if tables is not None:
         from hydropwa.linearization._report import write_tables
 
-        written += write_tables(model, tables)
+        with step("regenerating Tables IV-IX"):
+            written += write_tables(model, tables)
     return written
 
 
