@@ -194,8 +194,9 @@ def _fig9(out: Path, info: dict) -> str:
 
         from ..data import read_dataset
 
-        root = Path(str(info.get("data", "")))
-        ds = read_dataset(root / "sine" if (root / "sine" / "manifest.json").is_file() else root)
+        # the study's own data (virtual rig: out/data) or the measured dataset it was given
+        folders = [r / "sine" for r in (out / "data", Path(str(info.get("data", ""))))] + [Path(str(info.get("data", "")))]
+        ds = read_dataset(next(d for d in folders if (d / "manifest.json").is_file()))
         run = next(r for r in ds if r.has("p_s"))
         fig = Figure(figsize=(6, 3))
         ax = fig.add_subplot()
