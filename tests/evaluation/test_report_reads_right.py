@@ -26,3 +26,9 @@ def test_report_summary_tables_and_figures(small_study):
     assert re.search(r"<details><summary>per run, model and channel \(\d+ rows\)</summary>", page)
     # every interval row says whether the rig's true value lies inside it
     assert page.count("<td>yes</td>") + page.count("no: outside") >= 3
+
+
+def test_a_truth_just_outside_its_interval_prints_apart_from_the_end():
+    lo, hi, value, true = 627.98, 628.29, 628.14, 628.30  # the valve's ω0 at 25 %, rad/s
+    d = _interval_digits(lo, hi, value, true)
+    assert f"{hi:.{d}g}" != f"{true:.{d}g}"

@@ -96,11 +96,12 @@ def metrics_for_display(metrics):
     return df.drop(columns=[c for c in ("note",) if c in df])
 
 
-def _interval_digits(lo: float, hi: float, value: float) -> int:
-    """Significant digits that keep ``lo``, ``value`` and ``hi`` apart (4 at least, 10 at most)."""
+def _interval_digits(lo: float, hi: float, value: float, true: float = float("nan")) -> int:
+    """Significant digits that keep ``lo``, ``value``, ``hi`` and a ``true`` value apart
+    (4 at least, 10 at most), so a truth just outside its interval does not print as an end."""
+    vals = sorted({v for v in (lo, value, hi, true) if math.isfinite(v)})
     for d in range(4, 11):
-        texts = {f"{v:.{d}g}" for v in (lo, value, hi) if math.isfinite(v)}
-        if len(texts) == len([v for v in (lo, value, hi) if math.isfinite(v)]):
+        if len({f"{v:.{d}g}" for v in vals}) == len(vals):
             return d
     return 10
 
@@ -117,7 +118,7 @@ def _params_section(out: Path) -> str:
     rows = []
     n_out = 0
     for r in df.itertuples(index=False):
-        d = _interval_digits(float(r.ci_low), float(r.ci_high), float(r.identified))
+        d = _interval_digits(float(r.ci_low), float(r.ci_high), float(r.identified), float(r.true))
 
         def g(v, d=d):
             return "" if not math.isfinite(float(v)) else f"{float(v):.{d}g}"
