@@ -1,4 +1,4 @@
-"""Cost of online supply-pressure scheduling of the PWA model (NOTES.md item 10).
+"""Cost of online supply-pressure scheduling of the PWA model (docs/errata.md E10).
 
 The paper reports that recalculating the linearization at the time-varying P_S "fails due
 to an exponential increase in simulation time". With cells in p̃ = P_L/P_S the schedule is

@@ -22,7 +22,7 @@ from hydropwa.params import params_from_dict, recover_stribeck_from_table_v, tab
 
 
 def test_flow_coefficient_from_rating_matches_table_iii():
-    # 40 L/min at 70 bar is the paper's K = 0.252e-6 m³/(s·√Pa) (NOTES item 9), 3 digits printed.
+    # 40 L/min at 70 bar is the paper's K = 0.252e-6 m³/(s·√Pa) (docs/errata.md E9), 3 digits printed.
     K = flow_coefficient_from_rating(40e-3 / 60, 70e5)
     assert K == pytest.approx(0.252e-6, rel=1e-3)
 
@@ -95,13 +95,13 @@ def test_paper_preset_holds_tables_ii_iii_iv(paper):
     assert paper.valve.omega0_at(0.90) == pytest.approx(220.0)
     assert paper.valve.zeta == 0.7
     assert paper.cylinder.area_a == 1.3e-3 and paper.cylinder.area_b == 0.76e-3
-    assert paper.cylinder.dead_volume_a == 0.7e-3  # 0.7 L, NOTES item 2
+    assert paper.cylinder.dead_volume_a == 0.7e-3  # 0.7 L, docs/errata.md E2
     assert paper.load.mass == 1.394 and paper.oil.bulk_modulus == 1e9
     assert (paper.dead_zone.alpha, paper.dead_zone.beta, paper.dead_zone.creep_slope) == (1.0, 0.1, 0.04)
 
 
 def test_table_v_breakpoints_are_consistent():
-    # With the middle slope read as 1.833e5 (NOTES item 8) neighbouring lines meet at
+    # With the middle slope read as 1.833e5 (docs/errata.md E8) neighbouring lines meet at
     # about ±0.8, ±14.5 and ±54 mm/s, in increasing order.
     b = table_v_pwa().breakpoints * 1e3
     np.testing.assert_allclose(np.abs(b), [54.4, 14.5, 0.785, 0.785, 14.6, 54.3], rtol=0.01)

@@ -104,7 +104,7 @@ def test_locked_piston_pressure_rise_rate(paper):
     qa = z * p.flow.K * math.sqrt(100e5 - 20e5)
     qb = z * p.flow.K * math.sqrt(60e5)
     assert dy[2] == pytest.approx(p.oil.bulk_modulus * qa / (c.dead_volume_a + c.area_a * 0.05), rel=1e-12)
-    # NOTES item 1: with z > 0 chamber B drains, so its pressure falls
+    # docs/errata.md E1: with z > 0 chamber B drains, so its pressure falls
     assert dy[3] == pytest.approx(-p.oil.bulk_modulus * qb / (c.dead_volume_b + c.area_b * (c.stroke - 0.05)), rel=1e-12)
 
 

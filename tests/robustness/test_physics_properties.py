@@ -75,7 +75,7 @@ def test_pressures_stay_physical(params, u, load):
     is physics, not a defect), by the water-hammer rise ΔP_kin = v_max·√(m·E/V_min) that a
     moving mass m can produce when it compresses the smallest chamber volume V_min (kinetic
     energy ½mv² into ½V·ΔP²/E), by the external load over the smaller area, and by the
-    transition pressure p_tr of the regularised orifice root (NOTES item 3).
+    transition pressure p_tr of the regularised orifice root (docs/errata.md E3).
     Lower bound: while a chamber is emptied its effective bulk modulus falls to zero at the
     vapour pressure, and below it pulls the pressure back (cavitation, architecture decision 5),
     so only an integration step can overshoot p_vap. At rtol 1e-5 the solver's pressure

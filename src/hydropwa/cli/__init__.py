@@ -27,6 +27,25 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        from .. import __version__
+
+        typer.echo(f"hydropwa {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(
+        False, "--version", help="Print the version and exit.", callback=_version, is_eager=True
+    ),
+) -> None:
+    """Model, identify and linearize valve-controlled hydraulic cylinders."""
+
+
 app.add_typer(params_app, name="params")
 app.command("simulate")(simulate_command)
 
@@ -112,6 +131,9 @@ def _internal_error(exc: BaseException) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
     warnings.showwarning = _showwarning
+    from ..simulation import _kernel
+
+    _kernel.set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
     command = typer.main.get_command(app)
     _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:

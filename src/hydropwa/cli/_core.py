@@ -163,7 +163,10 @@ def simulate_command(
         res.to_csv(out)
     else:
         res.to_parquet(out)
-    msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
+    msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms"
+    if res.stats.get("compile_time", 0.0) > 0.5:
+        msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"
+    msg += ")"
     if plot is not None:
         from ..evaluation import plot_result, save_figure
 

@@ -92,8 +92,12 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
             check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
         frf_opts, dz_opts = _options(band, dead_zone_form)
         params = resolve_params(base) if base else None
-        report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
-        written = report.save(out, figures, summary)
+        from ._progress import step
+
+        with step(f"identifying {', '.join(parts)} from {data_dir}"):
+            report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
+        with step("writing parameters, figures and summary"):
+            written = report.save(out, figures, summary)
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:

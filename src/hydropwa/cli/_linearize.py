@@ -64,24 +64,30 @@ def linearize_command(
     params = resolve_params(params_file)
     ps = None if supply_pressure is None else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
-    model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
-                      form=form, scheduled=scheduled)
+    from ._progress import step
+
+    with step("fitting the PWA cells"):
+        model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
+                          form=form, scheduled=scheduled)
     tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
-    written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units)]
-    doc = export_pwa(model, refine_tol=tol, units=units)
+    with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
+        written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units)]
+        doc = export_pwa(model, refine_tol=tol, units=units)
+        if mat is not None:
+            written.append(save_pwa_mat(model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force))
     unit = doc["state"][0]["unit"]
     typer.echo(f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
                f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)")
-    if mat is not None:
-        written.append(save_pwa_mat(model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force))
     if figures is not None:
         from hydropwa.linearization._report import write_figures
 
-        written += write_figures(model, figures)
+        with step("writing Figs. 1-2"):
+            written += write_figures(model, figures)
     if tables is not None:
         from hydropwa.linearization._report import write_tables
 
-        written += write_tables(model, tables)
+        with step("regenerating Tables IV-IX"):
+            written += write_tables(model, tables)
     return written
 
 

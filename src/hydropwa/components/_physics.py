@@ -156,7 +156,7 @@ def dead_zone_slope(nu: float, alpha: float, beta: float, creep: float, outer_of
 
 @njit(**_JIT)
 def signed_sqrt(dp: float, p_tr: float) -> float:
-    """Regularised signed square root sign(Δp)·√|Δp| [√Pa] (NOTES.md item 3).
+    """Regularised signed square root sign(Δp)·√|Δp| [√Pa] (docs/errata.md E3).
 
     Below the transition pressure p_tr the turbulent law is replaced by the odd
     cubic √p_tr·(1.25 s − 0.25 s³), s = Δp/p_tr, which matches value and slope
@@ -194,7 +194,7 @@ def orifice_flows(z: float, p_a: float, p_b: float, p_s: float, p_t: float, K: f
         Flow into chamber A [m³/s] (from supply for z > 0, to tank for z < 0).
     q_b : float
         Flow *out of* chamber B [m³/s] (to tank for z > 0, from supply for z < 0);
-        Eq. (9) therefore uses −Q_B (NOTES.md item 1).
+        Eq. (9) therefore uses −Q_B (docs/errata.md E1).
 
     Notes
     -----
@@ -446,7 +446,7 @@ def end_stop_force(x: float, v: float, stroke: float, k: float, c: float) -> flo
 def net_piston_force(p_a, p_b, f_l, area_a, area_b):
     """Hydraulic force minus load, P_A·A_A − P_B·A_B − F_L [N], Eq. (10).
 
-    With the rod at steady speed this is the friction force f(ẋ) (NOTES.md item 11); minus
+    With the rod at steady speed this is the friction force f(ẋ) (docs/errata.md E11); minus
     m·ẍ it is the friction force at any instant. Floats or numpy arrays.
     """
     return (

@@ -394,6 +394,17 @@ class Dataset:
     def __repr__(self) -> str:
         return f"Dataset({str(self.root)!r}, {len(self)} runs)"
 
+    def _repr_html_(self) -> str:
+        from .._display import html_table
+
+        rows = []
+        for e in self.manifest.get("runs", [])[:50]:
+            rows.append((e.get("name", ""), e.get("kind") or "", e.get("n_samples", ""),
+                         f"{e.get('duration', float('nan')):.4g}", ", ".join(e.get("channels", {}))))
+        more = len(self) - len(rows)
+        return html_table(f"Dataset {self.root}: {len(self)} runs", ("run", "kind", "samples", "duration [s]", "channels"),
+                          rows, note=f"… and {more} more" if more > 0 else "")
+
 
 def read_dataset(root: str | os.PathLike, *, validate: bool = True, lazy: bool = False) -> Dataset:
     """Open a dataset folder.

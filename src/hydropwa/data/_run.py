@@ -206,6 +206,19 @@ class Run:
                 "hint: check the channel map or use Run.has() first"
             ) from None
 
+    def __repr__(self) -> str:
+        chans = ", ".join(k for k in self.channels if k != "t")
+        fs = f" at {self.fs:g} Hz" if self.fs else ""
+        return f"Run({self.name!r}, {self.n_samples} samples, {self.duration:.4g} s{fs}; {chans})"
+
+    def _repr_html_(self) -> str:
+        from .._display import channel_rows, html_table
+
+        kind = f", kind {self.kind}" if self.kind else ""
+        title = f"Run {self.name!r}: {self.n_samples} samples, {self.duration:.4g} s at {self.fs or 0:g} Hz{kind}"
+        return html_table(title, ("channel", "unit", "min", "max"), channel_rows(self.channels, self.units),
+                          note="values in engineering units (SI inside)")
+
     def has(self, channel: str) -> bool:
         """Whether the run holds ``channel``."""
         return channel in self.channels

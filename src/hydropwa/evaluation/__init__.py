@@ -5,6 +5,7 @@
 ``drift_per_period`` are plain functions of arrays. See ``docs/architecture_evaluation.md``.
 """
 
+from ._compare import compare
 from ._evaluate import (
     CHANNELS,
     MODELS,
@@ -38,6 +39,7 @@ __all__ = [
     "EvaluationStart",
     "EvaluationWarning",
     "StudyError",
+    "compare",
     "StudyResult",
     "channel_metrics",
     "drift_per_period",

@@ -86,7 +86,9 @@ def plot_evaluation(result, models=None, channels=("u", "x", "p_l"), smooth: flo
         label, fac, unit = DISPLAY.get(ch, (ch, 1.0, ""))
         if ch in meas:
             y = meas[ch] if ch == "u" else moving_average(meas[ch], n)
-            ax.plot(t, y * fac, color="k", lw=1.4, label="command" if ch == "u" else "measurement")
+            # drawn over the models (zorder) and dashed, so a model that fits does not hide it
+            ax.plot(t, y * fac, color="k", lw=1.2, ls="--" if ch != "u" else "-", zorder=10,
+                    label="command" if ch == "u" else "measurement")
         if ch != "u":
             for m in models:
                 res = result.simulations[m]

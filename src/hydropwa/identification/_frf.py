@@ -228,6 +228,34 @@ class FrequencyResponse:
         """Unwrapped phase of H [deg]."""
         return np.degrees(np.unwrap(np.angle(self.response)))
 
+    def to_frd(self, name: str | None = None):
+        """The measured response as a python-control frequency response (``control.frd``).
+
+        Parameters
+        ----------
+        name : str, optional
+            System name (default: ``valve_<amplitude in %>pct``; python-control forbids dots).
+
+        Returns
+        -------
+        control.FrequencyResponseData
+            H(jω) at ω = 2πf [rad/s], input ``u`` (command [1]), output ``spool`` [1];
+            usable with ``control.bode_plot``, ``control.nyquist_plot`` and in
+            interconnections with models.
+        """
+        import control
+
+        label = name or (f"valve_{round(100 * self.amplitude)}pct" if np.isfinite(self.amplitude) else "valve")
+        label = label.replace(".", "p")
+        return control.frd(
+            np.asarray(self.response, dtype=complex), self.omega, name=label, inputs="u", outputs="spool"
+        )
+
+    def __repr__(self) -> str:
+        f = np.asarray(self.frequency)
+        span = f"{f[0]:g}–{f[-1]:g} Hz" if f.size else "empty"
+        return f"FrequencyResponse(amplitude={self.amplitude:g}, {f.size} points, {span})"
+
 
 def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = None,
                     amplitude: float | None = None, name: str = "",

@@ -1,7 +1,7 @@
 """The paper's cell sets: dead-zone (16), C_q (18), (20), C_qp (19), (21), friction (22).
 
 C_q and C_qp are fitted once, independent of the supply pressure, as functions of the
-normalised load pressure p̃ = sign(z)·P_L/P_S (NOTES.md items 5 and 10)::
+normalised load pressure p̃ = sign(z)·P_L/P_S (docs/errata.md E5, E10)::
 
     Ĉ_q(P_L)  = K √(½(P_S − sign(z) P_L))        = K √(P_S/2) · √(1 − p̃)
     Ĉ_qp(P_L) = |z| K / (4 √(½(P_S − sign(z) P_L))) = |z| K / (4 √(P_S/2)) · 1/√(1 − p̃)
@@ -75,7 +75,7 @@ def dead_zone_cells(dz: DeadZone) -> PiecewiseAffine:
     Parameters
     ----------
     dz : DeadZone
-        α, β, creep slope and the continuity choice (NOTES.md item 4).
+        α, β, creep slope and the continuity choice (docs/errata.md E4).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """The piecewise-affine model of Sec. IV: cells, right-hand side, state-space form (23)–(28).
 
-Load flow, two forms (NOTES.md item 7; docs/architecture_pwa.md):
+Load flow, two forms (docs/errata.md E7; docs/architecture_pwa.md):
 
 ``consistent`` (default)
     Q_L = z·C_q(P_L). C_q is the PWA of Ĉ_q = K√(½(P_S − sign(z)P_L)), so z·C_q already
@@ -224,6 +224,24 @@ class PwaModel:
         return self.to_json() == other.to_json()
 
     __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        sched = "scheduled" if self.scheduled else f"P_S={self.supply_pressure / 1e5:.4g} bar"
+        cells = f"{self.dead_zone.slopes.size}/{self.cq.n_cells}/{self.cqp.n_cells}/{self.friction.n_cells}"
+        return f"PwaModel(form={self.form!r}, {sched}, cells g/o/n/w={cells})"
+
+    def _repr_html_(self) -> str:
+        from .._display import html_table
+
+        rows = [
+            ("dead zone (16), Table IV", "u [1]", self.dead_zone.slopes.size, "exact"),
+            ("C_q (18), (20)", "p̃ = sign(z)P_L/P_S", self.cq.n_cells, f"max error {self.cq.max_error:.3g}"),
+            ("C_qp (19), (21)", "p̃", self.cqp.n_cells, f"max error {self.cqp.max_error:.3g}"),
+            ("friction (22), Table V", "v [m/s]", self.friction.n_cells, f"max error {self.friction.max_error:.3g} N"),
+        ]
+        sched = "scheduled on P_S(t)" if self.scheduled else "fixed P_S"
+        title = f"PwaModel: form {self.form}, {sched}, P_S = {self.supply_pressure / 1e5:.4g} bar"
+        return html_table(title, ("cell set", "variable", "cells", "fit"), rows)
 
     # --- protocol of hydropwa.models ----------------------------------------------------
     @property

@@ -1,7 +1,7 @@
 """Tables IV–IX of the paper as printed, what is recovered from them, and their reproduction.
 
 Tables VI–IX hold the C_q and C_qp cells (k_o, d_o, k_n, d_n) of four simulations with
-different average supply pressures (NOTES.md item 6). Each printed cell is the tangent
+different average supply pressures (docs/errata.md E6). Each printed cell is the tangent
 of Eq. (18) or (19) at one working point P̂ (Eqs. (17)–(19)):
 
     k_o = −K / (4√(½(P_S − P̂))),    d_o = K√(½(P_S − P̂)) − k_o P̂
@@ -9,7 +9,7 @@ of Eq. (18) or (19) at one working point P̂ (Eqs. (17)–(19)):
 
 so P_S and P̂ follow from the numbers. Two typos are corrected before use:
 
-* Table VII, cell IV, column 1: printed 0.388e-3, read 3.88e-3 (NOTES.md item 6).
+* Table VII, cell IV, column 1: printed 0.388e-3, read 3.88e-3 (docs/errata.md E6).
 * Table VIII: every entry is printed ten times too large (e-15 where e-16 is meant).
   With the printed values the C_qp tangents would need P_S ≈ 9.5 bar for cells IV–V and
   the working points of Table VIII would disagree with those of Table IX and VI–VII;

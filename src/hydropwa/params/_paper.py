@@ -2,7 +2,7 @@
 
 Table V prints only the seven cells of the linearized Stribeck curve; the
 Stribeck parameters of Eq. (11) are recovered here by least squares
-(NOTES.md item 8). The cell labels are read I..VII and the middle slope is
+(docs/errata.md E8). The cell labels are read I..VII and the middle slope is
 read 1.833e5 (printed 1.833e3), which makes neighbouring lines intersect at
 ±0.79 mm/s, ±14.5 mm/s and ±54.4 mm/s.
 """
@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..components import PiecewiseAffine, stribeck_friction
 from ._params import Friction
@@ -45,7 +44,7 @@ TABLE_V_AS_PRINTED = (
     (1105.0, 30.7),
 )
 
-#: Table V corrected: cells I..VII, middle slope 1.833e5 (NOTES.md item 8).
+#: Table V corrected: cells I..VII, middle slope 1.833e5 (docs/errata.md E8).
 TABLE_V = tuple((1.833e5, 0.0) if i == 3 else kd for i, kd in enumerate(TABLE_V_AS_PRINTED))
 
 
@@ -115,6 +114,8 @@ def recover_stribeck_from_table_v(v_max: float = 0.2) -> StribeckRecovery:
     theta0 = np.array([90.0, 60.0, 1000.0, -2.0, 1.0, 4.0])
     lb = np.array([0.0, 0.0, 0.0, -5.0, 0.2, 1.0])
     ub = np.array([1e3, 1e3, 1e5, 0.0, 5.0, 7.0])
+    from scipy.optimize import least_squares  # lazy: keeps `import hydropwa` fast
+
     res = least_squares(lambda th: model(th) - target, theta0, bounds=(lb, ub), x_scale=np.array([10, 10, 100, 0.3, 0.3, 0.3]))
     fc, dfs, sigma, log_chi, delta, log_gamma = res.x
     fr = Friction(

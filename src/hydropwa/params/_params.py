@@ -191,8 +191,8 @@ def flow_coefficient_from_rating(
     Notes
     -----
     K is per metering edge: Q_A = z·K·√(P_S − P_A) (Eq. (5)). The paper's
-    K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) taken per land (NOTES.md
-    item 9); the same rating read per valve gives √2 more flow per edge.
+    K = 0.252e-6 m³/(s·√Pa) is 40 L/min over √(70 bar) taken per land (docs/errata.md E9);
+    the same rating read per valve gives √2 more flow per edge.
     """
     if per not in ("land", "valve"):
         raise ParameterError(f"valve rating per = {per!r} must be 'land' or 'valve'")
@@ -216,7 +216,7 @@ class ValveFlow:
         Flow coefficient K [m³/(s·√Pa)] per metering edge at full opening.
     transition_pressure : float
         Pressure drop p_tr [Pa] below which the square root is replaced by a
-        cubic laminar law with the same value and slope at p_tr (NOTES.md item 3).
+        cubic laminar law with the same value and slope at p_tr (docs/errata.md E3).
     """
 
     K: float = flow_coefficient_from_rating(40e-3 / 60.0, 70e5)
@@ -281,7 +281,7 @@ class Cylinder:
             if v > 100.0 * swept:
                 warnings.warn(
                     f"Cylinder.{name} = {v:g} m³ is {v / swept:.0f}× the cylinder volume "
-                    f"({swept:.3g} m³); did you mean {v:g} L = {v * 1e-3:g} m³? (NOTES.md item 2)",
+                    f"({swept:.3g} m³); did you mean {v:g} L = {v * 1e-3:g} m³? (docs/errata.md E2)",
                     UserWarning,
                     stacklevel=3,
                 )
@@ -494,6 +494,45 @@ class SystemParams:
                     f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
                 )
 
+    def _headline(self) -> list[tuple[str, str]]:
+        """Headline quantities in engineering units, for the reprs."""
+        from .._display import engineering
+
+        return [
+            ("supply pressure P_S", engineering(self.supply.pressure, "Pa")),
+            ("flow coefficient K", f"{self.flow.K:.4g} m³/(s·√Pa)"),
+            ("areas A_A / A_B", f"{self.cylinder.area_a * 1e4:.4g} / {self.cylinder.area_b * 1e4:.4g} cm²"),
+            ("stroke", engineering(self.cylinder.stroke, "m")),
+            ("mass", f"{self.load.mass:.4g} kg"),
+            ("bulk modulus E", f"{self.oil.bulk_modulus / 1e9:.4g} GPa"),
+            ("valve ω0 / ζ", f"{self.valve.omega0:.4g} rad/s / {self.valve.zeta:.3g}"),
+        ]
+
+    def __repr__(self) -> str:
+        src = self.meta.get("source") if isinstance(self.meta, dict) else None
+        head = ", ".join(f"{k.split(' ')[-1]}={v}" for k, v in self._headline()[:5] if " / " not in v)
+        return f"SystemParams({f'{src!r}, ' if src else ''}{head})"
+
+    def _repr_html_(self) -> str:
+        """Headline values, then every field of every component (SI) in a collapsible block."""
+        from .._display import html_table
+
+        rows = []
+        for comp in self.__dataclass_fields__:
+            if comp == "meta":
+                continue
+            part = getattr(self, comp)
+            units = _field_units().get(comp, {})
+            for fld in dataclasses.fields(part):
+                unit = units.get(fld.name) or ""
+                value = getattr(part, fld.name)
+                text = f"{value:.6g}" if isinstance(value, float) else str(value)
+                rows.append((comp, fld.name, text, unit.replace("**", "^")))
+        src = self.meta.get("source", "") if isinstance(self.meta, dict) else ""
+        top = html_table(f"SystemParams {src}".strip(), ("quantity", "value"), self._headline())
+        full = html_table("", ("component", "field", "value", "unit (SI)"), rows)
+        return f"{top}<details><summary>all parameters</summary>{full}</details>"
+
     def replace(self, **changes: Any) -> SystemParams:
         """Return a copy with components or dotted fields replaced.
 
@@ -543,3 +582,9 @@ class SystemParams:
 COMPONENT_TYPES: dict[str, type] = {
     f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"  # type: ignore[misc]
 }
+
+
+def _field_units() -> dict:
+    from ._toml import FIELD_UNITS  # _toml imports this module
+
+    return FIELD_UNITS

@@ -2,7 +2,7 @@
 
 ``paper``
     Tables II, III and IV of the paper; K from the valve rating 40 L/min at
-    70 bar (NOTES.md item 9); Stribeck parameters recovered from Table V by
+    70 bar (docs/errata.md E9); Stribeck parameters recovered from Table V by
     :func:`~hydropwa.params.recover_stribeck_from_table_v` (item 8); chamber
     dead volumes read as 0.7 L instead of the printed 0.7 m³ (item 2); supply
     100 bar (Sec. VII set value); ω0 scheduled on the command amplitude
@@ -49,8 +49,8 @@ def paper_params() -> SystemParams:
         meta={
             "source": "preset 'paper': Tables II-V of the paper",
             "friction": f"recovered from Table V by least squares, RMS residual {rec.rms_residual:.2f} N",
-            "dead_volumes": "Table III prints 0.7 m^3; read as 0.7 L (NOTES.md item 2)",
-            "K": "40 L/min at 70 bar (NOTES.md item 9)",
+            "dead_volumes": "Table III prints 0.7 m^3; read as 0.7 L (docs/errata.md E2)",
+            "K": "40 L/min at 70 bar (docs/errata.md E9)",
         },
     )
 

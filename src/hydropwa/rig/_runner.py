@@ -16,6 +16,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import dataclasses
 import hashlib
+import itertools
 import json
 import os
 from collections.abc import Callable, Iterable, Iterator
@@ -157,11 +158,15 @@ def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: i
     if jobs <= 1 or len(specs) <= 1:
         yield map(fn, specs)
         return
+    # The first run in this process: it compiles (or loads) the solver once before the pool
+    # starts, so on a fresh installation the workers load it from the cache (or inherit it
+    # when forked) instead of each compiling its own copy at the same time (~13 CPU-s each).
+    first = fn(specs[0])
     with cf.ProcessPoolExecutor(
-        max_workers=min(jobs, len(specs)), initializer=_init_worker, initargs=(os.getpid(),)
+        max_workers=min(jobs, len(specs) - 1), initializer=_init_worker, initargs=(os.getpid(),)
     ) as pool:
         try:
-            yield pool.map(fn, specs, chunksize=1)
+            yield itertools.chain([first], pool.map(fn, specs[1:], chunksize=1))
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise

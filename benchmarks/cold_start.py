@@ -1,0 +1,105 @@
+"""First-run (cold) and cached (warm) times of what a new user runs first, against the targets.
+
+Each case runs in a fresh process, first with an empty numba cache (``NUMBA_CACHE_DIR`` pointed
+at a new folder: everything compiles), then again with that cache filled (everything loads).
+Prints a Markdown table for the README:
+
+    python benchmarks/cold_start.py              # all cases (several minutes on 2 cores)
+    python benchmarks/cold_start.py --no-paper   # without the main job
+
+Cases: ``import hydropwa`` (best of 5), ``hydropwa simulate --duration 1`` (the full model),
+the README's Python example (extracted from README.md), and the main job ``hydropwa paper``.
+Timings on a shared machine vary by tens of per cent; the script reports, it does not assert.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TARGETS = {"first simulate": 8.0, "README example": 25.0, "main job (paper)": 60.0}
+
+
+def _bin(name: str) -> str:
+    return str(Path(sys.executable).with_name(name))
+
+
+def readme_python() -> str:
+    """The README's first ```python block."""
+    text = (ROOT / "README.md").read_text()
+    return re.search(r"```python\n(.*?)```", text, re.S).group(1)
+
+
+def _cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def timed(cmd: list[str], cwd: Path, cache: Path) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``cmd`` and its child processes.
+
+    CPU time is what the command costs on an idle machine with one core per busy process; on
+    a shared machine the wall time grows with the load, the CPU time much less.
+    """
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg")
+    c0, t0 = _cpu(), time.perf_counter()
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
+    wall, cpu = time.perf_counter() - t0, _cpu() - c0
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    return wall, cpu
+
+
+def import_time() -> float:
+    code = "import time; t = time.perf_counter(); import hydropwa; print(time.perf_counter() - t)"
+    runs = [float(subprocess.check_output([sys.executable, "-c", code], text=True)) for _ in range(5)]
+    return min(runs)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--no-paper", action="store_true", help="skip the main job (the longest case)")
+    args = ap.parse_args()
+    cases = {
+        "first simulate": lambda d: [_bin("hydropwa"), "simulate", "--duration", "1", "--out", str(d / "run.csv")],
+        "README example": lambda d: [sys.executable, str(d / "example.py")],
+    }
+    if not args.no_paper:
+        cases["main job (paper)"] = lambda d: [_bin("hydropwa"), "paper", "--out", str(d / "report")]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name, make in cases.items():
+            cache = tmp / f"cache-{len(rows)}"
+            times = []
+            for attempt in ("cold", "warm"):
+                work = tmp / f"{len(rows)}-{attempt}"
+                work.mkdir()
+                (work / "example.py").write_text(readme_python())
+                times.append(timed(make(work), work, cache))
+            rows.append((name, *times))
+            print(f"{name}: cold {times[0][0]:.1f} s wall / {times[0][1]:.1f} s CPU, "
+                  f"warm {times[1][0]:.1f} s / {times[1][1]:.1f} s", file=sys.stderr, flush=True)
+    imp = import_time()
+    load = os.getloadavg()[0]
+    print(f"Load average during the run: {load:.1f} on {os.cpu_count()} cores.\n")
+    print("| case | cold: wall (CPU) | warm: wall (CPU) | target (cold wall) |")
+    print("| --- | --- | --- | --- |")
+    for name, (cold, cold_cpu), (warm, warm_cpu) in rows:
+        target = TARGETS[name]
+        mark = "met" if cold <= target else "missed"
+        print(f"| {name} | {cold:.1f} s ({cold_cpu:.1f} s) | {warm:.1f} s ({warm_cpu:.1f} s) | "
+              f"≤ {target:g} s ({mark}, {cold / target:.2f}×) |")
+    print(f"| `import hydropwa` | {imp:.2f} s | | ≤ 0.5 s ({'met' if imp <= 0.5 else 'missed'}) |")
+
+
+if __name__ == "__main__":
+    main()
