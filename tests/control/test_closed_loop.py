@@ -17,8 +17,8 @@ from hydropwa.control import (
     tracking_metrics,
 )
 from hydropwa.linearization import linearize, reduced_rhs
-from hydropwa.params import get_preset
 from hydropwa.models import ReducedModel
+from hydropwa.params import get_preset
 from hydropwa.simulation import simulate
 
 KP = 90.0  # [1/m]: loop gain k_p K_v ≈ 50 1/s, well below the hydraulic mode (~1450 rad/s)
