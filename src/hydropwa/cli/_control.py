@@ -238,9 +238,9 @@ def simulate_command(
         rtol=rtol,
     )
     if out.suffix.lower() == ".csv":
-        res.to_csv(out)
+        res.to_csv(out, overwrite=True)  # checked with --force above
     else:
-        res.to_parquet(out)
+        res.to_parquet(out, overwrite=True)
     m = tracking_metrics(res)
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"

@@ -86,7 +86,7 @@ def params_export(
         raise ParameterError(f"--out {out} must end in .toml")
     check_output(out, force, option="--out")
     params = resolve_params(source)
-    save_params(params, out, header=f"exported from {source}")
+    save_params(params, out, header=f"exported from {source}", overwrite=True)  # checked with --force above
     typer.echo(f"wrote {out}")
 
 
@@ -160,9 +160,9 @@ def simulate_command(
         rtol=rtol,
     )
     if out.suffix.lower() == ".csv":
-        res.to_csv(out)
+        res.to_csv(out, overwrite=True)  # checked with --force above
     else:
-        res.to_parquet(out)
+        res.to_parquet(out, overwrite=True)
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms"
     if res.stats.get("compile_time", 0.0) > 0.5:
         msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"

@@ -97,7 +97,7 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
         with step(f"identifying {', '.join(parts)} from {data_dir}"):
             report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
         with step("writing parameters, figures and summary"):
-            written = report.save(out, figures, summary)
+            written = report.save(out, figures, summary, overwrite=True)  # checked with --force above
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:

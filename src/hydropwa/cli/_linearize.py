@@ -71,7 +71,7 @@ def linearize_command(
                           form=form, scheduled=scheduled)
     tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
     with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
-        written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units)]
+        written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units, overwrite=True)]
         doc = export_pwa(model, refine_tol=tol, units=units)
         if mat is not None:
             written.append(save_pwa_mat(model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force))

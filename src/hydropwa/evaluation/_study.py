@@ -477,7 +477,7 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
-        files = [save_pwa(pwa, out / "pwa.json")]
+        files = [save_pwa(pwa, out / "pwa.json", overwrite=True)]  # the stage runner owns the folder
         # the guaranteed vector-field error of each exported cell (docs/reduced_asymmetric.md)
         cells = export_pwa(pwa, units="engineering")["cells"]
         bounds = pd.DataFrame([{**c["index"], "error_bound_bar_per_s": c["error_bound"]} for c in cells])

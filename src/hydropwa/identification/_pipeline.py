@@ -154,7 +154,7 @@ class IdentificationReport:
         return _summary(self)
 
     def save(self, out: str | os.PathLike, figures: str | os.PathLike | None = None,
-             summary: str | os.PathLike | None = None) -> dict[str, Path]:
+             summary: str | os.PathLike | None = None, *, overwrite: bool = False) -> dict[str, Path]:
         """Write the parameter TOML, the figures (PNG) and the markdown summary.
 
         Parameters
@@ -165,6 +165,9 @@ class IdentificationReport:
             Folder for ``valve_bode.png``, ``dead_zone.png``, ``stribeck.png``.
         summary : path-like, optional
             Markdown file (default: ``out`` with suffix ``.md``).
+        overwrite : bool
+            Replace existing files; by default an existing parameter file, summary or
+            figure raises :class:`~hydropwa.OutputExistsError` before anything is written.
 
         Returns
         -------
@@ -173,10 +176,18 @@ class IdentificationReport:
         """
         from ._plots import plot_bode, plot_dead_zone, plot_stribeck
 
+        from .._io import check_output
+
         out = Path(out)
-        written = {"params": save_params(self.params, out, header=f"identified by hydropwa from {self.source}")}
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
-        written["summary"] = atomic_write_text(summary, self.summary_markdown())
+        targets = [out, summary]
+        if figures is not None:
+            targets += [Path(figures) / n for n in ("valve_bode.png", "dead_zone.png", "stribeck.png")]
+        for target in targets:
+            check_output(target, overwrite)
+        header = f"identified by hydropwa from {self.source}"
+        written = {"params": save_params(self.params, out, header=header, overwrite=overwrite)}
+        written["summary"] = atomic_write_text(summary, self.summary_markdown(), overwrite=overwrite)
         if figures is not None:
             fdir = Path(figures)
             fdir.mkdir(parents=True, exist_ok=True)

@@ -344,11 +344,16 @@ def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | Non
 
 
 def save_pwa(model, path: str | os.PathLike, *, supply_pressure: float | None = None,
-             sample_time: float | None = None, refine_tol: float | None = None, units: str = "si") -> Path:
-    """Write :func:`export_pwa` as JSON (atomically) and return the path."""
+             sample_time: float | None = None, refine_tol: float | None = None, units: str = "si",
+             overwrite: bool = False) -> Path:
+    """Write :func:`export_pwa` as JSON (atomically) and return the path; an existing file
+    raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
+    from .._io import check_output
+
+    check_output(path, overwrite)
     doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
                      units=units)
-    return atomic_write_text(path, json.dumps(doc, indent=1) + "\n")
+    return atomic_write_text(path, json.dumps(doc, indent=1) + "\n", overwrite=overwrite)
 
 
 def load_pwa(path: str | os.PathLike):

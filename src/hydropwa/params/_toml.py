@@ -359,6 +359,9 @@ def _plain(obj: Any) -> Any:
     return obj
 
 
-def save_params(params: SystemParams, path: str | os.PathLike, header: str = "") -> Path:
-    """Write parameters to a TOML file atomically; :func:`load_params` reads it back exactly."""
-    return atomic_write_text(path, params_to_toml(params, header))
+def save_params(params: SystemParams, path: str | os.PathLike, header: str = "", *, overwrite: bool = False) -> Path:
+    """Write parameters to a TOML file atomically; :func:`load_params` reads it back exactly.
+
+    An existing file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``.
+    """
+    return atomic_write_text(path, params_to_toml(params, header), overwrite=overwrite)

@@ -127,17 +127,19 @@ class SimulationResult:
         fs = 1.0 / float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
         return Run(name=name or f"sim-{self.model}", channels=dict(self.channels), units=self.units, fs=fs, meta=m)
 
-    def to_csv(self, path: str | os.PathLike) -> Path:
-        """Write all channels to CSV (header ``name [unit]``), atomically."""
+    def to_csv(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+        """Write all channels to CSV (header ``name [unit]``), atomically; an existing file
+        raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
         from ..data import write_run
 
-        return Path(write_run(self.to_run(), Path(path), format="csv"))
+        return Path(write_run(self.to_run(), Path(path), format="csv", overwrite=overwrite))
 
-    def to_parquet(self, path: str | os.PathLike) -> Path:
-        """Write all channels to Parquet (units in the schema metadata), atomically."""
+    def to_parquet(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+        """Write all channels to Parquet (units in the schema metadata), atomically; an existing
+        file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
         from ..data import write_run
 
-        return Path(write_run(self.to_run(), Path(path), format="parquet"))
+        return Path(write_run(self.to_run(), Path(path), format="parquet", overwrite=overwrite))
 
     def plot(self, channels=("u", "x", "p_a", "p_b", "p_s")):
         """Plot channels against time in engineering units (%, mm, bar); returns the figure."""

@@ -83,7 +83,7 @@ def _trajectory_path(directory: Path, case: SweepCase) -> Path:
 
 
 def _write_trajectory(directory: Path, case: SweepCase, result: SimulationResult) -> None:
-    result.to_parquet(_trajectory_path(directory, case))
+    result.to_parquet(_trajectory_path(directory, case), overwrite=True)  # the journal decides what reruns
 
 
 def fingerprint(spec: SweepSpec) -> str:
