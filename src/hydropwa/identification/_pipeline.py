@@ -174,9 +174,8 @@ class IdentificationReport:
         dict[str, Path]
             Written files by role.
         """
-        from ._plots import plot_bode, plot_dead_zone, plot_stribeck
-
         from .._io import check_output
+        from ._plots import plot_bode, plot_dead_zone, plot_stribeck
 
         out = Path(out)
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
