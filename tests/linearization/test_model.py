@@ -199,7 +199,7 @@ def test_json_round_trip_identical(params, tmp_path):
         back = PwaModel.from_json(m.to_json())
         assert back == m
         np.testing.assert_array_equal(back.pack(), m.pack())
-        path = save_pwa(m, tmp_path / "pwa.json")
+        path = save_pwa(m, tmp_path / "pwa.json", overwrite=True)
         assert load_pwa(path) == m
         doc = json.loads(path.read_text())
         assert doc["time"] == "continuous" and len(doc["cells"]) > 0
