@@ -20,7 +20,7 @@ from hydropwa.data import Run, write_dataset
 from hydropwa.identification import Shooting, expand_free, fit_model
 from hydropwa.identification._greybox import _long_run_covariance, autocorrelation_time, noise_level
 from hydropwa.models import FullOrderModel, ReducedModel
-from hydropwa.params import get_preset, load_params
+from hydropwa.params import get_preset, load_params, save_params
 from hydropwa.simulation import Sine, simulate
 
 NOISE = {"x": 5e-6, "p_a": 0.05e5, "p_b": 0.05e5, "p_s": 0.05e5, "f_l": 5.0, "spool": 1e-3}
@@ -162,8 +162,11 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
     data = tmp_path / "data"
     write_dataset(sine_runs[:1], data)
     out = tmp_path / "fitted.toml"
+    base = tmp_path / "base.toml"
+    save_params(truth.replace(**{"flow.K": 1.1 * truth.flow.K}), base)
     cli = CliRunner()
-    res = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out), "--jobs", "1"])
+    res = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out), "--jobs", "1",
+                           "--base-params", str(base)])
     assert res.exit_code == 0, res.output
     assert load_params(out).flow.K == pytest.approx(truth.flow.K, rel=0.02)
     assert (tmp_path / "fitted.md").is_file()
