@@ -905,7 +905,7 @@ def fit_model(
         it is back within 10 % of that with exact inputs.
     starts : int
         Number of starts: the base values and ``starts − 1`` log-uniform random points
-        inside the bounds (``seed``); the best optimum is kept.
+        within ×/÷ 3 of them and inside the bounds (``seed``); the best optimum is kept.
     rtol : float
         Simulation tolerance. 1e-5: the adaptive step sequence changes with the parameters,
         which puts a jitter on the residuals; at 1e-5 it is ~5 % of a 1 % parameter change's
@@ -1044,8 +1044,8 @@ def fit_model(
 
     rng = np.random.default_rng(seed)
     theta_starts = [np.clip(np.zeros(len(names)), tlo + 1e-9, thi - 1e-9)]
-    for _ in range(max(0, starts - 1)):
-        theta_starts.append(rng.uniform(tlo, thi))
+    for _ in range(max(0, starts - 1)):  # within ×/÷ 3 of the start and inside the bounds
+        theta_starts.append(rng.uniform(np.maximum(tlo, -math.log(3.0)), np.minimum(thi, math.log(3.0))))
     best = None
     starts_log = []
     for th0 in theta_starts:
