@@ -137,7 +137,7 @@ def model(
         "--channels", help="Fitted channels, comma-separated (default x,p_a,p_b and v where logged).")] = None,
     shooting: Annotated[str, typer.Option(
         "--shooting", help="auto (by each run's content), single or multiple.")] = "auto",
-    window: Annotated[float, typer.Option("--window", help="Multiple-shooting window [s].")] = 0.02,
+    window: Annotated[float, typer.Option("--window", help="Multiple-shooting window in seconds.")] = 0.02,
     starts: Annotated[int, typer.Option("--starts", help="Number of optimiser starts (multi-start).")] = 1,
     loss: Annotated[str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")] = "linear",
     jobs: Annotated[int | None, typer.Option("--jobs", help="Threads (default all cores).")] = None,
