@@ -939,8 +939,8 @@ def fit_model(
     sample (Eqs. (1)–(11) of the paper for the full model, (12)–(15) for the reduced one),
     in log parameters θ = ln p so that parameters from 1e-13 to 1e9 are scaled alike.
     With J the Jacobian of the (loss-weighted) residuals at the optimum, H = JᵀJ and
-    S = Σ_streams Newey–West(g = J_i r_i), Cov θ = H⁻¹ S H⁻¹; with at least 2p runs each
-    standard deviation is the larger of that and the run-block (cluster-robust) estimate.
+    S = Σ_streams Newey–West(g = J_i r_i), Cov θ = H⁻¹ S H⁻¹; with at least 2p segments each
+    standard deviation is the larger of that and the segment-block (cluster-robust) estimate.
     The interval is exp(θ ± z·σ_θ).
     """
     from ..models import as_model
@@ -1079,15 +1079,17 @@ def fit_model(
         S += _long_run_covariance(Jw[sl] * rw[sl, None], int(math.ceil(2.0 * tau)))
     Hinv = np.linalg.pinv(H)
     cov = Hinv @ S @ Hinv
-    # block (cluster-robust) estimate over runs: catches what differs between runs (input and
-    # initial-state errors, a stalled optimiser) that no within-stream correlation shows; with
-    # at least two runs per parameter, each standard deviation is the larger of the two
-    n_blocks = len(prepared)
+    # block (cluster-robust) estimate over the simulated segments: catches what differs between
+    # segments (input and initial-state errors, a stalled optimiser) that no within-stream
+    # correlation shows; with at least two blocks per parameter, each standard deviation is the
+    # larger of the two
+    block_of = {key: k for k, key in enumerate(sorted({(ri, si) for ri, si, _c, _p, _n in prob.streams}))}
+    n_blocks = len(block_of)
     if n_blocks >= 2 * len(names):
         sums = np.zeros((n_blocks, len(names)))
-        for ri, _si, _c, pos, n in prob.streams:
+        for ri, si, _c, pos, n in prob.streams:
             sl = slice(pos, pos + n)
-            sums[ri] += Jw[sl].T @ rw[sl]
+            sums[block_of[(ri, si)]] += Jw[sl].T @ rw[sl]
         cov_block = Hinv @ (sums.T @ sums * n_blocks / (n_blocks - 1.0)) @ Hinv
         d_hac = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
         d = np.maximum(d_hac, np.sqrt(np.clip(np.diag(cov_block), 0.0, None)))
