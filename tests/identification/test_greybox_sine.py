@@ -50,3 +50,13 @@ def test_sine_runs_recover_hydraulic_parameters_within_5_percent(fits):
         assert {r.method for r in fit.runs_} == {"single"}
         for n in FREE:
             assert fit.estimates_[n].value == pytest.approx(_value(truth, n), rel=0.05), n
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="intervals too narrow on clean rig data: a ~0.1 % bias of E and K from the "
+                                       "filtered inputs and segment restarts, and friction left where the optimiser "
+                                       "stalls, are larger than the noise-limited sandwich/block intervals")
+def test_truth_inside_95_percent_interval_for_90_percent(fits):
+    truth, results = fits
+    inside = [fit.estimates_[n].ci[0] <= _value(truth, n) <= fit.estimates_[n].ci[1] for fit in results for n in FREE]
+    assert np.mean(inside) >= 0.9
