@@ -859,6 +859,7 @@ def fit_model(
     x_scale: Any = "jac",
     verbose: int = 0,
     input_cutoff: float | None = 50.0,
+    xtol: float = 1e-4,
     jobs: int | None = None,
     max_nfev: int = 40,
     profile: str | Sequence[str] = "weak",
@@ -903,6 +904,8 @@ def fit_model(
         P_S(t) and F_L(t) before they drive the model (None: raw). On simulated sines the
         raw inputs' sensor noise doubles the output error at the true parameters; at 50 Hz
         it is back within 10 % of that with exact inputs.
+    xtol : float
+        Step tolerance of least_squares (relative, in log parameters).
     starts : int
         Number of starts: the base values and ``starts − 1`` log-uniform random points
         within ×/÷ 3 of them and inside the bounds (``seed``); the best optimum is kept.
@@ -1054,7 +1057,7 @@ def fit_model(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             sol = optimize.least_squares(prob.fun, th0, jac=jac, bounds=(tlo, thi), loss=loss, f_scale=f_scale,
-                                         x_scale=x_scale, max_nfev=max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8, verbose=verbose)
+                                         x_scale=x_scale, max_nfev=max_nfev, xtol=xtol, ftol=1e-6, gtol=1e-8, verbose=verbose)
         starts_log.append({"start": dict(zip(names, prob.values(th0).tolist(), strict=True)),
                            "value": dict(zip(names, prob.values(sol.x).tolist(), strict=True)),
                            "cost": float(sol.cost), "status": int(sol.status), "nfev": int(sol.nfev)})
