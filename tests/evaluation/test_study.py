@@ -165,3 +165,16 @@ def test_default_paper_command(tmp_path):
     m = pd.read_csv(tmp_path / "report" / "tables" / "metrics.csv")
     fit = m[(m.model == "full") & (m.channel == "x")]["nrmse_fit"]
     assert len(fit) == 9 and fit.min() >= 90.0
+
+
+def test_report_has_the_greybox_fit(small_study):
+    """Grey-box section: E and K fitted on two short sine runs, near the rig's true values."""
+    import pandas as pd
+
+    out = small_study.out
+    assert "Grey-box fit" in (out / "index.html").read_text()
+    assert (out / "figures" / "greybox_fit.png").is_file()
+    df = pd.read_csv(out / "tables" / "greybox.csv").set_index("parameter")
+    # two 1 s runs pin E and K to a few per cent even from the identified (not true) parameters
+    assert df.loc["oil.bulk_modulus", "value"] == pytest.approx(df.loc["oil.bulk_modulus", "true"], rel=0.1)
+    assert df.loc["flow.K", "value"] == pytest.approx(df.loc["flow.K", "true"], rel=0.1)

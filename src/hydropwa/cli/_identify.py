@@ -15,7 +15,7 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError, ParameterError, check_output
+from hydropwa._errors import HydropwaError, IdentificationError, ParameterError, check_output
 
 __all__ = ["app"]
 
@@ -177,3 +177,70 @@ def emps(
         typer.echo(f"error: file not found: {exc.filename}", err=True)
         raise typer.Exit(code=2) from None
     typer.echo(text, nl=False)
+
+
+@app.command("model")
+def model(
+    data_dir: DataDir,
+    free: Annotated[str, typer.Option(
+        "--free", help="Parameters to fit, comma-separated dotted names as in the parameter file "
+                       "(friction.static, oil.bulk_modulus, cylinder.leakage, flow.K) or groups (friction).")],
+    out: Out = Path("fitted.toml"),
+    model_kind: Annotated[str, typer.Option("--model", help="Model to fit: full or reduced.")] = "full",
+    base_params: Base = None,
+    channels: Annotated[str | None, typer.Option(
+        "--channels", help="Fitted channels, comma-separated (default x,p_a,p_b and v where logged).")] = None,
+    shooting: Annotated[str, typer.Option(
+        "--shooting", help="auto (by each run's content), single or multiple.")] = "auto",
+    window: Annotated[float, typer.Option("--window", help="Multiple-shooting window in seconds.")] = 0.02,
+    starts: Annotated[int, typer.Option("--starts", help="Number of optimiser starts (multi-start).")] = 1,
+    loss: Annotated[str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")] = "linear",
+    jobs: Annotated[int | None, typer.Option("--jobs", help="Threads (default all cores).")] = None,
+    figures: Figures = None,
+    summary: Summary = None,
+    force: Force = False,
+) -> None:
+    """Grey-box fit: simulate the model with each run's measured inputs and fit free parameters."""
+    from hydropwa.identification import (
+        Shooting,
+        fit_model,
+        load_runs,
+        plot_greybox_fit,
+        plot_greybox_profiles,
+        plot_greybox_residuals,
+    )
+    from hydropwa.params import get_preset, load_params
+
+    old = warnings.showwarning
+    warnings.showwarning = _warn
+    try:
+        check_output(out, force)
+        summary = summary or out.with_suffix(".md")
+        check_output(summary, force)
+        if model_kind not in ("full", "reduced"):
+            raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
+        params = load_params(base_params) if base_params and Path(base_params).is_file() else \
+            get_preset(base_params or "paper")
+        runs = load_runs(data_dir)
+        chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
+        fit = fit_model(model_kind, runs, free, params=params, channels=chans,
+                        shooting=Shooting(method=shooting, window=window), starts=starts, loss=loss, jobs=jobs)
+        fit.save(out)
+        from hydropwa._io import atomic_write_text
+
+        atomic_write_text(summary, fit.summary_markdown())
+        if figures is not None:
+            figures.mkdir(parents=True, exist_ok=True)
+            for r in fit.runs_[:6]:
+                plot_greybox_fit(fit, r.name, figures / f"greybox_{r.name}.png")
+                plot_greybox_residuals(fit, r.name, figures / f"greybox_residuals_{r.name}.png")
+            if fit.profiles_:
+                plot_greybox_profiles(fit, figures / "greybox_profiles.png")
+    except HydropwaError as exc:
+        raise _fail(exc) from None
+    finally:
+        warnings.showwarning = old
+    for n, e in fit.estimates_.items():
+        typer.echo(f"{n} = {e}")
+    typer.echo(f"wrote parameters: {out}")
+    typer.echo(f"wrote summary: {summary}")

@@ -258,6 +258,15 @@ settling of the move back in the last columns.</p>
 {_figures(out, ("closed_loop",))}"""
 
 
+def _greybox_section(out: Path) -> str:
+    import pandas as pd
+
+    f = out / "tables" / "greybox.csv"
+    if not f.is_file():
+        return "<p>No grey-box fit (see the notes).</p>"
+    return _table(pd.read_csv(f), "grey-box estimates: value, standard error, 95 % interval, variance inflation")
+
+
 def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     """Write ``out/index.html`` from the study's tables and figures; returns its path."""
     import pandas as pd
@@ -311,6 +320,13 @@ shape of the motion:</p>
 {_params_section(out)}
 <details><summary>identified parameters (identified.toml)</summary><pre>{html.escape(params_to_toml(ident))}</pre></details>
 {true_toml}
+
+<h2>Grey-box fit</h2>
+<p class="small">Bulk modulus and flow coefficient fitted by output error to the first second of two
+sine runs (<code>hydropwa identify model</code>), starting from the identified parameters; intervals
+corrected for the residuals' autocorrelation. Not written into identified.toml.</p>
+{_greybox_section(out)}
+{_figures(out, ("greybox",))}
 
 <h2>Identification (Figs. 5, 6, 8)</h2>
 {_figures(out, ("fig05", "fig06", "fig08"))}

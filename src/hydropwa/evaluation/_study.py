@@ -437,6 +437,38 @@ def _stage_identify(
     return load_params(out / "identified.toml"), true, runner.outputs_hash("identify")
 
 
+def _stage_greybox(inp: _Inputs, runner: StageRunner, ident, true, key: str, runs, notes: list[str]):
+    """Grey-box fit (issue 19), kept cheap: E and K on the first second of two sine runs."""
+    out = inp.out
+
+    def work():
+        from .._errors import HydropwaError
+        from ..data import Run
+        from ..identification import fit_model, plot_greybox_fit, plot_greybox_residuals
+        from ..models import FullOrderModel
+
+        short = []
+        for r in runs[:2]:
+            keep = np.asarray(r.channels["t"]) <= r.channels["t"][0] + 1.0
+            short.append(Run(name=r.name, channels={c: np.asarray(v)[keep] for c, v in r.channels.items()},
+                             units=r.units, fs=r.fs, meta=r.meta))
+        try:
+            fit = fit_model(FullOrderModel(ident), short, ("oil.bulk_modulus", "flow.K"), jobs=2, max_nfev=15,
+                            profile="none")
+        except HydropwaError as exc:
+            return [], {"notes": [f"grey-box fit skipped: {exc}"]}
+        df = fit.to_pandas().reset_index()
+        if true is not None:
+            df["true"] = [float(getattr(getattr(true, n.split(".")[0]), n.split(".")[1])) for n in df["parameter"]]
+        files = _write_table(df, out / "tables" / "greybox")
+        files += _save(plot_greybox_fit(fit, fit.runs_[0].name), out / "figures" / "greybox_fit")
+        files += _save(plot_greybox_residuals(fit, fit.runs_[0].name), out / "figures" / "greybox_residuals")
+        return files, {"notes": [f"grey-box fit: {fit.message}, {fit.nfev} evaluations, {fit.wall_time:.1f} s"]}
+
+    m = runner.run("greybox", text_hash(inp.key(), key, "greybox"), work)
+    notes.extend(m.get("notes", []))
+
+
 def _true_params(inp: _Inputs, data_root: Path):
     from ..params import load_params
 
@@ -705,6 +737,7 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
         ident, true, k1 = _stage_identify(inp, runner, data_root, data_key, notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
+        _stage_greybox(inp, runner, ident, true, text_hash(k1, data_key), runs, notes)
         metrics, k3 = _stage_evaluate(
             inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes
         )

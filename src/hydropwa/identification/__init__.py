@@ -47,6 +47,16 @@ from ._friction import (
     friction_samples,
     steady_window,
 )
+from ._greybox import (
+    PARAMETER_GROUPS,
+    GreyBoxFit,
+    Identifiability,
+    Profile,
+    RunFit,
+    Shooting,
+    expand_free,
+    fit_model,
+)
 from ._inverse_dynamics import (
     EMPS_PUBLISHED,
     EmpsResult,
@@ -55,7 +65,15 @@ from ._inverse_dynamics import (
     identify_inverse_dynamics,
 )
 from ._pipeline import PARTS, IdentificationReport, identify, load_runs
-from ._plots import plot_bode, plot_dead_zone, plot_inverse_dynamics, plot_stribeck
+from ._plots import (
+    plot_bode,
+    plot_dead_zone,
+    plot_greybox_fit,
+    plot_greybox_profiles,
+    plot_greybox_residuals,
+    plot_inverse_dynamics,
+    plot_stribeck,
+)
 
 __all__ = [
     "ESTIMATOR_CHANNELS",
@@ -103,4 +121,15 @@ __all__ = [
     "steady_window",
     "stepped_sine_point",
     "velocity_from_position",
+    "PARAMETER_GROUPS",
+    "GreyBoxFit",
+    "Identifiability",
+    "Profile",
+    "RunFit",
+    "Shooting",
+    "expand_free",
+    "fit_model",
+    "plot_greybox_fit",
+    "plot_greybox_profiles",
+    "plot_greybox_residuals",
 ]

@@ -13,7 +13,16 @@ import numpy as np
 
 from .._io import atomic_path
 
-__all__ = ["plot_bode", "plot_dead_zone", "plot_stribeck", "plot_inverse_dynamics", "save_figure"]
+__all__ = [
+    "plot_bode",
+    "plot_dead_zone",
+    "plot_stribeck",
+    "plot_inverse_dynamics",
+    "plot_greybox_fit",
+    "plot_greybox_residuals",
+    "plot_greybox_profiles",
+    "save_figure",
+]
 
 
 def _figure(nrows: int = 1, ncols: int = 1, **kw):
@@ -166,6 +175,118 @@ def plot_inverse_dynamics(result, path: str | os.PathLike | None = None):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(f"Inverse dynamics: relative error {100 * fit.relative_error:.2f} %")
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+# --------------------------------------------------------------------------- grey-box fit
+_GB_SCALE = {"x": (1e3, "x [mm]"), "v": (1e3, "v [mm/s]"), "p_a": (1e-5, "p_A [bar]"), "p_b": (1e-5, "p_B [bar]"),
+             "p_l": (1e-5, "p_L [bar]")}
+
+
+def _greybox_run(fit, run):
+    if run is None:
+        return fit.runs_[0]
+    for r in fit.runs_:
+        if r.name == run:
+            return r
+    raise KeyError(f"no run {run!r} in the fit; runs: {', '.join(r.name for r in fit.runs_)}")
+
+
+def plot_greybox_fit(fit, run: str | None = None, path: str | os.PathLike | None = None):
+    """Measured and fitted channels of one run of a grey-box fit.
+
+    Parameters
+    ----------
+    fit : GreyBoxFit
+    run : str, optional
+        Run name (default the first run).
+    path : path-like, optional
+        Where to write the figure.
+    """
+    r = _greybox_run(fit, run)
+    chans = list(r.measured)
+    fig, axes = _figure(len(chans), 1, sharex=True, squeeze=False, figsize=(7.0, 1.8 + 1.6 * len(chans)))
+    for ax, c in zip(axes[:, 0], chans, strict=True):
+        k, label = _GB_SCALE.get(c, (1.0, c))
+        ax.plot(r.t, k * r.measured[c], "-", lw=0.8, color="0.4", label="measured")
+        ax.plot(r.t, k * r.simulated[c], "-", lw=0.9, color="C3", label=f"fitted ({r.method} shooting)")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle(f"Grey-box fit, run {r.name}")
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def plot_greybox_residuals(fit, run: str | None = None, path: str | os.PathLike | None = None, max_lag: float = 0.1):
+    """Noise-scaled residuals of one run and their autocorrelation.
+
+    Parameters
+    ----------
+    fit : GreyBoxFit
+    run : str, optional
+        Run name (default the first run).
+    path : path-like, optional
+        Where to write the figure.
+    max_lag : float
+        Longest lag of the autocorrelation [s].
+    """
+    r = _greybox_run(fit, run)
+    fig, (ax, ax_c) = _figure(2, 1, figsize=(7.0, 5.5))
+    dt = float(np.nanmedian(np.diff(r.t)))
+    for c in r.measured:
+        e = (r.simulated[c] - r.measured[c]) / r.sigma[c]
+        ax.plot(r.t, e, "-", lw=0.6, label=f"{c} (σ = {r.sigma[c]:.3g})")
+        z = e[np.isfinite(e)]
+        z = z - z.mean()
+        n = max(2, min(z.size, int(round(max_lag / dt))))
+        f = np.fft.rfft(z, 2 * z.size)
+        ac = np.fft.irfft(f * np.conj(f))[:n]
+        if ac[0] > 0:
+            ax_c.plot(1e3 * dt * np.arange(n), ac / ac[0], "-", lw=0.9,
+                      label=f"{c}: n_eff = {r.n_eff.get(c, float('nan')):.0f}")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("residual / σ")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    ax_c.axhline(0.0, color="0.5")
+    ax_c.set_xlabel("lag [ms]")
+    ax_c.set_ylabel("autocorrelation")
+    ax_c.grid(True, alpha=0.3)
+    ax_c.legend(fontsize=7)
+    fig.suptitle(f"Residuals of run {r.name}")
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def plot_greybox_profiles(fit, path: str | os.PathLike | None = None):
+    """Profile likelihoods of the profiled parameters (χ² scale, 95 % threshold 3.84).
+
+    Parameters
+    ----------
+    fit : GreyBoxFit
+    path : path-like, optional
+        Where to write the figure.
+    """
+    profs = list(fit.profiles_.values())
+    n = max(1, len(profs))
+    fig, axes = _figure(1, n, squeeze=False, figsize=(3.2 * n, 3.2))
+    for ax, p in zip(axes[0], profs, strict=False):
+        ax.plot(p.values, p.cost, "o-", ms=3)
+        ax.axhline(3.84, color="C3", ls="--", lw=0.8)
+        ax.axvline(fit.estimates_[p.name].value, color="0.5", ls=":")
+        ax.set_xscale("log")
+        ax.set_xlabel(p.name)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].set_ylabel("Δχ² (variance-corrected)")
+    if not profs:
+        axes[0, 0].text(0.5, 0.5, "no parameter was profiled", ha="center", transform=axes[0, 0].transAxes)
+    fig.suptitle("Profile likelihoods")
     if path is not None:
         save_figure(fig, path)
     return fig

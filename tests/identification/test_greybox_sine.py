@@ -1,0 +1,65 @@
+"""Grey-box recovery from the virtual rig's sine runs (issue 19), over seeds (slow).
+
+Nine sine runs (1, 2, 3 Hz × 20, 40, 60 %) of 2 s from 2 cm, rig sensors and pump supply,
+true leakage 2e-12 m³/(s·Pa). Free: bulk modulus, leakage, flow coefficient and viscous
+friction, started 10–25 % away. Single shooting in 0.5 s segments (chosen automatically).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hydropwa.identification import fit_model
+from hydropwa.models import FullOrderModel
+from hydropwa.params import get_preset
+from hydropwa.rig import Rig, RunSpec, execute, run_seed
+from hydropwa.simulation import Sine
+
+FREE = ("oil.bulk_modulus", "cylinder.leakage", "flow.K", "friction.viscous")
+START = {"oil.bulk_modulus": 1.2, "cylinder.leakage": 0.75, "flow.K": 0.9, "friction.viscous": 1.2}
+SEEDS = (1, 2, 3)
+
+
+def _value(params, name):
+    comp, fld = name.split(".")
+    return getattr(getattr(params, comp), fld)
+
+
+@pytest.fixture(scope="module")
+def fits():
+    truth = get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
+    rig = Rig(params=truth)
+    start = truth.replace(**{n: START[n] * _value(truth, n) for n in FREE})
+    out = []
+    for seed in SEEDS:
+        runs = []
+        for f in (1.0, 2.0, 3.0):
+            for a in (0.2, 0.4, 0.6):
+                spec = RunSpec(name=f"sine_f{f:g}_a{round(100 * a)}", experiment="sine",
+                               command=Sine(amplitude=a, frequency=f), duration=2.0, start_position=0.02)
+                runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
+        out.append(fit_model(FullOrderModel(start), runs, FREE, jobs=2, profile="none"))
+    return truth, out
+
+
+@pytest.mark.slow
+def test_sine_runs_recover_hydraulic_parameters(fits):
+    """E, C_L, K within 1 % (measured ≤ 0.25 %); σ within 15 % (measured +10 … +12.5 %: the
+    optimiser stalls in the K–σ valley, see "Known limits" in docs/architecture_identification.md)."""
+    truth, results = fits
+    for fit in results:
+        assert {r.method for r in fit.runs_} == {"single"}
+        for n in FREE:
+            tol = 0.15 if n == "friction.viscous" else 0.01
+            assert fit.estimates_[n].value == pytest.approx(_value(truth, n), rel=tol), n
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="intervals too narrow on clean rig data: a ~0.1 % bias of E and K from the "
+                                       "filtered inputs and segment restarts, and friction left where the optimiser "
+                                       "stalls, are larger than the noise-limited sandwich/block intervals")
+def test_truth_inside_95_percent_interval_for_90_percent(fits):
+    truth, results = fits
+    inside = [fit.estimates_[n].ci[0] <= _value(truth, n) <= fit.estimates_[n].ci[1] for fit in results for n in FREE]
+    assert np.mean(inside) >= 0.9
