@@ -97,6 +97,7 @@ def table(results: dict[str, dict[str, list[bool]]]) -> str:
 
 
 @pytest.mark.slow
+@pytest.mark.study
 def test_intervals_cover_the_truth_over_20_seeds(tmp_path):
     results = {m: coverage(m, range(1, SEEDS + 1), tmp_path) for m in ("industrial", "small")}
     print("\n" + table(results))

@@ -163,6 +163,7 @@ def greybox_fit(campaign):
 
 
 @pytest.mark.slow
+@pytest.mark.study
 def test_greybox_static_within_10_percent(greybox_fit):
     _, params, fit = greybox_fit
     assert any(r.method == "multiple" for r in fit.runs_)  # the stick-slip runs were recognised
@@ -170,6 +171,7 @@ def test_greybox_static_within_10_percent(greybox_fit):
 
 
 @pytest.mark.slow
+@pytest.mark.study
 def test_greybox_viscous_and_curve(greybox_fit):
     name, params, fit = greybox_fit
     if name == "C":
