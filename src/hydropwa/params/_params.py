@@ -57,7 +57,11 @@ def _check(
         (lt, lambda b: v < b, "less than"),
     ):
         if bound is not None and not ok(bound):
-            raise ParameterError(f"{label} = {v:g} {unit} must be {word} {bound:g} {unit}")
+            # enough digits that value and bound never print alike when they differ
+            vs, bs = f"{v:g}", f"{bound:g}"
+            if vs == bs and v != bound:
+                vs, bs = f"{v:.15g}", f"{bound:.15g}"
+            raise ParameterError(f"{label} = {vs} {unit} must be {word} {bs} {unit}")
     object.__setattr__(obj, name, v)
 
 
