@@ -24,6 +24,7 @@ def step(message: str) -> Iterator[None]:
     if console.is_terminal:
         with console.status(f"{message} …"):
             yield
-    else:
+        console.print(f"{message}: {time.perf_counter() - t0:.1f} s", highlight=False)
+    else:  # logs get the time on stdout; stderr stays for the one `error:` line of a failure
         yield
-    console.print(f"{message}: {time.perf_counter() - t0:.1f} s", highlight=False)
+        print(f"{message}: {time.perf_counter() - t0:.1f} s", flush=True)

@@ -583,7 +583,7 @@ def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped:
     def state(i: int) -> np.ndarray:
         ps = sm["p_s"][i] if "p_s" in sm else mdl.params.supply.pressure
         sp = sm["spool"][i] if "spool" in sm else arrays["u"][i]
-        y0 = np.asarray(type(mdl).state_from_measurement(sm["x"][i], v_est[i], sm["p_a"][i], sm["p_b"][i], ps, sp),
+        y0 = np.asarray(mdl.state_from_measurement(sm["x"][i], v_est[i], sm["p_a"][i], sm["p_b"][i], ps, sp),
                         dtype=float)
         if spool_rate is not None and "spool_rate" in mdl.state_names:
             y0[mdl.state_names.index("spool_rate")] = spool_rate[i]

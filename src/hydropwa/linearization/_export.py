@@ -117,7 +117,7 @@ def model_from_dict(data: dict[str, Any]):
     if schema != SCHEMA:
         raise PwaError(f"PWA document schema {schema!r} is not {SCHEMA!r}")
     try:
-        params = params_from_dict(_need(data, "params", "document"), source="PWA document")
+        params = params_from_dict(_need(data, "params", "document"), source="PWA document", check_bare=False)
         sets = _need(data, "cell_sets", "document")
         ir = _need(data, "input_range", "document")
         return PwaModel(

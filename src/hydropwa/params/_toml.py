@@ -174,7 +174,7 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         ) from None
 
 
-def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemParams:
+def params_from_dict(data: dict[str, Any], source: str = "<dict>", *, check_bare: bool = True) -> SystemParams:
     """Build :class:`SystemParams` from a nested dict as read from TOML.
 
     Missing components and fields take the defaults of the dataclasses (or of the preset
@@ -184,7 +184,9 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
     ``K`` (Eq. (8)): ``per = "valve"`` for a drop across the whole valve (both metering
     edges, the usual datasheet rating), ``per = "land"`` (default) across one edge.
     Bare numbers are SI, but one implausible for its field (``pressure = 100``: 100 Pa)
-    is an error naming the likely unit.
+    is an error naming the likely unit — unless ``check_bare`` is False, for documents whose
+    numbers are SI by their schema (a PWA JSON export holds the exact parameters it was built
+    from, plausible or not).
     """
     if not isinstance(data, dict):
         raise ParameterError(
@@ -256,7 +258,8 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> SystemPara
                         raise ParameterError(f"{where} must be a list of [amplitude, omega0] pairs") from None
                 kwargs[key] = value
             else:
-                _check_bare(comp, key, value, unit, where)
+                if check_bare:
+                    _check_bare(comp, key, value, unit, where)
                 kwargs[key] = parse_quantity(value, unit, where)
         try:
             changes[comp] = dataclasses.replace(getattr(params, comp), **kwargs)

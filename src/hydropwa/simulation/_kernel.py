@@ -938,6 +938,16 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     return k_out
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _work_arrays(n, n_out, y0):
+    """The integrator's work arrays for n states and n_out output samples (y starts at y0)."""
+    return (
+        np.empty((n_out, n)), y0.copy(), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+        np.empty(n), np.empty(n), np.empty((4, n)), np.empty((n, n)), np.empty((n, n)),
+        np.empty(n, dtype=np.int64), np.zeros(4, dtype=np.int64),
+    )
+
+
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
 def _integrate(
     kind,
@@ -1007,23 +1017,8 @@ def _integrate(
     The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
     the step factor is 0.9·err^(−1/3) (a cube root, cheaper than pow), clipped to [0.2, 5] (no growth right after a rejection).
     """
-    n = n_states(kind)
-    n_out = t_out.shape[0]
-    Y = np.empty((n_out, n))
-    y = y0.copy()
-    f0 = np.empty(n)
-    fnew = np.empty(n)
-    ft = np.empty(n)
-    yt = np.empty(n)
-    ynew = np.empty(n)
-    yerr = np.empty(n)
-    dfdt = np.empty(n)
-    U = np.empty((4, n))
-    J = np.empty((n, n))
-    W = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
+    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(n_states(kind), t_out.shape[0], y0)
     atol = rtol * scale
-    stats = np.zeros(4, dtype=np.int64)
     none = np.empty(0)
     k_out, status, t = _march(
         kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
@@ -1239,23 +1234,8 @@ def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, 
     sample instants t_0 + k·ctl[0], k < len(ref). Returns :func:`_integrate`'s tuple and
     the per-sample log, shape (N_LOG, len(ref)) (rows in :mod:`._controller`).
     """
-    n = n_states(kind)
-    n_out = t_out.shape[0]
-    Y = np.empty((n_out, n))
-    y = y0.copy()
-    f0 = np.empty(n)
-    fnew = np.empty(n)
-    ft = np.empty(n)
-    yt = np.empty(n)
-    ynew = np.empty(n)
-    yerr = np.empty(n)
-    dfdt = np.empty(n)
-    U = np.empty((4, n))
-    J = np.empty((n, n))
-    W = np.empty((n, n))
-    piv = np.empty(n, dtype=np.int64)
+    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(n_states(kind), t_out.shape[0], y0)
     atol = rtol * scale
-    stats = np.zeros(4, dtype=np.int64)
     cst = np.zeros(N_CST)
     log = np.full((N_LOG, ref.shape[0]), np.nan)
     k_out, status, t = _march(
