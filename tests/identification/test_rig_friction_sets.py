@@ -23,11 +23,10 @@ import warnings
 import numpy as np
 import pytest
 
+import hydropwa.rig as rig  # noqa: E402  (an ImportError of the package must fail, not skip)
 from hydropwa.components import stribeck_friction
 from hydropwa.identification import StribeckIdentifier, curve_maximum, friction_samples, load_runs
 from hydropwa.params import get_preset
-
-rig = pytest.importorskip("hydropwa.rig")
 
 SETS = {
     "paper": {},

@@ -10,11 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import hydropwa.rig as rig  # noqa: E402  (an ImportError of the package must fail, not skip)
 from hydropwa.components import stribeck_friction
 from hydropwa.identification import identify
 from hydropwa.params import TABLE_II
-
-rig = pytest.importorskip("hydropwa.rig")
 
 CAMPAIGN = {
     "campaign": {"name": "ident-recovery", "seed": 11},
