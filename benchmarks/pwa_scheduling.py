@@ -48,11 +48,11 @@ def main(duration: float = 4.0) -> dict[str, float]:
     sched = linearize(p, supply_pressure=float(ps_meas.mean()), scheduled=True)
     cases = {
         # analytic inputs
-        "fixed, analytic inputs": (fixed, 95e5, u_sine),
+        "fixed, analytic inputs": (fixed, None, u_sine),  # a fixed model takes no P_S input
         "scheduled, constant P_S": (sched, 95e5, u_sine),
         "scheduled, analytic P_S(t)": (sched, "sine:amplitude=3 bar,frequency=4,offset=92 bar", u_sine),
         # a measured run, as in the evaluation: sampled u(t) and P_S(t) at 2 kHz
-        "fixed, measured u": (fixed, float(ps_meas.mean()), (tt, u_meas)),
+        "fixed, measured u": (fixed, None, (tt, u_meas)),
         "scheduled, measured u, P_S": (sched, (tt, ps_meas), (tt, u_meas)),
     }
     out = {}

@@ -507,12 +507,12 @@ def _rhs_for(kind, y, u, ps, fl, p, dy):
     """
 
 
-# The reduced and PWA right-hand sides are reached through these two called (not inlined)
-# wrappers: inlining them through the _rhs_for overload re-types them at every call site
-# (measured: the PWA kernel compiled in 24.7 CPU-s with them inlined, 16.8 s called; the
-# reduced 14.6 s / 13.7 s) for a call that costs a few ns per evaluation (PWA kernel ~5 %
-# slower within this machine's noise). Return rhs_reduced/rhs_pwa from _ol_rhs_for instead to
-# trade compile time back for that.
+# The reduced and PWA right-hand sides are inlined into their kernels through the _rhs_for
+# overload. Called through the two wrappers below instead, they compile faster (PWA 16.8 against
+# 24.7 CPU-s, reduced 13.7 against 14.6 s, measured on the mean-area models) but the asymmetric
+# models then run at 3.2 / 4.3 ms per 10 s of the paper rig instead of 3.0 / 3.3 ms (3300x and
+# 3000x real time, the speed the asymmetric model had to keep): the warm speed won. The
+# wrappers stay for a build that prefers a fast first run: return them from _ol_rhs_for.
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _rhs_reduced_call(y, u, ps, fl, p, dy):
     rhs_reduced(y, u, ps, fl, p, dy)
@@ -529,9 +529,9 @@ def _ol_rhs_for(kind, y, u, ps, fl, p, dy):
     if k == FULL:
         return lambda kind, y, u, ps, fl, p, dy: rhs_full(y, u, ps, fl, p, dy)
     if k == REDUCED:
-        return lambda kind, y, u, ps, fl, p, dy: _rhs_reduced_call(y, u, ps, fl, p, dy)
+        return lambda kind, y, u, ps, fl, p, dy: rhs_reduced(y, u, ps, fl, p, dy)
     if k == PWA:
-        return lambda kind, y, u, ps, fl, p, dy: _rhs_pwa_call(y, u, ps, fl, p, dy)
+        return lambda kind, y, u, ps, fl, p, dy: rhs_pwa(y, u, ps, fl, p, dy)
     return lambda kind, y, u, ps, fl, p, dy: rhs_at(kind, y, u, ps, fl, p, dy)
 
 
