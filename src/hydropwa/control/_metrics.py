@@ -29,7 +29,7 @@ METRIC_UNITS = {
 def tracking_metrics(
     result, t0: float | None = None, t1: float | None = None, band: float | None = None
 ) -> dict[str, float]:
-    """Tracking metrics of a closed-loop result over the window [t0, t1] [s].
+    """Tracking metrics of a closed-loop result over the window from t0 to t1 (seconds).
 
     Parameters
     ----------
