@@ -237,10 +237,7 @@ def simulate_command(
         supply_pressure=supply_pressure,
         rtol=rtol,
     )
-    if out.suffix.lower() == ".csv":
-        res.to_csv(out, overwrite=True)  # checked with --force above
-    else:
-        res.to_parquet(out, overwrite=True)
+    res.save(out, overwrite=True)  # checked with --force above
     m = tracking_metrics(res)
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"

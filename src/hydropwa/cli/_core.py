@@ -159,10 +159,7 @@ def simulate_command(
         fs=fs,
         rtol=rtol,
     )
-    if out.suffix.lower() == ".csv":
-        res.to_csv(out, overwrite=True)  # checked with --force above
-    else:
-        res.to_parquet(out, overwrite=True)
+    res.save(out, overwrite=True)  # checked with --force above
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms"
     if res.stats.get("compile_time", 0.0) > 0.5:
         msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"

@@ -141,6 +141,15 @@ class SimulationResult:
 
         return Path(write_run(self.to_run(), Path(path), format="parquet", overwrite=overwrite))
 
+    def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+        """Write the result as CSV or Parquet, by the suffix of ``path`` (see :meth:`to_csv`)."""
+        suffix = Path(path).suffix.lower()
+        if suffix == ".csv":
+            return self.to_csv(path, overwrite=overwrite)
+        if suffix == ".parquet":
+            return self.to_parquet(path, overwrite=overwrite)
+        raise SignalError(f"{path}: a simulation result is written as .csv or .parquet, not {suffix or 'no suffix'!r}")
+
     def plot(self, channels=("u", "x", "p_a", "p_b", "p_s")):
         """Plot channels against time in engineering units (%, mm, bar); returns the figure."""
         from ..evaluation.plots import plot_result
