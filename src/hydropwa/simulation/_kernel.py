@@ -8,8 +8,14 @@ Model kinds and states
 ``FULL`` (0), Eqs. (1)–(11): y = [ν, ν̇, P_A, P_B, x, ẋ, P_S]; P_S is a state
 only with the pump supply model, otherwise its rate is zero and P_S(t) is the
 input signal.
-``REDUCED`` (1), Eqs. (12)–(15): y = [P_L, ẋ, x].
+``REDUCED`` (1), Eqs. (12)–(15) generalised to the single-rod cylinder: y = [P_L, ẋ, x],
+P_L = P_A − α P_B (α = 1 and the mean area in the paper form, p[I_RFORM] = 1; see
+docs/reduced_asymmetric.md).
 ``PWA`` (2), Eqs. (16)–(23): y = [P_L, ẋ, x] with piecewise-affine cells.
+
+Parameter slots and output rows come from the one layout table, :mod:`hydropwa._layout`;
+:func:`point_derivatives` gives every Python-side consumer (matrices, exports) this
+assembly's right-hand side and exact derivatives.
 
 Integrator
 ----------
