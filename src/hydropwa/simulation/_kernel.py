@@ -1374,8 +1374,13 @@ def prepare(dispatcher, args, what="solver"):
     :data:`compile_seconds`, so ``simulate`` reports compilation apart from simulation.
     """
     global compile_seconds, _noticed
-    if getattr(dispatcher, "signatures", True):  # ready, or not a numba dispatcher (a test's stand-in)
+    if not hasattr(dispatcher, "typeof_pyval"):  # not a numba dispatcher (a test's stand-in)
         return 0.0
+    sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+    if sig in dispatcher.signatures:  # ready for exactly these argument types
+        return 0.0
+    # (a read-only or differently laid-out array is a new signature: compile it here too, with
+    # the warning filter below, not at the call)
     import time
 
     t0 = time.perf_counter()
@@ -1392,7 +1397,7 @@ def prepare(dispatcher, args, what="solver"):
         # numba's pedantic scope check after inlining the PWA model's code through an overload
         # (a variable set on both branches of an if); the IR is valid and the results are tested.
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
-        dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+        dispatcher.compile(sig)
     dt = time.perf_counter() - t0
     compile_seconds += dt
     return dt
