@@ -216,6 +216,11 @@ class PwaModel:
         if not isinstance(self.params, SystemParams):
             raise PwaError(f"PwaModel needs a SystemParams, got {type(self.params).__name__}")
         _check_supply(self.supply_pressure, self.params, self.form)
+        xc = self.capacitance_position
+        if xc is not None and not (isinstance(xc, int | float) and 0.0 <= xc <= self.params.cylinder.stroke):
+            raise PwaError(
+                f"capacitance position {xc!r} m must lie within the stroke 0 … {self.params.cylinder.stroke:g} m"
+            )
 
     # --- equality (arrays inside) -------------------------------------------------------
     def __eq__(self, other: object) -> bool:
