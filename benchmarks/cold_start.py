@@ -60,7 +60,9 @@ def timed(cmd: list[str], cwd: Path, cache: Path) -> tuple[float, float]:
 
 def import_time() -> float:
     code = "import time; t = time.perf_counter(); import hydropwa; print(time.perf_counter() - t)"
-    runs = [float(subprocess.check_output([sys.executable, "-c", code], text=True)) for _ in range(5)]
+    runs = [
+        float(subprocess.check_output([sys.executable, "-c", code], text=True)) for _ in range(5)
+    ]
     return min(runs)
 
 
@@ -69,11 +71,23 @@ def main() -> None:
     ap.add_argument("--no-paper", action="store_true", help="skip the main job (the longest case)")
     args = ap.parse_args()
     cases = {
-        "first simulate": lambda d: [_bin("hydropwa"), "simulate", "--duration", "1", "--out", str(d / "run.csv")],
+        "first simulate": lambda d: [
+            _bin("hydropwa"),
+            "simulate",
+            "--duration",
+            "1",
+            "--out",
+            str(d / "run.csv"),
+        ],
         "README example": lambda d: [sys.executable, str(d / "example.py")],
     }
     if not args.no_paper:
-        cases["main job (paper)"] = lambda d: [_bin("hydropwa"), "paper", "--out", str(d / "report")]
+        cases["main job (paper)"] = lambda d: [
+            _bin("hydropwa"),
+            "paper",
+            "--out",
+            str(d / "report"),
+        ]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -86,8 +100,12 @@ def main() -> None:
                 (work / "example.py").write_text(readme_python())
                 times.append(timed(make(work), work, cache))
             rows.append((name, *times))
-            print(f"{name}: cold {times[0][0]:.1f} s wall / {times[0][1]:.1f} s CPU, "
-                  f"warm {times[1][0]:.1f} s / {times[1][1]:.1f} s", file=sys.stderr, flush=True)
+            print(
+                f"{name}: cold {times[0][0]:.1f} s wall / {times[0][1]:.1f} s CPU, "
+                f"warm {times[1][0]:.1f} s / {times[1][1]:.1f} s",
+                file=sys.stderr,
+                flush=True,
+            )
     imp = import_time()
     load = os.getloadavg()[0]
     print(f"Load average during the run: {load:.1f} on {os.cpu_count()} cores.\n")
@@ -96,8 +114,10 @@ def main() -> None:
     for name, (cold, cold_cpu), (warm, warm_cpu) in rows:
         target = TARGETS[name]
         mark = "met" if cold <= target else "missed"
-        print(f"| {name} | {cold:.1f} s ({cold_cpu:.1f} s) | {warm:.1f} s ({warm_cpu:.1f} s) | "
-              f"≤ {target:g} s ({mark}, {cold / target:.2f}×) |")
+        print(
+            f"| {name} | {cold:.1f} s ({cold_cpu:.1f} s) | {warm:.1f} s ({warm_cpu:.1f} s) | "
+            f"≤ {target:g} s ({mark}, {cold / target:.2f}×) |"
+        )
     print(f"| `import hydropwa` | {imp:.2f} s | | ≤ 0.5 s ({'met' if imp <= 0.5 else 'missed'}) |")
 
 

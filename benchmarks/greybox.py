@@ -20,9 +20,22 @@ from hydropwa.params import get_preset
 from hydropwa.rig import Rig, RunSpec, execute, run_seed
 from hydropwa.simulation import Sine
 
-FREE = ("oil.bulk_modulus", "cylinder.leakage", "flow.K", "friction.coulomb", "friction.static", "friction.viscous")
-START = {"oil.bulk_modulus": 1.2, "cylinder.leakage": 0.75, "flow.K": 0.9, "friction.coulomb": 1.3,
-         "friction.static": 0.85, "friction.viscous": 1.2}
+FREE = (
+    "oil.bulk_modulus",
+    "cylinder.leakage",
+    "flow.K",
+    "friction.coulomb",
+    "friction.static",
+    "friction.viscous",
+)
+START = {
+    "oil.bulk_modulus": 1.2,
+    "cylinder.leakage": 0.75,
+    "flow.K": 0.9,
+    "friction.coulomb": 1.3,
+    "friction.static": 0.85,
+    "friction.viscous": 1.2,
+}
 
 
 def sine_runs(params, seed: int = 1, duration: float = 5.0):
@@ -31,8 +44,13 @@ def sine_runs(params, seed: int = 1, duration: float = 5.0):
     runs = []
     for f in (1.0, 2.0, 3.0):
         for a in (0.2, 0.4, 0.6):
-            spec = RunSpec(name=f"sine_f{f:g}_a{round(100 * a)}", experiment="sine",
-                           command=Sine(amplitude=a, frequency=f), duration=duration, start_position=0.02)
+            spec = RunSpec(
+                name=f"sine_f{f:g}_a{round(100 * a)}",
+                experiment="sine",
+                command=Sine(amplitude=a, frequency=f),
+                duration=duration,
+                start_position=0.02,
+            )
             runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
     return runs
 
@@ -53,8 +71,10 @@ def main() -> None:
         t0 = time.perf_counter()
         fit = fit_model(FullOrderModel(start), runs, FREE, jobs=jobs, profile="none")
         times[jobs] = time.perf_counter() - t0
-        print(f"jobs={jobs}: {times[jobs]:.1f} s ({fit.nfev} residual + {fit.njev} Jacobian evaluations, "
-              f"{fit.message})")
+        print(
+            f"jobs={jobs}: {times[jobs]:.1f} s ({fit.nfev} residual + {fit.njev} Jacobian evaluations, "
+            f"{fit.message})"
+        )
     if 1 in times and len(times) > 1:
         for j, t in times.items():
             if j != 1:
@@ -63,8 +83,10 @@ def main() -> None:
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for n, e in fit.estimates_.items():
         tv = _get(truth, n)
-        print(f"| {n} | {tv:.4g} | {START[n] * tv:.4g} | {e.value:.4g} | {100 * (e.value / tv - 1):+.2f} % | "
-              f"[{e.ci[0]:.4g}, {e.ci[1]:.4g}] | {'yes' if e.ci[0] <= tv <= e.ci[1] else 'no'} |")
+        print(
+            f"| {n} | {tv:.4g} | {START[n] * tv:.4g} | {e.value:.4g} | {100 * (e.value / tv - 1):+.2f} % | "
+            f"[{e.ci[0]:.4g}, {e.ci[1]:.4g}] | {'yes' if e.ci[0] <= tv <= e.ci[1] else 'no'} |"
+        )
 
 
 def _get(params, name):

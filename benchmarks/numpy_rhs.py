@@ -140,4 +140,6 @@ def check_against_kernel(kind, p, signals, y, t=0.123):
     K.rhs(kind, t, y, p, sg, dy)
     f = RHS[kind] if kind != K.REDUCED or p[K.I_RFORM] == 0.0 else REDUCED_RHS["paper"]
     mine = f(t, y, p, *signals)
-    return float(np.max(np.abs(mine - dy)) / (np.max(np.abs(dy)) + 1e-300))  # relative to the vector's size
+    return float(
+        np.max(np.abs(mine - dy)) / (np.max(np.abs(dy)) + 1e-300)
+    )  # relative to the vector's size

@@ -42,7 +42,9 @@ def main(duration: float = 4.0) -> dict[str, float]:
     tt = np.linspace(0.0, duration, int(duration * 2000) + 1)
     # Fig. 9-like supply: 95 bar with a flow-correlated sag (2 Hz command -> 4 Hz sag) and noise
     rng = np.random.default_rng(0)
-    ps_meas = 95e5 - 3e5 * np.abs(np.sin(2 * np.pi * 2.0 * tt)) + 0.05e5 * rng.standard_normal(tt.size)
+    ps_meas = (
+        95e5 - 3e5 * np.abs(np.sin(2 * np.pi * 2.0 * tt)) + 0.05e5 * rng.standard_normal(tt.size)
+    )
     u_meas = 0.4 * np.sin(2 * np.pi * 2.0 * tt) + 0.002 * rng.standard_normal(tt.size)
     fixed = linearize(p, supply_pressure=float(ps_meas.mean()))
     sched = linearize(p, supply_pressure=float(ps_meas.mean()), scheduled=True)
@@ -50,7 +52,11 @@ def main(duration: float = 4.0) -> dict[str, float]:
         # analytic inputs
         "fixed, analytic inputs": (fixed, None, u_sine),  # a fixed model takes no P_S input
         "scheduled, constant P_S": (sched, 95e5, u_sine),
-        "scheduled, analytic P_S(t)": (sched, "sine:amplitude=3 bar,frequency=4,offset=92 bar", u_sine),
+        "scheduled, analytic P_S(t)": (
+            sched,
+            "sine:amplitude=3 bar,frequency=4,offset=92 bar",
+            u_sine,
+        ),
         # a measured run, as in the evaluation: sampled u(t) and P_S(t) at 2 kHz
         "fixed, measured u": (fixed, None, (tt, u_meas)),
         "scheduled, measured u, P_S": (sched, (tt, ps_meas), (tt, u_meas)),
@@ -59,8 +65,10 @@ def main(duration: float = 4.0) -> dict[str, float]:
     for name, (model, ps, u) in cases.items():
         wall, res = _time(model, ps, u, duration)
         out[name] = wall
-        print(f"{name:30s} {wall * 1e3:8.2f} ms  ({wall / duration * 1e3:6.2f} ms per simulated s, "
-              f"steps {res.stats['steps']})")
+        print(
+            f"{name:30s} {wall * 1e3:8.2f} ms  ({wall / duration * 1e3:6.2f} ms per simulated s, "
+            f"steps {res.stats['steps']})"
+        )
     r1 = out["scheduled, constant P_S"] / out["fixed, analytic inputs"]
     r2 = out["scheduled, analytic P_S(t)"] / out["fixed, analytic inputs"]
     r3 = out["scheduled, measured u, P_S"] / out["fixed, measured u"]

@@ -116,9 +116,15 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
         if model.kind != K.PWA:  # the scipy baseline must be the same vector field
             from numpy_rhs import check_against_kernel
 
-            sig = (as_signal(U, "", "u"), as_signal(model.params.supply.pressure, "Pa", "p_s"),
-                   as_signal(0.0, "N", "f_l"))
-            y = model.initial_state() + np.r_[[1e5, 0.01, 0.0] if model.kind == K.REDUCED else np.zeros(7)]
+            sig = (
+                as_signal(U, "", "u"),
+                as_signal(model.params.supply.pressure, "Pa", "p_s"),
+                as_signal(0.0, "N", "f_l"),
+            )
+            y = (
+                model.initial_state()
+                + np.r_[[1e5, 0.01, 0.0] if model.kind == K.REDUCED else np.zeros(7)]
+            )
             assert check_against_kernel(model.kind, model.pack(0.4), sig, y) < 1e-9, name
         ref = simulate(
             model, U, duration=DURATION, fs=FS, rtol=1e-9, solver="ros23", max_steps=50_000_000
@@ -264,9 +270,11 @@ def main(argv=None) -> int:
     )
     by = {r["case"]: r for r in single}
     for form in ("reduced", "pwa"):
-        print(f"{form}: asymmetric (default) / paper mean-area form, end-to-end time "
-              f"{by[form]['hydropwa_s'] / by[form + '-paper']['hydropwa_s']:.2f}x "
-              f"(target <= 1: at least as fast as the paper form)")
+        print(
+            f"{form}: asymmetric (default) / paper mean-area form, end-to-end time "
+            f"{by[form]['hydropwa_s'] / by[form + '-paper']['hydropwa_s']:.2f}x "
+            f"(target <= 1: at least as fast as the paper form)"
+        )
     batch = bench_batch(n_batch, args.rtol)
     _print_table(
         "batch (cases per second)",

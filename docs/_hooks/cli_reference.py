@@ -24,7 +24,7 @@ def _param_rows(cmd, ctx) -> list[str]:
             continue
         record = prm.get_help_record(ctx)
         if prm.param_type_name == "argument":
-            name = '`' + (getattr(prm, 'metavar', None) or prm.name).upper() + '`'
+            name = "`" + (getattr(prm, "metavar", None) or prm.name).upper() + "`"
             kind = "argument" + ("" if prm.required else " (optional)")
             helptext = getattr(prm, "help", "") or ""
         elif record is None or record[0] == "--help":

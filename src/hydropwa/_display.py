@@ -40,7 +40,9 @@ def channel_unit(unit: str) -> tuple[str, float]:
     return _ENGINEERING.get(unit, (unit, 1.0))
 
 
-def html_table(title: str, header: Sequence[str], rows: Iterable[Sequence[object]], note: str = "") -> str:
+def html_table(
+    title: str, header: Sequence[str], rows: Iterable[Sequence[object]], note: str = ""
+) -> str:
     """A small HTML table with a bold caption (escaped)."""
     esc = html.escape
     head = "".join(f"<th style='text-align:left'>{esc(str(h))}</th>" for h in header)
@@ -52,7 +54,9 @@ def html_table(title: str, header: Sequence[str], rows: Iterable[Sequence[object
     return f"<div><b>{esc(title)}</b><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{foot}</div>"
 
 
-def channel_rows(channels: dict[str, np.ndarray], units: dict[str, str]) -> list[tuple[str, str, str, str]]:
+def channel_rows(
+    channels: dict[str, np.ndarray], units: dict[str, str]
+) -> list[tuple[str, str, str, str]]:
     """(channel, unit, min, max) rows in engineering units, time excluded."""
     rows = []
     for name, values in channels.items():

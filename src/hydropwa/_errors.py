@@ -77,8 +77,14 @@ class OutputLockedError(HydropwaError):
     """Another run holds the lock of the output folder (see ``hydropwa._io.output_lock``)."""
 
 
-def check_output(path, force: bool = False, *, folder: bool = False, option: str | None = None,
-                 files: tuple[str, ...] | None = None) -> None:
+def check_output(
+    path,
+    force: bool = False,
+    *,
+    folder: bool = False,
+    option: str | None = None,
+    files: tuple[str, ...] | None = None,
+) -> None:
     """Refuse an existing output unless ``force`` (see :func:`hydropwa._io.check_output`)."""
     from ._io import check_output as _check
 

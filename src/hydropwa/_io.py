@@ -211,9 +211,7 @@ def check_output(
             )
         return
     if path.is_dir():
-        raise HydropwaError(
-            f"{where}: is a folder, where a file is expected; give a file name"
-        )
+        raise HydropwaError(f"{where}: is a folder, where a file is expected; give a file name")
     if not force and os.path.lexists(path):
         raise OutputExistsError(_exists_message(path, option))
 
@@ -252,7 +250,10 @@ def _lock_owner(path: Path) -> str:
 
 @contextlib.contextmanager
 def output_lock(
-    folder: str | os.PathLike, command: str = "hydropwa", *, name: str = LOCK_NAME,
+    folder: str | os.PathLike,
+    command: str = "hydropwa",
+    *,
+    name: str = LOCK_NAME,
     clean: bool = True,
 ) -> Iterator[Path]:
     """Hold the lock of an output folder for the duration of the block.
@@ -307,8 +308,12 @@ def output_lock(
     else:  # pragma: no cover - five races in a row
         raise OutputLockedError(f"{folder}: could not take the lock {path}; try again")
     try:
-        info = {"pid": os.getpid(), "host": socket.gethostname(), "command": command,
-                "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        info = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "command": command,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        }
         os.ftruncate(fd, 0)
         os.write(fd, (json.dumps(info) + "\n").encode())
         if clean:

@@ -20,8 +20,12 @@ import os
 from pathlib import Path
 
 #: The modules holding ``@njit(cache=True)`` functions, relative to the package.
-COMPILED_MODULES = ("components/_physics.py", "simulation/_signals.py", "simulation/_kernel.py",
-                    "simulation/_controller.py")
+COMPILED_MODULES = (
+    "components/_physics.py",
+    "simulation/_signals.py",
+    "simulation/_kernel.py",
+    "simulation/_controller.py",
+)
 
 _ROOT = Path(__file__).resolve().parent
 _FILES = frozenset(str(_ROOT / m) for m in COMPILED_MODULES)

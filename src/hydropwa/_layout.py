@@ -95,4 +95,6 @@ CONTROL_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("command", "1"),
     ("cell_ctl", "1"),
 )
-OUT: dict[str, int] = {name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)}
+OUT: dict[str, int] = {
+    name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)
+}

@@ -88,7 +88,10 @@ def check_samples(duration: float, fs: float, what: str = "--duration", copies: 
     copies : int
         Results held in memory at once (threads of a sweep).
     """
-    for name, v, unit in ((what, duration, "s"), ("--fs" if what.startswith("--") else "fs", fs, "Hz")):
+    for name, v, unit in (
+        (what, duration, "s"),
+        ("--fs" if what.startswith("--") else "fs", fs, "Hz"),
+    ):
         if not isinstance(v, int | float) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
             raise ParameterError(f"{name} = {v!r} {unit} must be a positive, finite number")
     n = duration * fs + 1
@@ -130,7 +133,9 @@ def check_supply_pressure(value, params, duration: float, where: str = "--supply
         return
     vals = _signal_values(value, "Pa", "supply_pressure", duration)
     if not np.all(np.isfinite(vals)):
-        raise ParameterError(f"{where} {value!r}: P_S is not finite everywhere; give a finite pressure")
+        raise ParameterError(
+            f"{where} {value!r}: P_S is not finite everywhere; give a finite pressure"
+        )
     for v in (float(vals.min()), float(vals.max())):
         try:
             dataclasses.replace(params.supply, pressure=v)

@@ -59,7 +59,9 @@ def test_signed_sqrt_slope(dp):
 def test_signed_sqrt_slope_closed_forms():
     assert signed_sqrt_slope(0.0, P_TR) == pytest.approx(1.25 / np.sqrt(P_TR), rel=1e-15)
     assert signed_sqrt_slope(P_TR, P_TR) == pytest.approx(0.5 / np.sqrt(P_TR), rel=1e-15)
-    assert signed_sqrt_slope(P_TR * (1 - 1e-12), P_TR) == pytest.approx(0.5 / np.sqrt(P_TR), rel=1e-9)
+    assert signed_sqrt_slope(P_TR * (1 - 1e-12), P_TR) == pytest.approx(
+        0.5 / np.sqrt(P_TR), rel=1e-9
+    )
     assert signed_sqrt_slope(-4e6, P_TR) == pytest.approx(0.25e-3, rel=1e-15)
 
 
@@ -76,7 +78,9 @@ def test_load_flow_slope(z, pl, near, ps):
         pl = (ps - 2 * near) if z >= 0 else (2 * near - ps)
     h = 1e-4 * max(abs(pl), P_TR)
     drop = 0.5 * (ps - pl) if z >= 0 else 0.5 * (ps + pl)
-    assume(abs(abs(drop) - P_TR) > h)  # not across the laminar-band edge (see test_signed_sqrt_slope)
+    assume(
+        abs(abs(drop) - P_TR) > h
+    )  # not across the laminar-band edge (see test_signed_sqrt_slope)
     num = _central(lambda x: load_flow(z, x, ps, K_, P_TR), pl, h)
     _close(load_flow_slope(z, pl, ps, K_, P_TR), num, rel=1e-4, floor=1e-20)
     assert load_flow_slope(z, pl, ps, K_, P_TR) <= 0.0  # flow falls as the load pressure rises
@@ -99,14 +103,20 @@ def test_stribeck_slope_at_rest_is_gamma_times_static_plus_viscous():
 
 
 @settings(max_examples=200, deadline=None)
-@given(x=st.one_of(st.floats(-1e-3, 0.0), st.floats(0.2, 0.201), st.floats(0.0, 0.2)), v=st.floats(-0.5, 0.5))
+@given(
+    x=st.one_of(st.floats(-1e-3, 0.0), st.floats(0.2, 0.201), st.floats(0.0, 0.2)),
+    v=st.floats(-0.5, 0.5),
+)
 def test_end_stop_force_slope(x, v):
     stroke, k, c = 0.2, 1e8, 2e4
     hx, hv = 1e-9, 1e-6
     fx = lambda a: end_stop_force(a, v, stroke, k, c)  # noqa: E731
     fv = lambda b: end_stop_force(x, b, stroke, k, c)  # noqa: E731
     # skip stencils across the contact kink (force crossing zero or x crossing a stop)
-    assume(len({fx(x - hx) > 0, fx(x) > 0, fx(x + hx) > 0}) == 1 and len({fx(x - hx) < 0, fx(x) < 0, fx(x + hx) < 0}) == 1)
+    assume(
+        len({fx(x - hx) > 0, fx(x) > 0, fx(x + hx) > 0}) == 1
+        and len({fx(x - hx) < 0, fx(x) < 0, fx(x + hx) < 0}) == 1
+    )
     assume(len({fv(v - hv) != 0, fv(v) != 0, fv(v + hv) != 0}) == 1)
     assume(min(abs(x), abs(x - stroke)) > 2 * hx)
     kx, kv = end_stop_force_slope(x, v, stroke, k, c)
@@ -151,8 +161,13 @@ def test_model_jacobian_matches_differences(packed, kind, pl, v, x, u):
     ps = 1e7
     y = np.array([pl, v, x])
     if kind == K.PWA:  # a difference across a cell boundary is not the cell's slope
-        cells = {K.pwa_cells(pl + s * 1e-7 * max(abs(pl), 1e5), v + r * 1e-7 * max(abs(v), 1e-3), u, ps, p)[:4]
-                 for s in (-1, 0, 1) for r in (-1, 0, 1)}
+        cells = {
+            K.pwa_cells(
+                pl + s * 1e-7 * max(abs(pl), 1e5), v + r * 1e-7 * max(abs(v), 1e-3), u, ps, p
+            )[:4]
+            for s in (-1, 0, 1)
+            for r in (-1, 0, 1)
+        }
         assume(len(cells) == 1)
     assume(min(abs(x), abs(x - 0.2)) > 1e-9)  # end-stop contact kink
     J = np.empty((3, 3))
@@ -171,10 +186,29 @@ def test_exact_and_difference_jacobians_give_the_same_motion(name):
     p = model.pack(command_amplitude=0.4)
     from hydropwa.simulation import as_signal, pack_signals
 
-    sg = pack_signals([as_signal("sine:amplitude=0.4,frequency=1", "", "u"), as_signal(prm.supply.pressure, "Pa", "p_s"),
-                       as_signal(0.0, "N", "f_l")])
-    Y, n_done, status, *_ = K.integrate(model.kind, model.initial_state(), res.t, p, sg, 1e-3, model.state_scale(),
-                                        1e-5, 0.01, 1_000_000, K.ROS34PW2, True, True, False)
+    sg = pack_signals(
+        [
+            as_signal("sine:amplitude=0.4,frequency=1", "", "u"),
+            as_signal(prm.supply.pressure, "Pa", "p_s"),
+            as_signal(0.0, "N", "f_l"),
+        ]
+    )
+    Y, n_done, status, *_ = K.integrate(
+        model.kind,
+        model.initial_state(),
+        res.t,
+        p,
+        sg,
+        1e-3,
+        model.state_scale(),
+        1e-5,
+        0.01,
+        1_000_000,
+        K.ROS34PW2,
+        True,
+        True,
+        False,
+    )
     assert status == K.OK and n_done == len(res.t)
     # both within the benchmark's 0.1 mm of the truth, so within 0.2 mm of each other
     assert np.max(np.abs(Y[:, 2] - res["x"])) < 0.2e-3
@@ -189,8 +223,13 @@ def test_dead_zone_slope_matches_differences_in_every_cell():
     alpha, beta, creep, outer = 0.8, 0.05, 0.1, 0.045
     for nu in (-0.95, -0.5, -0.03, 0.0, 0.02, 0.3, 0.9):  # saturated, open, band, ..., saturated
         h = 1e-7
-        num = (dead_zone(nu + h, alpha, beta, creep, outer) - dead_zone(nu - h, alpha, beta, creep, outer)) / (2 * h)
-        assert dead_zone_slope(nu, alpha, beta, creep, outer) == pytest.approx(num, rel=1e-9, abs=1e-12)
+        num = (
+            dead_zone(nu + h, alpha, beta, creep, outer)
+            - dead_zone(nu - h, alpha, beta, creep, outer)
+        ) / (2 * h)
+        assert dead_zone_slope(nu, alpha, beta, creep, outer) == pytest.approx(
+            num, rel=1e-9, abs=1e-12
+        )
 
 
 @settings(max_examples=200, deadline=None)
@@ -265,7 +304,9 @@ def pack_signals_one(sig):
     ps=st.floats(5e6, 1.5e7),
     rates=st.tuples(st.floats(-5.0, 5.0), st.floats(-1e8, 1e8), st.floats(-1e5, 1e5)),
 )
-def test_model_time_derivative_matches_differences(packed, pwa_scheduled, kind, pl, v, u, ps, rates):
+def test_model_time_derivative_matches_differences(
+    packed, pwa_scheduled, kind, pl, v, u, ps, rates
+):
     """dfdt_reduced / dfdt_pwa equal Σ ∂f/∂input · rate over the inputs u, P_S, F_L.
 
     Each partial ∂f/∂input by a central difference of rhs_at with a step of 1e-7 of the
@@ -287,7 +328,9 @@ def test_model_time_derivative_matches_differences(packed, pwa_scheduled, kind, 
             za, zb = K._opening(a[0], p), K._opening(b[0], p)
             assume((za >= 0) == (zb >= 0))
             if kind == K.PWA:
-                assume(K.pwa_cells(pl, v, a[0], a[1], p)[:4] == K.pwa_cells(pl, v, b[0], b[1], p)[:4])
+                assume(
+                    K.pwa_cells(pl, v, a[0], a[1], p)[:4] == K.pwa_cells(pl, v, b[0], b[1], p)[:4]
+                )
     alpha, beta, outer = p[K.I_ALPHA], p[K.I_BETA], p[K.I_OUTER]
     for corner in (beta, alpha + outer):
         assume(abs(abs(u) - corner) > 2 * steps[0])
@@ -305,7 +348,9 @@ def test_model_time_derivative_matches_differences(packed, pwa_scheduled, kind, 
         part = (f_p - f_m) / (2 * steps[i]) * rates[i]
         num += part
         # the partial, plus the difference's rounding (~ten ulp of f over the step)
-        weight += np.abs(part) + 1e-11 * np.maximum(np.abs(f_p), np.abs(f_m)) / steps[i] * abs(rates[i])
+        weight += np.abs(part) + 1e-11 * np.maximum(np.abs(f_p), np.abs(f_m)) / steps[i] * abs(
+            rates[i]
+        )
     got = np.empty(3)
     (K.dfdt_reduced if kind == K.REDUCED else K.dfdt_pwa)(y, u, ps, 0.0, *rates, p, got)
     assert np.all(np.abs(got - num) <= 1e-4 * weight + 1e-9), (got, num)

@@ -37,7 +37,9 @@ def sampled(draw):
 
 
 @settings(max_examples=60, deadline=None)
-@given(a=sampled(), b=sampled(), amp=st.floats(-10, 10), freq=st.floats(0, 50), phase=st.floats(-3, 3))
+@given(
+    a=sampled(), b=sampled(), amp=st.floats(-10, 10), freq=st.floats(0, 50), phase=st.floats(-3, 3)
+)
 def test_two_sampled_signals_and_a_sine_in_one_vector(a, b, amp, freq, phase):
     sine = Sine(amplitude=amp, frequency=freq, phase=phase, offset=0.5, start=0.1)
     sg = pack_signals([a, sine, b])
@@ -55,20 +57,30 @@ def test_two_sampled_signals_and_a_sine_in_one_vector(a, b, amp, freq, phase):
 
 def test_every_kind_against_its_closed_form():
     t = np.linspace(-1.0, 4.0, 1001)
-    sigs = [Constant(3.5), Step(time=1.0, before=-2.0, after=5.0), Ramp(t0=0.5, t1=2.5, v0=1.0, v1=-3.0)]
+    sigs = [
+        Constant(3.5),
+        Step(time=1.0, before=-2.0, after=5.0),
+        Ramp(t0=0.5, t1=2.5, v0=1.0, v1=-3.0),
+    ]
     sg = pack_signals(sigs)
     assert np.all(eval_packed(sg, 0, t) == 3.5)
     assert np.array_equal(eval_packed(sg, 1, t), np.where(t >= 1.0, 5.0, -2.0))
-    assert np.allclose(eval_packed(sg, 2, t), np.interp(t, [0.5, 2.5], [1.0, -3.0]), rtol=0, atol=1e-14)
+    assert np.allclose(
+        eval_packed(sg, 2, t), np.interp(t, [0.5, 2.5], [1.0, -3.0]), rtol=0, atol=1e-14
+    )
     chirp = Chirp(amplitude=2.0, f0=1.0, f1=9.0, duration=2.0, offset=0.25, start=0.5)
     tau = t - 0.5
     want = np.where(
-        (tau < 0) | (tau > 2.0), 0.25, 0.25 + 2.0 * np.sin(2 * math.pi * (tau + 0.5 * 8.0 * tau**2 / 2.0))
+        (tau < 0) | (tau > 2.0),
+        0.25,
+        0.25 + 2.0 * np.sin(2 * math.pi * (tau + 0.5 * 8.0 * tau**2 / 2.0)),
     )
     assert np.allclose(eval_packed(pack_signals([chirp]), 0, t), want, rtol=0, atol=1e-12)
     # the Python call goes through the same packed evaluation
     tau1 = 1.3 - 0.5
-    assert chirp(1.3) == pytest.approx(0.25 + 2.0 * math.sin(2 * math.pi * (tau1 + 2.0 * tau1**2)), abs=1e-12)
+    assert chirp(1.3) == pytest.approx(
+        0.25 + 2.0 * math.sin(2 * math.pi * (tau1 + 2.0 * tau1**2)), abs=1e-12
+    )
 
 
 def test_sampled_signal_with_one_sample_is_held():

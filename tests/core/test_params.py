@@ -30,7 +30,9 @@ def test_flow_coefficient_from_rating_matches_table_iii():
 def test_validation_names_field_value_and_unit():
     with pytest.raises(ParameterError, match=r"Cylinder.area_a = -1 m² must be greater than 0"):
         Cylinder(area_a=-1.0)
-    with pytest.raises(ParameterError, match=r"Friction.static = 10 N must be at least Friction.coulomb = 20 N"):
+    with pytest.raises(
+        ParameterError, match=r"Friction.static = 10 N must be at least Friction.coulomb = 20 N"
+    ):
         Friction(coulomb=20.0, static=10.0)
     with pytest.raises(ParameterError, match="not finite"):
         Cylinder(stroke=math.nan)
@@ -97,7 +99,11 @@ def test_paper_preset_holds_tables_ii_iii_iv(paper):
     assert paper.cylinder.area_a == 1.3e-3 and paper.cylinder.area_b == 0.76e-3
     assert paper.cylinder.dead_volume_a == 0.7e-3  # 0.7 L, docs/errata.md E2
     assert paper.load.mass == 1.394 and paper.oil.bulk_modulus == 1e9
-    assert (paper.dead_zone.alpha, paper.dead_zone.beta, paper.dead_zone.creep_slope) == (1.0, 0.1, 0.04)
+    assert (paper.dead_zone.alpha, paper.dead_zone.beta, paper.dead_zone.creep_slope) == (
+        1.0,
+        0.1,
+        0.04,
+    )
 
 
 def test_table_v_breakpoints_are_consistent():
@@ -113,8 +119,12 @@ def test_stribeck_recovery_reproduces_table_v_within_5_newton():
     assert rec.rms_residual < 5.0
     # regenerate the curve independently of the fit residual
     v = rec.velocities
-    model = stribeck_friction(v, f.coulomb, f.static, f.viscous, f.stribeck_velocity, f.shape, f.smoothness)
-    assert np.sqrt(np.mean((model - table_v_pwa()(v)) ** 2)) == pytest.approx(rec.rms_residual, rel=1e-6)
+    model = stribeck_friction(
+        v, f.coulomb, f.static, f.viscous, f.stribeck_velocity, f.shape, f.smoothness
+    )
+    assert np.sqrt(np.mean((model - table_v_pwa()(v)) ** 2)) == pytest.approx(
+        rec.rms_residual, rel=1e-6
+    )
     assert 0 < f.coulomb < f.static
     assert f.viscous == pytest.approx(1105, rel=0.1)  # the outer cells' slope
 
@@ -134,7 +144,12 @@ def test_replace_with_dotted_names(paper):
 )
 def test_toml_round_trip_property(tmp_path_factory, p, mass, area):
     params = SystemParams().replace(
-        **{"supply.pressure": p, "load.mass": mass, "cylinder.area_a": area, "cylinder.area_b": 0.6 * area}
+        **{
+            "supply.pressure": p,
+            "load.mass": mass,
+            "cylinder.area_a": area,
+            "cylinder.area_b": 0.6 * area,
+        }
     )
     path = save_params(params, tmp_path_factory.mktemp("t") / "p.toml")
     assert load_params(path) == params

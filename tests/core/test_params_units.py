@@ -36,10 +36,15 @@ def test_implausible_bare_number_names_the_likely_unit(section, key, value, hint
 
 
 def test_plausible_bare_si_numbers_and_units_are_taken_as_written():
-    p = params_from_dict({"base": "paper", "supply": {"pressure": 210e5}, "cylinder": {"stroke": "500 mm"}})
+    p = params_from_dict(
+        {"base": "paper", "supply": {"pressure": 210e5}, "cylinder": {"stroke": "500 mm"}}
+    )
     assert p.supply.pressure == 210e5 and p.cylinder.stroke == pytest.approx(0.5)
     # an explicit unit is never second-guessed, even when small
-    assert params_from_dict({"base": "paper", "supply": {"pressure": "50 bar"}}).supply.pressure == 50e5
+    assert (
+        params_from_dict({"base": "paper", "supply": {"pressure": "50 bar"}}).supply.pressure
+        == 50e5
+    )
 
 
 def test_valve_rating_per_valve_is_half_the_drop_per_land():
@@ -49,11 +54,16 @@ def test_valve_rating_per_valve_is_half_the_drop_per_land():
     assert valve / land == pytest.approx(math.sqrt(2.0), rel=1e-12)
     assert valve == pytest.approx(1e-3 / math.sqrt(35e5), rel=1e-12)
     p = params_from_dict(
-        {"base": "paper", "flow": {"rating": {"flow": "60 L/min", "pressure_drop": "70 bar", "per": "valve"}}}
+        {
+            "base": "paper",
+            "flow": {"rating": {"flow": "60 L/min", "pressure_drop": "70 bar", "per": "valve"}},
+        }
     )
     assert p.flow.K == pytest.approx(valve, rel=1e-12)
     with pytest.raises(ParameterError, match="'land'.*'valve'"):
-        params_from_dict({"flow": {"rating": {"flow": "60 L/min", "pressure_drop": "70 bar", "per": "edge"}}})
+        params_from_dict(
+            {"flow": {"rating": {"flow": "60 L/min", "pressure_drop": "70 bar", "per": "edge"}}}
+        )
     with pytest.raises(ParameterError, match='did you mean "70 bar"'):
         params_from_dict({"flow": {"rating": {"flow": "60 L/min", "pressure_drop": 70}}})
 
@@ -62,7 +72,9 @@ def test_swapped_areas_are_an_error():
     with pytest.raises(ParameterError, match="swapped"):
         Cylinder(area_a=2.1e-3, area_b=3.1e-3)
     with pytest.raises(ParameterError, match="swapped"):
-        params_from_dict({"base": "paper", "cylinder": {"area_a": "21 cm**2", "area_b": "31 cm**2"}})
+        params_from_dict(
+            {"base": "paper", "cylinder": {"area_a": "21 cm**2", "area_b": "31 cm**2"}}
+        )
 
 
 def test_file_without_base_must_give_every_section(tmp_path):
@@ -72,7 +84,9 @@ def test_file_without_base_must_give_every_section(tmp_path):
     end = text.index("[supply]")
     cut = tmp_path / "cut.toml"
     cut.write_text(text[:start] + text[end:])
-    with pytest.raises(ParameterError, match=r"missing section\(s\) \[friction\].*base = \"paper\""):
+    with pytest.raises(
+        ParameterError, match=r"missing section\(s\) \[friction\].*base = \"paper\""
+    ):
         load_params(cut)
     based = tmp_path / "based.toml"
     based.write_text('base = "paper"\n' + text[:start] + text[end:])
@@ -104,7 +118,18 @@ def test_signal_spec_with_units_or_fractions_is_accepted():
 def test_cli_bare_supply_pressure_is_rejected_with_the_unit(tmp_path, capsys):
     from hydropwa.cli import main
 
-    code = main(["simulate", "--model", "reduced", "--supply-pressure", "95", "--duration", "0.01",
-                 "--out", str(tmp_path / "r.csv")])
+    code = main(
+        [
+            "simulate",
+            "--model",
+            "reduced",
+            "--supply-pressure",
+            "95",
+            "--duration",
+            "0.01",
+            "--out",
+            str(tmp_path / "r.csv"),
+        ]
+    )
     assert code == 2
     assert "did you mean '95 bar'" in capsys.readouterr().err

@@ -30,7 +30,9 @@ def test_valve_step_response_matches_second_order_closed_form(paper):
     res = simulate(FullOrderModel(p), Constant(a), duration=0.02, fs=20000, rtol=1e-7)
     t = res.t
     wd = w * math.sqrt(1 - z * z)
-    exact = a * (1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t)))
+    exact = a * (
+        1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t))
+    )
     # tolerance: 1e-4 of the step, two orders above rtol·scale of the spool state
     assert np.max(np.abs(res["spool"] - exact)) < 1e-4 * a
 
@@ -66,7 +68,11 @@ def test_signed_sqrt_regularisation_is_c1_and_odd():
 def _steady_speed(params, z):
     """Closed-form extension speed without friction and load (flow and force balance)."""
     c = params.cylinder
-    return z * params.flow.K * math.sqrt(params.supply.pressure / (c.area_a**2 + c.area_b**3 / c.area_a))
+    return (
+        z
+        * params.flow.K
+        * math.sqrt(params.supply.pressure / (c.area_a**2 + c.area_b**3 / c.area_a))
+    )
 
 
 def test_steady_extension_speed_without_friction(paper):
@@ -97,21 +103,29 @@ def _locked(params):
 def test_locked_piston_pressure_rise_rate(paper):
     p = _locked(_no_friction(paper))
     c = p.cylinder
-    y0 = np.array([0.3, 0.0, 20e5, 60e5, 0.05, 0.0, 100e5])  # spool held open at 0.3 for the first instant
+    y0 = np.array(
+        [0.3, 0.0, 20e5, 60e5, 0.05, 0.0, 100e5]
+    )  # spool held open at 0.3 for the first instant
     dy = np.empty(7)
     K.rhs_full(y0, 0.3, 100e5, 0.0, pack_params(p), dy)
     z = dead_zone(0.3, 1.0, 0.1, 0.04, 0.1)
     qa = z * p.flow.K * math.sqrt(100e5 - 20e5)
     qb = z * p.flow.K * math.sqrt(60e5)
-    assert dy[2] == pytest.approx(p.oil.bulk_modulus * qa / (c.dead_volume_a + c.area_a * 0.05), rel=1e-12)
+    assert dy[2] == pytest.approx(
+        p.oil.bulk_modulus * qa / (c.dead_volume_a + c.area_a * 0.05), rel=1e-12
+    )
     # docs/errata.md E1: with z > 0 chamber B drains, so its pressure falls
-    assert dy[3] == pytest.approx(-p.oil.bulk_modulus * qb / (c.dead_volume_b + c.area_b * (c.stroke - 0.05)), rel=1e-12)
+    assert dy[3] == pytest.approx(
+        -p.oil.bulk_modulus * qb / (c.dead_volume_b + c.area_b * (c.stroke - 0.05)), rel=1e-12
+    )
 
 
 def test_oil_volume_balance_with_leakage(paper):
     # Closed valve (no creep), locked piston, leakage C_L: oil only moves A <-> B,
     # so V_A·P_A + V_B·P_B (E constant) is conserved while the pressures equalise.
-    p = _locked(_no_friction(paper)).replace(**{"dead_zone.creep_slope": 0.0, "cylinder.leakage": 1e-11})
+    p = _locked(_no_friction(paper)).replace(
+        **{"dead_zone.creep_slope": 0.0, "cylinder.leakage": 1e-11}
+    )
     c = p.cylinder
     x0 = 0.05
     va, vb = c.dead_volume_a + c.area_a * x0, c.dead_volume_b + c.area_b * (c.stroke - x0)
@@ -146,8 +160,17 @@ def test_chamber_cavitates_at_vapour_pressure_and_recovers(paper):
     c, oil = paper.cylinder, paper.oil
     x, v_out = 0.1, 0.05  # A expands at 0.05 m/s with no valve flow: net inflow −A_A·ẋ
     va = c.dead_volume_a + c.area_a * x
-    tail = (c.area_a, c.area_b, c.stroke, c.dead_volume_a, c.dead_volume_b, 0.0,
-            oil.bulk_modulus, oil.vapour_pressure, oil.release_pressure)
+    tail = (
+        c.area_a,
+        c.area_b,
+        c.stroke,
+        c.dead_volume_a,
+        c.dead_volume_b,
+        0.0,
+        oil.bulk_modulus,
+        oil.vapour_pressure,
+        oil.release_pressure,
+    )
 
     def rate_a(pa, qa=0.0, v=v_out):
         return chamber_pressure_rates(qa, 0.0, x, v, pa, 1e6, *tail)[0]
@@ -157,7 +180,9 @@ def test_chamber_cavitates_at_vapour_pressure_and_recovers(paper):
     half = 0.5 * (oil.vapour_pressure + oil.release_pressure)
     assert rate_a(half) == pytest.approx(-0.5 * oil.bulk_modulus / va * c.area_a * v_out, rel=1e-12)
     # filled again (the piston reverses): the floor of 0.1 % E lets the chamber recover
-    assert rate_a(oil.vapour_pressure, v=-v_out) == pytest.approx(1e-3 * oil.bulk_modulus / va * c.area_a * v_out, rel=1e-12)
+    assert rate_a(oil.vapour_pressure, v=-v_out) == pytest.approx(
+        1e-3 * oil.bulk_modulus / va * c.area_a * v_out, rel=1e-12
+    )
     assert rate_a(2e5) == pytest.approx(-oil.bulk_modulus / va * c.area_a * v_out, rel=1e-12)
 
 
@@ -166,7 +191,9 @@ def test_pulled_piston_cavitates_without_crossing_vapour_pressure(paper):
     # creep flow can fill chamber A, which cavitates. At rtol 1e-5 the solver's pressure
     # tolerance near p_vap is rtol·(1 bar + |p|) ≈ 2 Pa per step; 100 Pa allows 50 of those.
     p = _no_friction(paper)
-    res = simulate(FullOrderModel(p), Constant(0.0), duration=0.5, load_force=-2e4, rtol=1e-5, fs=10000)
+    res = simulate(
+        FullOrderModel(p), Constant(0.0), duration=0.5, load_force=-2e4, rtol=1e-5, fs=10000
+    )
     p_vap = p.oil.vapour_pressure
     assert res["p_a"].min() >= p_vap - 100.0
     assert np.count_nonzero(res["p_a"] < p_vap + 100.0) >= 50  # it did cavitate (≥ 5 ms)
@@ -207,7 +234,9 @@ def test_asymmetric_cylinder_drifts_to_positive_x(paper):
     # dynamics may cost at 1 Hz), the paper's mean-area form cannot drift (Sec. VII)
     red = simulate(ReducedModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
     assert red["x"][-1] - red["x"][0] == pytest.approx(drift_full, rel=0.05)
-    pap = simulate(ReducedModel(paper, "paper"), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
+    pap = simulate(
+        ReducedModel(paper, "paper"), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05
+    )
     assert abs(pap["x"][-1] - pap["x"][0]) < 0.1 * abs(drift_full)
 
 
@@ -232,7 +261,15 @@ def test_agreement_with_independent_scipy_reference(paper):
 
     t_eval = np.linspace(0, 1.0, 2001)
     with np.errstate(over="ignore"):  # scipy's num_jac step factors overflow harmlessly
-        ref = solve_ivp(f, (0, 1.0), y0, method="Radau", t_eval=t_eval, rtol=1e-9, atol=1e-9 * model.state_scale())
+        ref = solve_ivp(
+            f,
+            (0, 1.0),
+            y0,
+            method="Radau",
+            t_eval=t_eval,
+            rtol=1e-9,
+            atol=1e-9 * model.state_scale(),
+        )
     assert ref.success
     res = simulate(model, u, duration=1.0, x0=0.05)  # default rtol
     assert np.max(np.abs(res["x"] - ref.y[4])) < 0.1e-3  # 0.1 mm, the benchmark's accuracy target
@@ -265,7 +302,10 @@ def test_dead_zone_is_odd_bounded_and_monotone(nu, beta, creep):
     z = dead_zone(nu, 1.0, beta, creep, beta)
     assert z == -dead_zone(-nu, 1.0, beta, creep, beta)
     assert abs(z) <= 1.0
-    assert dead_zone(nu + 1e-3, 1.0, beta, creep, beta * (1 - creep)) >= dead_zone(nu, 1.0, beta, creep, beta * (1 - creep)) - 1e-12
+    assert (
+        dead_zone(nu + 1e-3, 1.0, beta, creep, beta * (1 - creep))
+        >= dead_zone(nu, 1.0, beta, creep, beta * (1 - creep)) - 1e-12
+    )
 
 
 def test_compiled_friction_elementaries_match_numpy():
@@ -288,7 +328,14 @@ def test_compiled_friction_elementaries_match_numpy():
             out[1, i] = abs_power(xs[i], delta)
         return out
 
-    xs = np.concatenate([np.linspace(-25.0, 25.0, 20001), np.logspace(-300, 2, 2000), -np.logspace(-300, 2, 2000), [0.0]])
+    xs = np.concatenate(
+        [
+            np.linspace(-25.0, 25.0, 20001),
+            np.logspace(-300, 2, 2000),
+            -np.logspace(-300, 2, 2000),
+            [0.0],
+        ]
+    )
     eps = np.finfo(float).eps
     for delta in (0.5, 0.7305, 1.0, 2.0):
         s, a = compiled(xs, delta)

@@ -38,7 +38,9 @@ def test_signal_specs(spec, t, expected):
 
 def test_signal_specs_with_units():
     assert parse_signal("constant:95 bar", unit="Pa")(0.0) == pytest.approx(95e5)
-    assert parse_signal("sine:amplitude=5 bar,frequency=2 Hz,offset=100 bar", unit="Pa")(0.125) == pytest.approx(105e5)
+    assert parse_signal("sine:amplitude=5 bar,frequency=2 Hz,offset=100 bar", unit="Pa")(
+        0.125
+    ) == pytest.approx(105e5)
 
 
 @pytest.mark.parametrize(
@@ -91,7 +93,11 @@ def test_result_file_round_trip(tmp_path, paper, suffix):
     from hydropwa.data import read_run
 
     res = simulate(ReducedModel(paper), "sine:amplitude=0.3,frequency=1", duration=0.5)
-    path = res.to_csv(tmp_path / f"r{suffix}") if suffix == ".csv" else res.to_parquet(tmp_path / f"r{suffix}")
+    path = (
+        res.to_csv(tmp_path / f"r{suffix}")
+        if suffix == ".csv"
+        else res.to_parquet(tmp_path / f"r{suffix}")
+    )
     run = read_run(path, validate=False)
     for ch in ("t", "x", "p_a", "u"):
         np.testing.assert_allclose(run[ch], res[ch], rtol=1e-12, atol=0)
@@ -105,8 +111,15 @@ def test_amplitude_schedule_of_omega0(paper):
 
 
 def test_failed_integration_names_time_state_and_keeps_partial_result(paper):
-    with pytest.raises(SimulationError, match=r"failed at t = .* s: the step budget.*State: spool=") as info:
-        simulate(FullOrderModel(paper), Chirp(amplitude=0.5, f0=1, f1=50, duration=1), duration=1.0, max_steps=200)
+    with pytest.raises(
+        SimulationError, match=r"failed at t = .* s: the step budget.*State: spool="
+    ) as info:
+        simulate(
+            FullOrderModel(paper),
+            Chirp(amplitude=0.5, f0=1, f1=50, duration=1),
+            duration=1.0,
+            max_steps=200,
+        )
     err = info.value
     assert 0 < err.t < 1.0 and set(err.state) >= {"p_a", "x"}
     assert err.partial is not None and err.partial.t[-1] <= err.t
@@ -115,8 +128,17 @@ def test_failed_integration_names_time_state_and_keeps_partial_result(paper):
 def test_stiff_dead_volume_failure_explains_cause(paper):
     # ROS2(3) is L-stable and copes with this, but needs tiny steps: the budget runs out
     p = paper.replace(**{"cylinder.dead_volume_a": 1e-9, "cylinder.dead_volume_b": 1e-9})
-    with pytest.raises(SimulationError, match=r"dead volume 1e-09 m³ makes the chamber stiffness 1.69e\+12 N/m"):
-        simulate(FullOrderModel(p), Step(time=0.0, after=0.5), duration=0.05, x0=0.0, max_steps=500, rtol=1e-5)
+    with pytest.raises(
+        SimulationError, match=r"dead volume 1e-09 m³ makes the chamber stiffness 1.69e\+12 N/m"
+    ):
+        simulate(
+            FullOrderModel(p),
+            Step(time=0.0, after=0.5),
+            duration=0.05,
+            x0=0.0,
+            max_steps=500,
+            rtol=1e-5,
+        )
 
 
 def test_bad_duration():
@@ -126,8 +148,21 @@ def test_bad_duration():
 
 def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
     out = tmp_path / "run.csv"
-    code = main(["simulate", "--model", "reduced", "--input", "sine:amplitude=40 %,frequency=1",
-                 "--duration", "1", "--out", str(out), "--plot", str(tmp_path / "run.png")])
+    code = main(
+        [
+            "simulate",
+            "--model",
+            "reduced",
+            "--input",
+            "sine:amplitude=40 %,frequency=1",
+            "--duration",
+            "1",
+            "--out",
+            str(out),
+            "--plot",
+            str(tmp_path / "run.png"),
+        ]
+    )
     assert code == 0
     assert out.exists() and (tmp_path / "run.png").stat().st_size > 1000
     header = [line for line in out.read_text().splitlines() if not line.startswith("#")][0]
@@ -148,7 +183,9 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, capsys, args, message):
     code = main(args + (["--out", str(tmp_path / "r.csv")] if args[0] == "simulate" else []))
     err = capsys.readouterr().err.strip()
     assert code == 2
-    assert err.startswith("error: ") and message in err and "\n" not in err and "Traceback" not in err
+    assert (
+        err.startswith("error: ") and message in err and "\n" not in err and "Traceback" not in err
+    )
 
 
 def test_cli_params_export_and_show(tmp_path, capsys):
@@ -166,7 +203,9 @@ def test_cli_registers_every_layer(capsys):
         assert command in out
 
 
-@pytest.mark.parametrize("args", [["simulate", "--nope"], ["linearize", "--bogus"], ["rig", "run", "nothing"]])
+@pytest.mark.parametrize(
+    "args", [["simulate", "--nope"], ["linearize", "--bogus"], ["rig", "run", "nothing"]]
+)
 def test_cli_usage_errors_exit_2_without_traceback(capsys, args):
     assert main(args) == 2
     err = capsys.readouterr().err

@@ -19,8 +19,12 @@ def _pot_run(true_x: float, n: int = 2000) -> Run:
     rng = np.random.default_rng(1)
     t = np.arange(n) / 2000.0
     x = pot.apply(np.full(n, true_x), rng)
-    return Run("r", {"t": t, "x": x, "u": np.full(n, 0.05)}, fs=2000.0,
-               meta={"converter_limits": {"x": list(pot.recorded_limits)}})
+    return Run(
+        "r",
+        {"t": t, "x": x, "u": np.full(n, 0.05)},
+        fs=2000.0,
+        meta={"converter_limits": {"x": list(pot.recorded_limits)}},
+    )
 
 
 def test_a_channel_at_the_converter_limit_for_the_whole_run_is_found():
@@ -46,12 +50,18 @@ def test_the_rig_writes_its_converter_limits_with_each_run():
     res = simulate(FullOrderModel(rig.params), 0.0, duration=0.1, fs=rig.fs)
     run = measure(res, rig.sensors, np.random.default_rng(0))
     lo, hi = run.meta["converter_limits"]["x"]
-    assert lo == pytest.approx(-0.025) and hi == pytest.approx(0.225, abs=rig.sensors["x"].quantization_step)
+    assert lo == pytest.approx(-0.025) and hi == pytest.approx(
+        0.225, abs=rig.sensors["x"].quantization_step
+    )
 
 
 def test_data_check_accepts_a_campaign_folder(tmp_path, capsys):
-    camp = parse_campaign({"deadzone": {"inputs": [0.05, 0.2], "directions": ["extend"], "duration": 0.3},
-                           "sine": {"frequencies": [2.0], "amplitudes": [0.2], "periods": 1}})
+    camp = parse_campaign(
+        {
+            "deadzone": {"inputs": [0.05, 0.2], "directions": ["extend"], "duration": 0.3},
+            "sine": {"frequencies": [2.0], "amplitudes": [0.2], "periods": 1},
+        }
+    )
     run_campaign(Rig(), camp, tmp_path / "c")
     assert main(["data", "check", str(tmp_path / "c")]) == 0
     assert "no issues" in capsys.readouterr().out
@@ -67,7 +77,9 @@ def test_simulate_then_identify_uses_every_simulated_run():
         for sign in (1, -1):
             x0 = 0.0 if sign > 0 else p.cylinder.stroke
             res = simulate(FullOrderModel(p), sign * u, duration=0.6, x0=x0, fs=1000)
-            runs.append(res.to_run(f"dz_{sign * u:+.2f}", meta={"kind": "deadzone", "level": sign * u}))
+            runs.append(
+                res.to_run(f"dz_{sign * u:+.2f}", meta={"kind": "deadzone", "level": sign * u})
+            )
     rep = identify(runs, ["deadzone"], base_params=p)
     assert rep.skipped == [] and len(rep.dead_zone.points_) == len(runs)
     assert abs(rep.params.dead_zone.beta - p.dead_zone.beta) < 0.005

@@ -44,10 +44,23 @@ def test_readme_walkthrough_runs_in_an_empty_folder(tmp_path):
             cmd = [sys.executable, "-c", code]
         else:
             cmd = ["bash", "-e", "-o", "pipefail", "-c", code]
-        proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
-        assert proc.returncode == 0, f"README block failed:\n{code}\n--- stderr ---\n{proc.stderr[-3000:]}"
+        proc = subprocess.run(
+            cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900
+        )
+        assert proc.returncode == 0, (
+            f"README block failed:\n{code}\n--- stderr ---\n{proc.stderr[-3000:]}"
+        )
         ran += 1
     assert ran == 3
-    for out in ("full_sine.parquet", "pwa_paper.json", "run.parquet", "run.png", "chirp.parquet",
-                "identified.toml", "pwa.json", "pwa.csv", "summary.csv"):
+    for out in (
+        "full_sine.parquet",
+        "pwa_paper.json",
+        "run.parquet",
+        "run.png",
+        "chirp.parquet",
+        "identified.toml",
+        "pwa.json",
+        "pwa.csv",
+        "summary.csv",
+    ):
         assert (tmp_path / out).is_file(), out

@@ -21,7 +21,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def sim(paper):
-    return hp.simulate(hp.ReducedModel(paper), "sine:amplitude=0.4,frequency=2", duration=0.5, fs=1000)
+    return hp.simulate(
+        hp.ReducedModel(paper), "sine:amplitude=0.4,frequency=2", duration=0.5, fs=1000
+    )
 
 
 def test_reprs_are_one_short_line_and_html_tables(paper, sim):
@@ -50,9 +52,15 @@ def test_compare_scores_a_result_against_itself_at_100_percent(sim, paper):
     fits = list(fig.fits.values())
     assert fits[0] == pytest.approx(100.0)
     # the full model is simulated on the reference's inputs; its fit is the NRMSE of that simulation
-    full = hp.simulate(hp.FullOrderModel(paper), hp.Sampled(sim.t, sim["u"]), t=sim.t,
-                       supply_pressure=hp.Sampled(sim.t, sim["p_s"]), load_force=hp.Sampled(sim.t, sim["f_l"]),
-                       x0=float(sim["x"][0]), rtol=1e-4)
+    full = hp.simulate(
+        hp.FullOrderModel(paper),
+        hp.Sampled(sim.t, sim["u"]),
+        t=sim.t,
+        supply_pressure=hp.Sampled(sim.t, sim["p_s"]),
+        load_force=hp.Sampled(sim.t, sim["f_l"]),
+        x0=float(sim["x"][0]),
+        rtol=1e-4,
+    )
     assert fits[1] == pytest.approx(nrmse_fit(sim["x"], full["x"]), abs=1e-9)
     assert all(f"({f:.1f} %)" in label for label, f in fig.fits.items())
 
@@ -88,10 +96,21 @@ def test_compile_time_is_reported_apart_and_only_once(paper):
 
 
 def test_cli_reference_lists_every_command():
-    spec = importlib.util.spec_from_file_location("cli_reference", ROOT / "docs" / "_hooks" / "cli_reference.py")
+    spec = importlib.util.spec_from_file_location(
+        "cli_reference", ROOT / "docs" / "_hooks" / "cli_reference.py"
+    )
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     text = mod.cli_reference()
-    for cmd in ("simulate", "linearize", "paper", "sweep", "params show", "data check", "identify all", "rig run"):
+    for cmd in (
+        "simulate",
+        "linearize",
+        "paper",
+        "sweep",
+        "params show",
+        "data check",
+        "identify all",
+        "rig run",
+    ):
         assert f"`hydropwa {cmd}`" in text, cmd
     assert "`--sample-time <str>`" in text  # options come from the typer definitions

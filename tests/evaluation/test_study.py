@@ -176,5 +176,7 @@ def test_report_has_the_greybox_fit(small_study):
     assert (out / "figures" / "greybox_fit.png").is_file()
     df = pd.read_csv(out / "tables" / "greybox.csv").set_index("parameter")
     # two 1 s runs pin E and K to a few per cent even from the identified (not true) parameters
-    assert df.loc["oil.bulk_modulus", "value"] == pytest.approx(df.loc["oil.bulk_modulus", "true"], rel=0.1)
+    assert df.loc["oil.bulk_modulus", "value"] == pytest.approx(
+        df.loc["oil.bulk_modulus", "true"], rel=0.1
+    )
     assert df.loc["flow.K", "value"] == pytest.approx(df.loc["flow.K", "true"], rel=0.1)

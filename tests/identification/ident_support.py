@@ -28,8 +28,16 @@ def second_order_sine(t, amp, f, omega0, zeta):
     return y_ss + np.exp(-zeta * omega0 * t) * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t))
 
 
-def stepped_sine_runs(omega0_by_amp, zeta=0.7, noise=0.01, seed=0, step=2.0, f_max_by_amp=None,
-                      periods=7, meta_frequency=True):
+def stepped_sine_runs(
+    omega0_by_amp,
+    zeta=0.7,
+    noise=0.01,
+    seed=0,
+    step=2.0,
+    f_max_by_amp=None,
+    periods=7,
+    meta_frequency=True,
+):
     """One run per (amplitude, frequency), 2 Hz steps, noise as a fraction of the amplitude."""
     rng = np.random.default_rng(seed)
     runs = []
@@ -42,8 +50,14 @@ def stepped_sine_runs(omega0_by_amp, zeta=0.7, noise=0.01, seed=0, step=2.0, f_m
             meta = {"experiment": "frf", "signal": {"type": "sine", "amplitude": amp}}
             if meta_frequency:
                 meta["signal"]["frequency"] = float(f)
-            runs.append(Run(f"frf_{int(amp * 100):02d}_{f:05.1f}Hz", {"t": t, "u": u, "spool": y},
-                            fs=FS, meta=meta))
+            runs.append(
+                Run(
+                    f"frf_{int(amp * 100):02d}_{f:05.1f}Hz",
+                    {"t": t, "u": u, "spool": y},
+                    fs=FS,
+                    meta=meta,
+                )
+            )
     return runs
 
 
@@ -53,8 +67,16 @@ def hinge_velocity(u, beta, gain, creep):
     return np.where(np.abs(u) > beta, gain * (u - beta * np.sign(u)), creep * u)
 
 
-def constant_input_runs(levels, velocity_of, stroke=0.2, duration=2.0, noise=2e-5, seed=0,
-                        experiment="deadzone", extra=None):
+def constant_input_runs(
+    levels,
+    velocity_of,
+    stroke=0.2,
+    duration=2.0,
+    noise=2e-5,
+    seed=0,
+    experiment="deadzone",
+    extra=None,
+):
     """Constant-command runs: position ramps from the start stop, clipped at the far stop."""
     rng = np.random.default_rng(seed)
     runs = []
@@ -66,8 +88,14 @@ def constant_input_runs(levels, velocity_of, stroke=0.2, duration=2.0, noise=2e-
         ch = {"t": t, "x": x, "u": np.full(t.size, lv)}
         if extra is not None:
             ch.update(extra(lv, t, v, rng))
-        runs.append(Run(f"{experiment}_{k:03d}", ch, fs=FS,
-                        meta={"experiment": experiment, "signal": {"type": "constant", "level": float(lv)}}))
+        runs.append(
+            Run(
+                f"{experiment}_{k:03d}",
+                ch,
+                fs=FS,
+                meta={"experiment": experiment, "signal": {"type": "constant", "level": float(lv)}},
+            )
+        )
     return runs
 
 
@@ -79,6 +107,13 @@ def table_ii():
 
 def stribeck_points(fr, v, noise, seed):
     rng = np.random.default_rng(seed)
-    f = stribeck_friction(v, fr["coulomb"], fr["static"], fr["viscous"], fr["stribeck_velocity"],
-                          fr["shape"], fr["smoothness"])
+    f = stribeck_friction(
+        v,
+        fr["coulomb"],
+        fr["static"],
+        fr["viscous"],
+        fr["stribeck_velocity"],
+        fr["shape"],
+        fr["smoothness"],
+    )
     return f + noise * rng.standard_normal(v.size)

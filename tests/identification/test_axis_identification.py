@@ -26,8 +26,13 @@ from hydropwa.params import load_params, save_params
 from hydropwa.rig import Rig, parse_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"
-LIMITS = {"p_a": [0.0, 250e5], "p_b": [0.0, 250e5], "x": [-0.025, 0.225], "spool": [-1.0, 1.0],
-          "f_l": [-5e4, 5e4]}
+LIMITS = {
+    "p_a": [0.0, 250e5],
+    "p_b": [0.0, 250e5],
+    "x": [-0.025, 0.225],
+    "spool": [-1.0, 1.0],
+    "f_l": [-5e4, 5e4],
+}
 
 
 @pytest.fixture(scope="module")
@@ -40,13 +45,31 @@ def small_frf(tmp_path_factory, small):
     """Stepped sines at 10/25/90 % and one chirp at 25 % on the small fast axis."""
     out = tmp_path_factory.mktemp("small_frf")
     freqs = ["5 Hz", "20 Hz", "50 Hz", "90 Hz", "140 Hz", "200 Hz"]
-    camp = parse_campaign({"frf": {
-        "margin_periods": 1,
-        "sweep": [{"opening": o, "frequencies": freqs} for o in ("10 %", "25 %", "90 %")],
-        "broadband": [{"opening": "25 %", "f0": "2 Hz", "f1": "250 Hz", "duration": "3 s", "signal": "chirp"},
-                      {"opening": "10 %", "f0": "4 Hz", "f1": "250 Hz", "duration": "3 s",
-                       "signal": "multisine", "period": "0.25 s"}],
-    }})
+    camp = parse_campaign(
+        {
+            "frf": {
+                "margin_periods": 1,
+                "sweep": [{"opening": o, "frequencies": freqs} for o in ("10 %", "25 %", "90 %")],
+                "broadband": [
+                    {
+                        "opening": "25 %",
+                        "f0": "2 Hz",
+                        "f1": "250 Hz",
+                        "duration": "3 s",
+                        "signal": "chirp",
+                    },
+                    {
+                        "opening": "10 %",
+                        "f0": "4 Hz",
+                        "f1": "250 Hz",
+                        "duration": "3 s",
+                        "signal": "multisine",
+                        "period": "0.25 s",
+                    },
+                ],
+            }
+        }
+    )
     run_campaign(Rig(params=small), camp, out)
     return out
 
@@ -70,17 +93,28 @@ def _synthetic(kind: str, clip_at: slice | None, channel: str, **meta) -> Run:
     q = 250e5 / 2**16
     p = np.round((40e5 + 2e5 * np.sin(2 * np.pi * 3 * t) + rng.normal(0, 5e3, n)) / q) * q
     x = np.clip(0.002 + 0.05 * t, None, 0.2) + rng.normal(0, 5e-6, n)
-    ch = {"t": t, "u": np.full(n, 0.2), "spool": 0.2 * np.sin(2 * np.pi * 5 * t) + rng.normal(0, 1e-3, n),
-          "x": x, "p_a": p.copy(), "p_b": p.copy() * 0.5, "f_l": np.full(n, 1500.0) + rng.normal(0, 5, n)}
+    ch = {
+        "t": t,
+        "u": np.full(n, 0.2),
+        "spool": 0.2 * np.sin(2 * np.pi * 5 * t) + rng.normal(0, 1e-3, n),
+        "x": x,
+        "p_a": p.copy(),
+        "p_b": p.copy() * 0.5,
+        "f_l": np.full(n, 1500.0) + rng.normal(0, 5, n),
+    }
     if clip_at is not None:
         ch[channel][clip_at] = 0.0
-    return Run(f"{kind}_{channel}", ch, fs=2000.0, meta={"kind": kind, "converter_limits": LIMITS, **meta})
+    return Run(
+        f"{kind}_{channel}", ch, fs=2000.0, meta={"kind": kind, "converter_limits": LIMITS, **meta}
+    )
 
 
 def test_screening_judges_only_what_each_estimator_reads(small):
     """A chamber at 0 bar costs an FRF run nothing, a friction run only inside its steady span."""
     frf = _synthetic("frf", slice(1000, 1600), "p_a")
-    fr_early = _synthetic("friction", slice(0, 600), "p_b", valve_delay=0.4)  # before the valve opens
+    fr_early = _synthetic(
+        "friction", slice(0, 600), "p_b", valve_delay=0.4
+    )  # before the valve opens
     fr_mid = _synthetic("friction", slice(2000, 2400), "p_b", valve_delay=0.4)
     sine = _synthetic("sine", slice(1000, 1600), "p_a")  # the evaluation reads every channel
     skipped = []
@@ -97,7 +131,9 @@ def test_identify_and_the_paper_study_use_the_same_runs(tmp_path, small):
     """A run with a spike in x is left out by both entry points, with the same finding."""
     from hydropwa.evaluation._study import _identify
 
-    camp = parse_campaign({"deadzone": {"inputs": {"start": 0.02, "stop": 0.2, "step": 0.02}, "duration": 1.0}})
+    camp = parse_campaign(
+        {"deadzone": {"inputs": {"start": 0.02, "stop": 0.2, "step": 0.02}, "duration": 1.0}}
+    )
     run_campaign(Rig(params=small), camp, tmp_path / "raw")
     runs = _runs(tmp_path / "raw" / "deadzone")
     x = np.array(runs[3]["x"])
@@ -121,42 +157,90 @@ def test_runs_without_kind_are_routed_by_their_folder(tmp_path, small_frf, small
     assert len(rep.valve.fits_) >= 3
     # in a folder with another name, the error says which key is missing
     write_dataset(runs, tmp_path / "d" / "measurements")
-    with pytest.raises(IdentificationError, match=r"say no kind.*\"kind\": \"frf\".*folder named frf/"):
+    with pytest.raises(
+        IdentificationError, match=r"say no kind.*\"kind\": \"frf\".*folder named frf/"
+    ):
         identify(tmp_path / "d", ["frf"], base_params=small)
 
 
 def test_frf_amplitude_in_percent_keeps_the_omega0_schedule(small_frf, small):
     runs = [r for r in _runs(small_frf / "frf") if "excitation" not in r.meta]
-    pct = [_with_meta(r, amplitude=100 * r.meta["amplitude"], opening=100 * r.meta["opening"]) for r in runs]
+    pct = [
+        _with_meta(r, amplitude=100 * r.meta["amplitude"], opening=100 * r.meta["opening"])
+        for r in runs
+    ]
     rep = identify(pct, ["frf"], base_params=small)
     table = dict(rep.params.valve.omega0_table)
     assert sorted(table) == [0.1, 0.25, 0.9]
     for a, w0 in table.items():
         assert w0 == pytest.approx(small.valve.omega0_at(a), rel=0.02)
     bad = [_with_meta(runs[0], amplitude=40)]  # neither a fraction nor the command's percent
-    with pytest.warns(IdentificationWarning, match=r"write it as a fraction \(0\.4\) or with a unit \('40 %'\)"):
+    with pytest.warns(
+        IdentificationWarning, match=r"write it as a fraction \(0\.4\) or with a unit \('40 %'\)"
+    ):
         with pytest.raises(IdentificationError):
             identify(bad, ["frf"], base_params=small)
 
 
 def test_dead_zone_form_from_cli_and_base_params_and_provenance(tmp_path, small):
-    camp = parse_campaign({"deadzone": {"inputs": {"start": 0.02, "stop": 0.2, "step": 0.02}, "duration": 1.0}})
+    camp = parse_campaign(
+        {"deadzone": {"inputs": {"start": 0.02, "stop": 0.2, "step": 0.02}, "duration": 1.0}}
+    )
     run_campaign(Rig(params=small), camp, tmp_path / "c")
     base = save_params(small.replace(**{"dead_zone.continuous": True}), tmp_path / "base.toml")
-    assert main(["identify", "deadzone", str(tmp_path / "c"), "--out", str(tmp_path / "a.toml"),
-                 "--base-params", str(base)]) == 0
+    assert (
+        main(
+            [
+                "identify",
+                "deadzone",
+                str(tmp_path / "c"),
+                "--out",
+                str(tmp_path / "a.toml"),
+                "--base-params",
+                str(base),
+            ]
+        )
+        == 0
+    )
     a = tomllib.loads((tmp_path / "a.toml").read_text())
     assert a["dead_zone"]["continuous"] is True  # kept from --base-params
-    assert main(["identify", "deadzone", str(tmp_path / "c"), "--out", str(tmp_path / "b.toml"),
-                 "--dead-zone-form", "continuous"]) == 0
+    assert (
+        main(
+            [
+                "identify",
+                "deadzone",
+                str(tmp_path / "c"),
+                "--out",
+                str(tmp_path / "b.toml"),
+                "--dead-zone-form",
+                "continuous",
+            ]
+        )
+        == 0
+    )
     b = tomllib.loads((tmp_path / "b.toml").read_text())
     assert b["dead_zone"]["continuous"] is True
     assert "continuous" in b["meta"]["identification"]["dead_zone"]
     # provenance says what was identified, not the preset's stale "Tables II-V" line
-    assert b["meta"]["source"].startswith("identified by hydropwa from") and "deadzone" in b["meta"]["source"]
+    assert (
+        b["meta"]["source"].startswith("identified by hydropwa from")
+        and "deadzone" in b["meta"]["source"]
+    )
     assert "Tables II-V" in b["meta"]["base_source"]
-    assert main(["identify", "deadzone", str(tmp_path / "c"), "--out", str(tmp_path / "e.toml"),
-                 "--dead-zone-form", "smooth"]) == 2
+    assert (
+        main(
+            [
+                "identify",
+                "deadzone",
+                str(tmp_path / "c"),
+                "--out",
+                str(tmp_path / "e.toml"),
+                "--dead-zone-form",
+                "smooth",
+            ]
+        )
+        == 2
+    )
 
 
 def test_dead_zone_fit_separates_leakage_under_load_from_valve_creep(tmp_path):
@@ -166,8 +250,12 @@ def test_dead_zone_fit_separates_leakage_under_load_from_valve_creep(tmp_path):
     direction takes it, so the valve keeps k_g ≈ 0 and β within the paper-rig tolerance.
     """
     p = load_params(MACHINES / "industrial.toml").replace(**{"cylinder.leakage": 1e-12})
-    camp = parse_campaign({"campaign": {"seed": 3},
-                           "deadzone": {"inputs": {"start": 0.01, "stop": 0.12, "step": 0.01}, "duration": 2.0}})
+    camp = parse_campaign(
+        {
+            "campaign": {"seed": 3},
+            "deadzone": {"inputs": {"start": 0.01, "stop": 0.12, "step": 0.01}, "duration": 2.0},
+        }
+    )
     run_campaign(Rig(params=p), camp, tmp_path)
     dz = DeadZoneIdentifier(base_params=p).fit(load_runs(tmp_path, base_params=p))
     assert dz.dead_zone_.creep_slope < 0.005
@@ -183,15 +271,36 @@ def test_broadband_frf_end_to_end(tmp_path, small_frf, small):
     rep = identify(runs, ["frf"], base_params=small)
     for amp, fit in rep.valve.fits_.items():
         frf = rep.valve.frf_[amp]
-        assert frf.coherence is not None and frf.frequency.max() <= 250.0 + 1e-9  # only the excited band
+        assert (
+            frf.coherence is not None and frf.frequency.max() <= 250.0 + 1e-9
+        )  # only the excited band
         assert fit.omega0.value == pytest.approx(small.valve.omega0_at(amp), rel=0.02)
         assert fit.zeta.value == pytest.approx(small.valve.zeta, rel=0.02)
     fig = plot_bode(rep.valve)
     assert len(fig.axes) == 3 and fig.axes[2].get_ylabel() == "coherence γ²"
     # the band on the CLI limits every FRF
-    assert main(["identify", "frf", str(small_frf), "--out", str(tmp_path / "v.toml"), "--band", "5:120",
-                 "--base-params", str(MACHINES / "small.toml")]) == 0
-    assert main(["identify", "frf", str(small_frf), "--out", str(tmp_path / "w.toml"), "--band", "120"]) == 2
+    assert (
+        main(
+            [
+                "identify",
+                "frf",
+                str(small_frf),
+                "--out",
+                str(tmp_path / "v.toml"),
+                "--band",
+                "5:120",
+                "--base-params",
+                str(MACHINES / "small.toml"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            ["identify", "frf", str(small_frf), "--out", str(tmp_path / "w.toml"), "--band", "120"]
+        )
+        == 2
+    )
 
 
 # --------------------------------------------------------------------------- uncertainty
@@ -207,7 +316,10 @@ def test_sandwich_intervals_hold_where_the_noise_varies_from_point_to_point():
         y = 1.0 + 2.0 * x + rng.normal(0.0, sd)
         coef, *_ = np.linalg.lstsq(jac, y, rcond=None)
         r = y - jac @ coef
-        for name, cov in (("homoskedastic", covariance_from_jacobian(jac, r)), ("sandwich", sandwich_covariance(jac, r))):
+        for name, cov in (
+            ("homoskedastic", covariance_from_jacobian(jac, r)),
+            ("sandwich", sandwich_covariance(jac, r)),
+        ):
             hits[name] += abs(coef[1] - 2.0) <= 2.02 * np.sqrt(cov[1, 1])
     assert hits["sandwich"] / trials > 0.93
     assert hits["homoskedastic"] / trials < hits["sandwich"] / trials
@@ -217,7 +329,9 @@ def test_paper_report_flags_a_truth_outside_its_interval():
     from hydropwa.evaluation._study import _estimates_rows
     from hydropwa.identification._common import estimate
 
-    rows = _estimates_rows([("a", "1", estimate(1.0, 0.01, 2.0), 1.5), ("b", "1", estimate(1.0, 0.01, 2.0), 1.0)])
+    rows = _estimates_rows(
+        [("a", "1", estimate(1.0, 0.01, 2.0), 1.5), ("b", "1", estimate(1.0, 0.01, 2.0), 1.0)]
+    )
     assert [r["true_in_ci"] for r in rows] == ["NO", "yes"]
 
 
@@ -229,6 +343,12 @@ def test_paper_with_only_sine_runs_keeps_the_rest_and_says_so(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = run_paper_study(out=tmp_path / "report", data=tmp_path / "data", progress=False)
-    notes = " ".join(res.notes) if hasattr(res, "notes") else (tmp_path / "report" / "index.html").read_text()
+    notes = (
+        " ".join(res.notes)
+        if hasattr(res, "notes")
+        else (tmp_path / "report" / "index.html").read_text()
+    )
     assert "kept from the base parameters" in notes
-    assert (tmp_path / "report" / "tables" / "identified.csv").read_text().startswith("parameter,unit")
+    assert (
+        (tmp_path / "report" / "tables" / "identified.csv").read_text().startswith("parameter,unit")
+    )

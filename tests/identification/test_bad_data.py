@@ -36,8 +36,12 @@ def test_missing_channel_is_skipped():
 def test_run_too_short_for_four_periods_is_skipped():
     runs = _frf_runs()
     t = np.arange(0.0, 1.5 / 2.0, 1 / FS)  # 1.5 periods of 2 Hz
-    short = Run("short", {"t": t, "u": 0.25 * np.sin(4 * np.pi * t), "spool": 0.25 * np.sin(4 * np.pi * t)},
-                fs=FS, meta={"experiment": "frf", "frequency": 2.0, "amplitude": 0.25})
+    short = Run(
+        "short",
+        {"t": t, "u": 0.25 * np.sin(4 * np.pi * t), "spool": 0.25 * np.sin(4 * np.pi * t)},
+        fs=FS,
+        meta={"experiment": "frf", "frequency": 2.0, "amplitude": 0.25},
+    )
     with pytest.warns(IdentificationWarning, match="need 4 full periods"):
         ident = ValveFrfIdentifier().fit(runs + [short])
     assert ident.skipped_[0].run == "short"
@@ -57,10 +61,23 @@ def test_non_finite_samples_are_skipped():
 def test_no_steady_state_is_skipped():
     p = get_preset("paper")
     speeds = np.concatenate([np.linspace(0.01, 0.17, 6), -np.linspace(0.01, 0.17, 6)])
-    runs = [_friction_run(f"fr_{i}", 0.1, float(v), p.friction, p.cylinder.area_a, p.cylinder.area_b, seed=i,
-                          duration=1.0) for i, v in enumerate(speeds)]
+    runs = [
+        _friction_run(
+            f"fr_{i}",
+            0.1,
+            float(v),
+            p.friction,
+            p.cylinder.area_a,
+            p.cylinder.area_b,
+            seed=i,
+            duration=1.0,
+        )
+        for i, v in enumerate(speeds)
+    ]
     t = runs[0]["t"]
-    accel = runs[0].replace(name="accelerating", channels={**runs[0].channels, "x": 0.02 + 0.15 * t**2})
+    accel = runs[0].replace(
+        name="accelerating", channels={**runs[0].channels, "x": 0.02 + 0.15 * t**2}
+    )
     with pytest.warns(IdentificationWarning, match="accelerating.*no steady state"):
         ident = StribeckIdentifier(base_params=p).fit(runs + [accel])
     assert [s.run for s in ident.skipped_] == ["accelerating"]
@@ -69,7 +86,9 @@ def test_no_steady_state_is_skipped():
 def test_run_that_hits_the_end_stop_is_skipped_or_truncated():
     good = constant_input_runs(LEVELS, lambda u: hinge_velocity(u, 0.1, 0.5, 0.02), duration=1.0)
     # 2 m/s: the rod is at the far stop within 0.1 s; too little is left before it
-    fast = constant_input_runs([0.3], lambda u: 2.0, duration=1.0, experiment="deadzone")[0].replace(name="fast")
+    fast = constant_input_runs([0.3], lambda u: 2.0, duration=1.0, experiment="deadzone")[
+        0
+    ].replace(name="fast")
     with pytest.warns(IdentificationWarning, match="fast.*hit the end stop"):
         ident = DeadZoneIdentifier().fit(good + [fast])
     assert ident.skipped_[0].run == "fast"
@@ -81,8 +100,14 @@ def test_run_that_hits_the_end_stop_is_skipped_or_truncated():
 
 
 def test_nothing_usable_is_one_clear_error():
-    runs = [Run(f"r{i}", {"t": np.arange(0, 1, 1 / FS)}, fs=FS, meta={"experiment": "deadzone"}) for i in range(3)]
-    with pytest.warns(IdentificationWarning), pytest.raises(IdentificationError, match="0 usable run"):
+    runs = [
+        Run(f"r{i}", {"t": np.arange(0, 1, 1 / FS)}, fs=FS, meta={"experiment": "deadzone"})
+        for i in range(3)
+    ]
+    with (
+        pytest.warns(IdentificationWarning),
+        pytest.raises(IdentificationError, match="0 usable run"),
+    ):
         DeadZoneIdentifier().fit(runs)
     with pytest.raises(IdentificationError, match="no runs"):
         ValveFrfIdentifier().fit([])

@@ -26,16 +26,49 @@ SEEDS = 20
 #: A small campaign: enough points per estimator for intervals, fast enough for 20 seeds.
 CAMPAIGN = {
     "frf": {
-        "settle": "0.05 s", "periods": 4, "margin_periods": 1, "start_position": "50 %",
+        "settle": "0.05 s",
+        "periods": 4,
+        "margin_periods": 1,
+        "start_position": "50 %",
         "sweep": [
-            {"opening": "10 %", "frequencies": ["5 Hz", "15 Hz", "30 Hz", "45 Hz", "60 Hz", "80 Hz", "110 Hz", "150 Hz"]},
-            {"opening": "25 %", "frequencies": ["5 Hz", "15 Hz", "30 Hz", "45 Hz", "60 Hz", "80 Hz", "110 Hz", "150 Hz"]},
-            {"opening": "90 %", "frequencies": ["5 Hz", "10 Hz", "15 Hz", "25 Hz", "35 Hz", "50 Hz", "70 Hz"]},
+            {
+                "opening": "10 %",
+                "frequencies": [
+                    "5 Hz",
+                    "15 Hz",
+                    "30 Hz",
+                    "45 Hz",
+                    "60 Hz",
+                    "80 Hz",
+                    "110 Hz",
+                    "150 Hz",
+                ],
+            },
+            {
+                "opening": "25 %",
+                "frequencies": [
+                    "5 Hz",
+                    "15 Hz",
+                    "30 Hz",
+                    "45 Hz",
+                    "60 Hz",
+                    "80 Hz",
+                    "110 Hz",
+                    "150 Hz",
+                ],
+            },
+            {
+                "opening": "90 %",
+                "frequencies": ["5 Hz", "10 Hz", "15 Hz", "25 Hz", "35 Hz", "50 Hz", "70 Hz"],
+            },
         ],
     },
     "deadzone": {"inputs": {"start": "1 %", "stop": "14 %", "step": "1 %"}, "duration": "2 s"},
-    "friction": {"inputs": {"start": "4 %", "stop": "40 %", "step": "3 %"}, "counter_force": "1 kN",
-                 "duration": "2.5 s"},
+    "friction": {
+        "inputs": {"start": "4 %", "stop": "40 %", "step": "3 %"},
+        "counter_force": "1 kN",
+        "duration": "2.5 s",
+    },
 }
 
 
@@ -46,8 +79,15 @@ def _truths(p):
     out["dead_zone.beta"] = p.dead_zone.beta
     out["dead_zone.creep_slope"] = p.dead_zone.creep_slope
     f = p.friction
-    out.update({"friction.coulomb": f.coulomb, "friction.static": f.static, "friction.viscous": f.viscous,
-                "friction.stribeck_velocity": f.stribeck_velocity, "friction.shape": f.shape})
+    out.update(
+        {
+            "friction.coulomb": f.coulomb,
+            "friction.static": f.static,
+            "friction.viscous": f.viscous,
+            "friction.stribeck_velocity": f.stribeck_velocity,
+            "friction.shape": f.shape,
+        }
+    )
     return out
 
 
@@ -79,8 +119,11 @@ def coverage(machine: str, seeds, tmp: Path, jobs: int = 1, log=None) -> dict[st
             lo, hi = est[k].ci
             hits[k].append(bool(lo <= v <= hi))
             if log is not None:
-                print(f"{machine} seed {seed} {k}: {est[k].value:.6g} CI [{lo:.6g}, {hi:.6g}] true {v:.6g}",
-                      file=log, flush=True)
+                print(
+                    f"{machine} seed {seed} {k}: {est[k].value:.6g} CI [{lo:.6g}, {hi:.6g}] true {v:.6g}",
+                    file=log,
+                    flush=True,
+                )
     return hits
 
 
@@ -103,14 +146,21 @@ def test_intervals_cover_the_truth_over_20_seeds(tmp_path):
     print("\n" + table(results))
     for m, hits in results.items():
         for k, h in hits.items():
-            assert sum(h) >= 16, f"{m} {k}: {sum(h)}/{len(h)} intervals hold the truth\n{table(results)}"
+            assert sum(h) >= 16, (
+                f"{m} {k}: {sum(h)}/{len(h)} intervals hold the truth\n{table(results)}"
+            )
 
 
-if __name__ == "__main__":  # the table for the docs: python tests/identification/test_coverage.py [seeds]
+if (
+    __name__ == "__main__"
+):  # the table for the docs: python tests/identification/test_coverage.py [seeds]
     import sys
     import tempfile
 
     n = int(sys.argv[1]) if len(sys.argv) > 1 else SEEDS
     with tempfile.TemporaryDirectory() as d:
-        res = {m: coverage(m, range(1, n + 1), Path(d), log=sys.stderr) for m in sys.argv[2:] or ("industrial", "small")}
+        res = {
+            m: coverage(m, range(1, n + 1), Path(d), log=sys.stderr)
+            for m in sys.argv[2:] or ("industrial", "small")
+        }
     print(table(res))

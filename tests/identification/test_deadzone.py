@@ -16,8 +16,9 @@ from hydropwa.identification import (
 LEVELS = np.concatenate([np.arange(0.01, 0.2001, 0.005), -np.arange(0.01, 0.2001, 0.005)])
 
 
-@pytest.mark.parametrize("beta,gain,creep_kg,seed", [(0.10, 0.5, 0.04, 1), (0.08, 0.3, 0.02, 2),
-                                                      (0.123, 0.8, 0.06, 3)])
+@pytest.mark.parametrize(
+    "beta,gain,creep_kg,seed", [(0.10, 0.5, 0.04, 1), (0.08, 0.3, 0.02, 2), (0.123, 0.8, 0.06, 3)]
+)
 def test_beta_within_half_a_percent_from_noisy_points(beta, gain, creep_kg, seed):
     """2 % multiplicative + 0.1 mm/s additive velocity noise; β within 0.005 of full opening."""
     rng = np.random.default_rng(seed)
@@ -53,7 +54,9 @@ def test_velocity_from_position_drops_the_end_stop():
 
 def test_identifier_on_runs():
     beta, gain = 0.1, 0.5
-    runs = constant_input_runs(LEVELS, lambda u: hinge_velocity(u, beta, gain, 0.04 * gain), duration=1.0)
+    runs = constant_input_runs(
+        LEVELS, lambda u: hinge_velocity(u, beta, gain, 0.04 * gain), duration=1.0
+    )
     ident = DeadZoneIdentifier().fit(runs)
     assert ident.skipped_ == []
     assert abs(ident.dead_zone_.beta - beta) < 0.005

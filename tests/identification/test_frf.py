@@ -39,7 +39,9 @@ def test_stepped_sine_recovers_table_ii_within_5_percent(table_ii):
         assert fit.zeta.value == pytest.approx(0.7, rel=0.05)
         # the interval is honest: it holds the truth (noise is white here)
         assert fit.omega0.ci[0] - 3 * fit.omega0.std <= w0 <= fit.omega0.ci[1] + 3 * fit.omega0.std
-    assert ident.valve_.omega0_table == tuple((a, ident.fits_[a].omega0.value) for a in (0.10, 0.25, 0.90))
+    assert ident.valve_.omega0_table == tuple(
+        (a, ident.fits_[a].omega0.value) for a in (0.10, 0.25, 0.90)
+    )
     assert ident.valve_.omega0_at(0.25) == pytest.approx(628.3, rel=0.05)
 
 
@@ -64,11 +66,17 @@ def test_h1_on_a_chirp():
     assert np.median(frf.coherence[band]) > 0.95
     g = second_order_response(frf.omega[band], w0, zeta)
     assert np.median(np.abs(frf.response[band] / g - 1)) < 0.05
-    fit = fit_second_order(FrequencyResponse(frf.frequency[band], frf.response[band], frf.coherence[band], 0.2))
+    fit = fit_second_order(
+        FrequencyResponse(frf.frequency[band], frf.response[band], frf.coherence[band], 0.2)
+    )
     assert fit.omega0.value == pytest.approx(w0, rel=0.05)
     assert fit.zeta.value == pytest.approx(zeta, rel=0.05)
-    run = Run("chirp", {"t": t, "u": u, "spool": y}, fs=FS,
-              meta={"experiment": "frf", "signal": {"type": "chirp", "amplitude": 0.2}})
+    run = Run(
+        "chirp",
+        {"t": t, "u": u, "spool": y},
+        fs=FS,
+        meta={"experiment": "frf", "signal": {"type": "chirp", "amplitude": 0.2}},
+    )
     ident = ValveFrfIdentifier(f_max=140.0, nperseg=4096).fit([run])
     assert ident.fits_[0.2].omega0.value == pytest.approx(w0, rel=0.05)
 

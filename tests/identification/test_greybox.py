@@ -28,13 +28,29 @@ NOISE = {"x": 5e-6, "p_a": 0.05e5, "p_b": 0.05e5, "p_s": 0.05e5, "f_l": 5.0, "sp
 
 def _measured(model, u, duration, seed, x0=0.05, load=0.0, ps=100e5, name="run"):
     """A run of ``model`` with white sensor noise (the rig's noise levels)."""
-    res = simulate(model, u, duration=duration, x0=x0, load_force=load, supply_pressure=ps, rtol=1e-7)
+    res = simulate(
+        model, u, duration=duration, x0=x0, load_force=load, supply_pressure=ps, rtol=1e-7
+    )
     rng = np.random.default_rng(seed)
     ch = {"t": res.t, "u": res["u"]}
     for c, s in NOISE.items():
         ch[c] = res[c] + rng.normal(0.0, s, res.t.size)
-    return Run(name=name, channels=ch, units={"t": "s", "u": "1", "x": "m", "p_a": "Pa", "p_b": "Pa",
-                                                "p_s": "Pa", "f_l": "N", "spool": "1"}, fs=2000.0, meta={"experiment": "sine"})
+    return Run(
+        name=name,
+        channels=ch,
+        units={
+            "t": "s",
+            "u": "1",
+            "x": "m",
+            "p_a": "Pa",
+            "p_b": "Pa",
+            "p_s": "Pa",
+            "f_l": "N",
+            "spool": "1",
+        },
+        fs=2000.0,
+        meta={"experiment": "sine"},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -45,14 +61,18 @@ def truth():
 @pytest.fixture(scope="module")
 def sine_runs(truth):
     m = FullOrderModel(truth)
-    return [_measured(m, Sine(amplitude=0.4, frequency=2.0), 1.0, 1, name="s2"),
-            _measured(m, Sine(amplitude=0.6, frequency=3.0), 1.0, 2, name="s3")]
+    return [
+        _measured(m, Sine(amplitude=0.4, frequency=2.0), 1.0, 1, name="s2"),
+        _measured(m, Sine(amplitude=0.6, frequency=3.0), 1.0, 2, name="s3"),
+    ]
 
 
 def test_expand_free_groups_and_errors():
     p = get_preset("paper")
     assert expand_free("friction", p) == tuple(
-        f"friction.{f}" for f in ("coulomb", "static", "viscous", "stribeck_velocity", "shape", "smoothness"))
+        f"friction.{f}"
+        for f in ("coulomb", "static", "viscous", "stribeck_velocity", "shape", "smoothness")
+    )
     assert expand_free("flow.K, oil.bulk_modulus,flow.K", p) == ("flow.K", "oil.bulk_modulus")
     with pytest.raises(IdentificationError, match="oil has"):
         expand_free("oil.bulk", p)
@@ -150,8 +170,15 @@ def test_auto_shooting_follows_the_content(truth):
     ch["p_a"] = ch["p_a"] + osc
     ch["p_b"] = ch["p_b"] - osc
     shaky = Run(name="shaky", channels=ch, units=smooth.units, fs=2000.0, meta={})
-    fit = fit_model(FullOrderModel(truth), [smooth, shaky], ["flow.K"], jobs=1, max_nfev=2, profile="none",
-                    shooting=Shooting(window=0.02, max_windows=5))
+    fit = fit_model(
+        FullOrderModel(truth),
+        [smooth, shaky],
+        ["flow.K"],
+        jobs=1,
+        max_nfev=2,
+        profile="none",
+        shooting=Shooting(window=0.02, max_windows=5),
+    )
     methods = {r.name: r.method for r in fit.runs_}
     assert methods == {"smooth": "single", "shaky": "multiple"}
     assert len(fit.runs_[1].segments) == 5
@@ -165,12 +192,32 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
     base = tmp_path / "base.toml"
     save_params(truth.replace(**{"flow.K": 1.1 * truth.flow.K}), base)
     cli = CliRunner()
-    res = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out), "--jobs", "1",
-                           "--base-params", str(base)])
+    res = cli.invoke(
+        app,
+        [
+            "identify",
+            "model",
+            str(data),
+            "--free",
+            "flow.K",
+            "--out",
+            str(out),
+            "--jobs",
+            "1",
+            "--base-params",
+            str(base),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert load_params(out).flow.K == pytest.approx(truth.flow.K, rel=0.02)
     assert (tmp_path / "fitted.md").is_file()
     again = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out)])
     assert again.exit_code == 2 and "error:" in again.output
-    bad = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")])
-    assert bad.exit_code == 2 and "unknown free parameter" in bad.output and "Traceback" not in bad.output
+    bad = cli.invoke(
+        app, ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
+    )
+    assert (
+        bad.exit_code == 2
+        and "unknown free parameter" in bad.output
+        and "Traceback" not in bad.output
+    )

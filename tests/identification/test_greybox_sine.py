@@ -36,8 +36,13 @@ def fits():
         runs = []
         for f in (1.0, 2.0, 3.0):
             for a in (0.2, 0.4, 0.6):
-                spec = RunSpec(name=f"sine_f{f:g}_a{round(100 * a)}", experiment="sine",
-                               command=Sine(amplitude=a, frequency=f), duration=2.0, start_position=0.02)
+                spec = RunSpec(
+                    name=f"sine_f{f:g}_a{round(100 * a)}",
+                    experiment="sine",
+                    command=Sine(amplitude=a, frequency=f),
+                    duration=2.0,
+                    start_position=0.02,
+                )
                 runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
         out.append(fit_model(FullOrderModel(start), runs, FREE, jobs=2, profile="none"))
     return truth, out
@@ -56,10 +61,17 @@ def test_sine_runs_recover_hydraulic_parameters(fits):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="intervals too narrow on clean rig data: a ~0.1 % bias of E and K from the "
-                                       "filtered inputs and segment restarts, and friction left where the optimiser "
-                                       "stalls, are larger than the noise-limited sandwich/block intervals")
+@pytest.mark.xfail(
+    strict=True,
+    reason="intervals too narrow on clean rig data: a ~0.1 % bias of E and K from the "
+    "filtered inputs and segment restarts, and friction left where the optimiser "
+    "stalls, are larger than the noise-limited sandwich/block intervals",
+)
 def test_truth_inside_95_percent_interval_for_90_percent(fits):
     truth, results = fits
-    inside = [fit.estimates_[n].ci[0] <= _value(truth, n) <= fit.estimates_[n].ci[1] for fit in results for n in FREE]
+    inside = [
+        fit.estimates_[n].ci[0] <= _value(truth, n) <= fit.estimates_[n].ci[1]
+        for fit in results
+        for n in FREE
+    ]
     assert np.mean(inside) >= 0.9

@@ -22,8 +22,16 @@ def test_synthetic_axis_recovered():
     dq = np.gradient(q, 1 / fs)
     ddq = np.gradient(dq, 1 / fs)
     m, fv, fc, off = 80.0, 150.0, 25.0, -2.0
-    f = m * ddq + fv * dq + fc * np.sign(dq) + off + 0.5 * np.random.default_rng(0).standard_normal(t.size)
-    res = identify_inverse_dynamics(t, q + 1e-7 * np.random.default_rng(1).standard_normal(t.size), f)
+    f = (
+        m * ddq
+        + fv * dq
+        + fc * np.sign(dq)
+        + off
+        + 0.5 * np.random.default_rng(0).standard_normal(t.size)
+    )
+    res = identify_inverse_dynamics(
+        t, q + 1e-7 * np.random.default_rng(1).standard_normal(t.size), f
+    )
     e = res.estimates
     assert e["mass"].value == pytest.approx(m, rel=0.01)
     assert e["viscous"].value == pytest.approx(fv, rel=0.01)

@@ -45,7 +45,11 @@ def test_no_run_is_lost_to_a_converter_limit(identified):
         ds = read_dataset(out / exp, validate=False)
         for name in ds.names:
             run = ds[name]
-            assert not [i for i in check_run(run) if i.code == "clipped" and i.channel in ("x", "spool", "f_l")]
+            assert not [
+                i
+                for i in check_run(run)
+                if i.code == "clipped" and i.channel in ("x", "spool", "f_l")
+            ]
 
 
 def test_valve_recovered(identified):

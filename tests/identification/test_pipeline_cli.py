@@ -24,8 +24,19 @@ def _campaign(tmp_path, with_friction=True):
     Dataset.create(tmp_path / "deadzone").write(dz, format="csv")
     if with_friction:
         speeds = np.concatenate([np.linspace(0.004, 0.17, 10), -np.linspace(0.004, 0.17, 10)])
-        fr = [_friction_run(f"fr_{i:02d}", float(np.sign(v) * 0.1), float(v), p.friction, p.cylinder.area_a,
-                            p.cylinder.area_b, seed=i, duration=1.0) for i, v in enumerate(speeds)]
+        fr = [
+            _friction_run(
+                f"fr_{i:02d}",
+                float(np.sign(v) * 0.1),
+                float(v),
+                p.friction,
+                p.cylinder.area_a,
+                p.cylinder.area_b,
+                seed=i,
+                duration=1.0,
+            )
+            for i, v in enumerate(speeds)
+        ]
         Dataset.create(tmp_path / "friction").write(fr, format="csv")
     return tmp_path
 
@@ -41,7 +52,11 @@ def test_identify_writes_params_the_models_take(tmp_path):
     assert back.friction == rep.params.friction
     unc = back.meta["uncertainty"]
     assert {"valve", "dead_zone", "friction"} <= set(unc)
-    assert unc["dead_zone"]["beta"]["ci_low"] < back.dead_zone.beta < unc["dead_zone"]["beta"]["ci_high"]
+    assert (
+        unc["dead_zone"]["beta"]["ci_low"]
+        < back.dead_zone.beta
+        < unc["dead_zone"]["beta"]["ci_high"]
+    )
     assert back.meta["identification"]["identified"] == ["frf", "deadzone", "friction"]
     for name in ("valve_bode.png", "dead_zone.png", "stribeck.png"):
         assert (tmp_path / "figs" / name).stat().st_size > 1000
@@ -59,10 +74,14 @@ def test_all_skips_a_missing_part_loudly(tmp_path):
 def test_cli_identify_all_and_errors(tmp_path):
     root = _campaign(tmp_path / "data")
     runner = CliRunner()
-    res = runner.invoke(app, ["all", str(root), "--out", str(tmp_path / "p.toml"), "--figures", str(tmp_path / "f")])
+    res = runner.invoke(
+        app, ["all", str(root), "--out", str(tmp_path / "p.toml"), "--figures", str(tmp_path / "f")]
+    )
     assert res.exit_code == 0, res.output
     assert load_params(tmp_path / "p.toml").dead_zone.beta == pytest.approx(0.1, abs=0.005)
-    res = runner.invoke(app, ["friction", str(tmp_path / "nowhere"), "--out", str(tmp_path / "q.toml")])
+    res = runner.invoke(
+        app, ["friction", str(tmp_path / "nowhere"), "--out", str(tmp_path / "q.toml")]
+    )
     assert res.exit_code == 2
     assert "error:" in res.output and "Traceback" not in res.output
     res = runner.invoke(app, ["frf", str(root / "deadzone"), "--out", str(tmp_path / "q.toml")])

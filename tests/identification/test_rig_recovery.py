@@ -17,16 +17,38 @@ from hydropwa.params import TABLE_II
 
 CAMPAIGN = {
     "campaign": {"name": "ident-recovery", "seed": 11},
-    "frf": {"settle": "0.05 s", "periods": 4, "margin_periods": 2, "start_position": "50 %",
-            "sweep": [{"opening": "10 %", "frequencies": {"start": "4 Hz", "stop": "100 Hz", "step": "8 Hz"}},
-                      {"opening": "25 %", "frequencies": {"start": "4 Hz", "stop": "100 Hz", "step": "8 Hz"}},
-                      {"opening": "90 %", "frequencies": {"start": "4 Hz", "stop": "50 Hz", "step": "6 Hz"}}]},
-    "deadzone": {"inputs": {"start": "1 %", "stop": "20 %", "step": "1 %"}, "directions": ["extend", "retract"],
-                 "duration": "4 s", "stop_at": "90 %", "min_duration": "0.2 s"},
-    "friction": {"inputs": {"start": "11 %", "stop": "50 %", "step": "3 %"}, "directions": ["extend", "retract"],
-                 "counter_force": "1.5 kN", "force_ramp": "0.3 s", "valve_delay": "0.4 s", "ripple": "1 %",
-                 "ripple_frequency": "7 Hz", "force_noise": "5 N", "force_rate": "500 Hz", "duration": "4 s",
-                 "stop_at": "90 %", "min_duration": "0.2 s"},
+    "frf": {
+        "settle": "0.05 s",
+        "periods": 4,
+        "margin_periods": 2,
+        "start_position": "50 %",
+        "sweep": [
+            {"opening": "10 %", "frequencies": {"start": "4 Hz", "stop": "100 Hz", "step": "8 Hz"}},
+            {"opening": "25 %", "frequencies": {"start": "4 Hz", "stop": "100 Hz", "step": "8 Hz"}},
+            {"opening": "90 %", "frequencies": {"start": "4 Hz", "stop": "50 Hz", "step": "6 Hz"}},
+        ],
+    },
+    "deadzone": {
+        "inputs": {"start": "1 %", "stop": "20 %", "step": "1 %"},
+        "directions": ["extend", "retract"],
+        "duration": "4 s",
+        "stop_at": "90 %",
+        "min_duration": "0.2 s",
+    },
+    "friction": {
+        "inputs": {"start": "11 %", "stop": "50 %", "step": "3 %"},
+        "directions": ["extend", "retract"],
+        "counter_force": "1.5 kN",
+        "force_ramp": "0.3 s",
+        "valve_delay": "0.4 s",
+        "ripple": "1 %",
+        "ripple_frequency": "7 Hz",
+        "force_noise": "5 N",
+        "force_rate": "500 Hz",
+        "duration": "4 s",
+        "stop_at": "90 %",
+        "min_duration": "0.2 s",
+    },
 }
 
 

@@ -38,10 +38,15 @@ from hydropwa.linearization._cells import friction_function
 def loaded():
     """Paper rig with the terms an earlier Python copy of the assembly lost or never tested:
     load damping (1e4 N·s/m), piston leakage, a 2 kN load and a non-zero tank pressure."""
-    return get_preset("paper").replace(**{
-        "load.damping": 1e4, "cylinder.leakage": 2e-12, "load.force": 2000.0, "supply.tank_pressure": 2e5,
-        "flow.transition_pressure": 10.0,
-    })
+    return get_preset("paper").replace(
+        **{
+            "load.damping": 1e4,
+            "cylinder.leakage": 2e-12,
+            "load.force": 2000.0,
+            "supply.tank_pressure": 2e5,
+            "flow.transition_pressure": 10.0,
+        }
+    )
 
 
 def _root(dp, p_tr):
@@ -84,7 +89,11 @@ def reference_reduced(y, u, ps, fl, prm):
     q = z * prm.flow.K * _root(drop, prm.flow.transition_pressure)
     dp, pa, pb = _chambers(q, z, p_l, ps, prm, x, v)
     fr = prm.friction
-    ff = float(stribeck_friction(v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness))
+    ff = float(
+        stribeck_friction(
+            v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness
+        )
+    )
     assert math.isclose(c.area_a * pa - c.area_b * pb, c.area_a * p_l, rel_tol=1e-9, abs_tol=1e-6)
     return np.array([dp, _mechanics(pa, pb, ff, v, fl, prm), v])
 
@@ -102,9 +111,17 @@ def reference_pwa(y, u, ps, fl, m):
     return np.array([dp, _mechanics(pa, pb, ff, v, fl, prm), v])
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(pl=st.floats(-60e5, 60e5), v=st.floats(-0.3, 0.3), x=st.floats(0.01, 0.19), u=st.floats(-1.3, 1.3),
-       ps=st.floats(60e5, 140e5), fl=st.floats(-3e3, 3e3))
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    pl=st.floats(-60e5, 60e5),
+    v=st.floats(-0.3, 0.3),
+    x=st.floats(0.01, 0.19),
+    u=st.floats(-1.3, 1.3),
+    ps=st.floats(60e5, 140e5),
+    fl=st.floats(-3e3, 3e3),
+)
 def test_kernel_equals_independent_reference(loaded, pl, v, x, u, ps, fl):
     """The compiled assembly (reduced and PWA) equals the chamber-level NumPy reference."""
     y = np.array([pl, v, x])
@@ -146,9 +163,17 @@ def test_exported_cell_at_working_point_equals_kernel(loaded):
 
 
 def _no_friction(prm):
-    return prm.replace(**{"friction.coulomb": 0.0, "friction.static": 0.0, "friction.viscous": 0.0,
-                          "cylinder.leakage": 0.0, "load.damping": 0.0, "load.force": 0.0,
-                          "flow.transition_pressure": 10.0})
+    return prm.replace(
+        **{
+            "friction.coulomb": 0.0,
+            "friction.static": 0.0,
+            "friction.viscous": 0.0,
+            "cylinder.leakage": 0.0,
+            "load.damping": 0.0,
+            "load.force": 0.0,
+            "flow.transition_pressure": 10.0,
+        }
+    )
 
 
 @pytest.mark.parametrize("u", [0.3, 0.8])
@@ -176,7 +201,13 @@ def test_steady_speeds_equal_full_model_and_closed_form(u):
         closed = brentq(gap, -2.0, 2.0)
         speeds[("closed", sign)] = closed
         for model in (FullOrderModel(prm), ReducedModel(prm)):
-            res = simulate(model, f"step:time=0,after={sign * u}", duration=0.25, rtol=1e-6, x0=0.1 - sign * 0.06)
+            res = simulate(
+                model,
+                f"step:time=0,after={sign * u}",
+                duration=0.25,
+                rtol=1e-6,
+                x0=0.1 - sign * 0.06,
+            )
             v = float(np.mean(res["v"][-50:]))
             # 0.3 %: the full model keeps its valve and chamber dynamics; the rest has decayed
             assert v == pytest.approx(closed, rel=3e-3), (model.name, sign)
@@ -189,11 +220,15 @@ def test_steady_speeds_equal_full_model_and_closed_form(u):
 
 def test_chamber_pressures_match_full_model_in_steady_motion():
     """P_A, P_B recovered in closed form equal the full model's in steady motion (no leakage)."""
-    prm = _no_friction(get_preset("paper")).replace(**{"friction.viscous": 3000.0, "load.force": 1500.0})
+    prm = _no_friction(get_preset("paper")).replace(
+        **{"friction.viscous": 3000.0, "load.force": 1500.0}
+    )
     for u in (0.4, -0.4):
         out = {}
         for model in (FullOrderModel(prm), ReducedModel(prm)):
-            res = simulate(model, f"step:time=0,after={u}", duration=0.25, rtol=1e-6, x0=0.1 - 0.15 * u)
+            res = simulate(
+                model, f"step:time=0,after={u}", duration=0.25, rtol=1e-6, x0=0.1 - 0.15 * u
+            )
             pa, pb = np.mean(res["p_a"][-40:]), np.mean(res["p_b"][-40:])
             out[model.name] = (pa, pb, pa - prm.cylinder.area_b / prm.cylinder.area_a * pb)
             if model.name == "reduced":  # its load pressure channel is its state P_A − α P_B
@@ -218,7 +253,9 @@ def test_drift_per_period_matches_full_model_fast_valve():
     assert abs(drift[("reduced", "paper")]) < 0.1 * abs(full)
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(k=st.integers(0, 10_000), form=st.sampled_from(["asymmetric", "consistent", "paper"]))
 def test_error_bound_never_below_dense_sampling(loaded, k, form):
     """The reported bound of each cell is at least the largest error on a dense grid of the cell."""
@@ -264,18 +301,24 @@ def test_refinement_meets_the_tolerance():
 def test_engineering_units_are_a_similarity_transform(tmp_path):
     m = linearize(get_preset("paper"))
     si, eng = export_pwa(m), export_pwa(m, units="engineering")
-    assert [s["unit"] for s in eng["state"]] == ["bar", "mm/s", "mm"] and eng["input"][0]["unit"] == "%"
+    assert [s["unit"] for s in eng["state"]] == ["bar", "mm/s", "mm"] and eng["input"][0][
+        "unit"
+    ] == "%"
     sc = np.array([f for _u, f in UNITS["engineering"]])
     T = np.diag(sc[:3])
     for a, b in zip(si["cells"][:20], eng["cells"][:20], strict=True):
-        np.testing.assert_allclose(np.array(b["A"]), T @ np.array(a["A"]) @ np.linalg.inv(T), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            np.array(b["A"]), T @ np.array(a["A"]) @ np.linalg.inv(T), rtol=1e-12, atol=1e-12
+        )
         np.testing.assert_allclose(np.array(b["B"]), T @ np.array(a["B"]) / sc[3], rtol=1e-12)
         np.testing.assert_allclose(np.array(b["f"]), T @ np.array(a["f"]), rtol=1e-12, atol=1e-12)
         assert b["error_bound"] == pytest.approx(a["error_bound"] * 1e-5, rel=1e-12)
+
     # better conditioned: the largest/smallest non-zero entry ratio shrinks by orders of magnitude
     def spread(A):
         a = np.abs(np.array(A))[np.abs(np.array(A)) > 0]
         return a.max() / a.min()
+
     assert spread(eng["cells"][5]["A"]) < 1e-3 * spread(si["cells"][5]["A"])
     assert json.loads(json.dumps(eng))["variable_order"] == ["p_l", "v", "x", "u"]
 
@@ -305,7 +348,9 @@ def test_unscheduled_pwa_refuses_a_supply_pressure_it_would_ignore():
     fixed = linearize(prm, supply_pressure=100e5)
     with pytest.raises(SignalError, match="scheduled=True"):
         simulate(fixed, "sine:amplitude=0.3,frequency=2", duration=0.2, supply_pressure=80e5)
-    simulate(fixed, "sine:amplitude=0.3,frequency=2", duration=0.2, supply_pressure=100e5)  # the same: fine
+    simulate(
+        fixed, "sine:amplitude=0.3,frequency=2", duration=0.2, supply_pressure=100e5
+    )  # the same: fine
     sched = linearize(prm, supply_pressure=100e5, scheduled=True)
     res = simulate(sched, "sine:amplitude=0.3,frequency=2", duration=0.2, supply_pressure=80e5)
     assert np.all(res["p_s"] == 80e5)
@@ -315,9 +360,22 @@ def test_cli_pwa_follows_the_supply_pressure(tmp_path):
     from typer.testing import CliRunner
 
     from hydropwa.cli import app
+
     out = tmp_path / "run.parquet"
-    r = CliRunner().invoke(app, ["simulate", "--model", "pwa", "--supply-pressure", "80 bar", "--duration", "0.2",
-                                 "--out", str(out)])
+    r = CliRunner().invoke(
+        app,
+        [
+            "simulate",
+            "--model",
+            "pwa",
+            "--supply-pressure",
+            "80 bar",
+            "--duration",
+            "0.2",
+            "--out",
+            str(out),
+        ],
+    )
     assert r.exit_code == 0, r.output
     assert np.allclose(pd.read_parquet(out)["p_s"], 80e5)
 
@@ -328,14 +386,24 @@ def industrial_axis():
 
     a_a = math.pi / 4 * 0.063**2
     a_b = a_a - math.pi / 4 * 0.036**2
-    return get_preset("paper").replace(**{
-        "cylinder.area_a": a_a, "cylinder.area_b": a_b, "cylinder.stroke": 0.5,
-        "cylinder.dead_volume_a": 0.4e-3, "cylinder.dead_volume_b": 0.4e-3,
-        "load.mass": 250.0, "load.force": 2000.0, "supply.pressure": 210e5, "supply.relief_pressure": 230e5,
-        "flow.K": flow_coefficient_from_rating(60 / 60000, 70e5),
-        "friction.coulomb": 300.0, "friction.static": 500.0, "friction.viscous": 2000.0,
-        "friction.stribeck_velocity": 0.02,
-    })
+    return get_preset("paper").replace(
+        **{
+            "cylinder.area_a": a_a,
+            "cylinder.area_b": a_b,
+            "cylinder.stroke": 0.5,
+            "cylinder.dead_volume_a": 0.4e-3,
+            "cylinder.dead_volume_b": 0.4e-3,
+            "load.mass": 250.0,
+            "load.force": 2000.0,
+            "supply.pressure": 210e5,
+            "supply.relief_pressure": 230e5,
+            "flow.K": flow_coefficient_from_rating(60 / 60000, 70e5),
+            "friction.coulomb": 300.0,
+            "friction.static": 500.0,
+            "friction.viscous": 2000.0,
+            "friction.stribeck_velocity": 0.02,
+        }
+    )
 
 
 def test_friction_cells_from_the_machine():
@@ -345,7 +413,9 @@ def test_friction_cells_from_the_machine():
     lo, hi = machine_velocity_range(prm)
     assert 0.3 < -lo < hi < 1.5
     f = friction_function(prm.friction)
-    v = np.concatenate((np.linspace(lo, hi, 4001), np.geomspace(1e-6, 0.05, 400), -np.geomspace(1e-6, 0.05, 400)))
+    v = np.concatenate(
+        (np.linspace(lo, hi, 4001), np.geomspace(1e-6, 0.05, 400), -np.geomspace(1e-6, 0.05, 400))
+    )
     err = {}
     for mode in ("machine", "paper"):
         m = linearize(prm, breakpoints=mode)

@@ -25,8 +25,20 @@ def _app():
 
 
 def test_cli_writes_json_figures_tables(tmp_path):
-    res = CliRunner().invoke(_app(), ["linearize", "--out", str(tmp_path / "pwa.json"), "--supply-pressure",
-                                      "95 bar", "--figures", str(tmp_path / "fig"), "--tables", str(tmp_path / "tab")])
+    res = CliRunner().invoke(
+        _app(),
+        [
+            "linearize",
+            "--out",
+            str(tmp_path / "pwa.json"),
+            "--supply-pressure",
+            "95 bar",
+            "--figures",
+            str(tmp_path / "fig"),
+            "--tables",
+            str(tmp_path / "tab"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     m = load_pwa(tmp_path / "pwa.json")
     assert m.supply_pressure == pytest.approx(95e5)

@@ -31,8 +31,13 @@ def params():
 
 @pytest.fixture(scope="module", params=["asymmetric", "consistent"])
 def tangent_model(params, request):
-    return linearize(params, supply_pressure=93.8e5, breakpoints="tangent", form=request.param,
-                     working_points={"friction": FRICTION_WP})
+    return linearize(
+        params,
+        supply_pressure=93.8e5,
+        breakpoints="tangent",
+        form=request.param,
+        working_points={"friction": FRICTION_WP},
+    )
 
 
 def _fd_jacobian(fun, y, u, h):
@@ -74,15 +79,29 @@ def test_cell_dynamics_equal_fd_linearization_of_reduced_model(tangent_model, pa
 
                 # tiny step at v = 0: |v|^δ (δ < 1) in Eq. (11) spoils central differences there
                 pe = m.edge_pressure(ps, s)[0]
-                h = np.array([1e-4 * pe * (1 - PAPER_WORKING_POINTS[o]), 1e-10 if pt["v"] == 0 else 1e-7, 1e-6])
+                h = np.array(
+                    [
+                        1e-4 * pe * (1 - PAPER_WORKING_POINTS[o]),
+                        1e-10 if pt["v"] == 0 else 1e-7,
+                        1e-6,
+                    ]
+                )
                 A, B, f = _fd_jacobian(fun, y, pt["u"], h)
                 scale = np.abs(np.hstack((A, B))).max(axis=1) + 1e-30
-                np.testing.assert_allclose(dyn.A[:, cols] / scale[:, None], A[:, cols] / scale[:, None], atol=2e-5)
+                np.testing.assert_allclose(
+                    dyn.A[:, cols] / scale[:, None], A[:, cols] / scale[:, None], atol=2e-5
+                )
                 np.testing.assert_allclose(dyn.B[:, 0] / scale, B[:, 0] / scale, atol=2e-5)
                 rhs = m.rhs(0.0, y, pt["u"])
-                np.testing.assert_allclose(rhs, fun(y, pt["u"]), rtol=1e-9, atol=1e-6 * np.abs(rhs).max())
-                np.testing.assert_allclose(dyn.A @ y + dyn.B[:, 0] * pt["u"] + dyn.f, rhs,
-                                           rtol=1e-9, atol=1e-6 * np.abs(rhs).max())
+                np.testing.assert_allclose(
+                    rhs, fun(y, pt["u"]), rtol=1e-9, atol=1e-6 * np.abs(rhs).max()
+                )
+                np.testing.assert_allclose(
+                    dyn.A @ y + dyn.B[:, 0] * pt["u"] + dyn.f,
+                    rhs,
+                    rtol=1e-9,
+                    atol=1e-6 * np.abs(rhs).max(),
+                )
 
 
 @pytest.mark.parametrize("form", ["asymmetric", "consistent", "paper"])
@@ -122,13 +141,17 @@ def test_printed_eq_25_27_need_minus_sign_on_cqp(params):
     assert f[0] == pytest.approx(c4 * d_o * d_g, rel=1e-8)
     # the load damping is part of A₂₂ (it was lost in an earlier Python copy of the assembly)
     mass = params.load.mass
-    assert A[1, 1] == pytest.approx(-(m.friction.pwa.slopes[idx.w] + params.load.damping) / mass, rel=1e-12)
+    assert A[1, 1] == pytest.approx(
+        -(m.friction.pwa.slopes[idx.w] + params.load.damping) / mass, rel=1e-12
+    )
 
 
 def test_paper_form_double_counts_pressure(params):
     ps = 100e5
     cons = linearize(params, supply_pressure=ps, breakpoints="optimized", form="consistent")
-    pap = linearize(params, supply_pressure=ps, form="paper", breakpoints={"cq": "optimized", "cqp": "paper"})
+    pap = linearize(
+        params, supply_pressure=ps, form="paper", breakpoints={"cq": "optimized", "cqp": "paper"}
+    )
     exact = params.flow.K * np.sqrt(0.25 * ps)
     assert cons.load_flow(0.5 * ps, 1.2) == pytest.approx(exact, rel=0.03)
     assert pap.load_flow(0.5 * ps, 1.2) / exact == pytest.approx(0.5, abs=0.03)
@@ -145,7 +168,9 @@ def test_scheduling_rescales_cells_exactly_asymmetric(params):
             np.testing.assert_allclose(cq(p_hat), exact, rtol=1e-12)
         y = np.array([0.3 * ps, 0.01, 0.1])
         q = m.load_flow(y[0], 0.8, ps)
-        assert q == pytest.approx(0.7 * params.flow.K * np.sqrt((ps - y[0]) / (1 + al**3)), rel=1e-12)
+        assert q == pytest.approx(
+            0.7 * params.flow.K * np.sqrt((ps - y[0]) / (1 + al**3)), rel=1e-12
+        )
 
 
 def test_scheduling_rescales_cells_exactly(params):
@@ -161,7 +186,9 @@ def test_scheduling_rescales_cells_exactly(params):
     # fixed P_S ignores the input
     f = linearize(params, supply_pressure=90e5)
     y = np.array([10e5, 0.0, 0.1])
-    np.testing.assert_array_equal(pwa_rhs(0, y, 0.5, 140e5, None, f), pwa_rhs(0, y, 0.5, None, None, f))
+    np.testing.assert_array_equal(
+        pwa_rhs(0, y, 0.5, 140e5, None, f), pwa_rhs(0, y, 0.5, None, None, f)
+    )
 
 
 def test_pack_layout(params):
@@ -181,6 +208,7 @@ def test_pack_layout(params):
 @pytest.mark.parametrize("form", ["consistent", "paper"])
 def test_kernel_matches_reference_rhs(params, form):
     from hydropwa.simulation import _kernel as kernel
+
     if not hasattr(kernel, "rhs_pwa"):
         pytest.skip("kernel has no PWA right-hand side yet")
     m = linearize(params, form=form, scheduled=True)
@@ -195,7 +223,10 @@ def test_kernel_matches_reference_rhs(params, form):
 
 
 def test_json_round_trip_identical(params, tmp_path):
-    for m in (linearize(params), linearize(params, form="paper", scheduled=True, breakpoints="optimized")):
+    for m in (
+        linearize(params),
+        linearize(params, form="paper", scheduled=True, breakpoints="optimized"),
+    ):
         back = PwaModel.from_json(m.to_json())
         assert back == m
         np.testing.assert_array_equal(back.pack(), m.pack())
@@ -258,7 +289,10 @@ def test_discrete_export(params, tmp_path):
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"supply_pressure": 50e5, "load_pressure_range": (-80e5, 80e5)}, "below the load-pressure range"),
+        (
+            {"supply_pressure": 50e5, "load_pressure_range": (-80e5, 80e5)},
+            "below the load-pressure range",
+        ),
         ({"supply_pressure": -1.0}, "supply pressure"),
         ({"cells": {"cq": 0}}, "positive integer"),
         ({"cells": {"valve": 3}}, "unknown cell set"),

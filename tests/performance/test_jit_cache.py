@@ -35,7 +35,12 @@ print(json.dumps({"hits": sum(s.cache_hits.values()), "misses": sum(s.cache_miss
 
 @pytest.mark.skipif(not _jitcache.INSTALLED, reason="this numba's caching internals differ")
 def test_every_cached_kernel_uses_the_package_stamp():
-    for fn in (_physics.stribeck_friction, _signals.eval_signal, _kernel._integrate_full, _kernel._outputs):
+    for fn in (
+        _physics.stribeck_friction,
+        _signals.eval_signal,
+        _kernel._integrate_full,
+        _kernel._outputs,
+    ):
         assert isinstance(fn._cache._impl.locator, _jitcache.PackageCacheLocator), fn
         assert fn._cache._impl.locator.get_source_stamp() == _jitcache.source_stamp()
 
@@ -61,7 +66,9 @@ def test_second_process_loads_the_cache_and_a_physics_edit_recompiles(tmp_path):
 
     def probe() -> dict:
         env = {"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin", "NUMBA_CACHE_DIR": ""}
-        out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=600)
+        out = subprocess.run(
+            [sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=600
+        )
         assert out.returncode == 0, out.stderr
         return json.loads(out.stdout.strip().splitlines()[-1])
 

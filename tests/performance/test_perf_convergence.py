@@ -110,7 +110,9 @@ def _observed_order(model, u, channel, duration):
 
     Returns (p, {rtol: (max error of ``channel``, accepted steps)}); checks the errors fall.
     """
-    ref = simulate(model, u, duration=duration, fs=20000, rtol=1e-11, solver="ros23", max_steps=10_000_000)
+    ref = simulate(
+        model, u, duration=duration, fs=20000, rtol=1e-11, solver="ros23", max_steps=10_000_000
+    )
     res = {}
     for rtol in (1e-4, 1e-6, 1e-8):
         r = simulate(model, u, duration=duration, fs=20000, rtol=rtol)
@@ -135,5 +137,7 @@ def test_exact_time_derivative_models_converge_at_order_three(name):
 
     prm = get_preset("paper")
     model = linearize(prm) if name == "pwa" else as_model(name, prm)
-    order, res = _observed_order(model, "sine:amplitude=0.1,frequency=40,offset=0.3", "p_l", duration=0.1)
+    order, res = _observed_order(
+        model, "sine:amplitude=0.1,frequency=40,offset=0.3", "p_l", duration=0.1
+    )
     assert 2.5 < order < 4.0, (res, order)

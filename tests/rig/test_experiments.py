@@ -97,7 +97,9 @@ def test_counter_force_opposes_retraction(rig):
     run = _one(rig, exp)
     m = run.t > 0.5
     v = np.gradient(run["x"], run.t)[m]
-    assert np.mean(run["f_l"][m]) == pytest.approx(np.mean(-1500.0 + exp.counter_damping * v), rel=0.01)
+    assert np.mean(run["f_l"][m]) == pytest.approx(
+        np.mean(-1500.0 + exp.counter_damping * v), rel=0.01
+    )
     assert np.mean(run["f_l"][m]) < -1500.0  # damping adds to the opposing force
     assert run["x"][-1] < run["x"][0]
 

@@ -31,8 +31,11 @@ DEFECTS: dict[tuple, tuple[str, str]] = {}
 
 
 def _site(exc: BaseException) -> str:
-    frames = [f for f in traceback.extract_tb(exc.__traceback__) if "hydropwa" in f.filename
-              and "robustness" not in f.filename]
+    frames = [
+        f
+        for f in traceback.extract_tb(exc.__traceback__)
+        if "hydropwa" in f.filename and "robustness" not in f.filename
+    ]
     f = frames[-1] if frames else traceback.extract_tb(exc.__traceback__)[-1]
     return f"{f.filename.split('src/')[-1]}:{f.lineno}"
 
@@ -68,7 +71,9 @@ def load_or_reject(target: str, error: type[HydropwaError], fn, *args, **kwargs)
     except HydropwaError as exc:  # pragma: no cover - a defect
         if COLLECT:
             COUNTS[target][3] += 1
-            DEFECTS.setdefault((target, type(exc).__name__, _site(exc)), (repr(args)[:300], str(exc)[:200]))
+            DEFECTS.setdefault(
+                (target, type(exc).__name__, _site(exc)), (repr(args)[:300], str(exc)[:200])
+            )
             return None
         raise AssertionError(
             f"{target}: raised {type(exc).__name__} ({exc}), documented is {error.__name__}"
@@ -76,7 +81,9 @@ def load_or_reject(target: str, error: type[HydropwaError], fn, *args, **kwargs)
     except Exception as exc:  # pragma: no cover - a defect
         if COLLECT:
             COUNTS[target][3] += 1
-            DEFECTS.setdefault((target, type(exc).__name__, _site(exc)), (repr(args)[:300], str(exc)[:200]))
+            DEFECTS.setdefault(
+                (target, type(exc).__name__, _site(exc)), (repr(args)[:300], str(exc)[:200])
+            )
             return None
         raise
     COUNTS[target][1] += 1
@@ -100,7 +107,11 @@ def run_cli(argv: list[str], cwd) -> tuple[int, str, str]:
     old = os.getcwd()
     os.chdir(cwd)
     try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        with (
+            warnings.catch_warnings(),
+            contextlib.redirect_stdout(out),
+            contextlib.redirect_stderr(err),
+        ):
             warnings.simplefilter("default")  # the CLI prints warnings as 'warning:' lines
             with _alarm(HANG_SECONDS * 3):
                 code = main(argv)
@@ -140,9 +151,13 @@ def check_cli(target: str, argv: list[str], cwd) -> tuple[int, str, str]:
     except BaseException as exc:  # SystemExit, a hang, anything main() let through
         if COLLECT:
             COUNTS[target][3] += 1
-            DEFECTS.setdefault((target, type(exc).__name__, _site(exc)), (repr(argv)[:300], str(exc)[:200]))
+            DEFECTS.setdefault(
+                (target, type(exc).__name__, _site(exc)), (repr(argv)[:300], str(exc)[:200])
+            )
             return -1, "", ""
-        raise AssertionError(f"{target}: hydropwa {argv} raised {type(exc).__name__}: {exc}") from exc
+        raise AssertionError(
+            f"{target}: hydropwa {argv} raised {type(exc).__name__}: {exc}"
+        ) from exc
     problem = cli_violation(argv, code, out, err)
     if problem is not None:
         violation(target, argv, f"{problem}; stderr: {err[-300:]}")

@@ -13,8 +13,12 @@ from __future__ import annotations
 from hypothesis import HealthCheck, settings
 
 _COMMON = dict(
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture,
-                           HealthCheck.data_too_large, HealthCheck.filter_too_much],
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.function_scoped_fixture,
+        HealthCheck.data_too_large,
+        HealthCheck.filter_too_much,
+    ],
     derandomize=False,
     print_blob=True,
 )

@@ -15,10 +15,17 @@ def result():
     return simulate("reduced", "sine:amplitude=0.3,frequency=2", duration=0.05)
 
 
-@pytest.mark.parametrize("writer", ["to_csv", "to_parquet", "save_params", "save_pwa", "save_pwa_mat"])
+@pytest.mark.parametrize(
+    "writer", ["to_csv", "to_parquet", "save_params", "save_pwa", "save_pwa_mat"]
+)
 def test_writers_refuse_an_existing_file(tmp_path, result, writer):
-    suffix = {"to_csv": ".csv", "to_parquet": ".parquet", "save_params": ".toml", "save_pwa": ".json",
-              "save_pwa_mat": ".mat"}[writer]
+    suffix = {
+        "to_csv": ".csv",
+        "to_parquet": ".parquet",
+        "save_params": ".toml",
+        "save_pwa": ".json",
+        "save_pwa_mat": ".mat",
+    }[writer]
     target = tmp_path / f"out{suffix}"
     target.write_bytes(b"precious")
     pwa = linearize(get_preset("paper")) if writer.startswith("save_pwa") else None

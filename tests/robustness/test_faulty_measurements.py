@@ -87,7 +87,9 @@ def _identify(root, part):
         ("frf", "frf", _clip, "stuck at its maximum"),
     ],
 )
-def test_identification_skips_a_damaged_run_and_says_so(campaign, tmp_path, experiment, part, damage, word):
+def test_identification_skips_a_damaged_run_and_says_so(
+    campaign, tmp_path, experiment, part, damage, word
+):
     root = _copy(campaign / experiment, tmp_path / experiment)
     name = read_dataset(root, validate=False).names[1]
     _damage(root, name, damage)
@@ -131,6 +133,11 @@ def test_evaluation_skips_a_damaged_run_and_says_so(campaign, tmp_path):
     ds = read_dataset(root, validate=False)
     bad = ds.names[0]
     _damage(root, bad, lambda ch: ch["p_s"].__setitem__(slice(300, 340), np.nan))
-    with pytest.warns(EvaluationWarning, match=rf"run '{bad}' skipped: bad data: .*p_s.*non-finite|run '{bad}' skipped"):
-        df = evaluate_dataset(read_dataset(root, validate=False), get_preset("paper"), models=("full",))
+    with pytest.warns(
+        EvaluationWarning,
+        match=rf"run '{bad}' skipped: bad data: .*p_s.*non-finite|run '{bad}' skipped",
+    ):
+        df = evaluate_dataset(
+            read_dataset(root, validate=False), get_preset("paper"), models=("full",)
+        )
     assert bad not in set(df["run"]) and len(set(df["run"])) == len(ds.names) - 1

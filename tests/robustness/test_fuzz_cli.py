@@ -51,23 +51,37 @@ _W: dict = {}
 _COUNTER = itertools.count()
 
 #: Files whose bytes no command may change without --force.
-_PROTECTED = ("keep.csv", "keep.toml", "keep.json", "keep.md", "keepdir/k.txt", "ds/manifest.json",
-              "secret/secret.csv")
+_PROTECTED = (
+    "keep.csv",
+    "keep.toml",
+    "keep.json",
+    "keep.md",
+    "keepdir/k.txt",
+    "ds/manifest.json",
+    "secret/secret.csv",
+)
 
 
 def _run(n: int = 64) -> Run:
     t = np.arange(n) / 1000.0
     return Run(
         name="seed",
-        channels={"t": t, "u": 0.3 * np.sin(40 * t), "x": 0.1 + 0.01 * t,
-                  "p_a": np.full(n, 50e5), "p_b": np.linspace(30e5, 31e5, n)},
+        channels={
+            "t": t,
+            "u": 0.3 * np.sin(40 * t),
+            "x": 0.1 + 0.01 * t,
+            "p_a": np.full(n, 50e5),
+            "p_b": np.linspace(30e5, 31e5, n),
+        },
         fs=1000.0,
         meta={"kind": "sine"},
     )
 
 
 def _manifest(entries) -> str:
-    return json.dumps({"format": "hydropwa-dataset", "format_version": 1, "meta": {}, "runs": entries})
+    return json.dumps(
+        {"format": "hydropwa-dataset", "format_version": 1, "meta": {}, "runs": entries}
+    )
 
 
 def _entry(file: str, name: str = "r") -> dict:
@@ -81,8 +95,11 @@ def _build(root: Path) -> None:
     write_dataset([run], root / "ds")
     write_run(run, root / "secret" / "secret.csv")
     secret = (root / "secret" / "secret.csv").resolve()
-    for name, file in (("evil_rel", "../secret/secret.csv"), ("evil_abs", str(secret)),
-                       ("evilroot/sine", "../../secret/secret.csv")):
+    for name, file in (
+        ("evil_rel", "../secret/secret.csv"),
+        ("evil_abs", str(secret)),
+        ("evilroot/sine", "../../secret/secret.csv"),
+    ):
         (root / name).mkdir(parents=True)
         (root / name / "manifest.json").write_text(_manifest([_entry(file)]))
     (root / "evil_link").mkdir()
@@ -90,9 +107,13 @@ def _build(root: Path) -> None:
     (root / "evil_link" / "manifest.json").write_text(_manifest([_entry("r.csv")]))
     (root / "raw_link").mkdir()
     (root / "raw_link" / "r.csv").symlink_to(secret)
-    for name, text in (("man_list", "[]"), ("man_noname", _manifest([{"file": "x.csv"}])),
-                       ("man_types", _manifest([{"name": 5, "file": ["x"], "fs": "fast"}])),
-                       ("man_deep", "[" * 100000 + "]" * 100000), ("man_dup", _manifest([_entry("a.csv"), _entry("a.csv")]))):
+    for name, text in (
+        ("man_list", "[]"),
+        ("man_noname", _manifest([{"file": "x.csv"}])),
+        ("man_types", _manifest([{"name": 5, "file": ["x"], "fs": "fast"}])),
+        ("man_deep", "[" * 100000 + "]" * 100000),
+        ("man_dup", _manifest([_entry("a.csv"), _entry("a.csv")])),
+    ):
         (root / name).mkdir()
         (root / name / "manifest.json").write_text(text)
     (root / "man_bytes").mkdir()
@@ -111,10 +132,10 @@ def _build(root: Path) -> None:
         "sweep_empty": '[grid]\n"load.mass" = []\n',
         "sweep_syntax": '[grid\n"load.mass" = [1.0\n',
         "sweep_big": '[random]\nn = 100000000\n"load.mass" = {uniform = [1, 2]}\n',
-        "sweep_dup": '[input]\nduration = 1\nduration = 2\n',
-        "sweep_key": '[input]\ndurration = 1\n',
+        "sweep_dup": "[input]\nduration = 1\nduration = 2\n",
+        "sweep_key": "[input]\ndurration = 1\n",
         "sweep_ps": '[input]\nsupply_pressure = "-5 bar"\nduration = 0.02\n',
-        "sweep_long": '[input]\nduration = 1e9\nfs = 1e6\n',
+        "sweep_long": "[input]\nduration = 1e9\nfs = 1e6\n",
     }
     for name, text in sweeps.items():
         (root / f"{name}.toml").write_text(text)
@@ -144,19 +165,94 @@ def _workspace(tmp_path_factory):
 
 # ------------------------------------------------------------------- value pools
 _NUM = ["0", "-1", "1e9", "1e308", "nan", "inf", "-inf", "abc", "", "1e-300", "0x10", "2"]
-_QTY = ["95 bar", "-5 bar", "0 bar", "1e9 bar", "100", "5 m", "nan bar", "bar", "1e5 Pa",
-        "sine:offset=95e5,amplitude=1e5,frequency=1", "step:after=-1e6", "sine:amplitude=", "95 barr"]
-_SIGNALS = ["sine:amplitude=0.4,frequency=1", "sine:amplitude=0.4,amplitude=0.5", "step:after=0.2",
-            "0.1", "40 %", "chirp:", "bogus:x=1", "1e308", "nan", ""]
-_OUT_FILE = ["NEW.csv", "NEW.parquet", "NEW.txt", "NEW", "keep.csv", "afile/x.csv", "adir",
-             "deep/er/NEW.csv", "keepdir", ".", "NEW.csv/"]
+_QTY = [
+    "95 bar",
+    "-5 bar",
+    "0 bar",
+    "1e9 bar",
+    "100",
+    "5 m",
+    "nan bar",
+    "bar",
+    "1e5 Pa",
+    "sine:offset=95e5,amplitude=1e5,frequency=1",
+    "step:after=-1e6",
+    "sine:amplitude=",
+    "95 barr",
+]
+_SIGNALS = [
+    "sine:amplitude=0.4,frequency=1",
+    "sine:amplitude=0.4,amplitude=0.5",
+    "step:after=0.2",
+    "0.1",
+    "40 %",
+    "chirp:",
+    "bogus:x=1",
+    "1e308",
+    "nan",
+    "",
+]
+_OUT_FILE = [
+    "NEW.csv",
+    "NEW.parquet",
+    "NEW.txt",
+    "NEW",
+    "keep.csv",
+    "afile/x.csv",
+    "adir",
+    "deep/er/NEW.csv",
+    "keepdir",
+    ".",
+    "NEW.csv/",
+]
 _OUT_DIR = ["NEWDIR", "keepdir", "afile", "afile/sub", "empty", "adir", "NEWDIR/sub"]
-_IN_RUN = ["good.csv", "good.parquet", "good.mat", "afile", "adir", "nosuch.csv", "keep.json",
-           "binary.toml", "ds", "evil_rel", "evil_abs", "evil_link", "raw_link", "secret/secret.csv"]
-_IN_DS = ["ds", "evil_rel", "evil_abs", "evil_link", "raw_link", "evilroot", "man_list", "man_noname",
-          "man_types", "man_deep", "man_dup", "man_bytes", "afile", "nosuch", "empty", "adir", "good.csv"]
-_PARAMS = ["paper", "symmetric", "params.toml", "deep.toml", "binary.toml", "afile", "adir", "nosuch",
-           "keep.toml", "sweep_ok.toml"]
+_IN_RUN = [
+    "good.csv",
+    "good.parquet",
+    "good.mat",
+    "afile",
+    "adir",
+    "nosuch.csv",
+    "keep.json",
+    "binary.toml",
+    "ds",
+    "evil_rel",
+    "evil_abs",
+    "evil_link",
+    "raw_link",
+    "secret/secret.csv",
+]
+_IN_DS = [
+    "ds",
+    "evil_rel",
+    "evil_abs",
+    "evil_link",
+    "raw_link",
+    "evilroot",
+    "man_list",
+    "man_noname",
+    "man_types",
+    "man_deep",
+    "man_dup",
+    "man_bytes",
+    "afile",
+    "nosuch",
+    "empty",
+    "adir",
+    "good.csv",
+]
+_PARAMS = [
+    "paper",
+    "symmetric",
+    "params.toml",
+    "deep.toml",
+    "binary.toml",
+    "afile",
+    "adir",
+    "nosuch",
+    "keep.toml",
+    "sweep_ok.toml",
+]
 _FAULTS = [None, None, None, errno.EROFS, errno.ENOSPC, errno.EACCES]
 
 _ESCAPES = {"evil_rel", "evil_abs", "evil_link", "raw_link", "evilroot"}
@@ -227,31 +323,45 @@ def _check(target: str, argv: list[str], fault=None) -> int:
 
 # ------------------------------------------------------------------- subcommands
 @_CLI
-@given(argv=st.one_of(
-    _argv(["params", "show"], []).flatmap(lambda a: st.sampled_from(_PARAMS + [""]).map(lambda p: a + [p])),
-    _argv(["params", "export"], [("--out", ["NEW.toml", "keep.toml", "NEW.txt", "afile/x.toml", "adir"])],
-          ["--force"]).flatmap(lambda a: st.sampled_from(_PARAMS).map(lambda p: a + [p])),
-), fault=st.sampled_from(_FAULTS))
+@given(
+    argv=st.one_of(
+        _argv(["params", "show"], []).flatmap(
+            lambda a: st.sampled_from(_PARAMS + [""]).map(lambda p: a + [p])
+        ),
+        _argv(
+            ["params", "export"],
+            [("--out", ["NEW.toml", "keep.toml", "NEW.txt", "afile/x.toml", "adir"])],
+            ["--force"],
+        ).flatmap(lambda a: st.sampled_from(_PARAMS).map(lambda p: a + [p])),
+    ),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_params(argv, fault):
     _check("cli params", argv, fault)
 
 
 @_CLI
-@given(argv=_argv(["simulate"], [
-    ("--model", ["full", "reduced", "pwa", "bogus"]),
-    ("--params", _PARAMS),
-    ("--input", _SIGNALS),
-    ("--input-file", _IN_RUN),
-    ("--duration", ["0.02", "0.05"] + _NUM),
-    ("--fs", ["500", "1e12"] + _NUM),
-    ("--rtol", ["1e-3", "1e-12", "0.5"] + _NUM),
-    ("--supply-pressure", _QTY),
-    ("--load-force", ["500 N", "1e30 N", "nan", "5 bar", "sine:amplitude=100,frequency=1"]),
-    ("--x0", ["100 mm", "-1 m", "5 m", "nan", "1 bar"]),
-    ("--out", _OUT_FILE),
-    ("--plot", ["NEW.png", "NEW.xyz", "keep.csv", "afile/x.png", "adir", "NEW.pdf"]),
-], ["--force"]).map(lambda a: a if "--duration" in a else a + ["--duration", "0.02"]),
-    fault=st.sampled_from(_FAULTS))
+@given(
+    argv=_argv(
+        ["simulate"],
+        [
+            ("--model", ["full", "reduced", "pwa", "bogus"]),
+            ("--params", _PARAMS),
+            ("--input", _SIGNALS),
+            ("--input-file", _IN_RUN),
+            ("--duration", ["0.02", "0.05"] + _NUM),
+            ("--fs", ["500", "1e12"] + _NUM),
+            ("--rtol", ["1e-3", "1e-12", "0.5"] + _NUM),
+            ("--supply-pressure", _QTY),
+            ("--load-force", ["500 N", "1e30 N", "nan", "5 bar", "sine:amplitude=100,frequency=1"]),
+            ("--x0", ["100 mm", "-1 m", "5 m", "nan", "1 bar"]),
+            ("--out", _OUT_FILE),
+            ("--plot", ["NEW.png", "NEW.xyz", "keep.csv", "afile/x.png", "adir", "NEW.pdf"]),
+        ],
+        ["--force"],
+    ).map(lambda a: a if "--duration" in a else a + ["--duration", "0.02"]),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_simulate(argv, fault):
     _check("cli simulate", argv, fault)
 
@@ -260,12 +370,18 @@ def test_fuzz_cli_simulate(argv, fault):
 #: option: the valid path runs often, and each error is met alone.
 _SIM_OPTIONS = {
     "--model": (["full", "reduced"], ["bogus", "", "FULL "]),  # pwa: a linearization per run, slow
-    "--params": (["paper", "symmetric", "params.toml"], ["deep.toml", "binary.toml", "afile", "nosuch"]),
+    "--params": (
+        ["paper", "symmetric", "params.toml"],
+        ["deep.toml", "binary.toml", "afile", "nosuch"],
+    ),
     "--input": (_SIGNALS[:5], _SIGNALS[5:]),
     "--duration": (["0.02", "0.05", "20 ms"], ["0", "-1", "nan", "1e9", "1e308", "1e-9", "x"]),
     "--fs": (["500", "1000", "2e3"], ["0", "-5", "inf", "1e12", "x"]),
     "--rtol": (["1e-3", "1e-5", "0.01"], ["0", "-1", "2", "nan"]),
-    "--supply-pressure": (["95 bar", "1e7", "sine:offset=95e5,amplitude=1e5,frequency=1"], _QTY[1:4] + _QTY[6:9]),
+    "--supply-pressure": (
+        ["95 bar", "1e7", "sine:offset=95e5,amplitude=1e5,frequency=1"],
+        _QTY[1:4] + _QTY[6:9],
+    ),
     "--load-force": (["500 N", "-1 kN", "step:after=200"], ["nan", "5 bar", "x"]),
     "--x0": (["100 mm", "0.05 m"], ["-1 m", "5 m", "1 bar"]),
     "--plot": (["NEW.png", "NEW.svg"], ["NEW.xyz", "keep.csv", "afile/x.png", "adir"]),
@@ -291,48 +407,96 @@ def test_fuzz_cli_simulate_valid_or_one_bad(argv):
     argv = _fresh(argv)
     code = _check("cli simulate (one bad option)", argv)
     out = _W["root"] / argv[2]
-    assert (code == 0) == out.is_file(), f"hydropwa {argv}: exit {code}, output written: {out.is_file()}"
+    assert (code == 0) == out.is_file(), (
+        f"hydropwa {argv}: exit {code}, output written: {out.is_file()}"
+    )
 
 
 @_CLI
-@given(argv=st.one_of(
-    st.tuples(st.sampled_from(_IN_DS + _IN_RUN), _argv([], [("--channel-map", ["emps", "afile", "nosuch",
-                                                                                "params.toml"])], ["--plain"]))
-    .map(lambda t: ["data", "check", t[0], *t[1]]),
-    st.tuples(st.sampled_from(_IN_DS + _IN_RUN), st.sampled_from(_OUT_FILE + _OUT_DIR + ["NEW.mat", "good.csv"]),
-              _argv([], [("--format", ["csv", "parquet", "mat", "xls", ""])], ["--force", "--resample"]))
-    .map(lambda t: ["data", "convert", t[0], t[1], *t[2]]),
-), fault=st.sampled_from(_FAULTS))
+@given(
+    argv=st.one_of(
+        st.tuples(
+            st.sampled_from(_IN_DS + _IN_RUN),
+            _argv([], [("--channel-map", ["emps", "afile", "nosuch", "params.toml"])], ["--plain"]),
+        ).map(lambda t: ["data", "check", t[0], *t[1]]),
+        st.tuples(
+            st.sampled_from(_IN_DS + _IN_RUN),
+            st.sampled_from(_OUT_FILE + _OUT_DIR + ["NEW.mat", "good.csv"]),
+            _argv(
+                [], [("--format", ["csv", "parquet", "mat", "xls", ""])], ["--force", "--resample"]
+            ),
+        ).map(lambda t: ["data", "convert", t[0], t[1], *t[2]]),
+    ),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_data(argv, fault):
     _check("cli data", argv, fault)
 
 
 @_CLI
-@given(argv=st.tuples(
-    st.sampled_from([f"sweep_{n}.toml" for n in ("ok", "ok", "gird", "rev", "empty", "syntax", "big", "dup",
-                                                  "key", "ps", "long")] + ["afile", "nosuch.toml", "adir",
-                                                                           "deep.toml", "binary.toml"]),
-    _argv([], [("--out", _OUT_FILE), ("--trajectories", _OUT_DIR),
-               ("--scheduler", ["tcp://127.0.0.1:1", "tcp://", "nonsense", "tcp://host:99999", "[::1]:x"]),
-               ("--jobs", ["1", "2", "0", "-1", "x"])], ["--force"]),
-).map(lambda t: ["sweep", t[0], "-q", *t[1]]), fault=st.sampled_from(_FAULTS))
+@given(
+    argv=st.tuples(
+        st.sampled_from(
+            [
+                f"sweep_{n}.toml"
+                for n in (
+                    "ok",
+                    "ok",
+                    "gird",
+                    "rev",
+                    "empty",
+                    "syntax",
+                    "big",
+                    "dup",
+                    "key",
+                    "ps",
+                    "long",
+                )
+            ]
+            + ["afile", "nosuch.toml", "adir", "deep.toml", "binary.toml"]
+        ),
+        _argv(
+            [],
+            [
+                ("--out", _OUT_FILE),
+                ("--trajectories", _OUT_DIR),
+                (
+                    "--scheduler",
+                    ["tcp://127.0.0.1:1", "tcp://", "nonsense", "tcp://host:99999", "[::1]:x"],
+                ),
+                ("--jobs", ["1", "2", "0", "-1", "x"]),
+            ],
+            ["--force"],
+        ),
+    ).map(lambda t: ["sweep", t[0], "-q", *t[1]]),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_sweep(argv, fault):
     _check("cli sweep", argv, fault)
 
 
 @_CLI
-@given(argv=_argv(["linearize"], [
-    ("--out", ["NEW.json", "keep.json", "NEW.txt", "afile/x.json", "adir"]),
-    ("--params", _PARAMS),
-    ("--supply-pressure", _QTY[:9]),
-    ("--cells", ["cq=5,cqp=5,friction=7", "cq=0", "cq=x", "cq=-3", "=", "bogus=3", "cq=100000"]),
-    ("--breakpoints", ["paper", "tangent", "bogus"]),
-    ("--form", ["consistent", "paper", "bogus"]),
-    ("--sample-time", ["1 ms", "-1 s", "0", "1 bar", "nan"]),
-    ("--figures", _OUT_DIR),
-    ("--tables", _OUT_DIR),
-], ["--force", "--scheduled"]).map(lambda a: a if "--out" in a else a + ["--out", "NEW.json"]),
-    fault=st.sampled_from(_FAULTS))
+@given(
+    argv=_argv(
+        ["linearize"],
+        [
+            ("--out", ["NEW.json", "keep.json", "NEW.txt", "afile/x.json", "adir"]),
+            ("--params", _PARAMS),
+            ("--supply-pressure", _QTY[:9]),
+            (
+                "--cells",
+                ["cq=5,cqp=5,friction=7", "cq=0", "cq=x", "cq=-3", "=", "bogus=3", "cq=100000"],
+            ),
+            ("--breakpoints", ["paper", "tangent", "bogus"]),
+            ("--form", ["consistent", "paper", "bogus"]),
+            ("--sample-time", ["1 ms", "-1 s", "0", "1 bar", "nan"]),
+            ("--figures", _OUT_DIR),
+            ("--tables", _OUT_DIR),
+        ],
+        ["--force", "--scheduled"],
+    ).map(lambda a: a if "--out" in a else a + ["--out", "NEW.json"]),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_linearize(argv, fault):
     _check("cli linearize", argv, fault)
 
@@ -340,39 +504,111 @@ def test_fuzz_cli_linearize(argv, fault):
 # Commands that run for minutes on valid input (a campaign, the study, identification) get
 # at least one hostile argument each: the fuzz is about their error paths.
 @_CLI
-@given(argv=st.one_of(
-    st.tuples(st.sampled_from(["frf", "deadzone", "friction", "all"]), st.sampled_from(_IN_DS),
-              _argv([], [("--out", ["NEW.toml", "keep.toml", "NEW.txt", "adir"]), ("--figures", _OUT_DIR),
-                         ("--summary", ["NEW.md", "keep.md", "keep.toml", "adir"]), ("--base-params", _PARAMS)],
-                    ["--force"])).map(lambda t: ["identify", t[0], t[1], *t[2]]),
-    st.tuples(st.sampled_from(["good.mat", "afile", "nosuch.mat", "adir", "good.csv", "binary.toml"]),
-              _argv([], [("--summary", ["NEW.md", "keep.md", "adir"]), ("--figures", _OUT_DIR),
-                         ("--validation", ["good.mat", "nosuch.mat", "afile"])], ["--force", "--asymmetric"]))
-    .map(lambda t: ["identify", "emps", t[0], *t[1]]),
-    st.tuples(st.sampled_from(["frf", "deadzone", "friction", "sine", "all", "bogus"]),
-              st.sampled_from(["afile", "nosuch", "deep.toml", "binary.toml", "sweep_ok.toml", "keep.toml"]),
-              _argv([], [("--out", _OUT_DIR), ("--params", _PARAMS),
-                         ("--seed", ["-1", "0", "x", "99999999999999999999999"]), ("--jobs", ["0", "1", "-2"])],
-                    ["--force"])).map(lambda t: ["rig", "run", t[0], "--campaign", t[1], "-q", *t[2]]),
-    st.tuples(st.sampled_from(sorted(_ESCAPES) + ["afile", "nosuch", "empty", "ds", "man_list", "adir"]),
-              _argv([], [("--out", _OUT_DIR), ("--params", _PARAMS)], ["--force", "--fresh"]))
-    .map(lambda t: ["paper", "--data", t[0], "-q", *t[1]]),
-    _argv(["paper", "-q"], [("--out", _OUT_DIR), ("--params", _PARAMS)], ["--force"])
-    .map(lambda a: a + ["--campaign", "nosuch"]),
-), fault=st.sampled_from(_FAULTS))
+@given(
+    argv=st.one_of(
+        st.tuples(
+            st.sampled_from(["frf", "deadzone", "friction", "all"]),
+            st.sampled_from(_IN_DS),
+            _argv(
+                [],
+                [
+                    ("--out", ["NEW.toml", "keep.toml", "NEW.txt", "adir"]),
+                    ("--figures", _OUT_DIR),
+                    ("--summary", ["NEW.md", "keep.md", "keep.toml", "adir"]),
+                    ("--base-params", _PARAMS),
+                ],
+                ["--force"],
+            ),
+        ).map(lambda t: ["identify", t[0], t[1], *t[2]]),
+        st.tuples(
+            st.sampled_from(["good.mat", "afile", "nosuch.mat", "adir", "good.csv", "binary.toml"]),
+            _argv(
+                [],
+                [
+                    ("--summary", ["NEW.md", "keep.md", "adir"]),
+                    ("--figures", _OUT_DIR),
+                    ("--validation", ["good.mat", "nosuch.mat", "afile"]),
+                ],
+                ["--force", "--asymmetric"],
+            ),
+        ).map(lambda t: ["identify", "emps", t[0], *t[1]]),
+        st.tuples(
+            st.sampled_from(["frf", "deadzone", "friction", "sine", "all", "bogus"]),
+            st.sampled_from(
+                ["afile", "nosuch", "deep.toml", "binary.toml", "sweep_ok.toml", "keep.toml"]
+            ),
+            _argv(
+                [],
+                [
+                    ("--out", _OUT_DIR),
+                    ("--params", _PARAMS),
+                    ("--seed", ["-1", "0", "x", "99999999999999999999999"]),
+                    ("--jobs", ["0", "1", "-2"]),
+                ],
+                ["--force"],
+            ),
+        ).map(lambda t: ["rig", "run", t[0], "--campaign", t[1], "-q", *t[2]]),
+        st.tuples(
+            st.sampled_from(
+                sorted(_ESCAPES) + ["afile", "nosuch", "empty", "ds", "man_list", "adir"]
+            ),
+            _argv([], [("--out", _OUT_DIR), ("--params", _PARAMS)], ["--force", "--fresh"]),
+        ).map(lambda t: ["paper", "--data", t[0], "-q", *t[1]]),
+        _argv(["paper", "-q"], [("--out", _OUT_DIR), ("--params", _PARAMS)], ["--force"]).map(
+            lambda a: a + ["--campaign", "nosuch"]
+        ),
+    ),
+    fault=st.sampled_from(_FAULTS),
+)
 def test_fuzz_cli_long_commands(argv, fault):
     _check("cli identify/rig/paper", argv, fault)
 
 
-_WORDS = ["simulate", "params", "show", "export", "data", "check", "convert", "sweep", "linearize",
-          "identify", "frf", "rig", "run", "paper", "--out", "-o", "--force", "--bogus", "-x", "--duration",
-          "--help", "--fs", "=", "--", "-", "afile", "ds", "\x00", "é", "--rtol=-1", "--jobs=0", "campaigns"]
+_WORDS = [
+    "simulate",
+    "params",
+    "show",
+    "export",
+    "data",
+    "check",
+    "convert",
+    "sweep",
+    "linearize",
+    "identify",
+    "frf",
+    "rig",
+    "run",
+    "paper",
+    "--out",
+    "-o",
+    "--force",
+    "--bogus",
+    "-x",
+    "--duration",
+    "--help",
+    "--fs",
+    "=",
+    "--",
+    "-",
+    "afile",
+    "ds",
+    "\x00",
+    "é",
+    "--rtol=-1",
+    "--jobs=0",
+    "campaigns",
+]
 
 
 @_CLI
-@given(argv=st.lists(st.sampled_from(_WORDS) | st.text(max_size=8), max_size=6)
-       .filter(lambda a: not ({"run", "paper", "identify", "sweep", "simulate", "linearize"} & set(a))
-               or {"--bogus", "-x", "=", "--rtol=-1", "--jobs=0"} & set(a)))
+@given(
+    argv=st.lists(st.sampled_from(_WORDS) | st.text(max_size=8), max_size=6).filter(
+        lambda a: (
+            not ({"run", "paper", "identify", "sweep", "simulate", "linearize"} & set(a))
+            or {"--bogus", "-x", "=", "--rtol=-1", "--jobs=0"} & set(a)
+        )
+    )
+)
 def test_fuzz_cli_random_words(argv):
     """Random words: usage errors (unknown options, missing arguments) are one line too."""
     _check("cli random argv", [a.replace("\x00", "") for a in argv])
@@ -384,25 +620,56 @@ _JSON = st.recursive(
     lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c, max_size=4),
     max_leaves=12,
 )
-_FILES = ["s.csv", "sub/s.csv", "./s.csv", "r.csv", "../secret/secret.csv", "/etc/passwd", "sub/../r.csv", "sub/../../x.csv", "link.csv",
-          "r.txt", "", ".", "..", "r.csv\x00", "\\..\\x.csv", "C:/x.csv"]
+_FILES = [
+    "s.csv",
+    "sub/s.csv",
+    "./s.csv",
+    "r.csv",
+    "../secret/secret.csv",
+    "/etc/passwd",
+    "sub/../r.csv",
+    "sub/../../x.csv",
+    "link.csv",
+    "r.txt",
+    "",
+    ".",
+    "..",
+    "r.csv\x00",
+    "\\..\\x.csv",
+    "C:/x.csv",
+]
 
 
 @st.composite
 def _manifest_doc(draw):
-    doc = {"format": "hydropwa-dataset", "format_version": 1, "meta": {},
-           "runs": [_entry("r.csv")]}
+    doc = {"format": "hydropwa-dataset", "format_version": 1, "meta": {}, "runs": [_entry("r.csv")]}
     for _ in range(draw(st.integers(0, 3))):
         where = draw(st.sampled_from(["top", "entry", "file", "whole", "add"]))
         if not isinstance(doc, dict):
             break
         if where == "top":
-            doc[draw(st.sampled_from(["format", "format_version", "meta", "runs", "x"]))] = draw(_JSON)
+            doc[draw(st.sampled_from(["format", "format_version", "meta", "runs", "x"]))] = draw(
+                _JSON
+            )
         elif where == "entry" and isinstance(doc.get("runs"), list) and doc["runs"]:
             e = doc["runs"][0]
             if isinstance(e, dict):
-                e[draw(st.sampled_from(["name", "file", "format", "kind", "fs", "n_samples", "channels",
-                                        "meta"]))] = draw(_JSON)
+                e[
+                    draw(
+                        st.sampled_from(
+                            [
+                                "name",
+                                "file",
+                                "format",
+                                "kind",
+                                "fs",
+                                "n_samples",
+                                "channels",
+                                "meta",
+                            ]
+                        )
+                    )
+                ] = draw(_JSON)
         elif where == "file" and isinstance(doc.get("runs"), list):
             name = draw(st.sampled_from(["s", "t"]) | st.text(max_size=4))
             doc["runs"].append(_entry(draw(st.sampled_from(_FILES)), name=name))
@@ -414,8 +681,10 @@ def _manifest_doc(draw):
 
 
 def _secret_read(ds) -> bool:
-    return any(Path(p).resolve() == (_W["root"] / "secret" / "secret.csv").resolve()
-               for p in (ds.path_of(n) for n in ds.names))
+    return any(
+        Path(p).resolve() == (_W["root"] / "secret" / "secret.csv").resolve()
+        for p in (ds.path_of(n) for n in ds.names)
+    )
 
 
 @_LOADER
@@ -432,25 +701,62 @@ def test_fuzz_manifest(doc):
     (d / "manifest.json").write_text(json.dumps(doc))
     ds = load_or_reject("read_dataset (manifest)", DataError, read_dataset, d, validate=False)
     if ds is not None and _secret_read(ds):
-        violation("read_dataset (manifest)", doc, "path escape: a run file outside the dataset loaded")
+        violation(
+            "read_dataset (manifest)", doc, "path escape: a run file outside the dataset loaded"
+        )
     issues = load_or_reject("check_dataset (manifest)", DataError, check_dataset, d)
     if issues is not None:
         assert isinstance(issues, list)
 
 
-_SPEC_LINES = ['[grid]', '"load.mass" = [1.0, 2.0]', '"load.mass" = []', '"supply.pressure" = ["80 bar", "-1 bar"]',
-               '[random]', 'n = 3', 'n = -1', 'n = 1e9', 'seed = "x"', '"friction.coulomb" = {uniform = [10, 40]}',
-               '"friction.coulomb" = {uniform = [40, 10]}', '"load.mass" = {loguniform = [-1, 2]}',
-               '"load.mass" = {normal = [1, -1]}', '[input]', 'duration = 0.02', 'duration = -1', 'fs = 0',
-               'rtol = 2', 'model = "bogus"', 'u = "sine:amplitude=0.4"', 'u = "x:"', 'solver = 5',
-               'supply_pressure = "0 bar"', 'load_force = "nan"', 'base = "nosuch"', 'base = 5', '[gird]',
-               'bogus = 1', '"nosuch.field" = [1]', '[input', 'x = ', '"a.b" = {uniform = [1]}']
+_SPEC_LINES = [
+    "[grid]",
+    '"load.mass" = [1.0, 2.0]',
+    '"load.mass" = []',
+    '"supply.pressure" = ["80 bar", "-1 bar"]',
+    "[random]",
+    "n = 3",
+    "n = -1",
+    "n = 1e9",
+    'seed = "x"',
+    '"friction.coulomb" = {uniform = [10, 40]}',
+    '"friction.coulomb" = {uniform = [40, 10]}',
+    '"load.mass" = {loguniform = [-1, 2]}',
+    '"load.mass" = {normal = [1, -1]}',
+    "[input]",
+    "duration = 0.02",
+    "duration = -1",
+    "fs = 0",
+    "rtol = 2",
+    'model = "bogus"',
+    'u = "sine:amplitude=0.4"',
+    'u = "x:"',
+    "solver = 5",
+    'supply_pressure = "0 bar"',
+    'load_force = "nan"',
+    'base = "nosuch"',
+    "base = 5",
+    "[gird]",
+    "bogus = 1",
+    '"nosuch.field" = [1]',
+    "[input",
+    "x = ",
+    '"a.b" = {uniform = [1]}',
+]
 
 
 #: Lines of _SPEC_LINES that are valid where they stand; every other one is invalid in any
 #: section (unknown section or key, bad bound, value or type), so a sweep holding one must fail.
-_SPEC_VALID = {'[grid]', '"load.mass" = [1.0, 2.0]', '[random]', 'n = 3', '"friction.coulomb" = {uniform = [10, 40]}',
-               '[input]', 'duration = 0.02', 'u = "sine:amplitude=0.4"'}
+_SPEC_VALID = {
+    "[grid]",
+    '"load.mass" = [1.0, 2.0]',
+    "[random]",
+    "n = 3",
+    '"friction.coulomb" = {uniform = [10, 40]}',
+    "[input]",
+    "duration = 0.02",
+    'u = "sine:amplitude=0.4"',
+}
 
 
 @_LOADER

@@ -70,7 +70,10 @@ def _make_seeds(d):
             "data": np.column_stack([np.arange(n) / 1e3, np.linspace(0, 1, n), np.full(n, 2.0)]),
             "qm": np.linspace(0.0, 0.1, n).reshape(-1, 1),
             "gtau": np.array([[35.15]]),
-            "rec": {"X": {"Data": np.arange(n) / 1e3}, "Y": [{"Name": "p_A", "Data": np.full(n, 40.0)}]},
+            "rec": {
+                "X": {"Data": np.arange(n) / 1e3},
+                "Y": [{"Name": "p_A", "Data": np.full(n, 40.0)}],
+            },
         },
     )
     out["raw-mat"] = buf.getvalue()
@@ -137,8 +140,11 @@ def _write(name: str, data: bytes):
 
 # ----------------------------------------------------------------------- targets
 @pytest.mark.parametrize("fmt", ["csv", "parquet", "mat"])
-@given(seed=st.sampled_from(["", "-units"]), edits=st.lists(_edit, min_size=1, max_size=6),
-       validate=st.booleans())
+@given(
+    seed=st.sampled_from(["", "-units"]),
+    edits=st.lists(_edit, min_size=1, max_size=6),
+    validate=st.booleans(),
+)
 def test_fuzz_bytes(fmt, seed, edits, validate):
     """Byte-level edits of valid files written by the package."""
     path = _write(f"mut.{fmt}", _mutate(_SEEDS[fmt + seed], edits))
@@ -153,24 +159,99 @@ def test_fuzz_random_bytes(fmt, data):
 
 
 _TOKENS = st.one_of(
-    st.sampled_from(["", "nan", "NaN", "inf", "-inf", "1e400", "-1e-400", "0x10", "1_000", "−1",
-                     " ", '"', "'", "[bar]", "1,2", "1;2", "#", "é", "\x00", "1e5", "-0.0", "None"]),
+    st.sampled_from(
+        [
+            "",
+            "nan",
+            "NaN",
+            "inf",
+            "-inf",
+            "1e400",
+            "-1e-400",
+            "0x10",
+            "1_000",
+            "−1",
+            " ",
+            '"',
+            "'",
+            "[bar]",
+            "1,2",
+            "1;2",
+            "#",
+            "é",
+            "\x00",
+            "1e5",
+            "-0.0",
+            "None",
+        ]
+    ),
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.text(max_size=12),
 )
 _UNITS = st.one_of(
-    st.sampled_from(["bar", "Pa", "mm", "%", "", "-", "1", "degC", "K", "psi", "L/min", "lpm",
-                     "m/s", "kg", "bar**2", "1/0", "m**m", "m^", "(", ")", "*", "**", "bar bar",
-                     "e", "pi", "nan", "inf", "1e999 m", "__class__", "m_", "[", "]", "delta_degC",
-                     "0", "-1", "2 bar", "bar/0", "s**-1.5", "m**1e9", "dimensionless"]),
+    st.sampled_from(
+        [
+            "bar",
+            "Pa",
+            "mm",
+            "%",
+            "",
+            "-",
+            "1",
+            "degC",
+            "K",
+            "psi",
+            "L/min",
+            "lpm",
+            "m/s",
+            "kg",
+            "bar**2",
+            "1/0",
+            "m**m",
+            "m^",
+            "(",
+            ")",
+            "*",
+            "**",
+            "bar bar",
+            "e",
+            "pi",
+            "nan",
+            "inf",
+            "1e999 m",
+            "__class__",
+            "m_",
+            "[",
+            "]",
+            "delta_degC",
+            "0",
+            "-1",
+            "2 bar",
+            "bar/0",
+            "s**-1.5",
+            "m**1e9",
+            "dimensionless",
+        ]
+    ),
     st.text(max_size=10),
 )
 
 
-@given(line_edits=st.lists(st.tuples(st.sampled_from(["delete", "dup", "swap", "cell", "unit", "cols"]),
-                                     st.integers(0, 40), st.integers(0, 10), _TOKENS, _UNITS),
-                           min_size=1, max_size=5),
-       seed=st.sampled_from(["", "-units"]), validate=st.booleans())
+@given(
+    line_edits=st.lists(
+        st.tuples(
+            st.sampled_from(["delete", "dup", "swap", "cell", "unit", "cols"]),
+            st.integers(0, 40),
+            st.integers(0, 10),
+            _TOKENS,
+            _UNITS,
+        ),
+        min_size=1,
+        max_size=5,
+    ),
+    seed=st.sampled_from(["", "-units"]),
+    validate=st.booleans(),
+)
 def test_fuzz_csv_lines(line_edits, seed, validate):
     """Line- and cell-level edits of a valid CSV: bad numbers, units, row lengths."""
     lines = _SEEDS["csv" + seed].decode().splitlines()
@@ -206,23 +287,34 @@ def test_fuzz_csv_lines(line_edits, seed, validate):
 
 _JSON = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3),
+    lambda inner: (
+        st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3)
+    ),
     max_leaves=8,
 )
 _HEADER_KEYS = ["format_version", "name", "fs", "meta", "units", "channels"]
 
 
 @pytest.mark.parametrize("fmt", ["csv", "parquet", "mat"])
-@given(changes=st.dictionaries(st.sampled_from(_HEADER_KEYS), _JSON, max_size=3),
-       whole=st.none() | _JSON, validate=st.booleans())
+@given(
+    changes=st.dictionaries(st.sampled_from(_HEADER_KEYS), _JSON, max_size=3),
+    whole=st.none() | _JSON,
+    validate=st.booleans(),
+)
 def test_fuzz_metadata_header(fmt, changes, whole, validate):
     """Random JSON values in the ``hydropwa`` metadata (name, fs, meta, units, channels)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     run = _seed_run()
-    header = {"format_version": 1, "name": "seed", "fs": 1000.0, "meta": {}, "units": dict(run.units),
-              "channels": list(run.channels)}
+    header = {
+        "format_version": 1,
+        "name": "seed",
+        "fs": 1000.0,
+        "meta": {},
+        "units": dict(run.units),
+        "channels": list(run.channels),
+    }
     header.update(changes)
     doc = header if whole is None else whole
     text = json.dumps(doc)
@@ -242,24 +334,57 @@ def test_fuzz_metadata_header(fmt, changes, whole, validate):
 _SPEC = st.fixed_dictionaries(
     {},
     optional={
-        "source": st.sampled_from(["qm", "data", "gtau", "rec.X.Data", "rec.Y(1).Data", "rec.Y(9).Data",
-                                   "rec.Y{p_A}.Data", "rec.Y{zz}.Data", "rec", "rec.Y", "missing",
-                                   "qm.x", "data(2)", "1bad", "", "a..b"]) | st.text(max_size=8),
+        "source": st.sampled_from(
+            [
+                "qm",
+                "data",
+                "gtau",
+                "rec.X.Data",
+                "rec.Y(1).Data",
+                "rec.Y(9).Data",
+                "rec.Y{p_A}.Data",
+                "rec.Y{zz}.Data",
+                "rec",
+                "rec.Y",
+                "missing",
+                "qm.x",
+                "data(2)",
+                "1bad",
+                "",
+                "a..b",
+            ]
+        )
+        | st.text(max_size=8),
         "column": st.none() | st.integers(-2, 5) | st.floats(allow_nan=True) | st.text(max_size=3),
         "unit": _UNITS | st.integers(),
-        "gain": st.floats(allow_nan=True) | st.sampled_from(["@gtau", "@qm", "@missing", "@", "x", "@rec.X.Data"])
-        | st.integers() | st.lists(st.integers(), max_size=2),
-        "offset": st.floats(allow_nan=True) | st.sampled_from(["@gtau", "1 bar", ""]) | st.booleans(),
+        "gain": st.floats(allow_nan=True)
+        | st.sampled_from(["@gtau", "@qm", "@missing", "@", "x", "@rec.X.Data"])
+        | st.integers()
+        | st.lists(st.integers(), max_size=2),
+        "offset": st.floats(allow_nan=True)
+        | st.sampled_from(["@gtau", "1 bar", ""])
+        | st.booleans(),
         "other": _JSON,
     },
 )
 _MAP_DOC = st.fixed_dictionaries(
-    {"channels": st.dictionaries(st.sampled_from(["t", "x", "u", "p_a", "f_l", "extra", "v"]),
-                                 _SPEC | st.text(max_size=6) | _JSON, max_size=5)},
+    {
+        "channels": st.dictionaries(
+            st.sampled_from(["t", "x", "u", "p_a", "f_l", "extra", "v"]),
+            _SPEC | st.text(max_size=6) | _JSON,
+            max_size=5,
+        )
+    },
     optional={
-        "map": st.fixed_dictionaries({}, optional={
-            "fs": st.floats(allow_nan=True) | st.integers(-5, 5) | st.text(max_size=4) | _JSON,
-            "name": _JSON, "keep_unmapped": _JSON}) | _JSON,
+        "map": st.fixed_dictionaries(
+            {},
+            optional={
+                "fs": st.floats(allow_nan=True) | st.integers(-5, 5) | st.text(max_size=4) | _JSON,
+                "name": _JSON,
+                "keep_unmapped": _JSON,
+            },
+        )
+        | _JSON,
         "meta": _JSON,
     },
 )
@@ -269,8 +394,10 @@ _FIELD_VALUES = {
     "source": _SPEC.map(lambda d: d.get("source", "qm")),
     "column": st.none() | st.integers(-2, 5) | st.floats(allow_nan=True) | st.booleans(),
     "unit": _UNITS | st.integers(),
-    "gain": st.floats(allow_nan=True) | st.sampled_from(["@gtau", "@qm", "@rec", "@missing", "@", "x"])
-    | st.integers() | st.lists(st.integers(), max_size=2),
+    "gain": st.floats(allow_nan=True)
+    | st.sampled_from(["@gtau", "@qm", "@rec", "@missing", "@", "x"])
+    | st.integers()
+    | st.lists(st.integers(), max_size=2),
     "offset": st.floats(allow_nan=True) | st.sampled_from(["@gtau", "1 bar", ""]) | st.booleans(),
 }
 
@@ -299,8 +426,11 @@ def _mutated_map(draw):
     return doc
 
 
-@given(doc=_mutated_map() | _MAP_DOC | _JSON, mutate=st.none() | st.lists(_edit, min_size=1, max_size=3),
-       validate=st.booleans())
+@given(
+    doc=_mutated_map() | _MAP_DOC | _JSON,
+    mutate=st.none() | st.lists(_edit, min_size=1, max_size=3),
+    validate=st.booleans(),
+)
 def test_fuzz_channel_map(doc, mutate, validate):
     """Random and mutated channel maps applied to a raw MAT log (optionally byte-mutated)."""
     data = _SEEDS["raw-mat"] if mutate is None else _mutate(_SEEDS["raw-mat"], mutate)
@@ -311,15 +441,23 @@ def test_fuzz_channel_map(doc, mutate, validate):
     _read("read_run[mat] with channel map", path, channel_map=cmap, validate=validate)
 
 
-@given(text=st.text(max_size=400) | st.sampled_from(["[channels]\nx='qm'", "[channels.x]\nsource=1",
-                                                     "[map]\nfs='x'\n[channels.x]\nsource='qm'"]))
+@given(
+    text=st.text(max_size=400)
+    | st.sampled_from(
+        ["[channels]\nx='qm'", "[channels.x]\nsource=1", "[map]\nfs='x'\n[channels.x]\nsource='qm'"]
+    )
+)
 def test_fuzz_channel_map_toml(text):
     """Random TOML text as a channel-map file."""
     path = _SEEDS["dir"] / "map.toml"
     path.write_text(text, encoding="utf-8", errors="surrogatepass")
     cmap = load_or_reject("ChannelMap.from_toml", DataError, ChannelMap.from_toml, path)
     if cmap is not None:
-        _read("read_run[mat] with channel map", _write("raw2.mat", _SEEDS["raw-mat"]), channel_map=cmap)
+        _read(
+            "read_run[mat] with channel map",
+            _write("raw2.mat", _SEEDS["raw-mat"]),
+            channel_map=cmap,
+        )
 
 
 @pytest.mark.parametrize("fmt", ["csv", "parquet", "mat"])

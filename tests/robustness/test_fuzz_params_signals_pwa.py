@@ -52,17 +52,56 @@ def _quiet(fn, *args, **kwargs):
 
 
 _VALUES = st.one_of(
-    st.sampled_from(["100 bar", "40 L/min", "0.7 L", "10 %", "1e400", "nan", "inf", "-inf", "0", "-1",
-                     "1 m", "2 Hz", "100 rad/s", "1/0", "bar**bar", "1e9999 Pa", "3 kg*m", "__import__('os')",
-                     "degC", "5 degC", "1 percent_opening", "", " ", "1e-400", "10 kN", "True", "[1]", "0x10",
-                     "1_0", "½", "1 bar bar", "m^-2", "(", "e", "pi"]),
+    st.sampled_from(
+        [
+            "100 bar",
+            "40 L/min",
+            "0.7 L",
+            "10 %",
+            "1e400",
+            "nan",
+            "inf",
+            "-inf",
+            "0",
+            "-1",
+            "1 m",
+            "2 Hz",
+            "100 rad/s",
+            "1/0",
+            "bar**bar",
+            "1e9999 Pa",
+            "3 kg*m",
+            "__import__('os')",
+            "degC",
+            "5 degC",
+            "1 percent_opening",
+            "",
+            " ",
+            "1e-400",
+            "10 kN",
+            "True",
+            "[1]",
+            "0x10",
+            "1_0",
+            "½",
+            "1 bar bar",
+            "m^-2",
+            "(",
+            "e",
+            "pi",
+        ]
+    ),
     st.floats(allow_nan=True, allow_infinity=True),
     st.integers(min_value=-(10**30), max_value=10**30),
     st.booleans(),
     st.text(max_size=12),
     st.lists(st.floats(-2, 2) | st.text(max_size=3), max_size=3),
     st.lists(st.lists(st.floats(-2, 1e4) | st.text(max_size=4), max_size=3), max_size=3),
-    st.dictionaries(st.sampled_from(["flow", "pressure_drop", "x"]), st.sampled_from(["40 L/min", "70 bar", "-1 bar", 0, "x"]), max_size=3),
+    st.dictionaries(
+        st.sampled_from(["flow", "pressure_drop", "x"]),
+        st.sampled_from(["40 L/min", "70 bar", "-1 bar", 0, "x"]),
+        max_size=3,
+    ),
 )
 _SECTIONS = ["valve", "dead_zone", "flow", "cylinder", "oil", "friction", "supply", "load"]
 
@@ -87,10 +126,19 @@ def test_fuzz_params_from_dict(doc):
         assert isinstance(p, SystemParams)
 
 
-@given(edits=st.lists(st.tuples(st.sampled_from(["value", "delete", "dup", "swap", "text", "bytes"]),
-                                st.integers(0, 200), _VALUES.map(repr) | st.text(max_size=20), st.binary(max_size=8)),
-                      min_size=1, max_size=4),
-       which=st.sampled_from(["toml", "toml_sym"]))
+@given(
+    edits=st.lists(
+        st.tuples(
+            st.sampled_from(["value", "delete", "dup", "swap", "text", "bytes"]),
+            st.integers(0, 200),
+            _VALUES.map(repr) | st.text(max_size=20),
+            st.binary(max_size=8),
+        ),
+        min_size=1,
+        max_size=4,
+    ),
+    which=st.sampled_from(["toml", "toml_sym"]),
+)
 def test_fuzz_load_params_toml(edits, which):
     """Line edits of a saved parameter file: values replaced by junk, lines lost or repeated."""
     lines = _SEEDS[which].splitlines()
@@ -128,22 +176,51 @@ def test_fuzz_load_params_random(text):
 
 # ----------------------------------------------------------------------- signals
 _KINDS = ["constant", "step", "ramp", "sine", "chirp", "Sine", " sine ", "sampled", "", "x"]
-_KEYS = ["value", "time", "before", "after", "t0", "t1", "v0", "v1", "amplitude", "frequency", "offset",
-         "phase", "start", "f0", "f1", "duration", "bogus", "", "_kind"]
-_SIG_VALUES = st.one_of(_VALUES.map(str), st.sampled_from(["0.4", "1", "95 bar", "40 %", "2 Hz", "0.1 s",
-                                                             "90 deg", "-1", "0", "1e308", "-1e308"]))
+_KEYS = [
+    "value",
+    "time",
+    "before",
+    "after",
+    "t0",
+    "t1",
+    "v0",
+    "v1",
+    "amplitude",
+    "frequency",
+    "offset",
+    "phase",
+    "start",
+    "f0",
+    "f1",
+    "duration",
+    "bogus",
+    "",
+    "_kind",
+]
+_SIG_VALUES = st.one_of(
+    _VALUES.map(str),
+    st.sampled_from(
+        ["0.4", "1", "95 bar", "40 %", "2 Hz", "0.1 s", "90 deg", "-1", "0", "1e308", "-1e308"]
+    ),
+)
 
 
 @st.composite
 def _spec(draw):
     kind = draw(st.sampled_from(_KINDS))
-    items = draw(st.lists(st.tuples(st.sampled_from(_KEYS), _SIG_VALUES, st.sampled_from(["=", "", "==", ":"])),
-                          max_size=5))
+    items = draw(
+        st.lists(
+            st.tuples(st.sampled_from(_KEYS), _SIG_VALUES, st.sampled_from(["=", "", "==", ":"])),
+            max_size=5,
+        )
+    )
     body = ",".join(f"{k}{sep}{v}" if sep else v for k, v, sep in items)
     return f"{kind}:{body}" if draw(st.booleans()) else (body or kind)
 
 
-@given(spec=_spec() | st.text(max_size=60), unit=st.sampled_from(["", "Pa", "N", "m", "bogus", "1/0"]))
+@given(
+    spec=_spec() | st.text(max_size=60), unit=st.sampled_from(["", "Pa", "N", "m", "bogus", "1/0"])
+)
 def test_fuzz_parse_signal(spec, unit):
     sig = load_or_reject("parse_signal", SignalError, parse_signal, spec, unit=unit, name="--input")
     if sig is not None:
@@ -157,7 +234,9 @@ def test_fuzz_parse_signal(spec, unit):
 # ----------------------------------------------------------------------- PWA JSON
 _JSON = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
     max_leaves=12,
 )
 
@@ -187,8 +266,11 @@ def _mutated_pwa(draw):
             if draw(st.booleans()) and isinstance(node, dict):
                 node.pop(path[-1], None)
             else:
-                node[path[-1]] = draw(_JSON | st.floats(allow_nan=True, allow_infinity=True)
-                                      | st.sampled_from([[], [0.0], [1e308, -1e308], "nan", -1.0, 0.0]))
+                node[path[-1]] = draw(
+                    _JSON
+                    | st.floats(allow_nan=True, allow_infinity=True)
+                    | st.sampled_from([[], [0.0], [1e308, -1e308], "nan", -1.0, 0.0])
+                )
         except (KeyError, IndexError, TypeError):
             pass
     return json.dumps(doc)
@@ -209,13 +291,20 @@ def test_fuzz_pwa_json_values(text):
         assert isinstance(m, PwaModel)
 
 
-@given(edits=st.lists(st.tuples(st.floats(0, 1), st.sampled_from(["delete", "insert", "truncate"]),
-                                st.text(max_size=4)), min_size=1, max_size=3))
+@given(
+    edits=st.lists(
+        st.tuples(
+            st.floats(0, 1), st.sampled_from(["delete", "insert", "truncate"]), st.text(max_size=4)
+        ),
+        min_size=1,
+        max_size=3,
+    )
+)
 def test_fuzz_pwa_json_text(edits):
     text = _SEEDS["pwa_json"]
     for where, op, ins in edits:
         i = int(where * len(text))
-        text = text[:i] + ins + text[i + 1:] if op != "truncate" else text[:i]
+        text = text[:i] + ins + text[i + 1 :] if op != "truncate" else text[:i]
     load_or_reject("PwaModel.from_json (mutated text)", PwaError, _quiet, _from_json, text)
 
 
@@ -224,7 +313,9 @@ def test_fuzz_load_pwa_random(doc):
     from hydropwa.linearization import load_pwa
 
     path = _SEEDS["dir"] / "r.json"
-    path.write_text(doc if isinstance(doc, str) else json.dumps(doc), encoding="utf-8", errors="surrogatepass")
+    path.write_text(
+        doc if isinstance(doc, str) else json.dumps(doc), encoding="utf-8", errors="surrogatepass"
+    )
     load_or_reject("load_pwa (random)", PwaError, _quiet, load_pwa, path)
 
 

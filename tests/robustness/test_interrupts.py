@@ -26,7 +26,9 @@ def _kernel_reporting(exc_cause):
         try:
             raise exc_cause
         except BaseException as inner:
-            raise SystemError("CPUDispatcher(<function _integrate_reduced>) returned a result with an exception set") from inner
+            raise SystemError(
+                "CPUDispatcher(<function _integrate_reduced>) returned a result with an exception set"
+            ) from inner
 
     return fake
 
@@ -148,7 +150,9 @@ def test_uninstall_reports_and_forgets_the_interrupt(recording):
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
-def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(monkeypatch, tmp_path, capsys, default_sigint):
+def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(
+    monkeypatch, tmp_path, capsys, default_sigint
+):
     real = K._ENTRY[K.REDUCED]
 
     def kernel_during_which_ctrl_c_is_swallowed(*args):
@@ -158,7 +162,11 @@ def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(monke
     monkeypatch.setitem(K._ENTRY, K.REDUCED, kernel_during_which_ctrl_c_is_swallowed)
     code = main(["simulate", "-m", "reduced", "-d", "0.1", "-o", str(tmp_path / "r.csv")])
     assert code == 130
-    assert capsys.readouterr().err.strip().endswith("error: interrupted; finished files are kept, rerun to resume")
+    assert (
+        capsys.readouterr()
+        .err.strip()
+        .endswith("error: interrupted; finished files are kept, rerun to resume")
+    )
     # main() gives SIGINT back and forgets the interrupt: later library calls are not stopped
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert not _interrupt.pending()

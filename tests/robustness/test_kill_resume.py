@@ -49,7 +49,17 @@ def _foreground_sigint() -> None:
 def _start(out: Path) -> subprocess.Popen:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     return subprocess.Popen(
-        [sys.executable, "-m", "hydropwa", "paper", "--out", str(out), "--campaign", str(CAMPAIGN), "-q"],
+        [
+            sys.executable,
+            "-m",
+            "hydropwa",
+            "paper",
+            "--out",
+            str(out),
+            "--campaign",
+            str(CAMPAIGN),
+            "-q",
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         env=env,
@@ -75,7 +85,17 @@ def _wait_for_runs(proc: subprocess.Popen, out: Path, n: int, timeout: float = 4
 
 def _finish(out: Path) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "hydropwa", "paper", "--out", str(out), "--campaign", str(CAMPAIGN), "-q"],
+        [
+            sys.executable,
+            "-m",
+            "hydropwa",
+            "paper",
+            "--out",
+            str(out),
+            "--campaign",
+            str(CAMPAIGN),
+            "-q",
+        ],
         capture_output=True,
         text=True,
         timeout=600,

@@ -20,8 +20,11 @@ from hydropwa.components import chamber_pressure_rates, orifice_flows, stribeck_
 from hydropwa.linearization import linearize
 from hydropwa.params import flow_coefficient_from_rating
 
-PHYS = settings(max_examples=PHYSICS_EXAMPLES, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+PHYS = settings(
+    max_examples=PHYSICS_EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
 BAR = 1e5
 
 
@@ -33,29 +36,33 @@ def system_params(draw, symmetric: bool = False):
     area_b = area_a if symmetric else area_a * draw(st.floats(0.4, 1.0))
     stroke = draw(st.floats(0.05, 0.5))
     coulomb = draw(st.floats(0.0, 200.0))
-    return base.replace(**{
-        "supply.pressure": draw(st.floats(20 * BAR, 200 * BAR)),
-        "flow.K": flow_coefficient_from_rating(draw(st.floats(5.0, 80.0)) / 6e4, 70 * BAR),
-        "cylinder.area_a": area_a,
-        "cylinder.area_b": area_b,
-        "cylinder.stroke": stroke,
-        # up to 50x the swept volume (Cylinder warns above 100x: "did you mean litres?")
-        "cylinder.dead_volume_a": min(draw(st.floats(0.1e-3, 2e-3)), 50 * area_a * stroke),
-        "cylinder.dead_volume_b": min(draw(st.floats(0.1e-3, 2e-3)), 50 * area_a * stroke),
-        "cylinder.leakage": draw(st.sampled_from([0.0, 1e-13, 1e-12, 1e-11])),
-        "oil.bulk_modulus": draw(st.floats(0.5e9, 2e9)),
-        "friction.coulomb": coulomb,
-        "friction.static": coulomb + draw(st.floats(0.0, 200.0)),
-        "friction.viscous": draw(st.floats(0.0, 5000.0)),
-        "friction.stribeck_velocity": draw(st.floats(1e-3, 0.05)),
-        "friction.shape": draw(st.floats(0.5, 2.0)),
-        "friction.smoothness": draw(st.floats(1e2, 1e5)),
-        "load.mass": draw(st.floats(0.5, 50.0)),
-    })
+    return base.replace(
+        **{
+            "supply.pressure": draw(st.floats(20 * BAR, 200 * BAR)),
+            "flow.K": flow_coefficient_from_rating(draw(st.floats(5.0, 80.0)) / 6e4, 70 * BAR),
+            "cylinder.area_a": area_a,
+            "cylinder.area_b": area_b,
+            "cylinder.stroke": stroke,
+            # up to 50x the swept volume (Cylinder warns above 100x: "did you mean litres?")
+            "cylinder.dead_volume_a": min(draw(st.floats(0.1e-3, 2e-3)), 50 * area_a * stroke),
+            "cylinder.dead_volume_b": min(draw(st.floats(0.1e-3, 2e-3)), 50 * area_a * stroke),
+            "cylinder.leakage": draw(st.sampled_from([0.0, 1e-13, 1e-12, 1e-11])),
+            "oil.bulk_modulus": draw(st.floats(0.5e9, 2e9)),
+            "friction.coulomb": coulomb,
+            "friction.static": coulomb + draw(st.floats(0.0, 200.0)),
+            "friction.viscous": draw(st.floats(0.0, 5000.0)),
+            "friction.stribeck_velocity": draw(st.floats(1e-3, 0.05)),
+            "friction.shape": draw(st.floats(0.5, 2.0)),
+            "friction.smoothness": draw(st.floats(1e2, 1e5)),
+            "load.mass": draw(st.floats(0.5, 50.0)),
+        }
+    )
 
 
 command = st.one_of(
-    st.builds(lambda a, f: f"sine:amplitude={a},frequency={f}", st.floats(-1.0, 1.0), st.floats(0.5, 10.0)),
+    st.builds(
+        lambda a, f: f"sine:amplitude={a},frequency={f}", st.floats(-1.0, 1.0), st.floats(0.5, 10.0)
+    ),
     st.builds(lambda a, t: f"step:time={t},after={a}", st.floats(-1.0, 1.0), st.floats(0.0, 0.2)),
     st.builds(lambda a: f"chirp:amplitude={a},f0=1,f1=30,duration=0.4", st.floats(0.05, 1.0)),
 )
@@ -90,7 +97,12 @@ def test_pressures_stay_physical(params, u, load):
     v_min = min(c.dead_volume_a, c.dead_volume_b)
     hammer = _vmax(res) * math.sqrt(params.load.mass * oil.bulk_modulus / v_min)
     ratio = max(1.0, c.area_a / c.area_b)
-    high = sup.pressure * ratio + hammer + abs(f_l) / min(c.area_a, c.area_b) + params.flow.transition_pressure
+    high = (
+        sup.pressure * ratio
+        + hammer
+        + abs(f_l) / min(c.area_a, c.area_b)
+        + params.flow.transition_pressure
+    )
     low = oil.vapour_pressure - 100.0
     for ch in ("p_a", "p_b"):
         assert np.all(np.isfinite(res[ch]))
@@ -113,8 +125,12 @@ def test_friction_is_odd(params, v):
 
 # ----------------------------------------------------------------------- stroke
 @PHYS
-@given(params=system_params(), amp=st.floats(0.3, 1.0), sign=st.sampled_from([-1.0, 1.0]),
-       start=st.floats(0.02, 0.98))
+@given(
+    params=system_params(),
+    amp=st.floats(0.3, 1.0),
+    sign=st.sampled_from([-1.0, 1.0]),
+    start=st.floats(0.02, 0.98),
+)
 def test_piston_stays_within_stroke(params, amp, sign, start):
     """−tol ≤ x ≤ l + tol with tol = F_hyd,max/k_stop + v_max·√(m/k_stop) + 1 µm.
 
@@ -123,8 +139,9 @@ def test_piston_stays_within_stroke(params, amp, sign, start):
     impact ½mv² in a further v·√(m/k_stop).
     """
     c = params.cylinder
-    res = simulate(FullOrderModel(params), f"constant:{sign * amp}", duration=0.5, fs=2000,
-                   x0=start * c.stroke)
+    res = simulate(
+        FullOrderModel(params), f"constant:{sign * amp}", duration=0.5, fs=2000, x0=start * c.stroke
+    )
     f_hyd = max(res["p_a"].max(), 0.0) * c.area_a + max(res["p_b"].max(), 0.0) * c.area_b
     k = c.end_stop_stiffness
     tol = f_hyd / k + _vmax(res) * math.sqrt(params.load.mass / k) + 1e-6
@@ -135,13 +152,23 @@ def test_piston_stays_within_stroke(params, amp, sign, start):
 # ----------------------------------------------------------------------- oil volume balance
 def _locked(params):
     # A very heavy piston does not move in 0.2 s: x changes by < F·t²/(2m) ≈ 1e-9 m.
-    return params.replace(**{"load.mass": 1e9, "friction.coulomb": 0.0, "friction.static": 0.0,
-                             "friction.viscous": 0.0})
+    return params.replace(
+        **{
+            "load.mass": 1e9,
+            "friction.coulomb": 0.0,
+            "friction.static": 0.0,
+            "friction.viscous": 0.0,
+        }
+    )
 
 
 @PHYS
-@given(params=system_params(), pa=st.floats(5 * BAR, 150 * BAR), pb=st.floats(5 * BAR, 150 * BAR),
-       leak=st.floats(1e-12, 1e-10))
+@given(
+    params=system_params(),
+    pa=st.floats(5 * BAR, 150 * BAR),
+    pb=st.floats(5 * BAR, 150 * BAR),
+    leak=st.floats(1e-12, 1e-10),
+)
 def test_closed_valve_leakage_conserves_oil(params, pa, pb, leak):
     """Closed valve (u = 0, spool at 0 so z = 0), locked piston, leakage only:
     V_A·P_A + V_B·P_B is conserved (E constant above the release pressure).
@@ -154,12 +181,21 @@ def test_closed_valve_leakage_conserves_oil(params, pa, pb, leak):
     p = _locked(params).replace(**{"cylinder.leakage": leak})
     c, E = p.cylinder, p.oil.bulk_modulus
     x0 = 0.5 * c.stroke
-    state = FullOrderModel.state_from_measurement(x=x0, v=0.0, p_a=pa, p_b=pb, p_s=p.supply.pressure)
+    state = FullOrderModel.state_from_measurement(
+        x=x0, v=0.0, p_a=pa, p_b=pb, p_s=p.supply.pressure
+    )
     res = simulate(FullOrderModel(p), 0.0, duration=0.2, fs=2000, initial_state=state, rtol=1e-5)
     va = c.dead_volume_a + c.area_a * res["x"]
     vb = c.dead_volume_b + c.area_b * (c.stroke - res["x"])
-    vdp = np.concatenate(([0.0], np.cumsum(0.5 * (va[1:] + va[:-1]) * np.diff(res["p_a"])
-                                           + 0.5 * (vb[1:] + vb[:-1]) * np.diff(res["p_b"]))))
+    vdp = np.concatenate(
+        (
+            [0.0],
+            np.cumsum(
+                0.5 * (va[1:] + va[:-1]) * np.diff(res["p_a"])
+                + 0.5 * (vb[1:] + vb[:-1]) * np.diff(res["p_b"])
+            ),
+        )
+    )
     expected = -E * (c.area_a - c.area_b) * (res["x"] - res["x"][0])
     scale = (c.dead_volume_a + c.dead_volume_b) * (abs(pa - pb) + BAR)
     assert np.max(np.abs(vdp - expected)) <= 1e-4 * scale
@@ -187,7 +223,9 @@ def test_locked_piston_volume_balance(params, u):
     ps = sup.pressure
     state = FullOrderModel.state_from_measurement(x=x0, v=0.0, p_a=0.5 * ps, p_b=0.5 * ps, p_s=ps)
     res = simulate(FullOrderModel(p), u, duration=0.02, fs=20000, initial_state=state)
-    keep = (res["p_a"] > oil.release_pressure + 0.05 * ps) & (res["p_b"] > oil.release_pressure + 0.05 * ps)
+    keep = (res["p_a"] > oil.release_pressure + 0.05 * ps) & (
+        res["p_b"] > oil.release_pressure + 0.05 * ps
+    )
     n = int(np.argmin(keep)) if not keep.all() else keep.size
     if n < 20:
         return
@@ -195,8 +233,15 @@ def test_locked_piston_volume_balance(params, u):
     qa = np.empty(n)
     qb = np.empty(n)
     for i in range(n):
-        qa[i], qb[i] = orifice_flows(res["z"][i], res["p_a"][i], res["p_b"][i], ps, sup.tank_pressure,
-                                     p.flow.K, p.flow.transition_pressure)
+        qa[i], qb[i] = orifice_flows(
+            res["z"][i],
+            res["p_a"][i],
+            res["p_b"][i],
+            ps,
+            sup.tank_pressure,
+            p.flow.K,
+            p.flow.transition_pressure,
+        )
     va = c.dead_volume_a + c.area_a * res["x"][:n]
     vb = c.dead_volume_b + c.area_b * (c.stroke - res["x"][:n])
     lhs_a = va[-1] / oil.bulk_modulus * (res["p_a"][n - 1] - res["p_a"][0])
@@ -210,16 +255,36 @@ def test_locked_piston_volume_balance(params, u):
 
 
 @settings(max_examples=PHYSICS_EXAMPLES * 25, deadline=None)
-@given(params=system_params(), qa=st.floats(-1e-3, 1e-3), qb=st.floats(-1e-3, 1e-3),
-       pa=st.floats(0.0, 200 * BAR), pb=st.floats(0.0, 200 * BAR), frac=st.floats(0.0, 1.0))
+@given(
+    params=system_params(),
+    qa=st.floats(-1e-3, 1e-3),
+    qb=st.floats(-1e-3, 1e-3),
+    pa=st.floats(0.0, 200 * BAR),
+    pb=st.floats(0.0, 200 * BAR),
+    frac=st.floats(0.0, 1.0),
+)
 def test_chamber_continuity_balance(params, qa, qb, pa, pb, frac):
     """Eq. (9) component: (V_A/E)·Ṗ_A + (V_B/E)·Ṗ_B = Q_A − Q_B − (A_A − A_B)·ẋ with v = 0
     reduces to Q_A − Q_B: the leakage term leaves one chamber and enters the other (1e-9 rel.)."""
     c, oil = params.cylinder, params.oil
     x = frac * c.stroke
-    dpa, dpb = chamber_pressure_rates(qa, qb, x, 0.0, pa, pb, c.area_a, c.area_b, c.stroke,
-                                      c.dead_volume_a, c.dead_volume_b, c.leakage, oil.bulk_modulus,
-                                      oil.vapour_pressure, oil.release_pressure)
+    dpa, dpb = chamber_pressure_rates(
+        qa,
+        qb,
+        x,
+        0.0,
+        pa,
+        pb,
+        c.area_a,
+        c.area_b,
+        c.stroke,
+        c.dead_volume_a,
+        c.dead_volume_b,
+        c.leakage,
+        oil.bulk_modulus,
+        oil.vapour_pressure,
+        oil.release_pressure,
+    )
     va = c.dead_volume_a + c.area_a * x
     vb = c.dead_volume_b + c.area_b * (c.stroke - x)
     total = va / oil.bulk_modulus * dpa + vb / oil.bulk_modulus * dpb
@@ -252,7 +317,11 @@ def test_reduced_and_pwa_track_full_model(params, amp, freq):
         return  # the stops act: not the regime the reduced model claims
     COUNTS["physics: model agreement"][0] += 1
     COUNTS["physics: model agreement"][1] += 1  # compared
-    lag = 2 * params.valve.zeta / min(w for _, w in params.valve.omega0_table or ((0, params.valve.omega0),))
+    lag = (
+        2
+        * params.valve.zeta
+        / min(w for _, w in params.valve.omega0_table or ((0, params.valve.omega0),))
+    )
     bound = 0.05 * travel + 2 * _vmax(full) * lag + 0.2e-3
     red = simulate(ReducedModel(params), u, duration=0.5, fs=1000)
     err_red = float(np.max(np.abs(red["x"] - full["x"])))

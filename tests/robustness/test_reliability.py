@@ -40,8 +40,13 @@ def _run(name="r", n=64) -> Run:
     t = np.arange(n) / 1000.0
     return Run(
         name=name,
-        channels={"t": t, "u": 0.3 * np.sin(40 * t), "x": 0.1 + 0.01 * t,
-                  "p_a": np.full(n, 50e5), "p_b": np.linspace(30e5, 31e5, n)},
+        channels={
+            "t": t,
+            "u": 0.3 * np.sin(40 * t),
+            "x": 0.1 + 0.01 * t,
+            "p_a": np.full(n, 50e5),
+            "p_b": np.linspace(30e5, 31e5, n),
+        },
         fs=1000.0,
         meta={"kind": "sine"},
     )
@@ -97,18 +102,27 @@ def test_atomic_no_clobber_refuses_and_leaves_no_temp(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["late.txt", "t.txt"]
 
 
-@pytest.mark.parametrize("argv, victim", [
-    (["identify", "frf", "nowhere", "--out", "id.toml", "--summary", "keep.md"], "keep.md"),
-    (["identify", "frf", "nowhere", "--out", "keep.toml"], "keep.toml"),
-    (["identify", "emps", "keep.mat", "--summary", "keep.md"], "keep.md"),
-    (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig1_cq.png"),
-    (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/V_friction.csv"),
-    (["simulate", "--duration", "0.02", "--out", "new.csv", "--plot", "keep.png"], "keep.png"),
-    (["params", "export", "--out", "keep.toml"], "keep.toml"),
-    (["sweep", "spec.toml", "-q", "--out", "new.csv", "--trajectories", "keepdir"], "keepdir/case_00001.parquet"),
-    (["sweep", "spec.toml", "-q", "--out", "keep.csv"], "keep.csv"),
-    (["identify", "frf", "nowhere", "--out", "id.toml", "--figures", "keepdir"], "keepdir/valve_bode.png"),
-])
+@pytest.mark.parametrize(
+    "argv, victim",
+    [
+        (["identify", "frf", "nowhere", "--out", "id.toml", "--summary", "keep.md"], "keep.md"),
+        (["identify", "frf", "nowhere", "--out", "keep.toml"], "keep.toml"),
+        (["identify", "emps", "keep.mat", "--summary", "keep.md"], "keep.md"),
+        (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig1_cq.png"),
+        (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/V_friction.csv"),
+        (["simulate", "--duration", "0.02", "--out", "new.csv", "--plot", "keep.png"], "keep.png"),
+        (["params", "export", "--out", "keep.toml"], "keep.toml"),
+        (
+            ["sweep", "spec.toml", "-q", "--out", "new.csv", "--trajectories", "keepdir"],
+            "keepdir/case_00001.parquet",
+        ),
+        (["sweep", "spec.toml", "-q", "--out", "keep.csv"], "keep.csv"),
+        (
+            ["identify", "frf", "nowhere", "--out", "id.toml", "--figures", "keepdir"],
+            "keepdir/valve_bode.png",
+        ),
+    ],
+)
 def test_every_writer_refuses_existing_output_without_force(tmp_path, argv, victim):
     for name in ("keep.md", "keep.toml", "keep.png", "keep.csv", victim):
         (tmp_path / name).parent.mkdir(exist_ok=True)
@@ -134,8 +148,12 @@ def test_a_figures_folder_may_hold_other_files(tmp_path):
 
 
 def test_sweep_keeps_finished_cases_and_resumes(tmp_path):
-    spec = parse_sweep({"grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
-                        "input": {"duration": 0.02, "model": "reduced", "fs": 500}})
+    spec = parse_sweep(
+        {
+            "grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
+            "input": {"duration": 0.02, "model": "reduced", "fs": 500},
+        }
+    )
     full = run_sweep(spec, jobs=1)
     seen = []
 
@@ -146,13 +164,23 @@ def test_sweep_keeps_finished_cases_and_resumes(tmp_path):
 
     journal = tmp_path / "j.jsonl"
     with pytest.raises(KeyboardInterrupt):
-        run_sweep(spec, jobs=1, journal=journal, trajectories=tmp_path / "traj", progress=stop_after_two)
+        run_sweep(
+            spec, jobs=1, journal=journal, trajectories=tmp_path / "traj", progress=stop_after_two
+        )
     kept = SweepJournal(journal, spec).rows
     assert sorted(kept) == [0, 1]  # the two finished cases survived the interrupt
-    assert sorted(p.name for p in (tmp_path / "traj").iterdir()) == ["case_00000.parquet", "case_00001.parquet"]
+    assert sorted(p.name for p in (tmp_path / "traj").iterdir()) == [
+        "case_00000.parquet",
+        "case_00001.parquet",
+    ]
     ran = []
-    resumed = run_sweep(spec, jobs=1, journal=journal, trajectories=tmp_path / "traj",
-                        progress=lambda d, t: ran.append(d))
+    resumed = run_sweep(
+        spec,
+        jobs=1,
+        journal=journal,
+        trajectories=tmp_path / "traj",
+        progress=lambda d, t: ran.append(d),
+    )
     assert ran == [2, 3, 4]  # started at 2 finished, ran only the other two
     cols = [c for c in full.columns if c != "wall_time"]
     pd.testing.assert_frame_equal(resumed[cols], full[cols], check_dtype=False)
@@ -162,9 +190,17 @@ def test_sweep_cli_resumes_after_interrupt_and_refuses_another_sweeps_journal(tm
     (tmp_path / "spec.toml").write_text(SWEEP)
     spec = load_sweep(tmp_path / "spec.toml")
     journal = SweepJournal(tmp_path / ".s.csv.sweep.jsonl", spec)
-    row = run_sweep(parse_sweep({"grid": {"load.mass": [1.0]},
-                                 "input": {"duration": 0.02, "model": "reduced", "fs": 500}})).iloc[0]
-    journal.add([{**row.to_dict(), "case": 0, "final_x": 123.0}])  # marked: must be reused, not rerun
+    row = run_sweep(
+        parse_sweep(
+            {
+                "grid": {"load.mass": [1.0]},
+                "input": {"duration": 0.02, "model": "reduced", "fs": 500},
+            }
+        )
+    ).iloc[0]
+    journal.add(
+        [{**row.to_dict(), "case": 0, "final_x": 123.0}]
+    )  # marked: must be reused, not rerun
     code, _, _ = cli(tmp_path, "sweep", "spec.toml", "-q", "--out", "s.csv")
     assert code == 0
     table = pd.read_csv(tmp_path / "s.csv")
@@ -214,8 +250,9 @@ def outside(tmp_path):
 def _manifest(root, file):
     root.mkdir(parents=True, exist_ok=True)
     entry = {"name": "r", "file": file, "format": "csv"}
-    (root / "manifest.json").write_text(json.dumps({"format": "hydropwa-dataset", "format_version": 1,
-                                                    "meta": {}, "runs": [entry]}))
+    (root / "manifest.json").write_text(
+        json.dumps({"format": "hydropwa-dataset", "format_version": 1, "meta": {}, "runs": [entry]})
+    )
     return root
 
 
@@ -239,7 +276,11 @@ def test_a_dataset_reads_nothing_outside_its_folder(tmp_path, outside, how):
     with pytest.raises(DataError):
         convert(ds, tmp_path / "copy")
     assert not (tmp_path / "copy").exists()
-    for argv in (["data", "check", "ds"], ["data", "convert", "ds", "copy2"], ["paper", "--data", "ds", "-q"]):
+    for argv in (
+        ["data", "check", "ds"],
+        ["data", "convert", "ds", "copy2"],
+        ["paper", "--data", "ds", "-q"],
+    ):
         code, _, line = cli(tmp_path, *argv)
         assert code == 2 and "dataset" in line, (argv, line)
 
@@ -262,12 +303,15 @@ def test_a_run_name_cannot_write_outside_the_dataset(tmp_path):
 
 # ============================================================================ OSError
 @pytest.mark.parametrize("code_", [errno.EROFS, errno.ENOSPC])
-@pytest.mark.parametrize("argv", [
-    ["simulate", "--duration", "0.02", "--out", "o.csv"],
-    ["params", "export", "--out", "p.toml"],
-    ["data", "convert", "a.csv", "b.parquet"],
-    ["linearize", "--out", "l.json"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--duration", "0.02", "--out", "o.csv"],
+        ["params", "export", "--out", "p.toml"],
+        ["data", "convert", "a.csv", "b.parquet"],
+        ["linearize", "--out", "l.json"],
+    ],
+)
 def test_read_only_and_full_disks_are_one_line_naming_the_file(tmp_path, monkeypatch, argv, code_):
     write_run(_run(), tmp_path / "a.csv")
 
@@ -293,14 +337,17 @@ def test_disk_full_while_writing_names_the_target_not_the_temp_file(tmp_path, mo
     assert list(tmp_path.iterdir()) == []  # the temporary file is gone
 
 
-@pytest.mark.parametrize("argv", [
-    ["simulate", "--duration", "0.02", "--out", "afile/x.csv"],
-    ["paper", "--out", "afile", "-q"],
-    ["rig", "run", "frf", "--out", "afile", "-q"],
-    ["sweep", "spec.toml", "-q", "--out", "s.csv", "--trajectories", "afile"],
-    ["linearize", "--out", "l.json", "--figures", "afile"],
-    ["data", "convert", "ds", "afile"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "--duration", "0.02", "--out", "afile/x.csv"],
+        ["paper", "--out", "afile", "-q"],
+        ["rig", "run", "frf", "--out", "afile", "-q"],
+        ["sweep", "spec.toml", "-q", "--out", "s.csv", "--trajectories", "afile"],
+        ["linearize", "--out", "l.json", "--figures", "afile"],
+        ["data", "convert", "ds", "afile"],
+    ],
+)
 def test_a_file_where_a_folder_is_expected_is_one_line(tmp_path, argv):
     (tmp_path / "afile").write_text("x")
     (tmp_path / "spec.toml").write_text(SWEEP)
@@ -310,15 +357,29 @@ def test_a_file_where_a_folder_is_expected_is_one_line(tmp_path, argv):
 
 
 # ============================================================================ malformed input
-@pytest.mark.parametrize("content, expect", [
-    (b"[]", "expected an object"),
-    (json.dumps({"format": "hydropwa-dataset", "runs": [{"file": "a.csv"}, {"name": "b"}]}).encode(),
-     'needs a "name"'),
-    (b'{"format": "\xff"}', "not UTF-8"),
-    (b"[" * 100000 + b"]" * 100000, "nested too deeply"),
-    (json.dumps({"format": "hydropwa-dataset", "runs": [{"name": "a", "file": "a.csv", "fs": "fast"}]}).encode(),
-     "'fs'"),
-])
+@pytest.mark.parametrize(
+    "content, expect",
+    [
+        (b"[]", "expected an object"),
+        (
+            json.dumps(
+                {"format": "hydropwa-dataset", "runs": [{"file": "a.csv"}, {"name": "b"}]}
+            ).encode(),
+            'needs a "name"',
+        ),
+        (b'{"format": "\xff"}', "not UTF-8"),
+        (b"[" * 100000 + b"]" * 100000, "nested too deeply"),
+        (
+            json.dumps(
+                {
+                    "format": "hydropwa-dataset",
+                    "runs": [{"name": "a", "file": "a.csv", "fs": "fast"}],
+                }
+            ).encode(),
+            "'fs'",
+        ),
+    ],
+)
 def test_malformed_manifests_are_one_clear_error(tmp_path, content, expect):
     (tmp_path / "ds").mkdir()
     (tmp_path / "ds" / "manifest.json").write_bytes(content)
@@ -329,34 +390,45 @@ def test_malformed_manifests_are_one_clear_error(tmp_path, content, expect):
 
 
 def test_every_manifest_problem_is_named(tmp_path):
-    doc = {"format": "hydropwa-dataset", "runs": [{"name": "a", "file": "../x.csv"}, {"name": "a", "file": "y.txt"}, 5]}
+    doc = {
+        "format": "hydropwa-dataset",
+        "runs": [{"name": "a", "file": "../x.csv"}, {"name": "a", "file": "y.txt"}, 5],
+    }
     _manifest(tmp_path / "ds", "x")
     (tmp_path / "ds" / "manifest.json").write_text(json.dumps(doc))
     with pytest.raises(DataError) as info:
         read_dataset(tmp_path / "ds")
     msg = str(info.value)
     assert "4 problem(s)" in msg
-    for part in ("out of the dataset folder", "also runs[0]'s", "no run-file suffix", "runs[2] is a JSON int"):
+    for part in (
+        "out of the dataset folder",
+        "also runs[0]'s",
+        "no run-file suffix",
+        "runs[2] is a JSON int",
+    ):
         assert part in msg
 
 
-@pytest.mark.parametrize("text, expect", [
-    ("[gird]\n'load.mass' = [1.0]\n", "unknown section 'gird'.*did you mean 'grid'"),
-    ("[grid\n", "not valid TOML"),
-    ("[random]\nn = 3\n'friction.coulomb' = {uniform = [40, 10]}\n", "needs a < b; swap"),
-    ("[random]\nn = 3\n'load.mass' = {loguniform = [0, 2]}\n", "0 < a < b"),
-    ("[grid]\n'load.mass' = []\n", "empty list"),
-    ("[input]\nduration = 1\nduration = 2\n", "not valid TOML"),
-    ("[input]\ndurration = 1\n", "did you mean 'duration'"),
-    ("[input]\nrtol = 2\n", r"outside \[1e-12, 0.1\]"),
-    ("[input]\nmodel = 'fast'\n", "choose full, reduced, pwa"),
-    ("[input]\nu = 'sine:amplitude=0.4,amplitude=0.5'\n", "'amplitude' is given twice"),
-    ("[input]\nsupply_pressure = '0 bar'\n", "greater than 0"),
-    ("[input]\nduration = 1e9\nfs = 1e6\n", "samples, about .* of memory"),
-    ("[random]\nn = 100000000\n'load.mass' = {uniform = [1, 2]}\n", "1e\\+08 cases"),
-    ("[grid]\n'load.mass' = [-1.0]\n", "Load.mass"),
-    ("[random]\nn = -1\n", "whole number"),
-])
+@pytest.mark.parametrize(
+    "text, expect",
+    [
+        ("[gird]\n'load.mass' = [1.0]\n", "unknown section 'gird'.*did you mean 'grid'"),
+        ("[grid\n", "not valid TOML"),
+        ("[random]\nn = 3\n'friction.coulomb' = {uniform = [40, 10]}\n", "needs a < b; swap"),
+        ("[random]\nn = 3\n'load.mass' = {loguniform = [0, 2]}\n", "0 < a < b"),
+        ("[grid]\n'load.mass' = []\n", "empty list"),
+        ("[input]\nduration = 1\nduration = 2\n", "not valid TOML"),
+        ("[input]\ndurration = 1\n", "did you mean 'duration'"),
+        ("[input]\nrtol = 2\n", r"outside \[1e-12, 0.1\]"),
+        ("[input]\nmodel = 'fast'\n", "choose full, reduced, pwa"),
+        ("[input]\nu = 'sine:amplitude=0.4,amplitude=0.5'\n", "'amplitude' is given twice"),
+        ("[input]\nsupply_pressure = '0 bar'\n", "greater than 0"),
+        ("[input]\nduration = 1e9\nfs = 1e6\n", "samples, about .* of memory"),
+        ("[random]\nn = 100000000\n'load.mass' = {uniform = [1, 2]}\n", "1e\\+08 cases"),
+        ("[grid]\n'load.mass' = [-1.0]\n", "Load.mass"),
+        ("[random]\nn = -1\n", "whole number"),
+    ],
+)
 def test_sweep_specs_are_validated_up_front(tmp_path, text, expect):
     (tmp_path / "s.toml").write_text(text)
     with pytest.raises(HydropwaError, match=expect):
@@ -365,33 +437,54 @@ def test_sweep_specs_are_validated_up_front(tmp_path, text, expect):
     assert code == 2 and "s.toml" in line
 
 
-@pytest.mark.parametrize("address, expect", [
-    ("nonsense", "not a Dask scheduler address"),
-    ("tcp://host:99999", "not a Dask scheduler address"),
-    ("tcp://127.0.0.1:1", "cannot reach the scheduler"),
-])
+@pytest.mark.parametrize(
+    "address, expect",
+    [
+        ("nonsense", "not a Dask scheduler address"),
+        ("tcp://host:99999", "not a Dask scheduler address"),
+        ("tcp://127.0.0.1:1", "cannot reach the scheduler"),
+    ],
+)
 def test_scheduler_addresses_fail_fast(address, expect):
     with pytest.raises(ParameterError, match=expect):
         check_scheduler(address, timeout=2.0)
 
 
-@pytest.mark.parametrize("argv, expect", [
-    (["rig", "run", "frf", "--out", "x", "--seed", "-1"], "--seed"),
-    (["simulate", "--bogus"], "No such option: --bogus"),
-    (["simulate", "--fs", "abc"], "'--fs'"),
-    (["data", "check"], "Missing argument"),
-    (["nosuch"], "No such command"),
-    (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
-    (["simulate", "--fs", "1e12", "--out", "o.csv"], "samples, about"),
-    (["simulate", "--duration", "1e-6", "--out", "o.csv"], "fewer than two output samples"),
-    (["simulate", "--duration", "1e308", "--out", "o.csv"], "more output samples than can be counted"),
-    (["simulate", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"], "--plot x.xyz must end in"),
-    (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
-    (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
-    (["rig", "run", "frf", "--campaign", "binary.toml", "--out", "x"], "binary.toml: byte 0 is not UTF-8"),
-    (["data", "check", "r.csv", "--channel-map", "binary.toml"], "channel map .*binary.toml.* not UTF-8"),
-    (["rig", "run", "frf", "--campaign", "deep.toml", "--out", "x"], "deep.toml: nested too deeply"),
-])
+@pytest.mark.parametrize(
+    "argv, expect",
+    [
+        (["rig", "run", "frf", "--out", "x", "--seed", "-1"], "--seed"),
+        (["simulate", "--bogus"], "No such option: --bogus"),
+        (["simulate", "--fs", "abc"], "'--fs'"),
+        (["data", "check"], "Missing argument"),
+        (["nosuch"], "No such command"),
+        (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
+        (["simulate", "--fs", "1e12", "--out", "o.csv"], "samples, about"),
+        (["simulate", "--duration", "1e-6", "--out", "o.csv"], "fewer than two output samples"),
+        (
+            ["simulate", "--duration", "1e308", "--out", "o.csv"],
+            "more output samples than can be counted",
+        ),
+        (
+            ["simulate", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"],
+            "--plot x.xyz must end in",
+        ),
+        (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
+        (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
+        (
+            ["rig", "run", "frf", "--campaign", "binary.toml", "--out", "x"],
+            "binary.toml: byte 0 is not UTF-8",
+        ),
+        (
+            ["data", "check", "r.csv", "--channel-map", "binary.toml"],
+            "channel map .*binary.toml.* not UTF-8",
+        ),
+        (
+            ["rig", "run", "frf", "--campaign", "deep.toml", "--out", "x"],
+            "deep.toml: nested too deeply",
+        ),
+    ],
+)
 def test_bad_arguments_are_one_error_line(tmp_path, argv, expect):
     (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
     (tmp_path / "binary.toml").write_bytes(b"\xff\xfe junk")
@@ -403,13 +496,20 @@ def test_bad_arguments_are_one_error_line(tmp_path, argv, expect):
 
 
 # ============================================================================ silent acceptance
-@pytest.mark.parametrize("value, expect", [
-    ("-5 bar", "greater than 0"), ("0 bar", "greater than 0"), ("1e9 bar", "at most 1e\\+09 Pa"),
-    ("step:after=-1e6", "greater than 0"),
-])
+@pytest.mark.parametrize(
+    "value, expect",
+    [
+        ("-5 bar", "greater than 0"),
+        ("0 bar", "greater than 0"),
+        ("1e9 bar", "at most 1e\\+09 Pa"),
+        ("step:after=-1e6", "greater than 0"),
+    ],
+)
 def test_cli_quantities_get_the_parameter_bounds(tmp_path, value, expect):
-    for argv in (["simulate", "--duration", "0.02", "--out", "o.csv", "--supply-pressure", value],
-                 ["linearize", "--out", "l.json", "--supply-pressure", value]):
+    for argv in (
+        ["simulate", "--duration", "0.02", "--out", "o.csv", "--supply-pressure", value],
+        ["linearize", "--out", "l.json", "--supply-pressure", value],
+    ):
         if argv[0] == "linearize" and ":" in value:
             continue
         code, _, line = cli(tmp_path, *argv)
@@ -419,7 +519,9 @@ def test_cli_quantities_get_the_parameter_bounds(tmp_path, value, expect):
 
 @pytest.mark.parametrize("rtol", ["-1", "2", "0"])
 def test_rtol_out_of_range_is_refused(tmp_path, rtol):
-    code, _, line = cli(tmp_path, "simulate", "--duration", "0.02", "--out", "o.csv", "--rtol", rtol)
+    code, _, line = cli(
+        tmp_path, "simulate", "--duration", "0.02", "--out", "o.csv", "--rtol", rtol
+    )
     assert code == 2 and "--rtol" in line
 
 
@@ -433,8 +535,9 @@ def test_parquet_timestamp_time_base_is_seconds(tmp_path, unit, scale):
     n = 50
     per_s = round(1 / scale)
     ticks = 1_700_000_000 * per_s + np.arange(n, dtype="int64") * (per_s // 1000)
-    table = pa.table({"t": pa.array(ticks, type=pa.timestamp(unit)),
-                      "x": pa.array(np.linspace(0.1, 0.2, n))})
+    table = pa.table(
+        {"t": pa.array(ticks, type=pa.timestamp(unit)), "x": pa.array(np.linspace(0.1, 0.2, n))}
+    )
     pq.write_table(table, tmp_path / "ts.parquet")
     run = read_run(tmp_path / "ts.parquet", validate=False)
     np.testing.assert_allclose(run.t, np.arange(n) * 1e-3, rtol=0, atol=1e-9)
@@ -473,12 +576,25 @@ def test_valid_commands_still_work(tmp_path):
     write_run(_run(), tmp_path / "a.csv")
     (tmp_path / "spec.toml").write_text(SWEEP)
     (tmp_path / "empty").mkdir()
-    for argv in (["data", "convert", "a.csv", "b.parquet"],
-                 ["data", "convert", "a.csv", "b.parquet", "--overwrite"],
-                 ["simulate", "--model", "reduced", "--duration", "0.05", "--fs", "500",
-                  "--supply-pressure", "sine:offset=95e5,amplitude=5e5,frequency=2", "--out", "s.csv"],
-                 ["linearize", "--out", "l.json", "--tables", "empty"],
-                 ["sweep", "spec.toml", "-q", "--out", "sw.parquet", "--trajectories", "traj"]):
+    for argv in (
+        ["data", "convert", "a.csv", "b.parquet"],
+        ["data", "convert", "a.csv", "b.parquet", "--overwrite"],
+        [
+            "simulate",
+            "--model",
+            "reduced",
+            "--duration",
+            "0.05",
+            "--fs",
+            "500",
+            "--supply-pressure",
+            "sine:offset=95e5,amplitude=5e5,frequency=2",
+            "--out",
+            "s.csv",
+        ],
+        ["linearize", "--out", "l.json", "--tables", "empty"],
+        ["sweep", "spec.toml", "-q", "--out", "sw.parquet", "--trajectories", "traj"],
+    ):
         code, _, line = cli(tmp_path, *argv)
         assert code == 0, (argv, line)
     assert len(pd.read_parquet(tmp_path / "sw.parquet")) == 4
@@ -495,8 +611,12 @@ def test_a_case_lost_on_dask_keeps_the_finished_ones(tmp_path, monkeypatch):
 
     import hydropwa.sweep._run as sweep_run
 
-    spec = parse_sweep({"grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
-                        "input": {"duration": 0.02, "model": "reduced", "fs": 500}})
+    spec = parse_sweep(
+        {
+            "grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
+            "input": {"duration": 0.02, "model": "reduced", "fs": 500},
+        }
+    )
     real = sweep_run.run_case
 
     def dies_on_case_2(spec_, case, keep_result=False):
@@ -506,14 +626,22 @@ def test_a_case_lost_on_dask_keeps_the_finished_ones(tmp_path, monkeypatch):
 
     monkeypatch.setattr(sweep_run, "run_case", dies_on_case_2)  # threads: workers see the patch
     journal = tmp_path / "j.jsonl"
-    with LocalCluster(n_workers=1, processes=False, protocol="tcp://", dashboard_address=None) as cluster:
-        with pytest.raises(HydropwaError, match=r"1 of 4 cases did not finish on Dask \(first: case 2"):
+    with LocalCluster(
+        n_workers=1, processes=False, protocol="tcp://", dashboard_address=None
+    ) as cluster:
+        with pytest.raises(
+            HydropwaError, match=r"1 of 4 cases did not finish on Dask \(first: case 2"
+        ):
             run_sweep(spec, scheduler=cluster.scheduler_address, journal=journal)
         assert sorted(SweepJournal(journal, spec).rows) == [0, 1, 3]
         monkeypatch.setattr(sweep_run, "run_case", real)
         ran = []
-        table = run_sweep(spec, scheduler=cluster.scheduler_address, journal=journal,
-                          progress=lambda d, t: ran.append(d))
+        table = run_sweep(
+            spec,
+            scheduler=cluster.scheduler_address,
+            journal=journal,
+            progress=lambda d, t: ran.append(d),
+        )
     assert ran == [3, 4] and list(table["case"]) == [0, 1, 2, 3]
 
 
@@ -530,11 +658,28 @@ def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, 
         '[grid]\n"load.mass" = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]\n"supply.pressure" = ["80 bar", "100 bar"]\n'
         '[input]\nduration = 0.5\nmodel = "full"\nfs = 200\nrtol = 1e-5\n'
     )
-    argv = [sys.executable, "-m", "hydropwa", "sweep", "spec.toml", "-q", "--jobs", "1", "--out", "s.csv",
-            "--trajectories", "traj"]
-    proc = subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    argv = [
+        sys.executable,
+        "-m",
+        "hydropwa",
+        "sweep",
+        "spec.toml",
+        "-q",
+        "--jobs",
+        "1",
+        "--out",
+        "s.csv",
+        "--trajectories",
+        "traj",
+    ]
+    proc = subprocess.Popen(
+        argv,
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     journal = tmp_path / ".s.csv.sweep.jsonl"
     t0 = time.monotonic()
     while time.monotonic() - t0 < 300:
@@ -546,8 +691,14 @@ def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, 
     os.killpg(proc.pid, getattr(signal, how))
     _, err = proc.communicate(timeout=120)
     if how == "SIGINT":
-        assert proc.returncode == 130 and err.decode().strip().splitlines()[-1].startswith("error: interrupted")
-    kept = [json.loads(line)["case"] for line in journal.read_text().splitlines()[1:] if line.endswith("}")]
+        assert proc.returncode == 130 and err.decode().strip().splitlines()[-1].startswith(
+            "error: interrupted"
+        )
+    kept = [
+        json.loads(line)["case"]
+        for line in journal.read_text().splitlines()[1:]
+        if line.endswith("}")
+    ]
     assert len(kept) >= 2 and not (tmp_path / "s.csv").exists()
     stamps = {}
     for case in kept:  # every journaled case has its complete trajectory
@@ -567,8 +718,10 @@ def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, 
 def test_more_workers_than_four_per_core_are_refused(tmp_path):
     jobs = str(4 * (os.cpu_count() or 1) + 1)
     (tmp_path / "spec.toml").write_text(SWEEP)
-    for argv in (["sweep", "spec.toml", "-q", "--out", "o.csv", "--jobs", jobs],
-                 ["rig", "run", "frf", "--out", "rig", "--jobs", jobs]):
+    for argv in (
+        ["sweep", "spec.toml", "-q", "--out", "o.csv", "--jobs", jobs],
+        ["rig", "run", "frf", "--out", "rig", "--jobs", jobs],
+    ):
         code, _, line = cli(tmp_path, *argv)
         assert code == 2 and "--jobs" in line, line
     assert not (tmp_path / "rig").exists()

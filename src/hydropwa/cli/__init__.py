@@ -161,7 +161,9 @@ def main(argv: list[str] | None = None) -> int:
         _error_line("out of memory; ask for less (shorter --duration, lower --fs, fewer cases)")
         code = 2
     except RecursionError:
-        _error_line("an input file is nested too deeply to read; check that it is the file you meant")
+        _error_line(
+            "an input file is nested too deeply to read; check that it is the file you meant"
+        )
         code = 2
     except Exception as exc:  # a bug: still one line, exit 1 (HYDROPWA_DEBUG=1 shows the traceback)
         code = _internal_error(exc)

@@ -21,7 +21,9 @@ from ..params import (
 #: File types of ``--plot`` (matplotlib picks the format from the suffix).
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
-params_app = typer.Typer(help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True)
+params_app = typer.Typer(
+    help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True
+)
 
 #: SI unit → (display unit, factor) for `params show`.
 _ENGINEERING = {
@@ -51,7 +53,9 @@ def resolve_params(source):
 
 @params_app.command("show")
 def params_show(
-    source: Annotated[str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")] = "paper",
+    source: Annotated[
+        str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")
+    ] = "paper",
 ) -> None:
     """Print a parameter set with SI values and engineering units."""
     from rich.console import Console
@@ -71,14 +75,24 @@ def params_show(
                 if unit in _ENGINEERING and not (unit == "" and f.name in _NOT_PERCENT):
                     u_disp, fac = _ENGINEERING[unit]
                     eng = f"{val * fac:.6g} {u_disp}"
-            table.add_row(comp, f.name, f"{val:.6g}" if isinstance(val, float) else str(val), unit or "1" if unit is not None else "", eng)
+            table.add_row(
+                comp,
+                f.name,
+                f"{val:.6g}" if isinstance(val, float) else str(val),
+                unit or "1" if unit is not None else "",
+                eng,
+            )
     Console(width=120).print(table)
 
 
 @params_app.command("export")
 def params_export(
-    source: Annotated[str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")] = "paper",
-    out: Annotated[Path, typer.Option("--out", "-o", help="TOML file to write.")] = Path("params.toml"),
+    source: Annotated[
+        str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")
+    ] = "paper",
+    out: Annotated[Path, typer.Option("--out", "-o", help="TOML file to write.")] = Path(
+        "params.toml"
+    ),
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
 ) -> None:
     """Write a parameter set to a hand-editable TOML file."""
@@ -86,24 +100,67 @@ def params_export(
         raise ParameterError(f"--out {out} must end in .toml")
     check_output(out, force, option="--out")
     params = resolve_params(source)
-    save_params(params, out, header=f"exported from {source}", overwrite=True)  # checked with --force above
+    save_params(
+        params, out, header=f"exported from {source}", overwrite=True
+    )  # checked with --force above
     typer.echo(f"wrote {out}")
 
 
 def simulate_command(
     model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
-    params: Annotated[str | None, typer.Option("--params", "-p", help="Preset name or TOML file (default: paper).")] = None,
-    input: Annotated[str | None, typer.Option("--input", "-i", help="Valve command spec, e.g. 'sine:amplitude=0.4,frequency=1' (fractions; '40 %' works).")] = None,
-    input_file: Annotated[Path | None, typer.Option("--input-file", help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT).")] = None,
-    duration: Annotated[float | None, typer.Option("--duration", "-d", help="Simulated time [s] (default: 5, or the input file's length).")] = None,
-    supply_pressure: Annotated[str | None, typer.Option("--supply-pressure", help="Constant ('95 bar') or signal spec for P_S.")] = None,
-    load_force: Annotated[str | None, typer.Option("--load-force", help="Constant ('500 N') or signal spec for F_L.")] = None,
-    x0: Annotated[str | None, typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke.")] = None,
+    params: Annotated[
+        str | None,
+        typer.Option("--params", "-p", help="Preset name or TOML file (default: paper)."),
+    ] = None,
+    input: Annotated[
+        str | None,
+        typer.Option(
+            "--input",
+            "-i",
+            help="Valve command spec, e.g. 'sine:amplitude=0.4,frequency=1' (fractions; '40 %' works).",
+        ),
+    ] = None,
+    input_file: Annotated[
+        Path | None,
+        typer.Option(
+            "--input-file",
+            help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT).",
+        ),
+    ] = None,
+    duration: Annotated[
+        float | None,
+        typer.Option(
+            "--duration", "-d", help="Simulated time [s] (default: 5, or the input file's length)."
+        ),
+    ] = None,
+    supply_pressure: Annotated[
+        str | None,
+        typer.Option("--supply-pressure", help="Constant ('95 bar') or signal spec for P_S."),
+    ] = None,
+    load_force: Annotated[
+        str | None, typer.Option("--load-force", help="Constant ('500 N') or signal spec for F_L.")
+    ] = None,
+    x0: Annotated[
+        str | None,
+        typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
+    ] = None,
     fs: Annotated[float, typer.Option("--fs", help="Output rate [Hz].")] = 2000.0,
-    rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator (default 1e-3: position within 0.1 mm on the paper rig).")] = 1e-3,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output file (.csv or .parquet).")] = Path("run.csv"),
-    plot: Annotated[Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite existing output files.")] = False,
+    rtol: Annotated[
+        float,
+        typer.Option(
+            "--rtol",
+            help="Relative tolerance of the integrator (default 1e-3: position within 0.1 mm on the paper rig).",
+        ),
+    ] = 1e-3,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Output file (.csv or .parquet).")
+    ] = Path("run.csv"),
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")
+    ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite existing output files.")
+    ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
     from ..models import as_model
@@ -132,7 +189,9 @@ def simulate_command(
 
         run = read_run(input_file)
         if not run.has("u"):
-            raise SignalError(f"{input_file} has no valve command channel 'u'; map one with a channel map")
+            raise SignalError(
+                f"{input_file} has no valve command channel 'u'; map one with a channel map"
+            )
         u = Sampled(run.t - run.t[0], run["u"])
         if duration is None:
             duration = float(run.t[-1] - run.t[0])

@@ -98,7 +98,9 @@ def convert(
     ] = False,
     overwrite: Annotated[
         bool,
-        typer.Option("--force", "--overwrite", help="Replace an existing destination file or dataset."),
+        typer.Option(
+            "--force", "--overwrite", help="Replace an existing destination file or dataset."
+        ),
     ] = False,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""

@@ -19,25 +19,48 @@ from hydropwa._errors import HydropwaError, IdentificationError, ParameterError,
 
 __all__ = ["app"]
 
-app = typer.Typer(help="Identify valve, dead-zone and friction parameters from measurements.",
-                  no_args_is_help=True, add_completion=False)
+app = typer.Typer(
+    help="Identify valve, dead-zone and friction parameters from measurements.",
+    no_args_is_help=True,
+    add_completion=False,
+)
 
-DataDir = Annotated[Path, typer.Argument(help="Dataset folder, or a campaign folder with one dataset per experiment.")]
+DataDir = Annotated[
+    Path,
+    typer.Argument(help="Dataset folder, or a campaign folder with one dataset per experiment."),
+]
 Out = Annotated[Path, typer.Option("--out", "-o", help="Parameter TOML to write.")]
 Figures = Annotated[Path | None, typer.Option("--figures", help="Folder for the figures (PNG).")]
-Base = Annotated[str | None, typer.Option("--base-params", help="Base parameter TOML or preset (default: paper).")]
-Summary = Annotated[Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")]
-Force = Annotated[bool, typer.Option("--force", help="Overwrite an existing parameter file, summary and figures.")]
+Base = Annotated[
+    str | None,
+    typer.Option("--base-params", help="Base parameter TOML or preset (default: paper)."),
+]
+Summary = Annotated[
+    Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")
+]
+Force = Annotated[
+    bool, typer.Option("--force", help="Overwrite an existing parameter file, summary and figures.")
+]
 
 
 #: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
 _FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
-Band = Annotated[str | None, typer.Option(
-    "--band", help="FRF band used in the fit, 'F0:F1' ('2:150' in Hz, or '2 Hz:0.15 kHz'); default: each "
-                   "broadband run's excited band, all stepped-sine points.")]
-DeadZoneForm = Annotated[str | None, typer.Option(
-    "--dead-zone-form", help="Dead-zone form fitted: 'table' (Table IV, with the jump) or 'continuous'; "
-                             "default: the form of --base-params.")]
+Band = Annotated[
+    str | None,
+    typer.Option(
+        "--band",
+        help="FRF band used in the fit, 'F0:F1' ('2:150' in Hz, or '2 Hz:0.15 kHz'); default: each "
+        "broadband run's excited band, all stepped-sine points.",
+    ),
+]
+DeadZoneForm = Annotated[
+    str | None,
+    typer.Option(
+        "--dead-zone-form",
+        help="Dead-zone form fitted: 'table' (Table IV, with the jump) or 'continuous'; "
+        "default: the form of --base-params.",
+    ),
+]
 
 
 def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
@@ -51,13 +74,18 @@ def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
         lo, sep, hi = band.partition(":")
         if not sep:
             raise ParameterError(f"--band {band!r} must be 'F0:F1', e.g. '2:150' (Hz)")
-        f0, f1 = parse_quantity(lo.strip(), "Hz", "--band F0"), parse_quantity(hi.strip(), "Hz", "--band F1")
+        f0, f1 = (
+            parse_quantity(lo.strip(), "Hz", "--band F0"),
+            parse_quantity(hi.strip(), "Hz", "--band F1"),
+        )
         if not (0 < f0 < f1):
             raise ParameterError(f"--band {band!r}: need 0 < F0 < F1")
         frf["band"] = (f0, f1)
     if dead_zone_form is not None:
         if dead_zone_form not in ("table", "continuous"):
-            raise ParameterError(f"--dead-zone-form {dead_zone_form!r} must be 'table' or 'continuous'")
+            raise ParameterError(
+                f"--dead-zone-form {dead_zone_form!r} must be 'table' or 'continuous'"
+            )
         dz["continuous"] = dead_zone_form == "continuous"
     return frf, dz
 
@@ -71,9 +99,17 @@ def _warn(message, category, filename, lineno, file=None, line=None):
     print(f"warning: {message}", file=sys.stderr)
 
 
-def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None, base: str | None,
-         summary: Path | None, force: bool = False, band: str | None = None,
-         dead_zone_form: str | None = None) -> None:
+def _run(
+    parts: tuple[str, ...],
+    data_dir: Path,
+    out: Path,
+    figures: Path | None,
+    base: str | None,
+    summary: Path | None,
+    force: bool = False,
+    band: str | None = None,
+    dead_zone_form: str | None = None,
+) -> None:
     from hydropwa.identification import identify
 
     from ._core import resolve_params
@@ -97,7 +133,9 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
         with step(f"identifying {', '.join(parts)} from {data_dir}"):
             report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
         with step("writing parameters, figures and summary"):
-            written = report.save(out, figures, summary, overwrite=True)  # checked with --force above
+            written = report.save(
+                out, figures, summary, overwrite=True
+            )  # checked with --force above
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:
@@ -109,44 +147,97 @@ def _run(parts: tuple[str, ...], data_dir: Path, out: Path, figures: Path | None
 
 
 @app.command("frf")
-def frf(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None, base_params: Base = None,
-        summary: Summary = None, force: Force = False, band: Band = None) -> None:
+def frf(
+    data_dir: DataDir,
+    out: Out = Path("identified.toml"),
+    figures: Figures = None,
+    base_params: Base = None,
+    summary: Summary = None,
+    force: Force = False,
+    band: Band = None,
+) -> None:
     """Servo valve ω0 and ζ per amplitude from stepped-sine or broadband runs (Sec. VI-A)."""
     _run(("frf",), data_dir, out, figures, base_params, summary, force, band=band)
 
 
 @app.command("deadzone")
-def deadzone(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-             base_params: Base = None, summary: Summary = None, force: Force = False,
-             dead_zone_form: DeadZoneForm = None) -> None:
+def deadzone(
+    data_dir: DataDir,
+    out: Out = Path("identified.toml"),
+    figures: Figures = None,
+    base_params: Base = None,
+    summary: Summary = None,
+    force: Force = False,
+    dead_zone_form: DeadZoneForm = None,
+) -> None:
     """Dead band β and creep slope from constant-input runs (Sec. VI-B)."""
-    _run(("deadzone",), data_dir, out, figures, base_params, summary, force, dead_zone_form=dead_zone_form)
+    _run(
+        ("deadzone",),
+        data_dir,
+        out,
+        figures,
+        base_params,
+        summary,
+        force,
+        dead_zone_form=dead_zone_form,
+    )
 
 
 @app.command("friction")
-def friction(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-             base_params: Base = None, summary: Summary = None, force: Force = False) -> None:
+def friction(
+    data_dir: DataDir,
+    out: Out = Path("identified.toml"),
+    figures: Figures = None,
+    base_params: Base = None,
+    summary: Summary = None,
+    force: Force = False,
+) -> None:
     """Stribeck friction from constant-input runs against a counter force (Sec. VI-C)."""
     _run(("friction",), data_dir, out, figures, base_params, summary, force)
 
 
 @app.command("all")
-def identify_all(data_dir: DataDir, out: Out = Path("identified.toml"), figures: Figures = None,
-                 base_params: Base = None, summary: Summary = None, force: Force = False, band: Band = None,
-                 dead_zone_form: DeadZoneForm = None) -> None:
+def identify_all(
+    data_dir: DataDir,
+    out: Out = Path("identified.toml"),
+    figures: Figures = None,
+    base_params: Base = None,
+    summary: Summary = None,
+    force: Force = False,
+    band: Band = None,
+    dead_zone_form: DeadZoneForm = None,
+) -> None:
     """Valve, dead zone and friction from whatever experiments the data hold."""
-    _run(("frf", "deadzone", "friction"), data_dir, out, figures, base_params, summary, force, band=band,
-         dead_zone_form=dead_zone_form)
+    _run(
+        ("frf", "deadzone", "friction"),
+        data_dir,
+        out,
+        figures,
+        base_params,
+        summary,
+        force,
+        band=band,
+        dead_zone_form=dead_zone_form,
+    )
 
 
 @app.command("emps")
 def emps(
     file: Annotated[Path, typer.Argument(help="EMPS benchmark estimation file (DATA_EMPS.mat).")],
-    validation: Annotated[Path | None, typer.Option(
-        "--validation", help="Cross-test file (default: DATA_EMPS_PULSES.mat beside FILE, if present).")] = None,
+    validation: Annotated[
+        Path | None,
+        typer.Option(
+            "--validation",
+            help="Cross-test file (default: DATA_EMPS_PULSES.mat beside FILE, if present).",
+        ),
+    ] = None,
     figures: Figures = None,
-    summary: Annotated[Path | None, typer.Option("--summary", help="Markdown summary to write.")] = None,
-    asymmetric: Annotated[bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")] = False,
+    summary: Annotated[
+        Path | None, typer.Option("--summary", help="Markdown summary to write.")
+    ] = None,
+    asymmetric: Annotated[
+        bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")
+    ] = False,
     force: Force = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
@@ -182,19 +273,38 @@ def emps(
 @app.command("model")
 def model(
     data_dir: DataDir,
-    free: Annotated[str, typer.Option(
-        "--free", help="Parameters to fit, comma-separated dotted names as in the parameter file "
-                       "(friction.static, oil.bulk_modulus, cylinder.leakage, flow.K) or groups (friction).")],
+    free: Annotated[
+        str,
+        typer.Option(
+            "--free",
+            help="Parameters to fit, comma-separated dotted names as in the parameter file "
+            "(friction.static, oil.bulk_modulus, cylinder.leakage, flow.K) or groups (friction).",
+        ),
+    ],
     out: Out = Path("fitted.toml"),
-    model_kind: Annotated[str, typer.Option("--model", help="Model to fit: full or reduced.")] = "full",
+    model_kind: Annotated[
+        str, typer.Option("--model", help="Model to fit: full or reduced.")
+    ] = "full",
     base_params: Base = None,
-    channels: Annotated[str | None, typer.Option(
-        "--channels", help="Fitted channels, comma-separated (default x,p_a,p_b and v where logged).")] = None,
-    shooting: Annotated[str, typer.Option(
-        "--shooting", help="auto (by each run's content), single or multiple.")] = "auto",
-    window: Annotated[float, typer.Option("--window", help="Multiple-shooting window in seconds.")] = 0.02,
-    starts: Annotated[int, typer.Option("--starts", help="Number of optimiser starts (multi-start).")] = 1,
-    loss: Annotated[str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")] = "linear",
+    channels: Annotated[
+        str | None,
+        typer.Option(
+            "--channels",
+            help="Fitted channels, comma-separated (default x,p_a,p_b and v where logged).",
+        ),
+    ] = None,
+    shooting: Annotated[
+        str, typer.Option("--shooting", help="auto (by each run's content), single or multiple.")
+    ] = "auto",
+    window: Annotated[
+        float, typer.Option("--window", help="Multiple-shooting window in seconds.")
+    ] = 0.02,
+    starts: Annotated[
+        int, typer.Option("--starts", help="Number of optimiser starts (multi-start).")
+    ] = 1,
+    loss: Annotated[
+        str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")
+    ] = "linear",
     jobs: Annotated[int | None, typer.Option("--jobs", help="Threads (default all cores).")] = None,
     figures: Figures = None,
     summary: Summary = None,
@@ -219,12 +329,24 @@ def model(
         check_output(summary, force)
         if model_kind not in ("full", "reduced"):
             raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
-        params = load_params(base_params) if base_params and Path(base_params).is_file() else \
-            get_preset(base_params or "paper")
+        params = (
+            load_params(base_params)
+            if base_params and Path(base_params).is_file()
+            else get_preset(base_params or "paper")
+        )
         runs = load_runs(data_dir)
         chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
-        fit = fit_model(model_kind, runs, free, params=params, channels=chans,
-                        shooting=Shooting(method=shooting, window=window), starts=starts, loss=loss, jobs=jobs)
+        fit = fit_model(
+            model_kind,
+            runs,
+            free,
+            params=params,
+            channels=chans,
+            shooting=Shooting(method=shooting, window=window),
+            starts=starts,
+            loss=loss,
+            jobs=jobs,
+        )
         fit.save(out)
         from hydropwa._io import atomic_write_text
 

@@ -30,7 +30,9 @@ def parse_cells(text: str | None) -> dict[str, int]:
         try:
             n = int(val.strip())
         except ValueError:
-            raise PwaError(f"--cells {text!r}: {val.strip()!r} is not an integer count for {key}") from None
+            raise PwaError(
+                f"--cells {text!r}: {val.strip()!r} is not an integer count for {key}"
+            ) from None
         out[key] = n
     return out
 
@@ -62,22 +64,40 @@ def linearize_command(
     from ._core import resolve_params
 
     params = resolve_params(params_file)
-    ps = None if supply_pressure is None else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
+    ps = (
+        None
+        if supply_pressure is None
+        else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
+    )
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
     from ._progress import step
 
     with step("fitting the PWA cells"):
-        model = linearize(params, supply_pressure=ps, cells=parse_cells(cells), breakpoints=breakpoints,
-                          form=form, scheduled=scheduled)
+        model = linearize(
+            params,
+            supply_pressure=ps,
+            cells=parse_cells(cells),
+            breakpoints=breakpoints,
+            form=form,
+            scheduled=scheduled,
+        )
     tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
     with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
-        written = [save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units, overwrite=True)]
+        written = [
+            save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units, overwrite=True)
+        ]
         doc = export_pwa(model, refine_tol=tol, units=units)
         if mat is not None:
-            written.append(save_pwa_mat(model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force))
+            written.append(
+                save_pwa_mat(
+                    model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force
+                )
+            )
     unit = doc["state"][0]["unit"]
-    typer.echo(f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
-               f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)")
+    typer.echo(
+        f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
+        f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)"
+    )
     if figures is not None:
         from hydropwa.linearization._report import write_figures
 
@@ -93,19 +113,61 @@ def linearize_command(
 
 def _run(
     out: Annotated[Path, typer.Option("--out", "-o", help="PWA JSON document to write.")],
-    params_file: Annotated[Path | None, typer.Option("--params", help="Parameter TOML (default: paper preset).")] = None,
-    supply_pressure: Annotated[str | None, typer.Option("--supply-pressure", help='Fixed P_S, e.g. "95 bar".')] = None,
-    cells: Annotated[str | None, typer.Option("--cells", help="Cell counts, e.g. cq=5,cqp=5,friction=7.")] = None,
-    breakpoints: Annotated[str, typer.Option("--breakpoints", help="machine (cells from the machine's range), paper (Table V), tangent, optimized or optimized-rms.")] = "machine",
-    form: Annotated[str, typer.Option("--form", help="asymmetric (single-rod, default), consistent (mean area, Q_L = z·C_q) or paper (Eq. (17) as printed).")] = "asymmetric",
-    scheduled: Annotated[bool, typer.Option("--scheduled", help="Cells follow the P_S(t) input.")] = False,
-    sample_time: Annotated[str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')] = None,
-    figures: Annotated[Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")] = None,
-    tables: Annotated[Path | None, typer.Option("--tables", help="Folder for Tables IV-IX (md+csv).")] = None,
-    refine_tol: Annotated[str | None, typer.Option("--refine-tol", help='Split cells until the error bound is below this, e.g. "50 bar/s" or 5e6 (Pa/s).')] = None,
-    units: Annotated[str, typer.Option("--units", help="si (Pa, m/s, m, 1) or engineering (bar, mm/s, mm, %).")] = "si",
-    mat: Annotated[Path | None, typer.Option("--mat", help="Also write an MPT3-style MATLAB file (A, B, f, H, h).")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing JSON file, MAT file, figures and tables.")] = False,
+    params_file: Annotated[
+        Path | None, typer.Option("--params", help="Parameter TOML (default: paper preset).")
+    ] = None,
+    supply_pressure: Annotated[
+        str | None, typer.Option("--supply-pressure", help='Fixed P_S, e.g. "95 bar".')
+    ] = None,
+    cells: Annotated[
+        str | None, typer.Option("--cells", help="Cell counts, e.g. cq=5,cqp=5,friction=7.")
+    ] = None,
+    breakpoints: Annotated[
+        str,
+        typer.Option(
+            "--breakpoints",
+            help="machine (cells from the machine's range), paper (Table V), tangent, optimized or optimized-rms.",
+        ),
+    ] = "machine",
+    form: Annotated[
+        str,
+        typer.Option(
+            "--form",
+            help="asymmetric (single-rod, default), consistent (mean area, Q_L = z·C_q) or paper (Eq. (17) as printed).",
+        ),
+    ] = "asymmetric",
+    scheduled: Annotated[
+        bool, typer.Option("--scheduled", help="Cells follow the P_S(t) input.")
+    ] = False,
+    sample_time: Annotated[
+        str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')
+    ] = None,
+    figures: Annotated[
+        Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")
+    ] = None,
+    tables: Annotated[
+        Path | None, typer.Option("--tables", help="Folder for Tables IV-IX (md+csv).")
+    ] = None,
+    refine_tol: Annotated[
+        str | None,
+        typer.Option(
+            "--refine-tol",
+            help='Split cells until the error bound is below this, e.g. "50 bar/s" or 5e6 (Pa/s).',
+        ),
+    ] = None,
+    units: Annotated[
+        str, typer.Option("--units", help="si (Pa, m/s, m, 1) or engineering (bar, mm/s, mm, %).")
+    ] = "si",
+    mat: Annotated[
+        Path | None,
+        typer.Option("--mat", help="Also write an MPT3-style MATLAB file (A, B, f, H, h)."),
+    ] = None,
+    force: Annotated[
+        bool,
+        typer.Option(
+            "--force", help="Overwrite an existing JSON file, MAT file, figures and tables."
+        ),
+    ] = False,
 ) -> None:
     """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
     from hydropwa._errors import check_output
@@ -137,8 +199,22 @@ def _run(
             raise PwaError(f"--sample-time {sample_time!r} must be in (0, 1] s, e.g. '1 ms'")
     if units not in ("si", "engineering"):
         raise PwaError(f"--units {units!r} must be si or engineering")
-    paths = linearize_command(out, params_file, supply_pressure, cells, breakpoints, form, scheduled,
-                              sample_time, figures, tables, refine_tol, units, mat, force)
+    paths = linearize_command(
+        out,
+        params_file,
+        supply_pressure,
+        cells,
+        breakpoints,
+        form,
+        scheduled,
+        sample_time,
+        figures,
+        tables,
+        refine_tol,
+        units,
+        mat,
+        force,
+    )
     for p in paths:
         typer.echo(f"wrote {p}")
 
@@ -149,5 +225,6 @@ app.command("linearize")(_run)
 
 def register(main_app: typer.Typer) -> None:
     """Add the ``linearize`` command to the main CLI app."""
-    main_app.command("linearize", help="Build the PWA model (paper Sec. IV), export JSON, figures, tables.")(_run)
-
+    main_app.command(
+        "linearize", help="Build the PWA model (paper Sec. IV), export JSON, figures, tables."
+    )(_run)

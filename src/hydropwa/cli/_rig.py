@@ -54,11 +54,15 @@ def run_command(
     ] = "paper",
     seed: Annotated[
         int | None,
-        typer.Option("--seed", min=0, max=2**63 - 1, help="Campaign seed ≥ 0 (default: the campaign's)."),
+        typer.Option(
+            "--seed", min=0, max=2**63 - 1, help="Campaign seed ≥ 0 (default: the campaign's)."
+        ),
     ] = None,
     jobs: Annotated[
         int,
-        typer.Option("--jobs", "-j", min=1, max=1024, help="Worker processes (results do not depend on it)."),
+        typer.Option(
+            "--jobs", "-j", min=1, max=1024, help="Worker processes (results do not depend on it)."
+        ),
     ] = 1,
     force: Annotated[
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")
@@ -102,8 +106,10 @@ def _describe(rig) -> str:
         parts.append(f"pressures {p.range[0] / 1e5:g}–{p.range[1] / 1e5:g} bar")
     if f is not None:
         parts.append(f"load cell ±{f.range[1] / 1e3:g} kN")
-    parts.append(f"pump {sup.pump_flow * 6e4:.3g} L/min at {sup.pressure / 1e5:g} bar, relief "
-                 f"{sup.relief_pressure / 1e5:g} bar")
+    parts.append(
+        f"pump {sup.pump_flow * 6e4:.3g} L/min at {sup.pressure / 1e5:g} bar, relief "
+        f"{sup.relief_pressure / 1e5:g} bar"
+    )
     return "rig: " + ", ".join(parts)
 
 

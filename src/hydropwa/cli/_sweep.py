@@ -39,7 +39,11 @@ def sweep_command(
     jobs: Annotated[
         int | None,
         typer.Option(
-            "--jobs", "-j", min=1, max=1024, help="Threads, or LocalCluster workers (default: all cores)."
+            "--jobs",
+            "-j",
+            min=1,
+            max=1024,
+            help="Threads, or LocalCluster workers (default: all cores).",
         ),
     ] = None,
     scheduler: Annotated[
@@ -91,8 +95,13 @@ def sweep_command(
             # the trajectories folder is this sweep's alone while it runs
             locks.enter_context(output_lock(trajectories, "hydropwa sweep", clean=False))
             if not resume:
-                check_output(trajectories, force, folder=True, option="--trajectories",
-                             files=("case_*.parquet",))
+                check_output(
+                    trajectories,
+                    force,
+                    folder=True,
+                    option="--trajectories",
+                    files=("case_*.parquet",),
+                )
             _check_disk(sweep, trajectories)
             remove_stale_temps(trajectories, recursive=False)
         journal = SweepJournal(journal_path, sweep, fresh=not resume)
@@ -112,7 +121,9 @@ def _check_disk(sweep, folder: Path) -> None:
 
     fs = float(sweep.options.get("fs", 2000.0))
     need = sweep.n_cases * (sweep.duration * fs + 1) * _TRAJECTORY_BYTES_PER_SAMPLE
-    where = folder if folder.exists() else next((p for p in folder.parents if p.exists()), Path("."))
+    where = (
+        folder if folder.exists() else next((p for p in folder.parents if p.exists()), Path("."))
+    )
     free = shutil.disk_usage(where).free
     if need > free:
         raise ParameterError(

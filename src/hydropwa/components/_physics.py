@@ -144,7 +144,9 @@ def dead_zone(nu: float, alpha: float, beta: float, creep: float, outer_offset: 
 
 
 @njit(**_JIT)
-def dead_zone_slope(nu: float, alpha: float, beta: float, creep: float, outer_offset: float) -> float:
+def dead_zone_slope(
+    nu: float, alpha: float, beta: float, creep: float, outer_offset: float
+) -> float:
     """Slope dz/dν [1] of :func:`dead_zone` (same cells): creep in the band, 1 in the open cells, 0 saturated."""
     a = abs(nu)
     if a < beta:
@@ -231,7 +233,9 @@ def load_flow_drop(z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: fl
 
 
 @njit(**_JIT)
-def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0) -> float:
+def load_flow(
+    z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0
+) -> float:
     """Load flow Q_L = Q_A [m³/s] into chamber A, Eq. (12) generalised to a single-rod cylinder.
 
     Q_L = z K √Δp with the edge drop Δp of :func:`load_flow_drop` (signed, regularised
@@ -241,7 +245,9 @@ def load_flow(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: fl
 
 
 @njit(**_JIT)
-def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0) -> float:
+def load_flow_slope(
+    z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0
+) -> float:
     """∂Q_L/∂P_L [m³/(s·Pa)] of :func:`load_flow` (≤ 0: the flow-pressure coefficient −K_c).
 
     ∂Δp/∂P_L = ∓1/(1 + α³) for z ≷ 0, so ∂Q_L/∂P_L = −|z| K (d√/dΔp)/(1 + α³).
@@ -252,7 +258,9 @@ def load_flow_slope(z: float, p_l: float, p_s: float, K: float, p_tr: float, alp
 
 
 @njit(**_JIT)
-def load_flow_input_slopes(z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0):
+def load_flow_input_slopes(
+    z: float, p_l: float, p_s: float, K: float, p_tr: float, alpha: float = 1.0, p_t: float = 0.0
+):
     """How :func:`load_flow` follows its inputs: (∂Q_L/∂z [m³/s], ∂Q_L/∂P_S [m³/(s·Pa)]).
 
     ∂Q_L/∂z = K·√Δp is the flow gain K_q of Eq. (12); ∂Q_L/∂P_S = z K (d√/dΔp)·∂Δp/∂P_S
@@ -266,7 +274,9 @@ def load_flow_input_slopes(z: float, p_l: float, p_s: float, K: float, p_tr: flo
 
 
 @njit(**_JIT)
-def chamber_pressures_from_load(z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: float = 0.0):
+def chamber_pressures_from_load(
+    z: float, p_l: float, p_s: float, alpha: float = 1.0, p_t: float = 0.0
+):
     """Chamber pressures (P_A, P_B) [Pa] recovered from P_L = P_A − α P_B in quasi-steady flow.
 
     Extension: P_A = P_S − Δp, P_B = P_T + α² Δp; retraction: P_A = P_T + Δp,
@@ -295,7 +305,9 @@ def chamber_pressure_difference_slopes(z: float, alpha: float = 1.0):
 
 
 @njit(**_JIT)
-def load_capacitance(x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float):
+def load_capacitance(
+    x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float
+):
     """Hydraulic capacitances of the asymmetric load-pressure equation at rod position x [m].
 
     Returns (c_q, c_l) [Pa/m³]: c_q = E (1/V_A(x) + α²/V_B(x)) multiplies the net load flow
@@ -311,7 +323,9 @@ def load_capacitance(x: float, area_a: float, area_b: float, stroke: float, vol_
 
 
 @njit(**_JIT)
-def load_capacitance_slope(x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float):
+def load_capacitance_slope(
+    x: float, area_a: float, area_b: float, stroke: float, vol_a: float, vol_b: float, E: float
+):
     """∂(c_q, c_l)/∂x [Pa/m⁴] of :func:`load_capacitance` (zero outside the stroke, where x is clipped)."""
     if x <= 0.0 or x >= stroke:
         return 0.0, 0.0
@@ -324,7 +338,9 @@ def load_capacitance_slope(x: float, area_a: float, area_b: float, stroke: float
 
 
 @njit(**_JIT)
-def effective_bulk_modulus(p: float, E: float, p_vap: float, p_rel: float, net_flow: float = 1.0) -> float:
+def effective_bulk_modulus(
+    p: float, E: float, p_vap: float, p_rel: float, net_flow: float = 1.0
+) -> float:
     """Effective bulk modulus [Pa] that keeps a chamber pressure physical.
 
     Between the air-release pressure p_rel and the vapour pressure p_vap the modulus
@@ -383,13 +399,17 @@ def load_pressure_gain(E: float, total_volume: float) -> float:
 
 
 @njit(**_JIT)
-def load_pressure_rate(q_l: float, v: float, p_l: float, mean_area: float, total_volume: float, leak: float, E: float):
+def load_pressure_rate(
+    q_l: float, v: float, p_l: float, mean_area: float, total_volume: float, leak: float, E: float
+):
     """Load-pressure rate Ṗ_L [Pa/s] of the paper's reduced model, Eq. (14) (mean area Ā)."""
     return load_pressure_gain(E, total_volume) * (q_l - mean_area * v - leak * p_l)
 
 
 @njit(**_JIT)
-def asymmetric_load_pressure_rate(q_l: float, v: float, dp_ab: float, area_a: float, c_q: float, c_l: float, leak: float):
+def asymmetric_load_pressure_rate(
+    q_l: float, v: float, dp_ab: float, area_a: float, c_q: float, c_l: float, leak: float
+):
     """Load-pressure rate Ṗ_L [Pa/s] of the single-rod reduced model, P_L = P_A − α P_B.
 
     Ṗ_L = c_q (Q_L − A_A ẋ) − c_l C_L (P_A − P_B), the capacitances c_q, c_l of
@@ -406,11 +426,16 @@ def stribeck_friction(v, f_c, f_s, sigma, chi, delta, gamma):
     on numpy arrays of velocities [m/s]; odd in ẋ by construction.
     """
     # v·(1/χ) rather than v/χ: the division then depends on χ alone, off the solver's critical path
-    return smooth_sign(gamma * v) * (f_c + (f_s - f_c) * np.exp(-abs_power(v * (1.0 / chi), delta))) + sigma * v
+    return (
+        smooth_sign(gamma * v) * (f_c + (f_s - f_c) * np.exp(-abs_power(v * (1.0 / chi), delta)))
+        + sigma * v
+    )
 
 
 @njit(**_JIT)
-def stribeck_friction_slope(v: float, f_c: float, f_s: float, sigma: float, chi: float, delta: float, gamma: float) -> float:
+def stribeck_friction_slope(
+    v: float, f_c: float, f_s: float, sigma: float, chi: float, delta: float, gamma: float
+) -> float:
     """Slope df/dẋ [N·s/m] of the Stribeck friction of Eq. (11), for one velocity [m/s].
 
     With B = F_c + (F_s − F_c) e^(−a^δ), a = |ẋ/χ|, and T = tanh(γẋ):
@@ -469,7 +494,9 @@ def end_stop_force_slope(x: float, v: float, stroke: float, k: float, c: float):
 
 
 @njit(**_JIT)
-def piston_acceleration(hydraulic_force: float, friction: float, load: float, stop: float, mass: float) -> float:
+def piston_acceleration(
+    hydraulic_force: float, friction: float, load: float, stop: float, mass: float
+) -> float:
     """Piston acceleration ẍ [m/s²] from Newton's law, Eqs. (10) and (15)."""
     # times the reciprocal: the division depends on the mass alone and runs alongside the forces
     return (hydraulic_force - friction - load + stop) * (1.0 / mass)

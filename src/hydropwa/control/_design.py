@@ -497,7 +497,9 @@ def design_pi(
     if not (math.isfinite(ts) and 0 < ts <= 0.1):
         raise ControlError(f"sample_time {sample_time!r} s must be in (0, 0.1]")
     if point is None:
-        p_l = prm.load.force / (model.force_area if hasattr(model, "force_area") else prm.cylinder.mean_area)
+        p_l = prm.load.force / (
+            model.force_area if hasattr(model, "force_area") else prm.cylinder.mean_area
+        )
         point = {"p_l": p_l, "v": 0.1, "u": 0.3}  # the outer (viscous) friction cell: rising slope
     A, B, dyn = cell_plant(model, point=point, opening_input=dead_zone_inverse)
     # steady velocity per unit input of the [P_L, ẋ] subsystem

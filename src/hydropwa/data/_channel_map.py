@@ -132,7 +132,7 @@ class ChannelMap:
             if not isinstance(body, Mapping):
                 raise DataError(
                     f"{origin}, channel {ch!r}: expected a table or a source name, got "
-                    f"{type(body).__name__}; hint: write [channels.{ch}] with source = \"...\""
+                    f'{type(body).__name__}; hint: write [channels.{ch}] with source = "..."'
                 )
             unknown = sorted(map(str, set(body) - _SPEC_KEYS))
             if unknown or "source" not in body:
@@ -165,10 +165,14 @@ class ChannelMap:
             )
         fs = head.get("fs")
         if fs is not None:
-            if isinstance(fs, bool) or not isinstance(fs, int | float) or not (
-                np.isfinite(fs) and fs > 0
+            if (
+                isinstance(fs, bool)
+                or not isinstance(fs, int | float)
+                or not (np.isfinite(fs) and fs > 0)
             ):
-                raise DataError(f"{origin}: [map] fs = {fs!r}; hint: give the sampling rate in Hz, > 0")
+                raise DataError(
+                    f"{origin}: [map] fs = {fs!r}; hint: give the sampling rate in Hz, > 0"
+                )
         keep = head.get("keep_unmapped", False)
         if not isinstance(keep, bool):
             raise DataError(
@@ -206,7 +210,9 @@ class ChannelMap:
                 "map's TOML file (saved as UTF-8)"
             ) from None
         except RecursionError:
-            raise DataError(f"channel map {str(path)!r}: nested too deeply to be a channel map") from None
+            raise DataError(
+                f"channel map {str(path)!r}: nested too deeply to be a channel map"
+            ) from None
         return cls.from_dict(doc, origin=f"channel map {str(path)!r}")
 
     # ------------------------------------------------------------------ apply
@@ -360,7 +366,9 @@ def _check_factor(value, where: str, what: str) -> None:
     if isinstance(value, str) and value.startswith("@"):
         return
     if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
-        raise DataError(f"{where}: {what} = {value!r:.60}; hint: give a finite number or '@variable'")
+        raise DataError(
+            f"{where}: {what} = {value!r:.60}; hint: give a finite number or '@variable'"
+        )
 
 
 def _scalar(raw: Mapping[str, Any], value: float | str, where: str, what: str) -> float:

@@ -157,14 +157,18 @@ def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:
             except DataError as exc:
                 problems.append(str(exc).partition("; hint: ")[0])
             if Path(file).suffix.lower() not in FORMATS:
-                problems.append(f"{where}: file {file!r:.60} has no run-file suffix (.csv, .parquet, .mat)")
+                problems.append(
+                    f"{where}: file {file!r:.60} has no run-file suffix (.csv, .parquet, .mat)"
+                )
             if file in files:
                 problems.append(f"{where}: file {file!r:.60} is also runs[{files[file]}]'s")
             files.setdefault(file, i)
         for key, types in _ENTRY_FIELDS.items():
             v = e.get(key)
             if not isinstance(v, types) or isinstance(v, bool):
-                problems.append(f"{where}: {key!r} = {v!r:.40} has the wrong type ({type(v).__name__})")
+                problems.append(
+                    f"{where}: {key!r} = {v!r:.40} has the wrong type ({type(v).__name__})"
+                )
         fmt = e.get("format")
         if isinstance(fmt, str) and fmt.lower() not in ("csv", "parquet", "mat"):
             problems.append(f"{where}: format {fmt!r:.20} is not csv, parquet or mat")
@@ -399,11 +403,22 @@ class Dataset:
 
         rows = []
         for e in self.manifest.get("runs", [])[:50]:
-            rows.append((e.get("name", ""), e.get("kind") or "", e.get("n_samples", ""),
-                         f"{e.get('duration', float('nan')):.4g}", ", ".join(e.get("channels", {}))))
+            rows.append(
+                (
+                    e.get("name", ""),
+                    e.get("kind") or "",
+                    e.get("n_samples", ""),
+                    f"{e.get('duration', float('nan')):.4g}",
+                    ", ".join(e.get("channels", {})),
+                )
+            )
         more = len(self) - len(rows)
-        return html_table(f"Dataset {self.root}: {len(self)} runs", ("run", "kind", "samples", "duration [s]", "channels"),
-                          rows, note=f"… and {more} more" if more > 0 else "")
+        return html_table(
+            f"Dataset {self.root}: {len(self)} runs",
+            ("run", "kind", "samples", "duration [s]", "channels"),
+            rows,
+            note=f"… and {more} more" if more > 0 else "",
+        )
 
 
 def read_dataset(root: str | os.PathLike, *, validate: bool = True, lazy: bool = False) -> Dataset:

@@ -255,8 +255,14 @@ def _parquet_column(pa, col, field, path: Path, ch: str) -> np.ndarray:
             f"{str(path)!r}, channel {ch!r}: column of type {typ} is a calendar value, not a "
             "signal; hint: store time as float64 seconds or as a timestamp"
         )
-    if not (pa.types.is_integer(typ) or pa.types.is_floating(typ) or pa.types.is_decimal(typ)
-            or pa.types.is_null(typ) or pa.types.is_dictionary(typ) or pa.types.is_boolean(typ)):
+    if not (
+        pa.types.is_integer(typ)
+        or pa.types.is_floating(typ)
+        or pa.types.is_decimal(typ)
+        or pa.types.is_null(typ)
+        or pa.types.is_dictionary(typ)
+        or pa.types.is_boolean(typ)
+    ):
         raise TypeError(f"type {typ}")
     return np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
 

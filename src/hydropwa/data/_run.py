@@ -216,8 +216,12 @@ class Run:
 
         kind = f", kind {self.kind}" if self.kind else ""
         title = f"Run {self.name!r}: {self.n_samples} samples, {self.duration:.4g} s at {self.fs or 0:g} Hz{kind}"
-        return html_table(title, ("channel", "unit", "min", "max"), channel_rows(self.channels, self.units),
-                          note="values in engineering units (SI inside)")
+        return html_table(
+            title,
+            ("channel", "unit", "min", "max"),
+            channel_rows(self.channels, self.units),
+            note="values in engineering units (SI inside)",
+        )
 
     def has(self, channel: str) -> bool:
         """Whether the run holds ``channel``."""

@@ -464,10 +464,12 @@ def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Iss
                 "clipped",
                 channel,
                 starts[k],
-                (f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for the whole run"
-                 if whole else
-                 f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for "
-                 f"{int(lengths[k])} samples"),
+                (
+                    f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for the whole run"
+                    if whole
+                    else f"sits at the converter's {side} value {level:.6g} {run.units[channel]} for "
+                    f"{int(lengths[k])} samples"
+                ),
                 "the sensor's range does not cover the signal; use a sensor with a larger range "
                 "(the rig: [sensors] in the campaign) or exclude the stretch with select()",
             )

@@ -15,8 +15,14 @@ from ._metrics import nrmse_fit
 
 __all__ = ["compare"]
 
-_LABELS = {"x": ("position", "mm", 1e3), "v": ("velocity", "mm/s", 1e3), "p_l": ("load pressure", "bar", 1e-5),
-           "p_a": ("pressure A", "bar", 1e-5), "p_b": ("pressure B", "bar", 1e-5), "spool": ("spool", "%", 100.0)}
+_LABELS = {
+    "x": ("position", "mm", 1e3),
+    "v": ("velocity", "mm/s", 1e3),
+    "p_l": ("load pressure", "bar", 1e-5),
+    "p_a": ("pressure A", "bar", 1e-5),
+    "p_b": ("pressure B", "bar", 1e-5),
+    "spool": ("spool", "%", 100.0),
+}
 
 
 def _channels(obj):
@@ -24,7 +30,9 @@ def _channels(obj):
     if hasattr(obj, "channels") and hasattr(obj, "t"):
         name = getattr(obj, "name", None) or f"{getattr(obj, 'model', 'data')} model"
         return name, np.asarray(obj.t, dtype=float), obj.channels
-    raise DataError(f"compare: expected a Run or SimulationResult as the reference, got {type(obj).__name__}")
+    raise DataError(
+        f"compare: expected a Run or SimulationResult as the reference, got {type(obj).__name__}"
+    )
 
 
 def _simulate_on(model, t, channels, rtol):
@@ -40,7 +48,9 @@ def _simulate_on(model, t, channels, rtol):
         kwargs["load_force"] = Sampled(t0, np.asarray(channels["f_l"], dtype=float))
     if "x" in channels:
         kwargs["x0"] = float(channels["x"][0])
-    return simulate(model, Sampled(t0, np.asarray(channels["u"], dtype=float)), t=t0, rtol=rtol, **kwargs)
+    return simulate(
+        model, Sampled(t0, np.asarray(channels["u"], dtype=float)), t=t0, rtol=rtol, **kwargs
+    )
 
 
 def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
@@ -89,8 +99,10 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
         if hasattr(m, "channels") and hasattr(m, "t"):
             res = m
             if res.t.size != t.size:
-                raise DataError(f"compare: result {i + 1} has {res.t.size} samples, the reference {t.size}; "
-                                "simulate it on the reference's time grid (t=...)")
+                raise DataError(
+                    f"compare: result {i + 1} has {res.t.size} samples, the reference {t.size}; "
+                    "simulate it on the reference's time grid (t=...)"
+                )
         else:
             res = _simulate_on(m, t, ref, rtol)
         y_hat = np.asarray(res.channels[channel], dtype=float)

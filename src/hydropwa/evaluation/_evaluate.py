@@ -171,7 +171,9 @@ def _area_ratio(params) -> float:
     return params.cylinder.area_b / params.cylinder.area_a
 
 
-def _measured(run, start: EvaluationStart, slope_window: float, alpha: float = 1.0) -> dict[str, np.ndarray]:
+def _measured(
+    run, start: EvaluationStart, slope_window: float, alpha: float = 1.0
+) -> dict[str, np.ndarray]:
     """Measured channels from the start on, with P_L = P_A − α P_B and a smoothed-derivative velocity."""
     from scipy.signal import savgol_filter
 

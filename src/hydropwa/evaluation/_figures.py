@@ -87,8 +87,15 @@ def plot_evaluation(result, models=None, channels=("u", "x", "p_l"), smooth: flo
         if ch in meas:
             y = meas[ch] if ch == "u" else moving_average(meas[ch], n)
             # drawn over the models (zorder) and dashed, so a model that fits does not hide it
-            ax.plot(t, y * fac, color="k", lw=1.2, ls="--" if ch != "u" else "-", zorder=10,
-                    label="command" if ch == "u" else "measurement")
+            ax.plot(
+                t,
+                y * fac,
+                color="k",
+                lw=1.2,
+                ls="--" if ch != "u" else "-",
+                zorder=10,
+                label="command" if ch == "u" else "measurement",
+            )
         if ch != "u":
             for m in models:
                 res = result.simulations[m]

@@ -136,11 +136,23 @@ def _params_section(out: Path) -> str:
             f"<td>{g(r.identified)}</td><td>{_cell(float(r.std))}</td>"
             f"<td>{g(r.ci_low)} … {g(r.ci_high)}</td><td>{g(true)}</td><td>{flag}</td></tr>"
         )
-    head = "".join(f"<th>{h}</th>" for h in ("parameter", "unit", "identified", "std", "confidence interval", "true", "true in interval"))
+    head = "".join(
+        f"<th>{h}</th>"
+        for h in (
+            "parameter",
+            "unit",
+            "identified",
+            "std",
+            "confidence interval",
+            "true",
+            "true in interval",
+        )
+    )
     note = (
         f"<p class='small'><b>{n_out} true value(s) outside their interval</b>: the interval covers the "
         "statistical error of the fit, not a bias of the method (see docs/architecture_identification.md).</p>"
-        if n_out else ""
+        if n_out
+        else ""
     )
     return (
         "<table><caption>identified parameters: estimate, standard error, confidence interval, "
@@ -163,15 +175,23 @@ def _headline(metrics, fit, fit_detrended) -> str:
             return float(v.median()) * fac if len(v) else float("nan")
 
         runs_fit = fit.loc[fit["run"] != "mean", model]
-        runs_det = fit_detrended.loc[fit_detrended["run"] != "mean", model] if model in fit_detrended else pd.Series([], dtype=float)
-        rows.append({
-            "model": model,
-            "position fit [%]": float(runs_fit.median()),
-            "position fit, trend removed [%]": float(runs_det.median()) if len(runs_det) else float("nan"),
-            "position RMSE [mm]": med("x", "rmse", 1e3),
-            "load-pressure fit [%]": med("p_l", "nrmse_fit"),
-            "load-pressure RMSE [bar]": med("p_l", "rmse", 1e-5),
-        })
+        runs_det = (
+            fit_detrended.loc[fit_detrended["run"] != "mean", model]
+            if model in fit_detrended
+            else pd.Series([], dtype=float)
+        )
+        rows.append(
+            {
+                "model": model,
+                "position fit [%]": float(runs_fit.median()),
+                "position fit, trend removed [%]": float(runs_det.median())
+                if len(runs_det)
+                else float("nan"),
+                "position RMSE [mm]": med("x", "rmse", 1e3),
+                "load-pressure fit [%]": med("p_l", "nrmse_fit"),
+                "load-pressure RMSE [bar]": med("p_l", "rmse", 1e-5),
+            }
+        )
     return _table(pd.DataFrame(rows), "headline: medians over the sine runs")
 
 
@@ -182,7 +202,9 @@ def _paper_tables_section() -> str:
     try:
         tables = reproduce_paper_tables()
     except Exception as exc:  # noqa: BLE001 - the report must still be written
-        return f"<p class='small'>Tables IV–IX could not be regenerated: {html.escape(str(exc))}</p>"
+        return (
+            f"<p class='small'>Tables IV–IX could not be regenerated: {html.escape(str(exc))}</p>"
+        )
     return "".join(
         f"<details><summary>Table {name}</summary>{_table(df, f'Table {name}: printed vs regenerated')}</details>"
         for name, df in tables.items()
@@ -197,7 +219,9 @@ def _fig9(out: Path, info: dict) -> str:
         from ..data import read_dataset
 
         # the study's own data (virtual rig: out/data) or the measured dataset it was given
-        folders = [r / "sine" for r in (out / "data", Path(str(info.get("data", ""))))] + [Path(str(info.get("data", "")))]
+        folders = [r / "sine" for r in (out / "data", Path(str(info.get("data", ""))))] + [
+            Path(str(info.get("data", "")))
+        ]
         ds = read_dataset(next(d for d in folders if (d / "manifest.json").is_file()))
         run = next(r for r in ds if r.has("p_s"))
         fig = Figure(figsize=(6, 3))
@@ -232,8 +256,9 @@ def _summary_section(info: dict, true, metrics, fit, fit_detrended) -> str:
             "identified on the identification runs and are compared with sine runs they were not fitted to.</p>"
         )
     return (
-        "<h2>Summary</h2>" + what +
-        "<p>The <b>reduced</b> and <b>PWA</b> models use the mean piston area, so they cannot follow the "
+        "<h2>Summary</h2>"
+        + what
+        + "<p>The <b>reduced</b> and <b>PWA</b> models use the mean piston area, so they cannot follow the "
         "single-rod cylinder's drift (docs/errata.md D5): their plain position fit is low by construction; "
         "the fit with each trend removed and the load-pressure fit score their dynamics.</p>"
         + _headline(metrics, fit, fit_detrended)
@@ -264,7 +289,10 @@ def _greybox_section(out: Path) -> str:
     f = out / "tables" / "greybox.csv"
     if not f.is_file():
         return "<p>No grey-box fit (see the notes).</p>"
-    return _table(pd.read_csv(f), "grey-box estimates: value, standard error, 95 % interval, variance inflation")
+    return _table(
+        pd.read_csv(f),
+        "grey-box estimates: value, standard error, 95 % interval, variance inflation",
+    )
 
 
 def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:

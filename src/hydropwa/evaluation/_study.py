@@ -256,7 +256,16 @@ def _stage_data(
 
 
 #: Columns of the identified-parameter table (also when nothing was identified).
-_ESTIMATE_COLUMNS = ["parameter", "unit", "identified", "std", "ci_low", "ci_high", "true", "true_in_ci"]
+_ESTIMATE_COLUMNS = [
+    "parameter",
+    "unit",
+    "identified",
+    "std",
+    "ci_low",
+    "ci_high",
+    "true",
+    "true_in_ci",
+]
 
 
 def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> list[dict]:
@@ -295,15 +304,27 @@ def _identify(data_root: Path, base, notes: list[str]):
             rep = identify(data_root, PARTS, base_params=base)
         except IdentificationError as exc:
             rep = None
-            notes.append(f"nothing identified ({exc}); every parameter is kept from the base parameters")
+            notes.append(
+                f"nothing identified ({exc}); every parameter is kept from the base parameters"
+            )
     notes.extend(str(w.message) for w in caught if issubclass(w.category, IdentificationWarning))
     if rep is not None:
-        for part, est in (("frf", rep.valve), ("deadzone", rep.dead_zone), ("friction", rep.friction)):
+        for part, est in (
+            ("frf", rep.valve),
+            ("deadzone", rep.dead_zone),
+            ("friction", rep.friction),
+        ):
             if est is not None:
                 fitted[part] = est
-    for part, what in (("frf", "valve ω0 and ζ"), ("deadzone", "dead zone"), ("friction", "friction")):
+    for part, what in (
+        ("frf", "valve ω0 and ζ"),
+        ("deadzone", "dead zone"),
+        ("friction", "friction"),
+    ):
         if part not in fitted:
-            notes.append(f"no usable {part}/ runs: the {what} parameters are kept from the base parameters")
+            notes.append(
+                f"no usable {part}/ runs: the {what} parameters are kept from the base parameters"
+            )
     return fitted
 
 
@@ -437,7 +458,9 @@ def _stage_identify(
     return load_params(out / "identified.toml"), true, runner.outputs_hash("identify")
 
 
-def _stage_greybox(inp: _Inputs, runner: StageRunner, ident, true, key: str, runs, notes: list[str]):
+def _stage_greybox(
+    inp: _Inputs, runner: StageRunner, ident, true, key: str, runs, notes: list[str]
+):
     """Grey-box fit (issue 19), kept cheap: E and K on the first second of two sine runs."""
     out = inp.out
 
@@ -450,20 +473,40 @@ def _stage_greybox(inp: _Inputs, runner: StageRunner, ident, true, key: str, run
         short = []
         for r in runs[:2]:
             keep = np.asarray(r.channels["t"]) <= r.channels["t"][0] + 1.0
-            short.append(Run(name=r.name, channels={c: np.asarray(v)[keep] for c, v in r.channels.items()},
-                             units=r.units, fs=r.fs, meta=r.meta))
+            short.append(
+                Run(
+                    name=r.name,
+                    channels={c: np.asarray(v)[keep] for c, v in r.channels.items()},
+                    units=r.units,
+                    fs=r.fs,
+                    meta=r.meta,
+                )
+            )
         try:
-            fit = fit_model(FullOrderModel(ident), short, ("oil.bulk_modulus", "flow.K"), jobs=2, max_nfev=15,
-                            profile="none")
+            fit = fit_model(
+                FullOrderModel(ident),
+                short,
+                ("oil.bulk_modulus", "flow.K"),
+                jobs=2,
+                max_nfev=15,
+                profile="none",
+            )
         except HydropwaError as exc:
             return [], {"notes": [f"grey-box fit skipped: {exc}"]}
         df = fit.to_pandas().reset_index()
         if true is not None:
-            df["true"] = [float(getattr(getattr(true, n.split(".")[0]), n.split(".")[1])) for n in df["parameter"]]
+            df["true"] = [
+                float(getattr(getattr(true, n.split(".")[0]), n.split(".")[1]))
+                for n in df["parameter"]
+            ]
         files = _write_table(df, out / "tables" / "greybox")
         files += _save(plot_greybox_fit(fit, fit.runs_[0].name), out / "figures" / "greybox_fit")
-        files += _save(plot_greybox_residuals(fit, fit.runs_[0].name), out / "figures" / "greybox_residuals")
-        return files, {"notes": [f"grey-box fit: {fit.message}, {fit.nfev} evaluations, {fit.wall_time:.1f} s"]}
+        files += _save(
+            plot_greybox_residuals(fit, fit.runs_[0].name), out / "figures" / "greybox_residuals"
+        )
+        return files, {
+            "notes": [f"grey-box fit: {fit.message}, {fit.nfev} evaluations, {fit.wall_time:.1f} s"]
+        }
 
     m = runner.run("greybox", text_hash(inp.key(), key, "greybox"), work)
     notes.extend(m.get("notes", []))
@@ -488,7 +531,9 @@ def _sine_runs(data_root: Path) -> list:
 
     runs = sound_runs(ds)
     if not runs:
-        raise StudyError(f"no sound sine run in {str(data_root / 'sine')!r}; see the warnings above")
+        raise StudyError(
+            f"no sound sine run in {str(data_root / 'sine')!r}; see the warnings above"
+        )
     return runs
 
 
@@ -509,11 +554,19 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
-        files = [save_pwa(pwa, out / "pwa.json", overwrite=True)]  # the stage runner owns the folder
+        files = [
+            save_pwa(pwa, out / "pwa.json", overwrite=True)
+        ]  # the stage runner owns the folder
         # the guaranteed vector-field error of each exported cell (docs/reduced_asymmetric.md)
         cells = export_pwa(pwa, units="engineering")["cells"]
-        bounds = pd.DataFrame([{**c["index"], "error_bound_bar_per_s": c["error_bound"]} for c in cells])
-        summary = bounds.groupby("g")["error_bound_bar_per_s"].agg(["count", "median", "max"]).reset_index()
+        bounds = pd.DataFrame(
+            [{**c["index"], "error_bound_bar_per_s": c["error_bound"]} for c in cells]
+        )
+        summary = (
+            bounds.groupby("g")["error_bound_bar_per_s"]
+            .agg(["count", "median", "max"])
+            .reset_index()
+        )
         summary.columns = ["dead-zone cell g", "cells", "median bound [bar/s]", "max bound [bar/s]"]
         files += _write_table(summary, out / "tables" / "pwa_error_bounds")
         files += _save(plot_cq(pwa), out / "figures" / "fig01_cq")
@@ -559,7 +612,9 @@ def _corners(runs) -> dict[int, Any]:
 
 def _summary(metrics, channel: str = "x"):
     """Position fit [%] per run (rows) and model (columns), plus the mean."""
-    x = metrics[metrics["channel"] == channel].pivot(index="run", columns="model", values="nrmse_fit")
+    x = metrics[metrics["channel"] == channel].pivot(
+        index="run", columns="model", values="nrmse_fit"
+    )
     x.loc["mean"] = x.mean()
     return x.reset_index()
 
@@ -589,7 +644,18 @@ def _stage_evaluate(
             _interrupt.checkpoint()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                res = evaluate_run(run, ident, models=("full", "reduced", "pwa", "pwa-scheduled", "reduced-paper", "pwa-paper"))
+                res = evaluate_run(
+                    run,
+                    ident,
+                    models=(
+                        "full",
+                        "reduced",
+                        "pwa",
+                        "pwa-scheduled",
+                        "reduced-paper",
+                        "pwa-paper",
+                    ),
+                )
                 if true is not None:
                     ref = evaluate_run(run, true, models=("full",))
             stage_notes.extend(f"{run.name}: {n}" for n in res.notes)
@@ -652,8 +718,10 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
         shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa")}
-        files += _save(plot_closed_loop(shown, "LQR designed on the identified PWA model"),
-                       out / "figures" / "closed_loop")
+        files += _save(
+            plot_closed_loop(shown, "LQR designed on the identified PWA model"),
+            out / "figures" / "closed_loop",
+        )
         return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
 
     runner.run("control", text_hash(inp.key(), key, "control"), work)

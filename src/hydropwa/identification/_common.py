@@ -97,14 +97,22 @@ class ParameterEstimate:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict for the ``[uncertainty]`` table of a parameter file."""
-        return {"value": float(self.value), "std": float(self.std), "ci_low": float(self.ci[0]),
-                "ci_high": float(self.ci[1]), "level": float(self.level), "unit": self.unit}
+        return {
+            "value": float(self.value),
+            "std": float(self.std),
+            "ci_low": float(self.ci[0]),
+            "ci_high": float(self.ci[1]),
+            "level": float(self.level),
+            "unit": self.unit,
+        }
 
     def __str__(self) -> str:
         return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}])".strip()
 
 
-def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: int | None = None) -> np.ndarray:
+def covariance_from_jacobian(
+    jac: np.ndarray, residuals: np.ndarray, n_params: int | None = None
+) -> np.ndarray:
     """Parameter covariance s²·(JᵀJ)⁻¹ of a least-squares fit.
 
     Parameters
@@ -134,7 +142,9 @@ def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: i
     good = sv > tol
     cov = (vt[good].T / sv[good] ** 2) @ vt[good] * s2
     # directions the data do not see at all get an infinite variance, not a zero one
-    unseen = np.any(np.abs(vt[~good]) > 1e-6, axis=0) if (~good).any() else np.zeros(vt.shape[1], bool)
+    unseen = (
+        np.any(np.abs(vt[~good]) > 1e-6, axis=0) if (~good).any() else np.zeros(vt.shape[1], bool)
+    )
     if unseen.any():
         cov[unseen, :] = np.nan
         cov[:, unseen] = np.nan
@@ -187,7 +197,9 @@ def sandwich_covariance(jac: np.ndarray, residuals: np.ndarray) -> np.ndarray:
         if np.all(np.diag(cov_h) > np.diag(cov)):
             cov = cov_h
         else:
-            scale = np.sqrt(np.maximum(np.diag(cov_h), np.diag(cov)) / np.maximum(np.diag(cov), 1e-300))
+            scale = np.sqrt(
+                np.maximum(np.diag(cov_h), np.diag(cov)) / np.maximum(np.diag(cov), 1e-300)
+            )
             cov = cov * np.outer(scale, scale)
     else:
         cov = cov_h
@@ -199,10 +211,14 @@ def t_quantile(level: float, dof: int) -> float:
     return float(stats.t.ppf(0.5 + 0.5 * level, max(int(dof), 1)))
 
 
-def estimate(value: float, std: float, q: float, unit: str = "", level: float = 0.95) -> ParameterEstimate:
+def estimate(
+    value: float, std: float, q: float, unit: str = "", level: float = 0.95
+) -> ParameterEstimate:
     """A :class:`ParameterEstimate` with the symmetric interval value ± q·std."""
     std = float(std)  # inf stays inf: a parameter the data do not determine
-    return ParameterEstimate(float(value), std, (float(value - q * std), float(value + q * std)), unit, level)
+    return ParameterEstimate(
+        float(value), std, (float(value - q * std), float(value + q * std)), unit, level
+    )
 
 
 def correlation(cov: np.ndarray) -> np.ndarray:
@@ -216,11 +232,21 @@ def correlation(cov: np.ndarray) -> np.ndarray:
 
 #: Experiment names in run metadata and what the identification calls them.
 EXPERIMENT_ALIASES: dict[str, str] = {
-    "frf": "frf", "stepped_sine": "frf", "valve_frf": "frf", "sine_sweep": "frf",
-    "chirp": "frf", "noise": "frf", "broadband": "frf",
-    "deadzone": "deadzone", "dead_zone": "deadzone", "dead-zone": "deadzone",
-    "friction": "friction", "stribeck": "friction",
-    "sine": "sine", "motion": "sine", "closed_loop": "closed_loop",
+    "frf": "frf",
+    "stepped_sine": "frf",
+    "valve_frf": "frf",
+    "sine_sweep": "frf",
+    "chirp": "frf",
+    "noise": "frf",
+    "broadband": "frf",
+    "deadzone": "deadzone",
+    "dead_zone": "deadzone",
+    "dead-zone": "deadzone",
+    "friction": "friction",
+    "stribeck": "friction",
+    "sine": "sine",
+    "motion": "sine",
+    "closed_loop": "closed_loop",
 }
 
 
@@ -285,7 +311,9 @@ def as_runs(data, experiment: str | None = None) -> list:
     elif isinstance(data, Iterable):
         runs = list(data)
     else:
-        raise IdentificationError(f"cannot identify from {type(data).__name__}; give a Dataset, a Run or runs")
+        raise IdentificationError(
+            f"cannot identify from {type(data).__name__}; give a Dataset, a Run or runs"
+        )
     if experiment is not None:
         runs = [r for r in runs if experiment_of(r) in (None, experiment)]
     if not runs:
@@ -294,11 +322,18 @@ def as_runs(data, experiment: str | None = None) -> list:
     return runs
 
 
-def channels_of(run, names: Iterable[str], skipped: list[SkippedRun]) -> dict[str, np.ndarray] | None:
+def channels_of(
+    run, names: Iterable[str], skipped: list[SkippedRun]
+) -> dict[str, np.ndarray] | None:
     """The named channels of a run as float arrays, or ``None`` (and a skip) if one is missing."""
     missing = [c for c in names if c not in run.channels]
     if missing:
-        skip(skipped, run.name, f"missing channel(s) {', '.join(missing)} (has {', '.join(sorted(run.channels))})", 4)
+        skip(
+            skipped,
+            run.name,
+            f"missing channel(s) {', '.join(missing)} (has {', '.join(sorted(run.channels))})",
+            4,
+        )
         return None
     out = {}
     for c in names:
@@ -383,8 +418,12 @@ def estimator_view(run, kind: str | None, stroke: float | None = None, stop_marg
     return Run(name=run.name, channels=ch, units=units, fs=run.fs, meta=run.meta)
 
 
-def screen_for_estimator(run, kind: str | None, stroke: float | None = None,
-                         limits: Mapping[str, tuple[float, float]] | None = None) -> str | None:
+def screen_for_estimator(
+    run,
+    kind: str | None,
+    stroke: float | None = None,
+    limits: Mapping[str, tuple[float, float]] | None = None,
+) -> str | None:
     """Why a run is unusable for the estimator of its kind, or ``None`` when it is sound.
 
     The run's view (:func:`estimator_view`) goes through :func:`hydropwa.data.check_run`

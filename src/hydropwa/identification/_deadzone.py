@@ -35,8 +35,14 @@ from ._common import (
     t_quantile,
 )
 
-__all__ = ["VelocityEstimate", "velocity_from_position", "DeadZoneFit", "fit_dead_zone",
-           "dead_zone_velocity", "DeadZoneIdentifier"]
+__all__ = [
+    "VelocityEstimate",
+    "velocity_from_position",
+    "DeadZoneFit",
+    "fit_dead_zone",
+    "dead_zone_velocity",
+    "DeadZoneIdentifier",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,9 +81,16 @@ def _line(t: np.ndarray, x: np.ndarray) -> tuple[float, float, float]:
     return slope, float(np.sqrt(s2 / sxx)), float(np.sqrt(np.mean(r**2)))
 
 
-def velocity_from_position(t, x, direction: float = 0.0, stroke: float | None = None,
-                           stop_margin: float = 1e-3, settle: float = 0.0,
-                           min_duration: float = 0.1, min_samples: int = 20) -> VelocityEstimate:
+def velocity_from_position(
+    t,
+    x,
+    direction: float = 0.0,
+    stroke: float | None = None,
+    stop_margin: float = 1e-3,
+    settle: float = 0.0,
+    min_duration: float = 0.1,
+    min_samples: int = 20,
+) -> VelocityEstimate:
     """Rod velocity of a constant-input run from the slope of the position (Sec. VI-B).
 
     Parameters
@@ -128,9 +141,17 @@ def velocity_from_position(t, x, direction: float = 0.0, stroke: float | None = 
     return VelocityEstimate(slope, sd, rms, (float(t[keep][0]), float(t[keep][-1])), hit)
 
 
-def dead_zone_velocity(u, gain_pos: float, gain_neg: float, beta_pos: float, beta_neg: float,
-                       creep: float, continuous: bool = False, drift_pos: float = 0.0,
-                       drift_neg: float = 0.0) -> np.ndarray:
+def dead_zone_velocity(
+    u,
+    gain_pos: float,
+    gain_neg: float,
+    beta_pos: float,
+    beta_neg: float,
+    creep: float,
+    continuous: bool = False,
+    drift_pos: float = 0.0,
+    drift_neg: float = 0.0,
+) -> np.ndarray:
     """Hinge model of rod velocity against command [m/s] (Fig. 6), with a drift per direction.
 
     Parameters
@@ -153,8 +174,11 @@ def dead_zone_velocity(u, gain_pos: float, gain_neg: float, beta_pos: float, bet
     u = np.asarray(u, dtype=float)
     lift_p = creep * beta_pos if continuous else 0.0
     lift_n = creep * beta_neg if continuous else 0.0
-    core = np.where(u > beta_pos, gain_pos * (u - beta_pos) + lift_p,
-                    np.where(u < -beta_neg, gain_neg * (u + beta_neg) - lift_n, creep * u))
+    core = np.where(
+        u > beta_pos,
+        gain_pos * (u - beta_pos) + lift_p,
+        np.where(u < -beta_neg, gain_neg * (u + beta_neg) - lift_n, creep * u),
+    )
     return core + np.where(u >= 0, drift_pos, drift_neg)
 
 
@@ -205,9 +229,17 @@ class DeadZoneFit:
         """Fitted velocity [m/s] at command ``u`` [1]."""
         dp = self.drift_pos.value if self.drift_pos is not None else 0.0
         dn = self.drift_neg.value if self.drift_neg is not None else 0.0
-        return dead_zone_velocity(u, self.gain_pos.value, self.gain_neg.value, self.beta_pos.value,
-                                  self.beta_neg.value, self.creep_velocity_slope.value, self.continuous,
-                                  dp, dn)
+        return dead_zone_velocity(
+            u,
+            self.gain_pos.value,
+            self.gain_neg.value,
+            self.beta_pos.value,
+            self.beta_neg.value,
+            self.creep_velocity_slope.value,
+            self.continuous,
+            dp,
+            dn,
+        )
 
     def dead_zone(self, alpha: float = 1.0) -> DeadZone:
         """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ).
@@ -215,9 +247,12 @@ class DeadZoneFit:
         The drift is not part of the valve: it stays out of ``creep_slope``, so a model
         with the cylinder's leakage does not count it twice.
         """
-        return DeadZone(alpha=alpha, beta=float(np.clip(self.beta.value, 0.0, 0.999)),
-                        creep_slope=float(np.clip(self.creep_slope.value, 0.0, 0.999)),
-                        continuous=self.continuous)
+        return DeadZone(
+            alpha=alpha,
+            beta=float(np.clip(self.beta.value, 0.0, 0.999)),
+            creep_slope=float(np.clip(self.creep_slope.value, 0.0, 0.999)),
+            continuous=self.continuous,
+        )
 
 
 def _design(u, bp, bn, continuous, sides):
@@ -284,7 +319,9 @@ def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift):
     return theta, cost, sides
 
 
-def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95, drift: bool = True) -> DeadZoneFit:
+def fit_dead_zone(
+    u, v, continuous: bool = False, level: float = 0.95, drift: bool = True
+) -> DeadZoneFit:
     """Fit the hinge model to velocity-against-command points (Sec. VI-B, Fig. 6).
 
     Parameters
@@ -338,7 +375,12 @@ def fit_dead_zone(u, v, continuous: bool = False, level: float = 0.95, drift: bo
             if cost < best_cost * (1 - 1e-12):
                 best, best_cost, best_sides = theta, cost, sides
     assert best is not None
-    resid = dead_zone_velocity(u, *best[:5], continuous=continuous, drift_pos=best[5], drift_neg=best[6]) - v
+    resid = (
+        dead_zone_velocity(
+            u, *best[:5], continuous=continuous, drift_pos=best[5], drift_neg=best[6]
+        )
+        - v
+    )
     jac = _hinge_jacobian(u, best, continuous)
     free = [0, 1, 2, 3, 4] + [5 + i for i, on in enumerate(best_sides) if on]
     cov = np.zeros((7, 7))
@@ -427,9 +469,16 @@ class DeadZoneIdentifier:
     else the median of its ``u`` channel.
     """
 
-    def __init__(self, base_params: SystemParams | None = None, stop_margin: float = 1e-3,
-                 settle: float = 0.05, min_duration: float = 0.1, continuous: bool | None = None,
-                 level: float = 0.95, drift: bool = True) -> None:
+    def __init__(
+        self,
+        base_params: SystemParams | None = None,
+        stop_margin: float = 1e-3,
+        settle: float = 0.05,
+        min_duration: float = 0.1,
+        continuous: bool | None = None,
+        level: float = 0.95,
+        drift: bool = True,
+    ) -> None:
         self.base_params = base_params
         self.stop_margin = stop_margin
         self.settle = settle
@@ -468,18 +517,35 @@ class DeadZoneIdentifier:
                 skip(skipped, run.name, "no command level (meta 'level' or channel 'u')")
                 continue
             try:
-                est = velocity_from_position(ch["t"], ch["x"], np.sign(level), base.cylinder.stroke,
-                                             self.stop_margin, self.settle, self.min_duration)
+                est = velocity_from_position(
+                    ch["t"],
+                    ch["x"],
+                    np.sign(level),
+                    base.cylinder.stroke,
+                    self.stop_margin,
+                    self.settle,
+                    self.min_duration,
+                )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))
                 continue
-            rows.append({"run": run.name, "u": level, "v": est.velocity, "v_std": est.std,
-                         "rms_residual": est.rms_residual, "hit_stop": est.hit_stop})
+            rows.append(
+                {
+                    "run": run.name,
+                    "u": level,
+                    "v": est.velocity,
+                    "v_std": est.std,
+                    "rms_residual": est.rms_residual,
+                    "hit_stop": est.hit_stop,
+                }
+            )
         require_usable(rows, skipped, "dead-zone identification", minimum=7)
         pts = pd.DataFrame(rows).sort_values("u", ignore_index=True)
         self.points_ = pts
         continuous = base.dead_zone.continuous if self.continuous is None else bool(self.continuous)
-        self.fit_ = fit_dead_zone(pts["u"].to_numpy(), pts["v"].to_numpy(), continuous, self.level, self.drift)
+        self.fit_ = fit_dead_zone(
+            pts["u"].to_numpy(), pts["v"].to_numpy(), continuous, self.level, self.drift
+        )
         self.dead_zone_ = self.fit_.dead_zone(base.dead_zone.alpha)
         self.skipped_ = skipped
         return self
@@ -487,12 +553,20 @@ class DeadZoneIdentifier:
     def uncertainty(self) -> dict:
         """β, k_g and the per-direction values as a plain dict (``[uncertainty]`` table)."""
         f = self.fit_
-        return {"beta": f.beta.to_dict(), "creep_slope": f.creep_slope.to_dict(),
-                "beta_pos": f.beta_pos.to_dict(), "beta_neg": f.beta_neg.to_dict(),
-                "gain_pos": f.gain_pos.to_dict(), "gain_neg": f.gain_neg.to_dict(),
-                "creep_velocity_slope": f.creep_velocity_slope.to_dict(),
-                **({"drift_pos": f.drift_pos.to_dict(), "drift_neg": f.drift_neg.to_dict()}
-                   if f.drift_pos is not None else {})}
+        return {
+            "beta": f.beta.to_dict(),
+            "creep_slope": f.creep_slope.to_dict(),
+            "beta_pos": f.beta_pos.to_dict(),
+            "beta_neg": f.beta_neg.to_dict(),
+            "gain_pos": f.gain_pos.to_dict(),
+            "gain_neg": f.gain_neg.to_dict(),
+            "creep_velocity_slope": f.creep_velocity_slope.to_dict(),
+            **(
+                {"drift_pos": f.drift_pos.to_dict(), "drift_neg": f.drift_neg.to_dict()}
+                if f.drift_pos is not None
+                else {}
+            ),
+        }
 
 
 def command_level(run) -> float | None:
@@ -511,7 +585,7 @@ def command_level(run) -> float | None:
         u = np.asarray(run.channels["u"], dtype=float)
         u = u[np.isfinite(u)]
         if u.size:
-            return float(np.median(u[u.size // 2:]))
+            return float(np.median(u[u.size // 2 :]))
     lv = signal_value(run, "amplitude", "opening")
     try:
         return None if lv is None else float(lv)

@@ -144,9 +144,15 @@ def fit_sinusoid(t, y, frequency: float, n_periods: int = 4, trend: bool = True)
     coef, *_ = np.linalg.lstsq(X, yw, rcond=None)
     r = yw - X @ coef
     a, b, c = coef[:3]
-    return SineFit(f, float(np.hypot(a, b)), float(np.arctan2(b, a)), float(c),
-                   float(coef[3]) if trend else 0.0, float(np.sqrt(np.mean(r**2))),
-                   (float(tw[0]), float(tw[-1])))
+    return SineFit(
+        f,
+        float(np.hypot(a, b)),
+        float(np.arctan2(b, a)),
+        float(c),
+        float(coef[3]) if trend else 0.0,
+        float(np.sqrt(np.mean(r**2))),
+        (float(tw[0]), float(tw[-1])),
+    )
 
 
 def stepped_sine_point(t, u, y, frequency: float, n_periods: int = 4, trend: bool = True):
@@ -245,10 +251,16 @@ class FrequencyResponse:
         """
         import control
 
-        label = name or (f"valve_{round(100 * self.amplitude)}pct" if np.isfinite(self.amplitude) else "valve")
+        label = name or (
+            f"valve_{round(100 * self.amplitude)}pct" if np.isfinite(self.amplitude) else "valve"
+        )
         label = label.replace(".", "p")
         return control.frd(
-            np.asarray(self.response, dtype=complex), self.omega, name=label, inputs="u", outputs="spool"
+            np.asarray(self.response, dtype=complex),
+            self.omega,
+            name=label,
+            inputs="u",
+            outputs="spool",
         )
 
     def __repr__(self) -> str:
@@ -257,9 +269,17 @@ class FrequencyResponse:
         return f"FrequencyResponse(amplitude={self.amplitude:g}, {f.size} points, {span})"
 
 
-def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = None,
-                    amplitude: float | None = None, name: str = "",
-                    f_min: float | None = None, period: float | None = None) -> FrequencyResponse:
+def estimate_frf_h1(
+    t,
+    u,
+    y,
+    nperseg: int | None = None,
+    f_max: float | None = None,
+    amplitude: float | None = None,
+    name: str = "",
+    f_min: float | None = None,
+    period: float | None = None,
+) -> FrequencyResponse:
     """H1 estimate H = S_uy/S_uu with coherence from a broadband run (chirp, noise).
 
     Parameters
@@ -292,12 +312,14 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     fs = 1.0 / float(np.median(np.diff(t)))
     n = u.size
     if n < 256:
-        raise IdentificationError(f"broadband run has {n} samples; need at least 256 for an H1 estimate")
+        raise IdentificationError(
+            f"broadband run has {n} samples; need at least 256 for an H1 estimate"
+        )
     if period is not None and period * fs >= 16 and n >= 2 * period * fs:
         nper = int(round(period * fs))
         kw = dict(window="boxcar", noverlap=0, detrend="constant")
-        u = u[n - (n // nper) * nper:]  # whole periods, the start-up transient dropped first
-        y = y[n - (n // nper) * nper:]
+        u = u[n - (n // nper) * nper :]  # whole periods, the start-up transient dropped first
+        y = y[n - (n // nper) * nper :]
         if n // nper > 2:  # leave the first period out: the valve's transient
             u, y = u[nper:], y[nper:]
     else:
@@ -315,8 +337,14 @@ def estimate_frf_h1(t, u, y, nperseg: int | None = None, f_max: float | None = N
     h = s_uy[keep] / s_uu[keep]
     coh = np.abs(s_uy[keep]) ** 2 / (s_uu[keep] * s_yy[keep])
     amp = float(amplitude) if amplitude is not None else float(np.max(np.abs(u - np.mean(u))))
-    return FrequencyResponse(f[keep], h, coh, amp, (name,) if name else (),
-                             independent_bins=period is not None and kw.get("window") == "boxcar")
+    return FrequencyResponse(
+        f[keep],
+        h,
+        coh,
+        amp,
+        (name,) if name else (),
+        independent_bins=period is not None and kw.get("window") == "boxcar",
+    )
 
 
 def second_order_response(omega, omega0: float, zeta: float) -> np.ndarray:
@@ -357,8 +385,13 @@ class SecondOrderFit:
         return second_order_response(omega, self.omega0.value, self.zeta.value)
 
 
-def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: float = 0.95,
-                     f_max: float | None = None, f_min: float | None = None) -> SecondOrderFit:
+def fit_second_order(
+    frf: FrequencyResponse,
+    min_coherence: float = 0.8,
+    level: float = 0.95,
+    f_max: float | None = None,
+    f_min: float | None = None,
+) -> SecondOrderFit:
     """Fit ω0 and ζ of Eq. (1) to a measured FRF by complex least squares.
 
     Parameters
@@ -426,8 +459,9 @@ def fit_second_order(frf: FrequencyResponse, min_coherence: float = 0.8, level: 
     best = None
     for w0 in np.geomspace(max(w.min(), 1.0), w.max() * 4.0, 6):
         for z0 in (0.3, 0.7, 1.5):
-            res = least_squares(resid, [w0, z0], bounds=([1e-3, 1e-3], [1e7, 20.0]),
-                                x_scale=[w0, 0.3], method="trf")
+            res = least_squares(
+                resid, [w0, z0], bounds=([1e-3, 1e-3], [1e7, 20.0]), x_scale=[w0, 0.3], method="trf"
+            )
             if best is None or res.cost < best.cost:
                 best = res
     assert best is not None
@@ -463,7 +497,7 @@ def _estimate_frequency(t: np.ndarray, u: np.ndarray) -> float:
     spec = np.abs(np.fft.rfft((u - np.mean(u)) * np.hanning(n), nfft))
     k = int(np.argmax(spec[1:])) + 1
     if 1 <= k < spec.size - 1:
-        a, b, c = np.log(spec[k - 1: k + 2] + 1e-300)
+        a, b, c = np.log(spec[k - 1 : k + 2] + 1e-300)
         k = k + 0.5 * (a - c) / (a - 2 * b + c)
     return float(k * fs / nfft)
 
@@ -514,9 +548,17 @@ class ValveFrfIdentifier:
     frequency is estimated from the command's spectrum.
     """
 
-    def __init__(self, n_periods: int = 4, trend: bool = True, min_coherence: float = 0.8,
-                 nperseg: int | None = None, f_max: float | None = None, level: float = 0.95,
-                 amplitude_decimals: int = 3, band: tuple[float, float] | None = None) -> None:
+    def __init__(
+        self,
+        n_periods: int = 4,
+        trend: bool = True,
+        min_coherence: float = 0.8,
+        nperseg: int | None = None,
+        f_max: float | None = None,
+        level: float = 0.95,
+        amplitude_decimals: int = 3,
+        band: tuple[float, float] | None = None,
+    ) -> None:
         self.n_periods = n_periods
         self.trend = trend
         self.min_coherence = min_coherence
@@ -548,7 +590,10 @@ class ValveFrfIdentifier:
         return [(t[0], t[-1], None if f is None else float(f))]
 
     def _broadband(self, run) -> bool:
-        kinds = {str(signal_value(run, k, default="")).lower() for k in ("type", "signal_type", "excitation")}
+        kinds = {
+            str(signal_value(run, k, default="")).lower()
+            for k in ("type", "signal_type", "excitation")
+        }
         exp = str((run.meta or {}).get("experiment", (run.meta or {}).get("kind", ""))).lower()
         return bool(kinds & _BROADBAND) or exp in _BROADBAND
 
@@ -600,10 +645,26 @@ class ValveFrfIdentifier:
             if self._broadband(run):
                 f_lo, f_hi = self._band(run)
                 try:
-                    period = signal_value(run, "period") if "multisine" in {
-                        str(signal_value(run, k, default="")).lower() for k in ("excitation", "type")} else None
-                    frf = estimate_frf_h1(t, u, y, self.nperseg, f_hi, None, run.name, f_lo,
-                                          None if period is None else float(period))
+                    period = (
+                        signal_value(run, "period")
+                        if "multisine"
+                        in {
+                            str(signal_value(run, k, default="")).lower()
+                            for k in ("excitation", "type")
+                        }
+                        else None
+                    )
+                    frf = estimate_frf_h1(
+                        t,
+                        u,
+                        y,
+                        self.nperseg,
+                        f_hi,
+                        None,
+                        run.name,
+                        f_lo,
+                        None if period is None else float(period),
+                    )
                     amp = self._amplitude(run, frf.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, run.name, str(exc))
@@ -612,10 +673,16 @@ class ValveFrfIdentifier:
                 continue
             for t0, t1, f in self._segments(run, t):
                 sel = (t >= t0) & (t <= t1)
-                label = run.name if f is None or len(self._segments(run, t)) == 1 else f"{run.name}@{f:g}Hz"
+                label = (
+                    run.name
+                    if f is None or len(self._segments(run, t)) == 1
+                    else f"{run.name}@{f:g}Hz"
+                )
                 try:
                     freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
-                    h, fu, fy = stepped_sine_point(t[sel], u[sel], y[sel], freq, self.n_periods, self.trend)
+                    h, fu, fy = stepped_sine_point(
+                        t[sel], u[sel], y[sel], freq, self.n_periods, self.trend
+                    )
                     amp = self._amplitude(run, fu.amplitude)
                 except IdentificationError as exc:
                     skip(skipped, label, str(exc))
@@ -626,8 +693,14 @@ class ValveFrfIdentifier:
         frfs: dict[float, FrequencyResponse] = {}
         for amp, pts in points.items():
             pts.sort()
-            frfs[amp] = FrequencyResponse(np.array([p[0] for p in pts]), np.array([p[1] for p in pts]),
-                                          None, amp, tuple(p[2] for p in pts), np.array([p[3] for p in pts]))
+            frfs[amp] = FrequencyResponse(
+                np.array([p[0] for p in pts]),
+                np.array([p[1] for p in pts]),
+                None,
+                amp,
+                tuple(p[2] for p in pts),
+                np.array([p[3] for p in pts]),
+            )
         for amp, lst in broadband.items():
             if amp in frfs:  # stepped sine wins; keep the broadband one under its own key
                 amp = amp + 10.0 ** -(self.amplitude_decimals + 1)
@@ -635,7 +708,7 @@ class ValveFrfIdentifier:
         fits: dict[float, SecondOrderFit] = {}
         for amp in sorted(frfs):
             try:
-                lo, hi = (self.band if self.band is not None else (None, self.f_max))
+                lo, hi = self.band if self.band is not None else (None, self.f_max)
                 fits[amp] = fit_second_order(frfs[amp], self.min_coherence, self.level, hi, lo)
             except IdentificationError as exc:
                 skip(skipped, ",".join(frfs[amp].runs) or f"amplitude {amp:g}", str(exc))
@@ -646,8 +719,12 @@ class ValveFrfIdentifier:
         self.zeta_ = _pooled([f.zeta for f in fits.values()], self.level, "1")
         amps = sorted(fits)
         mid = min(amps, key=lambda a: abs(a - 0.25))
-        table = tuple((a, fits[a].omega0.value) for a in amps if 0 < a <= 1.5) if len(amps) > 1 else ()
-        self.valve_ = ServoValve(omega0=fits[mid].omega0.value, zeta=self.zeta_.value, omega0_table=table)
+        table = (
+            tuple((a, fits[a].omega0.value) for a in amps if 0 < a <= 1.5) if len(amps) > 1 else ()
+        )
+        self.valve_ = ServoValve(
+            omega0=fits[mid].omega0.value, zeta=self.zeta_.value, omega0_table=table
+        )
         return self
 
     def uncertainty(self) -> dict:
@@ -663,8 +740,13 @@ def _merge(lst: list[FrequencyResponse], amp: float) -> FrequencyResponse:
     f = np.concatenate([x.frequency for x in lst])
     order = np.argsort(f)
     coh = [x.coherence if x.coherence is not None else np.ones(x.frequency.size) for x in lst]
-    return FrequencyResponse(f[order], np.concatenate([x.response for x in lst])[order],
-                             np.concatenate(coh)[order], amp, tuple(n for x in lst for n in x.runs))
+    return FrequencyResponse(
+        f[order],
+        np.concatenate([x.response for x in lst])[order],
+        np.concatenate(coh)[order],
+        amp,
+        tuple(n for x in lst for n in x.runs),
+    )
 
 
 def _pooled(ests: list[ParameterEstimate], level: float, unit: str) -> ParameterEstimate:

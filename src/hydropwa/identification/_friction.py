@@ -39,9 +39,20 @@ from ._common import (
 )
 from ._deadzone import command_level
 
-__all__ = ["FrictionPoint", "steady_window", "friction_point", "friction_samples", "StribeckFit",
-           "BreakawayRun", "breakaway_peaks", "curve_maximum",
-           "fit_stribeck", "StribeckIdentifier", "STRIBECK_NAMES", "METHODS"]
+__all__ = [
+    "FrictionPoint",
+    "steady_window",
+    "friction_point",
+    "friction_samples",
+    "StribeckFit",
+    "BreakawayRun",
+    "breakaway_peaks",
+    "curve_maximum",
+    "fit_stribeck",
+    "StribeckIdentifier",
+    "STRIBECK_NAMES",
+    "METHODS",
+]
 
 #: Point estimators of :class:`StribeckIdentifier`.
 METHODS = ("average", "instantaneous", "breakaway")
@@ -52,8 +63,14 @@ _D2 = np.array([-1 / 560, 8 / 315, -1 / 5, 8 / 5, -205 / 72, 8 / 5, -1 / 5, 8 / 
 
 #: Friction field names in the order of the fit vector.
 STRIBECK_NAMES = ("coulomb", "static", "viscous", "stribeck_velocity", "shape", "smoothness")
-_UNITS = {"coulomb": "N", "static": "N", "viscous": "N·s/m", "stribeck_velocity": "m/s",
-          "shape": "1", "smoothness": "s/m"}
+_UNITS = {
+    "coulomb": "N",
+    "static": "N",
+    "viscous": "N·s/m",
+    "stribeck_velocity": "m/s",
+    "shape": "1",
+    "smoothness": "s/m",
+}
 
 
 def _default_bounds(vmin: float) -> tuple[np.ndarray, np.ndarray]:
@@ -68,7 +85,7 @@ def _moving_slope(t: np.ndarray, x: np.ndarray, half: int) -> np.ndarray:
     """Central secant slope over ±``half`` samples (NaN near the ends)."""
     out = np.full(x.shape, np.nan)
     if x.size > 2 * half:
-        out[half:-half] = (x[2 * half:] - x[:-2 * half]) / (t[2 * half:] - t[:-2 * half])
+        out[half:-half] = (x[2 * half :] - x[: -2 * half]) / (t[2 * half :] - t[: -2 * half])
     return out
 
 
@@ -92,7 +109,9 @@ def _longest_true(mask: np.ndarray) -> tuple[int, int]:
     return int(starts[k]), int(stops[k])
 
 
-def _adaptive_window(t: np.ndarray, x: np.ndarray, window: float, band: float, abs_band: float) -> float:
+def _adaptive_window(
+    t: np.ndarray, x: np.ndarray, window: float, band: float, abs_band: float
+) -> float:
     """Lengthen the window so that position noise moves the secant velocity by < 1/3 of the band.
 
     The noise σ_x is estimated from sample-to-sample differences; a secant over a
@@ -101,15 +120,26 @@ def _adaptive_window(t: np.ndarray, x: np.ndarray, window: float, band: float, a
     d = np.diff(x)
     sigma_x = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
     n = t.size
-    v_rough = abs(float(np.median(x[n // 2:]) - np.median(x[: n // 2]))) / max(0.5 * (t[-1] - t[0]), 1e-12)
+    v_rough = abs(float(np.median(x[n // 2 :]) - np.median(x[: n // 2]))) / max(
+        0.5 * (t[-1] - t[0]), 1e-12
+    )
     need = 3.0 * np.sqrt(2.0) * sigma_x / max(band * v_rough, abs_band)
     return float(min(max(window, need), max(window, (t[-1] - t[0]) / 4.0)))
 
 
-def steady_window(t, x, net_force=None, stroke: float | None = None, stop_margin: float = 2e-3,
-                  window: float = 0.1, band: float = 0.15, abs_band: float = 5e-4,
-                  force_band: float = 0.25, force_abs_band: float = 20.0,
-                  min_duration: float = 0.2) -> slice:
+def steady_window(
+    t,
+    x,
+    net_force=None,
+    stroke: float | None = None,
+    stop_margin: float = 2e-3,
+    window: float = 0.1,
+    band: float = 0.15,
+    abs_band: float = 5e-4,
+    force_band: float = 0.25,
+    force_abs_band: float = 20.0,
+    min_duration: float = 0.2,
+) -> slice:
     """The longest steady stretch of a constant-input run.
 
     Parameters
@@ -205,8 +235,9 @@ class FrictionPoint:
     force_fluctuation: float = float("nan")
 
 
-def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: float | None = None,
-                   **window_kw) -> FrictionPoint:
+def friction_point(
+    t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: float | None = None, **window_kw
+) -> FrictionPoint:
     """Steady-state friction force and velocity of one run, Eq. (10).
 
     Parameters
@@ -235,16 +266,22 @@ def friction_point(t, x, p_a, p_b, f_l, area_a: float, area_b: float, stroke: fl
     vstd = float(np.sqrt(float(r @ r) / max(ts.size - 2, 1) / float(tc @ tc)))
     n_blocks = max(1, int((ts[-1] - ts[0]) / window_kw.get("window", 0.1)))
     return FrictionPoint(
-        velocity=slope, velocity_std=vstd,
-        force=float(np.mean(net[sl])), force_std=float(np.std(net[sl]) / np.sqrt(n_blocks)),
-        p_a=float(np.mean(np.asarray(p_a)[sl])), p_b=float(np.mean(np.asarray(p_b)[sl])),
-        f_l=float(np.mean(np.asarray(f_l)[sl])), window=(float(ts[0]), float(ts[-1])),
+        velocity=slope,
+        velocity_std=vstd,
+        force=float(np.mean(net[sl])),
+        force_std=float(np.std(net[sl]) / np.sqrt(n_blocks)),
+        p_a=float(np.mean(np.asarray(p_a)[sl])),
+        p_b=float(np.mean(np.asarray(p_b)[sl])),
+        f_l=float(np.mean(np.asarray(f_l)[sl])),
+        window=(float(ts[0]), float(ts[-1])),
         rms_position_residual=float(np.sqrt(np.mean(r**2))),
         force_fluctuation=float(np.std(net[sl])),
     )
 
 
-def _consistent_kernels(dt: float, cutoff: float, taps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _consistent_kernels(
+    dt: float, cutoff: float, taps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Zero-phase low-pass h and its exact-in-band derivatives h', h'' (convolution kernels).
 
     h is a Kaiser-windowed FIR (β = 6, unit DC gain); h' = h ∗ D1, h'' = h ∗ D2 with 8th-order
@@ -261,10 +298,25 @@ def _consistent_kernels(dt: float, cutoff: float, taps: int) -> tuple[np.ndarray
     return np.pad(h, 4), np.convolve(h, _D1[::-1]) / dt, np.convolve(h, _D2[::-1]) / dt**2
 
 
-def friction_samples(t, x, p_a, p_b, f_l, area_a: float, area_b: float, mass: float,
-                     u=None, stroke: float | None = None, stop_margin: float = 2e-3, settle: float = 0.15,
-                     cutoff: float = 300.0, taps: int = 41, min_speed: float = 3e-3, guard: float = 0.0,
-                     decimate: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def friction_samples(
+    t,
+    x,
+    p_a,
+    p_b,
+    f_l,
+    area_a: float,
+    area_b: float,
+    mass: float,
+    u=None,
+    stroke: float | None = None,
+    stop_margin: float = 2e-3,
+    settle: float = 0.15,
+    cutoff: float = 300.0,
+    taps: int = 41,
+    min_speed: float = 3e-3,
+    guard: float = 0.0,
+    decimate: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-sample friction force of Eq. (10) with inertia, f = P_A A_A − P_B A_B − F_L − m·ẍ.
 
     Parameters
@@ -312,8 +364,10 @@ def friction_samples(t, x, p_a, p_b, f_l, area_a: float, area_b: float, mass: fl
     if ok.any():
         ok &= np.sign(v) == np.sign(np.median(v[ok]))
     if not ok.any():
-        raise IdentificationError(f"no moving samples: |ẋ| stays below {1e3 * vmin:.3g} mm/s away from the stops")
-    return v[ok][::max(int(decimate), 1)], f[ok][::max(int(decimate), 1)]
+        raise IdentificationError(
+            f"no moving samples: |ẋ| stays below {1e3 * vmin:.3g} mm/s away from the stops"
+        )
+    return v[ok][:: max(int(decimate), 1)], f[ok][:: max(int(decimate), 1)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -341,9 +395,23 @@ class BreakawayRun:
         return float(np.median(self.peaks))
 
 
-def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, stroke: float | None = None,
-                    stop_margin: float = 2e-3, settle: float = 0.15, cutoff: float = 300.0, taps: int = 41,
-                    min_slip: float = 5e-3, min_gap: float = 2e-3) -> BreakawayRun:
+def breakaway_peaks(
+    t,
+    x,
+    p_a,
+    p_b,
+    f_l,
+    area_a: float,
+    area_b: float,
+    u=None,
+    stroke: float | None = None,
+    stop_margin: float = 2e-3,
+    settle: float = 0.15,
+    cutoff: float = 300.0,
+    taps: int = 41,
+    min_slip: float = 5e-3,
+    min_gap: float = 2e-3,
+) -> BreakawayRun:
     """Per-cycle peaks of the net force in a stick-slip run (the break-away force).
 
     A cycle runs from one slip (local maximum of the filtered |ẋ| above ``min_slip``) to
@@ -396,12 +464,14 @@ def breakaway_peaks(t, x, p_a, p_b, f_l, area_a: float, area_b: float, u=None, s
     y = s * nf
     from scipy.signal import find_peaks
 
-    pk, _ = find_peaks(np.where(ok, sv, -1.0), height=vslip, distance=max(1, int(round(min_gap / dt))))
+    pk, _ = find_peaks(
+        np.where(ok, sv, -1.0), height=vslip, distance=max(1, int(round(min_gap / dt)))
+    )
     peaks = []
     for a, b in zip(pk[:-1], pk[1:], strict=True):
-        if not ok[a:b + 1].all() or float(np.min(sv[a:b])) > 0.3 * min(sv[a], sv[b]):
+        if not ok[a : b + 1].all() or float(np.min(sv[a:b])) > 0.3 * min(sv[a], sv[b]):
             continue
-        k = a + int(np.argmax(y[a:b + 1]))
+        k = a + int(np.argmax(y[a : b + 1]))
         if k <= a or k >= b:
             continue
         y0, y1, y2 = y[k - 1], y[k], y[k + 1]
@@ -432,13 +502,19 @@ def _curve_max(th: np.ndarray, v_max: float = 1.0) -> tuple[float, float]:
     loc = np.flatnonzero((fg[1:-1] >= fg[:-2]) & (fg[1:-1] >= fg[2:])) + 1
     k = int(loc[0]) if loc.size else int(np.argmax(fg))
     lo, hi = np.log(vg[max(k - 1, 0)]), np.log(vg[min(k + 1, vg.size - 1)])
-    res = minimize_scalar(lambda z: -float(_eval(np.array([np.exp(z)]), th)[0]), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-6})
+    res = minimize_scalar(
+        lambda z: -float(_eval(np.array([np.exp(z)]), th)[0]),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-6},
+    )
     z = float(res.x) if -res.fun >= fg[k] else float(np.log(vg[k]))
     return float(_eval(np.array([np.exp(z)]), th)[0]), float(np.exp(z))
 
 
-def _velocity_bins(v: np.ndarray, f: np.ndarray, rel: float, width: float, min_count: int) -> np.ndarray:
+def _velocity_bins(
+    v: np.ndarray, f: np.ndarray, rel: float, width: float, min_count: int
+) -> np.ndarray:
     """(median v, median f) per velocity bin of width max(rel·|v|, width), per direction; shape (K, 3) with count."""
     out = []
     for s in (1.0, -1.0):
@@ -503,8 +579,16 @@ class StribeckFit:
 
 
 def _theta_of(fr: Friction) -> np.ndarray:
-    return np.array([fr.coulomb, fr.static - fr.coulomb, fr.viscous, np.log10(fr.stribeck_velocity),
-                     fr.shape, np.log10(fr.smoothness)])
+    return np.array(
+        [
+            fr.coulomb,
+            fr.static - fr.coulomb,
+            fr.viscous,
+            np.log10(fr.stribeck_velocity),
+            fr.shape,
+            np.log10(fr.smoothness),
+        ]
+    )
 
 
 def _eval(v: np.ndarray, th: np.ndarray) -> np.ndarray:
@@ -523,30 +607,42 @@ def _jac_theta(v: np.ndarray, th: np.ndarray) -> np.ndarray:
     a = ratio**delta
     e = np.exp(-a)
     ln10 = np.log(10.0)
-    return np.column_stack([
-        sgn,
-        sgn * e,
-        v,
-        sgn * dfs * e * delta * a * ln10,
-        -sgn * dfs * e * a * logr,
-        (fc + dfs * e) * v * (1.0 - sgn**2) * gam * ln10,
-    ])
+    return np.column_stack(
+        [
+            sgn,
+            sgn * e,
+            v,
+            sgn * dfs * e * delta * a * ln10,
+            -sgn * dfs * e * a * logr,
+            (fc + dfs * e) * v * (1.0 - sgn**2) * gam * ln10,
+        ]
+    )
 
 
-def _linear_part(v: np.ndarray, f: np.ndarray, lchi: float, delta: float, lgam: float) -> np.ndarray:
+def _linear_part(
+    v: np.ndarray, f: np.ndarray, lchi: float, delta: float, lgam: float
+) -> np.ndarray:
     """(F_c, F_s − F_c, σ) ≥ 0 by linear least squares for fixed χ, δ, γ."""
     s = np.tanh(10.0**lgam * v)
-    e = np.exp(-np.abs(v / 10.0**lchi) ** delta)
+    e = np.exp(-(np.abs(v / 10.0**lchi) ** delta))
     X = np.column_stack([s * (1.0 - e), s * e, v])
     coef, *_ = np.linalg.lstsq(X, f, rcond=None)
     fc, fs, sigma = np.clip(coef, 0.0, None)
     return np.array([fc, max(fs - fc, 0.0), sigma])
 
 
-def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_l1",
-                 f_scale: float | None = None, n_starts: int = 24, level: float = 0.95,
-                 seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
-                 breakaway: tuple[float, float] | None = None) -> StribeckFit:
+def fit_stribeck(
+    v,
+    f,
+    fixed: dict[str, float] | None = None,
+    loss: str = "soft_l1",
+    f_scale: float | None = None,
+    n_starts: int = 24,
+    level: float = 0.95,
+    seed: int = 0,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    breakaway: tuple[float, float] | None = None,
+) -> StribeckFit:
     """Fit the Stribeck curve, Eq. (11), to velocity–force points (Fig. 8).
 
     Unless γ is fixed or bounded by the caller, the fit is done twice: with γ ≥ 3/v_min
@@ -558,24 +654,43 @@ def fit_stribeck(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_
     all points at several mm/s the wide family only trades γ against F_s and is rejected.
     See :func:`_fit_stribeck_bounded` for the parameters.
     """
-    kw = dict(fixed=fixed, loss=loss, f_scale=f_scale, n_starts=n_starts, level=level, seed=seed,
-              breakaway=breakaway)
+    kw = dict(
+        fixed=fixed,
+        loss=loss,
+        f_scale=f_scale,
+        n_starts=n_starts,
+        level=level,
+        seed=seed,
+        breakaway=breakaway,
+    )
     if "smoothness" in (fixed or {}) or "smoothness" in (bounds or {}):
         return _fit_stribeck_bounded(v, f, bounds=bounds, **kw)
     va = np.abs(np.asarray(v, dtype=float))
     vmin = max(float(np.min(va[va != 0])) if np.any(va != 0) else 1e-6, 1e-6)
-    strict = _fit_stribeck_bounded(v, f, bounds={**(bounds or {}), "smoothness": (3.0 / vmin, 1e7)}, **kw)
-    wide = _fit_stribeck_bounded(v, f, bounds={**(bounds or {}), "smoothness": (0.3 / vmin, 1e7)}, **kw)
+    strict = _fit_stribeck_bounded(
+        v, f, bounds={**(bounds or {}), "smoothness": (3.0 / vmin, 1e7)}, **kw
+    )
+    wide = _fit_stribeck_bounded(
+        v, f, bounds={**(bounds or {}), "smoothness": (0.3 / vmin, 1e7)}, **kw
+    )
     ssr_s = float(np.sum(strict.residuals**2))
     ssr_w = float(np.sum(wide.residuals**2))
     dof = max(strict.velocity.size - len(wide.free), 1)
     return wide if ssr_s - ssr_w > 3.84 * ssr_w / dof else strict
 
 
-def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str = "soft_l1",
-                          f_scale: float | None = None, n_starts: int = 24, level: float = 0.95,
-                          seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
-                          breakaway: tuple[float, float] | None = None) -> StribeckFit:
+def _fit_stribeck_bounded(
+    v,
+    f,
+    fixed: dict[str, float] | None = None,
+    loss: str = "soft_l1",
+    f_scale: float | None = None,
+    n_starts: int = 24,
+    level: float = 0.95,
+    seed: int = 0,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    breakaway: tuple[float, float] | None = None,
+) -> StribeckFit:
     """Fit the Stribeck curve, Eq. (11), within given bounds (the work of :func:`fit_stribeck`).
 
     Parameters
@@ -631,7 +746,9 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
     fixed = dict(fixed or {})
     unknown = set(fixed) - set(STRIBECK_NAMES)
     if unknown:
-        raise IdentificationError(f"cannot fix {sorted(unknown)}; Friction fields are {', '.join(STRIBECK_NAMES)}")
+        raise IdentificationError(
+            f"cannot fix {sorted(unknown)}; Friction fields are {', '.join(STRIBECK_NAMES)}"
+        )
     fixed_th = {}
     for k, val in fixed.items():
         i = STRIBECK_NAMES.index(k)
@@ -640,7 +757,9 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
         fixed_th[1] = float(fixed["static"]) - float(fixed.get("coulomb", 0.0))
     free_idx = [i for i in range(6) if i not in fixed_th]
     if v.size < len(free_idx) + 2:
-        raise IdentificationError(f"Stribeck fit needs at least {len(free_idx) + 2} points, have {v.size}")
+        raise IdentificationError(
+            f"Stribeck fit needs at least {len(free_idx) + 2} points, have {v.size}"
+        )
     if not (np.any(v > 0) and np.any(v < 0)):
         raise IdentificationError("Stribeck fit needs points in both directions of motion")
 
@@ -663,7 +782,9 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
     lb_all, ub_all = _default_bounds(vmin)
     for k, (lo, hi) in (bounds or {}).items():
         if k not in STRIBECK_NAMES:
-            raise IdentificationError(f"no bound for {k!r}; Friction fields are {', '.join(STRIBECK_NAMES)}")
+            raise IdentificationError(
+                f"no bound for {k!r}; Friction fields are {', '.join(STRIBECK_NAMES)}"
+            )
         i = STRIBECK_NAMES.index(k)
         tr = np.log10 if i in (3, 5) else float
         lb_all[i], ub_all[i] = tr(lo), tr(hi)
@@ -673,14 +794,20 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
             raise IdentificationError(f"empty bounds for {STRIBECK_NAMES[i]}")
     rng = np.random.default_rng(seed)
     lo_s, hi_s = lb_all[3:], ub_all[3:]
-    grid = [(lc, d, lg) for lc in np.linspace(max(np.log10(vmin / 3), lo_s[0]), np.log10(max(np.max(np.abs(v)), vmin)), 4)
-            for d in (0.7, 1.5) for lg in (lo_s[2] + 0.3, lo_s[2] + 2.0)]
+    grid = [
+        (lc, d, lg)
+        for lc in np.linspace(
+            max(np.log10(vmin / 3), lo_s[0]), np.log10(max(np.max(np.abs(v)), vmin)), 4
+        )
+        for d in (0.7, 1.5)
+        for lg in (lo_s[2] + 0.3, lo_s[2] + 2.0)
+    ]
     while len(grid) < n_starts:
         grid.append(tuple(rng.uniform(lo_s, hi_s)))
     grid = [tuple(np.clip(g, lo_s + 1e-6, hi_s - 1e-6)) for g in grid]
     xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[free_idx]
     results = []
-    for lc, d, lg in grid[:max(n_starts, 1)]:
+    for lc, d, lg in grid[: max(n_starts, 1)]:
         th0 = np.empty(6)
         th0[3:] = (lc, d, lg)
         for i, val in fixed_th.items():
@@ -691,9 +818,13 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
         p0 = np.clip(th0[free_idx], lb + 1e-9, ub - 1e-9)
         # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3)
         x_scale = np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p0), fscale * 0.05), xs)
-        results.append(least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf"))
+        results.append(
+            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf")
+        )
     best = min(results, key=lambda r: r.cost)
-    scale_n = f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
+    scale_n = (
+        f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
+    )
     if breakaway is not None:
         f_b, sd_b = float(breakaway[0]), max(float(breakaway[1]), 1e-9)
         w_b = scale_n / sd_b  # one point's weight at the robust residual scale
@@ -709,18 +840,28 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
             return np.vstack([jac_p(p), w_b * row])
 
         ranked = sorted(results, key=lambda r: r.cost)[:4]
-        results = [least_squares(resid, r.x, jac=jac, bounds=(lb, ub), method="trf") for r in ranked]
+        results = [
+            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), method="trf") for r in ranked
+        ]
         best = min(results, key=lambda r: r.cost)
     if loss != "linear":
         ranked = sorted(results, key=lambda r: r.cost)[:4]
-        robust = [least_squares(resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf")
-                  for r in ranked]
+        robust = [
+            least_squares(
+                resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf"
+            )
+            for r in ranked
+        ]
         best = min(robust, key=lambda r: r.cost)
     th = full(best.x)
     r = best.fun[: v.size] * fscale
     # run-level robust (sandwich) covariance: one point per run, and the points differ in
     # quality (slow runs creep, fast ones do not), which s²(JᵀJ)⁻¹ ignores (issue 18)
-    cov = sandwich_covariance(best.jac * fscale, best.fun * fscale) if best.jac.size else np.zeros((0, 0))
+    cov = (
+        sandwich_covariance(best.jac * fscale, best.fun * fscale)
+        if best.jac.size
+        else np.zeros((0, 0))
+    )
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     q = t_quantile(level, v.size - len(free_idx))
     est: dict[str, ParameterEstimate] = {}
@@ -728,7 +869,9 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
     names_free = []
     for k, i in enumerate(free_idx):
         names_free.append(STRIBECK_NAMES[i])
-        at_bound = th[i] <= lb_all[i] + 1e-6 * (1 + abs(lb_all[i])) or th[i] >= ub_all[i] - 1e-6 * (1 + abs(ub_all[i]))
+        at_bound = th[i] <= lb_all[i] + 1e-6 * (1 + abs(lb_all[i])) or th[i] >= ub_all[i] - 1e-6 * (
+            1 + abs(ub_all[i])
+        )
         if i in (3, 5):
             lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
             val = 10.0 ** th[i]
@@ -748,14 +891,32 @@ def _fit_stribeck_bounded(v, f, fixed: dict[str, float] | None = None, loss: str
             lo, hi = val - q * std, val + q * std
             is_weak = q * std > 0.5 * abs(val) or (at_bound and i != 0)
         name = STRIBECK_NAMES[i]
-        est[name] = ParameterEstimate(float(val), float(std), (float(lo), float(hi)), _UNITS[name], level)
+        est[name] = ParameterEstimate(
+            float(val), float(std), (float(lo), float(hi)), _UNITS[name], level
+        )
         if is_weak:
             weak.append(name)
-    friction = Friction(coulomb=float(th[0]), static=float(th[0] + th[1]), viscous=float(th[2]),
-                        stribeck_velocity=float(10.0 ** th[3]), shape=float(th[4]),
-                        smoothness=float(10.0 ** th[5]))
-    return StribeckFit(friction, est, correlation(cov), tuple(names_free), tuple(weak), v, f,
-                       f - _eval(v, th), float(np.sqrt(np.mean(r**2))), loss, len(results))
+    friction = Friction(
+        coulomb=float(th[0]),
+        static=float(th[0] + th[1]),
+        viscous=float(th[2]),
+        stribeck_velocity=float(10.0 ** th[3]),
+        shape=float(th[4]),
+        smoothness=float(10.0 ** th[5]),
+    )
+    return StribeckFit(
+        friction,
+        est,
+        correlation(cov),
+        tuple(names_free),
+        tuple(weak),
+        v,
+        f,
+        f - _eval(v, th),
+        float(np.sqrt(np.mean(r**2))),
+        loss,
+        len(results),
+    )
 
 
 class StribeckIdentifier:
@@ -833,15 +994,34 @@ class StribeckIdentifier:
     skipped_ : list[SkippedRun]
     """
 
-    def __init__(self, base_params: SystemParams | None = None, window: float = 0.1, band: float = 0.15,
-                 abs_band: float = 5e-4, force_band: float = 0.25, force_abs_band: float = 20.0,
-                 stop_margin: float = 2e-3, min_duration: float = 0.2,
-                 fixed: dict[str, float] | None = None, loss: str = "soft_l1", n_starts: int = 24,
-                 level: float = 0.95, oscillation_factor: float = 3.0, method: str = "average",
-                 cutoff: float = 300.0, taps: int = 41, min_speed: float = 3e-3, guard: float = 0.0,
-                 bin_rel: float = 0.1, bin_width: float = 1e-3, bin_min_count: int = 5,
-                 breakaway: bool = False, breakaway_speed_ratio: float = 2.0, breakaway_min_cycles: int = 10,
-                 min_slip: float = 5e-3) -> None:
+    def __init__(
+        self,
+        base_params: SystemParams | None = None,
+        window: float = 0.1,
+        band: float = 0.15,
+        abs_band: float = 5e-4,
+        force_band: float = 0.25,
+        force_abs_band: float = 20.0,
+        stop_margin: float = 2e-3,
+        min_duration: float = 0.2,
+        fixed: dict[str, float] | None = None,
+        loss: str = "soft_l1",
+        n_starts: int = 24,
+        level: float = 0.95,
+        oscillation_factor: float = 3.0,
+        method: str = "average",
+        cutoff: float = 300.0,
+        taps: int = 41,
+        min_speed: float = 3e-3,
+        guard: float = 0.0,
+        bin_rel: float = 0.1,
+        bin_width: float = 1e-3,
+        bin_min_count: int = 5,
+        breakaway: bool = False,
+        breakaway_speed_ratio: float = 2.0,
+        breakaway_min_cycles: int = 10,
+        min_slip: float = 5e-3,
+    ) -> None:
         self.base_params = base_params
         self.window = window
         self.band = band
@@ -888,7 +1068,9 @@ class StribeckIdentifier:
         base = self.base_params or get_preset("paper")
         cyl = base.cylinder
         if self.method not in METHODS:
-            raise IdentificationError(f"unknown method {self.method!r}; choose from {', '.join(METHODS)}")
+            raise IdentificationError(
+                f"unknown method {self.method!r}; choose from {', '.join(METHODS)}"
+            )
         runs = as_runs(data, "friction")
         skipped: list[SkippedRun] = []
         self.breakaway_ = None
@@ -896,30 +1078,59 @@ class StribeckIdentifier:
         if self.method in ("instantaneous", "breakaway"):
             return self._fit_instantaneous(runs, base, skipped)
         rows = []
-        kw = dict(stop_margin=self.stop_margin, window=self.window, band=self.band, abs_band=self.abs_band,
-                  force_band=self.force_band, force_abs_band=self.force_abs_band,
-                  min_duration=self.min_duration)
+        kw = dict(
+            stop_margin=self.stop_margin,
+            window=self.window,
+            band=self.band,
+            abs_band=self.abs_band,
+            force_band=self.force_band,
+            force_abs_band=self.force_abs_band,
+            min_duration=self.min_duration,
+        )
         for run in runs:
             ch = channels_of(run, ("t", "x", "p_a", "p_b", "f_l"), skipped)
             if ch is None:
                 continue
             try:
-                pt = friction_point(ch["t"], ch["x"], ch["p_a"], ch["p_b"], ch["f_l"], cyl.area_a, cyl.area_b,
-                                    cyl.stroke, **kw)
+                pt = friction_point(
+                    ch["t"],
+                    ch["x"],
+                    ch["p_a"],
+                    ch["p_b"],
+                    ch["f_l"],
+                    cyl.area_a,
+                    cyl.area_b,
+                    cyl.stroke,
+                    **kw,
+                )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))
                 continue
             lv = command_level(run)
-            rows.append({"run": run.name, "u": float("nan") if lv is None else lv, "v": pt.velocity,
-                         "v_std": pt.velocity_std, "f": pt.force, "f_std": pt.force_std, "p_a": pt.p_a,
-                         "p_b": pt.p_b, "f_l": pt.f_l, "t0": pt.window[0], "t1": pt.window[1],
-                         "rms_position_residual": pt.rms_position_residual,
-                         "force_fluctuation": pt.force_fluctuation})
+            rows.append(
+                {
+                    "run": run.name,
+                    "u": float("nan") if lv is None else lv,
+                    "v": pt.velocity,
+                    "v_std": pt.velocity_std,
+                    "f": pt.force,
+                    "f_std": pt.force_std,
+                    "p_a": pt.p_a,
+                    "p_b": pt.p_b,
+                    "f_l": pt.f_l,
+                    "t0": pt.window[0],
+                    "t1": pt.window[1],
+                    "rms_position_residual": pt.rms_position_residual,
+                    "force_fluctuation": pt.force_fluctuation,
+                }
+            )
         n_free = 6 - len(self.fixed or {})
         require_usable(rows, skipped, "Stribeck identification", minimum=n_free + 2)
         pts = pd.DataFrame(rows).sort_values("v", ignore_index=True)
         # runs whose force fluctuates far above the quietest runs (sensor noise) oscillate
-        floor = float(np.median(np.sort(pts["force_fluctuation"].to_numpy())[: max(3, len(pts) // 4)]))
+        floor = float(
+            np.median(np.sort(pts["force_fluctuation"].to_numpy())[: max(3, len(pts) // 4)])
+        )
         pts["oscillating"] = pts["force_fluctuation"] > self.oscillation_factor * floor
         self.points_ = pts
         self.notes_ = []
@@ -935,7 +1146,9 @@ class StribeckIdentifier:
         self.skipped_ = skipped
         return self
 
-    def _fit_instantaneous(self, runs, base: SystemParams, skipped: list[SkippedRun]) -> StribeckIdentifier:
+    def _fit_instantaneous(
+        self, runs, base: SystemParams, skipped: list[SkippedRun]
+    ) -> StribeckIdentifier:
         import pandas as pd
 
         cyl = base.cylinder
@@ -946,10 +1159,23 @@ class StribeckIdentifier:
                 continue
             u = run["u"] if "u" in run.channels else None
             try:
-                v, f = friction_samples(ch["t"], ch["x"], ch["p_a"], ch["p_b"], ch["f_l"], cyl.area_a, cyl.area_b,
-                                        base.load.mass, u=u, stroke=cyl.stroke, stop_margin=self.stop_margin,
-                                        cutoff=self.cutoff, taps=self.taps, min_speed=self.min_speed,
-                                        guard=self.guard)
+                v, f = friction_samples(
+                    ch["t"],
+                    ch["x"],
+                    ch["p_a"],
+                    ch["p_b"],
+                    ch["f_l"],
+                    cyl.area_a,
+                    cyl.area_b,
+                    base.load.mass,
+                    u=u,
+                    stroke=cyl.stroke,
+                    stop_margin=self.stop_margin,
+                    cutoff=self.cutoff,
+                    taps=self.taps,
+                    min_speed=self.min_speed,
+                    guard=self.guard,
+                )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))
                 continue
@@ -960,8 +1186,16 @@ class StribeckIdentifier:
             lv = command_level(run)
             spread = float(np.percentile(np.abs(v), 95) - np.percentile(np.abs(v), 5))
             for bv, bf, n in bins:
-                rows.append({"run": run.name, "u": float("nan") if lv is None else lv, "v": bv, "f": bf,
-                             "n_samples": int(n), "v_spread": spread})
+                rows.append(
+                    {
+                        "run": run.name,
+                        "u": float("nan") if lv is None else lv,
+                        "v": bv,
+                        "f": bf,
+                        "n_samples": int(n),
+                        "v_spread": spread,
+                    }
+                )
         n_free = 6 - len(self.fixed or {})
         require_usable(rows, skipped, "Stribeck identification", minimum=n_free + 2)
         pts = pd.DataFrame(rows).sort_values("v", ignore_index=True)
@@ -991,13 +1225,24 @@ class StribeckIdentifier:
                 fixed["smoothness"] = base.friction.smoothness
                 self.notes_.append(
                     f"γ held at {base.friction.smoothness:.4g} s/m (base parameters): constant-input data do not "
-                    "identify it, and it sets how far the curve's maximum (the break-away force) lies below F_s")
-        self.fit_ = fit_stribeck(pts["v"].to_numpy(), pts["f"].to_numpy(), fixed, self.loss,
-                                 None, self.n_starts, self.level, breakaway=constraint)
+                    "identify it, and it sets how far the curve's maximum (the break-away force) lies below F_s"
+                )
+        self.fit_ = fit_stribeck(
+            pts["v"].to_numpy(),
+            pts["f"].to_numpy(),
+            fixed,
+            self.loss,
+            None,
+            self.n_starts,
+            self.level,
+            breakaway=constraint,
+        )
         if constraint is not None:
             fm, vm = curve_maximum(self.fit_.friction, float(np.max(np.abs(pts["v"]))))
-            self.notes_.append(f"fitted curve maximum {fm:.4g} N at {1e3 * vm:.3g} mm/s (F_s = "
-                               f"{self.fit_.friction.static:.4g} N)")
+            self.notes_.append(
+                f"fitted curve maximum {fm:.4g} N at {1e3 * vm:.3g} mm/s (F_s = "
+                f"{self.fit_.friction.static:.4g} N)"
+            )
 
     def _breakaway(self, runs, base: SystemParams) -> tuple[float, float] | None:
         """F_b and its standard error from the slowest stick-slip runs (sets ``breakaway_``)."""
@@ -1009,21 +1254,42 @@ class StribeckIdentifier:
             if not all(c in run.channels for c in ("t", "x", "p_a", "p_b", "f_l")):
                 continue
             try:
-                br = breakaway_peaks(run["t"], run["x"], run["p_a"], run["p_b"], run["f_l"], cyl.area_a,
-                                     cyl.area_b, u=run["u"] if "u" in run.channels else None, stroke=cyl.stroke,
-                                     stop_margin=self.stop_margin, cutoff=self.cutoff, taps=self.taps,
-                                     min_slip=self.min_slip)
+                br = breakaway_peaks(
+                    run["t"],
+                    run["x"],
+                    run["p_a"],
+                    run["p_b"],
+                    run["f_l"],
+                    cyl.area_a,
+                    cyl.area_b,
+                    u=run["u"] if "u" in run.channels else None,
+                    stroke=cyl.stroke,
+                    stop_margin=self.stop_margin,
+                    cutoff=self.cutoff,
+                    taps=self.taps,
+                    min_slip=self.min_slip,
+                )
             except IdentificationError:
                 continue
             if br.peaks.size < self.breakaway_min_cycles:
                 continue
             pk = br.peaks
             sem = 1.2533 * 1.4826 * float(np.median(np.abs(pk - np.median(pk)))) / np.sqrt(pk.size)
-            rows.append({"run": run.name, "direction": br.direction, "mean_speed": br.mean_speed,
-                         "n_cycles": int(pk.size), "peak": br.force, "peak_std": sem})
+            rows.append(
+                {
+                    "run": run.name,
+                    "direction": br.direction,
+                    "mean_speed": br.mean_speed,
+                    "n_cycles": int(pk.size),
+                    "peak": br.force,
+                    "peak_std": sem,
+                }
+            )
             peaks[run.name] = pk
         if not rows:
-            self.notes_.append("breakaway: no stick-slip run with enough cycles; F_s rests on the points alone")
+            self.notes_.append(
+                "breakaway: no stick-slip run with enough cycles; F_s rests on the points alone"
+            )
             return None
         tab = pd.DataFrame(rows)
         tab["used"] = False
@@ -1051,10 +1317,14 @@ class StribeckIdentifier:
         q = t_quantile(self.level, max(int(tab["used"].sum()) - 1, 1))
         self.breakaway_ = ParameterEstimate(f_b, sd, (f_b - q * sd, f_b + q * sd), "N", self.level)
         self.breakaway_runs_ = tab
-        txt = ", ".join(f"{'+' if d > 0 else '−'}: {val:.4g} ± {s_:.2g} N ({n} run(s))" for d, val, s_, n in per_dir)
+        txt = ", ".join(
+            f"{'+' if d > 0 else '−'}: {val:.4g} ± {s_:.2g} N ({n} run(s))"
+            for d, val, s_, n in per_dir
+        )
         self.notes_.append(
             f"break-away force F_b = {f_b:.4g} N, {100 * self.level:g} % CI [{f_b - q * sd:.4g}, {f_b + q * sd:.4g}] "
-            f"(median stick-slip net-force peak of the slowest stick-slip runs; {txt}); fitted as the curve's maximum")
+            f"(median stick-slip net-force peak of the slowest stick-slip runs; {txt}); fitted as the curve's maximum"
+        )
         return f_b, sd
 
     def uncertainty(self) -> dict:
@@ -1075,7 +1345,7 @@ def _usable_samples(t, x, u, edge, settle, stroke, stop_margin) -> np.ndarray:
     ok[-edge:] = False
     if u is not None:
         u = np.asarray(u, dtype=float)
-        uf = float(np.median(u[u.size // 2:]))
+        uf = float(np.median(u[u.size // 2 :]))
         changed = np.flatnonzero(np.abs(u - uf) > 1e-6 * max(abs(uf), 1e-9))
         t_on = t[min(changed[-1] + 1, t.size - 1)] if changed.size else t[0]
         ok &= t >= t_on + settle

@@ -88,15 +88,33 @@ _ZERO_BASE: dict[str, tuple[float, float, float]] = {
 
 #: Experiments that would separate parameters the data cannot (identifiability advice).
 _ADVICE: dict[frozenset, str] = {
-    frozenset({"oil.bulk_modulus", "cylinder.dead_volume_a"}): "a locked-rod pressure step (V/E enters alone)",
-    frozenset({"oil.bulk_modulus", "cylinder.dead_volume_b"}): "a locked-rod pressure step (V/E enters alone)",
-    frozenset({"flow.K", "cylinder.leakage"}): "runs with the valve closed under load (leakage alone moves the rod)",
-    frozenset({"friction.coulomb", "friction.static"}): "slow constant-speed runs below the Stribeck velocity",
-    frozenset({"friction.static", "friction.stribeck_velocity"}): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
-    frozenset({"friction.static", "friction.shape"}): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
-    frozenset({"friction.stribeck_velocity", "friction.shape"}): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
-    frozenset({"friction.viscous", "flow.K"}): "constant-input runs at several openings (force against speed)",
-    frozenset({"load.mass", "friction.viscous"}): "fast sine or step runs (inertia shows at high frequency)",
+    frozenset(
+        {"oil.bulk_modulus", "cylinder.dead_volume_a"}
+    ): "a locked-rod pressure step (V/E enters alone)",
+    frozenset(
+        {"oil.bulk_modulus", "cylinder.dead_volume_b"}
+    ): "a locked-rod pressure step (V/E enters alone)",
+    frozenset(
+        {"flow.K", "cylinder.leakage"}
+    ): "runs with the valve closed under load (leakage alone moves the rod)",
+    frozenset(
+        {"friction.coulomb", "friction.static"}
+    ): "slow constant-speed runs below the Stribeck velocity",
+    frozenset(
+        {"friction.static", "friction.stribeck_velocity"}
+    ): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
+    frozenset(
+        {"friction.static", "friction.shape"}
+    ): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
+    frozenset(
+        {"friction.stribeck_velocity", "friction.shape"}
+    ): "constant-input runs at 1–20 mm/s (the Stribeck dip)",
+    frozenset(
+        {"friction.viscous", "flow.K"}
+    ): "constant-input runs at several openings (force against speed)",
+    frozenset(
+        {"load.mass", "friction.viscous"}
+    ): "fast sine or step runs (inertia shows at high frequency)",
 }
 
 _CONVERGENCE = {
@@ -154,11 +172,15 @@ def expand_free(free: Iterable[str] | str, params: SystemParams) -> tuple[str, .
                 )
             val = getattr(obj, fld)
             if isinstance(val, bool) or not isinstance(val, int | float):
-                raise IdentificationError(f"free parameter {n!r} is not a number ({val!r}) and cannot be fitted")
+                raise IdentificationError(
+                    f"free parameter {n!r} is not a number ({val!r}) and cannot be fitted"
+                )
             if n not in out:
                 out.append(n)
     if not out:
-        raise IdentificationError("no free parameters given; name at least one, e.g. friction.static")
+        raise IdentificationError(
+            "no free parameters given; name at least one, e.g. friction.static"
+        )
     return tuple(out)
 
 
@@ -207,15 +229,25 @@ class Shooting:
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "single", "multiple"):
-            raise IdentificationError(f"Shooting.method = {self.method!r}; choose auto, single or multiple")
+            raise IdentificationError(
+                f"Shooting.method = {self.method!r}; choose auto, single or multiple"
+            )
         if not (math.isfinite(self.window) and 1e-3 <= self.window <= 10.0):
-            raise IdentificationError(f"Shooting.window = {self.window!r} s must lie in [1 ms, 10 s]")
+            raise IdentificationError(
+                f"Shooting.window = {self.window!r} s must lie in [1 ms, 10 s]"
+            )
         if self.segment is not None and not (self.segment >= self.window):
-            raise IdentificationError(f"Shooting.segment = {self.segment!r} s must be >= the window or None")
+            raise IdentificationError(
+                f"Shooting.segment = {self.segment!r} s must be >= the window or None"
+            )
         if self.max_windows is not None and self.max_windows < 1:
-            raise IdentificationError(f"Shooting.max_windows = {self.max_windows!r} must be >= 1 or None")
+            raise IdentificationError(
+                f"Shooting.max_windows = {self.max_windows!r} must be >= 1 or None"
+            )
         if not (self.velocity_window > 0):
-            raise IdentificationError(f"Shooting.velocity_window = {self.velocity_window!r} s must be > 0")
+            raise IdentificationError(
+                f"Shooting.velocity_window = {self.velocity_window!r} s must be > 0"
+            )
 
 
 # ----------------------------------------------------------------------------- results
@@ -377,22 +409,41 @@ class GreyBoxFit:
 
         rows = []
         for i, (n, e) in enumerate(self.estimates_.items()):
-            rows.append({"parameter": n, "value": e.value, "std": e.std, "ci_low": e.ci[0], "ci_high": e.ci[1],
-                         "unit": e.unit, "inflation": float(self.inflation_[i]),
-                         "weak": n in self.identifiability_.weak})
+            rows.append(
+                {
+                    "parameter": n,
+                    "value": e.value,
+                    "std": e.std,
+                    "ci_low": e.ci[0],
+                    "ci_high": e.ci[1],
+                    "unit": e.unit,
+                    "inflation": float(self.inflation_[i]),
+                    "weak": n in self.identifiability_.weak,
+                }
+            )
         return pd.DataFrame(rows).set_index("parameter")
 
     def summary_markdown(self) -> str:
         """A Markdown summary: values and intervals, runs, identifiability."""
-        lines = [f"# Grey-box fit ({self.model} model)", "",
-                 f"{self.message} — cost {self.initial_cost:.4g} → {self.cost:.4g}, {self.nfev} evaluations, "
-                 f"{self.wall_time:.1f} s", "",
-                 f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |",
-                 "| --- | --- | --- | --- | --- | --- |"]
+        lines = [
+            f"# Grey-box fit ({self.model} model)",
+            "",
+            f"{self.message} — cost {self.initial_cost:.4g} → {self.cost:.4g}, {self.nfev} evaluations, "
+            f"{self.wall_time:.1f} s",
+            "",
+            f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |",
+            "| --- | --- | --- | --- | --- | --- |",
+        ]
         for i, (n, e) in enumerate(self.estimates_.items()):
-            lines.append(f"| {n} | {e.value:.5g} {e.unit} | {e.std:.3g} | [{e.ci[0]:.4g}, {e.ci[1]:.4g}] | "
-                         f"{self.inflation_[i]:.1f} | {'yes' if n in self.identifiability_.weak else ''} |")
-        lines += ["", "| run | method | segments | excluded | RMS error |", "| --- | --- | --- | --- | --- |"]
+            lines.append(
+                f"| {n} | {e.value:.5g} {e.unit} | {e.std:.3g} | [{e.ci[0]:.4g}, {e.ci[1]:.4g}] | "
+                f"{self.inflation_[i]:.1f} | {'yes' if n in self.identifiability_.weak else ''} |"
+            )
+        lines += [
+            "",
+            "| run | method | segments | excluded | RMS error |",
+            "| --- | --- | --- | --- | --- |",
+        ]
         for r in self.runs_:
             rms = ", ".join(f"{c} {_fmt_si(c, v)}" for c, v in r.rms.items())
             exc = "; ".join(f"{a:.3g}–{b:.3g} s {why}" for a, b, why in r.excluded[:3]) or "—"
@@ -400,7 +451,11 @@ class GreyBoxFit:
         idf = self.identifiability_
         lines += ["", f"Condition number of JᵀJ: {idf.condition:.3g}."]
         if idf.correlated:
-            lines.append("Strongly correlated: " + "; ".join(f"{a}/{b} ({c:+.2f})" for a, b, c in idf.correlated) + ".")
+            lines.append(
+                "Strongly correlated: "
+                + "; ".join(f"{a}/{b} ({c:+.2f})" for a, b, c in idf.correlated)
+                + "."
+            )
         if idf.advice:
             lines += ["", "To separate them: " + "; ".join(idf.advice) + "."]
         for p in self.profiles_.values():
@@ -411,7 +466,11 @@ class GreyBoxFit:
 
     def save(self, path: str | os.PathLike) -> os.PathLike:
         """Write :attr:`params_` as a parameter TOML (atomically)."""
-        return save_params(self.params_, path, header=f"grey-box fit ({self.model} model) of {', '.join(self.free)}")
+        return save_params(
+            self.params_,
+            path,
+            header=f"grey-box fit ({self.model} model) of {', '.join(self.free)}",
+        )
 
 
 def _fmt_si(channel: str, value: float) -> str:
@@ -465,7 +524,9 @@ def noise_level(y: np.ndarray) -> float:
 
 def _mask_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
+    return list(
+        zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True)
+    )
 
 
 def _clipped(v: np.ndarray, min_samples: int = 5) -> np.ndarray:
@@ -504,15 +565,30 @@ def _smoothed(t: np.ndarray, y: np.ndarray, window: float) -> np.ndarray:
     return y if n >= y.size else savgol_filter(y, n, 2)
 
 
-def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped: list[SkippedRun],
-                 input_cutoff: float | None = 50.0) -> _RunData | None:
+def _prepare_run(
+    run,
+    mdl,
+    channels: Sequence[str],
+    shooting: Shooting,
+    skipped: list[SkippedRun],
+    input_cutoff: float | None = 50.0,
+) -> _RunData | None:
     ch = run.channels
     needed = ["t", "u", "x", "p_a", "p_b"]
     missing = [c for c in needed if c not in ch]
     if missing:
-        skip(skipped, run.name, f"missing channel(s) {', '.join(missing)} (grey-box fit needs t, u, x, p_a, p_b)", 4)
+        skip(
+            skipped,
+            run.name,
+            f"missing channel(s) {', '.join(missing)} (grey-box fit needs t, u, x, p_a, p_b)",
+            4,
+        )
         return None
-    arrays = {k: np.asarray(v, dtype=float) for k, v in ch.items() if k in (*needed, "p_s", "f_l", "spool", "v")}
+    arrays = {
+        k: np.asarray(v, dtype=float)
+        for k, v in ch.items()
+        if k in (*needed, "p_s", "f_l", "spool", "v")
+    }
     bad = [k for k, v in arrays.items() if not np.all(np.isfinite(v))]
     if bad:
         skip(skipped, run.name, f"channel(s) {', '.join(bad)} hold non-finite samples", 4)
@@ -562,10 +638,12 @@ def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped:
     k = max(3, int(round(0.01 / dt)) | 1)
     hp = pl - np.convolve(pl, np.ones(k) / k, mode="same")
     good = ~bad_mask
-    good[: k] = False
+    good[:k] = False
     good[-k:] = False
     # median-based: brief events (reversals of a sine, a step) do not count, a sustained oscillation does
-    ratio = float(1.4826 * np.median(np.abs(hp[good])) / noise_level(pl)) if good.sum() > 10 else 0.0
+    ratio = (
+        float(1.4826 * np.median(np.abs(hp[good])) / noise_level(pl)) if good.sum() > 10 else 0.0
+    )
     if shooting.method == "auto":
         method = "multiple" if ratio > shooting.oscillation_ratio else "single"
         reason = f"auto: load-pressure fast content {ratio:.1f}× noise (threshold {shooting.oscillation_ratio:g})"
@@ -575,16 +653,25 @@ def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped:
     # initial states from smoothed measurements: a raw sample's noise would persist through
     # the whole segment (a 5 µm position error stays a 5 µm offset)
     v_est = _smoothed_velocity(t, x, shooting.velocity_window)
-    sm = {c: _smoothed(t, arrays[c], shooting.velocity_window) for c in ("x", "p_a", "p_b", "p_s", "spool")
-          if c in arrays}
+    sm = {
+        c: _smoothed(t, arrays[c], shooting.velocity_window)
+        for c in ("x", "p_a", "p_b", "p_s", "spool")
+        if c in arrays
+    }
 
-    spool_rate = _smoothed_velocity(t, arrays["spool"], shooting.velocity_window) if "spool" in arrays else None
+    spool_rate = (
+        _smoothed_velocity(t, arrays["spool"], shooting.velocity_window)
+        if "spool" in arrays
+        else None
+    )
 
     def state(i: int) -> np.ndarray:
         ps = sm["p_s"][i] if "p_s" in sm else mdl.params.supply.pressure
         sp = sm["spool"][i] if "spool" in sm else arrays["u"][i]
-        y0 = np.asarray(mdl.state_from_measurement(sm["x"][i], v_est[i], sm["p_a"][i], sm["p_b"][i], ps, sp),
-                        dtype=float)
+        y0 = np.asarray(
+            mdl.state_from_measurement(sm["x"][i], v_est[i], sm["p_a"][i], sm["p_b"][i], ps, sp),
+            dtype=float,
+        )
         if spool_rate is not None and "spool_rate" in mdl.state_names:
             y0[mdl.state_names.index("spool_rate")] = spool_rate[i]
         return y0
@@ -602,11 +689,18 @@ def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped:
         w = max(4, int(round(shooting.window / dt)))
         starts = [s0 for s, e in valid for s0 in range(s, e - w, w)]
         if shooting.max_windows is not None and len(starts) > shooting.max_windows:
-            pick = np.unique(np.round(np.linspace(0, len(starts) - 1, shooting.max_windows)).astype(int))
+            pick = np.unique(
+                np.round(np.linspace(0, len(starts) - 1, shooting.max_windows)).astype(int)
+            )
             starts = [starts[i] for i in pick]
         segments = [_Segment(s0, s0 + w + 1, state(s0)) for s0 in starts]
     if not segments:
-        skip(skipped, run.name, "no valid stretch long enough to simulate (end stops or converter limits everywhere)", 4)
+        skip(
+            skipped,
+            run.name,
+            "no valid stretch long enough to simulate (end stops or converter limits everywhere)",
+            4,
+        )
         return None
     # measured inputs carry sensor noise that the simulation would integrate (errors in
     # variables: 5 N of force noise becomes a random walk of the rod); a zero-phase low-pass
@@ -618,15 +712,28 @@ def _prepare_run(run, mdl, channels: Sequence[str], shooting: Shooting, skipped:
             if input_cutoff and input_cutoff < 0.45 / dt and v.size > 30:
                 v = sosfiltfilt(butter(2, input_cutoff, fs=1.0 / dt, output="sos"), v)
             inputs[c] = v
-    return _RunData(run.name, t, arrays["u"], inputs.get("p_s"), inputs.get("f_l"), y, sigma, method, reason,
-                    segments, excluded)
+    return _RunData(
+        run.name,
+        t,
+        arrays["u"],
+        inputs.get("p_s"),
+        inputs.get("f_l"),
+        y,
+        sigma,
+        method,
+        reason,
+        segments,
+        excluded,
+    )
 
 
 # ----------------------------------------------------------------------------- evaluation
 class _Problem:
     """Residuals of all runs for a parameter vector in log coordinates."""
 
-    def __init__(self, base_model, runs: list[_RunData], free: tuple[str, ...], channels, rtol, jobs, sigma):
+    def __init__(
+        self, base_model, runs: list[_RunData], free: tuple[str, ...], channels, rtol, jobs, sigma
+    ):
         self.base_model = base_model
         self.runs = runs
         self.free = free
@@ -658,7 +765,11 @@ class _Problem:
         fc = changes.get("friction.coulomb", base.friction.coulomb)
         if "friction.static" in changes and changes["friction.static"] < fc:
             changes["friction.static"] = fc  # Eq. (11) needs F_s >= F_c; the fit may probe below
-        elif "friction.coulomb" in changes and "friction.static" not in changes and fc > base.friction.static:
+        elif (
+            "friction.coulomb" in changes
+            and "friction.static" not in changes
+            and fc > base.friction.static
+        ):
             changes["friction.coulomb"] = base.friction.static
         return base.replace(**changes)
 
@@ -674,8 +785,16 @@ class _Problem:
             kw["supply_pressure"] = Sampled(ts, rd.p_s[lo:hi])
         if rd.f_l is not None:
             kw["load_force"] = Sampled(ts, rd.f_l[lo:hi])
-        res = simulate(mdl, Sampled(ts, rd.u[lo:hi]), t=rd.t[a:b], initial_state=seg.y0, rtol=self.rtol,
-                       raise_on_failure=False, max_steps=1_000_000, **kw)
+        res = simulate(
+            mdl,
+            Sampled(ts, rd.u[lo:hi]),
+            t=rd.t[a:b],
+            initial_state=seg.y0,
+            rtol=self.rtol,
+            raise_on_failure=False,
+            max_steps=1_000_000,
+            **kw,
+        )
         out = {}
         n_done = res.t.size
         for c in rd.y:
@@ -692,9 +811,16 @@ class _Problem:
         """Simulated channels per run and segment."""
         return self.simulate_many([values])[0]
 
-    def simulate_many(self, value_sets: list[np.ndarray]) -> list[list[list[dict[str, np.ndarray]]]]:
+    def simulate_many(
+        self, value_sets: list[np.ndarray]
+    ) -> list[list[list[dict[str, np.ndarray]]]]:
         mdls = [self._model(v) for v in value_sets]
-        tasks = [(k, ri, si) for k in range(len(mdls)) for ri, rd in enumerate(self.runs) for si in range(len(rd.segments))]
+        tasks = [
+            (k, ri, si)
+            for k in range(len(mdls))
+            for ri, rd in enumerate(self.runs)
+            for si in range(len(rd.segments))
+        ]
         out: list[list[list]] = [[[None] * len(rd.segments) for rd in self.runs] for _ in mdls]
 
         def one(task):
@@ -706,10 +832,23 @@ class _Problem:
             results = [one(tk) for tk in tasks]
         else:
             # long segments first: better balance between the threads
-            order = sorted(range(len(tasks)), key=lambda i: -(self.runs[tasks[i][1]].segments[tasks[i][2]].i1
-                                                               - self.runs[tasks[i][1]].segments[tasks[i][2]].i0))
+            order = sorted(
+                range(len(tasks)),
+                key=lambda i: (
+                    -(
+                        self.runs[tasks[i][1]].segments[tasks[i][2]].i1
+                        - self.runs[tasks[i][1]].segments[tasks[i][2]].i0
+                    )
+                ),
+            )
             with ThreadPoolExecutor(max_workers=self.jobs) as pool:
-                got = list(pool.map(one, [tasks[i] for i in order], chunksize=max(1, len(tasks) // (8 * self.jobs))))
+                got = list(
+                    pool.map(
+                        one,
+                        [tasks[i] for i in order],
+                        chunksize=max(1, len(tasks) // (8 * self.jobs)),
+                    )
+                )
             results = [None] * len(tasks)
             for i, r in zip(order, got, strict=True):
                 results[i] = r
@@ -740,7 +879,9 @@ class _Problem:
             self._cache = {key: self.residual_vector(self.simulate_all(self.values(theta)))}
         return self._cache[key]
 
-    def jac(self, theta: np.ndarray, step: float, r0: np.ndarray | None = None, central: bool = False) -> np.ndarray:
+    def jac(
+        self, theta: np.ndarray, step: float, r0: np.ndarray | None = None, central: bool = False
+    ) -> np.ndarray:
         p = theta.size
         sets = []
         for j in range(p):
@@ -794,7 +935,9 @@ def _long_run_covariance(g: np.ndarray, bandwidth: int) -> np.ndarray:
         return g.T @ g
     nfft = 1 << int(math.ceil(math.log2(2 * n)))
     G = np.fft.rfft(g, nfft, axis=0)
-    C = np.fft.irfft(G[:, :, None] * np.conj(G[:, None, :]), nfft, axis=0)  # C[k] = Σ_i g_{i+k} g_iᵀ
+    C = np.fft.irfft(
+        G[:, :, None] * np.conj(G[:, None, :]), nfft, axis=0
+    )  # C[k] = Σ_i g_{i+k} g_iᵀ
     w = 1.0 - np.arange(L + 1) / (L + 1.0)
     S = C[0].copy()
     for k in range(1, L + 1):
@@ -954,13 +1097,17 @@ def fit_model(
     if not (0 < level < 1):
         raise IdentificationError(f"level = {level!r} must lie in (0, 1)")
     if isinstance(model, str) and model.strip().lower() == "pwa":
-        raise IdentificationError("the PWA model is fitted from its parameters; fit 'full' or 'reduced' and linearize")
+        raise IdentificationError(
+            "the PWA model is fitted from its parameters; fit 'full' or 'reduced' and linearize"
+        )
     try:
         base_model = as_model(model, params)
     except ParameterError as exc:
         raise IdentificationError(str(exc)) from None
     if not hasattr(type(base_model), "state_from_measurement"):
-        raise IdentificationError(f"the {base_model.name} model cannot start from measurements; fit 'full' or 'reduced'")
+        raise IdentificationError(
+            f"the {base_model.name} model cannot start from measurements; fit 'full' or 'reduced'"
+        )
     shooting = shooting or Shooting()
     run_list = as_runs(runs)
     names = expand_free(free, base_model.params)
@@ -975,7 +1122,11 @@ def fit_model(
         sim_params = sim_params.replace(**{"load.damping": 0.0})
     work_model = type(base_model)(sim_params)
 
-    chans = tuple(channels) if channels else tuple(c for c in ("x", "p_a", "p_b", "v") if c in logged or c != "v")
+    chans = (
+        tuple(channels)
+        if channels
+        else tuple(c for c in ("x", "p_a", "p_b", "v") if c in logged or c != "v")
+    )
     prepared = []
     for r in run_list:
         rd = _prepare_run(r, work_model, chans, shooting, skipped, input_cutoff)
@@ -987,7 +1138,9 @@ def fit_model(
         # undamped friction campaign against +0.3 % in windows)
         from ._common import experiment_of
 
-        shaky = {experiment_of(r) for r, rd in prepared if rd.method == "multiple" and experiment_of(r)}
+        shaky = {
+            experiment_of(r) for r, rd in prepared if rd.method == "multiple" and experiment_of(r)
+        }
         forced = dataclasses.replace(shooting, method="multiple")
         for k, (r, rd) in enumerate(prepared):
             if rd.method == "single" and experiment_of(r) in shaky:
@@ -1014,11 +1167,15 @@ def fit_model(
             b = _ZERO_BASE[n][:2]
             v = _ZERO_BASE[n][2]
         else:
-            raise IdentificationError(f"{n} starts at {v:g}; give a positive start with initial={{'{n}': ...}}")
+            raise IdentificationError(
+                f"{n} starts at {v:g}; give a positive start with initial={{'{n}': ...}}"
+            )
         if bounds and n in bounds:
             b = tuple(float(x) for x in bounds[n])
         if not (0 < b[0] < b[1] and math.isfinite(b[1])):
-            raise IdentificationError(f"bounds of {n} {b} must be positive and increasing (the fit uses log scales)")
+            raise IdentificationError(
+                f"bounds of {n} {b} must be positive and increasing (the fit uses log scales)"
+            )
         lo[i], hi[i] = b
         start[i] = min(max(v, b[0]), b[1])
     # coordinates θ = ln(p/p_start): every parameter starts at 0 and moves in relative terms
@@ -1049,18 +1206,38 @@ def fit_model(
     rng = np.random.default_rng(seed)
     theta_starts = [np.clip(np.zeros(len(names)), tlo + 1e-9, thi - 1e-9)]
     for _ in range(max(0, starts - 1)):  # within ×/÷ 3 of the start and inside the bounds
-        theta_starts.append(rng.uniform(np.maximum(tlo, -math.log(3.0)), np.minimum(thi, math.log(3.0))))
+        theta_starts.append(
+            rng.uniform(np.maximum(tlo, -math.log(3.0)), np.minimum(thi, math.log(3.0)))
+        )
     best = None
     starts_log = []
     for th0 in theta_starts:
         state.clear()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            sol = optimize.least_squares(prob.fun, th0, jac=jac, bounds=(tlo, thi), loss=loss, f_scale=f_scale,
-                                         x_scale=x_scale, max_nfev=max_nfev, xtol=xtol, ftol=1e-6, gtol=1e-8, verbose=verbose)
-        starts_log.append({"start": dict(zip(names, prob.values(th0).tolist(), strict=True)),
-                           "value": dict(zip(names, prob.values(sol.x).tolist(), strict=True)),
-                           "cost": float(sol.cost), "status": int(sol.status), "nfev": int(sol.nfev)})
+            sol = optimize.least_squares(
+                prob.fun,
+                th0,
+                jac=jac,
+                bounds=(tlo, thi),
+                loss=loss,
+                f_scale=f_scale,
+                x_scale=x_scale,
+                max_nfev=max_nfev,
+                xtol=xtol,
+                ftol=1e-6,
+                gtol=1e-8,
+                verbose=verbose,
+            )
+        starts_log.append(
+            {
+                "start": dict(zip(names, prob.values(th0).tolist(), strict=True)),
+                "value": dict(zip(names, prob.values(sol.x).tolist(), strict=True)),
+                "cost": float(sol.cost),
+                "status": int(sol.status),
+                "nfev": int(sol.nfev),
+            }
+        )
         if best is None or sol.cost < best[0].cost:
             best = (sol, _loss_cost(prob.fun(th0), loss, f_scale))
     sol, initial_cost = best
@@ -1086,7 +1263,9 @@ def fit_model(
     # segments (input and initial-state errors, a stalled optimiser) that no within-stream
     # correlation shows; with at least two blocks per parameter, each standard deviation is the
     # larger of the two
-    block_of = {key: k for k, key in enumerate(sorted({(ri, si) for ri, si, _c, _p, _n in prob.streams}))}
+    block_of = {
+        key: k for k, key in enumerate(sorted({(ri, si) for ri, si, _c, _p, _n in prob.streams}))
+    }
     n_blocks = len(block_of)
     if n_blocks >= 2 * len(names):
         sums = np.zeros((n_blocks, len(names)))
@@ -1112,9 +1291,13 @@ def fit_model(
     for i, n in enumerate(names):
         comp, fld = n.split(".", 1)
         unit = (FIELD_UNITS.get(comp, {}).get(fld) or "").replace("**", "^")
-        estimates[n] = ParameterEstimate(float(values[i]), float(values[i] * sd[i]),
-                                         (float(values[i] * np.exp(-z * sd[i])), float(values[i] * np.exp(z * sd[i]))),
-                                         unit, level)
+        estimates[n] = ParameterEstimate(
+            float(values[i]),
+            float(values[i] * sd[i]),
+            (float(values[i] * np.exp(-z * sd[i])), float(values[i] * np.exp(z * sd[i]))),
+            unit,
+            level,
+        )
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
             at_bound.append(n)
     weak = [n for i, n in enumerate(names) if n in at_bound or z * sd[i] > math.log(1.5)]
@@ -1126,11 +1309,25 @@ def fit_model(
     directions = []
     for k in range(len(names)):
         std_dir = math.sqrt(s2 * infl_mean / ev[k]) if ev[k] > 0 else math.inf
-        comb = {names[i]: float(vec[i, k]) for i in np.argsort(-np.abs(vec[:, k])) if abs(vec[i, k]) > 0.2}
+        comb = {
+            names[i]: float(vec[i, k])
+            for i in np.argsort(-np.abs(vec[:, k]))
+            if abs(vec[i, k]) > 0.2
+        }
         directions.append((std_dir, comb))
-    correlated = [(names[i], names[j], float(corr[i, j])) for i in range(len(names)) for j in range(i + 1, len(names))
-                  if abs(corr[i, j]) > 0.9]
-    advice = sorted({f"{a}/{b}: {_ADVICE[frozenset({a, b})]}" for a, b, _ in correlated if frozenset({a, b}) in _ADVICE})
+    correlated = [
+        (names[i], names[j], float(corr[i, j]))
+        for i in range(len(names))
+        for j in range(i + 1, len(names))
+        if abs(corr[i, j]) > 0.9
+    ]
+    advice = sorted(
+        {
+            f"{a}/{b}: {_ADVICE[frozenset({a, b})]}"
+            for a, b, _ in correlated
+            if frozenset({a, b}) in _ADVICE
+        }
+    )
     ident = Identifiability(cond, directions, correlated, weak, advice)
 
     # profiles of weak parameters
@@ -1144,8 +1341,22 @@ def fit_model(
         to_profile = [n for n in expand_free(profile, base_model.params) if n in names]
     # the profile's χ² threshold scaled by the sandwich variance over the unit-noise one (H⁻¹)
     kappa = np.maximum(np.diag(cov) / np.maximum(np.diag(Hinv), 1e-300), 1e-12)
-    profiles = {n: _profile(prob, theta, names.index(n), tlo, thi, loss, f_scale, sol.cost,
-                            float(kappa[names.index(n)]), z, float(sd[names.index(n)])) for n in to_profile}
+    profiles = {
+        n: _profile(
+            prob,
+            theta,
+            names.index(n),
+            tlo,
+            thi,
+            loss,
+            f_scale,
+            sol.cost,
+            float(kappa[names.index(n)]),
+            z,
+            float(sd[names.index(n)]),
+        )
+        for n in to_profile
+    }
 
     # per-run diagnostics and channels for the figures
     sims = prob.simulate_all(values)
@@ -1164,11 +1375,27 @@ def fit_model(
         rms = {c: float(np.sqrt(np.nanmean((simd[c] - meas[c]) ** 2))) for c in rd.y}
         neff = {}
         for c in rd.y:
-            ns = [(n, tau) for (r_i, _s, cc, _p, n), tau in zip(prob.streams, taus, strict=True) if r_i == ri and cc == c]
+            ns = [
+                (n, tau)
+                for (r_i, _s, cc, _p, n), tau in zip(prob.streams, taus, strict=True)
+                if r_i == ri and cc == c
+            ]
             neff[c] = float(sum(n / tau for n, tau in ns))
-        run_fits.append(RunFit(rd.name, rd.method, rd.reason,
-                               [(float(rd.t[s.i0]), float(rd.t[s.i1 - 1])) for s in rd.segments],
-                               rd.excluded, {c: rd.sigma[c] for c in rd.y}, rms, neff, tt, meas, simd))
+        run_fits.append(
+            RunFit(
+                rd.name,
+                rd.method,
+                rd.reason,
+                [(float(rd.t[s.i0]), float(rd.t[s.i1 - 1])) for s in rd.segments],
+                rd.excluded,
+                {c: rd.sigma[c] for c in rd.y},
+                rms,
+                neff,
+                tt,
+                meas,
+                simd,
+            )
+        )
 
     # the fitted values in the base parameters (the supply and load damping as the user gave them)
     fitted = prob.params_at(values)
@@ -1181,23 +1408,60 @@ def fit_model(
     for n, e in estimates.items():
         unc[n.replace(".", "_")] = {**e.to_dict(), "method": "grey-box output error"}
     meta["uncertainty"] = unc
-    meta["greybox"] = {"model": base_model.name, "free": list(names), "runs": [rd.name for rd in prepared],
-                       "cost": float(sol.cost), "status": int(sol.status)}
+    meta["greybox"] = {
+        "model": base_model.name,
+        "free": list(names),
+        "runs": [rd.name for rd in prepared],
+        "cost": float(sol.cost),
+        "status": int(sol.status),
+    }
     fitted = dataclasses.replace(fitted, meta=meta)
     if prob.failures:
-        warnings.warn(f"{prob.failures} simulation(s) failed during the fit (held at their last value); "
-                      "check the bounds", IdentificationWarning, stacklevel=2)
+        warnings.warn(
+            f"{prob.failures} simulation(s) failed during the fit (held at their last value); "
+            "check the bounds",
+            IdentificationWarning,
+            stacklevel=2,
+        )
     return GreyBoxFit(
-        params_=fitted, free=names, estimates_=estimates, covariance_=cov, correlation_=corr, inflation_=inflation,
-        success=bool(sol.success), status=int(sol.status), message=_CONVERGENCE.get(int(sol.status), sol.message),
-        nfev=int(sol.nfev), njev=int(sol.njev or 0), cost=float(sol.cost), initial_cost=float(initial_cost),
-        runs_=run_fits, profiles_=profiles, identifiability_=ident, starts_=starts_log, model=base_model.name,
-        skipped_=skipped, wall_time=_time.perf_counter() - t_start, level=level,
+        params_=fitted,
+        free=names,
+        estimates_=estimates,
+        covariance_=cov,
+        correlation_=corr,
+        inflation_=inflation,
+        success=bool(sol.success),
+        status=int(sol.status),
+        message=_CONVERGENCE.get(int(sol.status), sol.message),
+        nfev=int(sol.nfev),
+        njev=int(sol.njev or 0),
+        cost=float(sol.cost),
+        initial_cost=float(initial_cost),
+        runs_=run_fits,
+        profiles_=profiles,
+        identifiability_=ident,
+        starts_=starts_log,
+        model=base_model.name,
+        skipped_=skipped,
+        wall_time=_time.perf_counter() - t_start,
+        level=level,
     )
 
 
-def _profile(prob: _Problem, theta: np.ndarray, i: int, tlo, thi, loss, f_scale, cost0, kappa, z, sd,
-             n_points: int = 9) -> Profile:
+def _profile(
+    prob: _Problem,
+    theta: np.ndarray,
+    i: int,
+    tlo,
+    thi,
+    loss,
+    f_scale,
+    cost0,
+    kappa,
+    z,
+    sd,
+    n_points: int = 9,
+) -> Profile:
     """Cost along parameter i, the others refitted (few iterations) from the optimum.
 
     The grid spans ±2z standard deviations of ln p (at least ±0.1 %, at most ×/÷ 20, inside
@@ -1212,6 +1476,7 @@ def _profile(prob: _Problem, theta: np.ndarray, i: int, tlo, thi, loss, f_scale,
         th = theta.copy()
         th[i] = g
         if others:
+
             def f(sub, th=th):
                 full = th.copy()
                 full[others] = sub
@@ -1222,8 +1487,17 @@ def _profile(prob: _Problem, theta: np.ndarray, i: int, tlo, thi, loss, f_scale,
                 full[others] = sub
                 return prob.jac(full, prob.fd_step, r0=prob.fun(full))[:, others]
 
-            sol = optimize.least_squares(f, theta[others], jac=jsub, bounds=(tlo[others], thi[others]), loss=loss,
-                                         f_scale=f_scale, max_nfev=8, xtol=1e-3, ftol=1e-4)
+            sol = optimize.least_squares(
+                f,
+                theta[others],
+                jac=jsub,
+                bounds=(tlo[others], thi[others]),
+                loss=loss,
+                f_scale=f_scale,
+                max_nfev=8,
+                xtol=1e-3,
+                ftol=1e-4,
+            )
             c = float(sol.cost)
         else:
             c = _loss_cost(prob.fun(th), loss, f_scale)
@@ -1233,4 +1507,3 @@ def _profile(prob: _Problem, theta: np.ndarray, i: int, tlo, thi, loss, f_scale,
     pv = prob.ref[i] * np.exp(grid)
     ci = (float(pv[ok][0]), float(pv[ok][-1])) if ok.any() else (math.nan, math.nan)
     return Profile(prob.free[i], pv, vals_a, ci)
-

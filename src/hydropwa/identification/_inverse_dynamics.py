@@ -26,16 +26,33 @@ from .._errors import IdentificationError
 from ..params import Friction
 from ._common import ParameterEstimate, correlation, estimate, t_quantile
 
-__all__ = ["InverseDynamicsResult", "identify_inverse_dynamics", "EmpsResult", "identify_emps",
-           "EMPS_PUBLISHED"]
+__all__ = [
+    "InverseDynamicsResult",
+    "identify_inverse_dynamics",
+    "EmpsResult",
+    "identify_emps",
+    "EMPS_PUBLISHED",
+]
 
 #: EMPS_Description.pdf, IDIM-LS: M [kg], F_v [N·s/m], F_c [N], offset [N], relative error [1],
 #: cross-test relative error on DATA_EMPS_PULSES.mat [1].
-EMPS_PUBLISHED = {"mass": 95.1089, "viscous": 203.5034, "coulomb": 20.3935, "offset": -3.1648,
-                  "relative_error": 0.0408, "cross_test_error": 0.0598}
+EMPS_PUBLISHED = {
+    "mass": 95.1089,
+    "viscous": 203.5034,
+    "coulomb": 20.3935,
+    "offset": -3.1648,
+    "relative_error": 0.0408,
+    "cross_test_error": 0.0598,
+}
 
-_UNITS = {"mass": "kg", "viscous": "N·s/m", "coulomb": "N", "offset": "N",
-          "coulomb_pos": "N", "coulomb_neg": "N"}
+_UNITS = {
+    "mass": "kg",
+    "viscous": "N·s/m",
+    "coulomb": "N",
+    "offset": "N",
+    "coulomb_pos": "N",
+    "coulomb_neg": "N",
+}
 
 
 def _derivatives(t: np.ndarray, q: np.ndarray, cutoff: float, order: int):
@@ -43,7 +60,9 @@ def _derivatives(t: np.ndarray, q: np.ndarray, cutoff: float, order: int):
     dt = float(np.median(np.diff(t)))
     fs = 1.0 / dt
     if not 0 < cutoff < 0.5 * fs:
-        raise IdentificationError(f"low-pass cutoff {cutoff:g} Hz must lie below the Nyquist frequency {0.5 * fs:g} Hz")
+        raise IdentificationError(
+            f"low-pass cutoff {cutoff:g} Hz must lie below the Nyquist frequency {0.5 * fs:g} Hz"
+        )
     b, a = signal.butter(order, cutoff / (0.5 * fs))
     qf = signal.filtfilt(b, a, q)
     dq = np.gradient(qf, dt)  # central differences inside, one-sided at the two ends
@@ -51,12 +70,19 @@ def _derivatives(t: np.ndarray, q: np.ndarray, cutoff: float, order: int):
     return qf, dq, ddq
 
 
-def _regressors(dq: np.ndarray, ddq: np.ndarray, asymmetric: bool) -> tuple[np.ndarray, tuple[str, ...]]:
+def _regressors(
+    dq: np.ndarray, ddq: np.ndarray, asymmetric: bool
+) -> tuple[np.ndarray, tuple[str, ...]]:
     if asymmetric:
         # the offset is not separable from two Coulomb levels (1{q̇>0} + 1{q̇<0} = 1 almost everywhere)
         cols = [ddq, dq, (dq > 0).astype(float), -(dq < 0).astype(float)]
         return np.column_stack(cols), ("mass", "viscous", "coulomb_pos", "coulomb_neg")
-    return np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)]), ("mass", "viscous", "coulomb", "offset")
+    return np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)]), (
+        "mass",
+        "viscous",
+        "coulomb",
+        "offset",
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,8 +126,16 @@ class InverseDynamicsResult:
     def cross_test(self, t, position, force) -> float:
         """Relative force error [1] of these parameters on other data, processed the same way."""
         s = self.settings
-        _, W, y = _observation(np.asarray(t, float), np.asarray(position, float), np.asarray(force, float),
-                               s["cutoff"], s["order"], s["decimation"], s["border"], s["asymmetric"])
+        _, W, y = _observation(
+            np.asarray(t, float),
+            np.asarray(position, float),
+            np.asarray(force, float),
+            s["cutoff"],
+            s["order"],
+            s["decimation"],
+            s["border"],
+            s["asymmetric"],
+        )
         r = y - W @ self.theta
         return float(np.linalg.norm(r) / np.linalg.norm(y))
 
@@ -111,17 +145,31 @@ class InverseDynamicsResult:
         With an asymmetric fit the mean of the two Coulomb levels is used.
         """
         e = self.estimates
-        fc = e["coulomb"].value if "coulomb" in e else 0.5 * (e["coulomb_pos"].value + e["coulomb_neg"].value)
+        fc = (
+            e["coulomb"].value
+            if "coulomb" in e
+            else 0.5 * (e["coulomb_pos"].value + e["coulomb_neg"].value)
+        )
         fc = max(fc, 0.0)
-        return Friction(coulomb=fc, static=fc, viscous=max(e["viscous"].value, 0.0),
-                        stribeck_velocity=1e-3, shape=1.0, smoothness=1e4)
+        return Friction(
+            coulomb=fc,
+            static=fc,
+            viscous=max(e["viscous"].value, 0.0),
+            stribeck_velocity=1e-3,
+            shape=1.0,
+            smoothness=1e4,
+        )
 
 
 def _observation(t, q, force, cutoff, order, decimation, border, asymmetric):
     if not (t.size == q.size == force.size):
-        raise IdentificationError(f"t, position and force differ in length ({t.size}, {q.size}, {force.size})")
+        raise IdentificationError(
+            f"t, position and force differ in length ({t.size}, {q.size}, {force.size})"
+        )
     if t.size < 2 * border + 30 * max(decimation, 1):
-        raise IdentificationError(f"{t.size} samples are too few for inverse-dynamics identification")
+        raise IdentificationError(
+            f"{t.size} samples are too few for inverse-dynamics identification"
+        )
     for name, a in (("t", t), ("position", q), ("force", force)):
         if not np.all(np.isfinite(a)):
             raise IdentificationError(f"{name} holds non-finite samples")
@@ -130,16 +178,28 @@ def _observation(t, q, force, cutoff, order, decimation, border, asymmetric):
     W, names = _regressors(dq[sl], ddq[sl], asymmetric)
     y, td = force[sl], t[sl]
     if decimation > 1:
-        W = np.column_stack([signal.decimate(W[:, j], decimation, ftype="iir", zero_phase=True)
-                             for j in range(W.shape[1])])
+        W = np.column_stack(
+            [
+                signal.decimate(W[:, j], decimation, ftype="iir", zero_phase=True)
+                for j in range(W.shape[1])
+            ]
+        )
         y = signal.decimate(y, decimation, ftype="iir", zero_phase=True)
         td = td[::decimation][: y.size]
     return td, W, y
 
 
-def identify_inverse_dynamics(t, position, force, cutoff: float = 100.0, order: int = 4,
-                              decimation: int = 10, border: int = 49, asymmetric: bool = False,
-                              level: float = 0.95) -> InverseDynamicsResult:
+def identify_inverse_dynamics(
+    t,
+    position,
+    force,
+    cutoff: float = 100.0,
+    order: int = 4,
+    decimation: int = 10,
+    border: int = 49,
+    asymmetric: bool = False,
+    level: float = 0.95,
+) -> InverseDynamicsResult:
     """Identify M, F_v, F_c and an offset from position and force by IDIM-LS.
 
     Parameters
@@ -196,8 +256,13 @@ def identify_inverse_dynamics(t, position, force, cutoff: float = 100.0, order: 
         time=td,
         force=y,
         predicted=W @ theta,
-        settings={"cutoff": cutoff, "order": order, "decimation": decimation, "border": border,
-                  "asymmetric": asymmetric},
+        settings={
+            "cutoff": cutoff,
+            "order": order,
+            "decimation": decimation,
+            "border": border,
+            "asymmetric": asymmetric,
+        },
     )
 
 
@@ -225,27 +290,44 @@ class EmpsResult:
 
     def deviations(self) -> dict[str, float]:
         """Relative deviation (estimate − published)/|published| [1] per parameter."""
-        return {k: (self.fit.estimates[k].value - v) / abs(v) for k, v in self.published.items()
-                if k in self.fit.estimates}
+        return {
+            k: (self.fit.estimates[k].value - v) / abs(v)
+            for k, v in self.published.items()
+            if k in self.fit.estimates
+        }
 
     def summary_markdown(self) -> str:
         """A short markdown table: estimate, CI, published value, deviation."""
-        lines = [f"# EMPS inverse-dynamics identification ({self.source})", "",
-                 "| parameter | estimate | 95 % CI | published | deviation |", "|---|---|---|---|---|"]
+        lines = [
+            f"# EMPS inverse-dynamics identification ({self.source})",
+            "",
+            "| parameter | estimate | 95 % CI | published | deviation |",
+            "|---|---|---|---|---|",
+        ]
         dev = self.deviations()
         for k, e in self.fit.estimates.items():
             pub = self.published.get(k)
-            lines.append(f"| {k} [{e.unit}] | {e.value:.4f} | [{e.ci[0]:.4f}, {e.ci[1]:.4f}] | "
-                         f"{'' if pub is None else f'{pub:.4f}'} | "
-                         f"{'' if k not in dev else f'{100 * dev[k]:+.2f} %'} |")
-        lines += ["", f"Relative error (estimation): {100 * self.fit.relative_error:.2f} % "
-                      f"(published {100 * self.published['relative_error']:.2f} %)"]
+            lines.append(
+                f"| {k} [{e.unit}] | {e.value:.4f} | [{e.ci[0]:.4f}, {e.ci[1]:.4f}] | "
+                f"{'' if pub is None else f'{pub:.4f}'} | "
+                f"{'' if k not in dev else f'{100 * dev[k]:+.2f} %'} |"
+            )
+        lines += [
+            "",
+            f"Relative error (estimation): {100 * self.fit.relative_error:.2f} % "
+            f"(published {100 * self.published['relative_error']:.2f} %)",
+        ]
         if self.cross_test_error is not None:
-            lines.append(f"Cross-test relative error ({self.validation}): {100 * self.cross_test_error:.2f} % "
-                         f"(published {100 * self.published['cross_test_error']:.2f} %)")
+            lines.append(
+                f"Cross-test relative error ({self.validation}): {100 * self.cross_test_error:.2f} % "
+                f"(published {100 * self.published['cross_test_error']:.2f} %)"
+            )
         s = self.fit.settings
-        lines += ["", f"Processing: Butterworth order {s['order']} at {s['cutoff']:g} Hz (filtfilt), central "
-                      f"differences, first {s['border']} samples dropped, decimation by {s['decimation']}."]
+        lines += [
+            "",
+            f"Processing: Butterworth order {s['order']} at {s['cutoff']:g} Hz (filtfilt), central "
+            f"differences, first {s['border']} samples dropped, decimation by {s['decimation']}.",
+        ]
         return "\n".join(lines) + "\n"
 
 
@@ -256,8 +338,9 @@ def _emps_arrays(path: str | os.PathLike):
     return run["t"], run["x"], run["f_m"], run.name
 
 
-def identify_emps(path: str | os.PathLike, validation: str | os.PathLike | None = None,
-                  **kwargs) -> EmpsResult:
+def identify_emps(
+    path: str | os.PathLike, validation: str | os.PathLike | None = None, **kwargs
+) -> EmpsResult:
     """IDIM-LS on the EMPS benchmark file, with an optional cross test.
 
     Parameters

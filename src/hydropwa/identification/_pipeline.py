@@ -36,7 +36,11 @@ __all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
 #: What :func:`identify` can identify, in order.
 PARTS = ("frf", "deadzone", "friction")
 #: Keys of a base parameter file's ``[meta]`` that describe each part (dropped once it is identified).
-_META_KEYS = {"frf": ("valve", "omega0", "zeta"), "deadzone": ("dead_zone", "beta"), "friction": ("friction",)}
+_META_KEYS = {
+    "frf": ("valve", "omega0", "zeta"),
+    "deadzone": ("dead_zone", "beta"),
+    "friction": ("friction",),
+}
 
 
 def load_runs(source, skipped: list | None = None, base_params: SystemParams | None = None) -> list:
@@ -91,13 +95,17 @@ def load_runs(source, skipped: list | None = None, base_params: SystemParams | N
         for sub in subs:
             ds = read_dataset(sub, validate=False, lazy=True)
             folder = EXPERIMENT_ALIASES.get(sub.name.lower())
-            groups.append((ds, folder, converter_limits((ds.meta or {}).get("rig", {}).get("sensors"))))
+            groups.append(
+                (ds, folder, converter_limits((ds.meta or {}).get("rig", {}).get("sensors")))
+            )
     runs: list = []
     for src, folder, limits in groups:
         for run in _read_each(src, skipped):
             kind = experiment_of(run)
             if kind is None and folder is not None:
-                run = dataclasses.replace(run, meta={**run.meta, "kind": folder, "kind_from": "folder"})
+                run = dataclasses.replace(
+                    run, meta={**run.meta, "kind": folder, "kind_from": "folder"}
+                )
                 kind = folder
             reason = screen_for_estimator(run, kind, stroke, limits)
             if reason is None:
@@ -153,8 +161,14 @@ class IdentificationReport:
         """A short markdown summary: values, intervals, weak parameters, skipped runs."""
         return _summary(self)
 
-    def save(self, out: str | os.PathLike, figures: str | os.PathLike | None = None,
-             summary: str | os.PathLike | None = None, *, overwrite: bool = False) -> dict[str, Path]:
+    def save(
+        self,
+        out: str | os.PathLike,
+        figures: str | os.PathLike | None = None,
+        summary: str | os.PathLike | None = None,
+        *,
+        overwrite: bool = False,
+    ) -> dict[str, Path]:
         """Write the parameter TOML, the figures (PNG) and the markdown summary.
 
         Parameters
@@ -181,12 +195,16 @@ class IdentificationReport:
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
         targets = [out, summary]
         if figures is not None:
-            targets += [Path(figures) / n for n in ("valve_bode.png", "dead_zone.png", "stribeck.png")]
+            targets += [
+                Path(figures) / n for n in ("valve_bode.png", "dead_zone.png", "stribeck.png")
+            ]
         for target in targets:
             check_output(target, overwrite)
         header = f"identified by hydropwa from {self.source}"
         written = {"params": save_params(self.params, out, header=header, overwrite=overwrite)}
-        written["summary"] = atomic_write_text(summary, self.summary_markdown(), overwrite=overwrite)
+        written["summary"] = atomic_write_text(
+            summary, self.summary_markdown(), overwrite=overwrite
+        )
         if figures is not None:
             fdir = Path(figures)
             fdir.mkdir(parents=True, exist_ok=True)
@@ -202,9 +220,14 @@ class IdentificationReport:
         return written
 
 
-def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | None = None,
-             frf: dict[str, Any] | None = None, dead_zone: dict[str, Any] | None = None,
-             friction: dict[str, Any] | None = None) -> IdentificationReport:
+def identify(
+    data,
+    parts: Iterable[str] = PARTS,
+    base_params: SystemParams | None = None,
+    frf: dict[str, Any] | None = None,
+    dead_zone: dict[str, Any] | None = None,
+    friction: dict[str, Any] | None = None,
+) -> IdentificationReport:
     """Identify valve, dead zone and friction from measured runs and return parameters.
 
     Parameters
@@ -233,7 +256,9 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
     parts = tuple(parts)
     unknown = set(parts) - set(PARTS)
     if unknown:
-        raise IdentificationError(f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}")
+        raise IdentificationError(
+            f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}"
+        )
     base = base_params or get_preset("paper")
     source = str(data) if isinstance(data, str | os.PathLike) else getattr(data, "root", "runs")
     screened: list = []
@@ -250,8 +275,11 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
     report.skipped += screened
     changes: dict[str, Any] = {}
     uncertainty: dict[str, Any] = {}
-    provenance: dict[str, Any] = {"source": str(source), "date": _dt.date.today().isoformat(),
-                                  "method": "hydropwa.identification (Sec. VI of the paper)"}
+    provenance: dict[str, Any] = {
+        "source": str(source),
+        "date": _dt.date.today().isoformat(),
+        "method": "hydropwa.identification (Sec. VI of the paper)",
+    }
     makers = {
         "frf": lambda: ValveFrfIdentifier(**(frf or {})),
         "deadzone": lambda: DeadZoneIdentifier(base_params=base, **(dead_zone or {})),
@@ -264,9 +292,11 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
             if not selected:
                 why = ""
                 if unlabelled:
-                    why = (f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
-                           f"\"kind\": \"{part}\" to their metadata, or put them in a dataset folder "
-                           f"named {part}/")
+                    why = (
+                        f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
+                        f'"kind": "{part}" to their metadata, or put them in a dataset folder '
+                        f"named {part}/"
+                    )
                 raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
             est = makers[part]().fit(selected)
         except IdentificationError as exc:
@@ -281,45 +311,63 @@ def identify(data, parts: Iterable[str] = PARTS, base_params: SystemParams | Non
             report.valve = est
             changes["valve"] = est.valve_
             uncertainty["valve"] = est.uncertainty()
-            provenance["valve"] = (f"Sec. VI-A: {sum(f.n_points for f in est.fits_.values())} FRF points at "
-                                   f"amplitudes {', '.join(f'{a:g}' for a in est.fits_)}; 2nd-order fit, "
-                                   "zeta pooled (inverse-variance)")
+            provenance["valve"] = (
+                f"Sec. VI-A: {sum(f.n_points for f in est.fits_.values())} FRF points at "
+                f"amplitudes {', '.join(f'{a:g}' for a in est.fits_)}; 2nd-order fit, "
+                "zeta pooled (inverse-variance)"
+            )
         elif part == "deadzone":
             report.dead_zone = est
             changes["dead_zone"] = est.dead_zone_  # alpha (saturation) comes from the base
             uncertainty["dead_zone"] = est.uncertainty()
             fit = est.fit_
-            drift = ("" if fit.drift_pos is None else
-                     f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / {1e3 * fit.drift_neg.value:.3g} mm/s "
-                     "for u ≥ 0 / u < 0, kept out of the creep")
-            provenance["dead_zone"] = (f"Sec. VI-B: {len(est.points_)} constant-input runs, "
-                                       f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
-                                       f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}")
+            drift = (
+                ""
+                if fit.drift_pos is None
+                else f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / {1e3 * fit.drift_neg.value:.3g} mm/s "
+                "for u ≥ 0 / u < 0, kept out of the creep"
+            )
+            provenance["dead_zone"] = (
+                f"Sec. VI-B: {len(est.points_)} constant-input runs, "
+                f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
+                f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}"
+            )
         else:
             report.friction = est
             changes["friction"] = est.friction_
             uncertainty["friction"] = est.uncertainty()
             kind = "steady-state" if est.method == "average" else "per-sample velocity-bin"
             brk = est.breakaway_
-            provenance["friction"] = (f"Sec. VI-C: {len(est.points_)} {kind} points (method {est.method}), Eq. (10) "
-                                      f"with areas from base; Eq. (11) by bounded {est.loss} least squares"
-                                      + (f", constrained to the stick-slip break-away force {brk.value:.4g} N as its "
-                                         "maximum with γ from base" if brk is not None else "")
-                                      + (f"; weakly identified: {', '.join(est.fit_.weak)}" if est.fit_.weak else ""))
+            provenance["friction"] = (
+                f"Sec. VI-C: {len(est.points_)} {kind} points (method {est.method}), Eq. (10) "
+                f"with areas from base; Eq. (11) by bounded {est.loss} least squares"
+                + (
+                    f", constrained to the stick-slip break-away force {brk.value:.4g} N as its "
+                    "maximum with γ from base"
+                    if brk is not None
+                    else ""
+                )
+                + (f"; weakly identified: {', '.join(est.fit_.weak)}" if est.fit_.weak else "")
+            )
     if not done:
         raise IdentificationError(
-            "nothing identified: " + "; ".join(s.reason for s in report.skipped if s.run.startswith("<"))
+            "nothing identified: "
+            + "; ".join(s.reason for s in report.skipped if s.run.startswith("<"))
         )
     provenance["identified"] = done
     provenance["skipped"] = [str(s) for s in report.skipped]
     # the base's provenance lines about what was identified here are stale now
     identified_keys = {"source", "uncertainty", "identification", "base_source"} | {
-        k for part in done for k in _META_KEYS[part]}
-    meta = {**{k: v for k, v in base.meta.items() if k not in identified_keys},
-            "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
-                      "the other values from the base parameters",
-            "base_source": str(base.meta.get("source", "defaults of hydropwa.params")),
-            "identification": provenance, "uncertainty": uncertainty}
+        k for part in done for k in _META_KEYS[part]
+    }
+    meta = {
+        **{k: v for k, v in base.meta.items() if k not in identified_keys},
+        "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
+        "the other values from the base parameters",
+        "base_source": str(base.meta.get("source", "defaults of hydropwa.params")),
+        "identification": provenance,
+        "uncertainty": uncertainty,
+    }
     report.params = dataclasses.replace(base, meta=meta, **changes)
     return report
 
@@ -331,35 +379,65 @@ def _fmt_est(e) -> str:
 def _summary(rep: IdentificationReport) -> str:
     lines = [f"# Identification summary ({rep.source})", ""]
     if rep.valve is not None:
-        lines += ["## Servo valve (Sec. VI-A, Eq. (1), Table II)", "",
-                  "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |", "|---|---|---|---|---|---|---|---|"]
+        lines += [
+            "## Servo valve (Sec. VI-A, Eq. (1), Table II)",
+            "",
+            "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for a, f in rep.valve.fits_.items():
-            lines.append(f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
-                         f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
-                         f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |")
+            lines.append(
+                f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
+                f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
+                f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |"
+            )
         lines += ["", f"Pooled ζ = {rep.valve.zeta_.value:.3f} ± {rep.valve.zeta_.std:.2g}.", ""]
     if rep.dead_zone is not None:
         f = rep.dead_zone.fit_
-        lines += ["## Dead zone (Sec. VI-B, Table IV, Fig. 6)", "", "| quantity | value | std | 95 % CI |",
-                  "|---|---|---|---|"]
-        for name, e in (("β (symmetric)", f.beta), ("β+", f.beta_pos), ("β−", f.beta_neg),
-                        ("k_g (creep opening slope)", f.creep_slope), ("creep velocity slope", f.creep_velocity_slope),
-                        ("outer gain +", f.gain_pos), ("outer gain −", f.gain_neg),
-                        ("drift u ≥ 0 (leakage, load)", f.drift_pos), ("drift u < 0 (leakage, load)", f.drift_neg)):
+        lines += [
+            "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
+            "",
+            "| quantity | value | std | 95 % CI |",
+            "|---|---|---|---|",
+        ]
+        for name, e in (
+            ("β (symmetric)", f.beta),
+            ("β+", f.beta_pos),
+            ("β−", f.beta_neg),
+            ("k_g (creep opening slope)", f.creep_slope),
+            ("creep velocity slope", f.creep_velocity_slope),
+            ("outer gain +", f.gain_pos),
+            ("outer gain −", f.gain_neg),
+            ("drift u ≥ 0 (leakage, load)", f.drift_pos),
+            ("drift u < 0 (leakage, load)", f.drift_neg),
+        ):
             if e is None:
                 continue
             lines.append(f"| {name} | {_fmt_est(e)} |")
-        lines += ["", f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.", ""]
+        lines += [
+            "",
+            f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.",
+            "",
+        ]
     if rep.friction is not None:
         fit = rep.friction.fit_
-        lines += ["## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)", "", "| parameter | value | std | 95 % CI |",
-                  "|---|---|---|---|"]
+        lines += [
+            "## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)",
+            "",
+            "| parameter | value | std | 95 % CI |",
+            "|---|---|---|---|",
+        ]
         for k, e in fit.estimates.items():
             lines.append(f"| {k} | {_fmt_est(e)} |")
-        lines += ["", f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}."]
+        lines += [
+            "",
+            f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}.",
+        ]
         if fit.weak:
-            lines.append(f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
-                         "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation.")
+            lines.append(
+                f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
+                "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
+            )
         lines += [f"Note: {n}." for n in rep.friction.notes_]
         lines.append("")
     if rep.skipped:

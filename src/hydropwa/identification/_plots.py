@@ -54,15 +54,20 @@ def plot_bode(valve, path: str | os.PathLike | None = None):
     """
     broadband = any(frf.coherence is not None for frf in valve.frf_.values())
     if broadband:  # H1 estimates: a coherence panel shows which bins the fit could trust
-        fig, (ax_m, ax_p, ax_c) = _figure(3, 1, sharex=True, figsize=(7.0, 6.5),
-                                           gridspec_kw={"height_ratios": [3, 3, 1.5]})
+        fig, (ax_m, ax_p, ax_c) = _figure(
+            3, 1, sharex=True, figsize=(7.0, 6.5), gridspec_kw={"height_ratios": [3, 3, 1.5]}
+        )
     else:
         fig, (ax_m, ax_p) = _figure(2, 1, sharex=True)
     colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     for k, (amp, frf) in enumerate(valve.frf_.items()):
         c = colors[k % len(colors)]
         label = f"|u| = {100 * amp:.3g} %"
-        style = dict(ls="-", lw=0.8, alpha=0.7) if frf.coherence is not None else dict(ls="", marker="o", ms=3)
+        style = (
+            dict(ls="-", lw=0.8, alpha=0.7)
+            if frf.coherence is not None
+            else dict(ls="", marker="o", ms=3)
+        )
         ax_m.semilogx(frf.frequency, frf.magnitude_db, color=c, label=f"{label} data", **style)
         ax_p.semilogx(frf.frequency, frf.phase_deg, color=c, **style)
         if broadband and frf.coherence is not None:
@@ -71,8 +76,13 @@ def plot_bode(valve, path: str | os.PathLike | None = None):
         if fit is not None:
             f = np.geomspace(frf.frequency.min(), frf.frequency.max(), 200)
             g = fit.response(2 * np.pi * f)
-            ax_m.semilogx(f, 20 * np.log10(np.abs(g)), "-", color=c,
-                          label=f"fit ω0 = {fit.omega0.value:.0f} rad/s, ζ = {fit.zeta.value:.2f}")
+            ax_m.semilogx(
+                f,
+                20 * np.log10(np.abs(g)),
+                "-",
+                color=c,
+                label=f"fit ω0 = {fit.omega0.value:.0f} rad/s, ζ = {fit.zeta.value:.2f}",
+            )
             ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), "-", color=c)
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
@@ -105,11 +115,18 @@ def plot_dead_zone(dz, path: str | os.PathLike | None = None):
     """
     fig, ax = _figure()
     pts = dz.points_
-    ax.errorbar(100 * pts["u"], 1e3 * pts["v"], yerr=1e3 * pts["v_std"], fmt="o", ms=3, label="runs")
+    ax.errorbar(
+        100 * pts["u"], 1e3 * pts["v"], yerr=1e3 * pts["v_std"], fmt="o", ms=3, label="runs"
+    )
     u = np.linspace(pts["u"].min(), pts["u"].max(), 800)
     f = dz.fit_
-    ax.plot(100 * u, 1e3 * f.velocity(u), "-", label=f"hinge fit, β = {100 * f.beta.value:.2f} % "
-            f"[{100 * f.beta.ci[0]:.2f}, {100 * f.beta.ci[1]:.2f}], k_g = {f.creep_slope.value:.3f}")
+    ax.plot(
+        100 * u,
+        1e3 * f.velocity(u),
+        "-",
+        label=f"hinge fit, β = {100 * f.beta.value:.2f} % "
+        f"[{100 * f.beta.ci[0]:.2f}, {100 * f.beta.ci[1]:.2f}], k_g = {f.creep_slope.value:.3f}",
+    )
     for b in (f.beta_pos.value, -f.beta_neg.value):
         ax.axvline(100 * b, color="0.6", ls=":")
     ax.set_xlabel("command u [%]")
@@ -138,8 +155,12 @@ def plot_stribeck(fr, path: str | os.PathLike | None = None):
     ax.plot(1e3 * v, f, "o", ms=3, label="steady-state points, Eq. (10)")
     vv = np.linspace(v.min(), v.max(), 1000)
     fc = fit.friction
-    ax.plot(1e3 * vv, fit.force_at(vv), "-",
-            label=f"Eq. (11): F_c = {fc.coulomb:.1f} N, F_s = {fc.static:.1f} N, σ = {fc.viscous:.0f} N·s/m")
+    ax.plot(
+        1e3 * vv,
+        fit.force_at(vv),
+        "-",
+        label=f"Eq. (11): F_c = {fc.coulomb:.1f} N, F_s = {fc.static:.1f} N, σ = {fc.viscous:.0f} N·s/m",
+    )
     ax.set_ylabel("friction force [N]")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
@@ -181,8 +202,13 @@ def plot_inverse_dynamics(result, path: str | os.PathLike | None = None):
 
 
 # --------------------------------------------------------------------------- grey-box fit
-_GB_SCALE = {"x": (1e3, "x [mm]"), "v": (1e3, "v [mm/s]"), "p_a": (1e-5, "p_A [bar]"), "p_b": (1e-5, "p_B [bar]"),
-             "p_l": (1e-5, "p_L [bar]")}
+_GB_SCALE = {
+    "x": (1e3, "x [mm]"),
+    "v": (1e3, "v [mm/s]"),
+    "p_a": (1e-5, "p_A [bar]"),
+    "p_b": (1e-5, "p_B [bar]"),
+    "p_l": (1e-5, "p_L [bar]"),
+}
 
 
 def _greybox_run(fit, run):
@@ -207,11 +233,15 @@ def plot_greybox_fit(fit, run: str | None = None, path: str | os.PathLike | None
     """
     r = _greybox_run(fit, run)
     chans = list(r.measured)
-    fig, axes = _figure(len(chans), 1, sharex=True, squeeze=False, figsize=(7.0, 1.8 + 1.6 * len(chans)))
+    fig, axes = _figure(
+        len(chans), 1, sharex=True, squeeze=False, figsize=(7.0, 1.8 + 1.6 * len(chans))
+    )
     for ax, c in zip(axes[:, 0], chans, strict=True):
         k, label = _GB_SCALE.get(c, (1.0, c))
         ax.plot(r.t, k * r.measured[c], "-", lw=0.8, color="0.4", label="measured")
-        ax.plot(r.t, k * r.simulated[c], "-", lw=0.9, color="C3", label=f"fitted ({r.method} shooting)")
+        ax.plot(
+            r.t, k * r.simulated[c], "-", lw=0.9, color="C3", label=f"fitted ({r.method} shooting)"
+        )
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=7)
@@ -222,7 +252,9 @@ def plot_greybox_fit(fit, run: str | None = None, path: str | os.PathLike | None
     return fig
 
 
-def plot_greybox_residuals(fit, run: str | None = None, path: str | os.PathLike | None = None, max_lag: float = 0.1):
+def plot_greybox_residuals(
+    fit, run: str | None = None, path: str | os.PathLike | None = None, max_lag: float = 0.1
+):
     """Noise-scaled residuals of one run and their autocorrelation.
 
     Parameters
@@ -247,8 +279,13 @@ def plot_greybox_residuals(fit, run: str | None = None, path: str | os.PathLike 
         f = np.fft.rfft(z, 2 * z.size)
         ac = np.fft.irfft(f * np.conj(f))[:n]
         if ac[0] > 0:
-            ax_c.plot(1e3 * dt * np.arange(n), ac / ac[0], "-", lw=0.9,
-                      label=f"{c}: n_eff = {r.n_eff.get(c, float('nan')):.0f}")
+            ax_c.plot(
+                1e3 * dt * np.arange(n),
+                ac / ac[0],
+                "-",
+                lw=0.9,
+                label=f"{c}: n_eff = {r.n_eff.get(c, float('nan')):.0f}",
+            )
     ax.set_xlabel("time [s]")
     ax.set_ylabel("residual / σ")
     ax.grid(True, alpha=0.3)
@@ -285,7 +322,9 @@ def plot_greybox_profiles(fit, path: str | os.PathLike | None = None):
         ax.grid(True, alpha=0.3)
     axes[0, 0].set_ylabel("Δχ² (variance-corrected)")
     if not profs:
-        axes[0, 0].text(0.5, 0.5, "no parameter was profiled", ha="center", transform=axes[0, 0].transAxes)
+        axes[0, 0].text(
+            0.5, 0.5, "no parameter was profiled", ha="center", transform=axes[0, 0].transAxes
+        )
     fig.suptitle("Profile likelihoods")
     if path is not None:
         save_figure(fig, path)

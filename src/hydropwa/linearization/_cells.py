@@ -112,11 +112,15 @@ def _shape_cells(func, slope, interval, mode, n, breakpoints, working_points, wh
         wp = PAPER_WORKING_POINTS if working_points is None else working_points
         return tangent_pwa(func, wp, interval, slope)
     if mode in ("optimized", "optimized-rms"):
-        return _optimized(func.__name__, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax")
+        return _optimized(
+            func.__name__, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax"
+        )
     if mode == "given":
         fit = fit_pwa(func, interval, breakpoints=breakpoints)
         if fit.n_cells != n:
-            raise PwaError(f"{len(np.atleast_1d(breakpoints))} {what} breakpoints make {fit.n_cells} cells, not {n}")
+            raise PwaError(
+                f"{len(np.atleast_1d(breakpoints))} {what} breakpoints make {fit.n_cells} cells, not {n}"
+            )
         return fit
     raise PwaError(f"unknown breakpoint mode {mode!r} for {what}")
 
@@ -129,7 +133,9 @@ def _optimized(name: str, interval: tuple[float, float], n: int, method: str) ->
     return fit_pwa(_SHAPES[name], interval, n_cells=n, method=method)
 
 
-def cq_cells(n: int = 5, mode: str = "paper", *, interval=CQ_INTERVAL, breakpoints=None, working_points=None) -> PwaFit:
+def cq_cells(
+    n: int = 5, mode: str = "paper", *, interval=CQ_INTERVAL, breakpoints=None, working_points=None
+) -> PwaFit:
     """Normalised C_q cells k̂_o p̃ + d̂_o ≈ √(1 − p̃), Eqs. (18), (20).
 
     Parameters
@@ -149,16 +155,22 @@ def cq_cells(n: int = 5, mode: str = "paper", *, interval=CQ_INTERVAL, breakpoin
         Cells in p̃; physical k_o = K√(P_S/2)·k̂_o·sign(z)/P_S [m³/(s·Pa)],
         d_o = K√(P_S/2)·d̂_o [m³/s], breakpoints sign(z)·P_S·p̃ [Pa].
     """
-    return _shape_cells(cq_shape, _cq_shape_slope, interval, mode, n, breakpoints, working_points, "C_q")
+    return _shape_cells(
+        cq_shape, _cq_shape_slope, interval, mode, n, breakpoints, working_points, "C_q"
+    )
 
 
-def cqp_cells(n: int = 5, mode: str = "paper", *, interval=CQP_INTERVAL, breakpoints=None, working_points=None) -> PwaFit:
+def cqp_cells(
+    n: int = 5, mode: str = "paper", *, interval=CQP_INTERVAL, breakpoints=None, working_points=None
+) -> PwaFit:
     """Normalised C_qp cells k̂_n p̃ + d̂_n ≈ 1/√(1 − p̃), Eqs. (19), (21).
 
     Parameters are those of :func:`cq_cells`. Physical k_n = K/(4√(P_S/2))·k̂_n·sign(z)/P_S
     [m³/(s·Pa²)], d_n = K/(4√(P_S/2))·d̂_n [m³/(s·Pa)]; C_qp = |z|(k_n P_L + d_n).
     """
-    return _shape_cells(cqp_shape, _cqp_shape_slope, interval, mode, n, breakpoints, working_points, "C_qp")
+    return _shape_cells(
+        cqp_shape, _cqp_shape_slope, interval, mode, n, breakpoints, working_points, "C_qp"
+    )
 
 
 def friction_function(friction: Friction):
@@ -166,8 +178,15 @@ def friction_function(friction: Friction):
     fr = friction
 
     def f(v):
-        return stribeck_friction(np.asarray(v, dtype=float), fr.coulomb, fr.static, fr.viscous,
-                                 fr.stribeck_velocity, fr.shape, fr.smoothness)
+        return stribeck_friction(
+            np.asarray(v, dtype=float),
+            fr.coulomb,
+            fr.static,
+            fr.viscous,
+            fr.stribeck_velocity,
+            fr.shape,
+            fr.smoothness,
+        )
 
     return f
 
@@ -229,7 +248,9 @@ def friction_cells(
     func = friction_function(friction)
     if mode == "paper":
         if n != 7:
-            raise PwaError(f"the paper's friction cells are 7; for {n} cells use breakpoints='optimized'")
+            raise PwaError(
+                f"the paper's friction cells are 7; for {n} cells use breakpoints='optimized'"
+            )
         return fit_pwa(func, interval, breakpoints=_paper_friction_breakpoints(), method="rms")
     if mode == "tangent":
         if working_points is None:
@@ -238,11 +259,15 @@ def friction_cells(
     if mode == "machine":
         return machine_friction_cells(friction, n, tuple(float(v) for v in interval))
     if mode in ("optimized", "optimized-rms"):
-        return _optimized_friction(friction, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax")
+        return _optimized_friction(
+            friction, tuple(interval), n, "rms" if mode.endswith("rms") else "minimax"
+        )
     if mode == "given":
         fit = fit_pwa(func, interval, breakpoints=breakpoints)
         if fit.n_cells != n:
-            raise PwaError(f"{len(np.atleast_1d(breakpoints))} friction breakpoints make {fit.n_cells} cells, not {n}")
+            raise PwaError(
+                f"{len(np.atleast_1d(breakpoints))} friction breakpoints make {fit.n_cells} cells, not {n}"
+            )
         return fit
     raise PwaError(f"unknown breakpoint mode {mode!r} for friction")
 
@@ -275,7 +300,9 @@ def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, fl
     if k == 3:
         b0 = np.array(_STRIBECK_BREAKPOINTS) * chi
     else:
-        b0 = np.geomspace(min(1.0 / max(friction.smoothness, 1e-9), 0.05 * chi), max(3.5 * chi, vmax / 3), k)
+        b0 = np.geomspace(
+            min(1.0 / max(friction.smoothness, 1e-9), 0.05 * chi), max(3.5 * chi, vmax / 3), k
+        )
     b0 = np.clip(b0, 1e-6 * vmax, 0.95 * vmax)
 
     def fit(logb):
@@ -288,7 +315,12 @@ def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, fl
         f = fit(logb)
         return np.inf if f is None else f.max_error
 
-    res = minimize(cost, np.log(b0), method="Nelder-Mead", options={"maxiter": 20 * k, "xatol": 1e-3, "fatol": 1e-2})
+    res = minimize(
+        cost,
+        np.log(b0),
+        method="Nelder-Mead",
+        options={"maxiter": 20 * k, "xatol": 1e-3, "fatol": 1e-2},
+    )
     best = fit(res.x) if np.isfinite(res.fun) and res.fun <= cost(np.log(b0)) else fit(np.log(b0))
     return best
 
@@ -298,7 +330,9 @@ def _optimized_friction(friction: Friction, interval, n: int, method: str) -> Pw
     return fit_pwa(friction_function(friction), interval, n_cells=n, method=method, n_grid=900)
 
 
-def table_v_residual(friction: Friction, fit: PwaFit | None = None, interval=FRICTION_INTERVAL) -> float:
+def table_v_residual(
+    friction: Friction, fit: PwaFit | None = None, interval=FRICTION_INTERVAL
+) -> float:
     """RMS difference [N] between friction cells built from ``friction`` and Table V's curve."""
     from ..params import table_v_pwa
 

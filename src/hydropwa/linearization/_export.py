@@ -32,8 +32,17 @@ from .._io import atomic_path, atomic_write_text
 from ..components import PiecewiseAffine
 from ._fit import PwaFit
 
-__all__ = ["SCHEMA", "UNITS", "model_to_dict", "model_from_dict", "export_pwa", "save_pwa", "load_pwa",
-           "pwa_statespaces", "save_pwa_mat"]
+__all__ = [
+    "SCHEMA",
+    "UNITS",
+    "model_to_dict",
+    "model_from_dict",
+    "export_pwa",
+    "save_pwa",
+    "load_pwa",
+    "pwa_statespaces",
+    "save_pwa_mat",
+]
 
 SCHEMA = "hydropwa.pwa/1"
 _STATE = [{"name": "p_l", "unit": "Pa"}, {"name": "v", "unit": "m/s"}, {"name": "x", "unit": "m"}]
@@ -47,13 +56,22 @@ _SETS = {
 
 
 def _pwa_dict(pwa: PiecewiseAffine) -> dict[str, Any]:
-    return {"breakpoints": pwa.breakpoints.tolist(), "slopes": pwa.slopes.tolist(), "offsets": pwa.offsets.tolist()}
+    return {
+        "breakpoints": pwa.breakpoints.tolist(),
+        "slopes": pwa.slopes.tolist(),
+        "offsets": pwa.offsets.tolist(),
+    }
 
 
 def _fit_dict(fit: PwaFit) -> dict[str, Any]:
     d = _pwa_dict(fit.pwa)
-    d.update(interval=list(fit.interval), working_points=fit.working_points.tolist(), max_error=fit.max_error,
-             rms_error=fit.rms_error, method=fit.method)
+    d.update(
+        interval=list(fit.interval),
+        working_points=fit.working_points.tolist(),
+        max_error=fit.max_error,
+        rms_error=fit.rms_error,
+        method=fit.method,
+    )
     return d
 
 
@@ -87,7 +105,9 @@ def _need(d: dict, key: str, where: str):
 
 
 def _pwa_from(d: dict, where: str) -> PiecewiseAffine:
-    return PiecewiseAffine(_need(d, "breakpoints", where), _need(d, "slopes", where), _need(d, "offsets", where))
+    return PiecewiseAffine(
+        _need(d, "breakpoints", where), _need(d, "slopes", where), _need(d, "offsets", where)
+    )
 
 
 def _fit_from(d: dict, where: str) -> PwaFit:
@@ -95,9 +115,17 @@ def _fit_from(d: dict, where: str) -> PwaFit:
     interval = _need(d, "interval", where)
     wp = np.asarray(_need(d, "working_points", where), dtype=float)
     if wp.shape != (pwa.n_cells,):
-        raise PwaError(f"PWA document: {where} has {wp.size} working points for {pwa.n_cells} cells")
-    return PwaFit(pwa, (float(interval[0]), float(interval[1])), wp, float(_need(d, "max_error", where)),
-                  float(_need(d, "rms_error", where)), str(_need(d, "method", where)))
+        raise PwaError(
+            f"PWA document: {where} has {wp.size} working points for {pwa.n_cells} cells"
+        )
+    return PwaFit(
+        pwa,
+        (float(interval[0]), float(interval[1])),
+        wp,
+        float(_need(d, "max_error", where)),
+        float(_need(d, "rms_error", where)),
+        str(_need(d, "method", where)),
+    )
 
 
 def model_from_dict(data: dict[str, Any]):
@@ -117,7 +145,9 @@ def model_from_dict(data: dict[str, Any]):
     if schema != SCHEMA:
         raise PwaError(f"PWA document schema {schema!r} is not {SCHEMA!r}")
     try:
-        params = params_from_dict(_need(data, "params", "document"), source="PWA document", check_bare=False)
+        params = params_from_dict(
+            _need(data, "params", "document"), source="PWA document", check_bare=False
+        )
         sets = _need(data, "cell_sets", "document")
         ir = _need(data, "input_range", "document")
         return PwaModel(
@@ -176,8 +206,12 @@ def _state_doc(model, units: str) -> tuple[list, list]:
 
 def _split(lower: np.ndarray, upper: np.ndarray, depth: int, model, idx, ps, tol, wp_v, poly):
     """Boxes (lower, upper, dynamics, bound) covering one cell, bisected until bound <= tol."""
-    wp = {"p_l": 0.5 * (lower[0] + upper[0]), "v": float(np.clip(wp_v, lower[1], upper[1])),
-          "x": model.x_capacitance, "u": 0.5 * (lower[3] + upper[3])}
+    wp = {
+        "p_l": 0.5 * (lower[0] + upper[0]),
+        "v": float(np.clip(wp_v, lower[1], upper[1])),
+        "x": model.x_capacitance,
+        "u": 0.5 * (lower[3] + upper[3]),
+    }
     dyn = model.state_space(wp, p_s=ps)
     bound = model.error_bound(idx, dyn, lower, upper, polynomial=poly)
     if tol is None or bound <= tol or depth >= MAX_REFINE_DEPTH:
@@ -187,12 +221,19 @@ def _split(lower: np.ndarray, upper: np.ndarray, depth: int, model, idx, ps, tol
     mid = 0.5 * (lower[k] + upper[k])
     up1, lo2 = upper.copy(), lower.copy()
     up1[k], lo2[k] = mid, mid
-    return (_split(lower, up1, depth + 1, model, idx, ps, tol, wp_v, poly)
-            + _split(lo2, upper, depth + 1, model, idx, ps, tol, wp_v, poly))
+    return _split(lower, up1, depth + 1, model, idx, ps, tol, wp_v, poly) + _split(
+        lo2, upper, depth + 1, model, idx, ps, tol, wp_v, poly
+    )
 
 
-def export_pwa(model, *, supply_pressure: float | None = None, sample_time: float | None = None,
-               refine_tol: float | None = None, units: str = "si") -> dict[str, Any]:
+def export_pwa(
+    model,
+    *,
+    supply_pressure: float | None = None,
+    sample_time: float | None = None,
+    refine_tol: float | None = None,
+    units: str = "si",
+) -> dict[str, Any]:
     """The model with one affine system per cell, continuous or ZOH-discretised.
 
     Parameters
@@ -242,29 +283,41 @@ def export_pwa(model, *, supply_pressure: float | None = None, sample_time: floa
     for idx, lower, upper in model.regions(ps):
         wp = model.working_point((idx.g, idx.s, idx.o, idx.w), ps)
         poly = model._row0_polynomial(idx, ps, model.params.load.force, (lower, upper))
-        for lo, hi, dyn, bound in _split(lower, upper, 0, model, idx, ps, refine_tol, wp["v"], poly):
+        for lo, hi, dyn, bound in _split(
+            lower, upper, 0, model, idx, ps, refine_tol, wp["v"], poly
+        ):
             if sample_time is not None:
                 dyn = dyn.discretize(sample_time)
             H, h = _box_rows(lo * sc, hi * sc)
-            point = {k: float(dyn.point[k]) * f for k, f in zip(("p_l", "v", "x", "u"), sc, strict=True)}
+            point = {
+                k: float(dyn.point[k]) * f for k, f in zip(("p_l", "v", "x", "u"), sc, strict=True)
+            }
             point["p_s"] = float(dyn.point["p_s"]) * sc[0]
-            cells.append({
-                "index": idx._asdict(),
-                "H": H,
-                "h": h,
-                "A": (T @ dyn.A @ Ti).tolist(),
-                "B": (T @ dyn.B / sc[3]).tolist(),
-                "f": (T @ dyn.f).tolist(),
-                "working_point": point,
-                "error_bound": bound * sc[0],
-            })
+            cells.append(
+                {
+                    "index": idx._asdict(),
+                    "H": H,
+                    "h": h,
+                    "A": (T @ dyn.A @ Ti).tolist(),
+                    "B": (T @ dyn.B / sc[3]).tolist(),
+                    "f": (T @ dyn.f).tolist(),
+                    "working_point": point,
+                    "error_bound": bound * sc[0],
+                }
+            )
     doc["cells"] = cells
     doc["max_error_bound"] = max(c["error_bound"] for c in cells) if cells else 0.0
     return doc
 
 
-def pwa_statespaces(model, *, supply_pressure: float | None = None, sample_time: float | None = None,
-                    refine_tol: float | None = None, units: str = "si") -> list[dict[str, Any]]:
+def pwa_statespaces(
+    model,
+    *,
+    supply_pressure: float | None = None,
+    sample_time: float | None = None,
+    refine_tol: float | None = None,
+    units: str = "si",
+) -> list[dict[str, Any]]:
     """python-control ``StateSpace`` objects of all cells, with f as an extra input.
 
     Returns
@@ -277,8 +330,13 @@ def pwa_statespaces(model, *, supply_pressure: float | None = None, sample_time:
     """
     import control  # deferred: python-control is only needed here
 
-    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
-                     units=units)
+    doc = export_pwa(
+        model,
+        supply_pressure=supply_pressure,
+        sample_time=sample_time,
+        refine_tol=refine_tol,
+        units=units,
+    )
     names = [v["name"] for v in doc["state"]]
     out = []
     for c in doc["cells"]:
@@ -287,14 +345,29 @@ def pwa_statespaces(model, *, supply_pressure: float | None = None, sample_time:
         if doc["sample_time"] is not None:
             args = args + (doc["sample_time"],)
         sys = control.ss(*args, inputs=["u", "one"], outputs=names, states=names)
-        out.append({"sys": sys, "H": np.array(c["H"]), "h": np.array(c["h"]), "index": c["index"],
-                    "working_point": c["working_point"], "error_bound": c["error_bound"]})
+        out.append(
+            {
+                "sys": sys,
+                "H": np.array(c["H"]),
+                "h": np.array(c["h"]),
+                "index": c["index"],
+                "working_point": c["working_point"],
+                "error_bound": c["error_bound"],
+            }
+        )
     return out
 
 
-def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | None = None,
-                 sample_time: float | None = None, refine_tol: float | None = None, units: str = "si",
-                 overwrite: bool = False) -> Path:
+def save_pwa_mat(
+    model,
+    path: str | os.PathLike,
+    *,
+    supply_pressure: float | None = None,
+    sample_time: float | None = None,
+    refine_tol: float | None = None,
+    units: str = "si",
+    overwrite: bool = False,
+) -> Path:
     """MPT3-style MATLAB export: cell arrays A, B, f, H, h (regions H·[x; u] <= h).
 
     In MATLAB (MPT3)::
@@ -314,8 +387,13 @@ def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | Non
     target = Path(path)
     if target.exists() and not overwrite:
         raise PwaError(f"{target} exists; pass overwrite=True (--force) to replace it")
-    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
-                     units=units)
+    doc = export_pwa(
+        model,
+        supply_pressure=supply_pressure,
+        sample_time=sample_time,
+        refine_tol=refine_tol,
+        units=units,
+    )
 
     def cells(key):
         arr = np.empty((len(doc["cells"]), 1), dtype=object)
@@ -325,10 +403,16 @@ def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | Non
         return arr
 
     data = {
-        "A": cells("A"), "B": cells("B"), "f": cells("f"), "H": cells("H"), "h": cells("h"),
+        "A": cells("A"),
+        "B": cells("B"),
+        "f": cells("f"),
+        "H": cells("H"),
+        "h": cells("h"),
         "Ts": 0.0 if doc["sample_time"] is None else doc["sample_time"],
         "error_bound": np.array([c["error_bound"] for c in doc["cells"]]),
-        "cell_index": np.array([[c["index"][k] for k in ("g", "s", "o", "n", "w")] for c in doc["cells"]], dtype=float),
+        "cell_index": np.array(
+            [[c["index"][k] for k in ("g", "s", "o", "n", "w")] for c in doc["cells"]], dtype=float
+        ),
         "state_names": np.array([v["name"] for v in doc["state"]], dtype=object),
         "state_units": np.array([v["unit"] for v in doc["state"]], dtype=object),
         "input_unit": doc["input"][0]["unit"],
@@ -343,16 +427,28 @@ def save_pwa_mat(model, path: str | os.PathLike, *, supply_pressure: float | Non
     return target
 
 
-def save_pwa(model, path: str | os.PathLike, *, supply_pressure: float | None = None,
-             sample_time: float | None = None, refine_tol: float | None = None, units: str = "si",
-             overwrite: bool = False) -> Path:
+def save_pwa(
+    model,
+    path: str | os.PathLike,
+    *,
+    supply_pressure: float | None = None,
+    sample_time: float | None = None,
+    refine_tol: float | None = None,
+    units: str = "si",
+    overwrite: bool = False,
+) -> Path:
     """Write :func:`export_pwa` as JSON (atomically) and return the path; an existing file
     raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
     from .._io import check_output
 
     check_output(path, overwrite)
-    doc = export_pwa(model, supply_pressure=supply_pressure, sample_time=sample_time, refine_tol=refine_tol,
-                     units=units)
+    doc = export_pwa(
+        model,
+        supply_pressure=supply_pressure,
+        sample_time=sample_time,
+        refine_tol=refine_tol,
+        units=units,
+    )
     return atomic_write_text(path, json.dumps(doc, indent=1) + "\n", overwrite=overwrite)
 
 

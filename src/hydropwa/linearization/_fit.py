@@ -160,7 +160,9 @@ def _from_nodes(nodes: np.ndarray, values: np.ndarray) -> PiecewiseAffine:
     return PiecewiseAffine(nodes[1:-1], k, d)
 
 
-def approximation_errors(func: Callable, pwa: PiecewiseAffine, interval, n: int = 20001) -> tuple[float, float]:
+def approximation_errors(
+    func: Callable, pwa: PiecewiseAffine, interval, n: int = 20001
+) -> tuple[float, float]:
     """Max and RMS error of ``pwa`` against ``func`` on a fine grid over ``interval``.
 
     Returns
@@ -185,7 +187,9 @@ def _finish(func, pwa, lo, hi, method, working_points=None) -> PwaFit:
     return PwaFit(pwa, (lo, hi), wp, emax, erms, method)
 
 
-def tangent_pwa(func: Callable, working_points, interval, derivative: Callable | None = None) -> PwaFit:
+def tangent_pwa(
+    func: Callable, working_points, interval, derivative: Callable | None = None
+) -> PwaFit:
     """Tangent lines at the working points, Eqs. (17)–(19); breakpoints where neighbours meet.
 
     Parameters
@@ -209,7 +213,9 @@ def tangent_pwa(func: Callable, working_points, interval, derivative: Callable |
     if xw.size == 0:
         raise PwaError("tangent construction needs at least one working point")
     if np.any(np.diff(xw) <= 0) or xw[0] < lo or xw[-1] > hi:
-        raise PwaError(f"working points {xw.tolist()} must increase strictly and lie in [{lo:g}, {hi:g}]")
+        raise PwaError(
+            f"working points {xw.tolist()} must increase strictly and lie in [{lo:g}, {hi:g}]"
+        )
     fx = _eval(func, xw)
     if derivative is not None:
         k = np.asarray(derivative(xw), dtype=float)
@@ -258,8 +264,12 @@ def _optimise_breakpoints(x, fx, lo, hi, n_cells, method, maxiter) -> np.ndarray
 
     best = theta0
     for _ in range(2):  # a restart escapes the occasional collapsed simplex
-        res = minimize(objective, best, method="Nelder-Mead",
-                       options={"maxiter": maxiter, "xatol": 1e-5, "fatol": 1e-12, "adaptive": True})
+        res = minimize(
+            objective,
+            best,
+            method="Nelder-Mead",
+            options={"maxiter": maxiter, "xatol": 1e-5, "fatol": 1e-12, "adaptive": True},
+        )
         best = res.x
     return nodes_of(best)
 
@@ -314,9 +324,19 @@ def fit_pwa(
         or more than one mode selected.
     """
     lo, hi = _check_interval(interval)
-    given = [m for m, v in (("n_cells", n_cells), ("breakpoints", breakpoints), ("working_points", working_points)) if v is not None]
+    given = [
+        m
+        for m, v in (
+            ("n_cells", n_cells),
+            ("breakpoints", breakpoints),
+            ("working_points", working_points),
+        )
+        if v is not None
+    ]
     if len(given) != 1:
-        raise PwaError(f"give exactly one of n_cells, breakpoints or working_points (got {given or 'none'})")
+        raise PwaError(
+            f"give exactly one of n_cells, breakpoints or working_points (got {given or 'none'})"
+        )
     if working_points is not None:
         return tangent_pwa(func, working_points, (lo, hi), derivative)
     if method not in _METHODS:

@@ -141,10 +141,26 @@ class AffineDynamics:
         C = np.eye(3)
         D = np.zeros((3, 1))
         if self.dt is None:
-            sys = control.ss(self.A, self.B, C, D, inputs=["u"], outputs=["p_l", "v", "x"], states=["p_l", "v", "x"])
+            sys = control.ss(
+                self.A,
+                self.B,
+                C,
+                D,
+                inputs=["u"],
+                outputs=["p_l", "v", "x"],
+                states=["p_l", "v", "x"],
+            )
         else:
-            sys = control.ss(self.A, self.B, C, D, self.dt, inputs=["u"], outputs=["p_l", "v", "x"],
-                             states=["p_l", "v", "x"])
+            sys = control.ss(
+                self.A,
+                self.B,
+                C,
+                D,
+                self.dt,
+                inputs=["u"],
+                outputs=["p_l", "v", "x"],
+                states=["p_l", "v", "x"],
+            )
         return sys, self.f.copy()
 
     def discretize(self, dt: float) -> AffineDynamics:
@@ -160,8 +176,12 @@ class AffineDynamics:
         if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
             raise PwaError(f"sample time {dt!r} s must be a positive number")
         Bf = np.hstack((self.B, self.f[:, None]))
-        Ad, Bd, *_ = cont2discrete((self.A, Bf, np.eye(3), np.zeros((3, 2))), float(dt), method="zoh")
-        return AffineDynamics(Ad, Bd[:, :1], Bd[:, 1].copy(), self.cells, dict(self.point), float(dt))
+        Ad, Bd, *_ = cont2discrete(
+            (self.A, Bf, np.eye(3), np.zeros((3, 2))), float(dt), method="zoh"
+        )
+        return AffineDynamics(
+            Ad, Bd[:, :1], Bd[:, 1].copy(), self.cells, dict(self.point), float(dt)
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,7 +237,9 @@ class PwaModel:
             raise PwaError(f"PwaModel needs a SystemParams, got {type(self.params).__name__}")
         _check_supply(self.supply_pressure, self.params, self.form)
         xc = self.capacitance_position
-        if xc is not None and not (isinstance(xc, int | float) and 0.0 <= xc <= self.params.cylinder.stroke):
+        if xc is not None and not (
+            isinstance(xc, int | float) and 0.0 <= xc <= self.params.cylinder.stroke
+        ):
             raise PwaError(
                 f"capacitance position {xc!r} m must lie within the stroke 0 … {self.params.cylinder.stroke:g} m"
             )
@@ -240,9 +262,19 @@ class PwaModel:
 
         rows = [
             ("dead zone (16), Table IV", "u [1]", self.dead_zone.slopes.size, "exact"),
-            ("C_q (18), (20)", "p̃ = sign(z)P_L/P_S", self.cq.n_cells, f"max error {self.cq.max_error:.3g}"),
+            (
+                "C_q (18), (20)",
+                "p̃ = sign(z)P_L/P_S",
+                self.cq.n_cells,
+                f"max error {self.cq.max_error:.3g}",
+            ),
             ("C_qp (19), (21)", "p̃", self.cqp.n_cells, f"max error {self.cqp.max_error:.3g}"),
-            ("friction (22), Table V", "v [m/s]", self.friction.n_cells, f"max error {self.friction.max_error:.3g} N"),
+            (
+                "friction (22), Table V",
+                "v [m/s]",
+                self.friction.n_cells,
+                f"max error {self.friction.max_error:.3g} N",
+            ),
         ]
         sched = "scheduled on P_S(t)" if self.scheduled else "fixed P_S"
         title = f"PwaModel: form {self.form}, {sched}, P_S = {self.supply_pressure / 1e5:.4g} bar"
@@ -268,7 +300,11 @@ class PwaModel:
     def x_capacitance(self) -> float:
         """Rod position [m] of the frozen chamber capacitances (asymmetric form)."""
         c = self.params.cylinder
-        return 0.5 * c.stroke if self.capacitance_position is None else float(self.capacitance_position)
+        return (
+            0.5 * c.stroke
+            if self.capacitance_position is None
+            else float(self.capacitance_position)
+        )
 
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (base layout of ``hydropwa.models.pack_params`` + PWA cells)."""
@@ -333,11 +369,19 @@ class PwaModel:
         z = self.dead_zone.slopes[g] * u + self.dead_zone.offsets[g]
         s = _sign(z)
         pn = s * p_l / self.edge_pressure(ps, s)[0]
-        return CellIndex(g, s, int(self.cq.pwa.cell(pn)), int(self.cqp.pwa.cell(pn)), int(self.friction.pwa.cell(v)))
+        return CellIndex(
+            g,
+            s,
+            int(self.cq.pwa.cell(pn)),
+            int(self.cqp.pwa.cell(pn)),
+            int(self.friction.pwa.cell(v)),
+        )
 
     def _kernel_point(self, y, u: float, ps: float, fl: float):
         """(f, ∂f/∂y, ∂f/∂(u, P_S, F_L)) from the compiled kernel, the one assembly."""
-        return K.point_derivatives(K.PWA, np.asarray(y, dtype=float), u, ps, fl, self._packed_fixed(ps))
+        return K.point_derivatives(
+            K.PWA, np.asarray(y, dtype=float), u, ps, fl, self._packed_fixed(ps)
+        )
 
     def _packed_fixed(self, ps: float) -> np.ndarray:
         """Packed vector with the cells fixed at P_S = ``ps`` (not scheduled); memoised per P_S."""
@@ -358,7 +402,9 @@ class PwaModel:
         return float(K.pwa_load_flow_at(float(p_l), float(u), ps, self._packed_fixed(ps)))
 
     # --- dynamics -----------------------------------------------------------------------
-    def rhs(self, t: float, y, u: float, p_s: float | None = None, f_l: float | None = None) -> np.ndarray:
+    def rhs(
+        self, t: float, y, u: float, p_s: float | None = None, f_l: float | None = None
+    ) -> np.ndarray:
         """Right-hand side [Ṗ_L, v̇, ẋ]; see :func:`pwa_rhs`."""
         return pwa_rhs(t, y, u, p_s, f_l, self)
 
@@ -367,11 +413,16 @@ class PwaModel:
         ps = self.supply_pressure if p_s is None else float(p_s)
         want = tuple(cells)
         for idx, lo, hi in self.regions(ps):
-            if idx == want or (self.form != "paper" and (idx.g, idx.s, idx.o, idx.w) == (want[0], want[1], want[2], want[4])):
+            if idx == want or (
+                self.form != "paper"
+                and (idx.g, idx.s, idx.o, idx.w) == (want[0], want[1], want[2], want[4])
+            ):
                 return lo, hi
         raise PwaError(f"cell combination {want} is empty at P_S = {ps / 1e5:g} bar")
 
-    def _row0_polynomial(self, cells: CellIndex, ps: float, fl: float, box=None) -> tuple[np.ndarray, float]:
+    def _row0_polynomial(
+        self, cells: CellIndex, ps: float, fl: float, box=None
+    ) -> tuple[np.ndarray, float]:
         """Exact polynomial of Ṗ_L inside a cell: Σ a_ij P_L^i u^j (i ≤ 2, j ≤ 1) + a_v·v.
 
         Inside one cell the PWA right-hand side is bilinear in (P_L, u) (quadratic in P_L in
@@ -404,7 +455,9 @@ class PwaModel:
             a[0, j] = b0 - b1 * pc / ph + bq * pc**2 / ph**2
         return a, float(a_v)
 
-    def matrices(self, p_l: float, v: float, u: float, p_s: float | None = None, f_l: float | None = None):
+    def matrices(
+        self, p_l: float, v: float, u: float, p_s: float | None = None, f_l: float | None = None
+    ):
         """A(x), b(x), f of Eq. (23) for state x = [P_L, ẋ] in the active cells, exact in the cell.
 
         Returns
@@ -463,10 +516,14 @@ class PwaModel:
         try:
             p_l, v, u = float(pt["p_l"]), float(pt["v"]), float(pt["u"])
         except KeyError as exc:
-            raise PwaError(f"operating point needs p_l [Pa], v [m/s] and u [1]; missing {exc}") from None
+            raise PwaError(
+                f"operating point needs p_l [Pa], v [m/s] and u [1]; missing {exc}"
+            ) from None
         x = float(pt.get("x", self.x_capacitance))
         c = self.params.cylinder
-        x_in = min(max(x, 1e-9 * c.stroke), c.stroke * (1 - 1e-9))  # end stops are not part of the export
+        x_in = min(
+            max(x, 1e-9 * c.stroke), c.stroke * (1 - 1e-9)
+        )  # end stops are not part of the export
         fl = self.params.load.force if f_l is None else float(f_l)
         y = np.array([p_l, v, x_in])
         f_k, J, G = self._kernel_point(y, u, ps, fl)
@@ -476,8 +533,15 @@ class PwaModel:
         idx = self.cell_index(p_l, v, u, ps)
         return AffineDynamics(A, B, f, idx, {"p_l": p_l, "v": v, "x": x_in, "u": u, "p_s": ps})
 
-    def error_bound(self, cells: CellIndex, dyn: AffineDynamics, lower=None, upper=None, f_l: float | None = None,
-                    polynomial=None) -> float:
+    def error_bound(
+        self,
+        cells: CellIndex,
+        dyn: AffineDynamics,
+        lower=None,
+        upper=None,
+        f_l: float | None = None,
+        polynomial=None,
+    ) -> float:
         """Guaranteed bound [Pa/s] of |Ṗ_L(PWA) − (A y + B u + f)₀| over a cell's box.
 
         The other rows are affine inside a cell and exact. In Ṗ_L the error of the tangent
@@ -496,7 +560,12 @@ class PwaModel:
         A0, B0, f0 = dyn.A[0], float(dyn.B[0, 0]), float(dyn.f[0])
 
         def err(P, u, v, x):  # PWA Ṗ_L minus the exported affine row, exact inside the cell
-            poly = a[0, 0] + a[1, 0] * P + a[2, 0] * P * P + u * (a[0, 1] + a[1, 1] * P + a[2, 1] * P * P)
+            poly = (
+                a[0, 0]
+                + a[1, 0] * P
+                + a[2, 0] * P * P
+                + u * (a[0, 1] + a[1, 1] * P + a[2, 1] * P * P)
+            )
             return poly + a_v * v - (A0[0] * P + A0[1] * v + A0[2] * x + B0 * u + f0)
 
         worst = 0.0
@@ -513,8 +582,12 @@ class PwaModel:
                 for v in (lo[1], hi[1]):
                     for x in (lo[2], hi[2]):
                         worst = max(worst, abs(err(P, u, v, x)))
-        scale = max(abs(f0), abs(A0[0]) * max(abs(lo[0]), abs(hi[0])), abs(B0) * max(abs(lo[3]), abs(hi[3])),
-                    abs(a_v) * max(abs(lo[1]), abs(hi[1])))
+        scale = max(
+            abs(f0),
+            abs(A0[0]) * max(abs(lo[0]), abs(hi[0])),
+            abs(B0) * max(abs(lo[3]), abs(hi[3])),
+            abs(a_v) * max(abs(lo[1]), abs(hi[1])),
+        )
         return float(worst + 1e-9 * scale)  # rounding margin of the coefficient fit
 
     def working_point(self, cells, p_s: float | None = None) -> dict[str, float]:
@@ -527,13 +600,21 @@ class PwaModel:
             g, s, o, _n, w = cells
         else:
             raise PwaError(f"cell combination {cells} must be (g, s, o, w) or (g, s, o, n, w)")
-        for name, i, n in (("g", g, self.dead_zone.n_cells), ("o", o, self.cq.n_cells), ("w", w, self.friction.n_cells)):
+        for name, i, n in (
+            ("g", g, self.dead_zone.n_cells),
+            ("o", o, self.cq.n_cells),
+            ("w", w, self.friction.n_cells),
+        ):
             if not 0 <= i < n:
                 raise PwaError(f"cell index {name} = {i} outside 0..{n - 1}")
         u = float(self._input_cell_point(g, s))
         pe = self.edge_pressure(ps, s)[0]
-        return {"p_l": float(s * pe * self.cq.working_points[o]), "v": float(self.friction.working_points[w]),
-                "x": self.x_capacitance, "u": u}
+        return {
+            "p_l": float(s * pe * self.cq.working_points[o]),
+            "v": float(self.friction.working_points[w]),
+            "x": self.x_capacitance,
+            "u": u,
+        }
 
     def _input_cell_point(self, g: int, s: int) -> float:
         lo, hi = self._input_bounds(g, s)
@@ -541,7 +622,9 @@ class PwaModel:
 
     def _input_bounds(self, g: int, s: int) -> tuple[float, float]:
         """Command interval of dead-zone cell g restricted to sign(z) = s (splits the creep cell)."""
-        b = np.concatenate(([self.input_range[0]], self.dead_zone.breakpoints, [self.input_range[1]]))
+        b = np.concatenate(
+            ([self.input_range[0]], self.dead_zone.breakpoints, [self.input_range[1]])
+        )
         lo, hi = float(max(b[g], self.input_range[0])), float(min(b[g + 1], self.input_range[1]))
         k, d = self.dead_zone.slopes[g], self.dead_zone.offsets[g]
         if k != 0.0:
@@ -575,7 +658,11 @@ class PwaModel:
                 bo = _pressure_edges(self.cq.pwa, pe, s, pe * span)
                 bn = _pressure_edges(self.cqp.pwa, pe, s, pe * span) if paper else None
                 for o in range(self.cq.n_cells):
-                    ns = range(self.cqp.n_cells) if paper else (int(self.cqp.pwa.cell(s * _mid(bo, o, s) / pe)),)
+                    ns = (
+                        range(self.cqp.n_cells)
+                        if paper
+                        else (int(self.cqp.pwa.cell(s * _mid(bo, o, s) / pe)),)
+                    )
                     for n in ns:
                         plo, phi = bo[o]
                         if paper:
@@ -609,7 +696,9 @@ class PwaModel:
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
-            raise PwaError(f"PWA document is not valid JSON: {exc.msg} at line {exc.lineno}") from None
+            raise PwaError(
+                f"PWA document is not valid JSON: {exc.msg} at line {exc.lineno}"
+            ) from None
         return model_from_dict(data)
 
 
@@ -618,7 +707,9 @@ def _mid(edges, o, s):
     return 0.5 * (lo + hi)
 
 
-def _pressure_edges(pwa: PiecewiseAffine, ps: float, s: int, pmax: float) -> list[tuple[float, float]]:
+def _pressure_edges(
+    pwa: PiecewiseAffine, ps: float, s: int, pmax: float
+) -> list[tuple[float, float]]:
     """P_L interval [Pa] of each normalised cell for flow direction s, clipped to ±pmax."""
     b = np.concatenate(([-np.inf], pwa.breakpoints, [np.inf]))
     out = []
@@ -634,7 +725,9 @@ def _check_supply(p_s, params: SystemParams, form: str = "asymmetric") -> float:
     except (TypeError, ValueError):
         raise PwaError(f"supply pressure {p_s!r} is not a number in Pa") from None
     if not math.isfinite(ps) or ps <= max(0.0, params.supply.tank_pressure):
-        raise PwaError(f"supply pressure {ps / 1e5:g} bar must be finite and above the tank pressure")
+        raise PwaError(
+            f"supply pressure {ps / 1e5:g} bar must be finite and above the tank pressure"
+        )
     area = params.cylinder.area_a if form == "asymmetric" else params.cylinder.mean_area
     p_load = abs(params.load.force) / area
     if p_load >= ps:
@@ -650,7 +743,9 @@ def _parse_cells(cells) -> dict[str, int]:
     if cells is None:
         return out
     if not isinstance(cells, Mapping):
-        raise PwaError(f"cells {cells!r} must be a mapping like {{'cq': 5, 'cqp': 5, 'friction': 7}}")
+        raise PwaError(
+            f"cells {cells!r} must be a mapping like {{'cq': 5, 'cqp': 5, 'friction': 7}}"
+        )
     for key, n in cells.items():
         if key not in DEFAULT_CELLS:
             raise PwaError(f"unknown cell set {key!r}; choose from {', '.join(DEFAULT_CELLS)}")
@@ -664,7 +759,9 @@ def _spec(breakpoints, key: str):
     """(mode, explicit breakpoints or None) for one cell set."""
     if isinstance(breakpoints, str):
         if breakpoints not in _MODES:
-            raise PwaError(f"breakpoints {breakpoints!r} must be one of {', '.join(_MODES)} or a mapping")
+            raise PwaError(
+                f"breakpoints {breakpoints!r} must be one of {', '.join(_MODES)} or a mapping"
+            )
         if breakpoints == "machine":  # cells over the machine's own operating range
             # C_q/C_qp cells live in p̃ = P_L/P_e, already scaled to the machine's pressures:
             # the tangent cells of Tables VI–IX serve every machine
@@ -673,12 +770,16 @@ def _spec(breakpoints, key: str):
     if isinstance(breakpoints, Mapping):
         unknown = set(breakpoints) - set(DEFAULT_CELLS)
         if unknown:
-            raise PwaError(f"unknown cell set(s) {sorted(unknown)} in breakpoints; choose from {', '.join(DEFAULT_CELLS)}")
+            raise PwaError(
+                f"unknown cell set(s) {sorted(unknown)} in breakpoints; choose from {', '.join(DEFAULT_CELLS)}"
+            )
         v = breakpoints.get(key, "paper")
         if isinstance(v, str):
             return _spec(v, key)
         return "given", np.asarray(v, dtype=float)
-    raise PwaError(f"breakpoints {breakpoints!r} must be a mode name or a mapping of cell set to breakpoints")
+    raise PwaError(
+        f"breakpoints {breakpoints!r} must be a mode name or a mapping of cell set to breakpoints"
+    )
 
 
 def linearize(
@@ -741,23 +842,36 @@ def linearize(
         raise PwaError(f"linearize needs a SystemParams, got {type(params).__name__}")
     if form not in FORMS:
         raise PwaError(f"form {form!r} must be one of {', '.join(FORMS)}")
-    ps = _check_supply(params.supply.pressure if supply_pressure is None else supply_pressure, params, form)
+    ps = _check_supply(
+        params.supply.pressure if supply_pressure is None else supply_pressure, params, form
+    )
     n = _parse_cells(cells)
     if capacitance_position is not None:
         xc = float(capacitance_position)
         if not (math.isfinite(xc) and 0.0 <= xc <= params.cylinder.stroke):
-            raise PwaError(f"capacitance position {xc:g} m must lie within the stroke 0 … {params.cylinder.stroke:g} m")
-    fr_mode = breakpoints if isinstance(breakpoints, str) else breakpoints.get("friction", "paper") \
-        if isinstance(breakpoints, Mapping) else None
+            raise PwaError(
+                f"capacitance position {xc:g} m must lie within the stroke 0 … {params.cylinder.stroke:g} m"
+            )
+    fr_mode = (
+        breakpoints
+        if isinstance(breakpoints, str)
+        else breakpoints.get("friction", "paper")
+        if isinstance(breakpoints, Mapping)
+        else None
+    )
     if friction_range is None:
-        friction_range = FRICTION_INTERVAL if fr_mode == "paper" else machine_velocity_range(params, ps, form)
+        friction_range = (
+            FRICTION_INTERVAL if fr_mode == "paper" else machine_velocity_range(params, ps, form)
+        )
     wp = dict(working_points or {})
     cq_int, cqp_int = CQ_INTERVAL, CQP_INTERVAL
     if load_pressure_range is not None:
         try:
             lo, hi = (float(v) for v in load_pressure_range)
         except (TypeError, ValueError):
-            raise PwaError(f"load pressure range {load_pressure_range!r} must be two numbers in Pa") from None
+            raise PwaError(
+                f"load pressure range {load_pressure_range!r} must be two numbers in Pa"
+            ) from None
         if not lo < hi:
             raise PwaError(f"load pressure range ({lo:g}, {hi:g}) Pa must have lo < hi")
         m = max(abs(lo), abs(hi))
@@ -773,16 +887,42 @@ def linearize(
     mode, b = _spec(breakpoints, "cqp")
     cqp = cqp_cells(n["cqp"], mode, interval=cqp_int, breakpoints=b, working_points=wp.get("cqp"))
     mode, b = _spec(breakpoints, "friction")
-    fr = friction_cells(params.friction, n["friction"], mode, interval=friction_range, breakpoints=b,
-                        working_points=wp.get("friction"))
-    label = breakpoints if isinstance(breakpoints, str) else json.dumps(
-        {k: (v if isinstance(v, str) else np.asarray(v, float).tolist()) for k, v in breakpoints.items()})
-    return PwaModel(params, dead_zone_cells(params.dead_zone), cq, cqp, fr, form, bool(scheduled), ps,
-                    INPUT_RANGE, label, capacitance_position)
+    fr = friction_cells(
+        params.friction,
+        n["friction"],
+        mode,
+        interval=friction_range,
+        breakpoints=b,
+        working_points=wp.get("friction"),
+    )
+    label = (
+        breakpoints
+        if isinstance(breakpoints, str)
+        else json.dumps(
+            {
+                k: (v if isinstance(v, str) else np.asarray(v, float).tolist())
+                for k, v in breakpoints.items()
+            }
+        )
+    )
+    return PwaModel(
+        params,
+        dead_zone_cells(params.dead_zone),
+        cq,
+        cqp,
+        fr,
+        form,
+        bool(scheduled),
+        ps,
+        INPUT_RANGE,
+        label,
+        capacitance_position,
+    )
 
 
-def machine_velocity_range(params: SystemParams, supply_pressure: float | None = None,
-                           form: str = "asymmetric") -> tuple[float, float]:
+def machine_velocity_range(
+    params: SystemParams, supply_pressure: float | None = None, form: str = "asymmetric"
+) -> tuple[float, float]:
     """Rod velocity range [m/s] the machine reaches: no-load speeds at full opening.
 
     v = z_max K √Δp / A with the edge drop Δp of the reduced model at P_L = 0 (the valve's
@@ -816,10 +956,15 @@ def pack_pwa(model: PwaModel) -> np.ndarray:
     turn: n−1 breakpoints, n slopes, n offsets (normalised k̂, d̂ for C_q and C_qp).
     """
     asym = model.form == "asymmetric"
-    base = pack_params(model.params, form="asymmetric" if asym else "paper",
-                       capacitance_position=model.x_capacitance if asym else None)
+    base = pack_params(
+        model.params,
+        form="asymmetric" if asym else "paper",
+        capacitance_position=model.x_capacitance if asym else None,
+    )
     if base.size != N_BASE:
-        raise PwaError(f"base parameter vector has {base.size} entries, the PWA layout expects {N_BASE}")
+        raise PwaError(
+            f"base parameter vector has {base.size} entries, the PWA layout expects {N_BASE}"
+        )
     sets = (model.dead_zone, model.cq.pwa, model.cqp.pwa, model.friction.pwa)
     head = np.zeros(I_CELLS - N_BASE)
     head[I_SCHED - N_BASE] = 1.0 if model.scheduled else 0.0
@@ -830,8 +975,16 @@ def pack_pwa(model: PwaModel) -> np.ndarray:
     return np.concatenate([base, head] + body)
 
 
-def pwa_rhs(t: float, y, u: float, p_s: float | None, f_l: float | None, model: PwaModel, *,
-            end_stops: bool = True) -> np.ndarray:
+def pwa_rhs(
+    t: float,
+    y,
+    u: float,
+    p_s: float | None,
+    f_l: float | None,
+    model: PwaModel,
+    *,
+    end_stops: bool = True,
+) -> np.ndarray:
     """Right-hand side of the PWA model at one point, evaluated by the compiled kernel.
 
     Parameters
@@ -868,8 +1021,17 @@ def _no_stop(y, params: SystemParams, end_stops: bool) -> np.ndarray:
     return y
 
 
-def reduced_rhs(t: float, y, u: float, p_s: float, f_l: float | None, params: SystemParams, *,
-                end_stops: bool = True, form: str = "asymmetric") -> np.ndarray:
+def reduced_rhs(
+    t: float,
+    y,
+    u: float,
+    p_s: float,
+    f_l: float | None,
+    params: SystemParams,
+    *,
+    end_stops: bool = True,
+    form: str = "asymmetric",
+) -> np.ndarray:
     """Right-hand side of the reduced model at one point, evaluated by the compiled kernel.
 
     Parameters
@@ -888,4 +1050,6 @@ def reduced_rhs(t: float, y, u: float, p_s: float, f_l: float | None, params: Sy
         raise ParameterError("reduced_rhs needs a SystemParams")
     fl = params.load.force if f_l is None else float(f_l)
     p = ReducedModel(params, form).pack()
-    return K.point_derivatives(K.REDUCED, _no_stop(y, params, end_stops), float(u), float(p_s), fl, p)[0]
+    return K.point_derivatives(
+        K.REDUCED, _no_stop(y, params, end_stops), float(u), float(p_s), fl, p
+    )[0]

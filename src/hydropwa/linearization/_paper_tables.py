@@ -53,27 +53,33 @@ __all__ = [
 _ROMAN = ("I", "II", "III", "IV", "V", "VI", "VII")
 
 #: Table VI as printed: k_o [m³/(s·Pa)], rows = cells I..V, columns = the four simulations.
-TABLE_VI = np.array(
-    [
-        [-0.034, -0.038, -0.035, -0.037],
-        [-0.053, -0.058, -0.053, -0.056],
-        [-0.092, -0.100, -0.092, -0.097],
-        [-0.412, -0.447, -0.411, -0.435],
-        [-0.920, -0.998, -0.919, -0.972],
-    ]
-) * 1e-9
+TABLE_VI = (
+    np.array(
+        [
+            [-0.034, -0.038, -0.035, -0.037],
+            [-0.053, -0.058, -0.053, -0.056],
+            [-0.092, -0.100, -0.092, -0.097],
+            [-0.412, -0.447, -0.411, -0.435],
+            [-0.920, -0.998, -0.919, -0.972],
+        ]
+    )
+    * 1e-9
+)
 TABLE_VI.setflags(write=False)
 
 #: Table VII as printed: d_o [m³/s].
-TABLE_VII = np.array(
-    [
-        [0.554, 0.510, 0.554, 0.525],
-        [0.647, 0.597, 0.648, 0.613],
-        [0.949, 0.874, 0.950, 0.899],
-        [0.388, 3.573, 3.882, 3.671],
-        [8.632, 7.957, 8.646, 8.177],
-    ]
-) * 1e-3
+TABLE_VII = (
+    np.array(
+        [
+            [0.554, 0.510, 0.554, 0.525],
+            [0.647, 0.597, 0.648, 0.613],
+            [0.949, 0.874, 0.950, 0.899],
+            [0.388, 3.573, 3.882, 3.671],
+            [8.632, 7.957, 8.646, 8.177],
+        ]
+    )
+    * 1e-3
+)
 TABLE_VII.setflags(write=False)
 
 #: Table VII with cell IV, column 1 read 3.88e-3 (printed 0.388e-3).
@@ -82,15 +88,18 @@ TABLE_VII_CORRECTED[3, 0] = 3.88e-3
 TABLE_VII_CORRECTED.setflags(write=False)
 
 #: Table VIII as printed (headed k_o, holds k_n) [m³/(s·Pa²)].
-TABLE_VIII = np.array(
-    [
-        [0.027, 0.034, 0.026, 0.031],
-        [0.095, 0.121, 0.094, 0.111],
-        [0.491, 0.627, 0.489, 0.578],
-        [43.93, 56.09, 43.71, 51.68],
-        [491.1, 627.1, 488.8, 577.8],
-    ]
-) * 1e-15
+TABLE_VIII = (
+    np.array(
+        [
+            [0.027, 0.034, 0.026, 0.031],
+            [0.095, 0.121, 0.094, 0.111],
+            [0.491, 0.627, 0.489, 0.578],
+            [43.93, 56.09, 43.71, 51.68],
+            [491.1, 627.1, 488.8, 577.8],
+        ]
+    )
+    * 1e-15
+)
 TABLE_VIII.setflags(write=False)
 
 #: The power-of-ten typo of Table VIII: the printed values are 10× the tangent slopes.
@@ -101,15 +110,18 @@ TABLE_VIII_CORRECTED = TABLE_VIII * TABLE_VIII_FACTOR
 TABLE_VIII_CORRECTED.setflags(write=False)
 
 #: Table IX as printed (headed d_o, holds d_n) [m³/(s·Pa)].
-TABLE_IX = np.array(
-    [
-        [0.027, 0.030, 0.027, 0.029],
-        [-0.009, -0.009, -0.009, -0.009],
-        [-0.322, -0.349, -0.321, -0.340],
-        [-40.54, -43.98, -40.48, -42.80],
-        [-458.8, -497.7, -458.1, -484.3],
-    ]
-) * 1e-9
+TABLE_IX = (
+    np.array(
+        [
+            [0.027, 0.030, 0.027, 0.029],
+            [-0.009, -0.009, -0.009, -0.009],
+            [-0.322, -0.349, -0.321, -0.340],
+            [-40.54, -43.98, -40.48, -42.80],
+            [-458.8, -497.7, -458.1, -484.3],
+        ]
+    )
+    * 1e-9
+)
 TABLE_IX.setflags(write=False)
 
 
@@ -160,7 +172,9 @@ class PaperColumn:
 
 
 def _printed_column(c: int) -> np.ndarray:
-    return np.concatenate([t[:, c] for t in (TABLE_VI, TABLE_VII_CORRECTED, TABLE_VIII_CORRECTED, TABLE_IX)])
+    return np.concatenate(
+        [t[:, c] for t in (TABLE_VI, TABLE_VII_CORRECTED, TABLE_VIII_CORRECTED, TABLE_IX)]
+    )
 
 
 def _rel_residual(K, p_s, p_hat, target):
@@ -199,13 +213,24 @@ def recover_paper_columns(K: float | None = None) -> tuple[PaperColumn, ...]:
 
         lb = np.concatenate(([1e5], np.full(5, -1.0)))
         ub = np.concatenate(([1e8], np.full(5, 0.99999)))
-        free = least_squares(res_free, theta0, bounds=(lb, ub), x_scale=np.concatenate(([1e6], np.full(5, 1e-3))))
-        common = least_squares(lambda th, target=target: _rel_residual(K, th[0], th[0] * wp, target), [90e5],
-                               x_scale=[1e6])
+        free = least_squares(
+            res_free, theta0, bounds=(lb, ub), x_scale=np.concatenate(([1e6], np.full(5, 1e-3)))
+        )
+        common = least_squares(
+            lambda th, target=target: _rel_residual(K, th[0], th[0] * wp, target),
+            [90e5],
+            x_scale=[1e6],
+        )
         ps = float(free.x[0])
         out.append(
-            PaperColumn(c + 1, ps, ps * free.x[1:], free.x[1:].copy(), float(common.x[0]),
-                        float(np.max(np.abs(free.fun))))
+            PaperColumn(
+                c + 1,
+                ps,
+                ps * free.x[1:],
+                free.x[1:].copy(),
+                float(common.x[0]),
+                float(np.max(np.abs(free.fun))),
+            )
         )
     return tuple(out)
 
@@ -213,7 +238,10 @@ def recover_paper_columns(K: float | None = None) -> tuple[PaperColumn, ...]:
 def _frame(rows):
     import pandas as pd
 
-    df = pd.DataFrame(rows, columns=["table", "cell", "column", "coefficient", "printed", "corrected", "regenerated"])
+    df = pd.DataFrame(
+        rows,
+        columns=["table", "cell", "column", "coefficient", "printed", "corrected", "regenerated"],
+    )
     df["rel_error"] = (df["regenerated"] - df["corrected"]).abs() / df["corrected"].abs()
     return df
 
@@ -282,7 +310,12 @@ def reproduce_tables_vi_ix(K: float | None = None, common_working_points: bool =
         K = ValveFlow().K
     cols = recover_paper_columns(K)
     printed = {"VI": TABLE_VI, "VII": TABLE_VII, "VIII": TABLE_VIII, "IX": TABLE_IX}
-    corrected = {"VI": TABLE_VI, "VII": TABLE_VII_CORRECTED, "VIII": TABLE_VIII_CORRECTED, "IX": TABLE_IX}
+    corrected = {
+        "VI": TABLE_VI,
+        "VII": TABLE_VII_CORRECTED,
+        "VIII": TABLE_VIII_CORRECTED,
+        "IX": TABLE_IX,
+    }
     names = {"VI": "k_o", "VII": "d_o", "VIII": "k_n", "IX": "d_n"}
     rows = []
     for col in cols:
@@ -292,10 +325,22 @@ def reproduce_tables_vi_ix(K: float | None = None, common_working_points: bool =
             p_hat = ps * np.array(PAPER_WORKING_POINTS)
         else:
             ps, p_hat = col.supply_pressure, col.working_points
-        regen = dict(zip(("VI", "VII", "VIII", "IX"), tangent_coefficients(K, ps, p_hat), strict=True))
+        regen = dict(
+            zip(("VI", "VII", "VIII", "IX"), tangent_coefficients(K, ps, p_hat), strict=True)
+        )
         for t in ("VI", "VII", "VIII", "IX"):
             for i in range(5):
-                rows.append((t, _ROMAN[i], col.column, names[t], printed[t][i, c], corrected[t][i, c], regen[t][i]))
+                rows.append(
+                    (
+                        t,
+                        _ROMAN[i],
+                        col.column,
+                        names[t],
+                        printed[t][i, c],
+                        corrected[t][i, c],
+                        regen[t][i],
+                    )
+                )
     return _frame(rows)
 
 

@@ -77,7 +77,9 @@ def _markdown(df) -> str:
     cols = list(df.columns)
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for row in df.itertuples(index=False):
-        lines.append("| " + " | ".join(f"{v:.6g}" if isinstance(v, float) else str(v) for v in row) + " |")
+        lines.append(
+            "| " + " | ".join(f"{v:.6g}" if isinstance(v, float) else str(v) for v in row) + " |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -93,7 +95,15 @@ def model_tables(model, p_s: float | None = None) -> dict:
         lab = [roman[i] if i < len(roman) else str(i + 1) for i in range(n)]
         lo = np.concatenate(([-np.inf], pwa.breakpoints))
         hi = np.concatenate((pwa.breakpoints, [np.inf]))
-        return pd.DataFrame({"cell": lab, "from": lo, "to": hi, f"{k} [{ku}]": pwa.slopes, f"{d} [{du}]": pwa.offsets})
+        return pd.DataFrame(
+            {
+                "cell": lab,
+                "from": lo,
+                "to": hi,
+                f"{k} [{ku}]": pwa.slopes,
+                f"{d} [{du}]": pwa.offsets,
+            }
+        )
 
     return {
         "IV_dead_zone": frame(cells["dead_zone"], "k_g", "d_g", "1", "1"),

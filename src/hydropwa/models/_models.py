@@ -25,8 +25,13 @@ __all__ = ["FullOrderModel", "ReducedModel", "Model", "pack_params", "as_model",
 REDUCED_FORMS = ("asymmetric", "paper")
 
 
-def pack_params(params: SystemParams, omega0: float | None = None, *, form: str = "asymmetric",
-                capacitance_position: float | None = None) -> np.ndarray:
+def pack_params(
+    params: SystemParams,
+    omega0: float | None = None,
+    *,
+    form: str = "asymmetric",
+    capacitance_position: float | None = None,
+) -> np.ndarray:
     """Pack parameters into the kernel's float vector (layout table: :mod:`hydropwa._layout`).
 
     Parameters
@@ -42,7 +47,9 @@ def pack_params(params: SystemParams, omega0: float | None = None, *, form: str 
         None: they follow the state x (the reduced model).
     """
     if form not in REDUCED_FORMS:
-        raise ParameterError(f"reduced-model form {form!r} must be one of {', '.join(REDUCED_FORMS)}")
+        raise ParameterError(
+            f"reduced-model form {form!r} must be one of {', '.join(REDUCED_FORMS)}"
+        )
     p = np.zeros(N_BASE)
     for name, src in BASE_SLOTS:
         if src is not None:
@@ -67,7 +74,9 @@ class Model:
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, SystemParams):
-            raise ParameterError(f"{type(self).__name__} needs a SystemParams, got {type(self.params).__name__}")
+            raise ParameterError(
+                f"{type(self).__name__} needs a SystemParams, got {type(self.params).__name__}"
+            )
 
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector; ω0 from the Table II schedule at the command amplitude [1]."""
@@ -76,7 +85,9 @@ class Model:
     def state_scale(self) -> np.ndarray:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def initial_state(self, x0: float | None = None, supply_pressure: float | None = None, load_force: float = 0.0) -> np.ndarray:
+    def initial_state(
+        self, x0: float | None = None, supply_pressure: float | None = None, load_force: float = 0.0
+    ) -> np.ndarray:
         raise NotImplementedError  # pragma: no cover
 
 
@@ -134,7 +145,9 @@ class ReducedModel(Model):
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.form not in REDUCED_FORMS:
-            raise ParameterError(f"reduced-model form {self.form!r} must be one of {', '.join(REDUCED_FORMS)}")
+            raise ParameterError(
+                f"reduced-model form {self.form!r} must be one of {', '.join(REDUCED_FORMS)}"
+            )
 
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (ω0 unused: the reduced model has no valve dynamics)."""
@@ -183,4 +196,6 @@ def as_model(model, params: SystemParams | None = None) -> Model:
 
             return linearize(params)
         raise ParameterError(f"unknown model {model!r}; choose full, reduced or pwa")
-    raise ParameterError(f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'/'pwa'")
+    raise ParameterError(
+        f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'/'pwa'"
+    )

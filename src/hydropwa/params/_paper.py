@@ -79,7 +79,10 @@ class StribeckRecovery:
 def _fit_grid(pwa: PiecewiseAffine, v_max: float, per_cell: int = 60) -> np.ndarray:
     """Velocity grid with the same number of points in every cell of the PWA curve."""
     edges = np.concatenate(([-v_max], pwa.breakpoints, [v_max]))
-    pts = [np.linspace(a, b, per_cell, endpoint=False) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    pts = [
+        np.linspace(a, b, per_cell, endpoint=False)
+        for a, b in zip(edges[:-1], edges[1:], strict=True)
+    ]
     return np.concatenate(pts + [np.array([v_max])])
 
 
@@ -116,7 +119,12 @@ def recover_stribeck_from_table_v(v_max: float = 0.2) -> StribeckRecovery:
     ub = np.array([1e3, 1e3, 1e5, 0.0, 5.0, 7.0])
     from scipy.optimize import least_squares  # lazy: keeps `import hydropwa` fast
 
-    res = least_squares(lambda th: model(th) - target, theta0, bounds=(lb, ub), x_scale=np.array([10, 10, 100, 0.3, 0.3, 0.3]))
+    res = least_squares(
+        lambda th: model(th) - target,
+        theta0,
+        bounds=(lb, ub),
+        x_scale=np.array([10, 10, 100, 0.3, 0.3, 0.3]),
+    )
     fc, dfs, sigma, log_chi, delta, log_gamma = res.x
     fr = Friction(
         coulomb=float(fc),

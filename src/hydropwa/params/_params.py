@@ -47,7 +47,9 @@ def _check(
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"{label} = {value!r} is not a number (expected a value in {unit})") from None
+        raise ParameterError(
+            f"{label} = {value!r} is not a number (expected a value in {unit})"
+        ) from None
     if not math.isfinite(v):
         raise ParameterError(f"{label} = {v} {unit} is not finite; give a finite value in {unit}")
     for bound, ok, word in (
@@ -103,7 +105,9 @@ class ServoValve:
                     "and omega0 > 0 [rad/s]"
                 )
         if any(table[i + 1][0] <= table[i][0] for i in range(len(table) - 1)):
-            raise ParameterError("ServoValve.omega0_table amplitudes [1] must be strictly increasing")
+            raise ParameterError(
+                "ServoValve.omega0_table amplitudes [1] must be strictly increasing"
+            )
         object.__setattr__(self, "omega0_table", table)
 
     def omega0_at(self, amplitude: float) -> float:
@@ -505,7 +509,10 @@ class SystemParams:
         return [
             ("supply pressure P_S", engineering(self.supply.pressure, "Pa")),
             ("flow coefficient K", f"{self.flow.K:.4g} m³/(s·√Pa)"),
-            ("areas A_A / A_B", f"{self.cylinder.area_a * 1e4:.4g} / {self.cylinder.area_b * 1e4:.4g} cm²"),
+            (
+                "areas A_A / A_B",
+                f"{self.cylinder.area_a * 1e4:.4g} / {self.cylinder.area_b * 1e4:.4g} cm²",
+            ),
             ("stroke", engineering(self.cylinder.stroke, "m")),
             ("mass", f"{self.load.mass:.4g} kg"),
             ("bulk modulus E", f"{self.oil.bulk_modulus / 1e9:.4g} GPa"),
@@ -514,7 +521,9 @@ class SystemParams:
 
     def __repr__(self) -> str:
         src = self.meta.get("source") if isinstance(self.meta, dict) else None
-        head = ", ".join(f"{k.split(' ')[-1]}={v}" for k, v in self._headline()[:5] if " / " not in v)
+        head = ", ".join(
+            f"{k.split(' ')[-1]}={v}" for k, v in self._headline()[:5] if " / " not in v
+        )
         return f"SystemParams({f'{src!r}, ' if src else ''}{head})"
 
     def _repr_html_(self) -> str:
@@ -584,7 +593,9 @@ class SystemParams:
 #: Component name in :class:`SystemParams` (and TOML table name) → its parameter class,
 #: derived from the dataclass fields so the two cannot disagree.
 COMPONENT_TYPES: dict[str, type] = {
-    f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"  # type: ignore[misc]
+    f.name: f.default_factory
+    for f in dataclasses.fields(SystemParams)
+    if f.name != "meta"  # type: ignore[misc]
 }
 
 

@@ -36,11 +36,18 @@ def paper_params() -> SystemParams:
     """The paper's rig (Tables II–V), with the documented errata decisions."""
     rec = recover_stribeck_from_table_v()
     return SystemParams(
-        valve=ServoValve(omega0=628.3, zeta=0.7, omega0_table=tuple((a, w) for a, w, _ in TABLE_II)),
+        valve=ServoValve(
+            omega0=628.3, zeta=0.7, omega0_table=tuple((a, w) for a, w, _ in TABLE_II)
+        ),
         dead_zone=DeadZone(alpha=1.0, beta=0.1, creep_slope=0.04, continuous=False),
         flow=ValveFlow(K=flow_coefficient_from_rating(40e-3 / 60.0, 70e5), transition_pressure=1e5),
         cylinder=Cylinder(
-            area_a=1.3e-3, area_b=0.76e-3, stroke=0.2, dead_volume_a=0.7e-3, dead_volume_b=0.7e-3, leakage=0.0
+            area_a=1.3e-3,
+            area_b=0.76e-3,
+            stroke=0.2,
+            dead_volume_a=0.7e-3,
+            dead_volume_b=0.7e-3,
+            leakage=0.0,
         ),
         oil=Oil(bulk_modulus=1e9),
         friction=rec.friction,
@@ -64,7 +71,10 @@ def symmetric_params() -> SystemParams:
     )
 
 
-PRESETS: dict[str, Callable[[], SystemParams]] = {"paper": paper_params, "symmetric": symmetric_params}
+PRESETS: dict[str, Callable[[], SystemParams]] = {
+    "paper": paper_params,
+    "symmetric": symmetric_params,
+}
 
 
 def get_preset(name: str) -> SystemParams:
@@ -74,4 +84,6 @@ def get_preset(name: str) -> SystemParams:
     try:
         return PRESETS[name]()
     except KeyError:
-        raise ParameterError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}") from None
+        raise ParameterError(
+            f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}"
+        ) from None

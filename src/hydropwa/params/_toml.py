@@ -20,7 +20,14 @@ from .._errors import ParameterError
 from .._io import atomic_write_text
 from ._params import COMPONENT_TYPES, SystemParams, flow_coefficient_from_rating
 
-__all__ = ["load_params", "save_params", "params_to_toml", "params_from_dict", "parse_quantity", "FIELD_UNITS"]
+__all__ = [
+    "load_params",
+    "save_params",
+    "params_to_toml",
+    "params_from_dict",
+    "parse_quantity",
+    "FIELD_UNITS",
+]
 
 
 #: SI unit of every numeric field, as a pint expression (None: not a quantity).
@@ -38,7 +45,12 @@ FIELD_UNITS: dict[str, dict[str, str | None]] = {
         "end_stop_stiffness": "N/m",
         "end_stop_damping": "N*s/m",
     },
-    "oil": {"bulk_modulus": "Pa", "density": "kg/m**3", "vapour_pressure": "Pa", "release_pressure": "Pa"},
+    "oil": {
+        "bulk_modulus": "Pa",
+        "density": "kg/m**3",
+        "vapour_pressure": "Pa",
+        "release_pressure": "Pa",
+    },
     "friction": {
         "coulomb": "N",
         "static": "N",
@@ -102,8 +114,11 @@ def _check_bare(comp: str, key: str, value: Any, unit: str, where: str) -> None:
         return
     shown = _DISPLAY.get(unit, unit) or "1"
     guess = [u for u, f in candidates if lo <= value * f <= hi]
-    hint = (f"; did you mean {value:g} {guess[0]}? write it with its unit, e.g. {key} = \"{value:g} {guess[0]}\""
-            if guess else "; write it with its unit, e.g. \"100 bar\"")
+    hint = (
+        f'; did you mean {value:g} {guess[0]}? write it with its unit, e.g. {key} = "{value:g} {guess[0]}"'
+        if guess
+        else '; write it with its unit, e.g. "100 bar"'
+    )
     raise ParameterError(
         f"{where} = {value:g} read as {value:g} {shown} is implausible for this field "
         f"(expected {lo:g} to {hi:g} {shown} as a bare SI number){hint}"
@@ -111,8 +126,16 @@ def _check_bare(comp: str, key: str, value: Any, unit: str, where: str) -> None:
 
 
 #: Units written next to SI numbers in saved files, for the human reader.
-_DISPLAY = {"": "1", "m**3/s/Pa**0.5": "m³/(s·√Pa)", "m**2": "m²", "m**3": "m³", "m**3/s/Pa": "m³/(s·Pa)",
-            "N*s/m": "N·s/m", "kg/m**3": "kg/m³", "m**3/s": "m³/s"}
+_DISPLAY = {
+    "": "1",
+    "m**3/s/Pa**0.5": "m³/(s·√Pa)",
+    "m**2": "m²",
+    "m**3": "m³",
+    "m**3/s/Pa": "m³/(s·Pa)",
+    "N*s/m": "N·s/m",
+    "kg/m**3": "kg/m³",
+    "m**3/s": "m³/s",
+}
 
 
 @lru_cache(maxsize=1)
@@ -142,7 +165,9 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         The value in SI units.
     """
     if isinstance(value, bool):
-        raise ParameterError(f"{where} = {value!r} is a boolean; expected a number in {unit or '1'}")
+        raise ParameterError(
+            f"{where} = {value!r} is a boolean; expected a number in {unit or '1'}"
+        )
     if isinstance(value, int | float):
         return float(value)
     if not isinstance(value, str):
@@ -174,7 +199,9 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         ) from None
 
 
-def params_from_dict(data: dict[str, Any], source: str = "<dict>", *, check_bare: bool = True) -> SystemParams:
+def params_from_dict(
+    data: dict[str, Any], source: str = "<dict>", *, check_bare: bool = True
+) -> SystemParams:
     """Build :class:`SystemParams` from a nested dict as read from TOML.
 
     Missing components and fields take the defaults of the dataclasses (or of the preset
@@ -219,13 +246,15 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>", *, check_bare
             if comp == "flow" and key == "rating":
                 if not isinstance(value, dict) or {"flow", "pressure_drop"} - set(value):
                     raise ParameterError(
-                        f"{where} must be a table such as {{flow = \"60 L/min\", pressure_drop = "
-                        f"\"70 bar\", per = \"valve\"}}"
+                        f'{where} must be a table such as {{flow = "60 L/min", pressure_drop = '
+                        f'"70 bar", per = "valve"}}'
                     )
                 extra = set(value) - {"flow", "pressure_drop", "per"}
                 if extra:
-                    raise ParameterError(f"{where}: unknown key(s) {', '.join(sorted(extra))}; "
-                                         "known: flow, pressure_drop, per")
+                    raise ParameterError(
+                        f"{where}: unknown key(s) {', '.join(sorted(extra))}; "
+                        "known: flow, pressure_drop, per"
+                    )
                 per = value.get("per", "land")
                 if per not in ("land", "valve"):
                     raise ParameterError(
@@ -234,13 +263,24 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>", *, check_bare
                     )
                 qn = parse_quantity(value["flow"], "m**3/s", where + ".flow")
                 pn = parse_quantity(value["pressure_drop"], "Pa", where + ".pressure_drop")
-                if isinstance(value["pressure_drop"], int | float) and not isinstance(value["pressure_drop"], bool) \
-                        and 0 < pn < 1e4:
-                    raise ParameterError(f"{where}.pressure_drop = {pn:g} read as Pa is implausible; "
-                                         f"did you mean \"{pn:g} bar\"?")
-                if isinstance(value["flow"], int | float) and not isinstance(value["flow"], bool) and qn > 1.0:
-                    raise ParameterError(f"{where}.flow = {qn:g} read as m³/s is implausible; "
-                                         f"did you mean \"{qn:g} L/min\"?")
+                if (
+                    isinstance(value["pressure_drop"], int | float)
+                    and not isinstance(value["pressure_drop"], bool)
+                    and 0 < pn < 1e4
+                ):
+                    raise ParameterError(
+                        f"{where}.pressure_drop = {pn:g} read as Pa is implausible; "
+                        f'did you mean "{pn:g} bar"?'
+                    )
+                if (
+                    isinstance(value["flow"], int | float)
+                    and not isinstance(value["flow"], bool)
+                    and qn > 1.0
+                ):
+                    raise ParameterError(
+                        f"{where}.flow = {qn:g} read as m³/s is implausible; "
+                        f'did you mean "{qn:g} L/min"?'
+                    )
                 kwargs["K"] = flow_coefficient_from_rating(qn, pn, per)
                 continue
             if key not in units:
@@ -250,12 +290,15 @@ def params_from_dict(data: dict[str, Any], source: str = "<dict>", *, check_bare
                 if key == "omega0_table":
                     try:
                         value = tuple(
-                            (parse_quantity(a, "", where), parse_quantity(w, "rad/s", where)) for a, w in value
+                            (parse_quantity(a, "", where), parse_quantity(w, "rad/s", where))
+                            for a, w in value
                         )
                     except (TypeError, ValueError) as exc:
                         if isinstance(exc, ParameterError):
                             raise
-                        raise ParameterError(f"{where} must be a list of [amplitude, omega0] pairs") from None
+                        raise ParameterError(
+                            f"{where} must be a list of [amplitude, omega0] pairs"
+                        ) from None
                 kwargs[key] = value
             else:
                 if check_bare:
@@ -303,7 +346,7 @@ def load_params(path: str | os.PathLike) -> SystemParams:
         if missing:
             raise ParameterError(
                 f"{p}: missing section(s) {', '.join(f'[{c}]' for c in missing)}; give them, or put "
-                f"base = \"paper\" (a preset name) at the top to take the rest from it"
+                f'base = "paper" (a preset name) at the top to take the rest from it'
             )
     return params_from_dict(data, source=str(p))
 
@@ -326,7 +369,9 @@ def _fmt(value: Any) -> str:
 
 def params_to_toml(params: SystemParams, header: str = "") -> str:
     """Render parameters as a hand-editable TOML document (SI numbers, unit comments)."""
-    lines = ["# hydropwa parameter file. Plain numbers are SI; strings with units (\"100 bar\") work too."]
+    lines = [
+        '# hydropwa parameter file. Plain numbers are SI; strings with units ("100 bar") work too.'
+    ]
     if header:
         lines += [f"# {h}" for h in header.splitlines()]
     for comp, cls in COMPONENT_TYPES.items():
@@ -362,7 +407,9 @@ def _plain(obj: Any) -> Any:
     return obj
 
 
-def save_params(params: SystemParams, path: str | os.PathLike, header: str = "", *, overwrite: bool = False) -> Path:
+def save_params(
+    params: SystemParams, path: str | os.PathLike, header: str = "", *, overwrite: bool = False
+) -> Path:
     """Write parameters to a TOML file atomically; :func:`load_params` reads it back exactly.
 
     An existing file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``.

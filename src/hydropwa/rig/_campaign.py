@@ -460,9 +460,22 @@ def _sine(t: _Table) -> SineExperiment:
     )
 
 
-_SENSOR_UNITS = {"x": "m", "p_a": "Pa", "p_b": "Pa", "p_s": "Pa", "pressure": "Pa", "f_l": "N", "spool": ""}
-_SUPPLY_FIELDS = {"pump_flow": "m**3/s", "compensator_droop": "Pa", "line_volume": "m**3",
-                  "relief_pressure": "Pa", "relief_gain": "m**3/s/Pa"}
+_SENSOR_UNITS = {
+    "x": "m",
+    "p_a": "Pa",
+    "p_b": "Pa",
+    "p_s": "Pa",
+    "pressure": "Pa",
+    "f_l": "N",
+    "spool": "",
+}
+_SUPPLY_FIELDS = {
+    "pump_flow": "m**3/s",
+    "compensator_droop": "Pa",
+    "line_volume": "m**3",
+    "relief_pressure": "Pa",
+    "relief_gain": "m**3/s/Pa",
+}
 
 
 def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
@@ -477,8 +490,12 @@ def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
         if "range" in st.data:
             r = st.raw("range")
             if not isinstance(r, list) or len(r) != 2:
-                raise ParameterError(f"{st.key('range')} = {r!r} must be [low, high], e.g. [\"0 bar\", \"400 bar\"]")
-            over["range"] = tuple(parse_quantity(v, unit, f"{st.key('range')}[{i}]") for i, v in enumerate(r))
+                raise ParameterError(
+                    f'{st.key("range")} = {r!r} must be [low, high], e.g. ["0 bar", "400 bar"]'
+                )
+            over["range"] = tuple(
+                parse_quantity(v, unit, f"{st.key('range')}[{i}]") for i, v in enumerate(r)
+            )
         if "noise_std" in st.data:
             over["noise_std"] = st.quantity("noise_std", unit, ge=0.0)
         if "offset" in st.data:
@@ -491,11 +508,13 @@ def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
             sp = st.raw("adc_span")
             if not isinstance(sp, list) or len(sp) != 2:
                 raise ParameterError(f"{st.key('adc_span')} = {sp!r} must be [low, high] in V")
-            over["adc_span"] = tuple(parse_quantity(v, "V", f"{st.key('adc_span')}[{i}]") for i, v in enumerate(sp))
+            over["adc_span"] = tuple(
+                parse_quantity(v, "V", f"{st.key('adc_span')}[{i}]") for i, v in enumerate(sp)
+            )
         if "name" in st.data:
             over["name"] = st.text("name")
         st.finish()
-        for c in (("p_a", "p_b", "p_s") if ch == "pressure" else (ch,)):
+        for c in ("p_a", "p_b", "p_s") if ch == "pressure" else (ch,):
             out.setdefault(c, {}).update(over)
         t.used.add(ch)
     return out
@@ -547,8 +566,13 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
     if not experiments:
         raise ParameterError(f"{source}: no experiment tables; add one of {', '.join(EXPERIMENTS)}")
     return Campaign(
-        name=name, seed=seed, experiments=experiments, description=description, source=source,
-        sensors=sensors, supply=supply,
+        name=name,
+        seed=seed,
+        experiments=experiments,
+        description=description,
+        source=source,
+        sensors=sensors,
+        supply=supply,
     )
 
 
@@ -576,7 +600,9 @@ def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
         try:
             text = p.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:
-            raise ParameterError(f"{p}: byte {exc.start} is not UTF-8 text; save the campaign as UTF-8") from None
+            raise ParameterError(
+                f"{p}: byte {exc.start} is not UTF-8 text; save the campaign as UTF-8"
+            ) from None
         source = str(p)
     else:
         raise ParameterError(

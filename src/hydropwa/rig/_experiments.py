@@ -129,8 +129,9 @@ def _plan_frf(exp: FrfExperiment, rig: Rig) -> list[RunSpec]:
     return runs
 
 
-def multisine(opening: float, f0: float, f1: float, period: float, duration: float,
-              rate: float) -> Sampled:
+def multisine(
+    opening: float, f0: float, f1: float, period: float, duration: float, rate: float
+) -> Sampled:
     """Schroeder-phased multisine: equal sines at k/period in [f0, f1], peak ``opening``.
 
     Parameters
@@ -157,7 +158,9 @@ def multisine(opening: float, f0: float, f1: float, period: float, duration: flo
     phases = -np.pi * np.arange(k.size) * (np.arange(k.size) - 1) / k.size
     t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
     u = np.sum(np.sin(2 * np.pi * freqs[:, None] * t[None, :] + phases[:, None]), axis=0)
-    one = np.sum(np.sin(2 * np.pi * freqs[:, None] * (t[t < period])[None, :] + phases[:, None]), axis=0)
+    one = np.sum(
+        np.sin(2 * np.pi * freqs[:, None] * (t[t < period])[None, :] + phases[:, None]), axis=0
+    )
     return Sampled(t, opening * u / np.max(np.abs(one)))
 
 
@@ -165,15 +168,22 @@ def _broadband_run(bb, x0: float) -> RunSpec:
     if bb.signal == "chirp":
         cmd: Signal = Chirp(amplitude=bb.opening, f0=bb.f0, f1=bb.f1, duration=bb.duration)
     else:
-        cmd = multisine(bb.opening, bb.f0, bb.f1, bb.period, bb.duration, 8.0 * max(2000.0, 10 * bb.f1))
+        cmd = multisine(
+            bb.opening, bb.f0, bb.f1, bb.period, bb.duration, 8.0 * max(2000.0, 10 * bb.f1)
+        )
     return RunSpec(
         name=f"frf_{bb.signal}_a{_pct(bb.opening)}",
         experiment="frf",
         command=cmd,
         duration=bb.duration,
         start_position=x0,
-        meta={"opening": bb.opening, "amplitude": bb.opening, "band": [bb.f0, bb.f1],
-              "excitation": bb.signal, **({"period": bb.period} if bb.signal == "multisine" else {})},
+        meta={
+            "opening": bb.opening,
+            "amplitude": bb.opening,
+            "band": [bb.f0, bb.f1],
+            "excitation": bb.signal,
+            **({"period": bb.period} if bb.signal == "multisine" else {}),
+        },
     )
 
 
@@ -327,7 +337,9 @@ def execute(
     force_rng, sensor_rng = (np.random.default_rng(s) for s in seed.spawn(2))
     load = None
     if spec.counter_force is not None:
-        load = counter_force_signal(spec.counter_force, spec.duration, force_rng, rig.params.load.force)
+        load = counter_force_signal(
+            spec.counter_force, spec.duration, force_rng, rig.params.load.force
+        )
     params = rig.params
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})

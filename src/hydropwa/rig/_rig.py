@@ -138,7 +138,7 @@ class Rig:
             raise ParameterError(
                 f"rig supply: relief pressure {sup.relief_pressure / 1e5:g} bar is not above the set "
                 f"pressure {sup.pressure / 1e5:g} bar, so the pump could never reach it; set "
-                f"[supply] relief_pressure = \"{(sup.pressure + max(20e5, 0.1 * sup.pressure)) / 1e5:g} bar\" "
+                f'[supply] relief_pressure = "{(sup.pressure + max(20e5, 0.1 * sup.pressure)) / 1e5:g} bar" '
                 "in the campaign (or supply.relief_pressure in the parameter file)"
             )
         stroke = self.params.cylinder.stroke
@@ -148,7 +148,7 @@ class Rig:
             raise ParameterError(
                 f"rig sensor 'x' ({x.name}) reads {1e3 * x.range[0]:g}…{1e3 * x.range[1]:g} mm but the rod "
                 f"moves 0…{1e3 * stroke:g} mm (and a little past both ends at the stops): runs would sit at the "
-                f"converter's limit; set [sensors.x] range = [\"{-1e3 * m:g} mm\", \"{1e3 * (stroke + m):g} mm\"] "
+                f'converter\'s limit; set [sensors.x] range = ["{-1e3 * m:g} mm", "{1e3 * (stroke + m):g} mm"] '
                 "in the campaign, or leave [sensors] out to size it from the stroke"
             )
         for ch in ("p_a", "p_b", "p_s"):
@@ -157,13 +157,16 @@ class Rig:
                 raise ParameterError(
                     f"rig sensor {ch!r} ({s.name}) reads up to {s.range[1] / 1e5:g} bar, below the relief "
                     f"pressure {sup.relief_pressure / 1e5:g} bar: pressures would clip at the converter; "
-                    f"use a larger range ([sensors.{ch}] range = [\"0 bar\", "
-                    f"\"{1e-5 * machine_sensors(self.params, sup)[ch].range[1]:g} bar\"]) or leave "
+                    f'use a larger range ([sensors.{ch}] range = ["0 bar", '
+                    f'"{1e-5 * machine_sensors(self.params, sup)[ch].range[1]:g} bar"]) or leave '
                     "[sensors] out to size it from the machine"
                 )
 
-    def with_overrides(self, sensors: Mapping[str, Mapping[str, Any]] | None = None,
-                       supply: Mapping[str, Any] | None = None) -> Rig:
+    def with_overrides(
+        self,
+        sensors: Mapping[str, Mapping[str, Any]] | None = None,
+        supply: Mapping[str, Any] | None = None,
+    ) -> Rig:
         """This rig with sensor and supply settings replaced (a campaign's ``[sensors]``, ``[supply]``).
 
         Parameters
@@ -181,10 +184,16 @@ class Rig:
         """
         sup = dataclasses.replace(self.supply, **supply) if supply else self.supply
         params = self.params.replace(supply=sup)
-        base = machine_sensors(params, sup) if getattr(self, "_auto_sensors", False) else dict(self.sensors)
+        base = (
+            machine_sensors(params, sup)
+            if getattr(self, "_auto_sensors", False)
+            else dict(self.sensors)
+        )
         for ch, over in (sensors or {}).items():
             if ch not in base:
-                raise ParameterError(f"[sensors.{ch}]: the rig has no sensor {ch!r}; known: {', '.join(base)}")
+                raise ParameterError(
+                    f"[sensors.{ch}]: the rig has no sensor {ch!r}; known: {', '.join(base)}"
+                )
             base[ch] = dataclasses.replace(base[ch], **over)
         return Rig(params=params, sensors=base, fs=self.fs, supply=sup, rtol=self.rtol)
 

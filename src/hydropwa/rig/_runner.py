@@ -145,7 +145,9 @@ def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
 
 
 @contextmanager
-def _results(rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int) -> Iterator[Iterator]:
+def _results(
+    rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int
+) -> Iterator[Iterator]:
     """Measured runs in plan order, computed in this process or in a process pool.
 
     A context manager around the iterator, not a generator of runs: an exception in the

@@ -269,16 +269,32 @@ def machine_sensors(params, supply=None) -> dict[str, SensorModel]:
     def sized(ch: str, name: str, rng: tuple[float, float], noise: float) -> SensorModel:
         # the paper's part where it fits the machine (same range), a generic one otherwise
         same = np.allclose(out[ch].range, rng, rtol=1e-12, atol=0.0)
-        return replace(out[ch], name=out[ch].name if same else name, range=rng,
-                       noise_std=out[ch].noise_std if same else noise)
+        return replace(
+            out[ch],
+            name=out[ch].name if same else name,
+            range=rng,
+            noise_std=out[ch].noise_std if same else noise,
+        )
 
     for ch in ("p_a", "p_b", "p_s"):
-        out[ch] = sized(ch, f"pressure transmitter 0-{p_hi / 1e5:g} bar", (0.0, p_hi),
-                        NOISE_FRACTION["pressure"] * p_hi)
-    out["x"] = sized("x", f"position sensor, {1e3 * (x_hi - x_lo):g} mm travel", (x_lo, x_hi),
-                     NOISE_FRACTION["x"] * (x_hi - x_lo))
-    out["f_l"] = sized("f_l", f"load cell ±{f_hi / 1e3:g} kN with amplifier", (-f_hi, f_hi),
-                       NOISE_FRACTION["f_l"] * 2 * f_hi)
+        out[ch] = sized(
+            ch,
+            f"pressure transmitter 0-{p_hi / 1e5:g} bar",
+            (0.0, p_hi),
+            NOISE_FRACTION["pressure"] * p_hi,
+        )
+    out["x"] = sized(
+        "x",
+        f"position sensor, {1e3 * (x_hi - x_lo):g} mm travel",
+        (x_lo, x_hi),
+        NOISE_FRACTION["x"] * (x_hi - x_lo),
+    )
+    out["f_l"] = sized(
+        "f_l",
+        f"load cell ±{f_hi / 1e3:g} kN with amplifier",
+        (-f_hi, f_hi),
+        NOISE_FRACTION["f_l"] * 2 * f_hi,
+    )
     return out
 
 
@@ -328,5 +344,7 @@ def measure(
             channels[ch] = sensor.apply(result.channels[ch], rng)
     units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
     meta = dict(meta or {})
-    meta["converter_limits"] = {ch: list(sensors[ch].recorded_limits) for ch in channels if ch in sensors}
+    meta["converter_limits"] = {
+        ch: list(sensors[ch].recorded_limits) for ch in channels if ch in sensors
+    }
     return Run(name=name, channels=channels, units=units, fs=fs, meta=meta)

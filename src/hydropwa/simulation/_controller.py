@@ -46,9 +46,21 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
-C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH, C_PLMEAN = range(
-    13
-)
+(
+    C_TS,
+    C_DELAY,
+    C_UMIN,
+    C_UMAX,
+    C_AW,
+    C_KT,
+    C_DZINV,
+    C_DZOFF,
+    C_DZW,
+    C_FILT,
+    C_NROWS,
+    C_WASH,
+    C_PLMEAN,
+) = range(13)
 C_SCALE = 13
 C_ROWS = 17
 ROW = 15

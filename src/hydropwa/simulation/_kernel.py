@@ -90,10 +90,16 @@ _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
 N_STATES = (7, 3, 3)
 
 # Packed parameter vector layout: generated from the one table in hydropwa._layout.
-I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (SLOT[k] for k in ("omega0", "zeta", "alpha", "beta", "creep", "outer"))
-I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = (SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl"))
+I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
+    SLOT[k] for k in ("omega0", "zeta", "alpha", "beta", "creep", "outer")
+)
+I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = (
+    SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl")
+)
 I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = (SLOT[k] for k in ("kstop", "cstop", "e", "pvap", "prel"))
-I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = (SLOT[k] for k in ("fc", "fs", "sigma", "chi", "delta", "gamma"))
+I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = (
+    SLOT[k] for k in ("fc", "fs", "sigma", "chi", "delta", "gamma")
+)
 I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
     SLOT[k] for k in ("pt", "pump", "pset", "qmax", "droop", "vline", "prelief", "grelief", "mass")
 )
@@ -194,7 +200,9 @@ def rhs_full(y, u, ps_in, fl, p, dy):
     dy[2] = dpa
     dy[3] = dpb
     dy[4] = v
-    dy[5] = piston_acceleration(pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS])
+    dy[5] = piston_acceleration(
+        pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS]
+    )
     if pump:
         dy[6] = pump_supply_rate(
             ps,
@@ -230,7 +238,9 @@ def _reduced_terms(x, p):
     cq, cl = load_capacitance(xc, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_E])
     dcq, dcl = 0.0, 0.0
     if not fixed:
-        dcq, dcl = load_capacitance_slope(xc, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_E])
+        dcq, dcl = load_capacitance_slope(
+            xc, p[I_AA], p[I_AB], p[I_STROKE], p[I_VA], p[I_VB], p[I_E]
+        )
     return p[I_AB] / p[I_AA], p[I_PT], p[I_AA], cq, cl, dcq, dcl
 
 
@@ -355,7 +365,12 @@ def _pwa_layout(p):
 def _pwa_flow_coeffs(p, o, n):
     """Slope and offset (k̂_o, d̂_o) of flow cell o and (k̂_n, d̂_n) of flow-pressure cell n."""
     no, nn, _nw, s_o, s_n, _s_w = _pwa_layout(p)
-    return p[s_o + no - 1 + o], p[s_o + 2 * no - 1 + o], p[s_n + nn - 1 + n], p[s_n + 2 * nn - 1 + n]
+    return (
+        p[s_o + no - 1 + o],
+        p[s_o + 2 * no - 1 + o],
+        p[s_n + nn - 1 + n],
+        p[s_n + 2 * nn - 1 + n],
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -428,7 +443,9 @@ def jac_reduced(y, u, ps, fl, p, J):
     pl, v = y[0], y[1]
     ql = load_flow(z, pl, ps, p[I_K], p[I_PTR], al, pt)
     dql = load_flow_slope(z, pl, ps, p[I_K], p[I_PTR], al, pt)
-    slope = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+    slope = stribeck_friction_slope(
+        v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA]
+    )
     _load_jacobian(dql, ql, y, z, ps, slope, p, J)
 
 
@@ -481,7 +498,9 @@ def dfdt_pwa(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
         d_pn = -pn / pe * dpe
         dq_dps = z * K * (d_root * (k_o * pn + d_o) + root * k_o * d_pn)
         if form != 0.0:
-            d_cqp = abs(z) * K * 0.25 * (-d_root / (root * root) * (k_n * pn + d_n) + k_n * d_pn / root)
+            d_cqp = (
+                abs(z) * K * 0.25 * (-d_root / (root * root) * (k_n * pn + d_n) + k_n * d_pn / root)
+            )
             dq_dps -= form * d_cqp * pl
     _load_input_rates(dq_dz * k_g, dq_dps, y, z, ps, du, dps if sched else 0.0, dfl, p, dfdt)
 
@@ -652,7 +671,14 @@ def rhs(kind, t, y, p, sg, dy):
     rhs_at(kind, y, u, ps, fl, p, dy)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
 def _lu(a, piv, n):
     """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
@@ -680,7 +706,14 @@ def _lu(a, piv, n):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
 def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     for k in range(n):
@@ -799,7 +832,14 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     return nfev
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
 def _factor(kind, J, W, piv, hg):
     """W = I − hγ J, LU-factorised in place."""
     n = n_states(kind)
@@ -810,10 +850,15 @@ def _factor(kind, J, W, piv, hg):
     _lu(W, piv, n)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
-def _step_ros34pw2(
-    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
-):
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
+def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
     """One ROS34PW2 step from (t, y): fills ynew and the error yerr.
 
     Returns (rhs calls, u, P_S, F_L at t + h). f(t + h, ynew) is left to the caller, which
@@ -834,9 +879,7 @@ def _step_ros34pw2(
                 for j in range(i):
                     s += PW2_A[4 * i + j] * U[j, k]
                 yt[k] = s
-            u, ps, fl = _inputs(
-                t + PW2_ALPHA[i] * h, sg
-            )  # α_4 = 1: reused for f(t + h)
+            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sg)  # α_4 = 1: reused for f(t + h)
             _rhs_for(kind, yt, u, ps, fl, p, ft)
         for k in range(n):
             s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
@@ -856,9 +899,7 @@ def _step_ros34pw2(
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _step_ros23(
-    kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
-):
+def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
     """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2).
 
     Fills ynew, fnew = f(t + h, ynew) (its error estimate needs it) and yerr; returns
@@ -897,7 +938,9 @@ def _step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, ye
     """
 
 
-def _step_with_ros34pw2(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+def _step_with_ros34pw2(
+    method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+):
     return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
 
 
@@ -921,7 +964,14 @@ def _ol_step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew,
     return _step_with_either
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always", **NO_REFCOUNT)
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
 def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -948,9 +998,20 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
 def _work_arrays(n, n_out, y0):
     """The integrator's work arrays for n states and n_out output samples (y starts at y0)."""
     return (
-        np.empty((n_out, n)), y0.copy(), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-        np.empty(n), np.empty(n), np.empty((4, n)), np.empty((n, n)), np.empty((n, n)),
-        np.empty(n, dtype=np.int64), np.zeros(4, dtype=np.int64),
+        np.empty((n_out, n)),
+        y0.copy(),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty(n),
+        np.empty((4, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty(n, dtype=np.int64),
+        np.zeros(4, dtype=np.int64),
     )
 
 
@@ -1023,22 +1084,86 @@ def _integrate(
     The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
     the step factor is 0.9·err^(−1/3) (a cube root, cheaper than pow), clipped to [0.2, 5] (no growth right after a rejection).
     """
-    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(n_states(kind), t_out.shape[0], y0)
+    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(
+        n_states(kind), t_out.shape[0], y0
+    )
     atol = rtol * scale
     none = np.empty(0)
     k_out, status, t = _march(
-        kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
-        exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
-        none, none, none, none, np.empty((N_LOG, 0)),
+        kind,
+        Y,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        atol,
+        h0,
+        hmax,
+        max_steps,
+        method,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+        y,
+        f0,
+        fnew,
+        ft,
+        yt,
+        ynew,
+        yerr,
+        dfdt,
+        U,
+        J,
+        W,
+        piv,
+        stats,
+        none,
+        none,
+        none,
+        none,
+        np.empty((N_LOG, 0)),
     )
     return Y, k_out, status, t, y, stats
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT)
+@njit(
+    cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT
+)
 def _march(
-    kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, jac_reuse, gustafsson,
-    exact_jac, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
-    ctl, cst, ref, dref, log,
+    kind,
+    Y,
+    t_out,
+    p,
+    sg,
+    rtol,
+    scale,
+    atol,
+    h0,
+    hmax,
+    max_steps,
+    method,
+    jac_reuse,
+    gustafsson,
+    exact_jac,
+    y,
+    f0,
+    fnew,
+    ft,
+    yt,
+    ynew,
+    yerr,
+    dfdt,
+    U,
+    J,
+    W,
+    piv,
+    stats,
+    ctl,
+    cst,
+    ref,
+    dref,
+    log,
 ):
     """The step loop of :func:`_integrate` on arrays it owns; returns (rows filled, status, t).
 
@@ -1105,9 +1230,7 @@ def _march(
                 h = hmin
         if need_jac:
             u, ps, fl = _inputs(t, sg)
-            nfev += _jacobian(
-                kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact_jac
-            )
+            nfev += _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact_jac)
             n_jac += 1
             need_jac = False
             jac_age = 0
@@ -1198,41 +1321,149 @@ def _march(
 # inside, so each kernel holds only its own right-hand side, Jacobian and stepper (see
 # _rhs_for, _exact_derivatives, _step_for), and a command compiles only the one it runs.
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS34PW2, jac_reuse, gustafsson, exact_jac)
+def _integrate_full(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        FULL,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS34PW2,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS34PW2, jac_reuse, gustafsson, exact_jac)
+def _integrate_reduced(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        REDUCED,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS34PW2,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS34PW2, jac_reuse, gustafsson, exact_jac)
+def _integrate_pwa(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        PWA,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS34PW2,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_full_ros23(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS23, jac_reuse, gustafsson, exact_jac)
+def _integrate_full_ros23(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        FULL,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS23,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_reduced_ros23(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS23, jac_reuse, gustafsson, exact_jac)
+def _integrate_reduced_ros23(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        REDUCED,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS23,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_pwa_ros23(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-    return _integrate(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS23, jac_reuse, gustafsson, exact_jac)
+def _integrate_pwa_ros23(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        PWA,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS23,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
 
 
 _ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
-_ENTRY_ROS23 = {FULL: _integrate_full_ros23, REDUCED: _integrate_reduced_ros23, PWA: _integrate_pwa_ros23}
+_ENTRY_ROS23 = {
+    FULL: _integrate_full_ros23,
+    REDUCED: _integrate_reduced_ros23,
+    PWA: _integrate_pwa_ros23,
+}
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
-def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+def _integrate_closed(
+    kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
+):
     """:func:`_integrate` with the discrete controller ``ctl`` in the loop (see :mod:`._controller`).
 
     ``sg`` must hold the valve command as a constant signal; its value slot is the
@@ -1240,47 +1471,103 @@ def _integrate_closed(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, 
     sample instants t_0 + k·ctl[0], k < len(ref). Returns :func:`_integrate`'s tuple and
     the per-sample log, shape (N_LOG, len(ref)) (rows in :mod:`._controller`).
     """
-    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(n_states(kind), t_out.shape[0], y0)
+    Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = _work_arrays(
+        n_states(kind), t_out.shape[0], y0
+    )
     atol = rtol * scale
     cst = np.zeros(N_CST)
     log = np.full((N_LOG, ref.shape[0]), np.nan)
     k_out, status, t = _march(
-        kind, Y, t_out, p, sg, rtol, scale, atol, h0, hmax, max_steps, method, True, True,
-        True, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats,
-        ctl, cst, ref, dref, log,
+        kind,
+        Y,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        atol,
+        h0,
+        hmax,
+        max_steps,
+        method,
+        True,
+        True,
+        True,
+        y,
+        f0,
+        fnew,
+        ft,
+        yt,
+        ynew,
+        yerr,
+        dfdt,
+        U,
+        J,
+        W,
+        piv,
+        stats,
+        ctl,
+        cst,
+        ref,
+        dref,
+        log,
     )
     return Y, k_out, status, t, y, stats, log
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _closed_full(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
-    return _integrate_closed(FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+    return _integrate_closed(
+        FULL, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _closed_reduced(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
-    return _integrate_closed(REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+    return _integrate_closed(
+        REDUCED, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _closed_pwa(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
-    return _integrate_closed(PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref)
+    return _integrate_closed(
+        PWA, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
+    )
 
 
 _CLOSED = {FULL: _closed_full, REDUCED: _closed_reduced, PWA: _closed_pwa}
 
 
-def integrate_closed_loop(kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref):
+def integrate_closed_loop(
+    kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
+):
     """Closed-loop :func:`integrate`: the compiled controller ``ctl`` sets the valve command.
 
     Returns (Y, rows filled, status, t, y, stats, log); see :func:`_integrate_closed`.
     """
     if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
-        raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
+        raise ValueError(
+            f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}"
+        )
     if sg[0] != 0.0:
         raise ValueError("closed loop: the valve command must be packed as a constant signal")
     entry = _CLOSED[int(kind)]
-    args = (y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), int(method), ctl, ref, dref)
+    args = (
+        y0,
+        t_out,
+        p,
+        sg,
+        float(rtol),
+        scale,
+        float(h0),
+        float(hmax),
+        int(max_steps),
+        int(method),
+        ctl,
+        ref,
+        dref,
+    )
     # compile (or load) apart from the timed call, with numba's pedantic IR warning silenced as
     # for the open loop (pytest turns a stray compiler warning into a failure)
     prepare(entry, args, f"closed-loop {_KIND_NAMES[int(kind)]} model")
@@ -1328,11 +1615,23 @@ def integrate(
     first use, cached on disk). Releases the GIL.
     """
     if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
-        raise ValueError(f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}")
+        raise ValueError(
+            f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}"
+        )
     entry = (_ENTRY if int(method) == ROS34PW2 else _ENTRY_ROS23)[int(kind)]
     args = (
-        y0, t_out, p, sg, float(rtol), scale, float(h0), float(hmax), int(max_steps), bool(jac_reuse),
-        bool(gustafsson), bool(exact_jac),
+        y0,
+        t_out,
+        p,
+        sg,
+        float(rtol),
+        scale,
+        float(h0),
+        float(hmax),
+        int(max_steps),
+        bool(jac_reuse),
+        bool(gustafsson),
+        bool(exact_jac),
     )
     prepare(entry, args, f"{_KIND_NAMES[int(kind)]} model")
     with _interruptible():
@@ -1414,7 +1713,9 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     with _interruptible():
         out = _outputs(kind, t_out, Y, n_done, p, sg)
     if kind != PWA:
-        out[O_FRICTION] = stribeck_friction.py_func(out[O_V], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+        out[O_FRICTION] = stribeck_friction.py_func(
+            out[O_V], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA]
+        )
     return out
 
 
@@ -1468,7 +1769,9 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
         out[O_Z, k] = z
         out[O_P_A, k] = pa
         out[O_P_B, k] = pb
-        out[O_P_L, k] = pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
+        out[O_P_L, k] = (
+            pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
+        )
         out[O_P_S, k] = ps
         out[O_F_L, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
         out[O_X, k] = x

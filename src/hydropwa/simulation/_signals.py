@@ -143,6 +143,7 @@ def eval_signal_rate(sg, i: int, t: float) -> float:
     a = _sample_interval(sg, lo, n, t)
     return (sg[a + 1 + n] - sg[a + n]) / (sg[a + 1] - sg[a])
 
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def eval_packed(sg, i, t):
     """Packed signal ``i`` of ``sg`` at every time of the array ``t`` [s]."""
@@ -318,7 +319,9 @@ class Sampled(Signal):
         t = np.ascontiguousarray(self.t, dtype=float).ravel()
         v = np.ascontiguousarray(self.values, dtype=float).ravel()
         if t.size != v.size or t.size < 1:
-            raise SignalError(f"sampled signal needs equal, non-empty t and values (got {t.size} and {v.size})")
+            raise SignalError(
+                f"sampled signal needs equal, non-empty t and values (got {t.size} and {v.size})"
+            )
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
             raise SignalError(
@@ -327,7 +330,9 @@ class Sampled(Signal):
             )
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             i = int(np.flatnonzero(~(np.diff(t) > 0))[0]) + 1 if t.size > 1 else 0
-            raise SignalError(f"sampled signal times must be finite and strictly increasing (sample {i})")
+            raise SignalError(
+                f"sampled signal times must be finite and strictly increasing (sample {i})"
+            )
         if t.size == 1:
             t = np.array([t[0], t[0] + 1.0])
             v = np.array([v[0], v[0]])
@@ -376,10 +381,26 @@ _KINDS: dict[str, type[Signal]] = {
     "sine": Sine,
     "chirp": Chirp,
 }
-_FIRST = {"constant": "value", "step": "after", "ramp": "v1", "sine": "amplitude", "chirp": "amplitude"}
+_FIRST = {
+    "constant": "value",
+    "step": "after",
+    "ramp": "v1",
+    "sine": "amplitude",
+    "chirp": "amplitude",
+}
 #: Parameters that carry the signal's own unit; the rest are times/frequencies/angles.
 _VALUED = {"value", "before", "after", "v0", "v1", "amplitude", "offset"}
-_TIMED = {"time": "s", "t0": "s", "t1": "s", "start": "s", "duration": "s", "frequency": "Hz", "f0": "Hz", "f1": "Hz", "phase": "rad"}
+_TIMED = {
+    "time": "s",
+    "t0": "s",
+    "t1": "s",
+    "start": "s",
+    "duration": "s",
+    "frequency": "Hz",
+    "f0": "Hz",
+    "f1": "Hz",
+    "phase": "rad",
+}
 
 
 #: A bare number (no unit) for a signal of this unit is ambiguous beyond these magnitudes:
@@ -455,7 +476,9 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
     kind, _, rest = text.partition(":")
     kind = kind.strip().lower()
     if kind not in _KINDS:
-        raise SignalError(f"{name}: unknown signal kind {kind!r}; choose one of {', '.join(_KINDS)}")
+        raise SignalError(
+            f"{name}: unknown signal kind {kind!r}; choose one of {', '.join(_KINDS)}"
+        )
     cls = _KINDS[kind]
     allowed = [f.name for f in fields(cls)]
     kwargs: dict[str, float] = {}
@@ -468,7 +491,9 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
         else:
             raise SignalError(f"{name}: {item.strip()!r} in {spec!r} needs the form key=value")
         if key not in allowed:
-            raise SignalError(f"{name}: {kind} has no parameter {key!r}; known: {', '.join(allowed)}")
+            raise SignalError(
+                f"{name}: {kind} has no parameter {key!r}; known: {', '.join(allowed)}"
+            )
         if key in kwargs:
             raise SignalError(f"{name}: {key!r} is given twice in {spec!r}; give it once")
         target = unit if key in _VALUED else _TIMED.get(key, "")

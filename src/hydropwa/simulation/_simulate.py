@@ -25,7 +25,10 @@ __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
 CHANNEL_UNITS: dict[str, str] = {
-    "t": "s", **dict(OUTPUT_CHANNELS), **dict(PWA_OUTPUT_CHANNELS), **dict(CONTROL_OUTPUT_CHANNELS)
+    "t": "s",
+    **dict(OUTPUT_CHANNELS),
+    **dict(PWA_OUTPUT_CHANNELS),
+    **dict(CONTROL_OUTPUT_CHANNELS),
 }
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
 _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
@@ -99,11 +102,22 @@ class SimulationResult:
         from .._display import channel_rows, html_table
 
         st = self.stats
-        note = (f"{st.get('steps')} steps, {st.get('wall_time', 0.0) * 1e3:.3g} ms"
-                + (f" (+ {st['compile_time']:.1f} s compiling, once)" if st.get("compile_time", 0.0) > 0.5 else "")
-                + f", rtol {st.get('rtol')}; values in engineering units")
+        note = (
+            f"{st.get('steps')} steps, {st.get('wall_time', 0.0) * 1e3:.3g} ms"
+            + (
+                f" (+ {st['compile_time']:.1f} s compiling, once)"
+                if st.get("compile_time", 0.0) > 0.5
+                else ""
+            )
+            + f", rtol {st.get('rtol')}; values in engineering units"
+        )
         title = f"SimulationResult: {self.model} model, {self.t.size} samples, {self.t[-1] - self.t[0] if self.t.size else 0:.4g} s"
-        return html_table(title, ("channel", "unit", "min", "max"), channel_rows(self.channels, self.units), note=note)
+        return html_table(
+            title,
+            ("channel", "unit", "min", "max"),
+            channel_rows(self.channels, self.units),
+            note=note,
+        )
 
     def to_pandas(self):
         """DataFrame with one column per channel, ``t`` [s] first (as :meth:`Run.to_pandas`).
@@ -122,10 +136,21 @@ class SimulationResult:
         """The result as a :class:`hydropwa.data.Run` (for the data layer's writers)."""
         from ..data import Run
 
-        m = {"source": "simulation", "model": self.model, "inputs": self.inputs, "stats": _plain(self.stats)}
+        m = {
+            "source": "simulation",
+            "model": self.model,
+            "inputs": self.inputs,
+            "stats": _plain(self.stats),
+        }
         m.update(meta or {})
         fs = 1.0 / float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
-        return Run(name=name or f"sim-{self.model}", channels=dict(self.channels), units=self.units, fs=fs, meta=m)
+        return Run(
+            name=name or f"sim-{self.model}",
+            channels=dict(self.channels),
+            units=self.units,
+            fs=fs,
+            meta=m,
+        )
 
     def to_csv(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write all channels to CSV (header ``name [unit]``), atomically; an existing file
@@ -148,7 +173,9 @@ class SimulationResult:
             return self.to_csv(path, overwrite=overwrite)
         if suffix == ".parquet":
             return self.to_parquet(path, overwrite=overwrite)
-        raise SignalError(f"{path}: a simulation result is written as .csv or .parquet, not {suffix or 'no suffix'!r}")
+        raise SignalError(
+            f"{path}: a simulation result is written as .csv or .parquet, not {suffix or 'no suffix'!r}"
+        )
 
     def plot(self, channels=("u", "x", "p_a", "p_b", "p_s")):
         """Plot channels against time in engineering units (%, mm, bar); returns the figure."""
@@ -162,7 +189,9 @@ class SimulationResult:
         for key in ("cell_g", "cell_o", "cell_n", "cell_w"):
             if key in self.channels:
                 vals, counts = np.unique(self.channels[key].astype(int), return_counts=True)
-                out[key[5:]] = {int(v): float(c) / self.t.size for v, c in zip(vals, counts, strict=True)}
+                out[key[5:]] = {
+                    int(v): float(c) / self.t.size for v, c in zip(vals, counts, strict=True)
+                }
         return out
 
     def switches(self) -> dict[str, int]:
@@ -195,11 +224,17 @@ def _diagnose(params, state: dict[str, float]) -> str:
             "makes the zero crossing extremely stiff; lower γ"
         )
     if params.cylinder.end_stop_stiffness / params.load.mass > 1e14:
-        hints.append("the end-stop stiffness is extreme for this mass; lower cylinder.end_stop_stiffness")
+        hints.append(
+            "the end-stop stiffness is extreme for this mass; lower cylinder.end_stop_stiffness"
+        )
     x = state.get("x")
     if x is not None and (x < -0.01 * c.stroke or x > 1.01 * c.stroke):
         hints.append(f"the piston left its stroke (x = {x:.4g} m)")
-    return "; ".join(hints) if hints else "no obvious parameter problem; try a smaller rtol or check the inputs"
+    return (
+        "; ".join(hints)
+        if hints
+        else "no obvious parameter problem; try a smaller rtol or check the inputs"
+    )
 
 
 def simulate(
@@ -307,11 +342,15 @@ def simulate(
     elif reference is not None:
         raise SignalError("reference is the set point of a controller; pass controller=... as well")
     u_sig = as_signal(u, "", "u")
-    ps_sig = as_signal(prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure")
+    ps_sig = as_signal(
+        prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
+    )
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
     if mdl.kind == K.PWA and supply_pressure is not None and not getattr(mdl, "scheduled", True):
         fixed = float(getattr(mdl, "supply_pressure", np.nan))
-        if not (isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)):
+        if not (
+            isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)
+        ):
             raise SignalError(
                 f"this PWA model's cells are fixed at P_S = {fixed / 1e5:g} bar and would ignore the "
                 "supply_pressure input; build it with linearize(params, scheduled=True) to follow P_S(t), "
@@ -345,8 +384,20 @@ def simulate(
     t0 = _time.perf_counter()
     if closed:
         Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
-            mdl.kind, y0, t_out, p, sg, float(rtol), mdl.state_scale(), 1e-5, float(hmax), int(max_steps),
-            K.SOLVERS[solver], ctl, ref, dref,
+            mdl.kind,
+            y0,
+            t_out,
+            p,
+            sg,
+            float(rtol),
+            mdl.state_scale(),
+            1e-5,
+            float(hmax),
+            int(max_steps),
+            K.SOLVERS[solver],
+            ctl,
+            ref,
+            dref,
         )
     else:
         Y, n_done, status, t_fail, y_fail, stats = K.integrate(
@@ -424,7 +475,6 @@ def simulate(
     return result
 
 
-
 def _closed_loop_setup(controller, reference, t_out):
     """Packed controller, reference signal and reference samples/rates at the sample instants."""
     from ._controller import eval_rates
@@ -437,7 +487,9 @@ def _closed_loop_setup(controller, reference, t_out):
         ) from None
     ts = float(ctl[0]) if ctl.size else 0.0
     if ctl.size < 16 or not (ts > 0) or not math.isfinite(ts):
-        raise SignalError("controller vector is malformed (sample time must be a positive number of seconds)")
+        raise SignalError(
+            "controller vector is malformed (sample time must be a positive number of seconds)"
+        )
     if isinstance(reference, str):  # motion profiles and files are specs of the control layer
         from ..control import as_reference
 

@@ -83,14 +83,25 @@ def _trajectory_path(directory: Path, case: SweepCase) -> Path:
 
 
 def _write_trajectory(directory: Path, case: SweepCase, result: SimulationResult) -> None:
-    result.to_parquet(_trajectory_path(directory, case), overwrite=True)  # the journal decides what reruns
+    result.to_parquet(
+        _trajectory_path(directory, case), overwrite=True
+    )  # the journal decides what reruns
 
 
 def fingerprint(spec: SweepSpec) -> str:
     """A hash of everything that decides a sweep's rows (to resume only the same sweep)."""
     text = repr(
-        (spec.base, spec.grid, spec.random, spec.n_random, spec.seed, spec.u, spec.duration,
-         spec.model, sorted(spec.options.items()))
+        (
+            spec.base,
+            spec.grid,
+            spec.random,
+            spec.n_random,
+            spec.seed,
+            spec.u,
+            spec.duration,
+            spec.model,
+            sorted(spec.options.items()),
+        )
     )
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 

@@ -168,7 +168,9 @@ def _count(table: dict, key: str, default: int) -> int:
 
 def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, float]]]:
     if not isinstance(table, dict):
-        raise ParameterError("[random] must be a table: n, seed and 'group.field' = {uniform = [a, b]}")
+        raise ParameterError(
+            "[random] must be a table: n, seed and 'group.field' = {uniform = [a, b]}"
+        )
     n = _count(table, "n", 0)
     seed = _count(table, "seed", 0)
     out = {}
@@ -203,7 +205,9 @@ def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, fl
     if out and n <= 0:
         raise ParameterError("[random] needs n ≥ 1 draws")
     if n > 0 and not out:
-        raise ParameterError("[random] has n draws but no parameter to draw; add 'group.field' = {uniform = [a, b]}")
+        raise ParameterError(
+            "[random] has n draws but no parameter to draw; add 'group.field' = {uniform = [a, b]}"
+        )
     return n, seed, out
 
 
@@ -285,10 +289,14 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     as_signal(u, "", "u")  # a malformed command spec fails here, not in every case
     if "load_force" in options:
         as_signal(options["load_force"], "N", "load_force")
-    check_supply_pressure(options.get("supply_pressure"), base, float(duration), "input.supply_pressure")
+    check_supply_pressure(
+        options.get("supply_pressure"), base, float(duration), "input.supply_pressure"
+    )
     spec = SweepSpec(base, grid, random, n_random, seed, u, float(duration), model, options)
     if spec.n_cases > MAX_SWEEP_CASES:
-        sizes = " × ".join([str(len(v)) for v in grid.values()] + ([str(n_random)] if random else []))
+        sizes = " × ".join(
+            [str(len(v)) for v in grid.values()] + ([str(n_random)] if random else [])
+        )
         raise ParameterError(
             f"the sweep has {spec.n_cases:.3g} cases ({sizes}); at most {MAX_SWEEP_CASES:,} are "
             "run in one sweep: split it, or draw fewer random cases"
@@ -309,9 +317,13 @@ def load_sweep(path: str | os.PathLike) -> SweepSpec:
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))
     except UnicodeDecodeError as exc:
-        raise ParameterError(f"sweep file {path}: byte {exc.start} is not UTF-8 text; save it as UTF-8") from None
+        raise ParameterError(
+            f"sweep file {path}: byte {exc.start} is not UTF-8 text; save it as UTF-8"
+        ) from None
     except tomllib.TOMLDecodeError as exc:
-        raise ParameterError(f"sweep file {path}: not valid TOML ({exc}); fix the line it names") from None
+        raise ParameterError(
+            f"sweep file {path}: not valid TOML ({exc}); fix the line it names"
+        ) from None
     except RecursionError:
         raise ParameterError(f"sweep file {path}: nested too deeply to be a sweep file") from None
     try:
