@@ -7,6 +7,12 @@ slots that the model object sets itself, such as the reduced model's form). The 
 ``I_*`` indices, :func:`hydropwa.models.pack_params` and the PWA packing are generated from
 this table, and so are the names of the output channels. Adding a parameter is one line here.
 
+The states of each model are declared here too (:data:`FULL_STATES`, :data:`LOAD_STATES`):
+name, unit, typical magnitude (the integrator's absolute tolerance is ``rtol`` times it) and
+how the default and measured initial states fill it. The kernel's ``Y_*`` indices, the
+models' ``state_names``, ``state_scale`` and initial states are generated from them, so a
+new state (see the gas accumulator) is one row here plus its rate in the kernel.
+
 This module is a leaf: it imports nothing from the package.
 """
 
@@ -98,3 +104,56 @@ CONTROL_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
 OUT: dict[str, int] = {
     name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)
 }
+
+
+#: States of the full-order model in kernel order: (name, SI unit, typical magnitude).
+#: The typical magnitude sets the absolute tolerance (``rtol`` × it) and the finite-difference
+#: step of the Jacobian column.
+FULL_STATES: tuple[tuple[str, str, float], ...] = (
+    ("spool", "1", 1.0),  # valve spool position ν, Eq. (1)
+    ("spool_rate", "1/s", 10.0),  # ν̇
+    ("p_a", "Pa", 1e5),  # chamber pressures, Eq. (9)
+    ("p_b", "Pa", 1e5),
+    ("x", "m", 1e-3),  # rod position and velocity, Eq. (10)
+    ("v", "m/s", 1e-2),
+    ("p_s", "Pa", 1e5),  # supply pressure: a state only with the pump supply model
+)
+#: States of the reduced and PWA models (Eqs. (12)–(23)): load pressure, velocity, position.
+LOAD_STATES: tuple[tuple[str, str, float], ...] = (
+    ("p_l", "Pa", 1e5),
+    ("v", "m/s", 1e-2),
+    ("x", "m", 1e-3),
+)
+#: A full-model state whose initial value is that of another state when the caller does not
+#: give it (a component at rest with the node it hangs on).
+FULL_STATE_TIES: dict[str, str] = {}
+
+#: Index of each state in the kernel's state vector.
+Y_FULL: dict[str, int] = {name: i for i, (name, _u, _s) in enumerate(FULL_STATES)}
+Y_LOAD: dict[str, int] = {name: i for i, (name, _u, _s) in enumerate(LOAD_STATES)}
+
+
+def state_vector(
+    states: tuple[tuple[str, str, float], ...],
+    values: dict[str, float],
+    ties: dict[str, str] | None = None,
+) -> list[float]:
+    """A state vector in kernel order from named values.
+
+    A state missing from ``values`` takes the value of the state it is tied to in ``ties``
+    (if that one is given), else 0.
+    """
+    ties = ties or {}
+    names = {name for name, _u, _s in states}
+    unknown = set(values) - names
+    if unknown:
+        raise KeyError(f"unknown state(s) {', '.join(sorted(unknown))}; known: {', '.join(names)}")
+    out = []
+    for name, _u, _s in states:
+        if name in values:
+            out.append(float(values[name]))
+        elif name in ties and ties[name] in values:
+            out.append(float(values[ties[name]]))
+        else:
+            out.append(0.0)
+    return out

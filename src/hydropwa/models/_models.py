@@ -14,7 +14,15 @@ from typing import ClassVar
 import numpy as np
 
 from .._errors import ParameterError
-from .._layout import BASE_SLOTS, N_BASE, SLOT
+from .._layout import (
+    BASE_SLOTS,
+    FULL_STATE_TIES,
+    FULL_STATES,
+    LOAD_STATES,
+    N_BASE,
+    SLOT,
+    state_vector,
+)
 from ..params import SystemParams, get_preset
 from ..simulation import _kernel as K
 
@@ -101,11 +109,11 @@ class FullOrderModel(Model):
 
     kind = K.FULL
     name = "full"
-    state_names: ClassVar[tuple[str, ...]] = ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
+    state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
 
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
-        return np.array([1.0, 10.0, 1e5, 1e5, 1e-3, 1e-2, 1e5])
+        return np.array([scale for _n, _u, scale in FULL_STATES])
 
     def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
         """Rest at ``x0`` (default mid-stroke) with P_A + P_B = P_S and balanced forces."""
@@ -114,12 +122,13 @@ class FullOrderModel(Model):
         x = 0.5 * c.stroke if x0 is None else x0
         pa = (load_force + ps * c.area_b) / (c.area_a + c.area_b)
         pa = min(max(pa, 0.0), ps)
-        return np.array([0.0, 0.0, pa, ps - pa, x, 0.0, ps])
+        return self.state_from_measurement(x, 0.0, pa, ps - pa, ps)
 
     @staticmethod
     def state_from_measurement(x, v, p_a, p_b, p_s, spool=0.0) -> np.ndarray:
-        """Initial state from measured quantities (SI)."""
-        return np.array([spool, 0.0, p_a, p_b, x, v, p_s], dtype=float)
+        """Initial state from measured quantities (SI); states not measured rest with their node."""
+        values = {"spool": spool, "p_a": p_a, "p_b": p_b, "x": x, "v": v, "p_s": p_s}
+        return np.array(state_vector(FULL_STATES, values, FULL_STATE_TIES), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -140,7 +149,7 @@ class ReducedModel(Model):
     form: str = "asymmetric"
     kind = K.REDUCED
     name = "reduced"
-    state_names: ClassVar[tuple[str, ...]] = ("p_l", "v", "x")
+    state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LOAD_STATES)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -166,17 +175,19 @@ class ReducedModel(Model):
         return c.area_a if self.form == "asymmetric" else c.mean_area
 
     def state_scale(self) -> np.ndarray:
-        return np.array([1e5, 1e-2, 1e-3])
+        """Typical state magnitudes used as absolute tolerances (× rtol)."""
+        return np.array([scale for _n, _u, scale in LOAD_STATES])
 
     def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
         """Rest at ``x0`` (default mid-stroke) with A·P_L = F_L (A = A_A, or Ā in the paper form)."""
         c = self.params.cylinder
         x = 0.5 * c.stroke if x0 is None else x0
-        return np.array([load_force / self.force_area, 0.0, x])
+        return self.state_from_measurement(x, 0.0, load_force / self.force_area, 0.0)
 
     def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
-        return np.array([p_a - self.area_ratio * p_b, v, x], dtype=float)
+        values = {"p_l": p_a - self.area_ratio * p_b, "v": v, "x": x}
+        return np.array(state_vector(LOAD_STATES, values), dtype=float)
 
 
 _BY_NAME = {"full": FullOrderModel, "reduced": ReducedModel}

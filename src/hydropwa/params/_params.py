@@ -11,7 +11,7 @@ import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -84,6 +84,13 @@ class ServoValve:
         ends.
     """
 
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "omega0": "rad/s",
+        "zeta": "",
+        "omega0_table": None,
+    }
+
     omega0: float = 628.3
     zeta: float = 0.7
     omega0_table: tuple[tuple[float, float], ...] = ()
@@ -145,6 +152,14 @@ class DeadZone:
         band, which leaves a jump of ``creep_slope·beta`` at |u| = β. If True,
         the outer cells are shifted so that z is continuous.
     """
+
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "alpha": "",
+        "beta": "",
+        "creep_slope": "",
+        "continuous": None,
+    }
 
     alpha: float = 1.0
     beta: float = 0.1
@@ -227,6 +242,11 @@ class ValveFlow:
         cubic laminar law with the same value and slope at p_tr (docs/errata.md E3).
     """
 
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "K": "m**3/s/Pa**0.5",
+        "transition_pressure": "Pa",
+    }
     K: float = flow_coefficient_from_rating(40e-3 / 60.0, 70e5)
     transition_pressure: float = 1e5
 
@@ -258,6 +278,18 @@ class Cylinder:
     end_stop_damping : float
         Contact damping [N·s/m] of the end stops (acts only while in contact).
     """
+
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "area_a": "m**2",
+        "area_b": "m**2",
+        "stroke": "m",
+        "dead_volume_a": "m**3",
+        "dead_volume_b": "m**3",
+        "leakage": "m**3/s/Pa",
+        "end_stop_stiffness": "N/m",
+        "end_stop_damping": "N*s/m",
+    }
 
     area_a: float = 1.3e-3
     area_b: float = 0.76e-3
@@ -324,6 +356,14 @@ class Oil:
         modulus falls linearly to 0.1 % of E, so pressures stay physical.
     """
 
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "bulk_modulus": "Pa",
+        "density": "kg/m**3",
+        "vapour_pressure": "Pa",
+        "release_pressure": "Pa",
+    }
+
     bulk_modulus: float = 1e9
     density: float = 870.0
     vapour_pressure: float = -0.95e5
@@ -360,6 +400,16 @@ class Friction:
     smoothness : float
         tanh slope γ [s/m] of the zero crossing.
     """
+
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "coulomb": "N",
+        "static": "N",
+        "viscous": "N*s/m",
+        "stribeck_velocity": "m/s",
+        "shape": "",
+        "smoothness": "s/m",
+    }
 
     coulomb: float = 90.0
     static: float = 150.0
@@ -414,6 +464,18 @@ class Supply:
         Relief valve flow gain [m³/(s·Pa)] above the cracking pressure.
     """
 
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "pressure": "Pa",
+        "tank_pressure": "Pa",
+        "model": None,
+        "pump_flow": "m**3/s",
+        "compensator_droop": "Pa",
+        "line_volume": "m**3",
+        "relief_pressure": "Pa",
+        "relief_gain": "m**3/s/Pa",
+    }
+
     pressure: float = 100e5
     tank_pressure: float = 0.0
     model: str = "ideal"
@@ -456,6 +518,13 @@ class Load:
         counter cylinder of the rig: the load is F_L(t) + c·ẋ and the force sensor
         (channel ``f_l``) measures that sum. 0 for a free rod.
     """
+
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "mass": "kg",
+        "force": "N",
+        "damping": "N*s/m",
+    }
 
     mass: float = 1.394
     force: float = 0.0

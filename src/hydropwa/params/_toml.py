@@ -30,46 +30,10 @@ __all__ = [
 ]
 
 
-#: SI unit of every numeric field, as a pint expression (None: not a quantity).
+#: SI unit of every numeric field, as a pint expression (None: not a quantity); declared next to
+#: the fields, in each component class's ``UNITS``.
 FIELD_UNITS: dict[str, dict[str, str | None]] = {
-    "valve": {"omega0": "rad/s", "zeta": "", "omega0_table": None},
-    "dead_zone": {"alpha": "", "beta": "", "creep_slope": "", "continuous": None},
-    "flow": {"K": "m**3/s/Pa**0.5", "transition_pressure": "Pa"},
-    "cylinder": {
-        "area_a": "m**2",
-        "area_b": "m**2",
-        "stroke": "m",
-        "dead_volume_a": "m**3",
-        "dead_volume_b": "m**3",
-        "leakage": "m**3/s/Pa",
-        "end_stop_stiffness": "N/m",
-        "end_stop_damping": "N*s/m",
-    },
-    "oil": {
-        "bulk_modulus": "Pa",
-        "density": "kg/m**3",
-        "vapour_pressure": "Pa",
-        "release_pressure": "Pa",
-    },
-    "friction": {
-        "coulomb": "N",
-        "static": "N",
-        "viscous": "N*s/m",
-        "stribeck_velocity": "m/s",
-        "shape": "",
-        "smoothness": "s/m",
-    },
-    "supply": {
-        "pressure": "Pa",
-        "tank_pressure": "Pa",
-        "model": None,
-        "pump_flow": "m**3/s",
-        "compensator_droop": "Pa",
-        "line_volume": "m**3",
-        "relief_pressure": "Pa",
-        "relief_gain": "m**3/s/Pa",
-    },
-    "load": {"mass": "kg", "force": "N", "damping": "N*s/m"},
+    name: dict(cls.UNITS) for name, cls in COMPONENT_TYPES.items()
 }
 
 #: Plausible SI range of a bare (unitless) number per field, and the units a user who

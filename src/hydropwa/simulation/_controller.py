@@ -44,7 +44,11 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from .._layout import Y_FULL, Y_LOAD
 from ._signals import NO_REFCOUNT, eval_signal_rate
+
+_X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
+_LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 
 (
     C_TS,
@@ -104,10 +108,10 @@ def measure(kind, y, a_a, a_b, mean_area):
     P_A − P_B differs from it at rest by about P_S(1 − α) on a single-rod cylinder, which
     a state feedback would read as a load.
     """
-    if kind == 0:  # full: [ν, ν̇, P_A, P_B, x, ẋ, P_S]
+    if kind == 0:  # full model (states: hydropwa._layout.FULL_STATES)
         area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
-        return y[4], y[5], (y[2] * a_a - y[3] * a_b) / area
-    return y[2], y[1], y[0]  # reduced, PWA: [P_L, ẋ, x]
+        return y[_X], y[_V], (y[_PA] * a_a - y[_PB] * a_b) / area
+    return y[_LX], y[_LV], y[_LPL]  # reduced, PWA (LOAD_STATES)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)

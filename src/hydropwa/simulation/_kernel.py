@@ -58,6 +58,8 @@ from .._layout import (
     PWA_SLOT,
     PWA_SLOTS,
     SLOT,
+    Y_FULL,
+    Y_LOAD,
 )
 from ..components._physics import (
     asymmetric_load_pressure_rate,
@@ -87,7 +89,12 @@ from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
 
 FULL, REDUCED, PWA = 0, 1, 2
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
-N_STATES = (7, 3, 3)
+N_STATES = (len(Y_FULL), len(Y_LOAD), len(Y_LOAD))
+# State indices: generated from the state tables in hydropwa._layout.
+Y_NU, Y_DNU, Y_PA, Y_PB, Y_X, Y_V, Y_PS = (
+    Y_FULL[k] for k in ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
+)
+L_PL, L_V, L_X = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 
 # Packed parameter vector layout: generated from the one table in hydropwa._layout.
 I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
@@ -172,9 +179,9 @@ def _load_gain(p):
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def rhs_full(y, u, ps_in, fl, p, dy):
     """Full-order model, Eqs. (1)–(11), with the corrected sign of Q_B (docs/errata.md E1)."""
-    nu, dnu, pa, pb, x, v = y[0], y[1], y[2], y[3], y[4], y[5]
+    nu, dnu, pa, pb, x, v = y[Y_NU], y[Y_DNU], y[Y_PA], y[Y_PB], y[Y_X], y[Y_V]
     pump = p[I_PUMP] > 0.5
-    ps = y[6] if pump else ps_in
+    ps = y[Y_PS] if pump else ps_in
     z = _opening(nu, p)
     qa, qb = orifice_flows(z, pa, pb, ps, p[I_PT], p[I_K], p[I_PTR])
     dpa, dpb = chamber_pressure_rates(
@@ -195,16 +202,16 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         p[I_PREL],
     )
     stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
-    dy[0] = dnu
-    dy[1] = servo_valve_acceleration(nu, dnu, u, p[I_OMEGA0], p[I_ZETA])
-    dy[2] = dpa
-    dy[3] = dpb
-    dy[4] = v
-    dy[5] = piston_acceleration(
+    dy[Y_NU] = dnu
+    dy[Y_DNU] = servo_valve_acceleration(nu, dnu, u, p[I_OMEGA0], p[I_ZETA])
+    dy[Y_PA] = dpa
+    dy[Y_PB] = dpb
+    dy[Y_X] = v
+    dy[Y_V] = piston_acceleration(
         pa * p[I_AA] - pb * p[I_AB], _friction(v, p), fl + p[I_CLOAD] * v, stop, p[I_MASS]
     )
     if pump:
-        dy[6] = pump_supply_rate(
+        dy[Y_PS] = pump_supply_rate(
             ps,
             supply_flow(z, qa, qb),
             p[I_PSET],
@@ -216,7 +223,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
             p[I_GRELIEF],
         )
     else:
-        dy[6] = 0.0
+        dy[Y_PS] = 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -789,6 +796,12 @@ _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _inert_column(j, p):
+    """Full model: state j is constant for these parameters, so its Jacobian column is zero."""
+    return j == Y_PS and p[I_PUMP] <= 0.5  # P_S is an input without the pump model
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
@@ -803,14 +816,14 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     n = n_states(kind)
     sqrt_eps = 1.4901161193847656e-08
     nfev = 0
-    n_cols = n
-    if kind == FULL and p[I_PUMP] <= 0.5:
-        n_cols = 6
-        for i in range(n):
-            J[i, 6] = 0.0
     if exact and _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
         return 0
-    for j in range(n_cols):
+    for j in range(n):
+        if kind == FULL and _inert_column(j, p):
+            for i in range(n):
+                J[i, j] = 0.0
+            continue
+        nfev += 1
         for i in range(n):
             yt[i] = y[i]
         dj = sqrt_eps * max(abs(y[j]), scale[j])
@@ -818,7 +831,6 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
         _rhs_for(kind, yt, u, ps, fl, p, ft)
         for i in range(n):
             J[i, j] = (ft[i] - f0[i]) / dj
-    nfev += n_cols
     if sg[0] == 0.0 and sg[1] == 0.0 and sg[2] == 0.0:  # all inputs constant
         for i in range(n):
             dfdt[i] = 0.0
@@ -1740,16 +1752,16 @@ def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
         t = t_out[k]
         u, ps, fl = _inputs(t, sg)
         if kind == FULL:
-            spool = Y[k, 0]
+            spool = Y[k, Y_NU]
             z = _opening(spool, p)
-            pa, pb = Y[k, 2], Y[k, 3]
+            pa, pb = Y[k, Y_PA], Y[k, Y_PB]
             if p[I_PUMP] > 0.5:
-                ps = Y[k, 6]
+                ps = Y[k, Y_PS]
             pl = pa - pb
-            x, v = Y[k, 4], Y[k, 5]
+            x, v = Y[k, Y_X], Y[k, Y_V]
             fr = 0.0  # friction: filled by outputs() on the whole row
         else:
-            pl, v, x = Y[k, 0], Y[k, 1], Y[k, 2]
+            pl, v, x = Y[k, L_PL], Y[k, L_V], Y[k, L_X]
             spool = u
             if kind == REDUCED:
                 z = _opening(u, p)
