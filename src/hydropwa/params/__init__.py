@@ -1,5 +1,6 @@
 """Parameters: frozen, validated component objects in SI, TOML files, presets."""
 
+from . import _params
 from ._paper import (
     TABLE_II,
     TABLE_IV,
@@ -9,18 +10,7 @@ from ._paper import (
     recover_stribeck_from_table_v,
     table_v_pwa,
 )
-from ._params import (
-    Cylinder,
-    DeadZone,
-    Friction,
-    Load,
-    Oil,
-    ServoValve,
-    Supply,
-    SystemParams,
-    ValveFlow,
-    flow_coefficient_from_rating,
-)
+from ._params import *  # noqa: F403  (the component classes, _params.__all__)
 from ._presets import PRESETS, get_preset, paper_params
 from ._toml import (
     FIELD_UNITS,
@@ -32,23 +22,14 @@ from ._toml import (
 )
 
 __all__ = [
-    "Cylinder",
-    "DeadZone",
+    *_params.__all__,
     "FIELD_UNITS",
-    "Friction",
-    "Load",
-    "Oil",
     "PRESETS",
-    "ServoValve",
     "StribeckRecovery",
-    "Supply",
-    "SystemParams",
     "TABLE_II",
     "TABLE_IV",
     "TABLE_V",
     "TABLE_V_AS_PRINTED",
-    "ValveFlow",
-    "flow_coefficient_from_rating",
     "get_preset",
     "load_params",
     "paper_params",
