@@ -2,7 +2,8 @@
 
 numba keys each cached function on the contents of its *own* source file. The kernels
 in ``simulation/_kernel.py`` inline the physics of ``components/_physics.py`` and the
-signal code of ``simulation/_signals.py``; after a change to one of those files alone
+signal code of ``simulation/_signals.py``, and compile in the slot and state indices of
+the layout table ``_layout.py``; after a change to one of those files alone
 (an edit in a development checkout, or an upgrade that touches only that file) numba
 would load the old kernels from ``__pycache__`` and silently run the old physics.
 
@@ -27,14 +28,18 @@ COMPILED_MODULES = (
     "simulation/_controller.py",
 )
 
+#: What the compiled code depends on: those modules and the layout table whose slot and state
+#: indices the kernels compile in as constants.
+STAMPED_MODULES = (*COMPILED_MODULES, "_layout.py")
+
 _ROOT = Path(__file__).resolve().parent
 _FILES = frozenset(str(_ROOT / m) for m in COMPILED_MODULES)
 
 
 def source_stamp(root: str | os.PathLike = _ROOT) -> bytes:
-    """SHA-256 over the compiled modules' sources under package folder ``root``."""
+    """SHA-256 over the compiled modules' and the layout table's sources under ``root``."""
     h = hashlib.sha256()
-    for m in COMPILED_MODULES:
+    for m in STAMPED_MODULES:
         h.update(m.encode())
         h.update((Path(root) / m).read_bytes())
     return h.digest()

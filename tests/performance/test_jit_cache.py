@@ -46,12 +46,12 @@ def test_every_cached_kernel_uses_the_package_stamp():
 
 
 def test_stamp_changes_with_any_compiled_module(tmp_path):
-    for m in _jitcache.COMPILED_MODULES:
+    for m in _jitcache.STAMPED_MODULES:
         (tmp_path / m).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(PKG / m, tmp_path / m)
     base = _jitcache.source_stamp(tmp_path)
     assert base == _jitcache.source_stamp(PKG)
-    for m in _jitcache.COMPILED_MODULES:
+    for m in _jitcache.STAMPED_MODULES:
         text = (tmp_path / m).read_text()
         (tmp_path / m).write_text(text + "\n# edited\n")
         assert _jitcache.source_stamp(tmp_path) != base, m
