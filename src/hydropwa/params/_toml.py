@@ -306,7 +306,13 @@ def load_params(path: str | os.PathLike) -> SystemParams:
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{p}: invalid TOML ({exc})") from None
     if "base" not in data:
-        missing = [c for c in COMPONENT_TYPES if c not in data]
+        # a component class with OPTIONAL = True (e.g. an accessory that defaults to absent)
+        # may be left out of a complete file
+        missing = [
+            c
+            for c, cls in COMPONENT_TYPES.items()
+            if c not in data and not getattr(cls, "OPTIONAL", False)
+        ]
         if missing:
             raise ParameterError(
                 f"{p}: missing section(s) {', '.join(f'[{c}]' for c in missing)}; give them, or put "
