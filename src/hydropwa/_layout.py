@@ -60,18 +60,26 @@ BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
     ("rform", None),
     # rod position [m] at which the PWA model evaluates its chamber capacitances; < 0: the state x
     ("xcap", None),
+    # gas accumulator on port A (full model only; gas volume 0: none)
+    ("accv", "accumulator.gas_volume"),
+    ("accp0", "accumulator.precharge_pressure"),
+    ("accn", "accumulator.polytropic_index"),
+    ("hosel", "accumulator.hose_length"),
+    ("hosed", "accumulator.hose_diameter"),
+    ("hosevol", "accumulator.hose_volume"),
+    ("visc", "accumulator.viscosity"),
 )
 
 #: Index of each base slot.
 SLOT: dict[str, int] = {name: i for i, (name, _src) in enumerate(BASE_SLOTS)}
 #: Size of the base block (room for a few more slots before the PWA section).
-N_BASE = 40
+N_BASE = 48
 assert len(BASE_SLOTS) <= N_BASE
 
 #: PWA section (after the base block): flags and cell counts, then the cell table from I_CELLS.
 PWA_SLOTS: tuple[str, ...] = ("sched", "psfix", "form", "ng", "no", "nn", "nw")
 PWA_SLOT: dict[str, int] = {name: N_BASE + i for i, name in enumerate(PWA_SLOTS)}
-I_CELLS = 50
+I_CELLS = N_BASE + len(PWA_SLOTS) + 3
 
 #: Output channels of every model, in the kernel's row order, with their SI units.
 OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
@@ -117,6 +125,7 @@ FULL_STATES: tuple[tuple[str, str, float], ...] = (
     ("x", "m", 1e-3),  # rod position and velocity, Eq. (10)
     ("v", "m/s", 1e-2),
     ("p_s", "Pa", 1e5),  # supply pressure: a state only with the pump supply model
+    ("p_acc", "Pa", 1e5),  # gas accumulator on port A (constant without one)
 )
 #: States of the reduced and PWA models (Eqs. (12)–(23)): load pressure, velocity, position.
 LOAD_STATES: tuple[tuple[str, str, float], ...] = (
@@ -126,7 +135,7 @@ LOAD_STATES: tuple[tuple[str, str, float], ...] = (
 )
 #: A full-model state whose initial value is that of another state when the caller does not
 #: give it (a component at rest with the node it hangs on).
-FULL_STATE_TIES: dict[str, str] = {}
+FULL_STATE_TIES: dict[str, str] = {"p_acc": "p_a"}
 
 #: Index of each state in the kernel's state vector.
 Y_FULL: dict[str, int] = {name: i for i, (name, _u, _s) in enumerate(FULL_STATES)}

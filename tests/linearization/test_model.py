@@ -192,16 +192,19 @@ def test_scheduling_rescales_cells_exactly(params):
 
 
 def test_pack_layout(params):
+    from hydropwa._layout import I_CELLS, PWA_SLOT
+
     m = linearize(params, form="paper", scheduled=True, supply_pressure=85e5)
     p = m.pack()
-    assert p[40] == 1.0 and p[41] == 85e5 and p[42] == 1.0
-    ng, no, nn, nw = (int(v) for v in p[43:47])
+    assert p[PWA_SLOT["sched"]] == 1.0 and p[PWA_SLOT["psfix"]] == 85e5
+    assert p[PWA_SLOT["form"]] == 1.0
+    ng, no, nn, nw = (int(p[PWA_SLOT[k]]) for k in ("ng", "no", "nn", "nw"))
     assert (ng, no, nn, nw) == (5, 5, 5, 7)
-    assert p.size == 50 + sum(3 * n - 1 for n in (ng, no, nn, nw))
-    s = 50
+    assert p.size == I_CELLS + sum(3 * n - 1 for n in (ng, no, nn, nw))
+    s = I_CELLS
     np.testing.assert_array_equal(p[s : s + ng - 1], m.dead_zone.breakpoints)
     np.testing.assert_array_equal(p[s + ng - 1 : s + 2 * ng - 1], m.dead_zone.slopes)
-    s = 50 + 3 * ng - 1
+    s = I_CELLS + 3 * ng - 1
     np.testing.assert_array_equal(p[s + no - 1 : s + 2 * no - 1], m.cq.pwa.slopes)
 
 

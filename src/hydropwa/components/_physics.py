@@ -48,6 +48,8 @@ __all__ = [
     "net_piston_force",
     "pump_supply_rate",
     "supply_flow",
+    "hose_flow",
+    "accumulator_pressure_rate",
 ]
 
 #: numba options of the compiled components. ``error_model="numpy"``: a division by zero gives
@@ -527,3 +529,62 @@ def pump_supply_rate(
         r = 1.0
     q_relief = relief_gain * (p_s - p_relief) if p_s > p_relief else 0.0
     return E / v_line * (q_max * r - q_draw - q_relief)
+
+
+@njit(**_JIT)
+def hose_flow(
+    p_from: float, p_to: float, length: float, diameter: float, viscosity: float
+) -> float:
+    """Laminar flow [m³/s] through a hose, Hagen–Poiseuille: Q = π d⁴ (p_from − p_to) / (128 μ L).
+
+    Not in the paper (its rig has no accumulator). Valid while the hose flow is laminar
+    (Re = 4ρQ/(πμd) below about 2300); the hose's inertance is neglected.
+    """
+    return math.pi * diameter**4 / (128.0 * viscosity * length) * (p_from - p_to)
+
+
+@njit(**_JIT)
+def accumulator_pressure_rate(
+    q: float,
+    p: float,
+    gas_volume: float,
+    precharge: float,
+    index: float,
+    hose_volume: float,
+    E: float,
+    p_vap: float,
+    p_rel: float,
+) -> float:
+    """Pressure rate Ṗ [Pa/s] of a gas accumulator with its hose, filled by the flow q [m³/s].
+
+    Continuity on the node: q = C(P) Ṗ with the capacitance C = dV_oil/dP of the hose oil,
+    V_h/E (Eq. (9)'s compressibility, with the cavitation model of
+    :func:`effective_bulk_modulus`), plus, above the precharge pressure P_0, that of the gas
+    (polytropic, P V_g^n = P_0 V_0^n): V_g = V_0 (P_0/P)^(1/n), so dV_oil/dP = V_g / (n P).
+    Below P_0 the bladder lies on the poppet and only the hose oil is compliant. The precharge
+    must be above the oil's release pressure (validated in :class:`~hydropwa.params.Accumulator`).
+    Pressures are gauge (as everywhere in the package) and the gas law needs absolute ones:
+    P + 1 bar.
+
+    Parameters
+    ----------
+    q : float
+        Flow into the accumulator node [m³/s].
+    p : float
+        Its pressure [Pa].
+    gas_volume : float
+        Gas volume V_0 at the precharge [m³] (the accumulator's nominal size).
+    precharge : float
+        Precharge pressure P_0 [Pa] (gauge).
+    index : float
+        Polytropic index n [1]: 1 isothermal (slow), 1.4 adiabatic (fast).
+    hose_volume : float
+        Oil volume of the hose [m³].
+    E, p_vap, p_rel : float
+        Bulk modulus [Pa], vapour and release pressures [Pa] of the oil.
+    """
+    if p <= precharge:  # only the hose oil (and, near p_vap, its cavitation)
+        return effective_bulk_modulus(p, E, p_vap, p_rel, q) / hose_volume * q
+    pa_abs = p + 1e5
+    gas = gas_volume * (((precharge + 1e5) / pa_abs) ** (1.0 / index))
+    return q / (hose_volume / E + gas / (index * pa_abs))

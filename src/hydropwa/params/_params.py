@@ -26,6 +26,7 @@ __all__ = [
     "Friction",
     "Supply",
     "Load",
+    "Accumulator",
     "SystemParams",
     "flow_coefficient_from_rating",
 ]
@@ -537,6 +538,66 @@ class Load:
 
 
 @dataclass(frozen=True, slots=True)
+class Accumulator:
+    """Gas accumulator on port A, connected by a hose (not in the paper).
+
+    A hydro-pneumatic (bladder or piston) accumulator on the A line adds compliance to
+    chamber A: users with long hoses or an accumulator for shock damping see a lower
+    hydraulic natural frequency. Its pressure P_acc is a state of the full-order model,
+    fed by laminar flow through the hose (:func:`~hydropwa.components.hose_flow`) and
+    stored by the gas (:func:`~hydropwa.components.accumulator_pressure_rate`). The
+    reduced and PWA models do not include it. ``gas_volume = 0`` (default): no accumulator.
+
+    Attributes
+    ----------
+    gas_volume : float
+        Gas volume V_0 at the precharge [m³] (nominal size; 0: none).
+    precharge_pressure : float
+        Gas precharge P_0 [Pa] (gauge), typically 60–90 % of the lowest working pressure.
+    polytropic_index : float
+        n [1] of P V^n = const: 1.0 isothermal, 1.4 adiabatic (fast cycles).
+    hose_length : float
+        Length of the hose between port A and the accumulator [m].
+    hose_diameter : float
+        Inner diameter of the hose [m].
+    viscosity : float
+        Dynamic viscosity μ of the oil [Pa·s] (ISO VG 46 at 40 °C: about 0.04).
+    """
+
+    #: A parameter file may leave the section out (no accumulator).
+    OPTIONAL: ClassVar[bool] = True
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "gas_volume": "m**3",
+        "precharge_pressure": "Pa",
+        "polytropic_index": "",
+        "hose_length": "m",
+        "hose_diameter": "m",
+        "viscosity": "Pa*s",
+    }
+
+    gas_volume: float = 0.0
+    precharge_pressure: float = 50e5
+    polytropic_index: float = 1.4
+    hose_length: float = 2.0
+    hose_diameter: float = 0.01
+    viscosity: float = 0.04
+
+    def __post_init__(self) -> None:
+        _check(self, "gas_volume", "m³", ge=0.0, le=1.0)
+        _check(self, "precharge_pressure", "Pa", gt=0.0, le=1e8)
+        _check(self, "polytropic_index", "1", ge=1.0, le=1.67)
+        _check(self, "hose_length", "m", gt=0.0, le=100.0)
+        _check(self, "hose_diameter", "m", gt=1e-4, le=0.2)
+        _check(self, "viscosity", "Pa·s", gt=1e-4, le=10.0)
+
+    @property
+    def hose_volume(self) -> float:
+        """Oil volume of the hose π d² L / 4 [m³]."""
+        return math.pi * self.hose_diameter**2 * self.hose_length / 4.0
+
+
+@dataclass(frozen=True, slots=True)
 class SystemParams:
     """All parameters of one valve-controlled cylinder (the three models share it).
 
@@ -550,6 +611,8 @@ class SystemParams:
     friction : Friction
     supply : Supply
     load : Load
+    accumulator : Accumulator
+        Optional gas accumulator on port A (none by default).
     meta : dict
         Provenance and free-form notes (not used by the physics).
     """
@@ -562,6 +625,7 @@ class SystemParams:
     friction: Friction = field(default_factory=Friction)
     supply: Supply = field(default_factory=Supply)
     load: Load = field(default_factory=Load)
+    accumulator: Accumulator = field(default_factory=Accumulator)
     meta: dict = field(default_factory=dict, compare=False, hash=False)
 
     def __post_init__(self) -> None:

@@ -62,6 +62,7 @@ from .._layout import (
     Y_LOAD,
 )
 from ..components._physics import (
+    accumulator_pressure_rate,
     asymmetric_load_pressure_rate,
     chamber_pressure_difference_slopes,
     chamber_pressure_rates,
@@ -70,6 +71,7 @@ from ..components._physics import (
     dead_zone_slope,
     end_stop_force,
     end_stop_force_slope,
+    hose_flow,
     load_capacitance,
     load_capacitance_slope,
     load_flow,
@@ -90,10 +92,12 @@ from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
 FULL, REDUCED, PWA = 0, 1, 2
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
 N_STATES = (len(Y_FULL), len(Y_LOAD), len(Y_LOAD))
+_N_FULL, _N_LOAD = N_STATES[FULL], N_STATES[REDUCED]
 # State indices: generated from the state tables in hydropwa._layout.
 Y_NU, Y_DNU, Y_PA, Y_PB, Y_X, Y_V, Y_PS = (
     Y_FULL[k] for k in ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
 )
+Y_PACC = Y_FULL["p_acc"]
 L_PL, L_V, L_X = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 
 # Packed parameter vector layout: generated from the one table in hydropwa._layout.
@@ -113,6 +117,9 @@ I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
 I_CLOAD = SLOT["cload"]  # viscous damping of the attached load (counter cylinder) [N·s/m]
 I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (mean area)
 I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
+I_ACCV, I_ACCP0, I_ACCN, I_HOSEL, I_HOSED, I_HOSEVOL, I_VISC = (
+    SLOT[k] for k in ("accv", "accp0", "accn", "hosel", "hosed", "hosevol", "visc")
+)
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
 #: Output rows, named in the layout table.
@@ -129,7 +136,7 @@ OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 @njit(cache=True, nogil=True, error_model="numpy")
 def n_states(kind):
     """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
-    return 7 if kind == FULL else 3
+    return _N_FULL if kind == FULL else _N_LOAD
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
@@ -184,8 +191,25 @@ def rhs_full(y, u, ps_in, fl, p, dy):
     ps = y[Y_PS] if pump else ps_in
     z = _opening(nu, p)
     qa, qb = orifice_flows(z, pa, pb, ps, p[I_PT], p[I_K], p[I_PTR])
+    q_acc = 0.0
+    if p[I_ACCV] > 0.0:  # gas accumulator on port A, through its hose
+        pacc = y[Y_PACC]
+        q_acc = hose_flow(pa, pacc, p[I_HOSEL], p[I_HOSED], p[I_VISC])
+        dy[Y_PACC] = accumulator_pressure_rate(
+            q_acc,
+            pacc,
+            p[I_ACCV],
+            p[I_ACCP0],
+            p[I_ACCN],
+            p[I_HOSEVOL],
+            p[I_E],
+            p[I_PVAP],
+            p[I_PREL],
+        )
+    else:
+        dy[Y_PACC] = 0.0
     dpa, dpb = chamber_pressure_rates(
-        qa,
+        qa - q_acc,
         qb,
         x,
         v,
@@ -799,7 +823,9 @@ _E32 = 6.0 + math.sqrt(2.0)
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def _inert_column(j, p):
     """Full model: state j is constant for these parameters, so its Jacobian column is zero."""
-    return j == Y_PS and p[I_PUMP] <= 0.5  # P_S is an input without the pump model
+    if j == Y_PS:
+        return p[I_PUMP] <= 0.5  # P_S is an input without the pump model
+    return j == Y_PACC and p[I_ACCV] <= 0.0  # no accumulator
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
