@@ -5,10 +5,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import nbclient  # test extra: a missing one is an error, not a skip
+import nbformat
 import pytest
-
-nbformat = pytest.importorskip("nbformat")  # test extra
-nbclient = pytest.importorskip("nbclient")
 
 TUTORIALS = Path(__file__).resolve().parents[2] / "docs" / "tutorials"
 
