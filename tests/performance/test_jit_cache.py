@@ -39,7 +39,7 @@ def test_every_cached_kernel_uses_the_package_stamp():
         _physics.stribeck_friction,
         _signals.eval_signal,
         _kernel._integrate_full,
-        _kernel._outputs,
+        _kernel._outputs_full,
     ):
         assert isinstance(fn._cache._impl.locator, _jitcache.PackageCacheLocator), fn
         assert fn._cache._impl.locator.get_source_stamp() == _jitcache.source_stamp()

@@ -1126,7 +1126,6 @@ def _integrate(
         n_states(kind), t_out.shape[0], y0
     )
     atol = rtol * scale
-    none = np.empty(0)
     k_out, status, t = _march(
         kind,
         Y,
@@ -1156,13 +1155,63 @@ def _integrate(
         W,
         piv,
         stats,
-        none,
-        none,
-        none,
-        none,
-        np.empty((N_LOG, 0)),
+        None,
+        None,
+        None,
+        None,
+        None,
     )
     return Y, k_out, status, t, y, stats
+
+
+# Closed-loop hooks of the step loop, resolved while typing: in open loop (``ctl`` None) they
+# compile to constants and no-ops, so an open-loop kernel holds none of the controller's code.
+def _closed(ctl):
+    """True in closed loop (compiled code only)."""
+
+
+def _n_samples(log):
+    """Number of controller samples of the run (compiled code only)."""
+
+
+def _sample_time(ctl):
+    """Controller sample time [s] (compiled code only)."""
+
+
+def _sample(kind, k, t, y, p, ctl, cst, ref, dref, sg, log):
+    """Controller sample k at time t (compiled code only)."""
+
+
+@overload(_closed, inline="always")
+def _ol_closed(ctl):
+    if isinstance(ctl, types.NoneType):
+        return lambda ctl: False
+    return lambda ctl: ctl.shape[0] > 0
+
+
+@overload(_n_samples, inline="always")
+def _ol_n_samples(log):
+    if isinstance(log, types.NoneType):
+        return lambda log: 0
+    return lambda log: log.shape[1]
+
+
+@overload(_sample_time, inline="always")
+def _ol_sample_time(ctl):
+    if isinstance(ctl, types.NoneType):
+        return lambda ctl: 1.0
+    return lambda ctl: ctl[0]
+
+
+@overload(_sample, inline="always")
+def _ol_sample(kind, k, t, y, p, ctl, cst, ref, dref, sg, log):
+    if isinstance(ctl, types.NoneType):
+        return lambda kind, k, t, y, p, ctl, cst, ref, dref, sg, log: None
+
+    def sample(kind, k, t, y, p, ctl, cst, ref, dref, sg, log):
+        controller_sample(kind, k, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
+
+    return sample
 
 
 @njit(
@@ -1211,7 +1260,8 @@ def _march(
     ``y`` holds y0 on entry and the last accepted state on return; ``stats`` receives
     [accepted steps, rejected steps, rhs evaluations, Jacobian evaluations].
 
-    Closed loop (``ctl`` not empty, see :mod:`._controller`): the steps end on every
+    Closed loop (``ctl`` an array, see :mod:`._controller`; None in open loop, which
+    compiles none of the controller's code): the steps end on every
     sample instant t_k = t_0 + k·ctl[0] (k < ``log.shape[1]``), where
     :func:`~._controller.controller_sample` writes the new valve command into the
     constant input slot sg[16]; f is re-evaluated there (and the exact Jacobians of the
@@ -1220,7 +1270,9 @@ def _march(
     """
     n = n_states(kind)
     n_out = t_out.shape[0]
-    closed = ctl.shape[0] > 0
+    closed = _closed(ctl)
+    n_smp = _n_samples(log)
+    dt_smp = _sample_time(ctl)
     gamma = PW2_GAMMA if method == ROS34PW2 else _D23
     reuse = jac_reuse and method == ROS34PW2
     # after an accepted step whose error exceeds this fraction of the tolerance the Jacobian
@@ -1236,10 +1288,10 @@ def _march(
     t_stop = t_end
     k_smp = 0
     if closed:  # first sample at t_0, the next one ends the first steps
-        controller_sample(kind, 0, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
+        _sample(kind, 0, t, y, p, ctl, cst, ref, dref, sg, log)
         k_smp = 1
-        if k_smp < log.shape[1]:
-            t_stop = min(t_end, t_out[0] + k_smp * ctl[0])
+        if k_smp < n_smp:
+            t_stop = min(t_end, t_out[0] + k_smp * dt_smp)
     u, ps, fl = _inputs(t, sg)
     _rhs_for(kind, y, u, ps, fl, p, f0)
     nfev = 1
@@ -1315,13 +1367,13 @@ def _march(
             n_acc += 1
             jac_age += 1
             need_jac = not reuse or jac_age >= 8 or err > jac_err
-            if closed and k_smp < log.shape[1] and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
+            if closed and k_smp < n_smp and t >= t_stop - 1e-12 * max(1.0, abs(t_stop)):
                 t = t_stop
-                controller_sample(kind, k_smp, t, y, p[I_AA], p[I_AB], ctl, cst, ref, dref, sg, log)
+                _sample(kind, k_smp, t, y, p, ctl, cst, ref, dref, sg, log)
                 k_smp += 1
-                t_stop = min(t_end, t_out[0] + k_smp * ctl[0]) if k_smp < log.shape[1] else t_end
+                t_stop = min(t_end, t_out[0] + k_smp * dt_smp) if k_smp < n_smp else t_end
                 u, ps, fl = _inputs(t, sg)
-                rhs_at(kind, y, u, ps, fl, p, f0)
+                _rhs_for(kind, y, u, ps, fl, p, f0)
                 nfev += 1
                 if kind != FULL:
                     need_jac = True
@@ -1749,7 +1801,7 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     scalar code), and written into the row the compiled pass leaves empty.
     """
     with _interruptible():
-        out = _outputs(kind, t_out, Y, n_done, p, sg)
+        out = OUTPUTS[kind](t_out, Y, n_done, p, sg)
     if kind != PWA:
         out[O_FRICTION] = stribeck_friction.py_func(
             out[O_V], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA]
@@ -1757,61 +1809,102 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     return out
 
 
+# One compiled output pass per model: each holds only its own model's code, and a command
+# compiles only the one it runs. Rows: the layout table's OUTPUT_CHANNELS (11), and for the PWA
+# model the active cells g, o, n, w (PWA_OUTPUT_CHANNELS). The friction row of the full and
+# reduced models is left at zero for :func:`outputs` to fill.
 @njit(cache=True, nogil=True, error_model="numpy")
-def _outputs(kind, t_out, Y, n_done, p, sg):
-    """Derived channels per output sample.
-
-    Returns an array of shape (11, n_done) (one contiguous row per channel) with rows
-    u, spool, z, p_a, p_b, p_l, p_s, f_l, x, v, friction; for the PWA model (15, n_done)
-    with the active cells g, o, n, w in rows 11–14. The friction row of the full and
-    reduced models is left at zero for :func:`outputs` to fill.
-    """
-    out = np.empty((N_OUT_PWA if kind == PWA else N_OUT, n_done))
-    _fill_outputs(kind, t_out, Y, n_done, p, sg, out)
+def _outputs_full(t_out, Y, n_done, p, sg):
+    out = np.empty((N_OUT, n_done))
+    _fill_full(t_out, Y, n_done, p, sg, out)
     return out
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _outputs_reduced(t_out, Y, n_done, p, sg):
+    out = np.empty((N_OUT, n_done))
+    _fill_reduced(t_out, Y, n_done, p, sg, out)
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _outputs_pwa(t_out, Y, n_done, p, sg):
+    out = np.empty((N_OUT_PWA, n_done))
+    _fill_pwa(t_out, Y, n_done, p, sg, out)
+    return out
+
+
+#: The output pass of each model kind: ``OUTPUTS[kind](t_out, Y, n_done, p, sg)``.
+OUTPUTS = {FULL: _outputs_full, REDUCED: _outputs_reduced, PWA: _outputs_pwa}
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+def _write_outputs(out, k, u, spool, z, pa, pb, pl, ps, fl, x, v, fr, p):
+    """Output column k (rows from the layout table's OUTPUT_CHANNELS)."""
+    out[O_U, k] = u
+    out[O_SPOOL, k] = spool
+    out[O_Z, k] = z
+    out[O_P_A, k] = pa
+    out[O_P_B, k] = pb
+    out[O_P_L, k] = pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B
+    out[O_P_S, k] = ps
+    out[O_F_L, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
+    out[O_X, k] = x
+    out[O_V, k] = v
+    out[O_FRICTION, k] = fr
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _fill_outputs(kind, t_out, Y, n_done, p, sg, out):
-    """Body of :func:`outputs`, compiled without reference counting (no allocation)."""
+def _fill_full(t_out, Y, n_done, p, sg, out):
+    """Output pass of the full model (allocation-free); friction is filled by :func:`outputs`."""
     for k in range(n_done):
-        t = t_out[k]
-        u, ps, fl = _inputs(t, sg)
-        if kind == FULL:
-            spool = Y[k, Y_NU]
-            z = _opening(spool, p)
-            pa, pb = Y[k, Y_PA], Y[k, Y_PB]
-            if p[I_PUMP] > 0.5:
-                ps = Y[k, Y_PS]
-            pl = pa - pb
-            x, v = Y[k, Y_X], Y[k, Y_V]
-            fr = 0.0  # friction: filled by outputs() on the whole row
-        else:
-            pl, v, x = Y[k, L_PL], Y[k, L_V], Y[k, L_X]
-            spool = u
-            if kind == REDUCED:
-                z = _opening(u, p)
-                fr = 0.0
-            else:
-                g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
-                f_slope, f_offset = _pwa_friction_cell(p, w)
-                fr = f_slope * v + f_offset
-                out[N_OUT, k] = g
-                out[N_OUT + 1, k] = o
-                out[N_OUT + 2, k] = nn
-                out[N_OUT + 3, k] = w
-            al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
-            pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)  # Eq. (13), generalised
-        out[O_U, k] = u
-        out[O_SPOOL, k] = spool
-        out[O_Z, k] = z
-        out[O_P_A, k] = pa
-        out[O_P_B, k] = pb
-        out[O_P_L, k] = (
-            pl  # the model's load pressure: P_A − P_B (full, paper form), P_A − α P_B (asymmetric)
+        u, ps, fl = _inputs(t_out[k], sg)
+        spool = Y[k, Y_NU]
+        pa, pb = Y[k, Y_PA], Y[k, Y_PB]
+        if p[I_PUMP] > 0.5:
+            ps = Y[k, Y_PS]
+        _write_outputs(
+            out,
+            k,
+            u,
+            spool,
+            _opening(spool, p),
+            pa,
+            pb,
+            pa - pb,
+            ps,
+            fl,
+            Y[k, Y_X],
+            Y[k, Y_V],
+            0.0,
+            p,
         )
-        out[O_P_S, k] = ps
-        out[O_F_L, k] = fl + p[I_CLOAD] * v  # the force sensor measures F_L(t) + c·ẋ
-        out[O_X, k] = x
-        out[O_V, k] = v
-        out[O_FRICTION, k] = fr
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _fill_reduced(t_out, Y, n_done, p, sg, out):
+    """Output pass of the reduced model: P_A, P_B from P_L by Eq. (13), generalised."""
+    for k in range(n_done):
+        u, ps, fl = _inputs(t_out[k], sg)
+        pl, v, x = Y[k, L_PL], Y[k, L_V], Y[k, L_X]
+        z = _opening(u, p)
+        al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
+        pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
+        _write_outputs(out, k, u, u, z, pa, pb, pl, ps, fl, x, v, 0.0, p)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _fill_pwa(t_out, Y, n_done, p, sg, out):
+    """Output pass of the PWA model, with its active cells g, o, n, w in the extra rows."""
+    for k in range(n_done):
+        u, ps, fl = _inputs(t_out[k], sg)
+        pl, v, x = Y[k, L_PL], Y[k, L_V], Y[k, L_X]
+        g, o, nn, w, z, ps, _pn = pwa_cells(pl, v, u, ps, p)
+        f_slope, f_offset = _pwa_friction_cell(p, w)
+        out[N_OUT, k] = g
+        out[N_OUT + 1, k] = o
+        out[N_OUT + 2, k] = nn
+        out[N_OUT + 3, k] = w
+        al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
+        pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
+        _write_outputs(out, k, u, u, z, pa, pb, pl, ps, fl, x, v, f_slope * v + f_offset, p)

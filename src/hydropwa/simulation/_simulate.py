@@ -421,7 +421,7 @@ def simulate(
     if closed:  # derived channels see the held command of each sample interval
         sg = pack_signals([_held_command(log, t_out[0]), ps_sig, fl_sig])
     # load or compile for these argument types (a no-op once ready), timed apart
-    K.prepare(K._outputs, (mdl.kind, t_out, Y, n_done, p, sg), "output")
+    K.prepare(K.OUTPUTS[mdl.kind], (t_out, Y, n_done, p, sg), "output")
     out = K.outputs(mdl.kind, t_out, Y, n_done, p, sg)
     compile_time = K.compile_seconds - compiled0
     # the times are the caller's array when t was given: copy them then, not our own grid
