@@ -42,11 +42,17 @@ INTERRUPTED_CODE = 130
 INTERRUPTED = "error: interrupted; finished files are kept, rerun to resume"
 
 
-def _click_types() -> tuple[tuple[type, ...], tuple[type, ...], tuple[type, ...]]:
+_Types = tuple[type[BaseException], ...]
+
+
+def _click_types() -> tuple[_Types, _Types, _Types]:
     """Exit, abort and usage-error classes of click and of typer's vendored click (>= 0.20)."""
-    exits: list[type] = [click.exceptions.Exit, getattr(typer, "Exit", click.exceptions.Exit)]
-    aborts: list[type] = [click.exceptions.Abort, getattr(typer, "Abort", click.exceptions.Abort)]
-    usage: list[type] = [click.ClickException]
+    exits: list[type[BaseException]] = [click.exceptions.Exit, typer.Exit]
+    aborts: list[type[BaseException]] = [
+        click.exceptions.Abort,
+        typer.Abort,
+    ]
+    usage: list[type[BaseException]] = [click.ClickException]
     try:
         from typer._click import exceptions as vendored  # type: ignore[import-not-found]
 
@@ -131,7 +137,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 class CommandGroup(TyperGroup):
     """The group class of every ``hydropwa`` app: warnings as lines, errors through :func:`exit_code`."""
 
-    def invoke(self, ctx: click.Context) -> Any:
+    def invoke(self, ctx: Any) -> Any:  # a click.Context of typer's vendored click
         with warnings.catch_warnings():  # restores the caller's showwarning afterwards
             warnings.showwarning = _show_warning
             try:

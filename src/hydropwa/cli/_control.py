@@ -212,11 +212,11 @@ def simulate_command(
     check_output(out, force)
     if plot is not None:
         check_output(plot, force)
+    prm = resolve_params(params)
     ctrl = load_controller(controller)
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
-    prm = resolve_params(params)
     mdl = _pwa_model(params, pwa) if model == "pwa" else model
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(

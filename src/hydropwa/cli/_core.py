@@ -196,7 +196,7 @@ def simulate_command(
         from ..linearization import linearize
 
         # the cells follow the given P_S (constant or a signal) online: the scheduled model
-        mdl = linearize(prm, scheduled=True)
+        mdl = as_model(linearize(prm, scheduled=True))
     res = simulate(
         mdl,
         u,

@@ -81,7 +81,10 @@ def _read_json(path: Path) -> SystemParams:
         raise ParameterError(f"{path}: invalid JSON ({exc})") from None
     if isinstance(data, dict) and str(data.get("schema", "")).startswith("hydropwa.pwa"):
         # a PWA export holds the exact SI parameters it was built from (plausible or not)
-        return params_from_dict(data.get("params"), source=f"{path} (params)", check_bare=False)
+        prm = data.get("params")
+        if not isinstance(prm, dict):
+            raise ParameterError(f"{path}: a PWA document without its 'params' table")
+        return params_from_dict(prm, source=f"{path} (params)", check_bare=False)
     return params_from_dict(data, source=str(path))
 
 
