@@ -116,7 +116,7 @@ def test_unknown_preset_is_one_line_and_exit_2(command, tmp_path, capsys):
     code = main([*_argv(command, tmp_path), "--params", "papr"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert len(err) == 1 and err[0].startswith("error: --params 'papr' is neither a preset")
+    assert len(err) == 1 and err[0].startswith("error: --params 'papr' not found (no such preset or file)")
     assert "paper, symmetric" in err[0]
 
 

@@ -110,9 +110,9 @@ def resolve_params(source: str | os.PathLike | None, option: str = "--params") -
     if not path.is_file():
         if str(source) in PRESETS and not path.exists():
             return get_preset(str(source))
-        what = "a folder" if path.is_dir() else "neither a preset nor an existing file"
+        what = "is a folder" if path.is_dir() else "not found (no such preset or file)"
         raise ParameterError(
-            f"{option} {str(source)!r} is {what}; give a preset ({PRESET_NAMES}) "
+            f"{option} {str(source)!r} {what}; give a preset ({PRESET_NAMES}) "
             "or a TOML/JSON parameter file"
         )
     try:
