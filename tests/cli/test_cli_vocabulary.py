@@ -19,8 +19,18 @@ import typer
 from typer.testing import CliRunner
 
 from hydropwa import ParameterError
-from hydropwa.cli import _app, _options, app, main
-from hydropwa.cli import _control, _core, _identify, _linearize, _paper, _rig
+from hydropwa.cli import (
+    _app,
+    _control,
+    _core,
+    _identify,
+    _linearize,
+    _options,
+    _paper,
+    _rig,
+    app,
+    main,
+)
 from hydropwa.params import get_preset, save_params
 
 #: Arguments each command needs besides --params to reach the parameter set ("{tmp}" is a
@@ -116,7 +126,9 @@ def test_unknown_preset_is_one_line_and_exit_2(command, tmp_path, capsys):
     code = main([*_argv(command, tmp_path), "--params", "papr"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert len(err) == 1 and err[0].startswith("error: --params 'papr' not found (no such preset or file)")
+    assert len(err) == 1 and err[0].startswith(
+        "error: --params 'papr' not found (no such preset or file)"
+    )
     assert "paper, symmetric" in err[0]
 
 

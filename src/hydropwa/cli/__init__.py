@@ -19,7 +19,9 @@ from ._app import INTERRUPTED, INTERRUPTED_CODE, exit_code, new_app
 
 __all__ = ["app", "main"]
 
-app = new_app("hydropwa", help="Model, identify and linearize valve-controlled hydraulic cylinders.")
+app = new_app(
+    "hydropwa", help="Model, identify and linearize valve-controlled hydraulic cylinders."
+)
 
 
 def _version(value: bool) -> None:

@@ -122,7 +122,9 @@ def exit_code(exc: BaseException) -> int:
         error_line("out of memory; ask for less (shorter --duration, lower --fs, fewer cases)")
         return 2
     if isinstance(exc, RecursionError):
-        error_line("an input file is nested too deeply to read; check that it is the file you meant")
+        error_line(
+            "an input file is nested too deeply to read; check that it is the file you meant"
+        )
         return 2
     if isinstance(exc, SystemError) and interrupt_cause(exc) is not None:
         return INTERRUPTED_CODE  # a Ctrl-C reported by a compiled call (see interrupt_cause)

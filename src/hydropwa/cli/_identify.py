@@ -179,9 +179,7 @@ def friction(
     force: Force = False,
 ) -> None:
     """Stribeck friction from constant-input runs against a counter force (Sec. VI-C)."""
-    _run(
-        ("friction",), data_dir, out, figures, params_source(params, base_params), summary, force
-    )
+    _run(("friction",), data_dir, out, figures, params_source(params, base_params), summary, force)
 
 
 @app.command("all")

@@ -217,4 +217,3 @@ def _run(
     )
     for p in paths:
         typer.echo(f"wrote {p}")
-
