@@ -79,7 +79,7 @@ def _usage_error(exc: Any) -> int:
         print(ctx.get_help())
         return 0
     where = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
-    error_line(f"{exc.format_message()}{where}")
+    error_line(f"{exc.format_message().rstrip('. ')}{where}")
     return 2
 
 
