@@ -100,9 +100,9 @@ def design_command(
     from ..control import ControlError, design_pi, design_state_feedback, save_controller
     from ..params import parse_quantity
 
-    check_output(out, force)
+    check_output(out, force, option="--out")
     if table is not None:
-        check_output(table, force)
+        check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
     model = _pwa_model(params, pwa)
@@ -209,9 +209,9 @@ def simulate_command(
         raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ControlError(f"--out {out} must end in .csv or .parquet")
-    check_output(out, force)
+    check_output(out, force, option="--out")
     if plot is not None:
-        check_output(plot, force)
+        check_output(plot, force, option="--plot")
     prm = resolve_params(params)
     ctrl = load_controller(controller)
     ref = as_reference(reference)

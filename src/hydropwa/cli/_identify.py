@@ -225,7 +225,9 @@ def emps(
     asymmetric: Annotated[
         bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")
     ] = False,
-    force: Force = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite an existing summary and figure.")
+    ] = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
     from hydropwa.identification import identify_emps, plot_inverse_dynamics
