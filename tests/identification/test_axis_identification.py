@@ -196,14 +196,14 @@ def test_dead_zone_form_from_cli_and_base_params_and_provenance(tmp_path, small)
                 str(tmp_path / "c"),
                 "--out",
                 str(tmp_path / "a.toml"),
-                "--base-params",
+                "--params",
                 str(base),
             ]
         )
         == 0
     )
     a = tomllib.loads((tmp_path / "a.toml").read_text())
-    assert a["dead_zone"]["continuous"] is True  # kept from --base-params
+    assert a["dead_zone"]["continuous"] is True  # kept from --params
     assert (
         main(
             [
@@ -289,7 +289,7 @@ def test_broadband_frf_end_to_end(tmp_path, small_frf, small):
                 str(tmp_path / "v.toml"),
                 "--band",
                 "5:120",
-                "--base-params",
+                "--params",
                 str(MACHINES / "small.toml"),
             ]
         )

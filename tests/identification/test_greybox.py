@@ -204,7 +204,7 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
             str(out),
             "--jobs",
             "1",
-            "--base-params",
+            "--params",
             str(base),
         ],
     )

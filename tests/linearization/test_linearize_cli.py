@@ -5,28 +5,17 @@ from __future__ import annotations
 import json
 
 import pytest
-import typer
 from typer.testing import CliRunner
 
 from hydropwa._errors import HydropwaError, PwaError
-from hydropwa.cli._linearize import linearize_command, parse_cells, register
+from hydropwa.cli import app
+from hydropwa.cli._linearize import linearize_command, parse_cells
 from hydropwa.linearization import load_pwa
-
-
-def _app():
-    app = typer.Typer()
-    register(app)
-
-    @app.callback()
-    def _cb():  # keeps "linearize" as a sub-command
-        pass
-
-    return app
 
 
 def test_cli_writes_json_figures_tables(tmp_path):
     res = CliRunner().invoke(
-        _app(),
+        app,
         [
             "linearize",
             "--out",

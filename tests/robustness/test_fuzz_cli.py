@@ -515,7 +515,7 @@ def test_fuzz_cli_linearize(argv, fault):
                     ("--out", ["NEW.toml", "keep.toml", "NEW.txt", "adir"]),
                     ("--figures", _OUT_DIR),
                     ("--summary", ["NEW.md", "keep.md", "keep.toml", "adir"]),
-                    ("--base-params", _PARAMS),
+                    ("--params", _PARAMS),
                 ],
                 ["--force"],
             ),

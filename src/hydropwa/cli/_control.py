@@ -14,18 +14,18 @@ from typing import Annotated
 import typer
 
 from .._errors import check_output
+from ._app import new_app
+from ._options import ParamsOption, resolve_params
 
 __all__ = ["app", "design_command", "simulate_command"]
 
-app = typer.Typer(
-    help="Closed-loop position control: design on the PWA model, verify on any model.",
-    no_args_is_help=True,
+app = new_app(
+    "control", help="Closed-loop position control: design on the PWA model, verify on any model."
 )
 
 
 def _pwa_model(params_src: str | None, pwa_file: Path | None):
     from ..linearization import linearize, load_pwa
-    from ._core import resolve_params
 
     if pwa_file is not None:
         return load_pwa(pwa_file)
@@ -64,10 +64,7 @@ def design_command(
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Controller file to write (.toml or .json).")
     ],
-    params: Annotated[
-        str | None,
-        typer.Option("--params", "-p", help="Preset or parameter TOML (default: paper)."),
-    ] = None,
+    params: ParamsOption = None,
     pwa: Annotated[
         Path | None, typer.Option("--pwa", help="Design on this PWA JSON document instead.")
     ] = None,
@@ -103,9 +100,9 @@ def design_command(
     from ..control import ControlError, design_pi, design_state_feedback, save_controller
     from ..params import parse_quantity
 
-    check_output(out, force)
+    check_output(out, force, option="--out")
     if table is not None:
-        check_output(table, force)
+        check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
     model = _pwa_model(params, pwa)
@@ -156,10 +153,7 @@ def simulate_command(
         ),
     ],
     model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
-    params: Annotated[
-        str | None,
-        typer.Option("--params", "-p", help="Preset or parameter TOML (default: paper)."),
-    ] = None,
+    params: ParamsOption = None,
     pwa: Annotated[
         Path | None,
         typer.Option("--pwa", help="PWA JSON document (model pwa; default: linearize the params)."),
@@ -210,20 +204,19 @@ def simulate_command(
     )
     from ..params import parse_quantity
     from ..simulation import simulate
-    from ._core import resolve_params
 
     if model not in ("full", "reduced", "pwa"):
         raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ControlError(f"--out {out} must end in .csv or .parquet")
-    check_output(out, force)
+    check_output(out, force, option="--out")
     if plot is not None:
-        check_output(plot, force)
+        check_output(plot, force, option="--plot")
+    prm = resolve_params(params)
     ctrl = load_controller(controller)
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
-    prm = resolve_params(params)
     mdl = _pwa_model(params, pwa) if model == "pwa" else model
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(

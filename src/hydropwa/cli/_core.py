@@ -9,21 +9,19 @@ from typing import Annotated
 import typer
 
 from .._errors import ParameterError, SignalError, check_output
-from ..params import (
-    FIELD_UNITS,
-    PRESETS,
-    get_preset,
-    load_params,
-    parse_quantity,
-    save_params,
-)
+from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
+from ._app import new_app
+from ._options import ParamsOption, resolve_params
+
+__all__ = ["app", "params_app", "simulate_command"]
 
 #: File types of ``--plot`` (matplotlib picks the format from the suffix).
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
-params_app = typer.Typer(
-    help="Show and export parameter sets (presets or TOML files).", no_args_is_help=True
-)
+#: Top-level commands of this module (``simulate``) and the ``params`` group.
+app = new_app()
+params_app = new_app("params", help="Show and export parameter sets (presets or TOML/JSON files).")
+app.add_typer(params_app)
 
 #: SI unit → (display unit, factor) for `params show`.
 _ENGINEERING = {
@@ -38,30 +36,20 @@ _ENGINEERING = {
 _NOT_PERCENT = {"zeta", "shape", "creep_slope"}
 
 
-def resolve_params(source):
-    """A preset name or a TOML path (``None``: the paper preset).
-
-    A file nested too deeply for the TOML parser is one :class:`ParameterError` naming it.
-    """
-    if source is None:
-        return get_preset("paper")
-    try:
-        return load_params(source)
-    except RecursionError:
-        raise ParameterError(f"{source}: nested too deeply to be a parameter file") from None
-
-
 @params_app.command("show")
 def params_show(
     source: Annotated[
-        str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")
+        str,
+        typer.Argument(
+            metavar="PRESET|FILE", help=f"Preset ({', '.join(PRESETS)}) or TOML/JSON file."
+        ),
     ] = "paper",
 ) -> None:
     """Print a parameter set with SI values and engineering units."""
     from rich.console import Console
     from rich.table import Table
 
-    params = resolve_params(source)
+    params = resolve_params(source, option="parameter set")
     table = Table(title=f"parameters: {source}")
     for col in ("group", "field", "SI value", "SI unit", "engineering"):
         table.add_column(col)
@@ -88,7 +76,10 @@ def params_show(
 @params_app.command("export")
 def params_export(
     source: Annotated[
-        str, typer.Argument(help=f"Preset ({', '.join(PRESETS)}) or TOML file.")
+        str,
+        typer.Argument(
+            metavar="PRESET|FILE", help=f"Preset ({', '.join(PRESETS)}) or TOML/JSON file."
+        ),
     ] = "paper",
     out: Annotated[Path, typer.Option("--out", "-o", help="TOML file to write.")] = Path(
         "params.toml"
@@ -99,19 +90,17 @@ def params_export(
     if out.suffix.lower() != ".toml":
         raise ParameterError(f"--out {out} must end in .toml")
     check_output(out, force, option="--out")
-    params = resolve_params(source)
+    params = resolve_params(source, option="parameter set")
     save_params(
         params, out, header=f"exported from {source}", overwrite=True
     )  # checked with --force above
     typer.echo(f"wrote {out}")
 
 
+@app.command("simulate")
 def simulate_command(
     model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
-    params: Annotated[
-        str | None,
-        typer.Option("--params", "-p", help="Preset name or TOML file (default: paper)."),
-    ] = None,
+    params: ParamsOption = None,
     input: Annotated[
         str | None,
         typer.Option(
@@ -207,7 +196,7 @@ def simulate_command(
         from ..linearization import linearize
 
         # the cells follow the given P_S (constant or a signal) online: the scheduled model
-        mdl = linearize(prm, scheduled=True)
+        mdl = as_model(linearize(prm, scheduled=True))
     res = simulate(
         mdl,
         u,

@@ -1,7 +1,7 @@
 """``hydropwa data``: check and convert measurement files and datasets.
 
-Registered by the main CLI with ``app.add_typer(data_app, name="data")``.
-Exit codes: 0 clean / done, 1 issues found (``check``), 2 unreadable input or error.
+Exit codes: 0 clean / done, 1 issues found (``check``), 2 unreadable input or error
+(through the CLI's one error path, ``_app.exit_code``).
 """
 
 from __future__ import annotations
@@ -12,15 +12,11 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError
+from ._app import new_app
 
 __all__ = ["app"]
 
-app = typer.Typer(
-    help="Check and convert measurement files and datasets.",
-    no_args_is_help=True,
-    add_completion=False,
-)
+app = new_app("data", help="Check and convert measurement files and datasets.")
 
 
 #: ``--channel-map/-m``, shared by ``check`` and ``convert``.
@@ -32,11 +28,6 @@ ChannelMapOption = Annotated[
         help="Channel map TOML (or a built-in map name, e.g. emps) for raw files.",
     ),
 ]
-
-
-def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
-    return typer.Exit(code=2)
 
 
 def _print_issues(issues, plain: bool) -> None:
@@ -74,10 +65,7 @@ def check(
     """Validate a dataset or a single run file and list every issue found."""
     from hydropwa.data import check_dataset
 
-    try:
-        issues = check_dataset(source, channel_map)
-    except HydropwaError as exc:
-        raise _fail(exc) from None
+    issues = check_dataset(source, channel_map)
     if not issues:
         typer.echo(f"ok: {source} has no issues")
         return
@@ -106,10 +94,7 @@ def convert(
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""
     from hydropwa.data import convert as convert_data
 
-    try:
-        out = convert_data(
-            src, dst, channel_map=channel_map, format=format, overwrite=overwrite, resample=resample
-        )
-    except HydropwaError as exc:
-        raise _fail(exc) from None
+    out = convert_data(
+        src, dst, channel_map=channel_map, format=format, overwrite=overwrite, resample=resample
+    )
     typer.echo(f"wrote {out}")

@@ -1,28 +1,26 @@
 """``hydropwa identify``: parameters from measurements (Sec. VI of the paper).
 
-Registered by the main CLI with ``app.add_typer(app, name="identify")``. Each
-command calls one public function of :mod:`hydropwa.identification` and writes
-files; user errors print ``error: ...`` on stderr and exit 2; skipped runs are
-reported as ``warning: ...`` lines.
+Each command calls one public function of :mod:`hydropwa.identification` and
+writes files; user errors print ``error: ...`` on stderr and exit 2, and skipped
+runs are reported as ``warning: ...`` lines (both by the CLI's ``_app``).
 """
 
 from __future__ import annotations
 
-import sys
-import warnings
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError, IdentificationError, ParameterError, check_output
+from hydropwa._errors import IdentificationError, ParameterError, check_output
+
+from ._app import new_app
+from ._options import BaseParamsAlias, ParamsOption, params_source, resolve_params
 
 __all__ = ["app"]
 
-app = typer.Typer(
-    help="Identify valve, dead-zone and friction parameters from measurements.",
-    no_args_is_help=True,
-    add_completion=False,
+app = new_app(
+    "identify", help="Identify valve, dead-zone and friction parameters from measurements."
 )
 
 DataDir = Annotated[
@@ -31,10 +29,6 @@ DataDir = Annotated[
 ]
 Out = Annotated[Path, typer.Option("--out", "-o", help="Parameter TOML to write.")]
 Figures = Annotated[Path | None, typer.Option("--figures", help="Folder for the figures (PNG).")]
-Base = Annotated[
-    str | None,
-    typer.Option("--base-params", help="Base parameter TOML or preset (default: paper)."),
-]
 Summary = Annotated[
     Path | None, typer.Option("--summary", help="Markdown summary (default: OUT with .md).")
 ]
@@ -58,7 +52,7 @@ DeadZoneForm = Annotated[
     typer.Option(
         "--dead-zone-form",
         help="Dead-zone form fitted: 'table' (Table IV, with the jump) or 'continuous'; "
-        "default: the form of --base-params.",
+        "default: the form of --params.",
     ),
 ]
 
@@ -90,15 +84,6 @@ def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
     return frf, dz
 
 
-def _fail(exc: HydropwaError) -> typer.Exit:
-    typer.echo("error: " + " ".join(str(exc).split()), err=True)  # one line, always
-    return typer.Exit(code=2)
-
-
-def _warn(message, category, filename, lineno, file=None, line=None):
-    print(f"warning: {message}", file=sys.stderr)
-
-
 def _run(
     parts: tuple[str, ...],
     data_dir: Path,
@@ -112,34 +97,23 @@ def _run(
 ) -> None:
     from hydropwa.identification import identify
 
-    from ._core import resolve_params
+    if out.suffix.lower() != ".toml":
+        raise ParameterError(f"--out {out} must end in .toml")
+    check_output(out, force, option="--out")
+    summary_path = summary if summary is not None else out.with_suffix(".md")
+    if summary_path.resolve() == out.resolve():
+        raise ParameterError("--summary and --out name the same file; give two names")
+    check_output(summary_path, force, option="--summary")
+    if figures is not None:
+        check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
+    frf_opts, dz_opts = _options(band, dead_zone_form)
+    params = resolve_params(base)
+    from ._progress import step
 
-    old = warnings.showwarning
-    warnings.showwarning = _warn
-    try:
-        if out.suffix.lower() != ".toml":
-            raise ParameterError(f"--out {out} must end in .toml")
-        check_output(out, force, option="--out")
-        summary_path = summary if summary is not None else out.with_suffix(".md")
-        if summary_path.resolve() == out.resolve():
-            raise ParameterError("--summary and --out name the same file; give two names")
-        check_output(summary_path, force, option="--summary")
-        if figures is not None:
-            check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
-        frf_opts, dz_opts = _options(band, dead_zone_form)
-        params = resolve_params(base) if base else None
-        from ._progress import step
-
-        with step(f"identifying {', '.join(parts)} from {data_dir}"):
-            report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
-        with step("writing parameters, figures and summary"):
-            written = report.save(
-                out, figures, summary, overwrite=True
-            )  # checked with --force above
-    except HydropwaError as exc:
-        raise _fail(exc) from None
-    finally:
-        warnings.showwarning = old
+    with step(f"identifying {', '.join(parts)} from {data_dir}"):
+        report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
+    with step("writing parameters, figures and summary"):
+        written = report.save(out, figures, summary, overwrite=True)  # checked with --force above
     for role, path in written.items():
         typer.echo(f"wrote {role}: {path}")
     if report.skipped:
@@ -151,13 +125,23 @@ def frf(
     data_dir: DataDir,
     out: Out = Path("identified.toml"),
     figures: Figures = None,
-    base_params: Base = None,
+    params: ParamsOption = None,
+    base_params: BaseParamsAlias = None,
     summary: Summary = None,
     force: Force = False,
     band: Band = None,
 ) -> None:
     """Servo valve ω0 and ζ per amplitude from stepped-sine or broadband runs (Sec. VI-A)."""
-    _run(("frf",), data_dir, out, figures, base_params, summary, force, band=band)
+    _run(
+        ("frf",),
+        data_dir,
+        out,
+        figures,
+        params_source(params, base_params),
+        summary,
+        force,
+        band=band,
+    )
 
 
 @app.command("deadzone")
@@ -165,7 +149,8 @@ def deadzone(
     data_dir: DataDir,
     out: Out = Path("identified.toml"),
     figures: Figures = None,
-    base_params: Base = None,
+    params: ParamsOption = None,
+    base_params: BaseParamsAlias = None,
     summary: Summary = None,
     force: Force = False,
     dead_zone_form: DeadZoneForm = None,
@@ -176,7 +161,7 @@ def deadzone(
         data_dir,
         out,
         figures,
-        base_params,
+        params_source(params, base_params),
         summary,
         force,
         dead_zone_form=dead_zone_form,
@@ -188,12 +173,13 @@ def friction(
     data_dir: DataDir,
     out: Out = Path("identified.toml"),
     figures: Figures = None,
-    base_params: Base = None,
+    params: ParamsOption = None,
+    base_params: BaseParamsAlias = None,
     summary: Summary = None,
     force: Force = False,
 ) -> None:
     """Stribeck friction from constant-input runs against a counter force (Sec. VI-C)."""
-    _run(("friction",), data_dir, out, figures, base_params, summary, force)
+    _run(("friction",), data_dir, out, figures, params_source(params, base_params), summary, force)
 
 
 @app.command("all")
@@ -201,7 +187,8 @@ def identify_all(
     data_dir: DataDir,
     out: Out = Path("identified.toml"),
     figures: Figures = None,
-    base_params: Base = None,
+    params: ParamsOption = None,
+    base_params: BaseParamsAlias = None,
     summary: Summary = None,
     force: Force = False,
     band: Band = None,
@@ -213,7 +200,7 @@ def identify_all(
         data_dir,
         out,
         figures,
-        base_params,
+        params_source(params, base_params),
         summary,
         force,
         band=band,
@@ -238,7 +225,9 @@ def emps(
     asymmetric: Annotated[
         bool, typer.Option("--asymmetric", help="Separate Coulomb levels per direction.")
     ] = False,
-    force: Force = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite an existing summary and figure.")
+    ] = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
     from hydropwa.identification import identify_emps, plot_inverse_dynamics
@@ -246,27 +235,21 @@ def emps(
     if validation is None:
         cand = file.with_name("DATA_EMPS_PULSES.mat")
         validation = cand if cand.is_file() and cand.resolve() != file.resolve() else None
-    try:
-        if not file.is_file():
-            raise FileNotFoundError(2, "no such file", str(file))
-        if summary is not None:
-            check_output(summary, force, option="--summary")
-        if figures is not None:
-            check_output(figures, force, folder=True, option="--figures", files=("emps_force.png",))
-        res = identify_emps(file, validation, asymmetric=asymmetric)
-        text = res.summary_markdown()
-        if summary is not None:
-            from hydropwa._io import atomic_write_text
+    if not file.is_file():
+        raise FileNotFoundError(2, "no such file", str(file))
+    if summary is not None:
+        check_output(summary, force, option="--summary")
+    if figures is not None:
+        check_output(figures, force, folder=True, option="--figures", files=("emps_force.png",))
+    res = identify_emps(file, validation, asymmetric=asymmetric)
+    text = res.summary_markdown()
+    if summary is not None:
+        from hydropwa._io import atomic_write_text
 
-            atomic_write_text(summary, text, overwrite=force)
-        if figures is not None:
-            figures.mkdir(parents=True, exist_ok=True)
-            plot_inverse_dynamics(res, figures / "emps_force.png")
-    except HydropwaError as exc:
-        raise _fail(exc) from None
-    except FileNotFoundError as exc:
-        typer.echo(f"error: file not found: {exc.filename}", err=True)
-        raise typer.Exit(code=2) from None
+        atomic_write_text(summary, text, overwrite=force)
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        plot_inverse_dynamics(res, figures / "emps_force.png")
     typer.echo(text, nl=False)
 
 
@@ -285,7 +268,8 @@ def model(
     model_kind: Annotated[
         str, typer.Option("--model", help="Model to fit: full or reduced.")
     ] = "full",
-    base_params: Base = None,
+    params_src: ParamsOption = None,
+    base_params: BaseParamsAlias = None,
     channels: Annotated[
         str | None,
         typer.Option(
@@ -319,49 +303,37 @@ def model(
         plot_greybox_profiles,
         plot_greybox_residuals,
     )
-    from hydropwa.params import get_preset, load_params
 
-    old = warnings.showwarning
-    warnings.showwarning = _warn
-    try:
-        check_output(out, force)
-        summary = summary or out.with_suffix(".md")
-        check_output(summary, force)
-        if model_kind not in ("full", "reduced"):
-            raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
-        params = (
-            load_params(base_params)
-            if base_params and Path(base_params).is_file()
-            else get_preset(base_params or "paper")
-        )
-        runs = load_runs(data_dir)
-        chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
-        fit = fit_model(
-            model_kind,
-            runs,
-            free,
-            params=params,
-            channels=chans,
-            shooting=Shooting(method=shooting, window=window),
-            starts=starts,
-            loss=loss,
-            jobs=jobs,
-        )
-        fit.save(out)
-        from hydropwa._io import atomic_write_text
+    check_output(out, force)
+    summary = summary or out.with_suffix(".md")
+    check_output(summary, force)
+    if model_kind not in ("full", "reduced"):
+        raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
+    params = resolve_params(params_source(params_src, base_params))
+    runs = load_runs(data_dir)
+    chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
+    fit = fit_model(
+        model_kind,
+        runs,
+        free,
+        params=params,
+        channels=chans,
+        shooting=Shooting(method=shooting, window=window),
+        starts=starts,
+        loss=loss,
+        jobs=jobs,
+    )
+    fit.save(out)
+    from hydropwa._io import atomic_write_text
 
-        atomic_write_text(summary, fit.summary_markdown())
-        if figures is not None:
-            figures.mkdir(parents=True, exist_ok=True)
-            for r in fit.runs_[:6]:
-                plot_greybox_fit(fit, r.name, figures / f"greybox_{r.name}.png")
-                plot_greybox_residuals(fit, r.name, figures / f"greybox_residuals_{r.name}.png")
-            if fit.profiles_:
-                plot_greybox_profiles(fit, figures / "greybox_profiles.png")
-    except HydropwaError as exc:
-        raise _fail(exc) from None
-    finally:
-        warnings.showwarning = old
+    atomic_write_text(summary, fit.summary_markdown())
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        for r in fit.runs_[:6]:
+            plot_greybox_fit(fit, r.name, figures / f"greybox_{r.name}.png")
+            plot_greybox_residuals(fit, r.name, figures / f"greybox_residuals_{r.name}.png")
+        if fit.profiles_:
+            plot_greybox_profiles(fit, figures / "greybox_profiles.png")
     for n, e in fit.estimates_.items():
         typer.echo(f"{n} = {e}")
     typer.echo(f"wrote parameters: {out}")

@@ -1,8 +1,7 @@
 """``hydropwa linearize``: build the PWA model (Sec. IV), export it, write Figs. 1–2 and Tables IV–IX.
 
-Registered by the main CLI with ``register(app)`` (or ``app.add_typer(app_linearize)``).
-User errors raise :class:`~hydropwa.HydropwaError`; the main CLI prints ``error: …`` and
-exits with code 2.
+User errors raise :class:`~hydropwa.HydropwaError`; the CLI's one error path prints
+``error: …`` and exits with code 2.
 """
 
 from __future__ import annotations
@@ -14,7 +13,13 @@ import typer
 
 from hydropwa._errors import PwaError
 
-__all__ = ["linearize_command", "parse_cells", "register", "app"]
+from ._app import new_app
+from ._options import ParamsOption, resolve_params
+
+__all__ = ["app", "linearize_command", "parse_cells"]
+
+#: The top-level ``linearize`` command.
+app = new_app()
 
 
 def parse_cells(text: str | None) -> dict[str, int]:
@@ -39,7 +44,7 @@ def parse_cells(text: str | None) -> dict[str, int]:
 
 def linearize_command(
     out: Path,
-    params_file: Path | None = None,
+    params: str | None = None,
     supply_pressure: str | None = None,
     cells: str | None = None,
     breakpoints: str = "machine",
@@ -55,15 +60,13 @@ def linearize_command(
 ) -> list[Path]:
     """Build, export and document the PWA model; returns the written paths.
 
-    Parameters mirror the command-line options; quantities are strings with units
-    (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
+    Parameters mirror the command-line options (``params``: a preset name or a TOML/JSON
+    file); quantities are strings with units (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
     from hydropwa.linearization import export_pwa, linearize, save_pwa, save_pwa_mat
     from hydropwa.params import parse_quantity
 
-    from ._core import resolve_params
-
-    params = resolve_params(params_file)
+    prm = resolve_params(params)
     ps = (
         None
         if supply_pressure is None
@@ -74,7 +77,7 @@ def linearize_command(
 
     with step("fitting the PWA cells"):
         model = linearize(
-            params,
+            prm,
             supply_pressure=ps,
             cells=parse_cells(cells),
             breakpoints=breakpoints,
@@ -111,11 +114,10 @@ def linearize_command(
     return written
 
 
+@app.command("linearize")
 def _run(
     out: Annotated[Path, typer.Option("--out", "-o", help="PWA JSON document to write.")],
-    params_file: Annotated[
-        Path | None, typer.Option("--params", help="Parameter TOML (default: paper preset).")
-    ] = None,
+    params: ParamsOption = None,
     supply_pressure: Annotated[
         str | None, typer.Option("--supply-pressure", help='Fixed P_S, e.g. "95 bar".')
     ] = None,
@@ -169,7 +171,7 @@ def _run(
         ),
     ] = False,
 ) -> None:
-    """Build the piecewise-affine model (paper Sec. IV) and write it as JSON."""
+    """Build the piecewise-affine model and write it as JSON, figures and tables (paper Sec. IV)."""
     from hydropwa._errors import check_output
 
     if out.suffix.lower() != ".json":
@@ -187,9 +189,7 @@ def _run(
         from hydropwa._limits import check_supply_pressure
         from hydropwa.params import parse_quantity
 
-        from ._core import resolve_params
-
-        base = resolve_params(params_file)
+        base = resolve_params(params)
         check_supply_pressure(parse_quantity(supply_pressure, "Pa", "--supply-pressure"), base, 1.0)
     if sample_time is not None:
         from hydropwa.params import parse_quantity
@@ -201,7 +201,7 @@ def _run(
         raise PwaError(f"--units {units!r} must be si or engineering")
     paths = linearize_command(
         out,
-        params_file,
+        params,
         supply_pressure,
         cells,
         breakpoints,
@@ -217,14 +217,3 @@ def _run(
     )
     for p in paths:
         typer.echo(f"wrote {p}")
-
-
-app = typer.Typer(help="Piecewise-affine linearization (paper Sec. IV).", add_completion=False)
-app.command("linearize")(_run)
-
-
-def register(main_app: typer.Typer) -> None:
-    """Add the ``linearize`` command to the main CLI app."""
-    main_app.command(
-        "linearize", help="Build the PWA model (paper Sec. IV), export JSON, figures, tables."
-    )(_run)

@@ -1,7 +1,7 @@
 """``hydropwa paper``: the paper's study end to end (rig or measured data → report folder).
 
 A thin wrapper over :func:`hydropwa.evaluation.run_paper_study`; errors
-(:class:`~hydropwa.HydropwaError`) propagate to ``hydropwa.cli.main`` (one line, exit 2).
+(:class:`~hydropwa.HydropwaError`) go through the CLI's one error path (one line, exit 2).
 """
 
 from __future__ import annotations
@@ -11,9 +11,16 @@ from typing import Annotated
 
 import typer
 
-__all__ = ["paper_command"]
+from ._app import new_app
+from ._options import PARAMS_METAVAR, PRESET_NAMES, resolve_params
+
+__all__ = ["app", "paper_command"]
+
+#: The top-level ``paper`` command.
+app = new_app()
 
 
+@app.command("paper")
 def paper_command(
     out: Annotated[
         Path,
@@ -36,7 +43,10 @@ def paper_command(
         typer.Option(
             "--params",
             "-p",
-            help="TOML file or preset: the rig's true parameters, or with --data the base (datasheet) parameters.",
+            metavar=PARAMS_METAVAR,
+            help=f"Parameter set: a preset ({PRESET_NAMES}) or a TOML/JSON parameter file; the "
+            "rig's true parameters, or with --data the base (datasheet) parameters (default: "
+            "paper, or with --data the data's true_params.toml if there is one).",
         ),
     ] = None,
     campaign: Annotated[
@@ -62,7 +72,7 @@ def paper_command(
     res = run_paper_study(
         out,
         data=data,
-        params=params,
+        params=None if params is None else resolve_params(params),
         campaign=campaign,
         fresh=fresh,
         force=force,

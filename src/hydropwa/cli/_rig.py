@@ -1,7 +1,7 @@
 """``hydropwa rig``: run the paper's experiments on the virtual rig.
 
-Registered by the main CLI as ``hydropwa rig``. Errors (:class:`~hydropwa.HydropwaError`)
-propagate to ``hydropwa.cli.main``, which prints one ``error: ...`` line and exits 2.
+Errors (:class:`~hydropwa.HydropwaError`) go through the CLI's one error path
+(``_app.exit_code``): one ``error: ...`` line, exit 2.
 """
 
 from __future__ import annotations
@@ -13,13 +13,12 @@ from typing import Annotated
 
 import typer
 
+from ._app import new_app
+from ._options import ParamsOption, resolve_params
+
 __all__ = ["app"]
 
-app = typer.Typer(
-    help="Virtual test rig: simulate the paper's experiments into datasets.",
-    no_args_is_help=True,
-    add_completion=False,
-)
+app = new_app("rig", help="Virtual test rig: simulate the paper's experiments into datasets.")
 
 
 class Which(StrEnum):
@@ -43,12 +42,7 @@ def run_command(
             help="Output folder: DIR/<experiment>/ datasets and DIR/true_params.toml.",
         ),
     ],
-    params: Annotated[
-        str | None,
-        typer.Option(
-            "--params", "-p", help="True parameters: TOML file or preset name (default: paper)."
-        ),
-    ] = None,
+    params: ParamsOption = None,
     campaign: Annotated[
         str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
     ] = "paper",
@@ -77,7 +71,7 @@ def run_command(
     check_jobs(jobs)
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
     camp = load_campaign(campaign)
-    rig = Rig.from_params(params).with_overrides(camp.sensors, camp.supply)
+    rig = Rig.from_params(resolve_params(params)).with_overrides(camp.sensors, camp.supply)
     if not quiet:
         typer.echo(_describe(rig))
     names = None if experiment is Which.all else [experiment.value]

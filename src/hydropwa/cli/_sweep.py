@@ -9,6 +9,12 @@ from typing import Annotated
 import typer
 
 from .._errors import ParameterError
+from ._app import new_app
+
+__all__ = ["app", "sweep_command"]
+
+#: The top-level ``sweep`` command.
+app = new_app()
 
 
 def _write_table(df, out: Path) -> None:
@@ -22,6 +28,7 @@ def _write_table(df, out: Path) -> None:
             df.to_csv(tmp, index=False)
 
 
+@app.command("sweep")
 def sweep_command(
     spec: Annotated[
         Path, typer.Argument(help="Sweep definition (TOML with [grid], [random], [input]).")
