@@ -373,7 +373,7 @@ def test_pole_placement_puts_every_cell_at_the_requested_poles(paper):
 
 
 def test_closed_loop_figure_shows_the_runs(paper):
-    from hydropwa.control import plot_closed_loop
+    from hydropwa.plotting import plot_closed_loop
 
     r = simulate(
         "reduced",

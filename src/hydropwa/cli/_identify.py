@@ -241,7 +241,8 @@ def emps(
     force: Force = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
-    from hydropwa.identification import identify_emps, plot_inverse_dynamics
+    from hydropwa.identification import identify_emps
+    from hydropwa.plotting import plot_inverse_dynamics, save_figure
 
     if validation is None:
         cand = file.with_name("DATA_EMPS_PULSES.mat")
@@ -261,7 +262,7 @@ def emps(
             atomic_write_text(summary, text, overwrite=force)
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
-            plot_inverse_dynamics(res, figures / "emps_force.png")
+            save_figure(plot_inverse_dynamics(res), figures / "emps_force.png", overwrite=True)
     except HydropwaError as exc:
         raise _fail(exc) from None
     except FileNotFoundError as exc:
@@ -315,9 +316,12 @@ def model(
         Shooting,
         fit_model,
         load_runs,
+    )
+    from hydropwa.plotting import (
         plot_greybox_fit,
         plot_greybox_profiles,
         plot_greybox_residuals,
+        save_figure,
     )
     from hydropwa.params import get_preset, load_params
 
@@ -354,10 +358,10 @@ def model(
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
             for r in fit.runs_[:6]:
-                plot_greybox_fit(fit, r.name, figures / f"greybox_{r.name}.png")
-                plot_greybox_residuals(fit, r.name, figures / f"greybox_residuals_{r.name}.png")
+                save_figure(plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True)
+                save_figure(plot_greybox_residuals(fit, r.name), figures / f"greybox_residuals_{r.name}.png", overwrite=True)
             if fit.profiles_:
-                plot_greybox_profiles(fit, figures / "greybox_profiles.png")
+                save_figure(plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True)
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:
