@@ -57,12 +57,12 @@ def test_no_module_chooses_a_backend_or_draws_outside_the_plotting_layer():
             ):
                 offences.append(f"{path}:{node.lineno} calls matplotlib.use")
             names = _imported(node)
-            if any(n == "matplotlib.pyplot" for n in names) and (
-                inside or node in tree.body
-            ):
+            if any(n == "matplotlib.pyplot" for n in names) and (inside or node in tree.body):
                 offences.append(f"{path}:{node.lineno} imports matplotlib.pyplot")
             if not inside and any(n.split(".")[0] == "matplotlib" for n in names):
-                offences.append(f"{path}:{node.lineno} imports matplotlib outside hydropwa.plotting")
+                offences.append(
+                    f"{path}:{node.lineno} imports matplotlib outside hydropwa.plotting"
+                )
     assert not offences, "\n".join(offences)
 
 
@@ -77,7 +77,9 @@ def test_the_plotting_layer_imports_no_layer_above_it():
                 target = (node.module or "").split(".")[0]
                 ok = node.level == 1 or (node.level == 2 and target in LEAVES)
                 if not ok:
-                    offences.append(f"{path.name}:{node.lineno} from {'.' * node.level}{node.module}")
+                    offences.append(
+                        f"{path.name}:{node.lineno} from {'.' * node.level}{node.module}"
+                    )
             for name in _imported(node):
                 parts = name.split(".")
                 if parts[0] == "hydropwa":
@@ -152,11 +154,15 @@ def test_bode_magnitude_and_phase_are_the_measured_response():
     fig = plot_bode(frf, fits)
     mag, phase = fig.axes[:2]
     assert len(fig.axes) == 2  # no coherence, no coherence panel
-    np.testing.assert_allclose(mag.lines[0].get_ydata(), 20 * np.log10(np.abs(response(2 * np.pi * f))))
+    np.testing.assert_allclose(
+        mag.lines[0].get_ydata(), 20 * np.log10(np.abs(response(2 * np.pi * f)))
+    )
     # second order: -90° at the natural frequency, -180° far above it
     assert np.interp(80.0, f, phase.lines[0].get_ydata()) == pytest.approx(-90.0, abs=3.0)
     assert phase.lines[1].get_ydata()[-1] < -150.0
-    with_coherence = {0.5: SimpleNamespace(frequency=f, response=response(2 * np.pi * f), coherence=0 * f + 0.9)}
+    with_coherence = {
+        0.5: SimpleNamespace(frequency=f, response=response(2 * np.pi * f), coherence=0 * f + 0.9)
+    }
     est = SimpleNamespace(frf_=with_coherence, fits_=fits, min_coherence=0.7)
     fig = plot_bode(est)
     assert fig.axes[2].get_ylabel() == "coherence γ²"
@@ -196,7 +202,9 @@ def test_dead_zone_takes_points_and_any_fitted_curve():
 
 def test_compare_figure_draws_the_reference_over_the_models():
     t = np.linspace(0, 1, 20)
-    fig = plot_compare(t, 0.1 + 0 * t, {"pwa (90.0 %)": 0.1 + 0.01 * t}, channel="x", reference_label="run")
+    fig = plot_compare(
+        t, 0.1 + 0 * t, {"pwa (90.0 %)": 0.1 + 0.01 * t}, channel="x", reference_label="run"
+    )
     ax = fig.axes[0]
     assert ax.get_ylabel() == "rod position [mm]"
     assert ax.lines[-1].get_label() == "run" and ax.lines[-1].get_zorder() == 10

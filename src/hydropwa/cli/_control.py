@@ -241,6 +241,11 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
-        save_figure(plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"), plot, dpi=150, overwrite=True)
+        save_figure(
+            plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"),
+            plot,
+            dpi=150,
+            overwrite=True,
+        )
         msg += f" and {plot}"
     typer.echo(msg)

@@ -317,13 +317,13 @@ def model(
         fit_model,
         load_runs,
     )
+    from hydropwa.params import get_preset, load_params
     from hydropwa.plotting import (
         plot_greybox_fit,
         plot_greybox_profiles,
         plot_greybox_residuals,
         save_figure,
     )
-    from hydropwa.params import get_preset, load_params
 
     old = warnings.showwarning
     warnings.showwarning = _warn
@@ -358,10 +358,18 @@ def model(
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
             for r in fit.runs_[:6]:
-                save_figure(plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True)
-                save_figure(plot_greybox_residuals(fit, r.name), figures / f"greybox_residuals_{r.name}.png", overwrite=True)
+                save_figure(
+                    plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True
+                )
+                save_figure(
+                    plot_greybox_residuals(fit, r.name),
+                    figures / f"greybox_residuals_{r.name}.png",
+                    overwrite=True,
+                )
             if fit.profiles_:
-                save_figure(plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True)
+                save_figure(
+                    plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True
+                )
     except HydropwaError as exc:
         raise _fail(exc) from None
     finally:

@@ -16,6 +16,7 @@ from ._metrics import nrmse_fit
 
 __all__ = ["compare"]
 
+
 def _channels(obj):
     """(name, t, channels) of a Run or a SimulationResult."""
     if hasattr(obj, "channels") and hasattr(obj, "t"):
@@ -97,8 +98,6 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
         lbl = f"{getattr(res, 'model', 'model')} ({fit:.1f} %)"
         fits[lbl] = fit
         outputs[lbl] = y_hat
-    fig = plot_compare(
-        t, y, outputs, channel=channel, reference_label=f"{name} (reference)", ax=ax
-    )
+    fig = plot_compare(t, y, outputs, channel=channel, reference_label=f"{name} (reference)", ax=ax)
     fig.fits = fits
     return fig

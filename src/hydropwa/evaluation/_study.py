@@ -629,8 +629,8 @@ def _stage_evaluate(
     def work():
         import pandas as pd
 
-        from ._evaluate import evaluate_run
         from ..plotting import plot_cell_occupancy
+        from ._evaluate import evaluate_run
 
         corners = _corners(runs)
         frames, cells, stage_notes, files = [], [], [], []
@@ -706,8 +706,8 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
 
     def work():
         from ..control import closed_loop_study, save_controller
-        from ..plotting import plot_closed_loop
         from ..linearization import load_pwa
+        from ..plotting import plot_closed_loop
 
         runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
         files = [save_controller(design.controller, out / "controller.toml", force=True)]

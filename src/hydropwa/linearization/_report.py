@@ -43,9 +43,7 @@ def cqp_figure(model, p_s: float | None = None, openings=(0.25, 0.5, 0.75, 1.0))
     return plot_cqp(p_l, exact, model.cells_at(ps)["cqp"], supply_pressure=ps)
 
 
-def write_figures(
-    model, folder: str | os.PathLike, *, overwrite: bool = True
-) -> list[Path]:
+def write_figures(model, folder: str | os.PathLike, *, overwrite: bool = True) -> list[Path]:
     """Write fig1_cq and fig2_cqp as PNG and SVG into ``folder``; return the paths.
 
     ``overwrite`` as in :func:`hydropwa.plotting.save_figure` (the CLI checks the folder

@@ -115,7 +115,7 @@ def new_figure(
 
 
 def save_figure(
-    fig: Figure, path: str | os.PathLike, *, dpi: int = 120, overwrite: bool = False
+    fig: Figure, path: str | os.PathLike[str], *, dpi: int = 120, overwrite: bool = False
 ) -> Path:
     """Write a figure atomically; the format comes from the suffix (default PNG).
 
@@ -143,10 +143,10 @@ def save_figure(
 
 def moving_average(y: Any, n: int) -> np.ndarray:
     """Centred moving average over ``n`` samples (edges use the samples available); display only."""
-    y = np.asarray(y, dtype=float)
-    if n <= 1 or y.size < n:
-        return y.copy()
+    a: np.ndarray = np.asarray(y, dtype=float)
+    if n <= 1 or a.size < n:
+        return a.copy()
     kernel = np.ones(n)
-    num = np.convolve(y, kernel, mode="same")
-    den = np.convolve(np.ones_like(y), kernel, mode="same")
+    num = np.convolve(a, kernel, mode="same")
+    den = np.convolve(np.ones_like(a), kernel, mode="same")
     return num / den

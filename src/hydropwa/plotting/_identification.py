@@ -75,9 +75,17 @@ def plot_bode(
         h = np.asarray(r.response)
         coh = getattr(r, "coherence", None)
         style: dict[str, Any] = (
-            {"ls": "-", "lw": 0.8, "alpha": 0.7} if coh is not None else {"ls": "", "marker": "o", "ms": 3}
+            {"ls": "-", "lw": 0.8, "alpha": 0.7}
+            if coh is not None
+            else {"ls": "", "marker": "o", "ms": 3}
         )
-        am.semilogx(f, 20 * np.log10(np.abs(h)), color=c, label=f"measured, |u| = {100 * amp:.3g} %", **style)
+        am.semilogx(
+            f,
+            20 * np.log10(np.abs(h)),
+            color=c,
+            label=f"measured, |u| = {100 * amp:.3g} %",
+            **style,
+        )
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(h))), color=c, **style)
         if coh is not None:
             axes[2, 0].semilogx(f, coh, color=c, lw=0.8)
@@ -142,7 +150,11 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
     fig, axes = new_figure(ax=ax, figsize=(6.5, 4.0))
     a = axes[0, 0]
     a.errorbar(
-        100 * u, 1e3 * v, yerr=None if v_std is None else 1e3 * v_std, fmt="o", ms=3,
+        100 * u,
+        1e3 * v,
+        yerr=None if v_std is None else 1e3 * v_std,
+        fmt="o",
+        ms=3,
         label="measured (slope of x)",
     )
     if fit is not None:
@@ -214,7 +226,11 @@ def plot_stribeck(
         curve = getattr(fit, "force_at", fit)
     n_ax = 1 if ax is not None and isinstance(ax, Axes) else 2 if curve is not None else 1
     fig, axes = new_figure(
-        n_ax, 1, ax=ax, sharex=True, figsize=(6.5, 5.0 if n_ax == 2 else 4.0),
+        n_ax,
+        1,
+        ax=ax,
+        sharex=True,
+        figsize=(6.5, 5.0 if n_ax == 2 else 4.0),
         **({"height_ratios": [3, 1]} if n_ax == 2 and ax is None else {}),
     )
     a = axes[0, 0]
@@ -317,13 +333,13 @@ def plot_greybox_fit(fit: Any, run: str | None = None, *, ax: _AxesArg = None) -
     """
     r = _greybox_run(fit, run)
     chans = list(r.measured)
-    fig, axes = new_figure(
-        len(chans), 1, ax=ax, sharex=True, figsize=(7.0, 1.8 + 1.6 * len(chans))
-    )
+    fig, axes = new_figure(len(chans), 1, ax=ax, sharex=True, figsize=(7.0, 1.8 + 1.6 * len(chans)))
     for a, c in zip(axes[:, 0], chans, strict=True):
         k, label = _GB_SCALE.get(c, (1.0, c))
         a.plot(r.t, k * r.measured[c], "-", lw=0.8, color="0.4", label="measured")
-        a.plot(r.t, k * r.simulated[c], "-", lw=0.9, color="C3", label=f"fitted ({r.method} shooting)")
+        a.plot(
+            r.t, k * r.simulated[c], "-", lw=0.9, color="C3", label=f"fitted ({r.method} shooting)"
+        )
         a.set_ylabel(label)
         a.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=7)
@@ -365,7 +381,10 @@ def plot_greybox_residuals(
         ac = np.fft.irfft(spec * np.conj(spec))[:n]
         if ac[0] > 0:
             a_c.plot(
-                1e3 * dt * np.arange(n), ac / ac[0], "-", lw=0.9,
+                1e3 * dt * np.arange(n),
+                ac / ac[0],
+                "-",
+                lw=0.9,
                 label=f"{c}: n_eff = {r.n_eff.get(c, float('nan')):.0f}",
             )
     a.set_xlabel("time [s]")

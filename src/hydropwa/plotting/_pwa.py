@@ -48,12 +48,20 @@ def plot_cq(
     fig, axes = new_figure(ax=ax, figsize=(6.5, 4.0))
     a = axes[0, 0]
     a.plot(p_l / 1e5, np.asarray(exact) * 6e4, "k", lw=1.6, label="Ĉ_q, Eq. (18)")
-    a.plot(p_l / 1e5, cells(p_l) * 6e4, "r--", lw=1.2, label=f"PWA, {getattr(cells, 'n_cells', '?')} cells (20)")
+    a.plot(
+        p_l / 1e5,
+        cells(p_l) * 6e4,
+        "r--",
+        lw=1.2,
+        label=f"PWA, {getattr(cells, 'n_cells', '?')} cells (20)",
+    )
     for b in getattr(cells, "breakpoints", ()):
         a.axvline(b / 1e5, color="r", lw=0.5, alpha=0.4)
     a.set_xlabel("load pressure P_L [bar]")
     a.set_ylabel("Ĉ_q [L/min per unit opening]")
-    a.set_title(f"Fig. 1: Ĉ_q and its linearization (P_S = {supply_pressure / 1e5:.1f} bar)", fontsize=10)
+    a.set_title(
+        f"Fig. 1: Ĉ_q and its linearization (P_S = {supply_pressure / 1e5:.1f} bar)", fontsize=10
+    )
     a.grid(True, alpha=0.3)
     a.legend(fontsize=8)
     return fig
@@ -99,14 +107,20 @@ def plot_cqp(
     a.plot([], [], "k--", lw=1.0, label=f"PWA, {getattr(cells, 'n_cells', '?')} cells (21)")
     a.set_xlabel("load pressure P_L [bar]")
     a.set_ylabel("Ĉ_qp [L/min per bar]")
-    a.set_title(f"Fig. 2: Ĉ_qp and its linearization (P_S = {supply_pressure / 1e5:.1f} bar)", fontsize=10)
+    a.set_title(
+        f"Fig. 2: Ĉ_qp and its linearization (P_S = {supply_pressure / 1e5:.1f} bar)", fontsize=10
+    )
     a.grid(True, alpha=0.3)
     a.legend(fontsize=8)
     return fig
 
 
 def plot_cell_occupancy(
-    cell_metrics: Any, pwa: Any = None, trajectory: Any = None, *, ax: Axes | Sequence[Axes] | None = None
+    cell_metrics: Any,
+    pwa: Any = None,
+    trajectory: Any = None,
+    *,
+    ax: Axes | Sequence[Axes] | None = None,
 ) -> Any:
     """Time share of each PWA cell over the evaluated runs, and the (u, P_L) partition.
 

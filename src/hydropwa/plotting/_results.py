@@ -112,21 +112,37 @@ def plot_evaluation(
             y = meas[ch] if ch == "u" else moving_average(meas[ch], n)
             # drawn over the models (zorder) and dashed, so a model that fits does not hide it
             a.plot(
-                t, y * fac, color="k", lw=1.2, ls="--" if ch != "u" else "-", zorder=10,
+                t,
+                y * fac,
+                color="k",
+                lw=1.2,
+                ls="--" if ch != "u" else "-",
+                zorder=10,
                 label="command" if ch == "u" else "measurement",
             )
         if ch != "u":
             for m in models:
                 res = result.simulations[m]
                 color, ls, lab = MODEL_STYLE.get(m, ("gray", "-", m))
-                a.plot(res.t - meas["t"][0], res.channels[ch] * fac, color=color, ls=ls, lw=1.1, label=lab)
+                a.plot(
+                    res.t - meas["t"][0],
+                    res.channels[ch] * fac,
+                    color=color,
+                    ls=ls,
+                    lw=1.1,
+                    label=lab,
+                )
         a.set_ylabel(f"{label} [{unit}]")
         a.grid(True, alpha=0.3)
     handles, labels = axes[-1, 0].get_legend_handles_labels()
     if ax is None:
         fig.legend(
-            handles, labels, loc="outside lower center", ncol=min(len(labels), 3) or 1,
-            fontsize=8, frameon=False,
+            handles,
+            labels,
+            loc="outside lower center",
+            ncol=min(len(labels), 3) or 1,
+            fontsize=8,
+            frameon=False,
         )
     else:
         axes[-1, 0].legend(fontsize=8)
@@ -173,8 +189,13 @@ def plot_compare(
     for lbl, y in outputs.items():
         a.plot(t, np.asarray(y, dtype=float) * fac, lw=1.2, label=lbl)
     a.plot(
-        t, np.asarray(reference, dtype=float) * fac, color="black", lw=1.0, ls="--",
-        label=reference_label, zorder=10,
+        t,
+        np.asarray(reference, dtype=float) * fac,
+        color="black",
+        lw=1.0,
+        ls="--",
+        label=reference_label,
+        zorder=10,
     )
     a.set_xlabel("time [s]")
     a.set_ylabel(f"{label} [{unit or 'SI'}]")
@@ -211,7 +232,9 @@ def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = N
             a[0].plot(res.t, res["reference"] * 1e3, "k--", lw=1.0, label="reference")
         a[0].plot(res.t, res["x"] * 1e3, color=c, lw=1.0, label=name)
         a[1].plot(res.t, res["error"] * 1e3, color=c, lw=1.0, label=name)
-        a[2].step(res.control["t"], res.control["u"] * 100.0, where="post", color=c, lw=0.8, label=name)
+        a[2].step(
+            res.control["t"], res.control["u"] * 100.0, where="post", color=c, lw=0.8, label=name
+        )
     a[0].set_ylabel("rod position [mm]")
     a[1].set_ylabel("following error [mm]")
     a[2].set_ylabel("valve command [%]")
@@ -224,7 +247,9 @@ def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = N
     return fig
 
 
-def plot_supply_pressure(t: Any, supply_pressure: Any, *, name: str = "", ax: Axes | None = None) -> Any:
+def plot_supply_pressure(
+    t: Any, supply_pressure: Any, *, name: str = "", ax: Axes | None = None
+) -> Any:
     """Fig. 9: the supply pressure recorded during an evaluation run.
 
     Parameters
