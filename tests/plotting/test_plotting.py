@@ -209,3 +209,23 @@ def test_compare_figure_draws_the_reference_over_the_models():
     assert ax.get_ylabel() == "rod position [mm]"
     assert ax.lines[-1].get_label() == "run" and ax.lines[-1].get_zorder() == 10
     np.testing.assert_allclose(ax.lines[0].get_ydata(), (0.1 + 0.01 * t) * 1e3)
+
+
+@pytest.mark.parametrize("preset", ["paper", "symmetric"])
+def test_fig1_cells_stay_within_their_fit_error_of_the_drawn_curve(preset):
+    """Figs. 1–2 draw the exact Ĉ_q, Ĉ_qp of the model's own form (asymmetric: edge pressure
+    P_e = P_S − α P_T, not P_S), so the cells lie within the fit's max error of the curve."""
+    from hydropwa.linearization import linearize
+    from hydropwa.linearization._report import cq_figure, cqp_figure
+
+    pwa = linearize(hydropwa.get_preset(preset))
+    pe, root = pwa.edge_pressure(pwa.supply_pressure, 1)
+    exact, cells = cq_figure(pwa).axes[0].lines[:2]
+    gap = np.abs(exact.get_ydata() - cells.get_ydata())  # [L/min]
+    bound = pwa.cq.max_error * pwa.params.flow.K * root * 6e4  # shape error → L/min
+    assert gap.max() <= bound * (1 + 1e-9)
+    assert gap.max() > 0.5 * bound  # the worst cell error is on the drawn range
+    lines = cqp_figure(pwa).axes[0].lines
+    exact, cells = lines[-3], lines[-2]  # z = 1
+    gap = np.abs(exact.get_ydata() - cells.get_ydata())  # [L/min per bar]
+    assert gap.max() <= pwa.cqp.max_error * pwa.params.flow.K / (4 * root) * 6e9

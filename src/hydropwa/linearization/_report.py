@@ -17,29 +17,33 @@ __all__ = ["cq_figure", "cqp_figure", "write_figures", "write_tables"]
 def cq_figure(model, p_s: float | None = None):
     """Fig. 1 of ``model``: Ĉ_q of Eq. (18) and its PWA cells (20) over P_L at P_S = ``p_s`` [Pa].
 
-    The curve is computed here (Ĉ_q = K√(P_S/2)·√(1 − P_L/P_S), :func:`cq_shape`) and drawn by
+    The curve is computed here (Ĉ_q = K·r·√(1 − P_L/P_e), :func:`cq_shape`, with the edge
+    pressure P_e and root r of :meth:`PwaModel.edge_pressure`: P_S and √(P_S/2) in the paper
+    form, the single-rod values in the asymmetric form) and drawn by
     :func:`hydropwa.plotting.plot_cq`. Returns the figure.
     """
     from ..plotting import plot_cq  # deferred: matplotlib loads only when plotting
 
     ps = model.supply_pressure if p_s is None else float(p_s)
-    p_l = np.linspace(-0.999 * ps, 0.999 * ps, 800)
-    exact = model.params.flow.K * np.sqrt(0.5 * ps) * cq_shape(p_l / ps)
+    pe, root = model.edge_pressure(ps, 1)
+    p_l = np.linspace(-0.999 * ps, 0.999 * pe, 800)
+    exact = model.params.flow.K * root * cq_shape(p_l / pe)
     return plot_cq(p_l, exact, model.cells_at(ps)["cq"], supply_pressure=ps)
 
 
 def cqp_figure(model, p_s: float | None = None, openings=(0.25, 0.5, 0.75, 1.0)):
     """Fig. 2 of ``model``: Ĉ_qp of Eq. (19) and its PWA cells (21) for several openings z.
 
-    Ĉ_qp = z·K/(4√(P_S/2))·1/√(1 − P_L/P_S) (:func:`cqp_shape`), drawn by
-    :func:`hydropwa.plotting.plot_cqp` up to the fitted interval. Returns the figure.
+    Ĉ_qp = z·K/(4r)·1/√(1 − P_L/P_e) (:func:`cqp_shape`; P_e, r as in :func:`cq_figure`),
+    drawn by :func:`hydropwa.plotting.plot_cqp` up to the fitted interval. Returns the figure.
     """
     from ..plotting import plot_cqp  # deferred: matplotlib loads only when plotting
 
     ps = model.supply_pressure if p_s is None else float(p_s)
-    p_l = np.linspace(-0.999 * ps, min(model.cqp.interval[1], 0.95) * ps, 800)
-    scale = model.params.flow.K / (4.0 * np.sqrt(0.5 * ps))
-    exact = {float(z): z * scale * cqp_shape(p_l / ps) for z in openings}
+    pe, root = model.edge_pressure(ps, 1)
+    p_l = np.linspace(-0.999 * ps, min(model.cqp.interval[1], 0.95) * pe, 800)
+    scale = model.params.flow.K / (4.0 * root)
+    exact = {float(z): z * scale * cqp_shape(p_l / pe) for z in openings}
     return plot_cqp(p_l, exact, model.cells_at(ps)["cqp"], supply_pressure=ps)
 
 
