@@ -19,6 +19,9 @@ from hydropwa.plotting import (
     plot_bode,
     plot_compare,
     plot_dead_zone,
+    plot_greybox_fit,
+    plot_greybox_profiles,
+    plot_greybox_residuals,
     plot_result,
     plot_stribeck,
     save_figure,
@@ -229,3 +232,44 @@ def test_fig1_cells_stay_within_their_fit_error_of_the_drawn_curve(preset):
     exact, cells = lines[-3], lines[-2]  # z = 1
     gap = np.abs(exact.get_ydata() - cells.get_ydata())  # [L/min per bar]
     assert gap.max() <= pwa.cqp.max_error * pwa.params.flow.K / (4 * root) * 6e9
+
+
+def _greybox_fit():
+    t = np.linspace(0.0, 1.0, 200)
+    rng = np.random.default_rng(1)
+    x = 0.1 + 0.01 * np.sin(2 * np.pi * t)
+    run = SimpleNamespace(
+        name="s1",
+        t=t,
+        method="multiple",
+        measured={"x": x + rng.normal(0, 1e-5, t.size)},
+        simulated={"x": x},
+        sigma={"x": 1e-5},
+        n_eff={"x": 180.0},
+    )
+    profile = SimpleNamespace(
+        name="flow.K", values=np.geomspace(1e-7, 1e-5, 7), cost=np.arange(7.0)
+    )
+    return SimpleNamespace(
+        runs_=[run],
+        profiles_={"flow.K": profile},
+        estimates_={"flow.K": SimpleNamespace(value=1e-6)},
+    )
+
+
+def test_greybox_figures_draw_the_fit_its_white_residuals_and_profiles():
+    fit = _greybox_fit()
+    run = fit.runs_[0]
+    ax = plot_greybox_fit(fit).axes[0]
+    np.testing.assert_allclose(ax.lines[1].get_ydata(), 1e3 * run.simulated["x"])  # mm
+    res, acf = plot_greybox_residuals(fit, "s1").axes
+    e = (run.simulated["x"] - run.measured["x"]) / run.sigma["x"]
+    np.testing.assert_allclose(res.lines[0].get_ydata(), e)
+    rho = acf.lines[0].get_ydata()
+    assert rho[0] == pytest.approx(1.0)
+    # white noise: |ρ(k)| < 4/√n at every lag k > 0 (n = 200 samples)
+    assert np.all(np.abs(rho[1:]) < 4 / np.sqrt(run.t.size))
+    prof = plot_greybox_profiles(fit).axes[0]
+    assert prof.get_xscale() == "log" and prof.get_xlabel() == "flow.K"
+    with pytest.raises(KeyError, match="no run 'nope'"):
+        plot_greybox_fit(fit, "nope")
