@@ -60,7 +60,7 @@ class InlineFigure(Figure):
     backend is active its own printer takes precedence, so a figure is never shown twice.
     """
 
-    #: NRMSE fit [%] per legend label, set by :func:`plot_compare`.
+    #: NRMSE fit [%] per legend label, set by :func:`hydropwa.evaluation.compare`.
     fits: dict[str, float]
 
     def _repr_png_(self) -> bytes:
