@@ -253,10 +253,13 @@ def test_cli_design_and_simulate(tmp_path, capsys):
             "0.3",
             "--out",
             str(run),
+            "--plot",
+            str(tmp_path / "loop.svg"),
         ]
     )
     out = capsys.readouterr().out
     assert code == 0 and "max_following_error = 10 mm" in out
+    assert (tmp_path / "loop.svg").read_text().count("<svg") == 1  # through hydropwa.plotting
     head = run.read_text().splitlines()
     assert any("reference [m]" in line for line in head[:20])
     code = main(
