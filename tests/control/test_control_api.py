@@ -253,10 +253,13 @@ def test_cli_design_and_simulate(tmp_path, capsys):
             "0.3",
             "--out",
             str(run),
+            "--plot",
+            str(tmp_path / "loop.svg"),
         ]
     )
     out = capsys.readouterr().out
     assert code == 0 and "max_following_error = 10 mm" in out
+    assert (tmp_path / "loop.svg").read_text().count("<svg") == 1  # through hydropwa.plotting
     head = run.read_text().splitlines()
     assert any("reference [m]" in line for line in head[:20])
     code = main(
@@ -373,7 +376,7 @@ def test_pole_placement_puts_every_cell_at_the_requested_poles(paper):
 
 
 def test_closed_loop_figure_shows_the_runs(paper):
-    from hydropwa.control import plot_closed_loop
+    from hydropwa.plotting import plot_closed_loop
 
     r = simulate(
         "reduced",

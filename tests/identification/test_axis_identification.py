@@ -18,11 +18,11 @@ from hydropwa.identification import (
     fit_dead_zone,
     identify,
     load_runs,
-    plot_bode,
     sandwich_covariance,
 )
 from hydropwa.identification._common import covariance_from_jacobian
 from hydropwa.params import load_params, save_params
+from hydropwa.plotting import plot_bode
 from hydropwa.rig import Rig, parse_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"

@@ -198,11 +198,10 @@ def simulate_command(
         MotionProfile,
         as_reference,
         load_controller,
-        plot_closed_loop,
-        save_control_figure,
         tracking_metrics,
     )
     from ..params import parse_quantity
+    from ..plotting import plot_closed_loop, save_figure
     from ..simulation import simulate
 
     if model not in ("full", "reduced", "pwa"):
@@ -235,6 +234,11 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
-        save_control_figure(plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"), plot)
+        save_figure(
+            plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"),
+            plot,
+            dpi=150,
+            overwrite=True,
+        )
         msg += f" and {plot}"
     typer.echo(msg)

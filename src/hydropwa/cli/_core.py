@@ -213,8 +213,8 @@ def simulate_command(
         msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"
     msg += ")"
     if plot is not None:
-        from ..evaluation import plot_result, save_figure
+        from ..plotting import plot_result, save_figure
 
-        save_figure(plot_result(res), plot)
+        save_figure(plot_result(res), plot, dpi=150, overwrite=True)  # checked with --force above
         msg += f" and {plot}"
     typer.echo(msg)

@@ -230,7 +230,8 @@ def emps(
     ] = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
-    from hydropwa.identification import identify_emps, plot_inverse_dynamics
+    from hydropwa.identification import identify_emps
+    from hydropwa.plotting import plot_inverse_dynamics, save_figure
 
     if validation is None:
         cand = file.with_name("DATA_EMPS_PULSES.mat")
@@ -249,7 +250,7 @@ def emps(
         atomic_write_text(summary, text, overwrite=force)
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
-        plot_inverse_dynamics(res, figures / "emps_force.png")
+        save_figure(plot_inverse_dynamics(res), figures / "emps_force.png", overwrite=True)
     typer.echo(text, nl=False)
 
 
@@ -299,9 +300,12 @@ def model(
         Shooting,
         fit_model,
         load_runs,
+    )
+    from hydropwa.plotting import (
         plot_greybox_fit,
         plot_greybox_profiles,
         plot_greybox_residuals,
+        save_figure,
     )
 
     check_output(out, force)
@@ -330,10 +334,18 @@ def model(
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
         for r in fit.runs_[:6]:
-            plot_greybox_fit(fit, r.name, figures / f"greybox_{r.name}.png")
-            plot_greybox_residuals(fit, r.name, figures / f"greybox_residuals_{r.name}.png")
+            save_figure(
+                plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True
+            )
+            save_figure(
+                plot_greybox_residuals(fit, r.name),
+                figures / f"greybox_residuals_{r.name}.png",
+                overwrite=True,
+            )
         if fit.profiles_:
-            plot_greybox_profiles(fit, figures / "greybox_profiles.png")
+            save_figure(
+                plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True
+            )
     for n, e in fit.estimates_.items():
         typer.echo(f"{n} = {e}")
     typer.echo(f"wrote parameters: {out}")

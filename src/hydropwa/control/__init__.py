@@ -5,7 +5,7 @@ objects that pack into a float vector evaluated inside the compiled integrator a
 every sample instant (``simulate(model, controller=..., reference=...)``); design with
 python-control on the PWA cells (:func:`design_state_feedback`, :func:`design_pi`);
 tracking metrics and the comparison of one controller on the three models
-(:func:`tracking_metrics`, :func:`compare_models`, :func:`plot_closed_loop`); controller
+(:func:`tracking_metrics`, :func:`compare_models`; the figure is :func:`hydropwa.plotting.plot_closed_loop`); controller
 files with units (:func:`save_controller`, :func:`load_controller`). See
 docs/architecture_control.md.
 """
@@ -20,7 +20,6 @@ from ._controllers import (
     StateFeedbackController,
 )
 from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
-from ._figures import plot_closed_loop, save_control_figure
 from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
@@ -52,8 +51,6 @@ __all__ = [
     "design_state_feedback",
     "load_controller",
     "parse_reference",
-    "plot_closed_loop",
-    "save_control_figure",
     "save_controller",
     "tracking_metrics",
 ]

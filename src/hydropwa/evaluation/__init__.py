@@ -1,4 +1,5 @@
-"""Evaluation of models against measurements (Sec. VII), figures, the HTML report and the paper study.
+"""Evaluation of models against measurements (Sec. VII), the HTML report and the paper study
+(figures: :mod:`hydropwa.plotting`).
 
 ``evaluate_run(run, params)`` → :class:`EvaluationResult` (simulations, metrics, ``plot()``);
 ``evaluate_dataset`` → one metrics table; ``nrmse_fit``, ``rmse``, ``peak_error``,
@@ -17,20 +18,9 @@ from ._evaluate import (
     evaluation_params,
     evaluation_start,
 )
-from ._figures import (
-    moving_average,
-    plot_bode,
-    plot_cell_occupancy,
-    plot_cq,
-    plot_cqp,
-    plot_dead_zone,
-    plot_evaluation,
-    plot_stribeck,
-)
 from ._metrics import channel_metrics, drift_per_period, nrmse_fit, peak_error, rmse
 from ._report import write_report
 from ._study import StudyError, StudyResult, run_paper_study
-from .plots import plot_result, save_figure
 
 __all__ = [
     "CHANNELS",
@@ -47,19 +37,9 @@ __all__ = [
     "evaluate_run",
     "evaluation_params",
     "evaluation_start",
-    "moving_average",
     "nrmse_fit",
     "peak_error",
-    "plot_bode",
-    "plot_cell_occupancy",
-    "plot_cq",
-    "plot_cqp",
-    "plot_dead_zone",
-    "plot_evaluation",
-    "plot_result",
-    "plot_stribeck",
     "rmse",
     "run_paper_study",
-    "save_figure",
     "write_report",
 ]

@@ -3,7 +3,8 @@
 The one-liner of system identification toolboxes (MATLAB's ``compare(data, sys1, sys2)``):
 each model is simulated with the run's measured inputs (command ``u``, supply pressure ``p_s``
 and load ``f_l`` where the run has them) from the run's initial position, and its output is
-drawn under the measurement with the NRMSE fit of :func:`~hydropwa.evaluation.nrmse_fit`.
+drawn under the measurement with the NRMSE fit of :func:`~hydropwa.evaluation.nrmse_fit`
+(the figure is :func:`hydropwa.plotting.plot_compare`).
 """
 
 from __future__ import annotations
@@ -14,15 +15,6 @@ from .._errors import DataError
 from ._metrics import nrmse_fit
 
 __all__ = ["compare"]
-
-_LABELS = {
-    "x": ("position", "mm", 1e3),
-    "v": ("velocity", "mm/s", 1e3),
-    "p_l": ("load pressure", "bar", 1e-5),
-    "p_a": ("pressure A", "bar", 1e-5),
-    "p_b": ("pressure B", "bar", 1e-5),
-    "spool": ("spool", "%", 100.0),
-}
 
 
 def _channels(obj):
@@ -83,18 +75,14 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
     DataError
         The reference lacks ``u`` or ``channel``, or a result's time grid differs.
     """
-    import matplotlib.pyplot as plt
+    from ..plotting import plot_compare  # deferred: matplotlib loads only when plotting
 
     name, t, ref = _channels(run)
     if channel not in ref:
         raise DataError(f"compare: the reference has no channel {channel!r} (has {', '.join(ref)})")
-    label, unit, factor = _LABELS.get(channel, (channel, "SI", 1.0))
     y = np.asarray(ref[channel], dtype=float)
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(8, 3.5), layout="constrained")
-    else:
-        fig = ax.figure
     fits: dict[str, float] = {}
+    outputs: dict[str, np.ndarray] = {}
     for i, m in enumerate(models):
         if hasattr(m, "channels") and hasattr(m, "t"):
             res = m
@@ -109,11 +97,7 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
         fit = nrmse_fit(y, y_hat)
         lbl = f"{getattr(res, 'model', 'model')} ({fit:.1f} %)"
         fits[lbl] = fit
-        ax.plot(t, y_hat * factor, lw=1.2, label=lbl)
-    ax.plot(t, y * factor, color="black", lw=1.0, ls="--", label=f"{name} (reference)", zorder=10)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel(f"{label} [{unit}]")
-    ax.legend(loc="best", fontsize="small", title="fit (NRMSE)")
-    ax.grid(True, alpha=0.3)
+        outputs[lbl] = y_hat
+    fig = plot_compare(t, y, outputs, channel=channel, reference_label=f"{name} (reference)", ax=ax)
     fig.fits = fits
     return fig

@@ -244,8 +244,9 @@ class EvaluationResult:
         channels: Sequence[str] = ("u", "x", "p_l"),
         smooth: float = 0.01,
     ):
-        """Measurement and models over time, like Figs. 10–13 (see :func:`plot_evaluation`)."""
-        from ._figures import plot_evaluation
+        """Measurement and models over time, like Figs. 10–13 (see
+        :func:`hydropwa.plotting.plot_evaluation`)."""
+        from ..plotting import plot_evaluation  # deferred: matplotlib loads only when plotting
 
         return plot_evaluation(self, models=models, channels=channels, smooth=smooth)
 

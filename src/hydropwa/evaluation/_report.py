@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_path, atomic_write_text
-from .plots import DISPLAY
+from .._io import atomic_write_text
 
 __all__ = ["write_report", "metrics_for_display"]
 
@@ -79,6 +78,8 @@ def _table(df, caption: str = "") -> str:
 
 def metrics_for_display(metrics):
     """Metrics with RMSE, peak error and drift in engineering units (mm, bar, mm/s)."""
+    from ..plotting import DISPLAY  # deferred: matplotlib loads only when plotting
+
     df = metrics.copy()
     fac = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[1])
     df["unit"] = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[2])
@@ -214,9 +215,8 @@ def _paper_tables_section() -> str:
 def _fig9(out: Path, info: dict) -> str:
     """Fig. 9: the supply pressure recorded during the evaluation runs (first sine run)."""
     try:
-        from matplotlib.figure import Figure
-
         from ..data import read_dataset
+        from ..plotting import plot_supply_pressure, save_figure
 
         # the study's own data (virtual rig: out/data) or the measured dataset it was given
         folders = [r / "sine" for r in (out / "data", Path(str(info.get("data", ""))))] + [
@@ -224,17 +224,10 @@ def _fig9(out: Path, info: dict) -> str:
         ]
         ds = read_dataset(next(d for d in folders if (d / "manifest.json").is_file()))
         run = next(r for r in ds if r.has("p_s"))
-        fig = Figure(figsize=(6, 3))
-        ax = fig.add_subplot()
-        ax.plot(run.t - run.t[0], run["p_s"] / 1e5, "k", lw=0.8)
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel("P_S [bar]")
-        ax.set_title(f"Fig. 9: supply pressure during {run.name}", fontsize=10)
-        ax.grid(True, alpha=0.3)
+        fig = plot_supply_pressure(run.t, run["p_s"], name=run.name)
         path = out / "figures" / "fig09_supply_pressure.png"
         path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
+        save_figure(fig, path, dpi=110, overwrite=True)  # the report owns its folder
         return _figure(path)
     except Exception:  # noqa: BLE001 - no sine run with P_S in the data: no figure
         return '<p class="small">(no figure: the data hold no sine run with a recorded supply pressure)</p>'

@@ -402,13 +402,11 @@ def _markdown(df, floatfmt: str = ".4g") -> str:
 
 
 def _save(fig, stem: Path) -> list[Path]:
-    from .plots import save_figure
+    from ..plotting import save_figure  # deferred: matplotlib loads only when plotting
 
-    png = stem.with_suffix(".png")
-    svg = stem.with_suffix(".svg")
-    with atomic_path(svg) as tmp:
-        fig.savefig(tmp, format="svg")
-    save_figure(fig, png, dpi=110)
+    # the stage runner owns the folder and decides what may be replaced
+    svg = save_figure(fig, stem.with_suffix(".svg"), overwrite=True)
+    png = save_figure(fig, stem.with_suffix(".png"), dpi=110, overwrite=True)
     return [png, svg]
 
 
@@ -422,7 +420,7 @@ def _stage_identify(
         import pandas as pd
 
         from ..params import params_to_toml
-        from ._figures import plot_bode, plot_dead_zone
+        from ..plotting import plot_bode, plot_dead_zone
 
         stage_notes: list[str] = []
         fitted = _identify(data_root, inp.params, stage_notes)
@@ -442,11 +440,7 @@ def _stage_identify(
         if "deadzone" in fitted:
             d = fitted["deadzone"]
             files += _write_table(d.points_, out / "tables" / "deadzone_points")
-            uu = np.linspace(float(d.points_["u"].min()), float(d.points_["u"].max()), 600)
-            files += _save(
-                plot_dead_zone(d.points_["u"], d.points_["v"], uu, d.fit_.velocity(uu)),
-                out / "figures" / "fig06_dead_zone",
-            )
+            files += _save(plot_dead_zone(d.points_, d.fit_), out / "figures" / "fig06_dead_zone")
         if "friction" in fitted:
             files += _write_table(fitted["friction"].points_, out / "tables" / "friction_points")
         return files, {"notes": stage_notes}
@@ -467,8 +461,9 @@ def _stage_greybox(
     def work():
         from .._errors import HydropwaError
         from ..data import Run
-        from ..identification import fit_model, plot_greybox_fit, plot_greybox_residuals
+        from ..identification import fit_model
         from ..models import FullOrderModel
+        from ..plotting import plot_greybox_fit, plot_greybox_residuals
 
         short = []
         for r in runs[:2]:
@@ -548,9 +543,10 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
     def work():
         import pandas as pd
 
-        from ..linearization import export_pwa, linearize, save_pwa
+        from ..linearization import export_pwa, friction_function, linearize, save_pwa
+        from ..linearization._report import cq_figure, cqp_figure
+        from ..plotting import plot_stribeck
         from ._evaluate import evaluation_params
-        from ._figures import plot_cq, plot_cqp, plot_stribeck
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
@@ -569,17 +565,16 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
         )
         summary.columns = ["dead-zone cell g", "cells", "median bound [bar/s]", "max bound [bar/s]"]
         files += _write_table(summary, out / "tables" / "pwa_error_bounds")
-        files += _save(plot_cq(pwa), out / "figures" / "fig01_cq")
-        files += _save(plot_cqp(pwa), out / "figures" / "fig02_cqp")
+        files += _save(cq_figure(pwa), out / "figures" / "fig01_cq")
+        files += _save(cqp_figure(pwa), out / "figures" / "fig02_cqp")
         pts_file = out / "tables" / "friction_points.csv"
         if pts_file.is_file():
             pts = pd.read_csv(pts_file)
             fig = plot_stribeck(
-                pts["v"],
-                pts["f"],
-                ident.friction,
-                pwa.cells_at()["friction"],
-                None if true is None else true.friction,
+                pts,
+                friction_function(ident.friction),
+                cells=pwa.cells_at()["friction"],
+                reference=None if true is None else friction_function(true.friction),
             )
             files += _save(fig, out / "figures" / "fig08_stribeck")
         return files, {"supply_pressure": ps}
@@ -634,8 +629,8 @@ def _stage_evaluate(
     def work():
         import pandas as pd
 
+        from ..plotting import plot_cell_occupancy
         from ._evaluate import evaluate_run
-        from ._figures import plot_cell_occupancy
 
         corners = _corners(runs)
         frames, cells, stage_notes, files = [], [], [], []
@@ -710,8 +705,9 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
     out = inp.out
 
     def work():
-        from ..control import closed_loop_study, plot_closed_loop, save_controller
+        from ..control import closed_loop_study, save_controller
         from ..linearization import load_pwa
+        from ..plotting import plot_closed_loop
 
         runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
         files = [save_controller(design.controller, out / "controller.toml", force=True)]

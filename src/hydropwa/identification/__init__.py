@@ -65,15 +65,6 @@ from ._inverse_dynamics import (
     identify_inverse_dynamics,
 )
 from ._pipeline import PARTS, IdentificationReport, identify, load_runs
-from ._plots import (
-    plot_bode,
-    plot_dead_zone,
-    plot_greybox_fit,
-    plot_greybox_profiles,
-    plot_greybox_residuals,
-    plot_inverse_dynamics,
-    plot_stribeck,
-)
 
 __all__ = [
     "ESTIMATOR_CHANNELS",
@@ -85,10 +76,6 @@ __all__ = [
     "PARTS",
     "identify",
     "load_runs",
-    "plot_bode",
-    "plot_dead_zone",
-    "plot_inverse_dynamics",
-    "plot_stribeck",
     "EMPS_PUBLISHED",
     "EmpsResult",
     "InverseDynamicsResult",
@@ -129,7 +116,4 @@ __all__ = [
     "Shooting",
     "expand_free",
     "fit_model",
-    "plot_greybox_fit",
-    "plot_greybox_profiles",
-    "plot_greybox_residuals",
 ]

@@ -189,7 +189,12 @@ class IdentificationReport:
             Written files by role.
         """
         from .._io import check_output
-        from ._plots import plot_bode, plot_dead_zone, plot_stribeck
+        from ..plotting import (  # deferred: matplotlib loads only when plotting
+            plot_bode,
+            plot_dead_zone,
+            plot_stribeck,
+            save_figure,
+        )
 
         out = Path(out)
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
@@ -209,13 +214,17 @@ class IdentificationReport:
             fdir = Path(figures)
             fdir.mkdir(parents=True, exist_ok=True)
             if self.valve is not None:
-                plot_bode(self.valve, fdir / "valve_bode.png")
+                save_figure(plot_bode(self.valve), fdir / "valve_bode.png", overwrite=overwrite)
                 written["valve_bode"] = fdir / "valve_bode.png"
             if self.dead_zone is not None:
-                plot_dead_zone(self.dead_zone, fdir / "dead_zone.png")
+                save_figure(
+                    plot_dead_zone(self.dead_zone), fdir / "dead_zone.png", overwrite=overwrite
+                )
                 written["dead_zone"] = fdir / "dead_zone.png"
             if self.friction is not None:
-                plot_stribeck(self.friction, fdir / "stribeck.png")
+                save_figure(
+                    plot_stribeck(self.friction), fdir / "stribeck.png", overwrite=overwrite
+                )
                 written["stribeck"] = fdir / "stribeck.png"
         return written
 

@@ -1,4 +1,5 @@
-"""Figures 1–2 equivalents and Tables IV–IX as files (markdown and CSV)."""
+"""Figures 1–2 (curves computed here, drawn by :mod:`hydropwa.plotting`) and Tables IV–IX as
+files (markdown and CSV)."""
 
 from __future__ import annotations
 
@@ -7,69 +8,58 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_path, atomic_write_text
+from .._io import atomic_write_text
+from ._cells import cq_shape, cqp_shape
 
-__all__ = ["plot_cq", "plot_cqp", "write_figures", "write_tables"]
-
-
-def plot_cq(model, p_s: float | None = None):
-    """Fig. 1: Ĉ_q of Eq. (18) and its PWA cells C_q (20) over P_L, z > 0. Returns the Figure."""
-    from matplotlib.figure import Figure
-
-    ps = model.supply_pressure if p_s is None else float(p_s)
-    p_l = np.linspace(-ps, ps * 0.99999, 2000)
-    K = model.params.flow.K
-    exact = K * np.sqrt(np.maximum(0.5 * (ps - p_l), 0.0))
-    cells = model.cells_at(ps)["cq"]
-    fig = Figure(figsize=(6, 4))
-    ax = fig.add_subplot()
-    ax.plot(p_l / 1e5, exact * 1e3, label=r"$\hat C_q$, Eq. (18)")
-    ax.plot(p_l / 1e5, cells(p_l) * 1e3, "--", label=f"PWA $C_q$, {cells.n_cells} cells")
-    ax.plot(cells.breakpoints / 1e5, cells(cells.breakpoints) * 1e3, "k.", label="breakpoints")
-    ax.set_xlabel(r"$P_L$ [bar]")
-    ax.set_ylabel(r"$C_q$ [L/s per unit opening]")
-    ax.set_title(f"Fig. 1: C_q at P_S = {ps / 1e5:.1f} bar")
-    ax.legend()
-    ax.grid(True, alpha=0.3)
-    return fig
+__all__ = ["cq_figure", "cqp_figure", "write_figures", "write_tables"]
 
 
-def plot_cqp(model, p_s: float | None = None, openings=(1.0, 0.6, 0.3)):
-    """Fig. 2: Ĉ_qp of Eq. (19) and its PWA cells (21) for several openings z. Returns the Figure."""
-    from matplotlib.figure import Figure
+def cq_figure(model, p_s: float | None = None):
+    """Fig. 1 of ``model``: Ĉ_q of Eq. (18) and its PWA cells (20) over P_L at P_S = ``p_s`` [Pa].
+
+    The curve is computed here (Ĉ_q = K·r·√(1 − P_L/P_e), :func:`cq_shape`, with the edge
+    pressure P_e and root r of :meth:`PwaModel.edge_pressure`: P_S and √(P_S/2) in the paper
+    form, the single-rod values in the asymmetric form) and drawn by
+    :func:`hydropwa.plotting.plot_cq`. Returns the figure.
+    """
+    from ..plotting import plot_cq  # deferred: matplotlib loads only when plotting
 
     ps = model.supply_pressure if p_s is None else float(p_s)
-    hi = ps * min(model.cqp.interval[1], 0.999)
-    p_l = np.linspace(-ps, hi, 2000)
-    K = model.params.flow.K
-    cells = model.cells_at(ps)["cqp"]
-    fig = Figure(figsize=(6, 4))
-    ax = fig.add_subplot()
-    for z in openings:
-        exact = z * K / (4 * np.sqrt(0.5 * (ps - p_l)))
-        (line,) = ax.plot(p_l / 1e5, exact * 1e12, label=f"$\\hat C_{{qp}}$, z = {z:g}")
-        ax.plot(p_l / 1e5, z * cells(p_l) * 1e12, "--", color=line.get_color())
-    ax.set_xlabel(r"$P_L$ [bar]")
-    ax.set_ylabel(r"$C_{qp}$ [$10^{-12}$ m³/(s·Pa)]")
-    ax.set_title(f"Fig. 2: C_qp (dashed: {cells.n_cells} PWA cells), P_S = {ps / 1e5:.1f} bar")
-    ax.legend()
-    ax.grid(True, alpha=0.3)
-    return fig
+    pe, root = model.edge_pressure(ps, 1)
+    p_l = np.linspace(-0.999 * ps, 0.999 * pe, 800)
+    exact = model.params.flow.K * root * cq_shape(p_l / pe)
+    return plot_cq(p_l, exact, model.cells_at(ps)["cq"], supply_pressure=ps)
 
 
-def write_figures(model, folder: str | os.PathLike) -> list[Path]:
-    """Write fig1_cq and fig2_cqp as PNG and SVG into ``folder``; return the paths."""
-    import matplotlib
+def cqp_figure(model, p_s: float | None = None, openings=(0.25, 0.5, 0.75, 1.0)):
+    """Fig. 2 of ``model``: Ĉ_qp of Eq. (19) and its PWA cells (21) for several openings z.
 
-    matplotlib.use("Agg", force=False)
+    Ĉ_qp = z·K/(4r)·1/√(1 − P_L/P_e) (:func:`cqp_shape`; P_e, r as in :func:`cq_figure`),
+    drawn by :func:`hydropwa.plotting.plot_cqp` up to the fitted interval. Returns the figure.
+    """
+    from ..plotting import plot_cqp  # deferred: matplotlib loads only when plotting
+
+    ps = model.supply_pressure if p_s is None else float(p_s)
+    pe, root = model.edge_pressure(ps, 1)
+    p_l = np.linspace(-0.999 * ps, min(model.cqp.interval[1], 0.95) * pe, 800)
+    scale = model.params.flow.K / (4.0 * root)
+    exact = {float(z): z * scale * cqp_shape(p_l / pe) for z in openings}
+    return plot_cqp(p_l, exact, model.cells_at(ps)["cqp"], supply_pressure=ps)
+
+
+def write_figures(model, folder: str | os.PathLike, *, overwrite: bool = True) -> list[Path]:
+    """Write fig1_cq and fig2_cqp as PNG and SVG into ``folder``; return the paths.
+
+    ``overwrite`` as in :func:`hydropwa.plotting.save_figure` (the CLI checks the folder
+    with ``--force`` first).
+    """
+    from ..plotting import save_figure  # deferred: matplotlib loads only when plotting
+
     out = []
     folder = Path(folder)
-    for name, fig in (("fig1_cq", plot_cq(model)), ("fig2_cqp", plot_cqp(model))):
+    for name, fig in (("fig1_cq", cq_figure(model)), ("fig2_cqp", cqp_figure(model))):
         for ext in ("png", "svg"):
-            path = folder / f"{name}.{ext}"
-            with atomic_path(path) as tmp:
-                fig.savefig(tmp, format=ext, dpi=150, bbox_inches="tight")
-            out.append(path)
+            out.append(save_figure(fig, folder / f"{name}.{ext}", dpi=150, overwrite=overwrite))
     return out
 
 

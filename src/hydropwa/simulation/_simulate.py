@@ -177,11 +177,15 @@ class SimulationResult:
             f"{path}: a simulation result is written as .csv or .parquet, not {suffix or 'no suffix'!r}"
         )
 
-    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s")):
-        """Plot channels against time in engineering units (%, mm, bar); returns the figure."""
-        from ..evaluation.plots import plot_result
+    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s"), *, ax=None):
+        """Plot channels against time in engineering units (%, mm, bar); returns the figure.
 
-        return plot_result(self, channels=channels)
+        See :func:`hydropwa.plotting.plot_result` (one axes per display unit; ``ax`` to draw
+        into given axes).
+        """
+        from ..plotting import plot_result  # deferred: matplotlib loads only when plotting
+
+        return plot_result(self, channels=channels, ax=ax)
 
     def occupancy(self) -> dict[str, dict[int, float]]:
         """PWA only: fraction of time each cell of each nonlinearity is active."""

@@ -1,0 +1,277 @@
+"""Figures of time series: simulation results and runs, the evaluation figures (Figs. 9–13),
+``compare``'s model-against-reference plot and closed-loop runs.
+
+Inputs are duck-typed: a result is anything with ``channels`` (name → SI array, ``t``
+included), like :class:`~hydropwa.SimulationResult` and :class:`~hydropwa.data.Run`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+
+from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
+
+__all__ = [
+    "plot_result",
+    "plot_evaluation",
+    "plot_compare",
+    "plot_closed_loop",
+    "plot_supply_pressure",
+]
+
+_AxesArg = Axes | Sequence[Axes] | None
+
+
+def _display(ch: str) -> tuple[str, float, str]:
+    return DISPLAY.get(ch, (ch, 1.0, ""))
+
+
+def plot_result(
+    result: Any, channels: Sequence[str] = ("u", "x", "p_a", "p_b", "p_s"), *, ax: _AxesArg = None
+) -> Any:
+    """Channels of a result (or run) against time, one axes per display unit (%, mm, bar, N).
+
+    Parameters
+    ----------
+    result : SimulationResult or Run
+        ``channels`` holds ``t`` [s] and the channels in SI; ``model`` or ``name`` titles it.
+    channels : sequence of str
+        Channels to draw; those the result lacks are skipped.
+    ax : sequence of Axes, optional
+        One per display unit among the drawn channels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    groups: dict[str, list[str]] = {}
+    for ch in channels:
+        if ch in result.channels:
+            groups.setdefault(_display(ch)[2], []).append(ch)
+    fig, axes = new_figure(
+        max(1, len(groups)), 1, ax=ax, sharex=True, figsize=(7.5, 1.9 * len(groups) + 0.8)
+    )
+    t = result.channels["t"]
+    for a, (unit, names) in zip(axes[:, 0], groups.items(), strict=False):
+        for ch in names:
+            label, fac, _ = _display(ch)
+            a.plot(t, result.channels[ch] * fac, label=label, lw=1.0)
+        a.set_ylabel(unit or "1")
+        a.grid(True, alpha=0.3)
+        a.legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time [s]")
+    title = getattr(result, "model", None) or getattr(result, "name", "")
+    if title:
+        axes[0, 0].set_title(f"{title}")
+    return fig
+
+
+def plot_evaluation(
+    result: Any,
+    models: Sequence[str] | None = None,
+    channels: Sequence[str] = ("u", "x", "p_l"),
+    smooth: float = 0.01,
+    *,
+    ax: _AxesArg = None,
+) -> Any:
+    """Measurement and model outputs over time, like Figs. 10–13 of the paper.
+
+    Parameters
+    ----------
+    result : EvaluationResult
+        ``measured`` (channel → SI array, ``t`` included), ``simulations`` (variant → result),
+        ``meta`` (``amplitude`` [1], ``frequency`` [Hz]) and ``run`` (its name).
+    models : sequence of str, optional
+        Variants to draw (default: all simulated).
+    channels : sequence of str
+        One axes each (``u`` shows the command only).
+    smooth : float
+        Moving-average window [s] applied to the measurement for display only (Sec. VII).
+    ax : sequence of Axes, optional
+        One per channel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    meas = result.measured
+    t = meas["t"] - meas["t"][0]
+    dt = float(np.median(np.diff(meas["t"]))) if t.size > 1 else 1.0
+    n = max(1, int(round(smooth / dt)))
+    models = list(result.simulations) if models is None else list(models)
+    fig, axes = new_figure(
+        len(channels), 1, ax=ax, sharex=True, figsize=(7.5, 1.9 * len(channels) + 0.9)
+    )
+    for a, ch in zip(axes[:, 0], channels, strict=True):
+        label, fac, unit = _display(ch)
+        if ch in meas:
+            y = meas[ch] if ch == "u" else moving_average(meas[ch], n)
+            # drawn over the models (zorder) and dashed, so a model that fits does not hide it
+            a.plot(
+                t,
+                y * fac,
+                color="k",
+                lw=1.2,
+                ls="--" if ch != "u" else "-",
+                zorder=10,
+                label="command" if ch == "u" else "measurement",
+            )
+        if ch != "u":
+            for m in models:
+                res = result.simulations[m]
+                color, ls, lab = MODEL_STYLE.get(m, ("gray", "-", m))
+                a.plot(
+                    res.t - meas["t"][0],
+                    res.channels[ch] * fac,
+                    color=color,
+                    ls=ls,
+                    lw=1.1,
+                    label=lab,
+                )
+        a.set_ylabel(f"{label} [{unit}]")
+        a.grid(True, alpha=0.3)
+    handles, labels = axes[-1, 0].get_legend_handles_labels()
+    if ax is None:
+        fig.legend(
+            handles,
+            labels,
+            loc="outside lower center",
+            ncol=min(len(labels), 3) or 1,
+            fontsize=8,
+            frameon=False,
+        )
+    else:
+        axes[-1, 0].legend(fontsize=8)
+    axes[-1, 0].set_xlabel("time from the start of the compared period [s]")
+    amp, freq = result.meta.get("amplitude"), result.meta.get("frequency")
+    what = f"{100 * amp:g} % valve opening, {freq:g} Hz" if amp and freq else result.run
+    axes[0, 0].set_title(f"Measurement and simulation, sine with {what}", fontsize=10)
+    return fig
+
+
+def plot_compare(
+    t: Any,
+    reference: Any,
+    outputs: Mapping[str, Any],
+    *,
+    channel: str = "x",
+    reference_label: str = "reference",
+    ax: Axes | None = None,
+) -> Any:
+    """Model outputs under a reference signal (the drawing of :func:`hydropwa.evaluation.compare`).
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s].
+    reference : array_like
+        The reference channel in SI, drawn last, dashed black, over the models.
+    outputs : mapping of str to array_like
+        Legend label (e.g. ``"pwa (93.1 %)"``) → model output in SI on ``t``.
+    channel : str
+        Channel name, for the axis label and display unit.
+    reference_label : str
+        Legend label of the reference.
+    ax : Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, axes = new_figure(ax=ax, figsize=(8.0, 3.5))
+    a = axes[0, 0]
+    label, fac, unit = _display(channel)
+    t = np.asarray(t, dtype=float)
+    for lbl, y in outputs.items():
+        a.plot(t, np.asarray(y, dtype=float) * fac, lw=1.2, label=lbl)
+    a.plot(
+        t,
+        np.asarray(reference, dtype=float) * fac,
+        color="black",
+        lw=1.0,
+        ls="--",
+        label=reference_label,
+        zorder=10,
+    )
+    a.set_xlabel("time [s]")
+    a.set_ylabel(f"{label} [{unit or 'SI'}]")
+    a.legend(loc="best", fontsize="small", title="fit (NRMSE)")
+    a.grid(True, alpha=0.3)
+    return fig
+
+
+_LOOP_COLORS = {"full": "C0", "reduced": "C1", "pwa": "C2"}
+
+
+def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = None) -> Any:
+    """Reference and position, following error and valve command of closed-loop runs.
+
+    Parameters
+    ----------
+    results : SimulationResult or dict of str to SimulationResult
+        Closed-loop results (channels ``reference``, ``x``, ``error`` [m], ``control`` with
+        ``t`` [s] and ``u`` [1]), e.g. one controller on the full, reduced and PWA models.
+    title : str, optional
+    ax : sequence of three Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(results, Mapping):
+        results = {results.model: results}
+    fig, axes = new_figure(3, 1, ax=ax, sharex=True, figsize=(8.0, 7.0))
+    a = axes[:, 0]
+    for i, (name, res) in enumerate(results.items()):
+        c = _LOOP_COLORS.get(name)
+        if i == 0:
+            a[0].plot(res.t, res["reference"] * 1e3, "k--", lw=1.0, label="reference")
+        a[0].plot(res.t, res["x"] * 1e3, color=c, lw=1.0, label=name)
+        a[1].plot(res.t, res["error"] * 1e3, color=c, lw=1.0, label=name)
+        a[2].step(
+            res.control["t"], res.control["u"] * 100.0, where="post", color=c, lw=0.8, label=name
+        )
+    a[0].set_ylabel("rod position [mm]")
+    a[1].set_ylabel("following error [mm]")
+    a[2].set_ylabel("valve command [%]")
+    a[2].set_xlabel("time [s]")
+    for ax_ in a:
+        ax_.grid(True, alpha=0.3)
+        ax_.legend(loc="upper right", fontsize=8)
+    if title:
+        a[0].set_title(title)
+    return fig
+
+
+def plot_supply_pressure(
+    t: Any, supply_pressure: Any, *, name: str = "", ax: Axes | None = None
+) -> Any:
+    """Fig. 9: the supply pressure recorded during an evaluation run.
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s] (drawn from its first sample).
+    supply_pressure : array_like
+        P_S [Pa].
+    name : str
+        Run name, for the title.
+    ax : Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(t, dtype=float)
+    fig, axes = new_figure(ax=ax, figsize=(6.0, 3.0))
+    a = axes[0, 0]
+    a.plot(t - t[0], np.asarray(supply_pressure, dtype=float) / 1e5, "k", lw=0.8)
+    a.set_xlabel("time [s]")
+    a.set_ylabel("P_S [bar]")
+    a.set_title(f"Fig. 9: supply pressure during {name}".rstrip(), fontsize=10)
+    a.grid(True, alpha=0.3)
+    return fig
