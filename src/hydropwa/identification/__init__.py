@@ -10,7 +10,9 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 from ._common import (
     ESTIMATOR_CHANNELS,
     IdentificationWarning,
+    OptimizerStatus,
     ParameterEstimate,
+    RigGeometry,
     SkippedRun,
     estimator_view,
     sandwich_covariance,
@@ -36,7 +38,11 @@ from ._frf import (
     stepped_sine_point,
 )
 from ._friction import (
+    BreakawayConstrained,
     BreakawayRun,
+    FrictionMethod,
+    InstantaneousBins,
+    SteadyStateAverage,
     FrictionPoint,
     StribeckFit,
     StribeckIdentifier,
@@ -64,7 +70,14 @@ from ._inverse_dynamics import (
     identify_emps,
     identify_inverse_dynamics,
 )
-from ._pipeline import PARTS, IdentificationReport, identify, load_runs
+from ._pipeline import (
+    PARTS,
+    Estimator,
+    IdentificationReport,
+    default_estimators,
+    identify,
+    load_runs,
+)
 from ._plots import (
     plot_bode,
     plot_dead_zone,
@@ -132,4 +145,12 @@ __all__ = [
     "plot_greybox_fit",
     "plot_greybox_profiles",
     "plot_greybox_residuals",
+    "OptimizerStatus",
+    "RigGeometry",
+    "SteadyStateAverage",
+    "InstantaneousBins",
+    "BreakawayConstrained",
+    "FrictionMethod",
+    "Estimator",
+    "default_estimators",
 ]
