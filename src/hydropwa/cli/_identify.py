@@ -110,7 +110,7 @@ def _run(
     band: str | None = None,
     dead_zone_form: str | None = None,
 ) -> None:
-    from hydropwa.identification import identify
+    from hydropwa.identification import DeadZoneIdentifier, ValveFrfIdentifier, identify
 
     from ._core import resolve_params
 
@@ -127,11 +127,19 @@ def _run(
         if figures is not None:
             check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
         frf_opts, dz_opts = _options(band, dead_zone_form)
-        params = resolve_params(base) if base else None
+        params = resolve_params(base)  # --base-params, else the paper preset (its --help says so)
         from ._progress import step
 
         with step(f"identifying {', '.join(parts)} from {data_dir}"):
-            report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
+            report = identify(
+                data_dir,
+                parts,
+                params=params,
+                estimators={
+                    "frf": ValveFrfIdentifier(**frf_opts),
+                    "deadzone": DeadZoneIdentifier(params, **dz_opts),
+                },
+            )
         with step("writing parameters, figures and summary"):
             written = report.save(
                 out, figures, summary, overwrite=True
@@ -334,7 +342,7 @@ def model(
             if base_params and Path(base_params).is_file()
             else get_preset(base_params or "paper")
         )
-        runs = load_runs(data_dir)
+        runs = load_runs(data_dir, params=params)
         chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
         fit = fit_model(
             model_kind,

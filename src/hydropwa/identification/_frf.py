@@ -22,7 +22,6 @@ from .._errors import IdentificationError
 from ..params import ServoValve, SystemParams
 from ._common import (
     OptimizerStatus,
-    not_fitted,
     ParameterEstimate,
     SkippedRun,
     as_runs,
@@ -30,6 +29,7 @@ from ._common import (
     correlation,
     covariance_from_jacobian,
     estimate,
+    not_fitted,
     require_usable,
     sandwich_covariance,
     signal_value,

@@ -16,9 +16,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
-from .._errors import IdentificationError
+from .._errors import IdentificationError, ParameterError
 from .._io import atomic_write_text
-from .._errors import ParameterError
 from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
