@@ -618,7 +618,8 @@ class DeadZoneIdentifier:
         return (
             f"Sec. VI-B: {len(self.points_)} constant-input runs, "
             f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
-            f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}"
+            f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}; "
+            f"optimiser: {fit.status}"
         )
 
     def uncertainty(self) -> dict:
@@ -637,6 +638,7 @@ class DeadZoneIdentifier:
                 if f.drift_pos is not None and f.drift_neg is not None
                 else {}
             ),
+            "optimizer": dataclasses.asdict(f.status),
         }
 
 

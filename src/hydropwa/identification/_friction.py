@@ -817,6 +817,12 @@ def _fit_stribeck_bounded(
         grid.append(tuple(rng.uniform(lo_s, hi_s)))
     grid = [tuple(np.clip(g, lo_s + 1e-6, hi_s - 1e-6)) for g in grid]
     xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[free_idx]
+
+    def x_scale(p: np.ndarray) -> np.ndarray:
+        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3); every stage
+        # needs it: without it the robust refits ran out of evaluations (600) before converging
+        return np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p), fscale * 0.05), xs)
+
     results = []
     for lc, d, lg in grid[: max(n_starts, 1)]:
         th0 = np.empty(6)
@@ -827,10 +833,8 @@ def _fit_stribeck_bounded(
         for i, val in fixed_th.items():
             th0[i] = val
         p0 = np.clip(th0[free_idx], lb + 1e-9, ub - 1e-9)
-        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3)
-        x_scale = np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p0), fscale * 0.05), xs)
         results.append(
-            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf")
+            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale(p0), method="trf")
         )
     best = min(results, key=lambda r: r.cost)
     nfev = sum(int(r.nfev) for r in results)
@@ -853,7 +857,8 @@ def _fit_stribeck_bounded(
 
         ranked = sorted(results, key=lambda r: r.cost)[:4]
         results = [
-            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), method="trf") for r in ranked
+            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), x_scale=x_scale(r.x), method="trf")
+            for r in ranked
         ]
         best = min(results, key=lambda r: r.cost)
         nfev += sum(int(r.nfev) for r in results)
@@ -861,7 +866,14 @@ def _fit_stribeck_bounded(
         ranked = sorted(results, key=lambda r: r.cost)[:4]
         robust = [
             least_squares(
-                resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf"
+                resid,
+                r.x,
+                jac=jac,
+                bounds=(lb, ub),
+                x_scale=x_scale(r.x),
+                loss=loss,
+                f_scale=scale_n,
+                method="trf",
             )
             for r in ranked
         ]
