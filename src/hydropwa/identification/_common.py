@@ -115,7 +115,9 @@ class RigGeometry:
             if val is None:
                 continue
             if not (isinstance(val, int | float) and np.isfinite(val) and val > 0):
-                raise ParameterError(f"RigGeometry.{name} = {val!r} {unit} must be a positive number")
+                raise ParameterError(
+                    f"RigGeometry.{name} = {val!r} {unit} must be a positive number"
+                )
 
     @classmethod
     def of(cls, params: Any) -> RigGeometry:

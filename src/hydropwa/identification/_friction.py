@@ -1080,9 +1080,7 @@ def _positive(obj: Any, *names: str) -> None:
     for name in names:
         val = getattr(obj, name)
         if not (isinstance(val, int | float) and np.isfinite(val) and val > 0):
-            raise ParameterError(
-                f"{type(obj).__name__}.{name} = {val!r} must be a positive number"
-            )
+            raise ParameterError(f"{type(obj).__name__}.{name} = {val!r} must be a positive number")
 
 
 class StribeckIdentifier:
@@ -1488,7 +1486,9 @@ class StribeckIdentifier:
         if not hasattr(self, "fit_"):
             raise not_fitted("StribeckIdentifier")
         points = self._points
-        kind = "steady-state" if isinstance(points, SteadyStateAverage) else "per-sample velocity-bin"
+        kind = (
+            "steady-state" if isinstance(points, SteadyStateAverage) else "per-sample velocity-bin"
+        )
         brk = self.breakaway_
         return (
             f"Sec. VI-C: {len(self.points_)} {kind} points (method {self.method.name}), Eq. (10) "
