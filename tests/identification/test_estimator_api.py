@@ -222,3 +222,33 @@ def test_identify_refuses_an_estimator_under_the_wrong_part():
     runs = constant_input_runs(LEVELS, lambda u: hinge_velocity(u, 0.1, 0.5, 0.02), duration=1.0)
     with pytest.raises(ParameterError, match=r"estimators\['frf'\] = DeadZoneIdentifier"):
         identify(runs, ["deadzone"], params=p, estimators={"frf": DeadZoneIdentifier(p)})
+
+
+# ------------------------------------------------------------------ γ profile (issue 18)
+
+#: Stribeck points of the paper rig, coverage campaign (tests/identification/test_coverage.py),
+#: seed 20: one creeping run at 1.5 mm/s on the tanh corner. Before the γ profile its F_s
+#: interval was 161.0 ± 0.7 N, 19σ from the truth (174.8 N).
+_SEED20_V = [-0.10749519, -0.09776071, -0.08780923, -0.07763068, -0.06723438, -0.05660841,
+             -0.04575522, -0.03466462, -0.02334668, -0.01181749, 0.00151009, 0.01600717,
+             0.03169814, 0.04714376, 0.06233294, 0.07727005, 0.09195619, 0.10639711,
+             0.12059118, 0.13453693, 0.14824614]  # fmt: skip
+_SEED20_F = [-148.1374, -138.153, -127.5945, -117.212, -107.5693, -98.5344, -91.416, -87.2968,
+             -88.743, -102.9931, 144.8029, 95.4014, 86.7638, 91.7029, 103.2847, 117.0165,
+             131.7637, 147.1416, 162.9918, 178.1684, 193.7144]  # fmt: skip
+
+
+def test_intervals_include_the_gamma_the_data_cannot_pin():
+    true = get_preset("paper").friction
+    v, f = np.array(_SEED20_V), np.array(_SEED20_F)
+    fit = fit_stribeck(v, f)
+    assert "smoothness" in fit.weak and "γ profiled" in fit.status.message
+    # the true γ fits as well as the optimum by the F criterion the profile uses ...
+    at_true = fit_stribeck(v, f, fixed={"smoothness": true.smoothness}, n_starts=8)
+    ssr0, ssr1 = np.sum(fit.residuals**2), np.sum(at_true.residuals**2)
+    assert ssr1 - ssr0 <= 3.84 * ssr0 / (v.size - 6)
+    # ... so every interval holds the value of that fit, and here the truth
+    for name in ("coulomb", "static", "viscous", "stribeck_velocity", "shape"):
+        lo, hi = fit.estimates[name].ci
+        assert lo <= getattr(at_true.friction, name) <= hi, name
+        assert lo <= getattr(true, name) <= hi, name
