@@ -80,6 +80,6 @@ def test_simulate_then_identify_uses_every_simulated_run():
             runs.append(
                 res.to_run(f"dz_{sign * u:+.2f}", meta={"kind": "deadzone", "level": sign * u})
             )
-    rep = identify(runs, ["deadzone"], base_params=p)
+    rep = identify(runs, ["deadzone"], params=p)
     assert rep.skipped == [] and len(rep.dead_zone.points_) == len(runs)
     assert abs(rep.params.dead_zone.beta - p.dead_zone.beta) < 0.005

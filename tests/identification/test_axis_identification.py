@@ -141,7 +141,7 @@ def test_identify_and_the_paper_study_use_the_same_runs(tmp_path, small):
     runs[3] = runs[3].replace(channels={**runs[3].channels, "x": x})
     write_dataset(runs, tmp_path / "c" / "deadzone", meta={"experiment": "deadzone"})
     with pytest.warns(IdentificationWarning, match="spike"):
-        rep = identify(tmp_path / "c", ["deadzone"], base_params=small)
+        rep = identify(tmp_path / "c", ["deadzone"], params=small)
     notes: list[str] = []
     fitted = _identify(tmp_path / "c", small, notes)
     assert list(fitted["deadzone"].points_["run"]) == list(rep.dead_zone.points_["run"])
@@ -153,14 +153,14 @@ def test_identify_and_the_paper_study_use_the_same_runs(tmp_path, small):
 def test_runs_without_kind_are_routed_by_their_folder(tmp_path, small_frf, small):
     runs = [_with_meta(r, kind=None, experiment=None) for r in _runs(small_frf / "frf")]
     write_dataset(runs, tmp_path / "c" / "frf")
-    rep = identify(tmp_path / "c", ["frf"], base_params=small)
+    rep = identify(tmp_path / "c", ["frf"], params=small)
     assert len(rep.valve.fits_) >= 3
     # in a folder with another name, the error says which key is missing
     write_dataset(runs, tmp_path / "d" / "measurements")
     with pytest.raises(
         IdentificationError, match=r"say no kind.*\"kind\": \"frf\".*folder named frf/"
     ):
-        identify(tmp_path / "d", ["frf"], base_params=small)
+        identify(tmp_path / "d", ["frf"], params=small)
 
 
 def test_frf_amplitude_in_percent_keeps_the_omega0_schedule(small_frf, small):
@@ -169,7 +169,7 @@ def test_frf_amplitude_in_percent_keeps_the_omega0_schedule(small_frf, small):
         _with_meta(r, amplitude=100 * r.meta["amplitude"], opening=100 * r.meta["opening"])
         for r in runs
     ]
-    rep = identify(pct, ["frf"], base_params=small)
+    rep = identify(pct, ["frf"], params=small)
     table = dict(rep.params.valve.omega0_table)
     assert sorted(table) == [0.1, 0.25, 0.9]
     for a, w0 in table.items():
@@ -179,7 +179,7 @@ def test_frf_amplitude_in_percent_keeps_the_omega0_schedule(small_frf, small):
         IdentificationWarning, match=r"write it as a fraction \(0\.4\) or with a unit \('40 %'\)"
     ):
         with pytest.raises(IdentificationError):
-            identify(bad, ["frf"], base_params=small)
+            identify(bad, ["frf"], params=small)
 
 
 def test_dead_zone_form_from_cli_and_base_params_and_provenance(tmp_path, small):
@@ -257,7 +257,7 @@ def test_dead_zone_fit_separates_leakage_under_load_from_valve_creep(tmp_path):
         }
     )
     run_campaign(Rig(params=p), camp, tmp_path)
-    dz = DeadZoneIdentifier(base_params=p).fit(load_runs(tmp_path, base_params=p))
+    dz = DeadZoneIdentifier(p).fit(load_runs(tmp_path, params=p))
     assert dz.dead_zone_.creep_slope < 0.005
     assert abs(dz.dead_zone_.beta - 0.03) < 0.005
     assert dz.fit_.drift_pos.value > 0.5e-3  # leakage under load moves the rod ~1 mm/s
@@ -268,7 +268,7 @@ def test_dead_zone_fit_separates_leakage_under_load_from_valve_creep(tmp_path):
 # --------------------------------------------------------------------------- broadband
 def test_broadband_frf_end_to_end(tmp_path, small_frf, small):
     runs = [r for r in _runs(small_frf / "frf") if "excitation" in r.meta]
-    rep = identify(runs, ["frf"], base_params=small)
+    rep = identify(runs, ["frf"], params=small)
     for amp, fit in rep.valve.fits_.items():
         frf = rep.valve.frf_[amp]
         assert (

@@ -12,6 +12,7 @@ from hydropwa.data import Run
 from hydropwa.identification import (
     DeadZoneIdentifier,
     IdentificationWarning,
+    RigGeometry,
     StribeckIdentifier,
     ValveFrfIdentifier,
 )
@@ -79,7 +80,7 @@ def test_no_steady_state_is_skipped():
         name="accelerating", channels={**runs[0].channels, "x": 0.02 + 0.15 * t**2}
     )
     with pytest.warns(IdentificationWarning, match="accelerating.*no steady state"):
-        ident = StribeckIdentifier(base_params=p).fit(runs + [accel])
+        ident = StribeckIdentifier(p).fit(runs + [accel])
     assert [s.run for s in ident.skipped_] == ["accelerating"]
 
 
@@ -90,11 +91,11 @@ def test_run_that_hits_the_end_stop_is_skipped_or_truncated():
         0
     ].replace(name="fast")
     with pytest.warns(IdentificationWarning, match="fast.*hit the end stop"):
-        ident = DeadZoneIdentifier().fit(good + [fast])
+        ident = DeadZoneIdentifier(geometry=RigGeometry(stroke=0.2)).fit(good + [fast])
     assert ident.skipped_[0].run == "fast"
     # a run that reaches the stop late is truncated, not skipped
     late = constant_input_runs([0.19], lambda u: 0.3, duration=1.0)[0].replace(name="late")
-    ident = DeadZoneIdentifier().fit(good[1:] + [late])
+    ident = DeadZoneIdentifier(geometry=RigGeometry(stroke=0.2)).fit(good[1:] + [late])
     row = ident.points_.set_index("run").loc["late"]
     assert bool(row["hit_stop"]) and row["v"] == pytest.approx(0.3, rel=1e-3)
 
@@ -108,6 +109,6 @@ def test_nothing_usable_is_one_clear_error():
         pytest.warns(IdentificationWarning),
         pytest.raises(IdentificationError, match="0 usable run"),
     ):
-        DeadZoneIdentifier().fit(runs)
+        DeadZoneIdentifier(geometry=RigGeometry(stroke=0.2)).fit(runs)
     with pytest.raises(IdentificationError, match="no runs"):
         ValveFrfIdentifier().fit([])

@@ -113,7 +113,7 @@ def coverage(machine: str, seeds, tmp: Path, jobs: int = 1, log=None) -> dict[st
         run_campaign(Rig(params=p), camp, out, jobs=jobs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentificationWarning)
-            rep = identify(out, base_params=p)
+            rep = identify(out, params=p)
         est = _intervals(rep)
         for k, v in truth.items():
             lo, hi = est[k].ci

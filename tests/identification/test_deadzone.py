@@ -8,6 +8,7 @@ from ident_support import constant_input_runs, hinge_velocity
 
 from hydropwa.identification import (
     DeadZoneIdentifier,
+    RigGeometry,
     dead_zone_velocity,
     fit_dead_zone,
     velocity_from_position,
@@ -57,7 +58,7 @@ def test_identifier_on_runs():
     runs = constant_input_runs(
         LEVELS, lambda u: hinge_velocity(u, beta, gain, 0.04 * gain), duration=1.0
     )
-    ident = DeadZoneIdentifier().fit(runs)
+    ident = DeadZoneIdentifier(geometry=RigGeometry(stroke=0.2)).fit(runs)
     assert ident.skipped_ == []
     assert abs(ident.dead_zone_.beta - beta) < 0.005
     assert ident.dead_zone_.creep_slope == pytest.approx(0.04, abs=0.005)

@@ -140,7 +140,7 @@ def test_identifier_on_runs_recovers_the_preset_curve():
         )
         for i, v in enumerate(speeds)
     ]
-    ident = StribeckIdentifier(base_params=p).fit(runs)
+    ident = StribeckIdentifier(p).fit(runs)
     assert ident.skipped_ == []
     vv = np.linspace(0.005, 0.17, 50)
     model = stribeck_friction(
@@ -170,7 +170,7 @@ def test_oscillating_run_is_flagged():
     t = runs[0]["t"]
     p_a = runs[0]["p_a"] + 100.0 / p.cylinder.area_a * np.sin(2 * np.pi * 40.0 * t)
     runs[0] = runs[0].replace(channels={**runs[0].channels, "p_a": p_a})
-    ident = StribeckIdentifier(base_params=p).fit(runs)
+    ident = StribeckIdentifier(p).fit(runs)
     flagged = ident.points_.set_index("run")["oscillating"]
     assert flagged["fr_0"] and flagged.sum() == 1
     assert ident.notes_ and "oscillate" in ident.notes_[0]

@@ -34,7 +34,7 @@ def identified(request, tmp_path_factory):
     run_campaign(Rig(params=true), load_campaign(MACHINES / "campaign.toml"), out)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", IdentificationWarning)
-        rep = identify(out, base_params=true)
+        rep = identify(out, params=true)
     return true, rep, out, [str(w.message) for w in caught]
 
 

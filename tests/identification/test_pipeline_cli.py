@@ -43,7 +43,7 @@ def _campaign(tmp_path, with_friction=True):
 
 def test_identify_writes_params_the_models_take(tmp_path):
     root = _campaign(tmp_path / "data")
-    rep = identify(root)
+    rep = identify(root, params=get_preset("paper"))
     assert rep.valve is not None and rep.dead_zone is not None and rep.friction is not None
     out = rep.save(tmp_path / "identified.toml", tmp_path / "figs")
     back = load_params(out["params"])
@@ -66,7 +66,7 @@ def test_identify_writes_params_the_models_take(tmp_path):
 def test_all_skips_a_missing_part_loudly(tmp_path):
     root = _campaign(tmp_path / "data", with_friction=False)
     with pytest.warns(IdentificationWarning, match="friction not identified"):
-        rep = identify(root)
+        rep = identify(root, params=get_preset("paper"))
     assert rep.friction is None
     assert any(s.run == "<friction>" for s in rep.skipped)
 

@@ -9,7 +9,7 @@ docs/architecture_identification.md. σ is recovered within 10 % by both methods
 (−30 … −45 %): the runs below ≈ 40–50 mm/s stick-slip at ≈ 200 Hz and cross 2–10 mm/s,
 where the Stribeck peak lies, within one 2 kHz sample, so F_s is an extrapolation.
 
-``method="breakaway"`` adds the stick-slip break-away force (net-force peaks of the slowest
+``BreakawayConstrained()`` adds the stick-slip break-away force (net-force peaks of the slowest
 stick-slip runs) as the curve's maximum. That force is measured within 7 % of the true
 curve maximum (asserted), but F_s still misses by ≈ 20 %: the maximum lies at ≈ 1.5 mm/s,
 below F_s by tanh(γẋ)·exp(−(ẋ/χ)^δ), and δ (with F_c) is not pinned by the data above
@@ -25,7 +25,15 @@ import pytest
 
 import hydropwa.rig as rig  # noqa: E402  (an ImportError of the package must fail, not skip)
 from hydropwa.components import stribeck_friction
-from hydropwa.identification import StribeckIdentifier, curve_maximum, friction_samples, load_runs
+from hydropwa.identification import (
+    BreakawayConstrained,
+    InstantaneousBins,
+    SteadyStateAverage,
+    StribeckIdentifier,
+    curve_maximum,
+    friction_samples,
+    load_runs,
+)
 from hydropwa.params import get_preset
 
 SETS = {
@@ -79,7 +87,14 @@ def campaign(request, tmp_path_factory):
     )
     out = tmp_path_factory.mktemp(f"fr_{request.param}")
     rig.run_campaign(rig.Rig(params=params), rig.parse_campaign(CAMPAIGN), out, jobs=2)
-    return request.param, params, load_runs(out)
+    return request.param, params, load_runs(out, params=params)
+
+
+_METHODS = {
+    "average": SteadyStateAverage(),
+    "instantaneous": InstantaneousBins(),
+    "breakaway": BreakawayConstrained(),
+}
 
 
 def _fit(campaign, method):
@@ -88,7 +103,7 @@ def _fit(campaign, method):
         warnings.catch_warnings()
     ):  # slow creeping runs without a steady part are skipped (average)
         warnings.simplefilter("ignore")
-        return StribeckIdentifier(base_params=params, method=method).fit(runs)
+        return StribeckIdentifier(params, method=_METHODS[method]).fit(runs)
 
 
 @pytest.mark.parametrize("method", ["average", "instantaneous", "breakaway"])
@@ -167,7 +182,7 @@ def damped_campaign(request, tmp_path_factory):
     )
     out = tmp_path_factory.mktemp(f"frd_{request.param}")
     rig.run_campaign(rig.Rig(params=params), rig.parse_campaign(DAMPED), out, jobs=2)
-    return request.param, params, load_runs(out)
+    return request.param, params, load_runs(out, params=params)
 
 
 # Measured with the damped counter cylinder, method="average" (identified vs true):

@@ -13,7 +13,7 @@ import pytest
 import hydropwa.rig as rig  # noqa: E402  (an ImportError of the package must fail, not skip)
 from hydropwa.components import stribeck_friction
 from hydropwa.identification import identify
-from hydropwa.params import TABLE_II
+from hydropwa.params import TABLE_II, get_preset
 
 CAMPAIGN = {
     "campaign": {"name": "ident-recovery", "seed": 11},
@@ -57,7 +57,7 @@ def recovered(tmp_path_factory):
     out = tmp_path_factory.mktemp("rig")
     the_rig = rig.Rig()
     rig.run_campaign(the_rig, rig.parse_campaign(CAMPAIGN), out, jobs=4)
-    return identify(out), the_rig.params
+    return identify(out, params=get_preset("paper")), the_rig.params
 
 
 def test_valve_table_ii_recovered(recovered):

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from hydropwa.data import check_run, read_dataset, read_run, write_run
+from hydropwa.params import get_preset
 
 CAMPAIGN = Path(__file__).parents[1] / "evaluation" / "small_campaign.toml"
 
@@ -74,7 +75,7 @@ def _identify(root, part):
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        report = identify(root, parts=(part,))
+        report = identify(root, parts=(part,), params=get_preset("paper"))
     messages = [str(w.message) for w in caught if issubclass(w.category, IdentificationWarning)]
     return report, messages
 
@@ -122,7 +123,7 @@ def test_nothing_sound_left_is_one_clear_error(campaign, tmp_path):
         from hydropwa.identification import identify
 
         with pytest.raises(IdentificationError):
-            identify(root, parts=("friction",))
+            identify(root, parts=("friction",), params=get_preset("paper"))
 
 
 def test_evaluation_skips_a_damaged_run_and_says_so(campaign, tmp_path):

@@ -95,7 +95,7 @@ def _run(
     band: str | None = None,
     dead_zone_form: str | None = None,
 ) -> None:
-    from hydropwa.identification import identify
+    from hydropwa.identification import DeadZoneIdentifier, ValveFrfIdentifier, identify
 
     if out.suffix.lower() != ".toml":
         raise ParameterError(f"--out {out} must end in .toml")
@@ -111,7 +111,15 @@ def _run(
     from ._progress import step
 
     with step(f"identifying {', '.join(parts)} from {data_dir}"):
-        report = identify(data_dir, parts, base_params=params, frf=frf_opts, dead_zone=dz_opts)
+        report = identify(
+            data_dir,
+            parts,
+            params=params,
+            estimators={
+                "frf": ValveFrfIdentifier(**frf_opts),
+                "deadzone": DeadZoneIdentifier(params, **dz_opts),
+            },
+        )
     with step("writing parameters, figures and summary"):
         written = report.save(out, figures, summary, overwrite=True)  # checked with --force above
     for role, path in written.items():
@@ -314,7 +322,7 @@ def model(
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
     params = resolve_params(params_source(params_src, base_params))
-    runs = load_runs(data_dir)
+    runs = load_runs(data_dir, params=params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
     fit = fit_model(
         model_kind,

@@ -301,7 +301,7 @@ def _identify(data_root: Path, base, notes: list[str]):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", IdentificationWarning)
         try:
-            rep = identify(data_root, PARTS, base_params=base)
+            rep = identify(data_root, PARTS, params=base)
         except IdentificationError as exc:
             rep = None
             notes.append(
@@ -329,24 +329,18 @@ def _identify(data_root: Path, base, notes: list[str]):
 
 
 def _identified_params(base, fitted: dict[str, Any]):
-    changes: dict[str, Any] = {}
+    params = base
     unc: dict[str, Any] = {}
-    if "frf" in fitted:
-        changes["valve"] = fitted["frf"].valve_
-        unc["valve"] = fitted["frf"].uncertainty()
-    if "deadzone" in fitted:
-        changes["dead_zone"] = fitted["deadzone"].dead_zone_
-        unc["dead_zone"] = fitted["deadzone"].uncertainty()
-    if "friction" in fitted:
-        changes["friction"] = fitted["friction"].friction_
-        unc["friction"] = fitted["friction"].uncertainty()
+    for est in fitted.values():  # each estimator puts its values into the parameters
+        params = est.apply(params)
+        unc[est.field] = est.uncertainty()
     meta = {
         "source": "hydropwa paper study: identified "
-        + (", ".join(changes) or "nothing")
+        + (", ".join(unc) or "nothing")
         + "; the other values are the base (datasheet) parameters",
         "uncertainty": unc,
     }
-    return base.replace(**changes, meta=meta)
+    return params.replace(meta=meta)
 
 
 def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:

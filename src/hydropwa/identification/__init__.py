@@ -10,7 +10,9 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 from ._common import (
     ESTIMATOR_CHANNELS,
     IdentificationWarning,
+    OptimizerStatus,
     ParameterEstimate,
+    RigGeometry,
     SkippedRun,
     estimator_view,
     sandwich_covariance,
@@ -36,8 +38,12 @@ from ._frf import (
     stepped_sine_point,
 )
 from ._friction import (
+    BreakawayConstrained,
     BreakawayRun,
+    FrictionMethod,
     FrictionPoint,
+    InstantaneousBins,
+    SteadyStateAverage,
     StribeckFit,
     StribeckIdentifier,
     breakaway_peaks,
@@ -64,7 +70,14 @@ from ._inverse_dynamics import (
     identify_emps,
     identify_inverse_dynamics,
 )
-from ._pipeline import PARTS, IdentificationReport, identify, load_runs
+from ._pipeline import (
+    PARTS,
+    Estimator,
+    IdentificationReport,
+    default_estimators,
+    identify,
+    load_runs,
+)
 
 __all__ = [
     "ESTIMATOR_CHANNELS",
@@ -116,4 +129,12 @@ __all__ = [
     "Shooting",
     "expand_free",
     "fit_model",
+    "OptimizerStatus",
+    "RigGeometry",
+    "SteadyStateAverage",
+    "InstantaneousBins",
+    "BreakawayConstrained",
+    "FrictionMethod",
+    "Estimator",
+    "default_estimators",
 ]

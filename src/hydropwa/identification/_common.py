@@ -18,10 +18,12 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .._errors import DataError, HydropwaError, IdentificationError
+from .._errors import DataError, HydropwaError, IdentificationError, ParameterError
 
 __all__ = [
     "IdentificationWarning",
+    "OptimizerStatus",
+    "RigGeometry",
     "SkippedRun",
     "ParameterEstimate",
     "covariance_from_jacobian",
@@ -38,6 +40,125 @@ __all__ = [
 
 class IdentificationWarning(UserWarning):
     """A run was skipped or a result is weakly determined; the message says which and why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class OptimizerStatus:
+    """How the optimiser behind a fit ended (as scipy's ``OptimizeResult`` says it).
+
+    Attributes
+    ----------
+    success : bool
+        Whether the optimiser reports convergence (for a closed-form or linear fit: ``True``).
+    message : str
+        The optimiser's own one-line reason for stopping.
+    nfev : int
+        Number of evaluations of the objective (residual) function [1].
+    nit : int or None
+        Number of iterations [1] where the optimiser counts them (``None`` for
+        ``least_squares``, which reports only evaluations).
+    """
+
+    success: bool
+    message: str
+    nfev: int
+    nit: int | None = None
+
+    @classmethod
+    def from_scipy(cls, res: Any) -> OptimizerStatus:
+        """The status of a scipy ``OptimizeResult`` (``least_squares``, ``minimize``, ...)."""
+        nit = getattr(res, "nit", None)
+        return cls(
+            success=bool(getattr(res, "success", True)),
+            message=str(getattr(res, "message", "")),
+            nfev=int(getattr(res, "nfev", 0) or 0),
+            nit=None if nit is None else int(nit),
+        )
+
+    @classmethod
+    def closed_form(cls, what: str = "closed-form (linear) solution") -> OptimizerStatus:
+        """The status of a fit solved in one step (linear least squares, a formula)."""
+        return cls(success=True, message=what, nfev=1, nit=None)
+
+    def __str__(self) -> str:
+        it = "" if self.nit is None else f", {self.nit} iterations"
+        ok = "converged" if self.success else "NOT converged"
+        return f"{ok}: {self.message} ({self.nfev} evaluations{it})"
+
+
+@dataclasses.dataclass(frozen=True)
+class RigGeometry:
+    """What an estimator must know of the rig to turn measurements into valve or friction values.
+
+    Give it to an estimator as ``geometry=`` when no full :class:`~hydropwa.params.SystemParams`
+    is at hand; :meth:`of` takes it from one. An estimator says which fields it needs and
+    raises :class:`~hydropwa.ParameterError` when one of them is missing.
+
+    Attributes
+    ----------
+    stroke : float
+        Cylinder stroke [m] (end-stop detection).
+    area_a, area_b : float, optional
+        Piston areas [m²] of chambers A and B (net force, Eq. (10)).
+    mass : float, optional
+        Moving mass [kg] (the m·ẍ term of the instantaneous friction samples).
+    """
+
+    stroke: float
+    area_a: float | None = None
+    area_b: float | None = None
+    mass: float | None = None
+
+    def __post_init__(self) -> None:
+        for name, unit in (("stroke", "m"), ("area_a", "m²"), ("area_b", "m²"), ("mass", "kg")):
+            val = getattr(self, name)
+            if val is None:
+                continue
+            if not (isinstance(val, int | float) and np.isfinite(val) and val > 0):
+                raise ParameterError(
+                    f"RigGeometry.{name} = {val!r} {unit} must be a positive number"
+                )
+
+    @classmethod
+    def of(cls, params: Any) -> RigGeometry:
+        """Stroke, areas and moving mass of a :class:`~hydropwa.params.SystemParams`."""
+        cyl = params.cylinder
+        return cls(
+            stroke=float(cyl.stroke),
+            area_a=float(cyl.area_a),
+            area_b=float(cyl.area_b),
+            mass=float(params.load.mass),
+        )
+
+
+def resolve_geometry(
+    who: str, params: Any, geometry: RigGeometry | None, needs: tuple[str, ...]
+) -> RigGeometry:
+    """The rig geometry an estimator works with: ``geometry`` if given, else from ``params``.
+
+    There is no default rig: without either, a :class:`~hydropwa.ParameterError` says how to
+    give one (identifying the paper rig's values from another rig's data would be silently wrong).
+    """
+    if geometry is None and params is not None:
+        geometry = RigGeometry.of(params)
+    if geometry is None:
+        raise ParameterError(
+            f"{who} needs the rig's {', '.join(needs)}: pass params=SystemParams "
+            "(e.g. get_preset('paper') or load_params('rig.toml')) or "
+            f"geometry=RigGeometry({', '.join(f'{n}=...' for n in needs)})"
+        )
+    missing = [n for n in needs if getattr(geometry, n) is None]
+    if missing:
+        raise ParameterError(
+            f"{who} needs RigGeometry.{', '.join(missing)}; give "
+            f"{', '.join(f'{n}=...' for n in missing)} or pass params=SystemParams instead"
+        )
+    return geometry
+
+
+def not_fitted(who: str) -> IdentificationError:
+    """The error for using a learned value before ``fit``."""
+    return IdentificationError(f"{who} is not fitted yet; call .fit(data) first")
 
 
 @dataclasses.dataclass(frozen=True)

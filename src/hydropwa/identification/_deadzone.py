@@ -17,18 +17,23 @@ mean outer gain ḡ = (g₊ + g₋)/2, since v ≈ ḡ·z near the band.
 from __future__ import annotations
 
 import dataclasses
+from typing import ClassVar
 
 import numpy as np
 
 from .._errors import IdentificationError
 from ..params import DeadZone, SystemParams
 from ._common import (
+    OptimizerStatus,
     ParameterEstimate,
+    RigGeometry,
     SkippedRun,
     as_runs,
     channels_of,
     estimate,
+    not_fitted,
     require_usable,
+    resolve_geometry,
     sandwich_covariance,
     signal_value,
     skip,
@@ -209,6 +214,9 @@ class DeadZoneFit:
     drift_pos, drift_neg : ParameterEstimate
         Velocity not proportional to the opening [m/s] for u ≥ 0 and u < 0 (piston leakage
         under the load); exactly 0 with std 0 where it was not fitted.
+    status : OptimizerStatus
+        The search: every split of the commands, each a linear least-squares solve
+        (``nfev`` = splits tried); always converged, the optimum is global.
     """
 
     beta: ParameterEstimate
@@ -224,6 +232,9 @@ class DeadZoneFit:
     covariance: np.ndarray
     drift_pos: ParameterEstimate | None = None
     drift_neg: ParameterEstimate | None = None
+    status: OptimizerStatus = dataclasses.field(
+        default_factory=lambda: OptimizerStatus.closed_form("given")
+    )
 
     def velocity(self, u) -> np.ndarray:
         """Fitted velocity [m/s] at command ``u`` [1]."""
@@ -369,15 +380,25 @@ def fit_dead_zone(
     up = np.unique(u[u > 0])
     un = np.unique(-u[u < 0])
     best, best_cost, best_sides = None, np.inf, (False, False)
+    n_splits = 0
     for kp in range(up.size - 1):
         for kn in range(un.size - 1):
+            n_splits += 1
             theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift)
             if cost < best_cost * (1 - 1e-12):
                 best, best_cost, best_sides = theta, cost, sides
     assert best is not None
     resid = (
         dead_zone_velocity(
-            u, *best[:5], continuous=continuous, drift_pos=best[5], drift_neg=best[6]
+            u,
+            best[0],
+            best[1],
+            best[2],
+            best[3],
+            best[4],
+            continuous=continuous,
+            drift_pos=best[5],
+            drift_neg=best[6],
         )
         - v
     )
@@ -408,6 +429,12 @@ def fit_dead_zone(
         covariance=cov,
         drift_pos=estimate(dp, sd[5], q, "m/s", level),
         drift_neg=estimate(dn, sd[6], q, "m/s", level),
+        status=OptimizerStatus(
+            True,
+            f"global optimum of {n_splits} band splits (linear least squares each)",
+            n_splits,
+            None,
+        ),
     )
 
 
@@ -435,31 +462,40 @@ class DeadZoneIdentifier:
 
     Parameters
     ----------
-    base_params : SystemParams, optional
-        Gives the stroke [m] (end-stop detection) and α; default the ``paper`` preset.
+    params : SystemParams, optional
+        Gives the stroke [m] (end-stop detection) and the dead-zone form fitted. Either
+        this or ``geometry`` is required: there is no default rig.
+    geometry : RigGeometry, optional
+        The stroke without a full parameter set.
+    continuous : bool or None
+        Fit the continuous dead-zone variant; ``None`` (default) keeps the form of
+        ``params.dead_zone`` (Table IV's, with the jump, when only ``geometry`` is given).
+    drift : bool
+        Fit a velocity per direction that does not come from the valve (piston leakage
+        under the load), so it does not read as valve creep (see :func:`fit_dead_zone`).
+    level : float
+        Confidence level [1].
     stop_margin : float
         Distance [m] from the stop ahead at which a run counts as having hit it.
     settle : float
         Time [s] dropped at the start of each run.
     min_duration : float
         Shortest usable stretch of a run [s].
-    continuous : bool or None
-        Fit the continuous dead-zone variant; ``None`` (default) keeps the form of
-        ``base_params.dead_zone`` (``continuous = true`` in a ``--base-params`` file stays).
-    level : float
-        Confidence level [1].
-    drift : bool
-        Fit a velocity per direction that does not come from the valve (piston leakage
-        under the load), so it does not read as valve creep (see :func:`fit_dead_zone`).
 
     Attributes
     ----------
     points_ : pandas.DataFrame
         One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std`` [m/s], ``rms_residual`` [m].
     fit_ : DeadZoneFit
-        The hinge fit.
+        The hinge fit, with its intervals and ``status``.
+    beta_ : ParameterEstimate
+        Symmetric dead band β [1].
+    creep_slope_ : ParameterEstimate
+        Opening slope k_g inside the band [1].
     dead_zone_ : DeadZone
-        The fit as parameters (symmetric β, k_g = c/ḡ).
+        The fit as parameters (symmetric β, k_g = c/ḡ; α from ``params``, else 1).
+    status_ : OptimizerStatus
+        How the fit ended (``fit_.status``).
     skipped_ : list[SkippedRun]
         Runs left out, with the reason.
 
@@ -469,23 +505,30 @@ class DeadZoneIdentifier:
     else the median of its ``u`` channel.
     """
 
+    #: The experiment kind this estimator reads and the parameter field it sets.
+    part: ClassVar[str] = "deadzone"
+    field: ClassVar[str] = "dead_zone"
+
     def __init__(
         self,
-        base_params: SystemParams | None = None,
+        params: SystemParams | None = None,
+        *,
+        geometry: RigGeometry | None = None,
+        continuous: bool | None = None,
+        drift: bool = True,
+        level: float = 0.95,
         stop_margin: float = 1e-3,
         settle: float = 0.05,
         min_duration: float = 0.1,
-        continuous: bool | None = None,
-        level: float = 0.95,
-        drift: bool = True,
     ) -> None:
-        self.base_params = base_params
+        self.geometry = resolve_geometry("DeadZoneIdentifier", params, geometry, ("stroke",))
+        self.params = params
+        self.continuous = continuous
+        self.drift = drift
+        self.level = level
         self.stop_margin = stop_margin
         self.settle = settle
         self.min_duration = min_duration
-        self.continuous = continuous
-        self.level = level
-        self.drift = drift
 
     def fit(self, data) -> DeadZoneIdentifier:
         """Estimate one velocity per run and fit the hinge model.
@@ -493,7 +536,8 @@ class DeadZoneIdentifier:
         Returns
         -------
         DeadZoneIdentifier
-            ``self`` with ``points_``, ``fit_``, ``dead_zone_`` and ``skipped_`` set.
+            ``self`` with ``points_``, ``fit_``, ``beta_``, ``creep_slope_``, ``dead_zone_``,
+            ``status_`` and ``skipped_`` set.
 
         Raises
         ------
@@ -502,9 +546,6 @@ class DeadZoneIdentifier:
         """
         import pandas as pd
 
-        from ..params import get_preset
-
-        base = self.base_params or get_preset("paper")
         runs = as_runs(data, "deadzone")
         skipped: list[SkippedRun] = []
         rows = []
@@ -521,7 +562,7 @@ class DeadZoneIdentifier:
                     ch["t"],
                     ch["x"],
                     np.sign(level),
-                    base.cylinder.stroke,
+                    self.geometry.stroke,
                     self.stop_margin,
                     self.settle,
                     self.min_duration,
@@ -542,13 +583,44 @@ class DeadZoneIdentifier:
         require_usable(rows, skipped, "dead-zone identification", minimum=7)
         pts = pd.DataFrame(rows).sort_values("u", ignore_index=True)
         self.points_ = pts
-        continuous = base.dead_zone.continuous if self.continuous is None else bool(self.continuous)
+        if self.continuous is not None:
+            continuous = bool(self.continuous)
+        else:
+            continuous = self.params.dead_zone.continuous if self.params is not None else False
         self.fit_ = fit_dead_zone(
             pts["u"].to_numpy(), pts["v"].to_numpy(), continuous, self.level, self.drift
         )
-        self.dead_zone_ = self.fit_.dead_zone(base.dead_zone.alpha)
+        alpha = self.params.dead_zone.alpha if self.params is not None else 1.0
+        self.dead_zone_ = self.fit_.dead_zone(alpha)
+        self.beta_ = self.fit_.beta
+        self.creep_slope_ = self.fit_.creep_slope
+        self.status_ = self.fit_.status
         self.skipped_ = skipped
         return self
+
+    def apply(self, params: SystemParams) -> SystemParams:
+        """``params`` with the fitted β, k_g and form; α (saturation) stays that of ``params``."""
+        if not hasattr(self, "fit_"):
+            raise not_fitted("DeadZoneIdentifier")
+        return dataclasses.replace(params, dead_zone=self.fit_.dead_zone(params.dead_zone.alpha))
+
+    def provenance(self) -> str:
+        """One line on how the dead zone was found (``[meta.identification]``)."""
+        if not hasattr(self, "fit_"):
+            raise not_fitted("DeadZoneIdentifier")
+        fit = self.fit_
+        drift = (
+            ""
+            if fit.drift_pos is None or fit.drift_neg is None
+            else f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / "
+            f"{1e3 * fit.drift_neg.value:.3g} mm/s for u ≥ 0 / u < 0, kept out of the creep"
+        )
+        return (
+            f"Sec. VI-B: {len(self.points_)} constant-input runs, "
+            f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
+            f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}; "
+            f"optimiser: {fit.status}"
+        )
 
     def uncertainty(self) -> dict:
         """β, k_g and the per-direction values as a plain dict (``[uncertainty]`` table)."""
@@ -563,9 +635,10 @@ class DeadZoneIdentifier:
             "creep_velocity_slope": f.creep_velocity_slope.to_dict(),
             **(
                 {"drift_pos": f.drift_pos.to_dict(), "drift_neg": f.drift_neg.to_dict()}
-                if f.drift_pos is not None
+                if f.drift_pos is not None and f.drift_neg is not None
                 else {}
             ),
+            "optimizer": dataclasses.asdict(f.status),
         }
 
 

@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 from scipy import signal
 from scipy.optimize import least_squares
 
 from .._errors import IdentificationError
-from ..params import ServoValve
+from ..params import ServoValve, SystemParams
 from ._common import (
+    OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
     as_runs,
@@ -27,6 +29,7 @@ from ._common import (
     correlation,
     covariance_from_jacobian,
     estimate,
+    not_fitted,
     require_usable,
     sandwich_covariance,
     signal_value,
@@ -371,6 +374,9 @@ class SecondOrderFit:
         Number of FRF points used.
     amplitude : float
         Command amplitude |u| [1].
+    status : OptimizerStatus
+        How the best start's ``least_squares`` run ended; ``nfev`` counts the residual
+        evaluations of all starts.
     """
 
     omega0: ParameterEstimate
@@ -379,6 +385,9 @@ class SecondOrderFit:
     rms_log_error: float
     n_points: int
     amplitude: float = float("nan")
+    status: OptimizerStatus = dataclasses.field(
+        default_factory=lambda: OptimizerStatus.closed_form("given")
+    )
 
     def response(self, omega) -> np.ndarray:
         """Model response G(jω) [1] at ``omega`` [rad/s]."""
@@ -457,11 +466,13 @@ def fit_second_order(
         return wt2 * np.concatenate([r.real, r.imag])
 
     best = None
+    nfev = 0
     for w0 in np.geomspace(max(w.min(), 1.0), w.max() * 4.0, 6):
         for z0 in (0.3, 0.7, 1.5):
             res = least_squares(
                 resid, [w0, z0], bounds=([1e-3, 1e-3], [1e7, 20.0]), x_scale=[w0, 0.3], method="trf"
             )
+            nfev += int(res.nfev)
             if best is None or res.cost < best.cost:
                 best = res
     assert best is not None
@@ -486,6 +497,7 @@ def fit_second_order(
         rms_log_error=rms,
         n_points=int(w.size),
         amplitude=float(frf.amplitude),
+        status=OptimizerStatus(bool(best.success), str(best.message), nfev, None),
     )
 
 
@@ -535,8 +547,13 @@ class ValveFrfIdentifier:
     valve_ : ServoValve
         ω0 of the amplitude nearest the middle as ``omega0``, the amplitude schedule in
         ``omega0_table`` (when more than one amplitude), and the inverse-variance weighted ζ.
+    omega0_ : ParameterEstimate
+        ω0 [rad/s] of the amplitude nearest 25 % (``valve_.omega0``).
     zeta_ : ParameterEstimate
         The pooled ζ [1].
+    status_ : OptimizerStatus
+        All per-amplitude fits together: converged when each did, ``nfev`` summed
+        (each fit's own in ``fits_[a].status``).
     skipped_ : list[SkippedRun]
         Runs (or segments) left out, with the reason.
 
@@ -548,8 +565,13 @@ class ValveFrfIdentifier:
     frequency is estimated from the command's spectrum.
     """
 
+    #: The experiment kind this estimator reads and the parameter field it sets.
+    part: ClassVar[str] = "frf"
+    field: ClassVar[str] = "valve"
+
     def __init__(
         self,
+        *,
         n_periods: int = 4,
         trend: bool = True,
         min_coherence: float = 0.8,
@@ -635,7 +657,7 @@ class ValveFrfIdentifier:
         """
         runs = as_runs(data, "frf")
         skipped: list[SkippedRun] = []
-        points: dict[float, list[tuple[float, complex, str]]] = {}
+        points: dict[float, list[tuple[float, complex, str, float]]] = {}
         broadband: dict[float, list[FrequencyResponse]] = {}
         for run in runs:
             ch = channels_of(run, ("t", "u", "spool"), skipped)
@@ -722,10 +744,36 @@ class ValveFrfIdentifier:
         table = (
             tuple((a, fits[a].omega0.value) for a in amps if 0 < a <= 1.5) if len(amps) > 1 else ()
         )
+        self.omega0_ = fits[mid].omega0
         self.valve_ = ServoValve(
             omega0=fits[mid].omega0.value, zeta=self.zeta_.value, omega0_table=table
         )
+        sts = [f.status for f in fits.values()]
+        failed = [f"{a:g}" for a, f in fits.items() if not f.status.success]
+        self.status_ = OptimizerStatus(
+            not failed,
+            f"{len(sts)} amplitude fit(s)"
+            + (f"; not converged at amplitude(s) {', '.join(failed)}" if failed else " converged"),
+            sum(st.nfev for st in sts),
+            None,
+        )
         return self
+
+    def apply(self, params: SystemParams) -> SystemParams:
+        """``params`` with the fitted servo valve (ω0, its amplitude schedule, ζ) in place."""
+        if not hasattr(self, "valve_"):
+            raise not_fitted("ValveFrfIdentifier")
+        return dataclasses.replace(params, valve=self.valve_)
+
+    def provenance(self) -> str:
+        """One line on how the valve was found (``[meta.identification]`` of a parameter file)."""
+        if not hasattr(self, "fits_"):
+            raise not_fitted("ValveFrfIdentifier")
+        return (
+            f"Sec. VI-A: {sum(f.n_points for f in self.fits_.values())} FRF points at "
+            f"amplitudes {', '.join(f'{a:g}' for a in self.fits_)}; 2nd-order fit, "
+            f"zeta pooled (inverse-variance); optimiser: {self.status_}"
+        )
 
     def uncertainty(self) -> dict:
         """Per-amplitude ω0 and ζ estimates as a plain dict (for the ``[uncertainty]`` table)."""
@@ -733,6 +781,7 @@ class ValveFrfIdentifier:
         for a, f in self.fits_.items():
             out[f"omega0_at_{a:g}"] = f.omega0.to_dict()
             out[f"zeta_at_{a:g}"] = f.zeta.to_dict()
+        out["optimizer"] = dataclasses.asdict(self.status_)
         return out
 
 

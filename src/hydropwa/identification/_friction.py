@@ -19,20 +19,25 @@ with a robust loss and many starts. For fixed (χ, δ, γ) the model is linear i
 from __future__ import annotations
 
 import dataclasses
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from .._errors import IdentificationError
+from .._errors import IdentificationError, ParameterError
 from ..components import net_piston_force, stribeck_friction
 from ..params import Friction, SystemParams
 from ._common import (
+    OptimizerStatus,
     ParameterEstimate,
+    RigGeometry,
     SkippedRun,
     as_runs,
     channels_of,
     correlation,
+    not_fitted,
     require_usable,
+    resolve_geometry,
     sandwich_covariance,
     skip,
     t_quantile,
@@ -50,12 +55,12 @@ __all__ = [
     "curve_maximum",
     "fit_stribeck",
     "StribeckIdentifier",
+    "SteadyStateAverage",
+    "InstantaneousBins",
+    "BreakawayConstrained",
+    "FrictionMethod",
     "STRIBECK_NAMES",
-    "METHODS",
 ]
-
-#: Point estimators of :class:`StribeckIdentifier`.
-METHODS = ("average", "instantaneous", "breakaway")
 
 # 8th-order central stencils of d/dt and d²/dt² (multiply by 1/dt, 1/dt²).
 _D1 = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105, -1 / 280])
@@ -559,6 +564,9 @@ class StribeckFit:
         Loss function used.
     n_starts : int
         Number of starting points tried.
+    status : OptimizerStatus
+        How the final (robust) ``least_squares`` run ended; ``nfev`` counts the residual
+        evaluations of every start and stage.
     """
 
     friction: Friction
@@ -572,6 +580,7 @@ class StribeckFit:
     rms_residual: float
     loss: str
     n_starts: int
+    status: OptimizerStatus
 
     def force_at(self, v) -> np.ndarray:
         """Fitted friction force [N] at velocity ``v`` [m/s]."""
@@ -654,7 +663,7 @@ def fit_stribeck(
     all points at several mm/s the wide family only trades γ against F_s and is rejected.
     See :func:`_fit_stribeck_bounded` for the parameters.
     """
-    kw = dict(
+    kw: dict[str, Any] = dict(
         fixed=fixed,
         loss=loss,
         f_scale=f_scale,
@@ -676,7 +685,82 @@ def fit_stribeck(
     ssr_s = float(np.sum(strict.residuals**2))
     ssr_w = float(np.sum(wide.residuals**2))
     dof = max(strict.velocity.size - len(wide.free), 1)
-    return wide if ssr_s - ssr_w > 3.84 * ssr_w / dof else strict
+    chosen = wide if ssr_s - ssr_w > 3.84 * ssr_w / dof else strict
+    total = strict.status.nfev + wide.status.nfev
+    chosen = dataclasses.replace(chosen, status=dataclasses.replace(chosen.status, nfev=total))
+    if "smoothness" in chosen.weak:
+        chosen = _profile_smoothness(v, f, chosen, 0.3 / vmin, dof, kw)
+    return chosen
+
+
+def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dict) -> StribeckFit:
+    """Widen the intervals by the γ the data cannot pin (a profile over γ).
+
+    With every point at |ẋ| ≫ 1/γ the tanh is saturated at the optimum, γ's Jacobian column
+    vanishes, and the covariance of the other parameters is the one *at that γ*, as if γ were
+    known. But a slow (creeping) point sits on the tanh corner for smaller γ, and there F_s, χ,
+    δ trade against γ: on the paper rig (issue 18, seed 20 of the coverage study) one point at
+    1.5 mm/s gave F_s = 161.0 ± 0.7 N at γ = 3·10⁴ (truth 174.8 N: 19σ), while γ = 1325 (the
+    truth) fits nearly as well (ΔSSR/s² = 3.2 < 3.84) with F_s = 172.2 N. So the fit is
+    repeated with γ held on a grid from its lower bound to the optimum, and each parameter's
+    interval becomes the envelope of the intervals of every γ whose fit is not significantly
+    worse (ΔSSR/s² ≤ χ²₁(95 %) = 3.84); std = half-width / q.
+    """
+    g_best = best.friction.smoothness
+    if not g_best > g_low * 1.01:
+        return best
+    ssr0 = float(np.sum(best.residuals**2))
+    s2 = ssr0 / max(dof, 1)
+    kw = {**kw, "fixed": {**(kw.get("fixed") or {})}, "n_starts": max(4, kw["n_starts"] // 3)}
+    est = dict(best.estimates)
+    nfev = best.status.nfev
+    used = 0
+    q = t_quantile(next(iter(est.values())).level if est else 0.95, dof)
+
+    def trial(g: float) -> StribeckFit | None:
+        nonlocal nfev
+        kw["fixed"]["smoothness"] = float(g)
+        fit = _fit_stribeck_bounded(v, f, **kw)
+        nfev += fit.status.nfev
+        return None if float(np.sum(fit.residuals**2)) - ssr0 > 3.84 * s2 else fit
+
+    # a coarse grid from the bound up, then bisection (log γ) to the smallest γ that fits:
+    # the trade-off is monotone there, so the edge of the region holds the widest intervals
+    grid = np.geomspace(g_low, g_best, 7)[:-1]
+    fits = [(g, trial(g)) for g in grid]
+    accepted = [fit for _, fit in fits if fit is not None]
+    rejected = [g for g, fit in fits if fit is None]
+    if accepted and rejected:
+        lo_g = max(rejected)
+        hi_g = min(g for g, fit in fits if fit is not None and g > lo_g)
+        for _ in range(6):  # to within (γ ratio of a grid step)^(1/64), ≈ 1.5 %
+            mid = float(np.sqrt(lo_g * hi_g))
+            fit = trial(mid)
+            if fit is None:
+                lo_g = mid
+            else:
+                hi_g = mid
+                accepted.append(fit)
+    for fit in accepted:
+        used += 1
+        for name, e in fit.estimates.items():
+            if name not in est or name == "smoothness":
+                continue
+            old = est[name]
+            lo, hi = min(old.ci[0], e.ci[0]), max(old.ci[1], e.ci[1])
+            if (lo, hi) == old.ci:
+                continue
+            if name == "stribeck_velocity":  # log-scale interval: keep its geometric form
+                std = max(old.std, old.value * np.log(hi / lo) / 2 / q)
+            else:
+                std = max(old.std, 0.5 * (hi - lo) / q)
+            est[name] = ParameterEstimate(old.value, float(std), (lo, hi), old.unit, old.level)
+    status = dataclasses.replace(
+        best.status,
+        nfev=nfev,
+        message=best.status.message + f" (γ profiled: {used} lower γ fit as well)",
+    )
+    return dataclasses.replace(best, estimates=est, status=status)
 
 
 def _fit_stribeck_bounded(
@@ -750,9 +834,9 @@ def _fit_stribeck_bounded(
             f"cannot fix {sorted(unknown)}; Friction fields are {', '.join(STRIBECK_NAMES)}"
         )
     fixed_th = {}
-    for k, val in fixed.items():
-        i = STRIBECK_NAMES.index(k)
-        fixed_th[i] = np.log10(val) if k in ("stribeck_velocity", "smoothness") else float(val)
+    for key, val in fixed.items():
+        i = STRIBECK_NAMES.index(key)
+        fixed_th[i] = np.log10(val) if key in ("stribeck_velocity", "smoothness") else float(val)
     if "static" in fixed:
         fixed_th[1] = float(fixed["static"]) - float(fixed.get("coulomb", 0.0))
     free_idx = [i for i in range(6) if i not in fixed_th]
@@ -780,12 +864,12 @@ def _fit_stribeck_bounded(
 
     vmin = max(float(np.min(np.abs(v[v != 0]))), 1e-6)
     lb_all, ub_all = _default_bounds(vmin)
-    for k, (lo, hi) in (bounds or {}).items():
-        if k not in STRIBECK_NAMES:
+    for key, (lo, hi) in (bounds or {}).items():
+        if key not in STRIBECK_NAMES:
             raise IdentificationError(
-                f"no bound for {k!r}; Friction fields are {', '.join(STRIBECK_NAMES)}"
+                f"no bound for {key!r}; Friction fields are {', '.join(STRIBECK_NAMES)}"
             )
-        i = STRIBECK_NAMES.index(k)
+        i = STRIBECK_NAMES.index(key)
         tr = np.log10 if i in (3, 5) else float
         lb_all[i], ub_all[i] = tr(lo), tr(hi)
     lb, ub = lb_all[free_idx], ub_all[free_idx]
@@ -806,6 +890,12 @@ def _fit_stribeck_bounded(
         grid.append(tuple(rng.uniform(lo_s, hi_s)))
     grid = [tuple(np.clip(g, lo_s + 1e-6, hi_s - 1e-6)) for g in grid]
     xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[free_idx]
+
+    def x_scale(p: np.ndarray) -> np.ndarray:
+        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3); every stage
+        # needs it: without it the robust refits ran out of evaluations (600) before converging
+        return np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p), fscale * 0.05), xs)
+
     results = []
     for lc, d, lg in grid[: max(n_starts, 1)]:
         th0 = np.empty(6)
@@ -816,12 +906,11 @@ def _fit_stribeck_bounded(
         for i, val in fixed_th.items():
             th0[i] = val
         p0 = np.clip(th0[free_idx], lb + 1e-9, ub - 1e-9)
-        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3)
-        x_scale = np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p0), fscale * 0.05), xs)
         results.append(
-            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale, method="trf")
+            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale(p0), method="trf")
         )
     best = min(results, key=lambda r: r.cost)
+    nfev = sum(int(r.nfev) for r in results)
     scale_n = (
         f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
     )
@@ -841,18 +930,28 @@ def _fit_stribeck_bounded(
 
         ranked = sorted(results, key=lambda r: r.cost)[:4]
         results = [
-            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), method="trf") for r in ranked
+            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), x_scale=x_scale(r.x), method="trf")
+            for r in ranked
         ]
         best = min(results, key=lambda r: r.cost)
+        nfev += sum(int(r.nfev) for r in results)
     if loss != "linear":
         ranked = sorted(results, key=lambda r: r.cost)[:4]
         robust = [
             least_squares(
-                resid, r.x, jac=jac, bounds=(lb, ub), loss=loss, f_scale=scale_n, method="trf"
+                resid,
+                r.x,
+                jac=jac,
+                bounds=(lb, ub),
+                x_scale=x_scale(r.x),
+                loss=loss,
+                f_scale=scale_n,
+                method="trf",
             )
             for r in ranked
         ]
         best = min(robust, key=lambda r: r.cost)
+        nfev += sum(int(r.nfev) for r in robust)
     th = full(best.x)
     r = best.fun[: v.size] * fscale
     # run-level robust (sandwich) covariance: one point per run, and the points differ in
@@ -916,16 +1015,19 @@ def _fit_stribeck_bounded(
         float(np.sqrt(np.mean(r**2))),
         loss,
         len(results),
+        OptimizerStatus(bool(best.success), str(best.message), nfev, None),
     )
 
 
-class StribeckIdentifier:
-    """Identify the Stribeck friction curve from constant-input runs (Sec. VI-C, Eqs. (10)–(11)).
+@dataclasses.dataclass(frozen=True)
+class SteadyStateAverage:
+    """Friction points by the paper's method: one point per run from its steady part (Sec. VI-C).
 
-    Parameters
+    Steady-part means of P_A, P_B, F_L give f of Eq. (10), the position slope gives ẋ
+    (:func:`friction_point`).
+
+    Attributes
     ----------
-    base_params : SystemParams, optional
-        Areas A_A, A_B [m²] and stroke [m]; default the ``paper`` preset.
     window : float
         Moving window [s] of the steady-state detection.
     band : float
@@ -934,119 +1036,214 @@ class StribeckIdentifier:
         Absolute velocity band [m/s] (for slow runs).
     force_band, force_abs_band : float
         Relative [1] and absolute [N] band of the net force.
-    stop_margin : float
-        Distance [m] from an end stop treated as contact.
     min_duration : float
         Shortest steady stretch [s] a run must have.
+    oscillation_factor : float
+        A run whose net-force std exceeds this multiple of the quietest runs' is marked
+        ``oscillating`` (kept in the fit, reported in ``notes_``) [1].
+    """
+
+    name: ClassVar[str] = "average"
+    window: float = 0.1
+    band: float = 0.15
+    abs_band: float = 5e-4
+    force_band: float = 0.25
+    force_abs_band: float = 20.0
+    min_duration: float = 0.2
+    oscillation_factor: float = 3.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "window", "band", "abs_band", "force_band", "force_abs_band")
+        _positive(self, "min_duration", "oscillation_factor")
+
+
+@dataclasses.dataclass(frozen=True)
+class InstantaneousBins:
+    """Friction points per velocity bin of per-sample forces (needs the moving mass).
+
+    Per sample f = P_A A_A − P_B A_B − F_L − m·ẍ (:func:`friction_samples`) over the moving
+    part of each run, reduced to per-run velocity-bin medians (``points_`` has one row per
+    bin), so oscillating runs contribute their whole velocity range.
+
+    Attributes
+    ----------
+    cutoff : float
+        Low-pass cutoff [Hz] of velocity, acceleration and force.
+    taps : int
+        Filter length [samples].
+    min_speed : float
+        Slowest |ẋ| [m/s] of a sample that is used.
+    guard : float
+        Time [s] dropped after each command change.
+    bin_rel, bin_width : float
+        Bin width max(bin_rel·|v|, bin_width) [1], [m/s].
+    bin_min_count : int
+        Fewest samples in a bin that is used.
+    """
+
+    name: ClassVar[str] = "instantaneous"
+    cutoff: float = 300.0
+    taps: int = 41
+    min_speed: float = 3e-3
+    guard: float = 0.0
+    bin_rel: float = 0.1
+    bin_width: float = 1e-3
+    bin_min_count: int = 5
+
+    def __post_init__(self) -> None:
+        _positive(self, "cutoff", "taps", "min_speed", "bin_rel", "bin_width", "bin_min_count")
+
+
+@dataclasses.dataclass(frozen=True)
+class BreakawayConstrained:
+    """Friction points of ``points`` plus "maximum of Eq. (11) = break-away force F_b".
+
+    F_b is the median per-cycle net-force peak of the slowest stick-slip runs per direction
+    (mean speed ≤ ``speed_ratio`` × the slowest one's; faster runs overshoot), the mean of
+    both directions, with a standard error that includes the direction difference
+    (:func:`breakaway_peaks`, ``fit_stribeck(breakaway=...)``). Constant-input data do not
+    identify γ and the curve's maximum lies below F_s by the tanh rounding, so γ is held at
+    ``smoothness`` (or at the ``params``' γ) unless ``fixed`` says otherwise.
+
+    Attributes
+    ----------
+    points : SteadyStateAverage or InstantaneousBins
+        How the (ẋ, f) points are made (default: per-sample bins).
+    speed_ratio : float
+        Runs used for F_b: mean speed ≤ this × the slowest stick-slip run's, per direction [1].
+    min_cycles : int
+        Fewest stick-slip cycles for a run to count [1].
+    min_slip : float
+        Smallest slip speed [m/s] that marks a stick-slip cycle.
+    cutoff : float
+        Low-pass cutoff [Hz] of the peak detection.
+    taps : int
+        Filter length [samples] of the peak detection.
+    smoothness : float, optional
+        γ [s/m] held in the fit; default the ``params``' ``friction.smoothness``.
+    """
+
+    name: ClassVar[str] = "breakaway"
+    points: SteadyStateAverage | InstantaneousBins = dataclasses.field(
+        default_factory=InstantaneousBins
+    )
+    speed_ratio: float = 2.0
+    min_cycles: int = 10
+    min_slip: float = 5e-3
+    cutoff: float = 300.0
+    taps: int = 41
+    smoothness: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.points, SteadyStateAverage | InstantaneousBins):
+            raise ParameterError(
+                f"BreakawayConstrained.points = {self.points!r}; give SteadyStateAverage() or "
+                "InstantaneousBins()"
+            )
+        _positive(self, "speed_ratio", "min_cycles", "min_slip", "cutoff", "taps")
+        if self.smoothness is not None:
+            _positive(self, "smoothness")
+
+
+#: The point strategies of :class:`StribeckIdentifier`.
+FrictionMethod = SteadyStateAverage | InstantaneousBins | BreakawayConstrained
+
+
+def _positive(obj: Any, *names: str) -> None:
+    for name in names:
+        val = getattr(obj, name)
+        if not (isinstance(val, int | float) and np.isfinite(val) and val > 0):
+            raise ParameterError(f"{type(obj).__name__}.{name} = {val!r} must be a positive number")
+
+
+class StribeckIdentifier:
+    """Identify the Stribeck friction curve from constant-input runs (Sec. VI-C, Eqs. (10)–(11)).
+
+    Parameters
+    ----------
+    params : SystemParams, optional
+        Gives the areas A_A, A_B [m²], the stroke [m] and the moving mass [kg] (and γ for
+        :class:`BreakawayConstrained`). Either this or ``geometry`` is required: there is
+        no default rig.
+    geometry : RigGeometry, optional
+        The same without a full parameter set (``mass`` only for :class:`InstantaneousBins`).
+    method : SteadyStateAverage, InstantaneousBins or BreakawayConstrained
+        How runs become (ẋ, f) points; default the paper's steady-state average.
     fixed : dict, optional
-        Friction fields held fixed in the fit.
+        Friction fields held fixed in the fit (SI values), e.g. ``{"shape": 1.0}``.
     loss : str
-        Robust loss of the fit.
+        Robust ``least_squares`` loss of the fit.
     n_starts : int
         Starting points of the fit.
     level : float
         Confidence level [1].
-    oscillation_factor : float
-        A run whose net-force std exceeds this multiple of the quietest runs' is
-        marked ``oscillating`` (kept in the fit, reported in ``notes_``).
-    method : {"average", "instantaneous"}
-        ``"average"`` (the paper's): one point per run, steady-part means of P_A, P_B, F_L
-        and the position slope. ``"instantaneous"``: per-sample f = P_A A_A − P_B A_B − F_L − m·ẍ
-        (:func:`friction_samples`, mass from ``base_params.load``) over the moving part of each
-        run, reduced to per-run velocity-bin medians (``points_`` then has one row per bin), so
-        oscillating runs contribute their whole velocity range.
-    cutoff, taps, min_speed, guard : float, int, float, float
-        Settings of :func:`friction_samples` (instantaneous method).
-    bin_rel, bin_width, bin_min_count : float, float, int
-        Velocity bins of the instantaneous method: width max(bin_rel·|v|, bin_width) [1], [m/s],
-        at least ``bin_min_count`` samples.
-    breakaway : bool
-        Also measure the break-away force from stick-slip runs (:func:`breakaway_peaks`) and
-        add "maximum of Eq. (11) = F_b" to the fit (``fit_stribeck(breakaway=...)``). F_b is the
-        median per-cycle net-force peak of the slowest stick-slip runs per direction (mean
-        speed ≤ ``breakaway_speed_ratio`` × the slowest one's; faster runs overshoot), the mean
-        of both directions, with a standard error that includes the direction difference.
-        Because constant-input data do not identify γ and the curve's maximum lies below F_s by
-        the tanh rounding, γ is then held at ``base_params.friction.smoothness`` unless ``fixed``
-        says otherwise. ``method="breakaway"`` is ``"instantaneous"`` with this on.
-    breakaway_speed_ratio : float
-        Runs used for F_b: mean speed ≤ this × the slowest stick-slip run's, per direction [1].
-    breakaway_min_cycles : int
-        Fewest stick-slip cycles for a run to count [1].
-    min_slip : float
-        Smallest slip speed [m/s] that marks a stick-slip cycle.
+    stop_margin : float
+        Distance [m] from an end stop treated as contact.
 
     Attributes
     ----------
     points_ : pandas.DataFrame
-        One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std``, ``f`` [N], ``f_std``,
-        ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s], ``force_fluctuation`` [N],
-        ``oscillating``.
+        One row per used run (``SteadyStateAverage``: ``run``, ``u`` [1], ``v`` [m/s],
+        ``v_std``, ``f`` [N], ``f_std``, ``p_a``, ``p_b`` [Pa], ``f_l`` [N], ``t0``, ``t1`` [s],
+        ``force_fluctuation`` [N], ``oscillating``) or per velocity bin (``InstantaneousBins``).
+    fit_ : StribeckFit
+        The fit, with its intervals and the optimiser's ``status``.
+    friction_ : Friction
+        The fitted curve as parameters.
+    coulomb_, static_, viscous_, stribeck_velocity_, shape_, smoothness_ : ParameterEstimate
+        The fitted Eq. (11) parameters with their intervals (a fixed one with std 0).
+    status_ : OptimizerStatus
+        How the optimiser ended (``fit_.status``).
     notes_ : list[str]
         Caveats found in the data (oscillating runs), and the break-away estimate.
     breakaway_ : ParameterEstimate or None
-        Break-away force F_b [N] with its CI (``breakaway=True``), else None.
+        Break-away force F_b [N] with its CI (:class:`BreakawayConstrained`), else None.
     breakaway_runs_ : pandas.DataFrame or None
         Per stick-slip run: ``run``, ``direction``, ``mean_speed`` [m/s], ``n_cycles``,
         ``peak`` (median) and ``peak_std`` [N], ``used``.
-    fit_ : StribeckFit
-    friction_ : Friction
     skipped_ : list[SkippedRun]
     """
 
+    #: The experiment kind this estimator reads and the parameter field it sets.
+    part: ClassVar[str] = "friction"
+    field: ClassVar[str] = "friction"
+
     def __init__(
         self,
-        base_params: SystemParams | None = None,
-        window: float = 0.1,
-        band: float = 0.15,
-        abs_band: float = 5e-4,
-        force_band: float = 0.25,
-        force_abs_band: float = 20.0,
-        stop_margin: float = 2e-3,
-        min_duration: float = 0.2,
+        params: SystemParams | None = None,
+        *,
+        geometry: RigGeometry | None = None,
+        method: FrictionMethod | None = None,
         fixed: dict[str, float] | None = None,
         loss: str = "soft_l1",
         n_starts: int = 24,
         level: float = 0.95,
-        oscillation_factor: float = 3.0,
-        method: str = "average",
-        cutoff: float = 300.0,
-        taps: int = 41,
-        min_speed: float = 3e-3,
-        guard: float = 0.0,
-        bin_rel: float = 0.1,
-        bin_width: float = 1e-3,
-        bin_min_count: int = 5,
-        breakaway: bool = False,
-        breakaway_speed_ratio: float = 2.0,
-        breakaway_min_cycles: int = 10,
-        min_slip: float = 5e-3,
+        stop_margin: float = 2e-3,
     ) -> None:
-        self.base_params = base_params
-        self.window = window
-        self.band = band
-        self.abs_band = abs_band
-        self.force_band = force_band
-        self.force_abs_band = force_abs_band
-        self.stop_margin = stop_margin
-        self.min_duration = min_duration
-        self.fixed = fixed
+        method = SteadyStateAverage() if method is None else method
+        if not isinstance(method, SteadyStateAverage | InstantaneousBins | BreakawayConstrained):
+            raise ParameterError(
+                f"StribeckIdentifier method={method!r}; give SteadyStateAverage(), "
+                "InstantaneousBins() or BreakawayConstrained()"
+            )
+        points = method.points if isinstance(method, BreakawayConstrained) else method
+        needs = ("stroke", "area_a", "area_b") + (
+            ("mass",) if isinstance(points, InstantaneousBins) else ()
+        )
+        self.geometry = resolve_geometry("StribeckIdentifier", params, geometry, needs)
+        self.params = params
+        self.method = method
+        self.fixed = dict(fixed or {})
         self.loss = loss
         self.n_starts = n_starts
         self.level = level
-        self.oscillation_factor = oscillation_factor
-        self.method = method
-        self.cutoff = cutoff
-        self.taps = taps
-        self.min_speed = min_speed
-        self.guard = guard
-        self.bin_rel = bin_rel
-        self.bin_width = bin_width
-        self.bin_min_count = bin_min_count
-        self.breakaway = breakaway
-        self.breakaway_speed_ratio = breakaway_speed_ratio
-        self.breakaway_min_cycles = breakaway_min_cycles
-        self.min_slip = min_slip
+        self.stop_margin = stop_margin
+        if isinstance(method, BreakawayConstrained) and "smoothness" not in self.fixed:
+            if method.smoothness is None and params is None:
+                raise ParameterError(
+                    "BreakawayConstrained holds γ fixed: give BreakawayConstrained(smoothness=...) "
+                    "[s/m], fixed={'smoothness': ...} or params=SystemParams"
+                )
 
     def fit(self, data) -> StribeckIdentifier:
         """Reduce each run to a friction point and fit Eq. (11).
@@ -1063,29 +1260,24 @@ class StribeckIdentifier:
         """
         import pandas as pd
 
-        from ..params import get_preset
-
-        base = self.base_params or get_preset("paper")
-        cyl = base.cylinder
-        if self.method not in METHODS:
-            raise IdentificationError(
-                f"unknown method {self.method!r}; choose from {', '.join(METHODS)}"
-            )
+        geo = self.geometry
+        assert geo.area_a is not None and geo.area_b is not None
         runs = as_runs(data, "friction")
         skipped: list[SkippedRun] = []
-        self.breakaway_ = None
-        self.breakaway_runs_ = None
-        if self.method in ("instantaneous", "breakaway"):
-            return self._fit_instantaneous(runs, base, skipped)
+        self.breakaway_: ParameterEstimate | None = None
+        self.breakaway_runs_: Any = None
+        points = self._points
+        if isinstance(points, InstantaneousBins):
+            return self._fit_instantaneous(runs, points, skipped)
         rows = []
         kw = dict(
             stop_margin=self.stop_margin,
-            window=self.window,
-            band=self.band,
-            abs_band=self.abs_band,
-            force_band=self.force_band,
-            force_abs_band=self.force_abs_band,
-            min_duration=self.min_duration,
+            window=points.window,
+            band=points.band,
+            abs_band=points.abs_band,
+            force_band=points.force_band,
+            force_abs_band=points.force_abs_band,
+            min_duration=points.min_duration,
         )
         for run in runs:
             ch = channels_of(run, ("t", "x", "p_a", "p_b", "f_l"), skipped)
@@ -1098,10 +1290,10 @@ class StribeckIdentifier:
                     ch["p_a"],
                     ch["p_b"],
                     ch["f_l"],
-                    cyl.area_a,
-                    cyl.area_b,
-                    cyl.stroke,
-                    **kw,
+                    geo.area_a,
+                    geo.area_b,
+                    geo.stroke,
+                    **kw,  # type: ignore[arg-type]
                 )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))
@@ -1131,27 +1323,32 @@ class StribeckIdentifier:
         floor = float(
             np.median(np.sort(pts["force_fluctuation"].to_numpy())[: max(3, len(pts) // 4)])
         )
-        pts["oscillating"] = pts["force_fluctuation"] > self.oscillation_factor * floor
+        pts["oscillating"] = pts["force_fluctuation"] > points.oscillation_factor * floor
         self.points_ = pts
-        self.notes_ = []
+        self.notes_: list[str] = []
         if pts["oscillating"].any():
             osc = pts[pts["oscillating"]]
             self.notes_.append(
-                f"{len(osc)} run(s) oscillate (net-force std > {self.oscillation_factor:g}× the quietest runs' "
+                f"{len(osc)} run(s) oscillate (net-force std > {points.oscillation_factor:g}× the quietest runs' "
                 f"{floor:.3g} N), at |v| up to {1e3 * osc['v'].abs().max():.3g} mm/s: their mean force is not "
                 "the static friction there, so F_s, χ and δ that rest on them may be biased beyond their CI"
             )
-        self._final_fit(pts, runs, base)
-        self.friction_ = self.fit_.friction
+        self._final_fit(pts, runs)
         self.skipped_ = skipped
         return self
 
+    @property
+    def _points(self) -> SteadyStateAverage | InstantaneousBins:
+        m = self.method
+        return m.points if isinstance(m, BreakawayConstrained) else m
+
     def _fit_instantaneous(
-        self, runs, base: SystemParams, skipped: list[SkippedRun]
+        self, runs, opts: InstantaneousBins, skipped: list[SkippedRun]
     ) -> StribeckIdentifier:
         import pandas as pd
 
-        cyl = base.cylinder
+        geo = self.geometry
+        assert geo.area_a is not None and geo.area_b is not None and geo.mass is not None
         rows = []
         for run in runs:
             ch = channels_of(run, ("t", "x", "p_a", "p_b", "f_l"), skipped)
@@ -1165,21 +1362,21 @@ class StribeckIdentifier:
                     ch["p_a"],
                     ch["p_b"],
                     ch["f_l"],
-                    cyl.area_a,
-                    cyl.area_b,
-                    base.load.mass,
+                    geo.area_a,
+                    geo.area_b,
+                    geo.mass,
                     u=u,
-                    stroke=cyl.stroke,
+                    stroke=geo.stroke,
                     stop_margin=self.stop_margin,
-                    cutoff=self.cutoff,
-                    taps=self.taps,
-                    min_speed=self.min_speed,
-                    guard=self.guard,
+                    cutoff=opts.cutoff,
+                    taps=opts.taps,
+                    min_speed=opts.min_speed,
+                    guard=opts.guard,
                 )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))
                 continue
-            bins = _velocity_bins(v, f, self.bin_rel, self.bin_width, self.bin_min_count)
+            bins = _velocity_bins(v, f, opts.bin_rel, opts.bin_width, opts.bin_min_count)
             if bins.size == 0:
                 skip(skipped, run.name, "no velocity bin with enough moving samples")
                 continue
@@ -1211,20 +1408,25 @@ class StribeckIdentifier:
                 "speeds crossed within a sample or two (the low-speed Stribeck peak) are not resolved at "
                 "this sampling rate, so F_s, χ and δ rest on an extrapolation"
             )
-        self._final_fit(pts, runs, base)
-        self.friction_ = self.fit_.friction
+        self._final_fit(pts, runs)
         self.skipped_ = skipped
         return self
 
-    def _final_fit(self, pts, runs, base: SystemParams) -> None:
-        fixed = dict(self.fixed or {})
+    def _final_fit(self, pts, runs) -> None:
+        fixed = dict(self.fixed)
         constraint = None
-        if self.breakaway or self.method == "breakaway":
-            constraint = self._breakaway(runs, base)
+        m = self.method
+        if isinstance(m, BreakawayConstrained):
+            constraint = self._breakaway(runs, m)
             if constraint is not None and "smoothness" not in fixed:
-                fixed["smoothness"] = base.friction.smoothness
+                if m.smoothness is not None:
+                    gamma, src = m.smoothness, "BreakawayConstrained.smoothness"
+                else:
+                    assert self.params is not None  # checked in __init__
+                    gamma, src = self.params.friction.smoothness, "the given params"
+                fixed["smoothness"] = gamma
                 self.notes_.append(
-                    f"γ held at {base.friction.smoothness:.4g} s/m (base parameters): constant-input data do not "
+                    f"γ held at {gamma:.4g} s/m ({src}): constant-input data do not "
                     "identify it, and it sets how far the curve's maximum (the break-away force) lies below F_s"
                 )
         self.fit_ = fit_stribeck(
@@ -1243,12 +1445,21 @@ class StribeckIdentifier:
                 f"fitted curve maximum {fm:.4g} N at {1e3 * vm:.3g} mm/s (F_s = "
                 f"{self.fit_.friction.static:.4g} N)"
             )
+        self.friction_ = self.fit_.friction
+        self.status_ = self.fit_.status
+        for name in STRIBECK_NAMES:
+            val = getattr(self.friction_, name)
+            est = self.fit_.estimates.get(
+                name, ParameterEstimate(val, 0.0, (val, val), _UNITS[name], self.level)
+            )
+            setattr(self, name + "_", est)
 
-    def _breakaway(self, runs, base: SystemParams) -> tuple[float, float] | None:
+    def _breakaway(self, runs, opts: BreakawayConstrained) -> tuple[float, float] | None:
         """F_b and its standard error from the slowest stick-slip runs (sets ``breakaway_``)."""
         import pandas as pd
 
-        cyl = base.cylinder
+        geo = self.geometry
+        assert geo.area_a is not None and geo.area_b is not None
         rows, peaks = [], {}
         for run in runs:
             if not all(c in run.channels for c in ("t", "x", "p_a", "p_b", "f_l")):
@@ -1260,18 +1471,18 @@ class StribeckIdentifier:
                     run["p_a"],
                     run["p_b"],
                     run["f_l"],
-                    cyl.area_a,
-                    cyl.area_b,
+                    geo.area_a,
+                    geo.area_b,
                     u=run["u"] if "u" in run.channels else None,
-                    stroke=cyl.stroke,
+                    stroke=geo.stroke,
                     stop_margin=self.stop_margin,
-                    cutoff=self.cutoff,
-                    taps=self.taps,
-                    min_slip=self.min_slip,
+                    cutoff=opts.cutoff,
+                    taps=opts.taps,
+                    min_slip=opts.min_slip,
                 )
             except IdentificationError:
                 continue
-            if br.peaks.size < self.breakaway_min_cycles:
+            if br.peaks.size < opts.min_cycles:
                 continue
             pk = br.peaks
             sem = 1.2533 * 1.4826 * float(np.median(np.abs(pk - np.median(pk)))) / np.sqrt(pk.size)
@@ -1299,7 +1510,7 @@ class StribeckIdentifier:
             if not sel.any():
                 continue
             vmin = float(tab.loc[sel, "mean_speed"].min())
-            use = sel & (tab["mean_speed"] <= self.breakaway_speed_ratio * vmin)
+            use = sel & (tab["mean_speed"] <= opts.speed_ratio * vmin)
             tab.loc[use, "used"] = True
             pooled = np.concatenate([peaks[n] for n in tab.loc[use, "run"]])
             val = float(np.median(pooled))
@@ -1329,12 +1540,41 @@ class StribeckIdentifier:
 
     def uncertainty(self) -> dict:
         """Per-field estimates and the weakly identified names (``[uncertainty]`` table)."""
-        out = {k: e.to_dict() for k, e in self.fit_.estimates.items()}
+        out: dict[str, Any] = {k: e.to_dict() for k, e in self.fit_.estimates.items()}
         out["weakly_identified"] = list(self.fit_.weak)
         out["notes"] = list(self.notes_)
         out["rms_residual_N"] = self.fit_.rms_residual
-        out["method"] = self.method
+        out["method"] = self.method.name
+        out["optimizer"] = dataclasses.asdict(self.fit_.status)
         return out
+
+    def apply(self, params: SystemParams) -> SystemParams:
+        """``params`` with the fitted friction curve in place of its ``friction``."""
+        if not hasattr(self, "friction_"):
+            raise not_fitted("StribeckIdentifier")
+        return dataclasses.replace(params, friction=self.friction_)
+
+    def provenance(self) -> str:
+        """One line on how the curve was found (``[meta.identification]`` of a parameter file)."""
+        if not hasattr(self, "fit_"):
+            raise not_fitted("StribeckIdentifier")
+        points = self._points
+        kind = (
+            "steady-state" if isinstance(points, SteadyStateAverage) else "per-sample velocity-bin"
+        )
+        brk = self.breakaway_
+        return (
+            f"Sec. VI-C: {len(self.points_)} {kind} points (method {self.method.name}), Eq. (10) "
+            f"with areas from the given geometry; Eq. (11) by bounded {self.loss} least squares"
+            + (
+                f", constrained to the stick-slip break-away force {brk.value:.4g} N as its "
+                "maximum with γ held"
+                if brk is not None
+                else ""
+            )
+            + (f"; weakly identified: {', '.join(self.fit_.weak)}" if self.fit_.weak else "")
+            + f"; optimiser: {self.fit_.status}"
+        )
 
 
 def _usable_samples(t, x, u, edge, settle, stroke, stop_margin) -> np.ndarray:

@@ -12,13 +12,13 @@ import dataclasses
 import datetime as _dt
 import os
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Protocol
 
-from .._errors import IdentificationError
+from .._errors import IdentificationError, ParameterError
 from .._io import atomic_write_text
-from ..params import SystemParams, get_preset, save_params
+from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
     IdentificationWarning,
@@ -31,7 +31,14 @@ from ._deadzone import DeadZoneIdentifier
 from ._frf import ValveFrfIdentifier
 from ._friction import StribeckIdentifier
 
-__all__ = ["IdentificationReport", "identify", "load_runs", "PARTS"]
+__all__ = [
+    "IdentificationReport",
+    "identify",
+    "load_runs",
+    "PARTS",
+    "Estimator",
+    "default_estimators",
+]
 
 #: What :func:`identify` can identify, in order.
 PARTS = ("frf", "deadzone", "friction")
@@ -43,7 +50,7 @@ _META_KEYS = {
 }
 
 
-def load_runs(source, skipped: list | None = None, base_params: SystemParams | None = None) -> list:
+def load_runs(source, skipped: list | None = None, params: SystemParams | None = None) -> list:
     """The sound runs of a dataset folder, of a campaign folder (one dataset per sub-folder), or given runs.
 
     Each run is routed to its estimator (``meta["experiment"]``/``meta["kind"]``, else the
@@ -63,8 +70,9 @@ def load_runs(source, skipped: list | None = None, base_params: SystemParams | N
         (as written by ``hydropwa rig``), or runs.
     skipped : list, optional
         Receives a :class:`SkippedRun` per run left out.
-    base_params : SystemParams, optional
-        Gives the stroke for the friction runs' span (default: the ``paper`` preset).
+    params : SystemParams, optional
+        Gives the stroke for the friction runs' span; without it a friction run is screened
+        over its whole length (samples at an end stop included).
 
     Raises
     ------
@@ -75,7 +83,7 @@ def load_runs(source, skipped: list | None = None, base_params: SystemParams | N
     from ..data._validate import converter_limits
 
     skipped = [] if skipped is None else skipped
-    stroke = (base_params or get_preset("paper")).cylinder.stroke
+    stroke = None if params is None else params.cylinder.stroke
     groups: list[tuple[Any, str | None, dict]] = []  # (runs or dataset, folder kind, limits)
     if not isinstance(source, str | os.PathLike):
         groups.append((source, None, {}))
@@ -229,15 +237,40 @@ class IdentificationReport:
         return written
 
 
+class Estimator(Protocol):
+    """What :func:`identify` needs of an estimator (the three of Sec. VI satisfy it)."""
+
+    part: ClassVar[str]  # experiment kind it reads: "frf", "deadzone", "friction"
+    field: ClassVar[str]  # SystemParams field it sets: "valve", "dead_zone", "friction"
+    skipped_: list[SkippedRun]
+
+    def fit(self, data: Any) -> Any: ...
+    def apply(self, params: SystemParams) -> SystemParams: ...
+    def uncertainty(self) -> dict: ...
+    def provenance(self) -> str: ...
+
+
+def default_estimators(params: SystemParams) -> dict[str, Estimator]:
+    """The estimator of each part with its default settings, geometry from ``params``."""
+    return {
+        "frf": ValveFrfIdentifier(),
+        "deadzone": DeadZoneIdentifier(params),
+        "friction": StribeckIdentifier(params),
+    }
+
+
 def identify(
     data,
     parts: Iterable[str] = PARTS,
-    base_params: SystemParams | None = None,
-    frf: dict[str, Any] | None = None,
-    dead_zone: dict[str, Any] | None = None,
-    friction: dict[str, Any] | None = None,
+    *,
+    params: SystemParams | None = None,
+    estimators: Mapping[str, Estimator] | None = None,
 ) -> IdentificationReport:
     """Identify valve, dead zone and friction from measured runs and return parameters.
+
+    Each part's estimator is fitted to the runs of its kind and applied to the parameters
+    in turn (``params = est.apply(params)``), so the result equals that chain; uncertainty
+    and provenance go to ``params.meta``.
 
     Parameters
     ----------
@@ -245,11 +278,13 @@ def identify(
         See :func:`load_runs`. Runs are routed by ``meta["experiment"]``/``meta["kind"]``.
     parts : iterable of str
         Any of ``"frf"``, ``"deadzone"``, ``"friction"``.
-    base_params : SystemParams, optional
-        Everything not identified, plus areas and stroke (default: ``paper`` preset).
-    frf, dead_zone, friction : dict, optional
-        Settings passed to :class:`ValveFrfIdentifier`, :class:`DeadZoneIdentifier`,
-        :class:`StribeckIdentifier`.
+    params : SystemParams
+        The rig: everything not identified, plus areas, stroke and mass the estimators read.
+        Required (there is no default rig); e.g. ``get_preset("paper")`` or ``load_params(...)``.
+    estimators : mapping of str to estimator, optional
+        Estimator per part (with its settings), e.g.
+        ``{"friction": StribeckIdentifier(params, method=InstantaneousBins())}``; a part not
+        given gets :func:`default_estimators`'s.
 
     Returns
     -------
@@ -257,6 +292,8 @@ def identify(
 
     Raises
     ------
+    ParameterError
+        Without ``params``, or with an estimator given for a part it does not identify.
     IdentificationError
         If a single part was asked for and cannot be identified, or none of several can.
         When several parts are asked for, a part without usable runs is skipped with an
@@ -268,7 +305,19 @@ def identify(
         raise IdentificationError(
             f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}"
         )
-    base = base_params or get_preset("paper")
+    if params is None:
+        raise ParameterError(
+            "identify needs the rig's parameters (areas, stroke, mass and the values not "
+            "identified): pass params=get_preset('paper') or params=load_params('rig.toml')"
+        )
+    chosen = {**default_estimators(params), **dict(estimators or {})}
+    for key, est in chosen.items():
+        if key not in PARTS or getattr(est, "part", None) != key:
+            raise ParameterError(
+                f"estimators[{key!r}] = {type(est).__name__} identifies "
+                f"{getattr(est, 'part', 'nothing')!r}; keys are the parts {', '.join(PARTS)}"
+            )
+    base = params
     source = str(data) if isinstance(data, str | os.PathLike) else getattr(data, "root", "runs")
     screened: list = []
     runs = load_runs(data, screened, base)
@@ -282,20 +331,16 @@ def identify(
             unlabelled.append(r.name)
     report = IdentificationReport(params=base, source=str(source))
     report.skipped += screened
-    changes: dict[str, Any] = {}
     uncertainty: dict[str, Any] = {}
     provenance: dict[str, Any] = {
         "source": str(source),
         "date": _dt.date.today().isoformat(),
         "method": "hydropwa.identification (Sec. VI of the paper)",
     }
-    makers = {
-        "frf": lambda: ValveFrfIdentifier(**(frf or {})),
-        "deadzone": lambda: DeadZoneIdentifier(base_params=base, **(dead_zone or {})),
-        "friction": lambda: StribeckIdentifier(base_params=base, **(friction or {})),
-    }
     done = []
+    result = base
     for part in parts:
+        est = chosen[part]
         selected = by_kind[part]
         try:
             if not selected:
@@ -307,7 +352,7 @@ def identify(
                         f"named {part}/"
                     )
                 raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
-            est = makers[part]().fit(selected)
+            est.fit(selected)
         except IdentificationError as exc:
             if len(parts) == 1:
                 raise
@@ -316,48 +361,10 @@ def identify(
             continue
         report.skipped += est.skipped_
         done.append(part)
-        if part == "frf":
-            report.valve = est
-            changes["valve"] = est.valve_
-            uncertainty["valve"] = est.uncertainty()
-            provenance["valve"] = (
-                f"Sec. VI-A: {sum(f.n_points for f in est.fits_.values())} FRF points at "
-                f"amplitudes {', '.join(f'{a:g}' for a in est.fits_)}; 2nd-order fit, "
-                "zeta pooled (inverse-variance)"
-            )
-        elif part == "deadzone":
-            report.dead_zone = est
-            changes["dead_zone"] = est.dead_zone_  # alpha (saturation) comes from the base
-            uncertainty["dead_zone"] = est.uncertainty()
-            fit = est.fit_
-            drift = (
-                ""
-                if fit.drift_pos is None
-                else f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / {1e3 * fit.drift_neg.value:.3g} mm/s "
-                "for u ≥ 0 / u < 0, kept out of the creep"
-            )
-            provenance["dead_zone"] = (
-                f"Sec. VI-B: {len(est.points_)} constant-input runs, "
-                f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
-                f"creep_slope = creep velocity slope / mean outer gain; alpha from base{drift}"
-            )
-        else:
-            report.friction = est
-            changes["friction"] = est.friction_
-            uncertainty["friction"] = est.uncertainty()
-            kind = "steady-state" if est.method == "average" else "per-sample velocity-bin"
-            brk = est.breakaway_
-            provenance["friction"] = (
-                f"Sec. VI-C: {len(est.points_)} {kind} points (method {est.method}), Eq. (10) "
-                f"with areas from base; Eq. (11) by bounded {est.loss} least squares"
-                + (
-                    f", constrained to the stick-slip break-away force {brk.value:.4g} N as its "
-                    "maximum with γ from base"
-                    if brk is not None
-                    else ""
-                )
-                + (f"; weakly identified: {', '.join(est.fit_.weak)}" if est.fit_.weak else "")
-            )
+        setattr(report, est.field, est)  # report.valve / .dead_zone / .friction
+        result = est.apply(result)
+        uncertainty[est.field] = est.uncertainty()
+        provenance[est.field] = est.provenance()
     if not done:
         raise IdentificationError(
             "nothing identified: "
@@ -377,7 +384,7 @@ def identify(
         "identification": provenance,
         "uncertainty": uncertainty,
     }
-    report.params = dataclasses.replace(base, meta=meta, **changes)
+    report.params = dataclasses.replace(result, meta=meta)
     return report
 
 
@@ -402,7 +409,7 @@ def _summary(rep: IdentificationReport) -> str:
             )
         lines += ["", f"Pooled ζ = {rep.valve.zeta_.value:.3f} ± {rep.valve.zeta_.std:.2g}.", ""]
     if rep.dead_zone is not None:
-        f = rep.dead_zone.fit_
+        dz = rep.dead_zone.fit_
         lines += [
             "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
             "",
@@ -410,22 +417,22 @@ def _summary(rep: IdentificationReport) -> str:
             "|---|---|---|---|",
         ]
         for name, e in (
-            ("β (symmetric)", f.beta),
-            ("β+", f.beta_pos),
-            ("β−", f.beta_neg),
-            ("k_g (creep opening slope)", f.creep_slope),
-            ("creep velocity slope", f.creep_velocity_slope),
-            ("outer gain +", f.gain_pos),
-            ("outer gain −", f.gain_neg),
-            ("drift u ≥ 0 (leakage, load)", f.drift_pos),
-            ("drift u < 0 (leakage, load)", f.drift_neg),
+            ("β (symmetric)", dz.beta),
+            ("β+", dz.beta_pos),
+            ("β−", dz.beta_neg),
+            ("k_g (creep opening slope)", dz.creep_slope),
+            ("creep velocity slope", dz.creep_velocity_slope),
+            ("outer gain +", dz.gain_pos),
+            ("outer gain −", dz.gain_neg),
+            ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
+            ("drift u < 0 (leakage, load)", dz.drift_neg),
         ):
             if e is None:
                 continue
             lines.append(f"| {name} | {_fmt_est(e)} |")
         lines += [
             "",
-            f"{f.n_points} runs; RMS velocity residual {1e3 * f.rms_residual:.3g} mm/s.",
+            f"{dz.n_points} runs; RMS velocity residual {1e3 * dz.rms_residual:.3g} mm/s.",
             "",
         ]
     if rep.friction is not None:
