@@ -14,7 +14,7 @@ from ._errors import (
     SignalError,
     SimulationError,
 )
-from .models import FullOrderModel, ReducedModel
+from .models import FullOrderModel, Model, ReducedModel
 from .params import (
     Cylinder,
     DeadZone,
@@ -42,6 +42,7 @@ from .simulation import (
     simulate,
     simulate_batch,
 )
+from .simulation import SolverStats, SolverStatus
 
 __version__ = "0.1.0"
 
@@ -79,4 +80,7 @@ __all__ = [
     "save_params",
     "simulate",
     "simulate_batch",
+    "Model",
+    "SolverStats",
+    "SolverStatus",
 ]

@@ -232,7 +232,7 @@ def simulate_command(
         params=prm,
         controller=ctrl,
         reference=ref,
-        x0=start,
+        initial_position=start,
         load_force=load_force,
         supply_pressure=supply_pressure,
         rtol=rtol,

@@ -202,19 +202,20 @@ def simulate_command(
     check_supply_pressure(supply_pressure, prm, duration)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
-    mdl = as_model(model, prm)
-    if model == "pwa" and supply_pressure is not None:
+    if model == "pwa":
         from ..linearization import linearize
 
-        # the cells follow the given P_S (constant or a signal) online: the scheduled model
-        mdl = linearize(prm, scheduled=True)
+        # with a given P_S (constant or a signal) the cells follow it online: the scheduled model
+        mdl = linearize(prm, scheduled=supply_pressure is not None)
+    else:
+        mdl = as_model(model, prm)
     res = simulate(
         mdl,
         u,
         duration=duration,
         supply_pressure=supply_pressure,
         load_force=load_force,
-        x0=x_init,
+        initial_position=x_init,
         fs=fs,
         rtol=rtol,
     )

@@ -54,7 +54,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         ("pwa", pwa, pwa.params),
     ):
         runs[name] = simulate(
-            mdl, duration=_DURATION, params=prm, controller=design.controller, reference=ref, x0=_X0
+            mdl, duration=_DURATION, params=prm, controller=design.controller, reference=ref, initial_position=_X0
         )
     if verify_params is not None:
         runs["full (true params)"] = simulate(
@@ -63,7 +63,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
             params=verify_params,
             controller=design.controller,
             reference=ref,
-            x0=_X0,
+            initial_position=_X0,
         )
     rows = {}
     for name, res in runs.items():

@@ -49,7 +49,7 @@ def _simulate_on(model, t, channels, rtol):
     if "x" in channels:
         kwargs["x0"] = float(channels["x"][0])
     return simulate(
-        model, Sampled(t0, np.asarray(channels["u"], dtype=float)), t=t0, rtol=rtol, **kwargs
+        model, Sampled(t0, np.asarray(channels["u"], dtype=float)), timepts=t0, rtol=rtol, **kwargs
     )
 
 
@@ -101,7 +101,7 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
             if res.t.size != t.size:
                 raise DataError(
                     f"compare: result {i + 1} has {res.t.size} samples, the reference {t.size}; "
-                    "simulate it on the reference's time grid (t=...)"
+                    "simulate it on the reference's time grid (timepts=...)"
                 )
         else:
             res = _simulate_on(m, t, ref, rtol)

@@ -330,7 +330,7 @@ def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
     res = simulate(
         model,
         u=Sampled(t, run.channels["u"]),
-        t=t[start.index :],
+        timepts=t[start.index :],
         supply_pressure=ps_in,
         load_force=fl,
         initial_state=_initial_state(model, start, ps_mean),
@@ -340,9 +340,9 @@ def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
     # one load pressure for every model, P_A − α P_B = F_hyd/A_A: the state of the asymmetric
     # models, the force-equivalent pressure of the full and the paper-form models
     res.channels["p_l"] = res.channels["p_a"] - _area_ratio(params) * res.channels["p_b"]
-    if res.stats.get("status", 0) != 0:
+    if not res.success:
         notes.append(
-            f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
+            f"{name}: {res.message}; scored over "
             f"{res.t.size} of {t.size - start.index} samples"
         )
     return res

@@ -30,7 +30,7 @@ import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -227,7 +227,7 @@ class PwaModel:
     breakpoints: str = "paper"
     capacitance_position: float | None = None
     kind = KIND_PWA
-    name = "pwa"
+    name: ClassVar[str] = "pwa"
     state_names: tuple[str, ...] = field(default=("p_l", "v", "x"), init=False)
 
     def __post_init__(self) -> None:
@@ -314,9 +314,14 @@ class PwaModel:
         """Typical state magnitudes [Pa, m/s, m] used as absolute tolerances."""
         return self.reduced.state_scale()
 
-    def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` [m] (default mid-stroke) with A·P_L = F_L."""
-        return self.reduced.initial_state(x0, supply_pressure, load_force)
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L."""
+        return self.reduced.initial_state(initial_position, supply_pressure, load_force)
 
     def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""

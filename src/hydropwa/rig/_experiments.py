@@ -349,7 +349,7 @@ def execute(
         spec.command,
         duration=spec.duration,
         load_force=load,
-        x0=spec.start_position,
+        initial_position=spec.start_position,
         fs=rig.fs,
         rtol=rig.rtol,
     )

@@ -13,11 +13,13 @@ from ._signals import (
     pack_signals,
     parse_signal,
 )
-from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
+from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
+from ._status import SolverStats, SolverStatus
 
 __all__ = [
     "CHANNEL_UNITS",
     "Chirp",
+    "DEFAULT_RTOL",
     "Constant",
     "Ramp",
     "SUMMARY_COLUMNS",
@@ -25,6 +27,8 @@ __all__ = [
     "Signal",
     "SimulationResult",
     "Sine",
+    "SolverStats",
+    "SolverStatus",
     "Step",
     "as_signal",
     "pack_signals",

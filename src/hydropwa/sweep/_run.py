@@ -40,6 +40,7 @@ import pandas as pd
 
 from .. import _interrupt
 from .._errors import HydropwaError, ParameterError
+from ..linearization import linearize
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
 
@@ -67,10 +68,13 @@ def run_case(
     metrics of the partial result). This is the task a Dask worker runs; it is a plain
     function of picklable arguments.
     """
+    params = spec.params_for(case)
+    # the PWA model is built from each case's parameters (model kinds resolve where used)
+    model = linearize(params) if spec.model == "pwa" else spec.model
     res = simulate(
-        spec.model,
+        model,
         spec.u,
-        params=spec.params_for(case),
+        params=params,
         duration=spec.duration,
         raise_on_failure=False,
         **spec.options,
