@@ -17,7 +17,6 @@ __all__ = [
     "PwaError",
     "OutputExistsError",
     "OutputLockedError",
-    "check_output",
     "interrupt_cause",
 ]
 
@@ -75,20 +74,6 @@ class OutputExistsError(HydropwaError, FileExistsError):
 
 class OutputLockedError(HydropwaError):
     """Another run holds the lock of the output folder (see ``hydropwa._io.output_lock``)."""
-
-
-def check_output(
-    path,
-    force: bool = False,
-    *,
-    folder: bool = False,
-    option: str | None = None,
-    files: tuple[str, ...] | None = None,
-) -> None:
-    """Refuse an existing output unless ``force`` (see :func:`hydropwa._io.check_output`)."""
-    from ._io import check_output as _check
-
-    _check(path, force, folder=folder, option=option, files=files)
 
 
 def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:

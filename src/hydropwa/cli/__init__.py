@@ -131,9 +131,9 @@ def _internal_error(exc: BaseException) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
     warnings.showwarning = _showwarning
-    from ..simulation import _kernel
+    from ..simulation import set_compile_notice
 
-    _kernel.set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
+    set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
     command = typer.main.get_command(app)
     _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:

@@ -13,7 +13,7 @@ from typing import Annotated
 
 import typer
 
-from .._errors import check_output
+from .._io import check_output
 
 __all__ = ["app", "design_command", "simulate_command"]
 

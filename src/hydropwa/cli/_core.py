@@ -8,7 +8,8 @@ from typing import Annotated
 
 import typer
 
-from .._errors import ParameterError, SignalError, check_output
+from .._errors import ParameterError, SignalError
+from .._io import check_output
 from ..params import (
     FIELD_UNITS,
     PRESETS,

@@ -15,7 +15,8 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import HydropwaError, IdentificationError, ParameterError, check_output
+from hydropwa._errors import HydropwaError, IdentificationError, ParameterError
+from hydropwa._io import check_output
 
 __all__ = ["app"]
 

@@ -222,7 +222,7 @@ def controller_from_dict(d: dict[str, Any]):
 
 def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:
     """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``force``."""
-    from .._errors import check_output
+    from .._io import check_output
 
     path = Path(path)
     check_output(path, force)

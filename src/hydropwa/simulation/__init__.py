@@ -1,6 +1,7 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
+from ._kernel import set_compile_notice
 from ._signals import (
     Chirp,
     Constant,
@@ -33,6 +34,7 @@ __all__ = [
     "as_signal",
     "pack_signals",
     "parse_signal",
+    "set_compile_notice",
     "simulate",
     "simulate_batch",
     "summarize",
