@@ -15,7 +15,6 @@ import numpy as np
 from .._display import channel_rows, html_table
 from .._errors import ParameterError, SignalError, SimulationError
 from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
-from ..data import Run, write_run
 from ..models import Model, as_model
 from ..params import SystemParams
 from . import _kernel as K
@@ -26,6 +25,8 @@ from ._status import SolverStats, SolverStatus
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
+
+    from ..data import Run
 
 #: Default relative tolerance. On the paper rig (10 s, 40 %, 1 Hz) it keeps the position
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
@@ -155,6 +156,8 @@ class SimulationResult:
 
     def to_run(self, name: str | None = None, meta: dict | None = None) -> Run:
         """The result as a :class:`hydropwa.data.Run` (for the data layer's writers)."""
+        from ..data import Run  # deferred: hydropwa.data loads pint (~0.3 s at import)
+
         m = {
             "source": "simulation",
             "model": self.model,
@@ -174,11 +177,15 @@ class SimulationResult:
     def to_csv(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write all channels to CSV (header ``name [unit]``), atomically; an existing file
         raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
+        from ..data import write_run  # deferred: hydropwa.data loads pint (~0.3 s at import)
+
         return Path(write_run(self.to_run(), Path(path), format="csv", overwrite=overwrite))
 
     def to_parquet(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write all channels to Parquet (units in the schema metadata), atomically; an existing
         file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
+        from ..data import write_run  # deferred: hydropwa.data loads pint (~0.3 s at import)
+
         return Path(write_run(self.to_run(), Path(path), format="parquet", overwrite=overwrite))
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
