@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import DataError
+from ..simulation import Sampled, simulate
 from ._metrics import nrmse_fit
 
 __all__ = ["compare"]
@@ -36,8 +37,6 @@ def _channels(obj):
 
 
 def _simulate_on(model, t, channels, rtol):
-    from ..simulation import Sampled, simulate
-
     t0 = t - t[0]
     if "u" not in channels:
         raise DataError("compare: the reference has no valve command 'u' to drive the models with")
@@ -83,7 +82,7 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
     DataError
         The reference lacks ``u`` or ``channel``, or a result's time grid differs.
     """
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred: matplotlib, only when a figure is drawn
 
     name, t, ref = _channels(run)
     if channel not in ref:

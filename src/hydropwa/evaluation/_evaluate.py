@@ -19,6 +19,10 @@ from typing import Any
 import numpy as np
 
 from .._errors import DataError
+from ..data import screen_runs
+from ..linearization import linearize
+from ..models import FullOrderModel, ReducedModel
+from ..simulation import CHANNEL_UNITS, Sampled, simulate
 from ._metrics import channel_metrics, drift_per_period
 
 __all__ = [
@@ -175,7 +179,7 @@ def _measured(
     run, start: EvaluationStart, slope_window: float, alpha: float = 1.0
 ) -> dict[str, np.ndarray]:
     """Measured channels from the start on, with P_L = P_A − α P_B and a smoothed-derivative velocity."""
-    from scipy.signal import savgol_filter
+    from scipy.signal import savgol_filter  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     i = start.index
     ch = {k: np.asarray(v[i:], dtype=float) for k, v in run.channels.items()}
@@ -281,8 +285,6 @@ def _check_run(run) -> None:
 
 def _supply(run, params, start: EvaluationStart, notes: list[str]):
     """(P_S signal for the full model, average P_S [Pa]) — measured, or the assumed constant."""
-    from ..simulation import Sampled
-
     if "p_s" in run.channels and np.all(np.isfinite(run.channels["p_s"])):
         ps = run.channels["p_s"]
         return Sampled(run.channels["t"], ps), float(np.mean(ps[start.index :]))
@@ -298,9 +300,6 @@ def _supply(run, params, start: EvaluationStart, notes: list[str]):
 
 def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
     """(model object, supply-pressure input) of one variant."""
-    from ..linearization import linearize
-    from ..models import FullOrderModel, ReducedModel
-
     if name == "full":
         return FullOrderModel(params), ps_signal
     if name == "reduced":
@@ -322,8 +321,6 @@ def _initial_state(model, start: EvaluationStart, ps_mean: float) -> np.ndarray:
 
 
 def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes):
-    from ..simulation import Sampled, simulate
-
     model, ps_in = _model_and_inputs(name, params, ps_signal, ps_mean)
     t = run.channels["t"]
     fl = Sampled(t, run.channels["f_l"]) if "f_l" in run.channels else None
@@ -356,8 +353,6 @@ def _padded(res, key: str, n: int) -> np.ndarray:
 
 
 def _metric_rows(run_name, meas, sims, start) -> list[dict]:
-    from ..simulation import CHANNEL_UNITS
-
     n = meas["t"].size
     rows = []
     for model, res in sims.items():
@@ -473,7 +468,7 @@ def evaluate_run(
         When the run has no P_S: a constant ``params.supply.pressure`` is assumed (also
         written to ``result.notes``).
     """
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     names = _check_models(models)
     _check_run(run)
@@ -509,8 +504,6 @@ def sound_runs(dataset) -> list:
     dropout or a spike, is left out with an :class:`EvaluationWarning` that names it and says
     why; the evaluation never silently includes the bad part.
     """
-    from ..data import screen_runs
-
     sound, rejected = screen_runs(dataset)
     for name, reason in rejected:
         warnings.warn(f"run {name!r} skipped: {reason}", EvaluationWarning, stacklevel=2)
@@ -544,7 +537,7 @@ def evaluate_dataset(
     pandas.DataFrame
         Rows of every run's ``metrics``; the column ``note`` holds the run's notes.
     """
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     runs = sound_runs(dataset)
     frames = []

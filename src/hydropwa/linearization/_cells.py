@@ -18,7 +18,7 @@ import numpy as np
 
 from .._errors import PwaError
 from ..components import PiecewiseAffine, stribeck_friction, stribeck_friction_slope
-from ..params import DeadZone, Friction
+from ..params import DeadZone, Friction, table_v_pwa
 from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
 
 __all__ = [
@@ -208,8 +208,6 @@ def friction_slope(friction: Friction):
 
 
 def _paper_friction_breakpoints() -> np.ndarray:
-    from ..params import table_v_pwa
-
     return table_v_pwa().breakpoints
 
 
@@ -334,7 +332,5 @@ def table_v_residual(
     friction: Friction, fit: PwaFit | None = None, interval=FRICTION_INTERVAL
 ) -> float:
     """RMS difference [N] between friction cells built from ``friction`` and Table V's curve."""
-    from ..params import table_v_pwa
-
     fit = friction_cells(friction) if fit is None else fit
     return approximation_errors(table_v_pwa(), fit.pwa, interval)[1]

@@ -40,6 +40,7 @@ import pandas as pd
 
 from .. import _interrupt
 from .._errors import HydropwaError, ParameterError
+from .._io import atomic_write_text
 from ..linearization import linearize
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
@@ -129,8 +130,6 @@ class SweepJournal:
     """
 
     def __init__(self, path: str | os.PathLike, spec: SweepSpec, fresh: bool = False) -> None:
-        from .._io import atomic_write_text
-
         self.path = Path(path)
         self.key = fingerprint(spec)
         self.rows: dict[int, dict] = {}
@@ -241,7 +240,11 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, on_done) -> list[tuple[Swe
 
     Returns the cases that did not finish (a dead worker, a lost connection), with why.
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import (  # deferred: dask.distributed costs ~1 s, only for a cluster
+        Client,
+        LocalCluster,
+        as_completed,
+    )
 
     cluster = None
     try:
