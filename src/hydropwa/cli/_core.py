@@ -164,7 +164,7 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
-    from ..models import as_model
+    from ..models import Model, as_model
     from ..simulation import Sampled, simulate
 
     if model not in ("full", "reduced", "pwa"):
@@ -203,6 +203,7 @@ def simulate_command(
     check_supply_pressure(supply_pressure, prm, duration)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
+    mdl: Model
     if model == "pwa":
         from ..linearization import linearize
 

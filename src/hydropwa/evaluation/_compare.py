@@ -114,5 +114,5 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
     ax.set_ylabel(f"{label} [{unit}]")
     ax.legend(loc="best", fontsize="small", title="fit (NRMSE)")
     ax.grid(True, alpha=0.3)
-    fig.fits = fits
+    fig.fits = fits  # type: ignore[attr-defined]  # the NRMSE fits, read by callers
     return fig

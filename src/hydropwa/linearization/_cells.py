@@ -89,8 +89,14 @@ def dead_zone_cells(dz: DeadZone) -> PiecewiseAffine:
     a, b, c, o = dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset
     us = a + o
     if b == 0.0:
-        return PiecewiseAffine([-us, us], [0.0, 1.0, 0.0], [-a, 0.0, a])
-    return PiecewiseAffine([-us, -b, b, us], [0.0, 1.0, c, 1.0, 0.0], [-a, o, 0.0, -o, a])
+        return PiecewiseAffine(
+            np.array([-us, us]), np.array([0.0, 1.0, 0.0]), np.array([-a, 0.0, a])
+        )
+    return PiecewiseAffine(
+        np.array([-us, -b, b, us]),
+        np.array([0.0, 1.0, c, 1.0, 0.0]),
+        np.array([-a, o, 0.0, -o, a]),
+    )
 
 
 def _check_cells(n, what: str) -> int:

@@ -340,7 +340,7 @@ def pwa_statespaces(
     out = []
     for c in doc["cells"]:
         A, B, f = np.array(c["A"]), np.array(c["B"]), np.array(c["f"])
-        args = (A, np.hstack((B, f[:, None])), np.eye(3), np.zeros((3, 2)))
+        args: tuple[Any, ...] = (A, np.hstack((B, f[:, None])), np.eye(3), np.zeros((3, 2)))
         if doc["sample_time"] is not None:
             args = args + (doc["sample_time"],)
         sys = control.ss(*args, inputs=["u", "one"], outputs=names, states=names)

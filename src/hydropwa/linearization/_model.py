@@ -670,7 +670,7 @@ class PwaModel:
                     )
                     for n in ns:
                         plo, phi = bo[o]
-                        if paper:
+                        if bn is not None:  # the paper form: C_qp cells of their own
                             plo, phi = max(plo, bn[n][0]), min(phi, bn[n][1])
                         if phi <= plo:
                             continue

@@ -94,9 +94,14 @@ class Model(Protocol):
         Names of the states, in the order of the state vector.
     """
 
-    name: str
-    params: SystemParams
-    state_names: tuple[str, ...]
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def params(self) -> SystemParams: ...
+
+    @property
+    def state_names(self) -> tuple[str, ...]: ...
 
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (float64) for a command of this amplitude [1]."""

@@ -308,10 +308,12 @@ def params_from_dict(
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
     meta = dict(params.meta)
-    extra = data.get("meta", {}) or {}
-    if not isinstance(extra, dict):
-        raise ParameterError(f"{source}: [meta] must be a table, got {type(extra).__name__}")
-    meta.update(extra)
+    extra_meta = data.get("meta", {}) or {}
+    if not isinstance(extra_meta, dict):
+        raise ParameterError(
+            f"{source}: [meta] must be a table, got {type(extra_meta).__name__}"
+        )
+    meta.update(extra_meta)
     if "uncertainty" in data:
         meta["uncertainty"] = data["uncertainty"]
     return dataclasses.replace(params, meta=meta, **changes)
