@@ -51,9 +51,7 @@ def test_successful_run_reports_success_and_typed_stats(paper):
 
 
 def test_failed_run_without_raising_carries_status_and_message(paper):
-    res = simulate(
-        FullOrderModel(paper), 0.5, duration=0.5, max_steps=20, raise_on_failure=False
-    )
+    res = simulate(FullOrderModel(paper), 0.5, duration=0.5, max_steps=20, raise_on_failure=False)
     assert not res.success and res.status is SolverStatus.MAX_STEPS
     assert res.stats.steps <= 20 and res.t[-1] < 0.5
     assert "failed at t = " in res.message and SolverStatus.MAX_STEPS.message in res.message
