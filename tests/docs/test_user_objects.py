@@ -55,7 +55,7 @@ def test_compare_scores_a_result_against_itself_at_100_percent(sim, paper):
     full = hp.simulate(
         hp.FullOrderModel(paper),
         hp.Sampled(sim.t, sim["u"]),
-        t=sim.t,
+        timepts=sim.t,
         supply_pressure=hp.Sampled(sim.t, sim["p_s"]),
         load_force=hp.Sampled(sim.t, sim["f_l"]),
         initial_position=float(sim["x"][0]),

@@ -46,7 +46,7 @@ def _simulate_on(model, t, channels, rtol):
     if "f_l" in channels:
         kwargs["load_force"] = Sampled(t0, np.asarray(channels["f_l"], dtype=float))
     if "x" in channels:
-        kwargs["x0"] = float(channels["x"][0])
+        kwargs["initial_position"] = float(channels["x"][0])
     return simulate(
         model, Sampled(t0, np.asarray(channels["u"], dtype=float)), timepts=t0, rtol=rtol, **kwargs
     )
