@@ -37,12 +37,13 @@ from .simulation import (
     Sampled,
     SimulationResult,
     Sine,
+    SolverStats,
+    SolverStatus,
     Step,
     parse_signal,
     simulate,
     simulate_batch,
 )
-from .simulation import SolverStats, SolverStatus
 
 __version__ = "0.1.0"
 
