@@ -69,7 +69,7 @@ def main() -> None:
 
     def closed():
         return simulate(
-            "full", params=prm, duration=dur, controller=ctrl, reference=REFERENCE, x0=0.1
+            "full", params=prm, duration=dur, controller=ctrl, reference=REFERENCE, initial_position=0.1
         )
 
     closed()  # compile / warm caches
@@ -78,7 +78,7 @@ def main() -> None:
     replay_u = Sampled(rec["t"], rec["u"])
 
     def replay():
-        return simulate("full", replay_u, params=prm, duration=dur, x0=0.1)
+        return simulate("full", replay_u, params=prm, duration=dur, initial_position=0.1)
 
     def sine():
         return simulate("full", "sine:amplitude=0.4,frequency=1", params=prm, duration=dur)

@@ -45,6 +45,7 @@ from hydropwa.models import as_model  # noqa: E402
 from hydropwa.params import get_preset  # noqa: E402
 from hydropwa.simulation import _kernel as K  # noqa: E402
 from hydropwa.simulation import as_signal, simulate, simulate_batch  # noqa: E402
+from hydropwa.simulation._simulate import _KERNEL_KIND as KIND  # noqa: E402
 
 U = "sine:amplitude=0.4,frequency=1"
 DURATION, FS, TOL_MM = 10.0, 2000.0, 0.1
@@ -83,11 +84,11 @@ def _scipy_rhs(model):
         as_signal(0.0, "N", "f_l"),
     )
     p = model.pack(command_amplitude=0.4)
-    if model.kind == K.PWA:
+    if KIND[model.name] == K.PWA:
         from hydropwa.linearization import pwa_rhs
 
         return lambda t, y: pwa_rhs(t, y, u(t), ps(t), fl(t), model)
-    f = REDUCED_RHS[model.form] if model.kind == K.REDUCED else RHS[model.kind]
+    f = REDUCED_RHS[model.form] if KIND[model.name] == K.REDUCED else RHS[KIND[model.name]]
     return lambda t, y: f(t, y, p, u, ps, fl)
 
 
@@ -112,8 +113,8 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
     rows = []
     t_out = np.linspace(0.0, DURATION, int(DURATION * FS) + 1)
     for name, model in _models().items():
-        ix = X_INDEX[model.kind]
-        if model.kind != K.PWA:  # the scipy baseline must be the same vector field
+        ix = X_INDEX[KIND[model.name]]
+        if KIND[model.name] != K.PWA:  # the scipy baseline must be the same vector field
             from numpy_rhs import check_against_kernel
 
             sig = (
@@ -123,9 +124,9 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
             )
             y = (
                 model.initial_state()
-                + np.r_[[1e5, 0.01, 0.0] if model.kind == K.REDUCED else np.zeros(7)]
+                + np.r_[[1e5, 0.01, 0.0] if KIND[model.name] == K.REDUCED else np.zeros(7)]
             )
-            assert check_against_kernel(model.kind, model.pack(0.4), sig, y) < 1e-9, name
+            assert check_against_kernel(KIND[model.name], model.pack(0.4), sig, y) < 1e-9, name
         ref = simulate(
             model, U, duration=DURATION, fs=FS, rtol=1e-9, solver="ros23", max_steps=50_000_000
         )

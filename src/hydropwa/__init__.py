@@ -14,7 +14,7 @@ from ._errors import (
     SignalError,
     SimulationError,
 )
-from .models import FullOrderModel, ReducedModel
+from .models import FullOrderModel, Model, ReducedModel
 from .params import (
     Cylinder,
     DeadZone,
@@ -37,6 +37,8 @@ from .simulation import (
     Sampled,
     SimulationResult,
     Sine,
+    SolverStats,
+    SolverStatus,
     Step,
     parse_signal,
     simulate,
@@ -79,4 +81,7 @@ __all__ = [
     "save_params",
     "simulate",
     "simulate_batch",
+    "Model",
+    "SolverStats",
+    "SolverStatus",
 ]

@@ -17,7 +17,6 @@ __all__ = [
     "PwaError",
     "OutputExistsError",
     "OutputLockedError",
-    "check_output",
     "interrupt_cause",
 ]
 
@@ -77,20 +76,6 @@ class OutputLockedError(HydropwaError):
     """Another run holds the lock of the output folder (see ``hydropwa._io.output_lock``)."""
 
 
-def check_output(
-    path,
-    force: bool = False,
-    *,
-    folder: bool = False,
-    option: str | None = None,
-    files: tuple[str, ...] | None = None,
-) -> None:
-    """Refuse an existing output unless ``force`` (see :func:`hydropwa._io.check_output`)."""
-    from ._io import check_output as _check
-
-    _check(path, force, folder=folder, option=option, files=files)
-
-
 def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
     """The Ctrl-C behind ``exc``, if ``exc`` is how a compiled kernel reported one.
 
@@ -99,9 +84,10 @@ def interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
     with the interrupt as its cause. This finds it in the cause/context chain.
     """
     seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
+    cur: BaseException | None = exc
+    while cur is not None and id(cur) not in seen:
+        if isinstance(cur, KeyboardInterrupt):
+            return cur
+        seen.add(id(cur))
+        cur = cur.__cause__ or cur.__context__
     return None

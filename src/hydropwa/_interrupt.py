@@ -20,23 +20,35 @@ from __future__ import annotations
 import signal
 import sys
 import threading
+from collections.abc import Callable
+from types import FrameType
+from typing import Any
 
 __all__ = ["install", "uninstall", "checkpoint", "pending"]
 
-_state = {"pending": False, "installed": False, "hook": None}
+
+class _State:
+    """What :func:`install` changed, and whether a Ctrl-C was recorded."""
+
+    pending: bool = False
+    installed: bool = False
+    hook: Callable[[Any], object] | None = None
 
 
-def _on_sigint(signum, frame):  # noqa: ARG001 - signal handler signature
-    _state["pending"] = True
+_state = _State()
+
+
+def _on_sigint(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - handler signature
+    _state.pending = True
     raise KeyboardInterrupt
 
 
-def _unraisable(args) -> None:
+def _unraisable(args: Any) -> None:
     """``sys.unraisablehook``: a dropped Ctrl-C is recorded, not printed as a traceback."""
     if isinstance(args.exc_value, KeyboardInterrupt):
-        _state["pending"] = True
+        _state.pending = True
         return
-    (_state["hook"] or sys.__unraisablehook__)(args)
+    (_state.hook or sys.__unraisablehook__)(args)
 
 
 def install() -> bool:
@@ -44,15 +56,15 @@ def install() -> bool:
 
     Returns True if installed. Clears a previously recorded interrupt.
     """
-    _state["pending"] = False
+    _state.pending = False
     if threading.current_thread() is not threading.main_thread():
         return False
     if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
         return False  # someone else (a test runner, an embedding application) handles Ctrl-C
     signal.signal(signal.SIGINT, _on_sigint)
-    _state["hook"] = sys.unraisablehook
+    _state.hook = sys.unraisablehook
     sys.unraisablehook = _unraisable
-    _state["installed"] = True
+    _state.installed = True
     return True
 
 
@@ -62,20 +74,20 @@ def uninstall() -> bool:
     Returns whether a Ctrl-C was recorded, and forgets it, so later library calls in the
     same process (a notebook that ran the CLI) are not stopped by an old interrupt.
     """
-    if _state["installed"] and threading.current_thread() is threading.main_thread():
+    if _state.installed and threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.default_int_handler)
-        sys.unraisablehook = _state["hook"] or sys.__unraisablehook__
-        _state["installed"] = False
-    was, _state["pending"] = _state["pending"], False
+        sys.unraisablehook = _state.hook or sys.__unraisablehook__
+        _state.installed = False
+    was, _state.pending = _state.pending, False
     return was
 
 
 def pending() -> bool:
     """True if a Ctrl-C was recorded since :func:`install` (until :func:`uninstall`)."""
-    return _state["pending"]
+    return _state.pending
 
 
 def checkpoint() -> None:
     """Raise ``KeyboardInterrupt`` if a Ctrl-C was recorded (one a finalizer may have swallowed)."""
-    if _state["pending"]:
+    if _state.pending:
         raise KeyboardInterrupt

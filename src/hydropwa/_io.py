@@ -25,6 +25,8 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from ._errors import HydropwaError, OutputExistsError, OutputLockedError
+
 __all__ = [
     "atomic_path",
     "atomic_write_text",
@@ -80,8 +82,6 @@ def atomic_path(
     OSError
         Naming the target (not the temporary file): read-only file system, disk full, ...
     """
-    from ._errors import OutputExistsError
-
     path = Path(path)
     if not overwrite and os.path.lexists(path):
         raise OutputExistsError(_exists_message(path))
@@ -182,8 +182,6 @@ def check_output(
         A folder is where a file is expected, or a file where a folder is expected
         (also for any parent folder of the path): ``force`` does not change this.
     """
-    from ._errors import HydropwaError, OutputExistsError
-
     path = Path(path)
     where = f"{option} {path}" if option else str(path)
     for parent in path.parents:
@@ -269,9 +267,7 @@ def output_lock(
     OutputLockedError
         Another live process holds the lock.
     """
-    import fcntl
-
-    from ._errors import OutputLockedError
+    import fcntl  # deferred: POSIX only
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

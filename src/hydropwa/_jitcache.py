@@ -50,7 +50,7 @@ _STAMP = source_stamp()
 try:
     from numba.core.caching import CacheImpl, InTreeCacheLocator
 except ImportError:  # pragma: no cover - numba without these names: keep its own stamps
-    CacheImpl = InTreeCacheLocator = None
+    CacheImpl = InTreeCacheLocator = None  # type: ignore[assignment,misc]
 
 
 if InTreeCacheLocator is not None:
@@ -79,5 +79,5 @@ if InTreeCacheLocator is not None:
 
     INSTALLED = _install()
 else:  # pragma: no cover
-    PackageCacheLocator = None
+    PackageCacheLocator = None  # type: ignore[assignment,misc]
     INSTALLED = False

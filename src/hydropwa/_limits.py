@@ -15,6 +15,7 @@ import os
 import numpy as np
 
 from ._errors import ParameterError
+from .simulation import as_signal
 
 __all__ = [
     "RTOL_RANGE",
@@ -117,8 +118,6 @@ def check_samples(duration: float, fs: float, what: str = "--duration", copies: 
 
 
 def _signal_values(value, unit: str, name: str, duration: float) -> np.ndarray:
-    from .simulation import as_signal
-
     sig = as_signal(value, unit, name)
     t = np.linspace(0.0, float(duration), 4001)
     return np.asarray([float(sig(ti)) for ti in t])

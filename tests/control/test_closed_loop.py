@@ -74,7 +74,7 @@ def test_p_loop_on_reduced_model_matches_python_control(linear_valve):
         duration=0.45,
         fs=20000.0,
         controller=ctrl,
-        x0=x_eq,
+        initial_position=x_eq,
         rtol=1e-7,
         reference=f"step:time=0.2,before={x_eq},after={x_eq + step}",
         load_force=prm.load.force,
@@ -112,7 +112,12 @@ def test_dead_zone_inverse_removes_the_dead_band_error(paper):
     band = prm.dead_zone.beta / KP
     ref = "step:time=0.01,before=0.1,after=0.105"
     plain = simulate(
-        "reduced", params=prm, duration=0.6, controller=PIController(kp=KP), reference=ref, x0=0.1
+        "reduced",
+        params=prm,
+        duration=0.6,
+        controller=PIController(kp=KP),
+        reference=ref,
+        initial_position=0.1,
     )
     dzi = DeadZoneInverse.from_params(prm.dead_zone)
     inv = simulate(
@@ -121,7 +126,7 @@ def test_dead_zone_inverse_removes_the_dead_band_error(paper):
         duration=0.6,
         controller=PIController(kp=KP, dead_zone_inverse=dzi),
         reference=ref,
-        x0=0.1,
+        initial_position=0.1,
     )
     e_plain = tracking_metrics(plain, 0.01)["steady_state_error"] * 1e-3
     e_inv = tracking_metrics(inv, 0.01)["steady_state_error"] * 1e-3
@@ -181,7 +186,7 @@ def test_discrete_controller_converges_to_the_continuous_design(linear_valve):
             duration=0.2,
             fs=20000.0,
             rtol=1e-8,
-            x0=x0,
+            initial_position=x0,
             controller=PIController(kp=KP, sample_time=1.0 / fs_ctl),
             reference=ref,
         )
@@ -213,7 +218,7 @@ def test_anti_windup_bounds_the_overshoot_after_a_saturating_step(linear_valve):
             params=linear_valve,
             duration=1.2,
             controller=c,
-            x0=0.05,
+            initial_position=0.05,
             reference=f"step:time=0.01,before=0.05,after={0.05 + step}",
         )
         out[aw] = tracking_metrics(r, 0.01)
@@ -228,7 +233,7 @@ def test_anti_windup_bounds_the_overshoot_after_a_saturating_step(linear_valve):
 def test_one_sample_delay_shifts_the_applied_command(linear_valve):
     """With ``delay`` the command computed at t_k is applied from t_k+1 on (log and output channel)."""
     ref = "step:time=0.01,before=0.1,after=0.101"
-    kw = dict(params=linear_valve, duration=0.02, reference=ref, x0=0.1)
+    kw = dict(params=linear_valve, duration=0.02, reference=ref, initial_position=0.1)
     r = simulate("reduced", controller=PIController(kp=KP, delay=True), **kw)
     rec = r.control
     k = int(round(0.01 / TS))
@@ -261,7 +266,7 @@ def test_lqr_designed_on_pwa_positions_the_full_model(paper, lqr, load):
         duration=3.0,
         controller=lqr.controller,
         reference=StepSequence(times, pos),
-        x0=0.01,
+        initial_position=0.01,
         load_force=load,
     )
     t, x = r.t, r["x"]

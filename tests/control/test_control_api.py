@@ -15,6 +15,7 @@ from hydropwa.control import (
     PIController,
     StateFeedbackController,
     StepSequence,
+    as_reference,
     design_pi,
     design_state_feedback,
     load_controller,
@@ -204,7 +205,7 @@ def test_constant_command_through_the_loop_equals_open_loop(paper, model):
     prm = paper.replace(**{"valve.omega0_table": ()})
     inf = float("inf")
     ctl = StateFeedbackController(rows=(GainRow((-inf,) * 4, (inf,) * 4, 0.0, 0.0, 0.0, 0.0, 0.3),))
-    kw = dict(params=prm, duration=0.1, rtol=1e-7, x0=0.05)
+    kw = dict(params=prm, duration=0.1, rtol=1e-7, initial_position=0.05)
     closed = simulate(model, controller=ctl, reference=0.05, **kw)
     opened = simulate(model, 0.3, **kw)
     assert closed.stats["steps"] >= 200  # at least one step per sample interval
@@ -226,8 +227,8 @@ def test_pi_design_meets_its_margins_and_tracks_on_the_full_model(paper):
         params=paper,
         duration=1.0,
         controller=d.controller,
-        x0=0.05,
-        reference="trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05",
+        initial_position=0.05,
+        reference=as_reference("trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05"),
     )
     m = tracking_metrics(r)
     assert m["max_following_error"] < 2.0 and abs(m["steady_state_error"]) < 0.1
@@ -303,8 +304,8 @@ def test_compiled_law_is_the_documented_law(paper, model):
         params=paper,
         duration=0.3,
         controller=c,
-        x0=0.05,
-        reference="trapezoid:from=50 mm,to=80 mm,v=0.2,a=5,start=0.02",
+        initial_position=0.05,
+        reference=as_reference("trapezoid:from=50 mm,to=80 mm,v=0.2,a=5,start=0.02"),
     )
     rec = r.control
     ts = c.sample_time
@@ -384,7 +385,7 @@ def test_closed_loop_figure_shows_the_runs(paper):
         duration=0.05,
         controller=PIController(kp=100.0),
         reference=0.11,
-        x0=0.1,
+        initial_position=0.1,
     )
     fig = plot_closed_loop({"reduced": r}, "P loop")
     ax = fig.axes

@@ -33,6 +33,7 @@ from hydropwa.models import as_model
 from hydropwa.params import get_preset
 from hydropwa.simulation import _kernel as K
 from hydropwa.simulation import simulate
+from hydropwa.simulation._simulate import _KERNEL_KIND as KIND
 
 P_TR = 1e5
 FRICTION = (21.15, 174.77, 1158.4, 0.01567, 0.7305, 1324.68)  # the paper preset's Stribeck law
@@ -194,7 +195,7 @@ def test_exact_and_difference_jacobians_give_the_same_motion(name):
         ]
     )
     Y, n_done, status, *_ = K.integrate(
-        model.kind,
+        KIND[model.name],
         model.initial_state(),
         res.t,
         p,

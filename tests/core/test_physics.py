@@ -79,7 +79,7 @@ def test_steady_extension_speed_without_friction(paper):
     p = _no_friction(paper)
     u = 0.5
     z = dead_zone(u, 1.0, 0.1, 0.04, 0.1)
-    res = simulate(FullOrderModel(p), Constant(u), duration=0.3, x0=0.01, rtol=1e-7)
+    res = simulate(FullOrderModel(p), Constant(u), duration=0.3, initial_position=0.01, rtol=1e-7)
     v_end = res["v"][-200:].mean()
     assert v_end == pytest.approx(_steady_speed(p, z), rel=2e-3)
 
@@ -88,7 +88,9 @@ def test_dead_band_gives_only_creep(paper):
     p = _no_friction(paper)
     u = 0.05  # inside β = 0.1: z = 0.04·u (Table IV cell III)
     # the tiny opening makes the pressure mode slow (τ = V/(E·∂Q/∂p) ≈ 8 s): run 40 s
-    res = simulate(FullOrderModel(p), Constant(u), duration=40.0, x0=0.01, rtol=1e-7, fs=100)
+    res = simulate(
+        FullOrderModel(p), Constant(u), duration=40.0, initial_position=0.01, rtol=1e-7, fs=100
+    )
     v_end = res["v"][-50:].mean()
     assert res["z"][-1] == pytest.approx(0.04 * u)
     assert v_end == pytest.approx(_steady_speed(p, 0.04 * u), rel=5e-3)
@@ -148,7 +150,9 @@ def test_no_flow_no_motion_no_pressure_change(paper):
 def test_pressures_stay_physical_when_chamber_is_emptied(paper):
     # Retracting fast against a closed tank edge pulls chamber A towards vacuum.
     p = _no_friction(paper)
-    res = simulate(FullOrderModel(p), Constant(-1.0), duration=0.5, x0=0.15, rtol=1e-6)
+    res = simulate(
+        FullOrderModel(p), Constant(-1.0), duration=0.5, initial_position=0.15, rtol=1e-6
+    )
     assert res["p_a"].min() >= p.oil.vapour_pressure - 1e3
     assert res["p_b"].min() >= p.oil.vapour_pressure - 1e3
 
@@ -199,7 +203,7 @@ def test_pulled_piston_cavitates_without_crossing_vapour_pressure(paper):
 
 
 def test_stroke_limits_hold_the_piston(paper):
-    res = simulate(FullOrderModel(paper), Constant(0.8), duration=1.5, x0=0.1)
+    res = simulate(FullOrderModel(paper), Constant(0.8), duration=1.5, initial_position=0.1)
     c = paper.cylinder
     # penetration bounded by the largest hydraulic force over the stop stiffness
     f_max = paper.supply.pressure * c.area_a
@@ -212,8 +216,8 @@ def test_symmetric_cylinder_reduced_follows_full(symmetric):
     # For A_A = A_B the reduction (12)-(15) is exact up to the valve dynamics and
     # P_A + P_B = P_S; after the first period the positions agree closely.
     u = Sine(amplitude=0.4, frequency=1.0)
-    full = simulate(FullOrderModel(symmetric), u, duration=3.0, x0=0.1)
-    red = simulate(ReducedModel(symmetric), u, duration=3.0, x0=0.1)
+    full = simulate(FullOrderModel(symmetric), u, duration=3.0, initial_position=0.1)
+    red = simulate(ReducedModel(symmetric), u, duration=3.0, initial_position=0.1)
     m = full.t >= 1.0
     err = full["x"][m] - red["x"][m]
     span = np.ptp(full["x"][m])
@@ -224,17 +228,27 @@ def test_symmetric_cylinder_reduced_follows_full(symmetric):
 
 def test_asymmetric_cylinder_drifts_to_positive_x(paper):
     # Sec. VII: a zero-mean sine makes the single-rod cylinder creep to +x.
-    res = simulate(FullOrderModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
+    res = simulate(
+        FullOrderModel(paper),
+        Sine(amplitude=0.2, frequency=1.0),
+        duration=4.0,
+        initial_position=0.05,
+    )
     x_periods = res["x"][::2000]  # position at the start of each period
     assert np.all(np.diff(x_periods[1:]) > 1e-4)
     drift_full = res["x"][-1] - res["x"][0]
     # the asymmetric reduced model drifts as the full model does (the quasi-steady flow ratio
     # Q_B = αQ_A carries the √α speed asymmetry; 5 %: what the dropped valve and chamber
     # dynamics may cost at 1 Hz), the paper's mean-area form cannot drift (Sec. VII)
-    red = simulate(ReducedModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05)
+    red = simulate(
+        ReducedModel(paper), Sine(amplitude=0.2, frequency=1.0), duration=4.0, initial_position=0.05
+    )
     assert red["x"][-1] - red["x"][0] == pytest.approx(drift_full, rel=0.05)
     pap = simulate(
-        ReducedModel(paper, "paper"), Sine(amplitude=0.2, frequency=1.0), duration=4.0, x0=0.05
+        ReducedModel(paper, "paper"),
+        Sine(amplitude=0.2, frequency=1.0),
+        duration=4.0,
+        initial_position=0.05,
     )
     assert abs(pap["x"][-1] - pap["x"][0]) < 0.1 * abs(drift_full)
 
@@ -250,7 +264,7 @@ def test_agreement_with_independent_scipy_reference(paper):
     sigs = [u, Constant(paper.supply.pressure), Constant(0.0)]
     p = model.pack(command_amplitude=0.4)
     packed = pack_signals(sigs)
-    y0 = model.initial_state(x0=0.05)
+    y0 = model.initial_state(initial_position=0.05)
 
     def f(t, y):
         dy = np.empty(y0.size)
@@ -270,10 +284,10 @@ def test_agreement_with_independent_scipy_reference(paper):
             atol=1e-9 * model.state_scale(),
         )
     assert ref.success
-    res = simulate(model, u, duration=1.0, x0=0.05)  # default rtol
+    res = simulate(model, u, duration=1.0, initial_position=0.05)  # default rtol
     assert np.max(np.abs(res["x"] - ref.y[4])) < 0.1e-3  # 0.1 mm, the benchmark's accuracy target
     assert np.max(np.abs(res["p_a"] - ref.y[2])) < 1.0e5  # 1 bar at the default rtol 1e-3
-    tight = simulate(model, u, duration=1.0, x0=0.05, rtol=1e-6)
+    tight = simulate(model, u, duration=1.0, initial_position=0.05, rtol=1e-6)
     assert np.max(np.abs(tight["x"] - ref.y[4])) < 1e-6  # 1 µm
     assert np.max(np.abs(tight["p_a"] - ref.y[2])) < 0.05e5  # 0.05 bar, the sensor noise
 

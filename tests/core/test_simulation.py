@@ -136,7 +136,7 @@ def test_stiff_dead_volume_failure_explains_cause(paper):
             FullOrderModel(p),
             Step(time=0.0, after=0.5),
             duration=0.05,
-            x0=0.0,
+            initial_position=0.0,
             max_steps=300,
             rtol=1e-5,
         )

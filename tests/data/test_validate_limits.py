@@ -76,7 +76,7 @@ def test_simulate_then_identify_uses_every_simulated_run():
     for u in (0.03, 0.06, 0.09, 0.12, 0.15, 0.18, 0.21):
         for sign in (1, -1):
             x0 = 0.0 if sign > 0 else p.cylinder.stroke
-            res = simulate(FullOrderModel(p), sign * u, duration=0.6, x0=x0, fs=1000)
+            res = simulate(FullOrderModel(p), sign * u, duration=0.6, initial_position=x0, fs=1000)
             runs.append(
                 res.to_run(f"dz_{sign * u:+.2f}", meta={"kind": "deadzone", "level": sign * u})
             )

@@ -55,10 +55,10 @@ def test_compare_scores_a_result_against_itself_at_100_percent(sim, paper):
     full = hp.simulate(
         hp.FullOrderModel(paper),
         hp.Sampled(sim.t, sim["u"]),
-        t=sim.t,
+        timepts=sim.t,
         supply_pressure=hp.Sampled(sim.t, sim["p_s"]),
         load_force=hp.Sampled(sim.t, sim["f_l"]),
-        x0=float(sim["x"][0]),
+        initial_position=float(sim["x"][0]),
         rtol=1e-4,
     )
     assert fits[1] == pytest.approx(nrmse_fit(sim["x"], full["x"]), abs=1e-9)

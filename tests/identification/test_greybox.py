@@ -29,7 +29,13 @@ NOISE = {"x": 5e-6, "p_a": 0.05e5, "p_b": 0.05e5, "p_s": 0.05e5, "f_l": 5.0, "sp
 def _measured(model, u, duration, seed, x0=0.05, load=0.0, ps=100e5, name="run"):
     """A run of ``model`` with white sensor noise (the rig's noise levels)."""
     res = simulate(
-        model, u, duration=duration, x0=x0, load_force=load, supply_pressure=ps, rtol=1e-7
+        model,
+        u,
+        duration=duration,
+        initial_position=x0,
+        load_force=load,
+        supply_pressure=ps,
+        rtol=1e-7,
     )
     rng = np.random.default_rng(seed)
     ch = {"t": res.t, "u": res["u"]}

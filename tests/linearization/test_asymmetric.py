@@ -206,7 +206,7 @@ def test_steady_speeds_equal_full_model_and_closed_form(u):
                 f"step:time=0,after={sign * u}",
                 duration=0.25,
                 rtol=1e-6,
-                x0=0.1 - sign * 0.06,
+                initial_position=0.1 - sign * 0.06,
             )
             v = float(np.mean(res["v"][-50:]))
             # 0.3 %: the full model keeps its valve and chamber dynamics; the rest has decayed
@@ -227,7 +227,11 @@ def test_chamber_pressures_match_full_model_in_steady_motion():
         out = {}
         for model in (FullOrderModel(prm), ReducedModel(prm)):
             res = simulate(
-                model, f"step:time=0,after={u}", duration=0.25, rtol=1e-6, x0=0.1 - 0.15 * u
+                model,
+                f"step:time=0,after={u}",
+                duration=0.25,
+                rtol=1e-6,
+                initial_position=0.1 - 0.15 * u,
             )
             pa, pb = np.mean(res["p_a"][-40:]), np.mean(res["p_b"][-40:])
             out[model.name] = (pa, pb, pa - prm.cylinder.area_b / prm.cylinder.area_a * pb)
@@ -244,7 +248,9 @@ def test_drift_per_period_matches_full_model_fast_valve():
     prm = get_preset("paper").replace(**{"valve.omega0": 5000.0, "valve.omega0_table": ()})
     drift = {}
     for model in (FullOrderModel(prm), ReducedModel(prm), ReducedModel(prm, "paper")):
-        res = simulate(model, "sine:amplitude=0.4,frequency=2", duration=2.0, x0=0.06, fs=1000)
+        res = simulate(
+            model, "sine:amplitude=0.4,frequency=2", duration=2.0, initial_position=0.06, fs=1000
+        )
         x = res["x"][::500]  # start of each period
         drift[(model.name, getattr(model, "form", ""))] = np.diff(x[1:]).mean()
     full = drift[("full", "")]

@@ -26,8 +26,8 @@ def test_pwa_follows_reduced_on_paper_sines(models, frequency, amplitude):
     red, pwa = models
     u = hp.Sine(amplitude=amplitude, frequency=frequency)
     duration = 6.0 / frequency
-    r = hp.simulate(red, u, duration=duration, x0=0.1)
-    q = hp.simulate(pwa, u, duration=duration, x0=0.1)
+    r = hp.simulate(red, u, duration=duration, initial_position=0.1)
+    q = hp.simulate(pwa, u, duration=duration, initial_position=0.1)
     assert _fit(r["x"], q["x"]) >= 95.0
     occ = q.occupancy()
     for name in ("g", "o", "n", "w"):

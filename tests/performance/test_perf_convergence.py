@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from hydropwa.models import as_model
 from hydropwa.simulation import _kernel as K
 from hydropwa.simulation import as_signal, pack_signals, simulate
+from hydropwa.simulation._simulate import _KERNEL_KIND as KIND
 
 U = "sine:amplitude=0.4,frequency=2"
 DURATION = 1.0  # two periods: dead-zone crossings, velocity reversals and stick phases
@@ -36,7 +37,7 @@ def reference(request):
 
     def f(t, y):
         dy = np.empty_like(y)
-        K.rhs(model.kind, t, y, p, sg, dy)
+        K.rhs(KIND[model.name], t, y, p, sg, dy)
         return dy
 
     t = np.linspace(0.0, DURATION, 2001)

@@ -27,7 +27,10 @@ def test_supply_sags_with_flow(rig):
     """Sine at 60 %: P_S drops below the set value by about droop·Q/Q_max (Fig. 9)."""
     sup = rig.supply
     res = simulate(
-        FullOrderModel(rig.params), Sine(amplitude=0.6, frequency=2.0), duration=2.0, x0=0.02
+        FullOrderModel(rig.params),
+        Sine(amplitude=0.6, frequency=2.0),
+        duration=2.0,
+        initial_position=0.02,
     )
     c = res.channels
     v = c["v"]

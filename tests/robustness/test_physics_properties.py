@@ -140,7 +140,11 @@ def test_piston_stays_within_stroke(params, amp, sign, start):
     """
     c = params.cylinder
     res = simulate(
-        FullOrderModel(params), f"constant:{sign * amp}", duration=0.5, fs=2000, x0=start * c.stroke
+        FullOrderModel(params),
+        f"constant:{sign * amp}",
+        duration=0.5,
+        fs=2000,
+        initial_position=start * c.stroke,
     )
     f_hyd = max(res["p_a"].max(), 0.0) * c.area_a + max(res["p_b"].max(), 0.0) * c.area_b
     k = c.end_stop_stiffness

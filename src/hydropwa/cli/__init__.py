@@ -48,9 +48,9 @@ for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _cont
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
-    from ..simulation import _kernel
+    from ..simulation import set_compile_notice
 
-    _kernel.set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
+    set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
     command = typer.main.get_command(app)
     _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:

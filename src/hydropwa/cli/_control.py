@@ -13,7 +13,7 @@ from typing import Annotated
 
 import typer
 
-from .._errors import check_output
+from .._io import check_output
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
 
@@ -224,7 +224,7 @@ def simulate_command(
         params=prm,
         controller=ctrl,
         reference=ref,
-        x0=start,
+        initial_position=start,
         load_force=load_force,
         supply_pressure=supply_pressure,
         rtol=rtol,

@@ -8,7 +8,8 @@ from typing import Annotated
 
 import typer
 
-from .._errors import ParameterError, SignalError, check_output
+from .._errors import ParameterError, SignalError
+from .._io import check_output
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
@@ -152,7 +153,7 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
-    from ..models import as_model
+    from ..models import Model, as_model
     from ..simulation import Sampled, simulate
 
     if model not in ("full", "reduced", "pwa"):
@@ -191,19 +192,21 @@ def simulate_command(
     check_supply_pressure(supply_pressure, prm, duration)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
-    mdl = as_model(model, prm)
-    if model == "pwa" and supply_pressure is not None:
+    mdl: Model
+    if model == "pwa":
         from ..linearization import linearize
 
-        # the cells follow the given P_S (constant or a signal) online: the scheduled model
-        mdl = as_model(linearize(prm, scheduled=True))
+        # with a given P_S (constant or a signal) the cells follow it online: the scheduled model
+        mdl = linearize(prm, scheduled=supply_pressure is not None)
+    else:
+        mdl = as_model(model, prm)
     res = simulate(
         mdl,
         u,
         duration=duration,
         supply_pressure=supply_pressure,
         load_force=load_force,
-        x0=x_init,
+        initial_position=x_init,
         fs=fs,
         rtol=rtol,
     )

@@ -12,7 +12,8 @@ from typing import Annotated
 
 import typer
 
-from hydropwa._errors import IdentificationError, ParameterError, check_output
+from hydropwa._errors import IdentificationError, ParameterError
+from hydropwa._io import check_output
 
 from ._app import new_app
 from ._options import BaseParamsAlias, ParamsOption, params_source, resolve_params

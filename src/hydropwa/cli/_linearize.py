@@ -172,7 +172,7 @@ def _run(
     ] = False,
 ) -> None:
     """Build the piecewise-affine model and write it as JSON, figures and tables (paper Sec. IV)."""
-    from hydropwa._errors import check_output
+    from hydropwa._io import check_output
 
     if out.suffix.lower() != ".json":
         raise PwaError(f"--out {out} must end in .json")

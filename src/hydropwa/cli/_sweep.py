@@ -75,8 +75,7 @@ def sweep_command(
     trajectory files): after a Ctrl-C, a kill or a dead Dask worker, the same command runs
     only the cases that are left.
     """
-    from .._errors import check_output
-    from .._io import output_lock, remove_stale_temps
+    from .._io import check_output, output_lock, remove_stale_temps
 
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")

@@ -36,8 +36,11 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import tomli_w
+
 from .._errors import HydropwaError
-from .._io import atomic_write_text
+from .._io import atomic_write_text, check_output
+from ..params import parse_quantity
 from ._controllers import (
     ControlError,
     DeadZoneInverse,
@@ -91,8 +94,6 @@ def _q(value: float, unit: str, factor: float) -> str | float:
 
 
 def _read(value: Any, si_unit: str, where: str) -> float:
-    from ..params import parse_quantity
-
     if isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "-inf"):
         return -math.inf if value.strip().startswith("-") else math.inf
     try:
@@ -222,16 +223,12 @@ def controller_from_dict(d: dict[str, Any]):
 
 def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:
     """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``force``."""
-    from .._errors import check_output
-
     path = Path(path)
     check_output(path, force)
     d = controller_to_dict(ctrl)
     if path.suffix.lower() == ".json":
         return atomic_write_text(path, json.dumps(d, indent=2) + "\n")
     if path.suffix.lower() == ".toml":
-        import tomli_w
-
         return atomic_write_text(path, tomli_w.dumps(d))
     raise ControlError(f"controller file {path} must end in .toml or .json")
 

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import numpy as np
 
+from ..linearization import linearize
+from ..simulation import DEFAULT_RTOL, simulate
 from ._controllers import ControlError
+from ._reference import as_reference
 
 __all__ = ["tracking_metrics", "METRIC_UNITS", "compare_models"]
 
@@ -122,11 +126,12 @@ def compare_models(
     params=None,
     pwa=None,
     duration: float,
-    x0: float | None = None,
+    initial_position: float | None = None,
     load_force=None,
     models=("full", "reduced", "pwa"),
     window: tuple[float, float] | None = None,
     rtol: float | None = None,
+    x0: float | None = None,
 ) -> tuple[dict[str, Any], Any]:
     """Run one controller on several models and tabulate the tracking metrics.
 
@@ -140,8 +145,8 @@ def compare_models(
         PWA model (default: ``linearize(params)``).
     duration : float
         [s].
-    x0 : float, optional
-        Initial position [m] (default: the reference at t = 0).
+    initial_position : float, optional
+        Initial rod position [m] (default: the reference at t = 0).
     load_force : optional
         F_L(t) [N] for every model.
     models : tuple of str
@@ -149,6 +154,8 @@ def compare_models(
         Window of the metrics [s] (default the whole run).
     rtol : float, optional
         Relative tolerance of the integration.
+    x0 : float, optional
+        Deprecated alias of ``initial_position``.
 
     Returns
     -------
@@ -156,24 +163,25 @@ def compare_models(
     table : pandas.DataFrame
         One row per model, columns :data:`METRIC_UNITS` (units in ``attrs['units']``).
     """
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-    from ..simulation import simulate
-    from ..simulation._simulate import DEFAULT_RTOL
-    from ._reference import as_reference
-
+    if x0 is not None:
+        warnings.warn(
+            "compare_models(x0=...) is deprecated; use initial_position=...",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        initial_position = x0 if initial_position is None else initial_position
     if params is None and pwa is None:
         raise ControlError("compare_models needs params or a PWA model")
     if params is None:
         params = pwa.params
     ref = as_reference(reference)
-    start = float(ref(0.0)) if x0 is None else float(x0)
+    start = float(ref(0.0)) if initial_position is None else float(initial_position)
     results: dict[str, Any] = {}
     for name in models:
         if name == "pwa":
             if pwa is None:
-                from ..linearization import linearize
-
                 pwa = linearize(params)
             mdl: Any = pwa
         else:
@@ -184,7 +192,7 @@ def compare_models(
             params=params,
             controller=controller,
             reference=ref,
-            x0=start,
+            initial_position=start,
             load_force=load_force,
             rtol=DEFAULT_RTOL if rtol is None else rtol,
         )

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import HydropwaError, SignalError
+from ..data import read_run
+from ..params import parse_quantity
 from ..simulation import Sampled, Signal, as_signal
 from ._controllers import ControlError
 
@@ -260,8 +262,6 @@ def parse_reference(spec: str) -> Signal:
     :func:`~hydropwa.simulation.parse_signal` in metres (``"step:time=0.1,before=50 mm,after=60 mm"``,
     ``"sine:amplitude=20 mm,frequency=1,offset=0.1"``) or a bare position.
     """
-    from ..params import parse_quantity
-
     text = spec.strip()
     kind, _, rest = text.partition(":")
     kind = kind.strip().lower()
@@ -304,8 +304,6 @@ def parse_reference(spec: str) -> Signal:
 
 
 def _from_file(path: Path, channel: str) -> Sampled:
-    from ..data import read_run
-
     if not path.is_file():
         raise ControlError(f"reference file {path} does not exist")
     run = read_run(path, validate=False)

@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..simulation import simulate
+from ._design import design_state_feedback
+from ._metrics import METRIC_UNITS, tracking_metrics
+from ._reference import MotionProfile, MoveSequence
+
 __all__ = ["POSITIONING_TASK", "closed_loop_study"]
 
 #: The positioning task: 50 → 150 mm (trapezoid, 0.2 m/s, 5 m/s²) at 0.05 s, back at 1.05 s.
@@ -14,8 +19,6 @@ _X0 = 0.05
 
 
 def _reference():
-    from ._reference import MotionProfile, MoveSequence
-
     return MoveSequence(
         (MotionProfile(0.05, 0.15, 0.05, **_MOVE), MotionProfile(0.15, 0.05, 1.05, **_MOVE))
     )
@@ -39,11 +42,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         Tracking metrics per model (:func:`~hydropwa.control.tracking_metrics`), index ``model``.
     design : ControlDesign
     """
-    import pandas as pd
-
-    from ..simulation import simulate
-    from ._design import design_state_feedback
-    from ._metrics import METRIC_UNITS, tracking_metrics
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     design = design_state_feedback(pwa)
     ref = _reference()
@@ -54,7 +53,12 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         ("pwa", pwa, pwa.params),
     ):
         runs[name] = simulate(
-            mdl, duration=_DURATION, params=prm, controller=design.controller, reference=ref, x0=_X0
+            mdl,
+            duration=_DURATION,
+            params=prm,
+            controller=design.controller,
+            reference=ref,
+            initial_position=_X0,
         )
     if verify_params is not None:
         runs["full (true params)"] = simulate(
@@ -63,7 +67,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
             params=verify_params,
             controller=design.controller,
             reference=ref,
-            x0=_X0,
+            initial_position=_X0,
         )
     rows = {}
     for name, res in runs.items():

@@ -29,6 +29,7 @@ from typing import Any
 from hydropwa._errors import DataError
 from hydropwa._io import atomic_write_text
 
+from .._display import html_table
 from ._channel_map import ChannelMap, resolve_channel_map
 from ._formats import FORMATS, format_of, read_run, suffix_of, write_run
 from ._run import Run
@@ -399,8 +400,6 @@ class Dataset:
         return f"Dataset({str(self.root)!r}, {len(self)} runs)"
 
     def _repr_html_(self) -> str:
-        from .._display import html_table
-
         rows = []
         for e in self.manifest.get("runs", [])[:50]:
             rows.append(

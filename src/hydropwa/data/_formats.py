@@ -31,6 +31,7 @@ from hydropwa._io import atomic_path, atomic_write_text
 from ._channel_map import ChannelMap, resolve_channel_map
 from ._run import Run, format_column_label, parse_column_label
 from ._units import from_si, normalize_unit
+from ._validate import validate_run
 
 __all__ = ["read_run", "write_run", "FORMATS", "format_of"]
 
@@ -103,7 +104,7 @@ def _write_csv(run: Run, path: Path, units, overwrite: bool = True) -> None:
 
 
 def _read_csv(path: Path) -> tuple[dict, dict, dict]:
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     header: dict[str, Any] = {}
     n_comment = 0
@@ -171,8 +172,8 @@ def _numeric_column(text: np.ndarray, path: Path, ch: str, n_comment: int) -> np
 
 # ---------------------------------------------------------------------- Parquet
 def _write_parquet(run: Run, path: Path, units, overwrite: bool = True) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # deferred: pyarrow costs ~0.2 s at import
+    import pyarrow.parquet as pq  # deferred: pyarrow costs ~0.2 s at import
 
     cols, file_units = _file_columns(run, units)
     fields = [pa.field(k, pa.float64(), metadata={"unit": file_units[k]}) for k in cols]
@@ -185,8 +186,8 @@ def _write_parquet(run: Run, path: Path, units, overwrite: bool = True) -> None:
 
 
 def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # deferred: pyarrow costs ~0.2 s at import
+    import pyarrow.parquet as pq  # deferred: pyarrow costs ~0.2 s at import
 
     try:
         table = pq.read_table(path)
@@ -319,7 +320,7 @@ def _check_header(header: Any, path: Path) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- MAT
 def _write_mat(run: Run, path: Path, units, overwrite: bool = True) -> None:
-    import scipy.io
+    import scipy.io  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     cols, file_units = _file_columns(run, units)
     bad = [k for k in cols if not _MATLAB_NAME.match(k) or k == "hydropwa"]
@@ -337,7 +338,7 @@ def _write_mat(run: Run, path: Path, units, overwrite: bool = True) -> None:
 
 
 def _load_mat(path: Path) -> dict[str, Any]:
-    import scipy.io
+    import scipy.io  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     try:
         return scipy.io.loadmat(path, simplify_cells=True)
@@ -424,8 +425,6 @@ def read_run(
     else:
         run = Run.from_arrays(run_name, raw, units, fs=header.get("fs"), meta=meta)
     if validate:
-        from ._validate import validate_run
-
         run = validate_run(run, **validate_options).run
     return run
 

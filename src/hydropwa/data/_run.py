@@ -13,6 +13,7 @@ import numpy as np
 
 from hydropwa._errors import DataError
 
+from .._display import channel_rows, html_table
 from ._units import CANONICAL_UNITS, normalize_unit, to_si
 
 __all__ = ["Run", "parse_column_label", "format_column_label"]
@@ -212,8 +213,6 @@ class Run:
         return f"Run({self.name!r}, {self.n_samples} samples, {self.duration:.4g} s{fs}; {chans})"
 
     def _repr_html_(self) -> str:
-        from .._display import channel_rows, html_table
-
         kind = f", kind {self.kind}" if self.kind else ""
         title = f"Run {self.name!r}: {self.n_samples} samples, {self.duration:.4g} s at {self.fs or 0:g} Hz{kind}"
         return html_table(
@@ -245,7 +244,7 @@ class Run:
 
         ``df.attrs`` holds ``name``, ``units``, ``fs`` [Hz] and ``meta``.
         """
-        import pandas as pd
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
         df = pd.DataFrame({k: np.array(v) for k, v in self.channels.items()})
         df.attrs.update(

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import DataError
+from ..simulation import Sampled, simulate
 from ._metrics import nrmse_fit
 
 __all__ = ["compare"]
@@ -28,8 +29,6 @@ def _channels(obj):
 
 
 def _simulate_on(model, t, channels, rtol):
-    from ..simulation import Sampled, simulate
-
     t0 = t - t[0]
     if "u" not in channels:
         raise DataError("compare: the reference has no valve command 'u' to drive the models with")
@@ -39,9 +38,9 @@ def _simulate_on(model, t, channels, rtol):
     if "f_l" in channels:
         kwargs["load_force"] = Sampled(t0, np.asarray(channels["f_l"], dtype=float))
     if "x" in channels:
-        kwargs["x0"] = float(channels["x"][0])
+        kwargs["initial_position"] = float(channels["x"][0])
     return simulate(
-        model, Sampled(t0, np.asarray(channels["u"], dtype=float)), t=t0, rtol=rtol, **kwargs
+        model, Sampled(t0, np.asarray(channels["u"], dtype=float)), timepts=t0, rtol=rtol, **kwargs
     )
 
 
@@ -89,7 +88,7 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
             if res.t.size != t.size:
                 raise DataError(
                     f"compare: result {i + 1} has {res.t.size} samples, the reference {t.size}; "
-                    "simulate it on the reference's time grid (t=...)"
+                    "simulate it on the reference's time grid (timepts=...)"
                 )
         else:
             res = _simulate_on(m, t, ref, rtol)
@@ -99,5 +98,5 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
         fits[lbl] = fit
         outputs[lbl] = y_hat
     fig = plot_compare(t, y, outputs, channel=channel, reference_label=f"{name} (reference)", ax=ax)
-    fig.fits = fits
+    fig.fits = fits  # type: ignore[attr-defined]  # the NRMSE fits, read by callers
     return fig

@@ -19,6 +19,10 @@ from typing import Any
 import numpy as np
 
 from .._errors import DataError
+from ..data import screen_runs
+from ..linearization import linearize
+from ..models import FullOrderModel, ReducedModel
+from ..simulation import CHANNEL_UNITS, Sampled, simulate
 from ._metrics import channel_metrics, drift_per_period
 
 __all__ = [
@@ -175,7 +179,7 @@ def _measured(
     run, start: EvaluationStart, slope_window: float, alpha: float = 1.0
 ) -> dict[str, np.ndarray]:
     """Measured channels from the start on, with P_L = P_A − α P_B and a smoothed-derivative velocity."""
-    from scipy.signal import savgol_filter
+    from scipy.signal import savgol_filter  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     i = start.index
     ch = {k: np.asarray(v[i:], dtype=float) for k, v in run.channels.items()}
@@ -282,8 +286,6 @@ def _check_run(run) -> None:
 
 def _supply(run, params, start: EvaluationStart, notes: list[str]):
     """(P_S signal for the full model, average P_S [Pa]) — measured, or the assumed constant."""
-    from ..simulation import Sampled
-
     if "p_s" in run.channels and np.all(np.isfinite(run.channels["p_s"])):
         ps = run.channels["p_s"]
         return Sampled(run.channels["t"], ps), float(np.mean(ps[start.index :]))
@@ -299,9 +301,6 @@ def _supply(run, params, start: EvaluationStart, notes: list[str]):
 
 def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
     """(model object, supply-pressure input) of one variant."""
-    from ..linearization import linearize
-    from ..models import FullOrderModel, ReducedModel
-
     if name == "full":
         return FullOrderModel(params), ps_signal
     if name == "reduced":
@@ -323,15 +322,13 @@ def _initial_state(model, start: EvaluationStart, ps_mean: float) -> np.ndarray:
 
 
 def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes):
-    from ..simulation import Sampled, simulate
-
     model, ps_in = _model_and_inputs(name, params, ps_signal, ps_mean)
     t = run.channels["t"]
     fl = Sampled(t, run.channels["f_l"]) if "f_l" in run.channels else None
     res = simulate(
         model,
         u=Sampled(t, run.channels["u"]),
-        t=t[start.index :],
+        timepts=t[start.index :],
         supply_pressure=ps_in,
         load_force=fl,
         initial_state=_initial_state(model, start, ps_mean),
@@ -341,10 +338,9 @@ def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes)
     # one load pressure for every model, P_A − α P_B = F_hyd/A_A: the state of the asymmetric
     # models, the force-equivalent pressure of the full and the paper-form models
     res.channels["p_l"] = res.channels["p_a"] - _area_ratio(params) * res.channels["p_b"]
-    if res.stats.get("status", 0) != 0:
+    if not res.success:
         notes.append(
-            f"{name}: {res.stats.get('message', 'integration failed')}; scored over "
-            f"{res.t.size} of {t.size - start.index} samples"
+            f"{name}: {res.message}; scored over {res.t.size} of {t.size - start.index} samples"
         )
     return res
 
@@ -357,8 +353,6 @@ def _padded(res, key: str, n: int) -> np.ndarray:
 
 
 def _metric_rows(run_name, meas, sims, start) -> list[dict]:
-    from ..simulation import CHANNEL_UNITS
-
     n = meas["t"].size
     rows = []
     for model, res in sims.items():
@@ -474,7 +468,7 @@ def evaluate_run(
         When the run has no P_S: a constant ``params.supply.pressure`` is assumed (also
         written to ``result.notes``).
     """
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     names = _check_models(models)
     _check_run(run)
@@ -510,8 +504,6 @@ def sound_runs(dataset) -> list:
     dropout or a spike, is left out with an :class:`EvaluationWarning` that names it and says
     why; the evaluation never silently includes the bad part.
     """
-    from ..data import screen_runs
-
     sound, rejected = screen_runs(dataset)
     for name, reason in rejected:
         warnings.warn(f"run {name!r} skipped: {reason}", EvaluationWarning, stacklevel=2)
@@ -545,7 +537,7 @@ def evaluate_dataset(
     pandas.DataFrame
         Rows of every run's ``metrics``; the column ``note`` holds the run's notes.
     """
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     runs = sound_runs(dataset)
     frames = []

@@ -17,6 +17,7 @@ self-contained report folder::
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import time
 import warnings
@@ -26,8 +27,22 @@ from typing import Any
 import numpy as np
 
 from .. import _interrupt
-from .._errors import HydropwaError
+from .._errors import HydropwaError, IdentificationError
 from .._io import LOCK_NAME, atomic_path, atomic_write_text, check_output, output_lock
+from ..control import closed_loop_study, save_controller
+from ..data import Run, read_dataset
+from ..identification import (
+    PARTS,
+    IdentificationWarning,
+    fit_model,
+    identify,
+)
+from ..linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
+from ..models import FullOrderModel
+from ..params import SystemParams, get_preset, load_params, params_to_toml
+from ..rig import Rig, load_campaign, run_campaign
+from ._evaluate import evaluate_run, evaluation_params, sound_runs
+from ._report import write_report
 from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
 
 __all__ = ["StudyError", "StudyResult", "run_paper_study", "EXPERIMENT_NAMES", "STUDY_VERSION"]
@@ -94,8 +109,6 @@ class _Inputs:
     jobs: int
 
     def key(self) -> str:
-        from ..params import params_to_toml
-
         camp = (
             None
             if self.campaign is None
@@ -106,9 +119,6 @@ class _Inputs:
 
 
 def _resolve(out, data, params, campaign) -> _Inputs:
-    from ..params import SystemParams, get_preset, load_params
-    from ..rig import load_campaign
-
     if isinstance(params, SystemParams):
         prm, src = params, "given SystemParams"
     elif params is None:
@@ -145,8 +155,6 @@ def _resolve(out, data, params, campaign) -> _Inputs:
 
 def _claim(out: Path, key: str, force: bool) -> None:
     """Refuse a report folder made from other inputs unless ``force``; record ours."""
-    import json
-
     study = out / STAGE_DIR / _STUDY_FILE
     if study.is_file():
         try:
@@ -176,6 +184,7 @@ class _Progress:
     def __init__(self, enabled: bool) -> None:
         self.bar = None
         if enabled:
+            # deferred: rich, only for progress on a terminal
             from rich.progress import (
                 BarColumn,
                 MofNCompleteColumn,
@@ -219,8 +228,6 @@ def _read(root: Path, name: str):
     Runs are not validated on reading: constant-input runs start at an end stop on purpose,
     which the data layer's saturation check would reject.
     """
-    from ..data import read_dataset
-
     if not (root / name / "manifest.json").is_file():
         return None
     return read_dataset(root / name, validate=False, lazy=True)
@@ -238,8 +245,6 @@ def _stage_data(
     root = inp.out / "data"
 
     def work():
-        from ..rig import Rig, run_campaign
-
         rig = Rig(params=inp.params)
         run_campaign(
             rig,
@@ -294,9 +299,6 @@ def _identify(data_root: Path, base, notes: list[str]):
     same findings. Experiments that are missing (or hold no usable run) keep the base
     values, and the notes say so.
     """
-    from .._errors import IdentificationError
-    from ..identification import PARTS, IdentificationWarning, identify
-
     fitted: dict[str, Any] = {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", IdentificationWarning)
@@ -411,10 +413,12 @@ def _stage_identify(
     true = _true_params(inp, data_root)
 
     def work():
-        import pandas as pd
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..params import params_to_toml
-        from ..plotting import plot_bode, plot_dead_zone
+        from ..plotting import (  # deferred: matplotlib loads only when plotting
+            plot_bode,
+            plot_dead_zone,
+        )
 
         stage_notes: list[str] = []
         fitted = _identify(data_root, inp.params, stage_notes)
@@ -441,8 +445,6 @@ def _stage_identify(
 
     m = runner.run("identify", text_hash(inp.key(), data_key, "identify"), work)
     notes.extend(m.get("notes", []))
-    from ..params import load_params
-
     return load_params(out / "identified.toml"), true, runner.outputs_hash("identify")
 
 
@@ -453,11 +455,10 @@ def _stage_greybox(
     out = inp.out
 
     def work():
-        from .._errors import HydropwaError
-        from ..data import Run
-        from ..identification import fit_model
-        from ..models import FullOrderModel
-        from ..plotting import plot_greybox_fit, plot_greybox_residuals
+        from ..plotting import (  # deferred: matplotlib loads only when plotting
+            plot_greybox_fit,
+            plot_greybox_residuals,
+        )
 
         short = []
         for r in runs[:2]:
@@ -502,8 +503,6 @@ def _stage_greybox(
 
 
 def _true_params(inp: _Inputs, data_root: Path):
-    from ..params import load_params
-
     if inp.data is None:
         return inp.params
     f = data_root / "true_params.toml"
@@ -516,8 +515,6 @@ def _sine_runs(data_root: Path) -> list:
         raise StudyError(
             f"{str(data_root / 'sine')!r} holds no runs; the evaluation needs the sine runs"
         )
-    from ._evaluate import sound_runs
-
     runs = sound_runs(ds)
     if not runs:
         raise StudyError(
@@ -535,12 +532,13 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
     out = inp.out
 
     def work():
-        import pandas as pd
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..linearization import export_pwa, friction_function, linearize, save_pwa
-        from ..linearization._report import cq_figure, cqp_figure
-        from ..plotting import plot_stribeck
-        from ._evaluate import evaluation_params
+        from ..linearization._report import (  # deferred: matplotlib loads only when plotting
+            cq_figure,
+            cqp_figure,
+        )
+        from ..plotting import plot_stribeck  # deferred: matplotlib loads only when plotting
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
@@ -574,8 +572,6 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
         return files, {"supply_pressure": ps}
 
     m = runner.run("linearize", text_hash(inp.key(), key, "linearize"), work)
-    from ..linearization import load_pwa
-
     return load_pwa(out / "pwa.json"), m["supply_pressure"], runner.outputs_hash("linearize")
 
 
@@ -621,10 +617,9 @@ def _stage_evaluate(
     out = inp.out
 
     def work():
-        import pandas as pd
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..plotting import plot_cell_occupancy
-        from ._evaluate import evaluate_run
+        from ..plotting import plot_cell_occupancy  # deferred: matplotlib loads only when plotting
 
         corners = _corners(runs)
         frames, cells, stage_notes, files = [], [], [], []
@@ -678,8 +673,6 @@ def _stage_evaluate(
             _summary(metrics, "x_detrended"), out / "tables" / "position_fit_detrended", ".1f"
         )
         files += _write_table(cell_df, out / "tables" / "pwa_cells")
-        from ..linearization import load_pwa
-
         traj = example.simulations.get("pwa") if example is not None else None
         files += _save(
             plot_cell_occupancy(cell_df, load_pwa(out / "pwa.json"), traj),
@@ -689,7 +682,7 @@ def _stage_evaluate(
 
     m = runner.run("evaluate", text_hash(inp.key(), key, "evaluate"), work)
     notes.extend(m.get("notes", []))
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
 
@@ -699,9 +692,7 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
     out = inp.out
 
     def work():
-        from ..control import closed_loop_study, save_controller
-        from ..linearization import load_pwa
-        from ..plotting import plot_closed_loop
+        from ..plotting import plot_closed_loop  # deferred: matplotlib loads only when plotting
 
         runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
         files = [save_controller(design.controller, out / "controller.toml", force=True)]
@@ -721,8 +712,6 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
 def _stage_report(
     inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict
 ):
-    from ._report import write_report
-
     def work():
         return [write_report(inp.out, ident, true, notes, info)], {}
 

@@ -788,7 +788,7 @@ class _Problem:
         res = simulate(
             mdl,
             Sampled(ts, rd.u[lo:hi]),
-            t=rd.t[a:b],
+            timepts=rd.t[a:b],
             initial_state=seg.y0,
             rtol=self.rtol,
             raise_on_failure=False,

@@ -18,7 +18,7 @@ import numpy as np
 
 from .._errors import PwaError
 from ..components import PiecewiseAffine, stribeck_friction, stribeck_friction_slope
-from ..params import DeadZone, Friction
+from ..params import DeadZone, Friction, table_v_pwa
 from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
 
 __all__ = [
@@ -89,8 +89,14 @@ def dead_zone_cells(dz: DeadZone) -> PiecewiseAffine:
     a, b, c, o = dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset
     us = a + o
     if b == 0.0:
-        return PiecewiseAffine([-us, us], [0.0, 1.0, 0.0], [-a, 0.0, a])
-    return PiecewiseAffine([-us, -b, b, us], [0.0, 1.0, c, 1.0, 0.0], [-a, o, 0.0, -o, a])
+        return PiecewiseAffine(
+            np.array([-us, us]), np.array([0.0, 1.0, 0.0]), np.array([-a, 0.0, a])
+        )
+    return PiecewiseAffine(
+        np.array([-us, -b, b, us]),
+        np.array([0.0, 1.0, c, 1.0, 0.0]),
+        np.array([-a, o, 0.0, -o, a]),
+    )
 
 
 def _check_cells(n, what: str) -> int:
@@ -208,8 +214,6 @@ def friction_slope(friction: Friction):
 
 
 def _paper_friction_breakpoints() -> np.ndarray:
-    from ..params import table_v_pwa
-
     return table_v_pwa().breakpoints
 
 
@@ -334,7 +338,5 @@ def table_v_residual(
     friction: Friction, fit: PwaFit | None = None, interval=FRICTION_INTERVAL
 ) -> float:
     """RMS difference [N] between friction cells built from ``friction`` and Table V's curve."""
-    from ..params import table_v_pwa
-
     fit = friction_cells(friction) if fit is None else fit
     return approximation_errors(table_v_pwa(), fit.pwa, interval)[1]

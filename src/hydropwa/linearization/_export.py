@@ -28,9 +28,11 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError, PwaError
-from .._io import atomic_path, atomic_write_text
+from .._io import atomic_path, atomic_write_text, check_output
 from ..components import PiecewiseAffine
+from ..params import params_from_dict
 from ._fit import PwaFit
+from ._model import PwaModel
 
 __all__ = [
     "SCHEMA",
@@ -136,9 +138,6 @@ def model_from_dict(data: dict[str, Any]):
     PwaError
         Wrong schema, missing keys, malformed cells or parameters.
     """
-    from ..params import params_from_dict
-    from ._model import PwaModel
-
     if not isinstance(data, dict):
         raise PwaError(f"PWA document must be a JSON object, got {type(data).__name__}")
     schema = data.get("schema")
@@ -341,7 +340,7 @@ def pwa_statespaces(
     out = []
     for c in doc["cells"]:
         A, B, f = np.array(c["A"]), np.array(c["B"]), np.array(c["f"])
-        args = (A, np.hstack((B, f[:, None])), np.eye(3), np.zeros((3, 2)))
+        args: tuple[Any, ...] = (A, np.hstack((B, f[:, None])), np.eye(3), np.zeros((3, 2)))
         if doc["sample_time"] is not None:
             args = args + (doc["sample_time"],)
         sys = control.ss(*args, inputs=["u", "one"], outputs=names, states=names)
@@ -382,7 +381,7 @@ def save_pwa_mat(
     ``Ts`` is 0 for continuous time; ``state_names``, ``state_units``, ``error_bound`` and
     ``cell_index`` (g, s, o, n, w per row) come along.
     """
-    from scipy.io import savemat
+    from scipy.io import savemat  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     target = Path(path)
     if target.exists() and not overwrite:
@@ -439,8 +438,6 @@ def save_pwa(
 ) -> Path:
     """Write :func:`export_pwa` as JSON (atomically) and return the path; an existing file
     raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
-    from .._io import check_output
-
     check_output(path, overwrite)
     doc = export_pwa(
         model,
@@ -454,8 +451,6 @@ def save_pwa(
 
 def load_pwa(path: str | os.PathLike):
     """Read a PWA JSON document back into a :class:`PwaModel` (PwaError on schema mismatch)."""
-    from ._model import PwaModel
-
     try:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:

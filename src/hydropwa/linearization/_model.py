@@ -30,13 +30,15 @@ import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
+from .._display import html_table
 from .._errors import ParameterError, PwaError
 from .._layout import I_CELLS, N_BASE, PWA_SLOT
 from ..components import PiecewiseAffine
+from ..components import dead_zone as _dz
 from ..models import ReducedModel, pack_params
 from ..params import SystemParams
 from ..simulation import _kernel as K
@@ -136,7 +138,7 @@ class AffineDynamics:
         f : ndarray, shape (3,)
             Add ``f`` as a constant disturbance input (the system itself is linear).
         """
-        import control
+        import control  # deferred: python-control loads scipy.signal and matplotlib
 
         C = np.eye(3)
         D = np.zeros((3, 1))
@@ -169,7 +171,7 @@ class AffineDynamics:
         Uses ``scipy.signal.cont2discrete`` on the augmented input [u, 1], i.e. the matrix
         exponential of [[A, B, f], [0, 0, 0], [0, 0, 0]]·dt.
         """
-        from scipy.signal import cont2discrete
+        from scipy.signal import cont2discrete  # deferred: scipy.signal costs ~0.3 s
 
         if self.dt is not None:
             raise PwaError("these dynamics are already discrete")
@@ -227,7 +229,7 @@ class PwaModel:
     breakpoints: str = "paper"
     capacitance_position: float | None = None
     kind = KIND_PWA
-    name = "pwa"
+    name: ClassVar[str] = "pwa"
     state_names: tuple[str, ...] = field(default=("p_l", "v", "x"), init=False)
 
     def __post_init__(self) -> None:
@@ -258,8 +260,6 @@ class PwaModel:
         return f"PwaModel(form={self.form!r}, {sched}, cells g/o/n/w={cells})"
 
     def _repr_html_(self) -> str:
-        from .._display import html_table
-
         rows = [
             ("dead zone (16), Table IV", "u [1]", self.dead_zone.slopes.size, "exact"),
             (
@@ -314,9 +314,14 @@ class PwaModel:
         """Typical state magnitudes [Pa, m/s, m] used as absolute tolerances."""
         return self.reduced.state_scale()
 
-    def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` [m] (default mid-stroke) with A·P_L = F_L."""
-        return self.reduced.initial_state(x0, supply_pressure, load_force)
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L."""
+        return self.reduced.initial_state(initial_position, supply_pressure, load_force)
 
     def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
@@ -665,7 +670,7 @@ class PwaModel:
                     )
                     for n in ns:
                         plo, phi = bo[o]
-                        if paper:
+                        if bn is not None:  # the paper form: C_qp cells of their own
                             plo, phi = max(plo, bn[n][0]), min(phi, bn[n][1])
                         if phi <= plo:
                             continue
@@ -680,6 +685,7 @@ class PwaModel:
     # --- export -------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """The model as a JSON-ready dict (parameters, cell sets, flags); see :mod:`._export`."""
+        # deferred: import cycle, _export builds PwaModel objects (the file format lives there)
         from ._export import model_to_dict
 
         return model_to_dict(self)
@@ -691,14 +697,15 @@ class PwaModel:
     @classmethod
     def from_json(cls, text: str) -> PwaModel:
         """Model from :meth:`to_json` or :func:`export_pwa` output; PwaError on schema mismatch."""
-        from ._export import model_from_dict
-
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise PwaError(
                 f"PWA document is not valid JSON: {exc.msg} at line {exc.lineno}"
             ) from None
+        # deferred: import cycle, _export builds PwaModel objects (the file format lives there)
+        from ._export import model_from_dict
+
         return model_from_dict(data)
 
 
@@ -930,8 +937,6 @@ def machine_velocity_range(
     (α P_S − P_T)/(1 + α³) over A_A (mean-area forms: ½ P_S over Ā). z_max is the saturated
     opening of the dead zone. The friction cells are fitted over this range by default.
     """
-    from ..components import dead_zone as _dz
-
     ps = params.supply.pressure if supply_pressure is None else float(supply_pressure)
     dz = params.dead_zone
     zmax = float(_dz(INPUT_RANGE[1], dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset))

@@ -27,12 +27,22 @@ from scipy.optimize import least_squares
 from ..params import (
     TABLE_IV,
     TABLE_V,
+    TABLE_V_AS_PRINTED,
     DeadZone,
     Friction,
+    ValveFlow,
     recover_stribeck_from_table_v,
     table_v_pwa,
 )
-from ._cells import PAPER_WORKING_POINTS, dead_zone_cells, friction_cells
+from ._cells import (
+    PAPER_WORKING_POINTS,
+    cq_cells,
+    cq_shape,
+    dead_zone_cells,
+    friction_cells,
+    table_v_residual,
+)
+from ._fit import approximation_errors
 
 __all__ = [
     "TABLE_VI",
@@ -199,8 +209,6 @@ def recover_paper_columns(K: float | None = None) -> tuple[PaperColumn, ...]:
         fit keeps P̂ = :data:`PAPER_WORKING_POINTS`·P_S and frees only P_S.
     """
     if K is None:
-        from ..params import ValveFlow
-
         K = ValveFlow().K
     out = []
     wp = np.array(PAPER_WORKING_POINTS)
@@ -236,7 +244,7 @@ def recover_paper_columns(K: float | None = None) -> tuple[PaperColumn, ...]:
 
 
 def _frame(rows):
-    import pandas as pd
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     df = pd.DataFrame(
         rows,
@@ -273,9 +281,6 @@ def reproduce_table_v(friction: Friction | None = None):
         Coefficient rows (rel_error per coefficient) with ``attrs["rms_curve_difference"]``:
         the RMS difference [N] between the regenerated and printed curves over ±0.2 m/s.
     """
-    from ..params import TABLE_V_AS_PRINTED
-    from ._cells import table_v_residual
-
     fr = friction if friction is not None else recover_stribeck_from_table_v().friction
     fit = friction_cells(fr, 7, "paper")
     rows = []
@@ -305,8 +310,6 @@ def reproduce_tables_vi_ix(K: float | None = None, common_working_points: bool =
         One row per printed coefficient; ``corrected`` applies the two typo fixes.
     """
     if K is None:
-        from ..params import ValveFlow
-
         K = ValveFlow().K
     cols = recover_paper_columns(K)
     printed = {"VI": TABLE_VI, "VII": TABLE_VII, "VIII": TABLE_VIII, "IX": TABLE_IX}
@@ -370,9 +373,6 @@ def cq_error_comparison(n_cells: int = 5, interval=(0.0, 1.0)) -> dict[str, floa
         ``paper`` and ``optimized``: max |C_q − Ĉ_q| / (K√(P_S/2)) [1] (multiply by
         K√(P_S/2) for m³/s), and ``optimized_breakpoints`` is not included (see cq_cells).
     """
-    from ._cells import cq_cells, cq_shape
-    from ._fit import approximation_errors
-
     paper = cq_cells(5, "paper", interval=interval)
     opt = cq_cells(n_cells, "optimized", interval=interval)
     return {

@@ -1,5 +1,21 @@
 """The full-order and reduced models (the PWA model lives in :mod:`hydropwa.linearization`)."""
 
-from ._models import FullOrderModel, Model, ReducedModel, as_model, pack_params
+from ._models import (
+    MODEL_NAMES,
+    REDUCED_FORMS,
+    FullOrderModel,
+    Model,
+    ReducedModel,
+    as_model,
+    pack_params,
+)
 
-__all__ = ["FullOrderModel", "Model", "ReducedModel", "as_model", "pack_params"]
+__all__ = [
+    "FullOrderModel",
+    "MODEL_NAMES",
+    "Model",
+    "REDUCED_FORMS",
+    "ReducedModel",
+    "as_model",
+    "pack_params",
+]

@@ -1,15 +1,18 @@
-"""The three models, assembled from one :class:`~hydropwa.params.SystemParams`.
+"""The full-order and reduced models, assembled from one :class:`~hydropwa.params.SystemParams`.
 
 A model object knows its states, how to pack its parameters for the compiled
 kernel, the typical magnitude of each state (for error control) and a default
-initial state. The physics itself is in :mod:`hydropwa.components` and the
-kernel right-hand sides in :mod:`hydropwa.simulation._kernel`.
+initial state: the :class:`Model` protocol, which the PWA model of
+:mod:`hydropwa.linearization` satisfies as well. The physics itself is in
+:mod:`hydropwa.components` and the kernel right-hand sides in
+:mod:`hydropwa.simulation` (``_kernel``), which selects them by the model's ``name``;
+this layer sits below both and imports neither.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -24,9 +27,19 @@ from .._layout import (
     state_vector,
 )
 from ..params import SystemParams, get_preset
-from ..simulation import _kernel as K
 
-__all__ = ["FullOrderModel", "ReducedModel", "Model", "pack_params", "as_model", "REDUCED_FORMS"]
+__all__ = [
+    "FullOrderModel",
+    "ReducedModel",
+    "Model",
+    "pack_params",
+    "as_model",
+    "REDUCED_FORMS",
+    "MODEL_NAMES",
+]
+
+#: Names of the model kinds; ``simulate`` selects the kernel's right-hand side by them.
+MODEL_NAMES = ("full", "reduced", "pwa")
 
 #: Load-pressure forms of the reduced and PWA models: the single-rod model (default) and the
 #: paper's mean-area model of Eqs. (12)–(15), kept so that Sec. VII stays reproducible.
@@ -71,13 +84,57 @@ def pack_params(
     return p
 
 
+@runtime_checkable
+class Model(Protocol):
+    """What :func:`~hydropwa.simulate` needs of a model: every model satisfies it.
+
+    :class:`FullOrderModel`, :class:`ReducedModel` and :class:`~hydropwa.linearization.PwaModel`
+    are models by structure (no common base class), so a new model level needs no import of
+    this layer; ``isinstance(obj, Model)`` checks the members below.
+
+    Attributes
+    ----------
+    name : {"full", "reduced", "pwa"}
+        Model kind; selects the compiled right-hand side.
+    params : SystemParams
+        The one parameter set the model was built from.
+    state_names : tuple of str
+        Names of the states, in the order of the state vector.
+    """
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def params(self) -> SystemParams: ...
+
+    @property
+    def state_names(self) -> tuple[str, ...]: ...
+
+    def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
+        """Kernel parameter vector (float64) for a command of this amplitude [1]."""
+        ...
+
+    def state_scale(self) -> np.ndarray:
+        """Typical magnitude of each state (absolute tolerance = rtol × scale)."""
+        ...
+
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """State vector at rest at ``initial_position`` [m] (default mid-stroke)."""
+        ...
+
+
 @dataclass(frozen=True)
-class Model:
-    """Base of the model objects; ``params`` is the one shared parameter set."""
+class _ModelBase:
+    """Shared fields of the full and reduced models; ``params`` is the one parameter set."""
 
     params: SystemParams = field(default_factory=lambda: get_preset("paper"))
-    kind = -1
-    name = "model"
+    name: ClassVar[str] = "model"
     state_names: ClassVar[tuple[str, ...]] = ()
 
     def __post_init__(self) -> None:
@@ -90,49 +147,48 @@ class Model:
         """Kernel parameter vector; ω0 from the Table II schedule at the command amplitude [1]."""
         return pack_params(self.params, self.params.valve.omega0_at(command_amplitude))
 
-    def state_scale(self) -> np.ndarray:  # pragma: no cover - overridden
-        raise NotImplementedError
-
-    def initial_state(
-        self, x0: float | None = None, supply_pressure: float | None = None, load_force: float = 0.0
-    ) -> np.ndarray:
-        raise NotImplementedError  # pragma: no cover
-
 
 @dataclass(frozen=True)
-class FullOrderModel(Model):
+class FullOrderModel(_ModelBase):
     """Full-order model, Eqs. (1)–(11): servo valve, dead-zone, orifices, chambers, mechanics.
 
     States: spool ν [1], spool velocity ν̇ [1/s], P_A [Pa], P_B [Pa], x [m], ẋ [m/s],
     and P_S [Pa] (a state only with ``supply.model = "pump"``).
     """
 
-    kind = K.FULL
-    name = "full"
+    name: ClassVar[str] = "full"
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
 
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
         return np.array([scale for _n, _u, scale in FULL_STATES])
 
-    def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` (default mid-stroke) with P_A + P_B = P_S and balanced forces."""
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """Rest at ``initial_position`` [m] (default mid-stroke) with P_A + P_B = P_S and
+        balanced forces."""
         c = self.params.cylinder
         ps = self.params.supply.pressure if supply_pressure is None else supply_pressure
-        x = 0.5 * c.stroke if x0 is None else x0
+        x = 0.5 * c.stroke if initial_position is None else initial_position
         pa = (load_force + ps * c.area_b) / (c.area_a + c.area_b)
         pa = min(max(pa, 0.0), ps)
         return self.state_from_measurement(x, 0.0, pa, ps - pa, ps)
 
     @staticmethod
-    def state_from_measurement(x, v, p_a, p_b, p_s, spool=0.0) -> np.ndarray:
+    def state_from_measurement(
+        x: float, v: float, p_a: float, p_b: float, p_s: float, spool: float = 0.0
+    ) -> np.ndarray:
         """Initial state from measured quantities (SI); states not measured rest with their node."""
         values = {"spool": spool, "p_a": p_a, "p_b": p_b, "x": x, "v": v, "p_s": p_s}
         return np.array(state_vector(FULL_STATES, values, FULL_STATE_TIES), dtype=float)
 
 
 @dataclass(frozen=True)
-class ReducedModel(Model):
+class ReducedModel(_ModelBase):
     """Reduced model: load pressure P_L [Pa], ẋ [m/s], x [m]; valve dynamics dropped (ν = u).
 
     Parameters
@@ -147,8 +203,7 @@ class ReducedModel(Model):
     """
 
     form: str = "asymmetric"
-    kind = K.REDUCED
-    name = "reduced"
+    name: ClassVar[str] = "reduced"
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LOAD_STATES)
 
     def __post_init__(self) -> None:
@@ -178,24 +233,46 @@ class ReducedModel(Model):
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
         return np.array([scale for _n, _u, scale in LOAD_STATES])
 
-    def initial_state(self, x0=None, supply_pressure=None, load_force=0.0) -> np.ndarray:
-        """Rest at ``x0`` (default mid-stroke) with A·P_L = F_L (A = A_A, or Ā in the paper form)."""
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L (A = A_A, or
+        Ā in the paper form)."""
         c = self.params.cylinder
-        x = 0.5 * c.stroke if x0 is None else x0
+        x = 0.5 * c.stroke if initial_position is None else initial_position
         return self.state_from_measurement(x, 0.0, load_force / self.force_area, 0.0)
 
-    def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
+    def state_from_measurement(
+        self,
+        x: float,
+        v: float,
+        p_a: float,
+        p_b: float,
+        p_s: float | None = None,
+        spool: float = 0.0,
+    ) -> np.ndarray:
         """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
         values = {"p_l": p_a - self.area_ratio * p_b, "v": v, "x": x}
         return np.array(state_vector(LOAD_STATES, values), dtype=float)
 
 
-_BY_NAME = {"full": FullOrderModel, "reduced": ReducedModel}
+_BY_NAME: dict[str, type[FullOrderModel] | type[ReducedModel]] = {
+    "full": FullOrderModel,
+    "reduced": ReducedModel,
+}
 
 
-def as_model(model, params: SystemParams | None = None) -> Model:
-    """Return a model object from a model object or a name (``full``, ``reduced``, ``pwa``)."""
-    if isinstance(model, Model) or hasattr(model, "pack") and hasattr(model, "kind"):
+def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
+    """Return a model object from a model object or a name (``full``, ``reduced``).
+
+    The PWA model is built from its parameters by :func:`hydropwa.linearization.linearize`
+    (a layer above this one); pass that object, or resolve the name ``pwa`` where it is
+    used (the CLI, :mod:`hydropwa.sweep`).
+    """
+    if isinstance(model, Model):
         return model
     if isinstance(model, str):
         name = model.strip().lower()
@@ -203,10 +280,11 @@ def as_model(model, params: SystemParams | None = None) -> Model:
         if name in _BY_NAME:
             return _BY_NAME[name](params)
         if name == "pwa":
-            from ..linearization import linearize
-
-            return linearize(params)
+            raise ParameterError(
+                "the PWA model is built from parameters by linearize(params); "
+                "pass hydropwa.linearize(params) instead of 'pwa'"
+            )
         raise ParameterError(f"unknown model {model!r}; choose full, reduced or pwa")
     raise ParameterError(
-        f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'/'pwa'"
+        f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'"
     )

@@ -117,7 +117,7 @@ def recover_stribeck_from_table_v(v_max: float = 0.2) -> StribeckRecovery:
     theta0 = np.array([90.0, 60.0, 1000.0, -2.0, 1.0, 4.0])
     lb = np.array([0.0, 0.0, 0.0, -5.0, 0.2, 1.0])
     ub = np.array([1e3, 1e3, 1e5, 0.0, 5.0, 7.0])
-    from scipy.optimize import least_squares  # lazy: keeps `import hydropwa` fast
+    from scipy.optimize import least_squares  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     res = least_squares(
         lambda th: model(th) - target,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from .._errors import ParameterError
 from ._paper import TABLE_II, recover_stribeck_from_table_v
 from ._params import (
     Cylinder,
@@ -79,8 +80,6 @@ PRESETS: dict[str, Callable[[], SystemParams]] = {
 
 def get_preset(name: str) -> SystemParams:
     """Return a built-in preset by name (``paper``, ``symmetric``)."""
-    from .._errors import ParameterError
-
     try:
         return PRESETS[name]()
     except KeyError:

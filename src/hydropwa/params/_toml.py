@@ -19,6 +19,7 @@ import tomli_w
 from .._errors import ParameterError
 from .._io import atomic_write_text
 from ._params import COMPONENT_TYPES, SystemParams, flow_coefficient_from_rating
+from ._presets import PRESETS, get_preset
 
 __all__ = [
     "load_params",
@@ -104,7 +105,7 @@ _DISPLAY = {
 
 @lru_cache(maxsize=1)
 def _ureg():
-    import pint
+    import pint  # deferred: pint costs ~0.3 s at import
 
     ureg = pint.UnitRegistry()
     ureg.define("percent_opening = 0.01 = pct")
@@ -140,7 +141,7 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         return float(value)
     except ValueError:
         pass
-    import pint
+    import pint  # deferred: pint costs ~0.3 s at import
 
     ureg = _ureg()
     try:
@@ -185,8 +186,6 @@ def params_from_dict(
         )
     base = data.get("base")
     if base is not None:
-        from ._presets import get_preset
-
         params = get_preset(str(base))
     else:
         params = SystemParams()
@@ -273,10 +272,10 @@ def params_from_dict(
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
     meta = dict(params.meta)
-    extra = data.get("meta", {}) or {}
-    if not isinstance(extra, dict):
-        raise ParameterError(f"{source}: [meta] must be a table, got {type(extra).__name__}")
-    meta.update(extra)
+    extra_meta = data.get("meta", {}) or {}
+    if not isinstance(extra_meta, dict):
+        raise ParameterError(f"{source}: [meta] must be a table, got {type(extra_meta).__name__}")
+    meta.update(extra_meta)
     if "uncertainty" in data:
         meta["uncertainty"] = data["uncertainty"]
     return dataclasses.replace(params, meta=meta, **changes)
@@ -290,8 +289,6 @@ def load_params(path: str | os.PathLike) -> SystemParams:
     ParameterError
         If the file is missing, is not valid TOML, or holds invalid values.
     """
-    from ._presets import PRESETS, get_preset
-
     if isinstance(path, str) and path in PRESETS and not Path(path).exists():
         return get_preset(path)
     p = Path(path)

@@ -307,7 +307,8 @@ def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec, stroke: float = np.
     if spec.stop_at is not None:
         hit = np.flatnonzero(np.abs(x - spec.start_position) >= spec.stop_at)
     else:
-        hit = np.flatnonzero((x <= spec.stop_margin) | (x >= stroke - spec.stop_margin))
+        margin = float(spec.stop_margin or 0.0)  # not None here: checked above
+        hit = np.flatnonzero((x <= margin) | (x >= stroke - margin))
     if hit.size == 0:
         return x.size
     keep_until = max(t[hit[0]], spec.min_duration)
@@ -349,7 +350,7 @@ def execute(
         spec.command,
         duration=spec.duration,
         load_force=load,
-        x0=spec.start_position,
+        initial_position=spec.start_position,
         fs=rig.fs,
         rtol=rig.rtol,
     )
@@ -370,6 +371,6 @@ def execute(
         if spec.counter_force
         else {"type": "none"},
         "stopped_early": bool(n < round(spec.duration * rig.fs) + 1),
-        "solver": {"steps": result.stats["steps"], "rtol": rig.rtol},
+        "solver": {"steps": result.stats.steps, "rtol": rig.rtol},
     }
-    return measure(result, rig.sensors, sensor_rng, name=spec.name, meta=meta, fs=rig.fs)
+    return measure(result, rig.sensors or {}, sensor_rng, name=spec.name, meta=meta, fs=rig.fs)

@@ -130,6 +130,18 @@ class Rig:
         object.__setattr__(self, "sensors", dict(sensors))
         self._cross_check()
 
+    @property
+    def _sensors(self) -> Mapping[str, SensorModel]:
+        """The sensors, always set by ``__post_init__`` (the field is None only as input)."""
+        assert self.sensors is not None
+        return self.sensors
+
+    @property
+    def _supply(self) -> Supply:
+        """The supply, always set by ``__post_init__`` (the field is None only as input)."""
+        assert self.supply is not None
+        return self.supply
+
     def _cross_check(self) -> None:
         """Settings that cannot work together: relief below the set pressure, sensors too small."""
         sup = self.supply
@@ -142,7 +154,7 @@ class Rig:
                 "in the campaign (or supply.relief_pressure in the parameter file)"
             )
         stroke = self.params.cylinder.stroke
-        x = self.sensors.get("x")
+        x = self._sensors.get("x")
         if x is not None and not (x.range[0] < 0.0 and x.range[1] > stroke):
             m = 0.125 * stroke
             raise ParameterError(
@@ -152,7 +164,7 @@ class Rig:
                 "in the campaign, or leave [sensors] out to size it from the stroke"
             )
         for ch in ("p_a", "p_b", "p_s"):
-            s = self.sensors.get(ch)
+            s = self._sensors.get(ch)
             if s is not None and s.range[1] < sup.relief_pressure:
                 raise ParameterError(
                     f"rig sensor {ch!r} ({s.name}) reads up to {s.range[1] / 1e5:g} bar, below the relief "
@@ -182,12 +194,12 @@ class Rig:
             Sensors that were sized from the machine are sized again for the new supply
             before the overrides apply; the result is cross-checked.
         """
-        sup = dataclasses.replace(self.supply, **supply) if supply else self.supply
+        sup = dataclasses.replace(self._supply, **supply) if supply else self._supply
         params = self.params.replace(supply=sup)
         base = (
             machine_sensors(params, sup)
             if getattr(self, "_auto_sensors", False)
-            else dict(self.sensors)
+            else dict(self._sensors)
         )
         for ch, over in (sensors or {}).items():
             if ch not in base:
@@ -212,5 +224,5 @@ class Rig:
             "fs": self.fs,
             "rtol": self.rtol,
             "supply": dataclasses.asdict(self.params.supply),
-            "sensors": {ch: s.describe() for ch, s in self.sensors.items()},
+            "sensors": {ch: s.describe() for ch, s in self._sensors.items()},
         }

@@ -19,6 +19,9 @@ import hashlib
 import itertools
 import json
 import os
+import signal
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from functools import partial
@@ -126,10 +129,6 @@ def _init_worker(parent_pid: int) -> None:
     A killed parent cannot shut its pool down; forked workers would wait forever on a queue
     whose other end they hold themselves. A daemon thread notices the new parent pid instead.
     """
-    import signal
-    import threading
-    import time
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch() -> None:
@@ -175,7 +174,13 @@ def _results(
 
 
 def _rich_progress():
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import (  # deferred: rich, only for progress on a terminal
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
 
     return Progress(
         TextColumn("{task.description:<10}"),

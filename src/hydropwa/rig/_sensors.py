@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import ParameterError
+from ..data import Run
 
 __all__ = ["SensorModel", "paper_sensors", "machine_sensors", "measure", "MEASURED_CHANNELS"]
 
@@ -330,8 +331,6 @@ def measure(
     hydropwa.data.Run
         Channels ``t``, ``u`` and one per sensor, in SI units.
     """
-    from ..data import Run
-
     channels = {
         "t": np.asarray(result.channels["t"], dtype=float),
         "u": np.asarray(result.channels["u"], dtype=float),

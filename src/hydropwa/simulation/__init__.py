@@ -1,6 +1,7 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
+from ._kernel import set_compile_notice
 from ._signals import (
     Chirp,
     Constant,
@@ -13,11 +14,13 @@ from ._signals import (
     pack_signals,
     parse_signal,
 )
-from ._simulate import CHANNEL_UNITS, SimulationResult, simulate
+from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
+from ._status import SolverStats, SolverStatus
 
 __all__ = [
     "CHANNEL_UNITS",
     "Chirp",
+    "DEFAULT_RTOL",
     "Constant",
     "Ramp",
     "SUMMARY_COLUMNS",
@@ -25,10 +28,13 @@ __all__ = [
     "Signal",
     "SimulationResult",
     "Sine",
+    "SolverStats",
+    "SolverStatus",
     "Step",
     "as_signal",
     "pack_signals",
     "parse_signal",
+    "set_compile_notice",
     "simulate",
     "simulate_batch",
     "summarize",

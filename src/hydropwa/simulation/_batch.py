@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from .._errors import SignalError
+from ..models import Model, as_model
+from ..params import SystemParams
 from ._simulate import SimulationResult, simulate
 
 __all__ = ["simulate_batch", "summarize", "SUMMARY_COLUMNS"]
@@ -82,11 +84,11 @@ def summarize(result: SimulationResult) -> dict[str, float]:
         "max_p_b": float(np.max(ch["p_b"])),
         "min_p_b": float(np.min(ch["p_b"])),
         "drift_per_period": drift,
-        "steps": int(st.get("steps", 0)),
-        "rejected": int(st.get("rejected", 0)),
-        "rhs_evaluations": int(st.get("rhs_evaluations", 0)),
-        "status": int(st.get("status", 0)),
-        "wall_time": float(st.get("wall_time", math.nan)),
+        "steps": st.steps,
+        "rejected": st.rejected,
+        "rhs_evaluations": st.rhs_evaluations,
+        "status": int(st.status),
+        "wall_time": st.wall_time,
     }
 
 
@@ -110,10 +112,7 @@ def _is_pair_signal(value) -> bool:
     )
 
 
-def _to_model(item, model: str):
-    from ..models import as_model
-    from ..params import SystemParams
-
+def _to_model(item: Any, model: str) -> Model:
     if isinstance(item, SystemParams):
         return as_model(model, item)
     return as_model(item)
@@ -139,8 +138,9 @@ def simulate_batch(
         One command u per case (anything :func:`simulate` accepts), or a single
         command for all cases. A single model with N inputs, or N models with
         one input, broadcast.
-    model : {"full", "reduced", "pwa"}
-        Model level for entries given as :class:`~hydropwa.params.SystemParams`.
+    model : {"full", "reduced"}
+        Model level for entries given as :class:`~hydropwa.params.SystemParams` (for the PWA
+        model pass ``[linearize(p) for p in params]``).
     jobs : int, optional
         Worker threads (default: all cores, ``os.cpu_count()``).
     summary : bool

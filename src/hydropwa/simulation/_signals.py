@@ -17,6 +17,7 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import SignalError
+from ..params import parse_quantity
 
 __all__ = [
     "Signal",
@@ -458,8 +459,6 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
     name : str
         Name used in error messages (e.g. ``"--input"``).
     """
-    from ..params import parse_quantity
-
     text = spec.strip()
     if ":" not in text:
         try:

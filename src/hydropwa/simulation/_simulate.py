@@ -5,16 +5,28 @@ from __future__ import annotations
 import math
 import os
 import time as _time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._errors import SignalError, SimulationError
+from .._display import channel_rows, html_table
+from .._errors import ParameterError, SignalError, SimulationError
 from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
+from ..models import Model, as_model
+from ..params import SystemParams
 from . import _kernel as K
-from ._signals import Constant, Sampled, as_signal, pack_signals
+from ._controller import eval_rates
+from ._signals import Constant, Sampled, Signal, as_signal, pack_signals
+from ._status import SolverStats, SolverStatus
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from ..data import Run
 
 #: Default relative tolerance. On the paper rig (10 s, 40 %, 1 Hz) it keeps the position
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
@@ -22,6 +34,10 @@ from ._signals import Constant, Sampled, as_signal, pack_signals
 DEFAULT_RTOL = 1e-3
 
 __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
+
+#: The kernel's right-hand side of each model kind (the model's ``name``): model kinds are
+#: resolved here, where they are used, so the model layers need not import the kernel.
+_KERNEL_KIND = {"full": K.FULL, "reduced": K.REDUCED, "pwa": K.PWA}
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
 CHANNEL_UNITS: dict[str, str] = {
@@ -32,11 +48,6 @@ CHANNEL_UNITS: dict[str, str] = {
 }
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
 _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
-_STATUS = {
-    K.MAX_STEPS: "the step budget (max_steps) was exhausted; raise max_steps or loosen rtol",
-    K.STEP_COLLAPSE: "the step size collapsed below machine precision (the dynamics are too stiff or discontinuous here)",
-    K.NON_FINITE: "the state became non-finite (NaN or inf)",
-}
 
 
 @dataclass
@@ -60,10 +71,14 @@ class SimulationResult:
         The parameters used.
     inputs : dict[str, dict]
         Description of the input signals.
-    stats : dict
-        Solver statistics: steps, rejected, rhs_evaluations, wall_time [s] (the
-        integration alone), compile_time [s] (loading or compiling the compiled solver
-        in this call: non-zero only for a process's first run of a model), rtol.
+    stats : SolverStats
+        Solver statistics (typed; also readable as a mapping, ``stats["steps"]``): steps,
+        rejected, rhs_evaluations, jacobians, solver, wall_time [s] (the integration alone),
+        compile_time [s] (loading or compiling the compiled solver in this call: non-zero
+        only for a process's first run of a model), rtol, status, omega0 [rad/s].
+    message : str
+        How the integration ended: the status's fix-it message, and on failure the time,
+        the state and a likely cause.
     control : dict
         Closed loop only: the controller's per-sample record (``t`` [s], ``u`` applied
         command [1], ``reference`` [m], ``error`` [m], ``command`` before the dead-zone
@@ -76,10 +91,21 @@ class SimulationResult:
     states: np.ndarray
     state_names: tuple[str, ...]
     model: str
-    params: Any
+    params: SystemParams
     inputs: dict[str, dict] = field(default_factory=dict)
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: SolverStats = field(default_factory=SolverStats)
     control: dict[str, Any] = field(default_factory=dict)
+    message: str = SolverStatus.SUCCESS.message
+
+    @property
+    def status(self) -> SolverStatus:
+        """How the integration ended (:class:`SolverStatus`)."""
+        return self.stats.status
+
+    @property
+    def success(self) -> bool:
+        """True if the integration reached the final time."""
+        return self.stats.status is SolverStatus.SUCCESS
 
     @property
     def units(self) -> dict[str, str]:
@@ -94,22 +120,18 @@ class SimulationResult:
 
     def __repr__(self) -> str:
         t = f"t=[{self.t[0]:g}, {self.t[-1]:g}] s" if self.t.size else "empty"
-        wall = self.stats.get("wall_time")
+        wall = self.stats.wall_time
         speed = f", {wall * 1e3:.3g} ms" if wall else ""
-        return f"SimulationResult(model={self.model!r}, n={self.t.size}, {t}, steps={self.stats.get('steps')}{speed})"
+        status = "" if self.success else f", status={self.status.name}"
+        return f"SimulationResult(model={self.model!r}, n={self.t.size}, {t}, steps={self.stats.steps}{speed}{status})"
 
     def _repr_html_(self) -> str:
-        from .._display import channel_rows, html_table
-
         st = self.stats
         note = (
-            f"{st.get('steps')} steps, {st.get('wall_time', 0.0) * 1e3:.3g} ms"
-            + (
-                f" (+ {st['compile_time']:.1f} s compiling, once)"
-                if st.get("compile_time", 0.0) > 0.5
-                else ""
-            )
-            + f", rtol {st.get('rtol')}; values in engineering units"
+            f"{st.steps} steps, {st.wall_time * 1e3:.3g} ms"
+            + (f" (+ {st.compile_time:.1f} s compiling, once)" if st.compile_time > 0.5 else "")
+            + f", rtol {st.rtol}; values in engineering units"
+            + ("" if self.success else f"; {self.status.name}: {self.message}")
         )
         title = f"SimulationResult: {self.model} model, {self.t.size} samples, {self.t[-1] - self.t[0] if self.t.size else 0:.4g} s"
         return html_table(
@@ -119,28 +141,28 @@ class SimulationResult:
             note=note,
         )
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         """DataFrame with one column per channel, ``t`` [s] first (as :meth:`Run.to_pandas`).
 
         The index holds the same times (named ``time``) for ``df.plot()``; SI units are in
         ``df.attrs['units']``, the model name in ``df.attrs['model']``.
         """
-        import pandas as pd
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
         df = pd.DataFrame(dict(self.channels), index=pd.Index(self.t, name="time"))
         df.attrs["units"] = self.units
         df.attrs["model"] = self.model
         return df
 
-    def to_run(self, name: str | None = None, meta: dict | None = None):
+    def to_run(self, name: str | None = None, meta: dict | None = None) -> Run:
         """The result as a :class:`hydropwa.data.Run` (for the data layer's writers)."""
-        from ..data import Run
+        from ..data import Run  # deferred: hydropwa.data loads pint (~0.3 s at import)
 
         m = {
             "source": "simulation",
             "model": self.model,
             "inputs": self.inputs,
-            "stats": _plain(self.stats),
+            "stats": _plain(self.stats.as_dict()),
         }
         m.update(meta or {})
         fs = 1.0 / float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
@@ -155,14 +177,14 @@ class SimulationResult:
     def to_csv(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write all channels to CSV (header ``name [unit]``), atomically; an existing file
         raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
-        from ..data import write_run
+        from ..data import write_run  # deferred: hydropwa.data loads pint (~0.3 s at import)
 
         return Path(write_run(self.to_run(), Path(path), format="csv", overwrite=overwrite))
 
     def to_parquet(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write all channels to Parquet (units in the schema metadata), atomically; an existing
         file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``."""
-        from ..data import write_run
+        from ..data import write_run  # deferred: hydropwa.data loads pint (~0.3 s at import)
 
         return Path(write_run(self.to_run(), Path(path), format="parquet", overwrite=overwrite))
 
@@ -177,7 +199,9 @@ class SimulationResult:
             f"{path}: a simulation result is written as .csv or .parquet, not {suffix or 'no suffix'!r}"
         )
 
-    def plot(self, channels=("u", "x", "p_a", "p_b", "p_s"), *, ax=None):
+    def plot(
+        self, channels: tuple[str, ...] = ("u", "x", "p_a", "p_b", "p_s"), *, ax: Any = None
+    ) -> Figure:
         """Plot channels against time in engineering units (%, mm, bar); returns the figure.
 
         See :func:`hydropwa.plotting.plot_result` (one axes per display unit; ``ax`` to draw
@@ -207,11 +231,11 @@ class SimulationResult:
         }
 
 
-def _plain(d: dict) -> dict:
+def _plain(d: dict[str, Any]) -> dict[str, Any]:
     return {k: (v.item() if hasattr(v, "item") else v) for k, v in d.items()}
 
 
-def _diagnose(params, state: dict[str, float]) -> str:
+def _diagnose(params: SystemParams, state: dict[str, float]) -> str:
     """A likely cause of a failed integration, in the user's terms."""
     c, oil = params.cylinder, params.oil
     vmin = min(c.dead_volume_a, c.dead_volume_b)
@@ -242,46 +266,52 @@ def _diagnose(params, state: dict[str, float]) -> str:
 
 
 def simulate(
-    model,
-    u=0.0,
+    model: Model | str,
+    u: Any = 0.0,
     *,
     duration: float | None = None,
-    t: np.ndarray | None = None,
-    supply_pressure=None,
-    load_force=None,
-    x0: float | None = None,
+    timepts: np.ndarray | None = None,
+    supply_pressure: Any = None,
+    load_force: Any = None,
+    initial_position: float | None = None,
     initial_state: np.ndarray | None = None,
     fs: float = 2000.0,
     rtol: float = DEFAULT_RTOL,
-    params=None,
+    params: SystemParams | None = None,
     max_steps: int = 5_000_000,
     hmax: float | None = None,
     raise_on_failure: bool = True,
     solver: str = "ros34pw2",
-    controller=None,
-    reference=None,
+    controller: Any = None,
+    reference: Any = None,
+    t: np.ndarray | None = None,
+    x0: float | None = None,
 ) -> SimulationResult:
     """Simulate any model (full, reduced or PWA) with time-varying inputs.
 
     Parameters
     ----------
-    model : FullOrderModel, ReducedModel, PwaModel or str
-        The model, or ``"full"``, ``"reduced"``, ``"pwa"`` with ``params``.
+    model : Model or {"full", "reduced"}
+        Any :class:`~hydropwa.models.Model` (``FullOrderModel``, ``ReducedModel``,
+        ``PwaModel``), or ``"full"``/``"reduced"`` with ``params``; the PWA model is built
+        by :func:`~hydropwa.linearization.linearize`.
     u : float, str, Signal or (t, values)
         Valve command [1] (fraction of full opening, ±1 = 100 %).
     duration : float, optional
-        Simulated time [s] (from 0). Either this or ``t``.
-    t : ndarray, optional
-        Explicit output times [s] (increasing); overrides ``duration``/``fs``.
+        Simulated time [s] (from 0). Either this or ``timepts``.
+    timepts : ndarray, optional
+        Explicit output times [s] (increasing); overrides ``duration``/``fs``
+        (python-control's name).
     supply_pressure : float, str, Signal or (t, values), optional
         P_S(t) [Pa]; default ``params.supply.pressure``. Ignored by the full
         model when ``supply.model == "pump"`` (P_S is then a state).
     load_force : float, str, Signal or (t, values), optional
         F_L(t) [N]; default ``params.load.force``.
-    x0 : float, optional
+    initial_position : float, optional
         Initial rod position [m] (default mid-stroke) for the default initial state.
     initial_state : ndarray, optional
-        Full initial state vector (see the model's ``state_names``).
+        Full initial state vector (see the model's ``state_names``); overrides
+        ``initial_position``.
     fs : float
         Output sampling rate [Hz] (default 2 kHz, as on the rig).
     rtol : float
@@ -295,8 +325,8 @@ def simulate(
     hmax : float, optional
         Largest step [s]; default 10 ms, or the sample spacing of measured inputs.
     raise_on_failure : bool
-        If False, a failed integration returns the partial result with
-        ``stats['status']`` set instead of raising.
+        If False, a failed integration returns the partial result (``success`` False,
+        ``status`` and ``message`` set) instead of raising.
     solver : {"ros34pw2", "ros23"}
         Rosenbrock method: the third-order W-method ROS34PW2 (default, reuses
         its Jacobian across steps) or the second-order ROS2(3) of ``ode23s``.
@@ -306,25 +336,59 @@ def simulate(
         :class:`hydropwa.control.PIController`) sets the valve command at its sample
         instants (zero-order hold); ``u`` must then be left at 0.
     reference : float, str, Signal or (t, values), optional
-        Closed loop: reference position r(t) [m] (a number, a spec such as
-        ``"step:time=0.05,before=0.1,after=0.12"``, a Signal, e.g.
-        :class:`hydropwa.control.MotionProfile`, or samples). Required with ``controller``.
+        Closed loop: reference position r(t) [m] (a number, a signal spec such as
+        ``"step:time=0.05,before=0.1,after=0.12"``, a Signal, e.g. a
+        :class:`hydropwa.control.MotionProfile` from :func:`hydropwa.control.as_reference`,
+        or samples). Required with ``controller``.
+    t : ndarray, optional
+        Deprecated alias of ``timepts``.
+    x0 : float, optional
+        Deprecated alias of ``initial_position`` (python-control's ``X0`` is the state
+        vector, here ``initial_state``).
 
     Returns
     -------
     SimulationResult
+        With ``success``, ``status`` (:class:`SolverStatus`), ``message`` and ``stats``
+        (:class:`SolverStats`).
 
     Raises
     ------
     SimulationError
         If the integration fails; names the time, the state and a likely cause,
         with the partial result in ``err.partial``.
+    ParameterError
+        For an unknown model name or solver.
+    SignalError
+        For malformed times, inputs or initial states.
     """
-    from ..models import as_model
-
+    if t is not None:
+        warnings.warn(
+            "simulate(t=...) is deprecated; use timepts=...", DeprecationWarning, stacklevel=2
+        )
+        if timepts is not None:
+            raise SignalError("give either timepts or its deprecated alias t, not both")
+        timepts = t
+    if x0 is not None:
+        warnings.warn(
+            "simulate(x0=...) is deprecated; the rod position is initial_position=... "
+            "(initial_state is the full state vector)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        if initial_position is not None:
+            raise SignalError("give either initial_position or its deprecated alias x0, not both")
+        initial_position = x0
+    if solver not in K.SOLVERS:
+        raise ParameterError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
     mdl = as_model(model, params)
+    kind = _KERNEL_KIND.get(mdl.name)
+    if kind is None:
+        raise ParameterError(
+            f"model {mdl.name!r} has no compiled right-hand side; choose {', '.join(_KERNEL_KIND)}"
+        )
     prm = mdl.params
-    if t is None:
+    if timepts is None:
         if duration is None or not (duration > 0) or not math.isfinite(duration):
             raise SignalError(f"duration must be a positive number of seconds, got {duration!r}")
         if not (fs > 0) or not math.isfinite(fs):
@@ -332,9 +396,11 @@ def simulate(
         n = int(round(duration * fs)) + 1
         t_out = np.linspace(0.0, duration, n)
     else:
-        t_out = np.ascontiguousarray(t, dtype=float).ravel()
+        t_out = np.ascontiguousarray(timepts, dtype=float).ravel()
         if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
-            raise SignalError("t must hold at least two finite, strictly increasing times [s]")
+            raise SignalError(
+                "timepts must hold at least two finite, strictly increasing times [s]"
+            )
         duration = float(t_out[-1] - t_out[0])
     closed = controller is not None
     if closed:
@@ -350,7 +416,7 @@ def simulate(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
     )
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
-    if mdl.kind == K.PWA and supply_pressure is not None and not getattr(mdl, "scheduled", True):
+    if kind == K.PWA and supply_pressure is not None and not getattr(mdl, "scheduled", True):
         fixed = float(getattr(mdl, "supply_pressure", np.nan))
         if not (
             isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)
@@ -367,7 +433,7 @@ def simulate(
     ps0 = ps_sig(t_out[0])
     fl0 = fl_sig(t_out[0])
     if initial_state is None:
-        y0 = mdl.initial_state(x0=x0, supply_pressure=ps0, load_force=fl0)
+        y0 = mdl.initial_state(initial_position, supply_pressure=ps0, load_force=fl0)
     else:
         y0 = np.asarray(initial_state, dtype=float).ravel().copy()
         if y0.size != len(mdl.state_names) or not np.all(np.isfinite(y0)):
@@ -379,8 +445,6 @@ def simulate(
         for s in sigs:
             if isinstance(s, Sampled) and s.t.size > 1:
                 hmax = min(hmax, float(np.min(np.diff(s.t))))
-    if solver not in K.SOLVERS:
-        raise SignalError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
     sg = pack_signals(sigs)
     if closed:
         ctl, ref_sig, ref, dref = _closed_loop_setup(controller, reference, t_out)
@@ -388,7 +452,7 @@ def simulate(
     t0 = _time.perf_counter()
     if closed:
         Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
-            mdl.kind,
+            kind,
             y0,
             t_out,
             p,
@@ -405,7 +469,7 @@ def simulate(
         )
     else:
         Y, n_done, status, t_fail, y_fail, stats = K.integrate(
-            mdl.kind,
+            kind,
             y0,
             t_out,
             p,
@@ -425,14 +489,14 @@ def simulate(
     if closed:  # derived channels see the held command of each sample interval
         sg = pack_signals([_held_command(log, t_out[0]), ps_sig, fl_sig])
     # load or compile for these argument types (a no-op once ready), timed apart
-    K.prepare(K.OUTPUTS[mdl.kind], (t_out, Y, n_done, p, sg), "output")
-    out = K.outputs(mdl.kind, t_out, Y, n_done, p, sg)
+    K.prepare(K.OUTPUTS[kind], (t_out, Y, n_done, p, sg), "output")
+    out = K.outputs(kind, t_out, Y, n_done, p, sg)
     compile_time = K.compile_seconds - compiled0
-    # the times are the caller's array when t was given: copy them then, not our own grid
-    channels = {"t": t_out[:n_done] if t is None else t_out[:n_done].copy()}
+    # the times are the caller's array when timepts was given: copy them then, not our own grid
+    channels = {"t": t_out[:n_done] if timepts is None else t_out[:n_done].copy()}
     for i, name in enumerate(_OUT_COLS):
         channels[name] = out[i]  # contiguous row, no copy needed
-    if mdl.kind == K.PWA:
+    if kind == K.PWA:
         for i, name in enumerate(_PWA_COLS):
             channels[name] = out[len(_OUT_COLS) + i]
     control: dict[str, Any] = {}
@@ -444,6 +508,16 @@ def simulate(
         channels["error"] = channels["reference"] - channels["x"]
         channels["command"] = log[4, j]
         channels["cell_ctl"] = log[5, j]
+    solver_status = SolverStatus(int(status))
+    message = solver_status.message
+    state: dict[str, float] = {}
+    if not solver_status.success:
+        state = {name: float(v) for name, v in zip(mdl.state_names, y_fail, strict=True)}
+        state_txt = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
+        message = (
+            f"{mdl.name} model integration failed at t = {t_fail:.6g} s: {message}. "
+            f"State: {state_txt}. Likely cause: {_diagnose(prm, state)}"
+        )
     result = SimulationResult(
         t=channels["t"],
         channels=channels,
@@ -452,37 +526,30 @@ def simulate(
         model=mdl.name,
         params=prm,
         inputs={"u": u_sig.describe(), "p_s": ps_sig.describe(), "f_l": fl_sig.describe()},
-        stats={
-            "steps": int(stats[0]),
-            "rejected": int(stats[1]),
-            "rhs_evaluations": int(stats[2]),
-            "jacobians": int(stats[3]),
-            "solver": solver,
-            "wall_time": wall,
-            "compile_time": compile_time,
-            "rtol": float(rtol),
-            "status": int(status),
-            "omega0": float(p[K.I_OMEGA0]),
-        },
+        stats=SolverStats(
+            steps=int(stats[0]),
+            rejected=int(stats[1]),
+            rhs_evaluations=int(stats[2]),
+            jacobians=int(stats[3]),
+            solver=solver,
+            wall_time=wall,
+            compile_time=compile_time,
+            rtol=float(rtol),
+            status=solver_status,
+            omega0=float(p[K.I_OMEGA0]),
+        ),
         control=control,
+        message=message,
     )
-    if status != K.OK:
-        state = {name: float(v) for name, v in zip(mdl.state_names, y_fail, strict=True)}
-        state_txt = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
-        msg = (
-            f"{mdl.name} model integration failed at t = {t_fail:.6g} s: {_STATUS[int(status)]}. "
-            f"State: {state_txt}. Likely cause: {_diagnose(prm, state)}"
-        )
-        result.stats["message"] = msg
-        if raise_on_failure:
-            raise SimulationError(msg, t=float(t_fail), state=state, partial=result)
+    if not solver_status.success and raise_on_failure:
+        raise SimulationError(message, t=float(t_fail), state=state, partial=result)
     return result
 
 
-def _closed_loop_setup(controller, reference, t_out):
+def _closed_loop_setup(
+    controller: Any, reference: Any, t_out: np.ndarray
+) -> tuple[np.ndarray, Signal, np.ndarray, np.ndarray]:
     """Packed controller, reference signal and reference samples/rates at the sample instants."""
-    from ._controller import eval_rates
-
     try:
         ctl = np.ascontiguousarray(controller.pack(), dtype=float)
     except AttributeError:
@@ -494,12 +561,12 @@ def _closed_loop_setup(controller, reference, t_out):
         raise SignalError(
             "controller vector is malformed (sample time must be a positive number of seconds)"
         )
-    if isinstance(reference, str):  # motion profiles and files are specs of the control layer
-        from ..control import as_reference
-
-        ref_sig = as_reference(reference)
-    else:
-        ref_sig = as_signal(reference, "m", "reference")
+    if isinstance(reference, str) and reference.split(":", 1)[0].strip().lower() in _PROFILES:
+        raise SignalError(
+            f"reference {reference!r} is a motion profile of the control layer; pass "
+            "hydropwa.control.as_reference(...) (a Signal) as the reference"
+        )
+    ref_sig = as_signal(reference, "m", "reference")
     span = float(t_out[-1] - t_out[0])
     n_smp = int(math.floor(span / ts + 1e-9)) + 1
     tk = t_out[0] + ts * np.arange(n_smp)
@@ -536,7 +603,11 @@ def _done(log: np.ndarray, row: int) -> np.ndarray:
     return log[row, :n]
 
 
-def _control_record(controller, ctl, log) -> dict[str, Any]:
+#: Reference specs that :func:`hydropwa.control.as_reference` parses (a layer above this one).
+_PROFILES = ("trapezoid", "scurve", "steps", "file")
+
+
+def _control_record(controller: Any, ctl: np.ndarray, log: np.ndarray) -> dict[str, Any]:
     """The controller's per-sample log as named arrays (see ``SimulationResult.control``)."""
     rec: dict[str, Any] = {
         "t": _done(log, 0),

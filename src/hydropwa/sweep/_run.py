@@ -40,6 +40,8 @@ import pandas as pd
 
 from .. import _interrupt
 from .._errors import HydropwaError, ParameterError
+from .._io import atomic_write_text
+from ..linearization import linearize
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
 
@@ -67,10 +69,13 @@ def run_case(
     metrics of the partial result). This is the task a Dask worker runs; it is a plain
     function of picklable arguments.
     """
+    params = spec.params_for(case)
+    # the PWA model is built from each case's parameters (model kinds resolve where used)
+    model = linearize(params) if spec.model == "pwa" else spec.model
     res = simulate(
-        spec.model,
+        model,
         spec.u,
-        params=spec.params_for(case),
+        params=params,
         duration=spec.duration,
         raise_on_failure=False,
         **spec.options,
@@ -125,8 +130,6 @@ class SweepJournal:
     """
 
     def __init__(self, path: str | os.PathLike, spec: SweepSpec, fresh: bool = False) -> None:
-        from .._io import atomic_write_text
-
         self.path = Path(path)
         self.key = fingerprint(spec)
         self.rows: dict[int, dict] = {}
@@ -237,7 +240,11 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, on_done) -> list[tuple[Swe
 
     Returns the cases that did not finish (a dead worker, a lost connection), with why.
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import (  # deferred: dask.distributed costs ~1 s, only for a cluster
+        Client,
+        LocalCluster,
+        as_completed,
+    )
 
     cluster = None
     try:

@@ -21,6 +21,7 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import itertools
 import math
 import os
@@ -32,7 +33,9 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError, ParameterError
+from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
 from ..params import FIELD_UNITS, SystemParams, get_preset, load_params, parse_quantity
+from ..simulation import as_signal
 
 __all__ = ["SweepCase", "SweepSpec", "load_sweep", "parse_sweep"]
 
@@ -44,8 +47,6 @@ _MODELS = ("full", "reduced", "pwa")
 
 def _unknown(kind: str, name: str, allowed) -> ParameterError:
     """An unknown key, with the closest allowed one suggested."""
-    import difflib
-
     close = difflib.get_close_matches(str(name), list(allowed), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return ParameterError(
@@ -57,8 +58,6 @@ def _field_unit(key: str) -> tuple[str, str, str | None]:
     """Split ``"group.field"`` and return (group, field, SI unit); names the valid choices on error."""
     group, _, name = key.partition(".")
     if group not in FIELD_UNITS or name not in FIELD_UNITS[group]:
-        import difflib
-
         groups = ", ".join(FIELD_UNITS)
         every = [f"{g}.{f}" for g, fields in FIELD_UNITS.items() for f in fields]
         close = difflib.get_close_matches(key, every, n=1)
@@ -218,8 +217,6 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     closest valid name suggested), empty grid lists, bounds of random draws, the input
     quantities (with the bounds of the parameter files), and the sweep's size.
     """
-    from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
-
     if not isinstance(data, dict):
         raise ParameterError("a sweep file is a TOML table with [grid], [random] and [input]")
     for key in data:
@@ -284,8 +281,6 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
         else:
             options[key] = value
     check_samples(float(duration), float(options.get("fs", 2000.0)), "input.duration")
-    from ..simulation import as_signal
-
     as_signal(u, "", "u")  # a malformed command spec fails here, not in every case
     if "load_force" in options:
         as_signal(options["load_force"], "N", "load_force")
