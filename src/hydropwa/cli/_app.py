@@ -54,7 +54,7 @@ def _click_types() -> tuple[_Types, _Types, _Types]:
     ]
     usage: list[type[BaseException]] = [click.ClickException]
     try:
-        from typer._click import exceptions as vendored  # type: ignore[import-not-found]
+        from typer._click import exceptions as vendored
 
         usage.append(vendored.ClickException)
     except ImportError:  # a typer that uses click itself

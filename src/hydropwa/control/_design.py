@@ -213,7 +213,7 @@ def _scaling(weights: Mapping[str, float]) -> tuple[np.ndarray, float]:
 
 def _cell_boxes(model, f_l):
     """(label, (g, s, o, w), lower, upper) per cell over [P_L, ẋ, x, c]; c's sign is s."""
-    out = {}
+    out: dict[Any, Any] = {}
     for idx, lo, hi in model.regions():
         g_out = int(model.dead_zone.cell(0.5 * idx.s))
         if idx.g != g_out:

@@ -9,6 +9,8 @@ drawn under the measurement with the NRMSE fit of :func:`~hydropwa.evaluation.nr
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .._errors import DataError
@@ -32,7 +34,7 @@ def _simulate_on(model, t, channels, rtol):
     t0 = t - t[0]
     if "u" not in channels:
         raise DataError("compare: the reference has no valve command 'u' to drive the models with")
-    kwargs = {}
+    kwargs: dict[str, Any] = {}
     if "p_s" in channels:
         kwargs["supply_pressure"] = Sampled(t0, np.asarray(channels["p_s"], dtype=float))
     if "f_l" in channels:
@@ -98,5 +100,5 @@ def compare(run, *models, channel: str = "x", rtol: float = 1e-4, ax=None):
         fits[lbl] = fit
         outputs[lbl] = y_hat
     fig = plot_compare(t, y, outputs, channel=channel, reference_label=f"{name} (reference)", ax=ax)
-    fig.fits = fits  # type: ignore[attr-defined]  # the NRMSE fits, read by callers
+    fig.fits = fits  # the NRMSE fits, read by callers
     return fig

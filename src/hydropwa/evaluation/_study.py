@@ -622,7 +622,10 @@ def _stage_evaluate(
         from ..plotting import plot_cell_occupancy  # deferred: matplotlib loads only when plotting
 
         corners = _corners(runs)
-        frames, cells, stage_notes, files = [], [], [], []
+        frames: list[Any] = []
+        cells: list[Any] = []
+        stage_notes: list[str] = []
+        files: list[Any] = []
         example = None
         for k, run in enumerate(runs):
             _interrupt.checkpoint()

@@ -1293,7 +1293,7 @@ class StribeckIdentifier:
                     geo.area_a,
                     geo.area_b,
                     geo.stroke,
-                    **kw,  # type: ignore[arg-type]
+                    **kw,
                 )
             except IdentificationError as exc:
                 skip(skipped, run.name, str(exc))

@@ -704,7 +704,7 @@ class SystemParams:
                     raise ParameterError(
                         f"unknown parameter {comp}.{f}; known: {', '.join(sorted(names))}"
                     )
-            top[comp] = dataclasses.replace(base, **fields)
+            top[comp] = dataclasses.replace(base, **fields)  # type: ignore[type-var]
         return dataclasses.replace(self, **top)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
@@ -725,10 +725,8 @@ class SystemParams:
 
 #: Component name in :class:`SystemParams` (and TOML table name) → its parameter class,
 #: derived from the dataclass fields so the two cannot disagree.
-COMPONENT_TYPES: dict[str, type] = {
-    f.name: f.default_factory
-    for f in dataclasses.fields(SystemParams)
-    if f.name != "meta"  # type: ignore[misc]
+COMPONENT_TYPES: dict[str, Any] = {
+    f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"
 }
 
 

@@ -107,7 +107,7 @@ _DISPLAY = {
 def _ureg():
     import pint  # deferred: pint costs ~0.3 s at import
 
-    ureg = pint.UnitRegistry()
+    ureg: Any = pint.UnitRegistry()
     ureg.define("percent_opening = 0.01 = pct")
     return ureg
 
