@@ -22,6 +22,7 @@ from .._errors import DataError, HydropwaError, IdentificationError
 
 __all__ = [
     "IdentificationWarning",
+    "OptimizerStatus",
     "SkippedRun",
     "ParameterEstimate",
     "covariance_from_jacobian",
@@ -38,6 +39,50 @@ __all__ = [
 
 class IdentificationWarning(UserWarning):
     """A run was skipped or a result is weakly determined; the message says which and why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class OptimizerStatus:
+    """How the optimiser behind a fit ended (as scipy's ``OptimizeResult`` says it).
+
+    Attributes
+    ----------
+    success : bool
+        Whether the optimiser reports convergence (for a closed-form or linear fit: ``True``).
+    message : str
+        The optimiser's own one-line reason for stopping.
+    nfev : int
+        Number of evaluations of the objective (residual) function [1].
+    nit : int or None
+        Number of iterations [1] where the optimiser counts them (``None`` for
+        ``least_squares``, which reports only evaluations).
+    """
+
+    success: bool
+    message: str
+    nfev: int
+    nit: int | None = None
+
+    @classmethod
+    def from_scipy(cls, res: Any) -> OptimizerStatus:
+        """The status of a scipy ``OptimizeResult`` (``least_squares``, ``minimize``, ...)."""
+        nit = getattr(res, "nit", None)
+        return cls(
+            success=bool(getattr(res, "success", True)),
+            message=str(getattr(res, "message", "")),
+            nfev=int(getattr(res, "nfev", 0) or 0),
+            nit=None if nit is None else int(nit),
+        )
+
+    @classmethod
+    def closed_form(cls, what: str = "closed-form (linear) solution") -> OptimizerStatus:
+        """The status of a fit solved in one step (linear least squares, a formula)."""
+        return cls(success=True, message=what, nfev=1, nit=None)
+
+    def __str__(self) -> str:
+        it = "" if self.nit is None else f", {self.nit} iterations"
+        ok = "converged" if self.success else "NOT converged"
+        return f"{ok}: {self.message} ({self.nfev} evaluations{it})"
 
 
 @dataclasses.dataclass(frozen=True)
