@@ -52,7 +52,14 @@ from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from .._errors import IdentificationError, ParameterError
 from ..params import SystemParams, save_params
-from ._common import IdentificationWarning, ParameterEstimate, SkippedRun, as_runs, skip
+from ._common import (
+    IdentificationWarning,
+    OptimizerStatus,
+    ParameterEstimate,
+    SkippedRun,
+    as_runs,
+    skip,
+)
 
 __all__ = [
     "PARAMETER_GROUPS",
@@ -371,6 +378,10 @@ class GreyBoxFit:
     identifiability_ : Identifiability
     starts_ : list of dict
         Every start: its values, final cost and status.
+    optimizer_ : OptimizerStatus
+        How ``least_squares`` ended for the best start: success, its stopping reason,
+        residual evaluations (``nit``: Jacobian evaluations, one per accepted or rejected
+        trust-region iteration).
     model : str
         ``full`` or ``reduced``.
     wall_time : float
@@ -395,6 +406,7 @@ class GreyBoxFit:
     identifiability_: Identifiability
     starts_: list[dict[str, Any]]
     model: str
+    optimizer_: OptimizerStatus
     skipped_: list[SkippedRun] = dataclasses.field(default_factory=list)
     wall_time: float = 0.0
     level: float = 0.95
@@ -428,7 +440,7 @@ class GreyBoxFit:
         lines = [
             f"# Grey-box fit ({self.model} model)",
             "",
-            f"{self.message} — cost {self.initial_cost:.4g} → {self.cost:.4g}, {self.nfev} evaluations, "
+            f"{self.optimizer_} — cost {self.initial_cost:.4g} → {self.cost:.4g}, "
             f"{self.wall_time:.1f} s",
             "",
             f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |",
@@ -1127,11 +1139,11 @@ def fit_model(
         if channels
         else tuple(c for c in ("x", "p_a", "p_b", "v") if c in logged or c != "v")
     )
-    prepared = []
+    pairs: list[tuple[Any, _RunData]] = []
     for r in run_list:
         rd = _prepare_run(r, work_model, chans, shooting, skipped, input_cutoff)
         if rd is not None:
-            prepared.append((r, rd))
+            pairs.append((r, rd))
     if shooting.method == "auto":
         # an experiment with stick-slip runs is fitted in windows throughout: its smooth runs'
         # long segments would otherwise dominate the cost and F_s stalls (measured −22 % on the
@@ -1139,16 +1151,16 @@ def fit_model(
         from ._common import experiment_of
 
         shaky = {
-            experiment_of(r) for r, rd in prepared if rd.method == "multiple" and experiment_of(r)
+            experiment_of(r) for r, rd in pairs if rd.method == "multiple" and experiment_of(r)
         }
         forced = dataclasses.replace(shooting, method="multiple")
-        for k, (r, rd) in enumerate(prepared):
+        for k, (r, rd) in enumerate(pairs):
             if rd.method == "single" and experiment_of(r) in shaky:
                 again = _prepare_run(r, work_model, chans, forced, skipped, input_cutoff)
                 if again is not None:
                     again.reason = f"auto: other {experiment_of(r)} runs oscillate ({rd.reason.split(': ', 1)[1]})"
-                    prepared[k] = (r, again)
-    prepared = [rd for _r, rd in prepared]
+                    pairs[k] = (r, again)
+    prepared = [rd for _r, rd in pairs]
     if not prepared:
         why = "; ".join(str(s) for s in skipped[:3])
         raise IdentificationError(f"no run can be used for the grey-box fit: {why}")
@@ -1171,7 +1183,10 @@ def fit_model(
                 f"{n} starts at {v:g}; give a positive start with initial={{'{n}': ...}}"
             )
         if bounds and n in bounds:
-            b = tuple(float(x) for x in bounds[n])
+            pair = tuple(bounds[n])
+            if len(pair) != 2:
+                raise IdentificationError(f"bounds of {n} must be a (low, high) pair, got {pair!r}")
+            b = (float(pair[0]), float(pair[1]))
         if not (0 < b[0] < b[1] and math.isfinite(b[1])):
             raise IdentificationError(
                 f"bounds of {n} {b} must be positive and increasing (the fit uses log scales)"
@@ -1240,6 +1255,7 @@ def fit_model(
         )
         if best is None or sol.cost < best[0].cost:
             best = (sol, _loss_cost(prob.fun(th0), loss, f_scale))
+    assert best is not None  # theta_starts holds at least the base start
     sol, initial_cost = best
     theta = sol.x
 
@@ -1252,8 +1268,8 @@ def fit_model(
     S = np.zeros_like(H)
     n_res = r.size
     taus = []
-    for _ri, _si, _c, pos, n in prob.streams:
-        sl = slice(pos, pos + n)
+    for _ri, _si, _c, pos, length in prob.streams:
+        sl = slice(pos, pos + length)
         tau = autocorrelation_time(rw[sl])
         taus.append(tau)
         S += _long_run_covariance(Jw[sl] * rw[sl, None], int(math.ceil(2.0 * tau)))
@@ -1269,8 +1285,8 @@ def fit_model(
     n_blocks = len(block_of)
     if n_blocks >= 2 * len(names):
         sums = np.zeros((n_blocks, len(names)))
-        for ri, si, _c, pos, n in prob.streams:
-            sl = slice(pos, pos + n)
+        for ri, si, _c, pos, length in prob.streams:
+            sl = slice(pos, pos + length)
             sums[block_of[(ri, si)]] += Jw[sl].T @ rw[sl]
         cov_block = Hinv @ (sums.T @ sums * n_blocks / (n_blocks - 1.0)) @ Hinv
         d_hac = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
@@ -1442,6 +1458,12 @@ def fit_model(
         identifiability_=ident,
         starts_=starts_log,
         model=base_model.name,
+        optimizer_=OptimizerStatus(
+            success=bool(sol.success),
+            message=_CONVERGENCE.get(int(sol.status), str(sol.message)),
+            nfev=int(sol.nfev),
+            nit=int(sol.njev or 0),
+        ),
         skipped_=skipped,
         wall_time=_time.perf_counter() - t_start,
         level=level,
