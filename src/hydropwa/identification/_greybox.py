@@ -333,9 +333,15 @@ class Identifiability:
     correlated : list of (str, str, float)
         Parameter pairs with |correlation| > 0.9.
     weak : list of str
-        Parameters with a relative interval half-width above 50 % or at a bound.
+        Parameters with a relative interval half-width above 50 %, at a bound, or not
+        converged.
     advice : list of str
         Experiments that would separate the correlated pairs.
+    unconverged : list of str
+        Parameters that the Gauss–Newton step left at the end (−H⁻¹Jᵀr from the central
+        Jacobian at the result) would still move by more than one standard error: the
+        optimiser stopped short (its step tolerance, in a narrow valley) and their
+        intervals describe the local curvature, not the distance to the optimum.
     """
 
     condition: float
@@ -343,6 +349,7 @@ class Identifiability:
     correlated: list[tuple[str, str, float]]
     weak: list[str]
     advice: list[str]
+    unconverged: list[str] = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass
@@ -1384,7 +1391,34 @@ def fit_model(
         )
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
             at_bound.append(n)
-    weak = [n for i, n in enumerate(names) if n in at_bound or z * sd[i] > math.log(1.5)]
+    # the Gauss–Newton step still left at the end, in standard errors: an optimiser that
+    # stopped on its step tolerance in a narrow valley (integrator jitter, curvature) is not
+    # at the optimum, and no covariance of the residuals shows how far it is; a parameter
+    # that the remaining step would move by more than one standard error is not converged
+    free_i = np.array([n not in at_bound for n in names])
+    remaining = np.zeros(len(names))
+    if free_i.any():
+        Hf = H[np.ix_(free_i, free_i)]
+        remaining[free_i] = -np.linalg.pinv(Hf) @ (Jw[:, free_i].T @ rw)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        remaining_sd = np.abs(remaining) / sd
+    unconverged = [n for i, n in enumerate(names) if remaining_sd[i] > 1.0]
+    if unconverged:
+        warnings.warn(
+            "the fit stopped before its optimum along "
+            + ", ".join(
+                f"{n} (a further {remaining_sd[names.index(n)]:.3g} std)" for n in unconverged
+            )
+            + "; their intervals are not trustworthy: refit from the result, with more starts, "
+            "or free fewer parameters",
+            IdentificationWarning,
+            stacklevel=2,
+        )
+    weak = [
+        n
+        for i, n in enumerate(names)
+        if n in at_bound or n in unconverged or z * sd[i] > math.log(1.5)
+    ]
 
     # identifiability: eigen-directions of H (scaled to the covariance), correlated pairs, advice
     ev, vec = np.linalg.eigh(H)
@@ -1412,7 +1446,7 @@ def fit_model(
             if frozenset({a, b}) in _ADVICE
         }
     )
-    ident = Identifiability(cond, directions, correlated, weak, advice)
+    ident = Identifiability(cond, directions, correlated, weak, advice, unconverged)
 
     # profiles of weak parameters
     if profile == "weak":
