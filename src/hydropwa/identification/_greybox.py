@@ -1403,6 +1403,22 @@ def fit_model(
     with np.errstate(invalid="ignore", divide="ignore"):
         remaining_sd = np.abs(remaining) / sd
     unconverged = [n for i, n in enumerate(names) if remaining_sd[i] > 1.0]
+    # the distance still to go is part of the estimate's error, and no residual covariance
+    # holds it: add the remaining step to the covariance (rank one, a bias²-term), so that
+    # the interval reaches where the optimiser would still go (negligible once converged)
+    if np.any(remaining != 0.0):
+        cov = cov + np.outer(remaining, remaining)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            inflation = np.diag(cov) / naive
+            sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+            corr = cov / np.outer(sd, sd)
+        for i, n in enumerate(names):
+            e = estimates[n]
+            estimates[n] = dataclasses.replace(
+                e,
+                std=float(values[i] * sd[i]),
+                ci=(float(values[i] * np.exp(-z * sd[i])), float(values[i] * np.exp(z * sd[i]))),
+            )
     if unconverged:
         warnings.warn(
             "the fit stopped before its optimum along "
