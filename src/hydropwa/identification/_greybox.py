@@ -1123,8 +1123,9 @@ def fit_model(
     in log parameters θ = ln p so that parameters from 1e-13 to 1e9 are scaled alike.
     With J the Jacobian of the (loss-weighted) residuals at the optimum, H = JᵀJ and
     S = Σ_streams Newey–West(g = J_i r_i), Cov θ = H⁻¹ S H⁻¹; with at least 2p segments each
-    standard deviation is the larger of that and the segment-block (cluster-robust) estimate.
-    The interval is exp(θ ± z·σ_θ).
+    standard deviation is the larger of that and the segment-block (cluster-robust) estimate;
+    the remaining Gauss–Newton step δ = −H⁻¹Jᵀr at the result adds δδᵀ (the distance the
+    optimiser left). The interval is exp(θ ± z·σ_θ).
     """
     from ..models import as_model
 
