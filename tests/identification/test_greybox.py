@@ -224,3 +224,12 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
         and "unknown free parameter" in bad.output
         and "Traceback" not in bad.output
     )
+
+
+@pytest.mark.parametrize(
+    ("kw", "fragment"),
+    [({"differences": "backward"}, "central or forward"), ({"coarse": 0}, "integer >= 1")],
+)
+def test_bad_fit_settings_are_refused_with_the_fix(truth, kw, fragment):
+    with pytest.raises(IdentificationError, match=fragment):
+        fit_model(FullOrderModel(truth), [], "flow.K", **kw)

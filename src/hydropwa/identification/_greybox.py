@@ -1134,6 +1134,10 @@ def fit_model(
         raise IdentificationError(f"unknown loss {loss!r}; choose {', '.join(_LOSSES)}")
     if not (0 < level < 1):
         raise IdentificationError(f"level = {level!r} must lie in (0, 1)")
+    if isinstance(coarse, bool) or not isinstance(coarse, int) or coarse < 1:
+        raise IdentificationError(
+            f"coarse = {coarse!r} must be an integer >= 1 (1: no coarse stage)"
+        )
     if differences not in ("central", "forward"):
         raise IdentificationError(f"differences = {differences!r}; choose central or forward")
     if isinstance(model, str) and model.strip().lower() == "pwa":
