@@ -123,6 +123,9 @@ def test_recovers_bulk_modulus_and_flow_coefficient(truth, sine_runs):
     start = truth.replace(**{"oil.bulk_modulus": 1.25e9, "flow.K": 0.9 * truth.flow.K})
     fit = fit_model(FullOrderModel(start), sine_runs, "oil.bulk_modulus,flow.K", jobs=2)
     assert fit.success
+    # the optimiser's status (issue 22): least_squares' own counts, converged
+    assert fit.optimizer_.success and fit.optimizer_.nfev == fit.nfev >= 2
+    assert fit.optimizer_.nit == fit.njev and "converged" in str(fit.optimizer_)
     for n in fit.free:
         comp, fld = n.split(".")
         true = getattr(getattr(truth, comp), fld)
@@ -227,3 +230,12 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
         and "unknown free parameter" in bad.output
         and "Traceback" not in bad.output
     )
+
+
+@pytest.mark.parametrize(
+    ("kw", "fragment"),
+    [({"differences": "backward"}, "central or forward"), ({"coarse": 0}, "integer >= 1")],
+)
+def test_bad_fit_settings_are_refused_with_the_fix(truth, kw, fragment):
+    with pytest.raises(IdentificationError, match=fragment):
+        fit_model(FullOrderModel(truth), [], "flow.K", **kw)

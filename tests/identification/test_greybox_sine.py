@@ -50,24 +50,25 @@ def fits():
 
 @pytest.mark.slow
 def test_sine_runs_recover_hydraulic_parameters(fits):
-    """E, C_L, K within 1 % (measured ≤ 0.25 %); σ within 15 % (measured +10 … +12.5 %: the
-    optimiser stalls in the K–σ valley, see "Known limits" in docs/architecture_identification.md)."""
+    """E, C_L, K within 1 % and σ within 3 %, converged.
+
+    Measured with central differences: E +0.04 … +0.05 %, C_L within ±0.02 %, K +0.01 %,
+    σ +0.5 … +0.7 % (the forward-difference Jacobian stalled in the K–σ valley at σ +10 … +12 %,
+    E +0.2 %: see ``differences`` of ``fit_model``). The bounds are an order above the
+    measured errors and below what a stall leaves."""
     truth, results = fits
     for fit in results:
         assert {r.method for r in fit.runs_} == {"single"}
+        assert fit.optimizer_.success
         for n in FREE:
-            tol = 0.15 if n == "friction.viscous" else 0.01
+            tol = 0.03 if n == "friction.viscous" else 0.01
             assert fit.estimates_[n].value == pytest.approx(_value(truth, n), rel=tol), n
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="intervals too narrow on clean rig data: a ~0.1 % bias of E and K from the "
-    "filtered inputs and segment restarts, and friction left where the optimiser "
-    "stalls, are larger than the noise-limited sandwich/block intervals",
-)
 def test_truth_inside_95_percent_interval_for_90_percent(fits):
+    """The sandwich/block intervals hold once the optimiser reaches the optimum (12 of 12
+    measured over the three seeds; 2 of 12 with the stalled forward-difference fit)."""
     truth, results = fits
     inside = [
         fit.estimates_[n].ci[0] <= _value(truth, n) <= fit.estimates_[n].ci[1]
