@@ -69,7 +69,12 @@ def main() -> None:
 
     def closed():
         return simulate(
-            "full", params=prm, duration=dur, controller=ctrl, reference=REFERENCE, initial_position=0.1
+            "full",
+            params=prm,
+            duration=dur,
+            controller=ctrl,
+            reference=REFERENCE,
+            initial_position=0.1,
         )
 
     closed()  # compile / warm caches

@@ -13,6 +13,7 @@ m³/s, positions in m, forces in N. The valve command ``u``, the spool position
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit, types
@@ -55,7 +56,7 @@ __all__ = [
 #: numba options of the compiled components. ``error_model="numpy"``: a division by zero gives
 #: inf or NaN, as in NumPy, instead of a test-and-raise on every division (parameters are
 #: validated positive, and the solver rejects non-finite steps).
-_JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
+_JIT: dict[str, Any] = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 
 
 def smooth_sign(x):

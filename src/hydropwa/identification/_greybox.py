@@ -1164,7 +1164,8 @@ def fit_model(
         sim_params = sim_params.replace(**{"supply.model": "ideal"})
     if "f_l" in logged and sim_params.load.damping > 0 and "load.damping" not in names:
         sim_params = sim_params.replace(**{"load.damping": 0.0})
-    work_model = type(base_model)(sim_params)
+    model_class: Any = type(base_model)  # a FullOrderModel or ReducedModel (checked above)
+    work_model = model_class(sim_params)
 
     chans = (
         tuple(channels)

@@ -591,6 +591,27 @@ def _ol_rhs_for(kind, y, u, ps, fl, p, dy):
     return lambda kind, y, u, ps, fl, p, dy: rhs_at(kind, y, u, ps, fl, p, dy)
 
 
+def _rhs_fd(kind, y, u, ps, fl, p, dy):
+    """The right-hand side for the finite-difference Jacobian; compiled code only.
+
+    The full model's Jacobian is always by differences: its right-hand side is called as in
+    :func:`_rhs_for`. The reduced and PWA models have exact Jacobians, so differences serve
+    only ``exact_jac=False`` (comparisons): there the right-hand side is called through a
+    wrapper instead of inlined, which keeps two more copies of it out of their kernels
+    (compile time) without costing the default path anything.
+    """
+
+
+@overload(_rhs_fd, inline="always", prefer_literal=True)
+def _ol_rhs_fd(kind, y, u, ps, fl, p, dy):
+    k = _literal_kind(kind)
+    if k == REDUCED:
+        return lambda kind, y, u, ps, fl, p, dy: _rhs_reduced_call(y, u, ps, fl, p, dy)
+    if k == PWA:
+        return lambda kind, y, u, ps, fl, p, dy: _rhs_pwa_call(y, u, ps, fl, p, dy)
+    return lambda kind, y, u, ps, fl, p, dy: _rhs_for(kind, y, u, ps, fl, p, dy)
+
+
 def _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
     """Exact ∂f/∂y into J and ∂f/∂t into dfdt where model ``kind`` has them; True if filled.
 
@@ -854,7 +875,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
             yt[i] = y[i]
         dj = sqrt_eps * max(abs(y[j]), scale[j])
         yt[j] = y[j] + dj
-        _rhs_for(kind, yt, u, ps, fl, p, ft)
+        _rhs_fd(kind, yt, u, ps, fl, p, ft)
         for i in range(n):
             J[i, j] = (ft[i] - f0[i]) / dj
     if sg[0] == 0.0 and sg[1] == 0.0 and sg[2] == 0.0:  # all inputs constant
@@ -863,7 +884,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     else:
         dt = sqrt_eps * max(abs(t), 1e-3)
         u2, ps2, fl2 = _inputs(t + dt, sg)
-        _rhs_for(kind, y, u2, ps2, fl2, p, ft)
+        _rhs_fd(kind, y, u2, ps2, fl2, p, ft)
         for i in range(n):
             dfdt[i] = (ft[i] - f0[i]) / dt
         nfev += 1
