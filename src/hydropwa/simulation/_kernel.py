@@ -1797,7 +1797,7 @@ def prepare(dispatcher, args, what="solver"):
     if _compile_notice is not None and not _noticed and not _cached_on_disk(dispatcher):
         _noticed = True
         _compile_notice(
-            f"compiling the {what} solver (once per installation, ~15-30 s; later runs load it from the cache)"
+            f"compiling the {what} solver (once per installation, ~20-60 s; later runs load it from the cache)"
         )
     import warnings
 
