@@ -82,3 +82,23 @@ def test_architecture_doc_shows_the_measured_graph():
 
 if __name__ == "__main__":
     sys.stdout.write(layer_table() + "\n")
+
+
+def test_function_local_imports_only_defer_and_say_why():
+    """A function-local import hides an edge of the graph; it is allowed only to defer a heavy
+    dependency (or break a named cycle, or keep a CLI command's start-up fast), and says so with
+    a ``# deferred: <why>`` comment on its first line or the line above."""
+    import ast
+
+    offences = []
+    for path in sorted((ROOT / "src" / "hydropwa").rglob("*.py")):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        for node in ast.walk(ast.parse("\n".join(lines))):
+            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            for sub in ast.walk(node):
+                if isinstance(sub, ast.Import | ast.ImportFrom):
+                    near = " ".join(lines[max(sub.lineno - 2, 0) : sub.end_lineno or sub.lineno])
+                    if "# deferred:" not in near:
+                        offences.append(f"{path}:{sub.lineno}: {lines[sub.lineno - 1].strip()}")
+    assert not offences, "\n".join(offences)

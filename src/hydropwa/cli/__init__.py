@@ -26,7 +26,7 @@ app = new_app(
 
 def _version(value: bool) -> None:
     if value:
-        from .. import __version__
+        from .. import __version__  # deferred: loaded only when this command runs (a fast --help)
 
         typer.echo(f"hydropwa {__version__}")
         raise typer.Exit()
@@ -48,7 +48,9 @@ for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _cont
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
-    from ..simulation import set_compile_notice
+    from ..simulation import (
+        set_compile_notice,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
     command = typer.main.get_command(app)

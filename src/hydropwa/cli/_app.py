@@ -54,7 +54,9 @@ def _click_types() -> tuple[_Types, _Types, _Types]:
     ]
     usage: list[type[BaseException]] = [click.ClickException]
     try:
-        from typer._click import exceptions as vendored
+        from typer._click import (
+            exceptions as vendored,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         usage.append(vendored.ClickException)
     except ImportError:  # a typer that uses click itself
@@ -86,7 +88,7 @@ def _usage_error(exc: Any) -> int:
 def _internal_error(exc: BaseException) -> int:
     """An exception the package did not mean to raise: one line, exit 1."""
     if os.environ.get("HYDROPWA_DEBUG"):
-        import traceback
+        import traceback  # deferred: loaded only when this command runs (a fast --help)
 
         traceback.print_exception(exc)
     error_line(

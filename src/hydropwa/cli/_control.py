@@ -25,7 +25,10 @@ app = new_app(
 
 
 def _pwa_model(params_src: str | None, pwa_file: Path | None):
-    from ..linearization import linearize, load_pwa
+    from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
+        linearize,
+        load_pwa,
+    )
 
     if pwa_file is not None:
         return load_pwa(pwa_file)
@@ -33,8 +36,13 @@ def _pwa_model(params_src: str | None, pwa_file: Path | None):
 
 
 def _weights(text: str | None) -> dict[str, float]:
-    from ..control import DEFAULT_WEIGHTS, ControlError
-    from ..params import parse_quantity
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_WEIGHTS,
+        ControlError,
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     units = {"p_l": "Pa", "v": "m/s", "x": "m", "integral": "m*s", "u": ""}
     out: dict[str, float] = {}
@@ -50,8 +58,12 @@ def _weights(text: str | None) -> dict[str, float]:
 
 
 def _sample_time(rate: str) -> float:
-    from ..control import ControlError
-    from ..params import parse_quantity
+    from ..control import (
+        ControlError,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     f = parse_quantity(rate, "Hz", "--rate")
     if not f > 0:
@@ -97,8 +109,15 @@ def design_command(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model and write it with its per-cell table."""
-    from ..control import ControlError, design_pi, design_state_feedback, save_controller
-    from ..params import parse_quantity
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        ControlError,
+        design_pi,
+        design_state_feedback,
+        save_controller,
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     check_output(out, force, option="--out")
     if table is not None:
@@ -129,7 +148,9 @@ def design_command(
     typer.echo(d.summary().split("\nwarning:")[0])
     written = [str(out)]
     if table is not None:
-        from .._io import atomic_write_text
+        from .._io import (
+            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         atomic_write_text(table, d.table.to_csv(index=False))
         written.append(str(table))
@@ -192,7 +213,7 @@ def simulate_command(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
-    from ..control import (
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         METRIC_UNITS,
         ControlError,
         MotionProfile,
@@ -200,9 +221,16 @@ def simulate_command(
         load_controller,
         tracking_metrics,
     )
-    from ..params import parse_quantity
-    from ..plotting import plot_closed_loop, save_figure
-    from ..simulation import simulate
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from ..plotting import (  # deferred: loaded only when this command runs (a fast --help)
+        plot_closed_loop,
+        save_figure,
+    )
+    from ..simulation import (
+        simulate,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     if model not in ("full", "reduced", "pwa"):
         raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")

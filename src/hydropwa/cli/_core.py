@@ -47,8 +47,8 @@ def params_show(
     ] = "paper",
 ) -> None:
     """Print a parameter set with SI values and engineering units."""
-    from rich.console import Console
-    from rich.table import Table
+    from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
+    from rich.table import Table  # deferred: loaded only when this command runs (a fast --help)
 
     params = resolve_params(source, option="parameter set")
     table = Table(title=f"parameters: {source}")
@@ -153,12 +153,23 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
-    from ..models import Model, as_model
-    from ..simulation import Sampled, simulate
+    from ..models import (  # deferred: loaded only when this command runs (a fast --help)
+        Model,
+        as_model,
+    )
+    from ..simulation import (  # deferred: loaded only when this command runs (a fast --help)
+        Sampled,
+        simulate,
+    )
 
     if model not in ("full", "reduced", "pwa"):
         raise ParameterError(f"--model {model!r} is unknown; choose full, reduced or pwa")
-    from .._limits import check_position, check_rtol, check_samples, check_supply_pressure
+    from .._limits import (  # deferred: loaded only when this command runs (a fast --help)
+        check_position,
+        check_rtol,
+        check_samples,
+        check_supply_pressure,
+    )
 
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")
@@ -175,7 +186,7 @@ def simulate_command(
     prm = resolve_params(params)
     u: Sampled | str
     if input_file is not None:
-        from ..data import read_run
+        from ..data import read_run  # deferred: loaded only when this command runs (a fast --help)
 
         run = read_run(input_file)
         if not run.has("u"):
@@ -194,7 +205,9 @@ def simulate_command(
     check_position(x_init, prm)
     mdl: Model
     if model == "pwa":
-        from ..linearization import linearize
+        from ..linearization import (
+            linearize,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         # with a given P_S (constant or a signal) the cells follow it online: the scheduled model
         mdl = linearize(prm, scheduled=supply_pressure is not None)
@@ -216,7 +229,10 @@ def simulate_command(
         msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"
     msg += ")"
     if plot is not None:
-        from ..plotting import plot_result, save_figure
+        from ..plotting import (  # deferred: loaded only when this command runs (a fast --help)
+            plot_result,
+            save_figure,
+        )
 
         save_figure(plot_result(res), plot, dpi=150, overwrite=True)  # checked with --force above
         msg += f" and {plot}"

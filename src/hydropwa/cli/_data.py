@@ -35,8 +35,8 @@ def _print_issues(issues, plain: bool) -> None:
         for issue in issues:
             typer.echo(f"{issue.severity}: {issue}")
         return
-    from rich.console import Console
-    from rich.table import Table
+    from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
+    from rich.table import Table  # deferred: loaded only when this command runs (a fast --help)
 
     table = Table(title=f"{len(issues)} issue(s)")
     for col in ("severity", "run", "channel", "sample", "t [s]", "message", "hint"):
@@ -63,7 +63,9 @@ def check(
     plain: Annotated[bool, typer.Option("--plain", help="Plain lines instead of a table.")] = False,
 ) -> None:
     """Validate a dataset or a single run file and list every issue found."""
-    from hydropwa.data import check_dataset
+    from hydropwa.data import (
+        check_dataset,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     issues = check_dataset(source, channel_map)
     if not issues:
@@ -92,7 +94,9 @@ def convert(
     ] = False,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""
-    from hydropwa.data import convert as convert_data
+    from hydropwa.data import (
+        convert as convert_data,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     out = convert_data(
         src, dst, channel_map=channel_map, format=format, overwrite=overwrite, resample=resample

@@ -60,8 +60,12 @@ DeadZoneForm = Annotated[
 
 def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
     """Estimator settings from the CLI options (``ParameterError`` on bad values)."""
-    from hydropwa._errors import ParameterError
-    from hydropwa.params import parse_quantity
+    from hydropwa._errors import (
+        ParameterError,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from hydropwa.params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     frf: dict = {}
     dz: dict = {}
@@ -96,7 +100,11 @@ def _run(
     band: str | None = None,
     dead_zone_form: str | None = None,
 ) -> None:
-    from hydropwa.identification import DeadZoneIdentifier, ValveFrfIdentifier, identify
+    from hydropwa.identification import (  # deferred: loaded only when this command runs (a fast --help)
+        DeadZoneIdentifier,
+        ValveFrfIdentifier,
+        identify,
+    )
 
     if out.suffix.lower() != ".toml":
         raise ParameterError(f"--out {out} must end in .toml")
@@ -109,7 +117,7 @@ def _run(
         check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
     frf_opts, dz_opts = _options(band, dead_zone_form)
     params = resolve_params(base)
-    from ._progress import step
+    from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step(f"identifying {', '.join(parts)} from {data_dir}"):
         report = identify(
@@ -239,8 +247,13 @@ def emps(
     ] = False,
 ) -> None:
     """Mass, viscous and Coulomb friction and offset of the EMPS benchmark by IDIM-LS."""
-    from hydropwa.identification import identify_emps
-    from hydropwa.plotting import plot_inverse_dynamics, save_figure
+    from hydropwa.identification import (
+        identify_emps,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from hydropwa.plotting import (  # deferred: loaded only when this command runs (a fast --help)
+        plot_inverse_dynamics,
+        save_figure,
+    )
 
     if validation is None:
         cand = file.with_name("DATA_EMPS_PULSES.mat")
@@ -254,7 +267,9 @@ def emps(
     res = identify_emps(file, validation, asymmetric=asymmetric)
     text = res.summary_markdown()
     if summary is not None:
-        from hydropwa._io import atomic_write_text
+        from hydropwa._io import (
+            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         atomic_write_text(summary, text, overwrite=force)
     if figures is not None:
@@ -305,12 +320,12 @@ def model(
     force: Force = False,
 ) -> None:
     """Grey-box fit: simulate the model with each run's measured inputs and fit free parameters."""
-    from hydropwa.identification import (
+    from hydropwa.identification import (  # deferred: loaded only when this command runs (a fast --help)
         Shooting,
         fit_model,
         load_runs,
     )
-    from hydropwa.plotting import (
+    from hydropwa.plotting import (  # deferred: loaded only when this command runs (a fast --help)
         plot_greybox_fit,
         plot_greybox_profiles,
         plot_greybox_residuals,
@@ -337,7 +352,9 @@ def model(
         jobs=jobs,
     )
     fit.save(out)
-    from hydropwa._io import atomic_write_text
+    from hydropwa._io import (
+        atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     atomic_write_text(summary, fit.summary_markdown())
     if figures is not None:

@@ -63,8 +63,15 @@ def linearize_command(
     Parameters mirror the command-line options (``params``: a preset name or a TOML/JSON
     file); quantities are strings with units (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
-    from hydropwa.linearization import export_pwa, linearize, save_pwa, save_pwa_mat
-    from hydropwa.params import parse_quantity
+    from hydropwa.linearization import (  # deferred: loaded only when this command runs (a fast --help)
+        export_pwa,
+        linearize,
+        save_pwa,
+        save_pwa_mat,
+    )
+    from hydropwa.params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     prm = resolve_params(params)
     ps = (
@@ -73,7 +80,7 @@ def linearize_command(
         else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     )
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
-    from ._progress import step
+    from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step("fitting the PWA cells"):
         model = linearize(
@@ -102,12 +109,16 @@ def linearize_command(
         f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)"
     )
     if figures is not None:
-        from hydropwa.linearization._report import write_figures
+        from hydropwa.linearization._report import (
+            write_figures,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         with step("writing Figs. 1-2"):
             written += write_figures(model, figures)
     if tables is not None:
-        from hydropwa.linearization._report import write_tables
+        from hydropwa.linearization._report import (
+            write_tables,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         with step("regenerating Tables IV-IX"):
             written += write_tables(model, tables)
@@ -172,7 +183,9 @@ def _run(
     ] = False,
 ) -> None:
     """Build the piecewise-affine model and write it as JSON, figures and tables (paper Sec. IV)."""
-    from hydropwa._io import check_output
+    from hydropwa._io import (
+        check_output,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     if out.suffix.lower() != ".json":
         raise PwaError(f"--out {out} must end in .json")
@@ -186,13 +199,19 @@ def _run(
         if folder is not None:
             check_output(folder, force, folder=True, option=option, files=names[option])
     if supply_pressure is not None:
-        from hydropwa._limits import check_supply_pressure
-        from hydropwa.params import parse_quantity
+        from hydropwa._limits import (
+            check_supply_pressure,  # deferred: loaded only when this command runs (a fast --help)
+        )
+        from hydropwa.params import (
+            parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         base = resolve_params(params)
         check_supply_pressure(parse_quantity(supply_pressure, "Pa", "--supply-pressure"), base, 1.0)
     if sample_time is not None:
-        from hydropwa.params import parse_quantity
+        from hydropwa.params import (
+            parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+        )
 
         dt = parse_quantity(sample_time, "s", "--sample-time")
         if not (0.0 < dt <= 1.0):

@@ -67,7 +67,9 @@ def paper_command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper's study: data → identification → PWA → evaluation → report; reruns reuse finished stages."""
-    from hydropwa.evaluation import run_paper_study
+    from hydropwa.evaluation import (
+        run_paper_study,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     res = run_paper_study(
         out,

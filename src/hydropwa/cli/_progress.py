@@ -17,7 +17,7 @@ __all__ = ["step"]
 @contextmanager
 def step(message: str) -> Iterator[None]:
     """Show ``message`` with a spinner while the block runs; print its time when it is done."""
-    from rich.console import Console
+    from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
 
     console = Console(stderr=True)
     t0 = time.perf_counter()

@@ -64,9 +64,18 @@ def run_command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
-    from hydropwa._io import check_output, output_lock
-    from hydropwa._limits import check_jobs
-    from hydropwa.rig import Rig, load_campaign, run_campaign
+    from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
+        check_output,
+        output_lock,
+    )
+    from hydropwa._limits import (
+        check_jobs,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
+        Rig,
+        load_campaign,
+        run_campaign,
+    )
 
     check_jobs(jobs)
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
@@ -110,7 +119,9 @@ def _describe(rig) -> str:
 @app.command("campaigns")
 def campaigns_command() -> None:
     """List the built-in campaigns."""
-    from hydropwa.rig import builtin_campaigns
+    from hydropwa.rig import (
+        builtin_campaigns,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     for name in builtin_campaigns():
         typer.echo(name)

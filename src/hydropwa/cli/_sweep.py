@@ -19,7 +19,7 @@ app = new_app()
 
 def _write_table(df, out: Path) -> None:
     """CSV or Parquet by suffix, written atomically."""
-    from .._io import atomic_path
+    from .._io import atomic_path  # deferred: loaded only when this command runs (a fast --help)
 
     with atomic_path(out, overwrite=True) as tmp:
         if out.suffix.lower() == ".parquet":
@@ -75,17 +75,26 @@ def sweep_command(
     trajectory files): after a Ctrl-C, a kill or a dead Dask worker, the same command runs
     only the cases that are left.
     """
-    from .._io import check_output, output_lock, remove_stale_temps
+    from .._io import (  # deferred: loaded only when this command runs (a fast --help)
+        check_output,
+        output_lock,
+        remove_stale_temps,
+    )
 
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ParameterError(f"--out {out} must end in .csv or .parquet")
     check_output(out, force, option="--out")
-    from .._limits import check_jobs
+    from .._limits import check_jobs  # deferred: loaded only when this command runs (a fast --help)
 
     check_jobs(jobs)
     if trajectories is not None:
         check_output(trajectories, True, folder=True, option="--trajectories")
-    from ..sweep import SweepJournal, check_scheduler, load_sweep, run_sweep
+    from ..sweep import (  # deferred: loaded only when this command runs (a fast --help)
+        SweepJournal,
+        check_scheduler,
+        load_sweep,
+        run_sweep,
+    )
 
     sweep = load_sweep(spec)
     if scheduler is not None:
@@ -121,9 +130,11 @@ _TRAJECTORY_BYTES_PER_SAMPLE = 12 * 8
 
 def _check_disk(sweep, folder: Path) -> None:
     """Refuse trajectories that cannot fit on the disk, with the estimate."""
-    import shutil
+    import shutil  # deferred: loaded only when this command runs (a fast --help)
 
-    from .._limits import human_bytes
+    from .._limits import (
+        human_bytes,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     fs = float(sweep.options.get("fs", 2000.0))
     need = sweep.n_cases * (sweep.duration * fs + 1) * _TRAJECTORY_BYTES_PER_SAMPLE
@@ -140,8 +151,8 @@ def _check_disk(sweep, folder: Path) -> None:
 
 
 def _run(sweep, out, trajectories, jobs, scheduler, quiet, journal, run_sweep) -> None:
-    from rich.console import Console
-    from rich.progress import (
+    from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
+    from rich.progress import (  # deferred: loaded only when this command runs (a fast --help)
         BarColumn,
         MofNCompleteColumn,
         Progress,

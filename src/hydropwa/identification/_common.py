@@ -420,7 +420,7 @@ def as_runs(data, experiment: str | None = None) -> list:
         If nothing is left.
     """
     if isinstance(data, str | os.PathLike):
-        from ..data import read_dataset
+        from ..data import read_dataset  # deferred: hydropwa.data loads pint
 
         data = read_dataset(data)
     if hasattr(data, "channels") and hasattr(data, "name"):
@@ -512,7 +512,7 @@ def estimator_view(run, kind: str | None, stroke: float | None = None, stop_marg
         A run with ``t`` and the estimator's channels present in ``run``, cut to the first–last
         sample of the span (contiguous, so the time-base checks still apply).
     """
-    from ..data import Run
+    from ..data import Run  # deferred: hydropwa.data loads pint
 
     used = ESTIMATOR_CHANNELS.get(kind or "")
     if used is None:
@@ -551,7 +551,7 @@ def screen_for_estimator(
     with the converter limits (``limits``, else the run's ``meta["converter_limits"]``);
     the first error-severity finding is the reason.
     """
-    from ..data import check_run
+    from ..data import check_run  # deferred: hydropwa.data loads pint
 
     view = estimator_view(run, kind, stroke)
     lim = run.meta.get("converter_limits") or limits or None

@@ -544,7 +544,7 @@ class DeadZoneIdentifier:
         IdentificationError
             If too few runs are usable.
         """
-        import pandas as pd
+        import pandas as pd  # deferred: pandas loads only for tables
 
         runs = as_runs(data, "deadzone")
         skipped: list[SkippedRun] = []

@@ -19,7 +19,7 @@ from scipy import signal
 from scipy.optimize import least_squares
 
 from .._errors import IdentificationError
-from ..params import ServoValve, SystemParams
+from ..params import ServoValve, SystemParams, parse_quantity
 from ._common import (
     OptimizerStatus,
     ParameterEstimate,
@@ -252,7 +252,7 @@ class FrequencyResponse:
             usable with ``control.bode_plot``, ``control.nyquist_plot`` and in
             interconnections with models.
         """
-        import control
+        import control  # deferred: python-control loads only here
 
         label = name or (
             f"valve_{round(100 * self.amplitude)}pct" if np.isfinite(self.amplitude) else "valve"
@@ -626,7 +626,6 @@ class ValveFrfIdentifier:
         written in percent (``amplitude = 10`` for 10 %) and is read so; a string with a unit
         (``"10 %"``) is converted; any other value above 1.5 is an error with a hint.
         """
-        from ..params import parse_quantity
 
         a = signal_value(run, "amplitude", "opening", default=None)
         if a is None:

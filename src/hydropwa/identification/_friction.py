@@ -295,7 +295,7 @@ def _consistent_kernels(
     Savitzky–Golay derivative filters are not (at 200 Hz, window 11, order 3 their ẍ gain is
     0.40 against 0.69 for the smoothing), which turns the inertia term into a spurious loop.
     """
-    from scipy.signal import firwin
+    from scipy.signal import firwin  # deferred: scipy submodule, loaded only when fitting
 
     taps = int(taps) | 1
     h = firwin(taps, cutoff, fs=1.0 / dt, window=("kaiser", 6.0))
@@ -467,7 +467,7 @@ def breakaway_peaks(
     vslip = max(min_slip, 3.0 * sigma_x * float(np.sqrt(np.sum(h1**2))))
     sv = np.where(ok, s * v, -np.inf)
     y = s * nf
-    from scipy.signal import find_peaks
+    from scipy.signal import find_peaks  # deferred: scipy submodule, loaded only when fitting
 
     pk, _ = find_peaks(
         np.where(ok, sv, -1.0), height=vslip, distance=max(1, int(round(min_gap / dt)))
@@ -499,7 +499,9 @@ def curve_maximum(friction: Friction, v_max: float = 1.0) -> tuple[float, float]
 
 
 def _curve_max(th: np.ndarray, v_max: float = 1.0) -> tuple[float, float]:
-    from scipy.optimize import minimize_scalar
+    from scipy.optimize import (
+        minimize_scalar,  # deferred: scipy submodule, loaded only when fitting
+    )
 
     vg = np.logspace(-7, np.log10(v_max), 400)
     fg = _eval(vg, th)
@@ -1258,7 +1260,7 @@ class StribeckIdentifier:
         IdentificationError
             If too few runs are usable.
         """
-        import pandas as pd
+        import pandas as pd  # deferred: pandas loads only for tables
 
         geo = self.geometry
         assert geo.area_a is not None and geo.area_b is not None
@@ -1345,7 +1347,7 @@ class StribeckIdentifier:
     def _fit_instantaneous(
         self, runs, opts: InstantaneousBins, skipped: list[SkippedRun]
     ) -> StribeckIdentifier:
-        import pandas as pd
+        import pandas as pd  # deferred: pandas loads only for tables
 
         geo = self.geometry
         assert geo.area_a is not None and geo.area_b is not None and geo.mass is not None
@@ -1456,7 +1458,7 @@ class StribeckIdentifier:
 
     def _breakaway(self, runs, opts: BreakawayConstrained) -> tuple[float, float] | None:
         """F_b and its standard error from the slowest stick-slip runs (sets ``breakaway_``)."""
-        import pandas as pd
+        import pandas as pd  # deferred: pandas loads only for tables
 
         geo = self.geometry
         assert geo.area_a is not None and geo.area_b is not None

@@ -51,13 +51,16 @@ from scipy import optimize, stats
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from .._errors import IdentificationError, ParameterError
-from ..params import SystemParams, save_params
+from ..models import as_model
+from ..params import FIELD_UNITS, SystemParams, save_params
+from ..simulation import Sampled, simulate
 from ._common import (
     IdentificationWarning,
     OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
     as_runs,
+    experiment_of,
     skip,
 )
 
@@ -424,7 +427,7 @@ class GreyBoxFit:
 
     def to_pandas(self):
         """One row per free parameter: value, std, interval, inflation, weak flag."""
-        import pandas as pd
+        import pandas as pd  # deferred: pandas loads only for tables
 
         rows = []
         for i, (n, e) in enumerate(self.estimates_.items()):
@@ -794,7 +797,6 @@ class _Problem:
 
     # simulation ---------------------------------------------------------------------
     def _simulate_segment(self, mdl, rd: _RunData, seg: _Segment) -> dict[str, np.ndarray]:
-        from ..simulation import Sampled, simulate
 
         a, b = seg.i0, seg.i1
         lo, hi = max(a - 1, 0), min(b + 1, rd.t.size)
@@ -1127,7 +1129,6 @@ def fit_model(
     the remaining Gauss–Newton step δ = −H⁻¹Jᵀr at the result adds δδᵀ (the distance the
     optimiser left). The interval is exp(θ ± z·σ_θ).
     """
-    from ..models import as_model
 
     t_start = _time.perf_counter()
     if loss not in _LOSSES:
@@ -1181,7 +1182,6 @@ def fit_model(
         # an experiment with stick-slip runs is fitted in windows throughout: its smooth runs'
         # long segments would otherwise dominate the cost and F_s stalls (measured −22 % on the
         # undamped friction campaign against +0.3 % in windows)
-        from ._common import experiment_of
 
         shaky = {
             experiment_of(r) for r, rd in pairs if rd.method == "multiple" and experiment_of(r)
@@ -1381,7 +1381,6 @@ def fit_model(
         corr = cov / np.outer(sd, sd)
     z = float(stats.norm.ppf(0.5 + 0.5 * level))
     values = prob.values(theta)
-    from ..params import FIELD_UNITS
 
     estimates: dict[str, ParameterEstimate] = {}
     at_bound = []

@@ -332,7 +332,7 @@ class EmpsResult:
 
 
 def _emps_arrays(path: str | os.PathLike):
-    from ..data import load_emps
+    from ..data import load_emps  # deferred: hydropwa.data loads pint
 
     run = load_emps(path)
     return run["t"], run["x"], run["f_m"], run.name

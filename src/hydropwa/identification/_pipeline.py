@@ -16,8 +16,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
-from .._errors import IdentificationError, ParameterError
-from .._io import atomic_write_text
+from .._errors import DataError, IdentificationError, ParameterError
+from .._io import atomic_write_text, check_output
 from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
@@ -79,8 +79,8 @@ def load_runs(source, skipped: list | None = None, params: SystemParams | None =
     IdentificationError
         If a folder holds no dataset.
     """
-    from ..data import MANIFEST, read_dataset
-    from ..data._validate import converter_limits
+    from ..data import MANIFEST, read_dataset  # deferred: hydropwa.data loads pint
+    from ..data._validate import converter_limits  # deferred: hydropwa.data loads pint
 
     skipped = [] if skipped is None else skipped
     stroke = None if params is None else params.cylinder.stroke
@@ -125,7 +125,6 @@ def load_runs(source, skipped: list | None = None, params: SystemParams | None =
 
 def _read_each(src, skipped: list) -> list:
     """The runs of a dataset (unreadable ones skipped with their reason), or the given runs."""
-    from .._errors import DataError
 
     if hasattr(src, "names") and hasattr(src, "__getitem__"):
         out = []
@@ -196,7 +195,6 @@ class IdentificationReport:
         dict[str, Path]
             Written files by role.
         """
-        from .._io import check_output
         from ..plotting import (  # deferred: matplotlib loads only when plotting
             plot_bode,
             plot_dead_zone,

@@ -10,6 +10,7 @@ import numpy as np
 
 from .._io import atomic_write_text
 from ._cells import cq_shape, cqp_shape
+from ._paper_tables import reproduce_paper_tables
 
 __all__ = ["cq_figure", "cqp_figure", "write_figures", "write_tables"]
 
@@ -75,7 +76,7 @@ def _markdown(df) -> str:
 
 def model_tables(model, p_s: float | None = None) -> dict:
     """Tables IV–IX of ``model`` at ``p_s`` [Pa] (z > 0 branch): DataFrames of k and d per cell."""
-    import pandas as pd
+    import pandas as pd  # deferred: pandas loads only for tables
 
     cells = model.cells_at(p_s)
     roman = ["I", "II", "III", "IV", "V", "VI", "VII", "VIII", "IX", "X", "XI", "XII"]
@@ -108,8 +109,6 @@ def write_tables(model, folder: str | os.PathLike, *, with_paper: bool = True) -
     folder = Path(folder)
     tables = dict(model_tables(model))
     if with_paper:
-        from ._paper_tables import reproduce_paper_tables
-
         for key, df in reproduce_paper_tables().items():
             tables[f"paper_table_{key}"] = df
     out = []

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .._display import engineering, html_table
 from .._errors import ParameterError
 
 __all__ = [
@@ -637,7 +638,6 @@ class SystemParams:
 
     def _headline(self) -> list[tuple[str, str]]:
         """Headline quantities in engineering units, for the reprs."""
-        from .._display import engineering
 
         return [
             ("supply pressure P_S", engineering(self.supply.pressure, "Pa")),
@@ -661,7 +661,6 @@ class SystemParams:
 
     def _repr_html_(self) -> str:
         """Headline values, then every field of every component (SI) in a collapsible block."""
-        from .._display import html_table
 
         rows = []
         for comp in self.__dataclass_fields__:
@@ -731,6 +730,8 @@ COMPONENT_TYPES: dict[str, Any] = {
 
 
 def _field_units() -> dict:
-    from ._toml import FIELD_UNITS  # _toml imports this module
+    from ._toml import (
+        FIELD_UNITS,  # _toml imports this module  # deferred: cycle: _toml imports this module
+    )
 
     return FIELD_UNITS

@@ -94,7 +94,7 @@ def plot_cqp(
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib import colormaps
+    from matplotlib import colormaps  # deferred: matplotlib loads only when plotting
 
     p_l = np.asarray(load_pressure, dtype=float)
     fig, axes = new_figure(ax=ax, figsize=(6.5, 4.0))

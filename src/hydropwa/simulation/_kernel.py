@@ -42,10 +42,14 @@ multiply instead of divide. See docs/architecture_performance.md.
 from __future__ import annotations
 
 import math
+import os
+import time
+import warnings
 from contextlib import contextmanager
 
 import numpy as np
 from numba import njit, types
+from numba.core.errors import NumbaIRAssumptionWarning
 from numba.extending import overload
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
@@ -1770,8 +1774,6 @@ def set_compile_notice(callback):
 def _cached_on_disk(dispatcher) -> bool:
     """Whether numba's on-disk cache has an index for ``dispatcher`` (it may still be stale)."""
     try:
-        import os
-
         return os.path.exists(dispatcher._cache._cache_file._index_path)
     except AttributeError:  # pragma: no cover - numba internals differ: assume compiled
         return True
@@ -1791,7 +1793,6 @@ def prepare(dispatcher, args, what="solver"):
         return 0.0
     # (a read-only or differently laid-out array is a new signature: compile it here too, with
     # the warning filter below, not at the call)
-    import time
 
     t0 = time.perf_counter()
     if _compile_notice is not None and not _noticed and not _cached_on_disk(dispatcher):
@@ -1799,9 +1800,6 @@ def prepare(dispatcher, args, what="solver"):
         _compile_notice(
             f"compiling the {what} solver (once per installation, ~20-60 s; later runs load it from the cache)"
         )
-    import warnings
-
-    from numba.core.errors import NumbaIRAssumptionWarning
 
     with warnings.catch_warnings():
         # numba's pedantic scope check after inlining the PWA model's code through an overload
