@@ -5,9 +5,10 @@ calls Python. The models are assemblies of :mod:`hydropwa.components`.
 
 Model kinds and states
 ----------------------
-``FULL`` (0), Eqs. (1)–(11): y = [ν, ν̇, P_A, P_B, x, ẋ, P_S]; P_S is a state
-only with the pump supply model, otherwise its rate is zero and P_S(t) is the
-input signal.
+``FULL`` (0), Eqs. (1)–(11): y = [ν, ν̇, P_A, P_B, x, ẋ, P_S, P_acc] (the order of
+``hydropwa._layout.FULL_STATES``); P_S is a state only with the pump supply model,
+otherwise its rate is zero and P_S(t) is the input signal; P_acc, the gas accumulator on
+port A (not in the paper), is constant without one.
 ``REDUCED`` (1), Eqs. (12)–(15) generalised to the single-rod cylinder: y = [P_L, ẋ, x],
 P_L = P_A − α P_B (α = 1 and the mean area in the paper form, p[I_RFORM] = 1; see
 docs/reduced_asymmetric.md).
