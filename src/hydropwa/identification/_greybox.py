@@ -1277,36 +1277,14 @@ def fit_model(
         )
     best = None
     best_state: dict[str, Any] | None = None
-    starts_log = []
-    for th0 in theta_starts:
-        th, coarse_nfev = th0, 0
-        if coarse_prob is not None:
-            state.clear()
-            current[0] = coarse_prob
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                sol0 = optimize.least_squares(
-                    coarse_prob.fun,
-                    th0,
-                    jac=jac,
-                    bounds=(tlo, thi),
-                    loss=loss,
-                    f_scale=f_scale,
-                    x_scale=x_scale,
-                    max_nfev=max_nfev,
-                    xtol=xtol,
-                    ftol=1e-6,
-                    gtol=1e-8,
-                    verbose=verbose,
-                )
-            th, coarse_nfev = sol0.x, int(sol0.nfev + (sol0.njev or 0))
-        state.clear()
-        current[0] = prob
+
+    def _solve(problem: Any, theta0: Any) -> Any:
+        """One least-squares stage (coarse or full) with the fit's settings."""
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            sol = optimize.least_squares(
-                prob.fun,
-                th,
+            return optimize.least_squares(
+                problem.fun,
+                theta0,
                 jac=jac,
                 bounds=(tlo, thi),
                 loss=loss,
@@ -1318,6 +1296,18 @@ def fit_model(
                 gtol=1e-8,
                 verbose=verbose,
             )
+
+    starts_log = []
+    for th0 in theta_starts:
+        th, coarse_nfev = th0, 0
+        if coarse_prob is not None:
+            state.clear()
+            current[0] = coarse_prob
+            sol0 = _solve(coarse_prob, th0)
+            th, coarse_nfev = sol0.x, int(sol0.nfev + (sol0.njev or 0))
+        state.clear()
+        current[0] = prob
+        sol = _solve(prob, th)
         starts_log.append(
             {
                 "start": dict(zip(names, prob.values(th0).tolist(), strict=True)),
