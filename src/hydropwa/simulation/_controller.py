@@ -98,7 +98,7 @@ def dead_zone_inverse(c, offset, width):
     return c * (width + offset) / width
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def measure(kind, y, a_a, a_b, mean_area):
     """Measured channels (x [m], ẋ [m/s], P_L [Pa]) from the state of model ``kind``.
 

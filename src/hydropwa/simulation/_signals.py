@@ -96,7 +96,7 @@ def eval_signal(sg, i: int, t: float) -> float:
     return sg[a + n] + w * (sg[a + 1 + n] - sg[a + n])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _sample_interval(sg, lo, n, t):
     """Index a of the sample interval sg[a] ≤ t < sg[a + 1] (binary search); needs sg[lo] ≤ t < sg[lo + n − 1]."""
     a, b = lo, lo + n - 1

@@ -488,8 +488,6 @@ def simulate(
     Y = Y[:n_done]
     if closed:  # derived channels see the held command of each sample interval
         sg = pack_signals([_held_command(log, t_out[0]), ps_sig, fl_sig])
-    # load or compile for these argument types (a no-op once ready), timed apart
-    K.prepare(K.OUTPUTS[kind], (t_out, Y, n_done, p, sg), "output")
     out = K.outputs(kind, t_out, Y, n_done, p, sg)
     compile_time = K.compile_seconds - compiled0
     # the times are the caller's array when timepts was given: copy them then, not our own grid
