@@ -18,7 +18,13 @@ from hydropwa import (
     save_params,
 )
 from hydropwa.components import stribeck_friction
-from hydropwa.params import params_from_dict, recover_stribeck_from_table_v, table_v_pwa
+from hydropwa.params import (
+    params_from_dict,
+    recover_stribeck_from_table_v,
+    table_v_friction,
+    table_v_pwa,
+)
+from hydropwa.params._paper import TABLE_V_RMS_RESIDUAL, TABLE_V_STRIBECK
 
 
 def test_flow_coefficient_from_rating_matches_table_iii():
@@ -127,6 +133,17 @@ def test_stribeck_recovery_reproduces_table_v_within_5_newton():
     )
     assert 0 < f.coulomb < f.static
     assert f.viscous == pytest.approx(1105, rel=0.1)  # the outer cells' slope
+
+
+def test_paper_preset_friction_is_the_table_v_fit():
+    # the preset stores the fit's result; a change of the fit (or of scipy's optimum) must show
+    # here. rel 1e-6: least_squares stops at xtol 1e-8 relative, far inside this
+    rec = recover_stribeck_from_table_v()
+    f = rec.friction
+    fit = (f.coulomb, f.static, f.viscous, f.stribeck_velocity, f.shape, f.smoothness)
+    np.testing.assert_allclose(TABLE_V_STRIBECK, fit, rtol=1e-6)
+    assert TABLE_V_RMS_RESIDUAL == pytest.approx(rec.rms_residual, rel=1e-6)
+    assert get_preset("paper").friction == table_v_friction()
 
 
 def test_replace_with_dotted_names(paper):

@@ -428,3 +428,17 @@ def test_friction_cells_from_the_machine():
         err[mode] = np.max(np.abs(m.friction.pwa(v) - f(v)))
     assert err["machine"] < 0.5 * err["paper"]
     assert err["machine"] < 0.1 * prm.friction.static
+
+
+def test_default_friction_range_covers_the_machine_on_a_shared_grid():
+    """The default friction interval holds the machine's range, at most 5 % wider, and nearby
+    supply pressures land on the same grid point, so their friction cells are computed once."""
+    prm = industrial_axis()
+    for ps in (150e5, 151e5, 210e5):
+        lo, hi = machine_velocity_range(prm, ps)
+        w_lo, w_hi = linearize(prm, supply_pressure=ps).friction.interval
+        assert w_lo <= lo < 0 < hi <= w_hi
+        assert -w_lo <= 1.05 * -lo and w_hi <= 1.05 * hi  # one grid step: 10^(1/48) = 1.0491
+    a = linearize(prm, supply_pressure=150e5).friction
+    b = linearize(prm, supply_pressure=150.5e5).friction  # speeds 0.17 % apart
+    assert a is b  # the cached cells of the same grid interval

@@ -48,11 +48,14 @@ for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _cont
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``hydropwa`` command; returns the exit code."""
-    from ..simulation import (
-        set_compile_notice,  # deferred: loaded only when this command runs (a fast --help)
+    from ..simulation import (  # deferred: loaded only when this command runs (a fast --help)
+        set_auto_warmup,
+        set_compile_notice,
     )
 
     set_compile_notice(lambda msg: print(msg, file=sys.stderr, flush=True))
+    # a command compiles what it uses; those that use several models warm them up themselves
+    set_auto_warmup(False)
     command = typer.main.get_command(app)
     _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:

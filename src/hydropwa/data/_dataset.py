@@ -220,6 +220,24 @@ def _entry(run: Run, file: str, fmt: str) -> dict[str, Any]:
     }
 
 
+def _manifest_text(manifest: Mapping[str, Any]) -> str:
+    """The manifest as JSON: indented, with one line per run.
+
+    The manifest is rewritten after every run (finished runs survive a crash), so its
+    encoding must stay cheap as it grows: the runs go through json's C encoder (one compact
+    line each) instead of the pure-Python indenting one, which made a 300-run campaign spend
+    7 s on its manifests.
+    """
+    runs = manifest.get("runs")
+    head = {k: v for k, v in manifest.items() if k != "runs"}
+    if not isinstance(runs, list) or not head:
+        return json.dumps(manifest, indent=2, allow_nan=False) + "\n"
+    text = json.dumps(head, indent=2, allow_nan=False)
+    lines = ",\n    ".join(json.dumps(r, allow_nan=False) for r in runs)
+    body = f"[\n    {lines}\n  ]" if runs else "[]"
+    return f'{text[:-2]},\n  "runs": {body}\n}}\n'
+
+
 class Dataset:
     """A folder of runs described by ``manifest.json``.
 
@@ -271,9 +289,7 @@ class Dataset:
         return ds
 
     def _write_manifest(self) -> None:
-        atomic_write_text(
-            self.root / MANIFEST, json.dumps(self.manifest, indent=2, allow_nan=False) + "\n"
-        )
+        atomic_write_text(self.root / MANIFEST, _manifest_text(self.manifest))
 
     def add_run(
         self,

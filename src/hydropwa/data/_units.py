@@ -56,7 +56,12 @@ _ALIASES = {"": "1", "-": "1", "1": "1", "%": "percent", "lpm": "L/min", "l/min"
 
 @functools.lru_cache(maxsize=1)
 def _registry() -> pint.UnitRegistry:
-    return pint.UnitRegistry()
+    # pint's on-disk cache of its parsed definitions (in the user's cache folder) cuts the
+    # registry's construction from ~0.15 s to ~0.05 s; without a writable folder, parse afresh
+    try:
+        return pint.UnitRegistry(cache_folder=":auto:")
+    except Exception:  # pragma: no cover - pint's cache is an optimisation only
+        return pint.UnitRegistry()
 
 
 def normalize_unit(unit: str) -> str:

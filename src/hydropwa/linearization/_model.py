@@ -831,7 +831,9 @@ def linearize(
         P_L range [Pa] the cells must cover; must lie within ±P_S. Default ±P_S.
     friction_range : (float, float), optional
         Velocity range [m/s] of the friction fit; default the machine's range
-        (:func:`machine_velocity_range`), or ±0.2 m/s (Table V) with ``breakpoints="paper"``.
+        (:func:`machine_velocity_range`) widened to the next step of a 5 % grid, so that
+        linearizations at nearby supply pressures share their (cached) friction cells; or
+        ±0.2 m/s (Table V) with ``breakpoints="paper"``.
     capacitance_position : float, optional
         Rod position [m] at which the asymmetric form freezes the chamber capacitances;
         default mid-stroke.
@@ -868,7 +870,9 @@ def linearize(
     )
     if friction_range is None:
         friction_range = (
-            FRICTION_INTERVAL if fr_mode == "paper" else machine_velocity_range(params, ps, form)
+            FRICTION_INTERVAL
+            if fr_mode == "paper"
+            else _widened(machine_velocity_range(params, ps, form))
         )
     wp = dict(working_points or {})
     cq_int, cqp_int = CQ_INTERVAL, CQP_INTERVAL
@@ -925,6 +929,22 @@ def linearize(
         label,
         capacitance_position,
     )
+
+
+#: Steps per decade of the grid the default friction range is widened to (10^(1/48) ≈ 1.049).
+_RANGE_STEPS = 48
+
+
+def _widened(interval: tuple[float, float]) -> tuple[float, float]:
+    """``interval`` (lo < 0 < hi) with each end moved outward to the next 5 % grid point."""
+
+    def out(v: float) -> float:
+        if v == 0.0 or not math.isfinite(v):
+            return v
+        k = math.ceil(round(math.log10(abs(v)) * _RANGE_STEPS, 9))
+        return math.copysign(10.0 ** (k / _RANGE_STEPS), v)
+
+    return (out(interval[0]), out(interval[1]))
 
 
 def machine_velocity_range(

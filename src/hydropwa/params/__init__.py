@@ -8,6 +8,7 @@ from ._paper import (
     TABLE_V_AS_PRINTED,
     StribeckRecovery,
     recover_stribeck_from_table_v,
+    table_v_friction,
     table_v_pwa,
 )
 from ._params import *  # noqa: F403  (the component classes, _params.__all__)
@@ -38,5 +39,6 @@ __all__ = [
     "parse_quantity",
     "recover_stribeck_from_table_v",
     "save_params",
+    "table_v_friction",
     "table_v_pwa",
 ]

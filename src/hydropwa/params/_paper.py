@@ -25,6 +25,7 @@ __all__ = [
     "table_v_pwa",
     "StribeckRecovery",
     "recover_stribeck_from_table_v",
+    "table_v_friction",
 ]
 
 #: Table II: valve opening [1] → (ω0 [rad/s], ζ [1]).
@@ -84,6 +85,34 @@ def _fit_grid(pwa: PiecewiseAffine, v_max: float, per_cell: int = 60) -> np.ndar
         for a, b in zip(edges[:-1], edges[1:], strict=True)
     ]
     return np.concatenate(pts + [np.array([v_max])])
+
+
+#: :func:`recover_stribeck_from_table_v` at its default grid, as the ``paper`` preset uses it:
+#: F_c, F_s [N], σ [N·s/m], χ [m/s], δ, γ [s/m], and the fit's RMS residual [N]. Stored so
+#: that loading the preset does not run a least-squares fit (0.9 s with scipy.optimize's
+#: import); ``tests/core/test_params.py`` re-runs the fit and checks these digits.
+TABLE_V_STRIBECK = (
+    21.153094207286184,
+    174.77081523356574,
+    1158.4453232999103,
+    0.015674979331178663,
+    0.7305242624497573,
+    1324.680656301685,
+)
+TABLE_V_RMS_RESIDUAL = 3.9316432000367674
+
+
+def table_v_friction() -> Friction:
+    """The ``paper`` preset's friction: the stored result of :func:`recover_stribeck_from_table_v`."""
+    fc, fs, sigma, chi, delta, gamma = TABLE_V_STRIBECK
+    return Friction(
+        coulomb=fc,
+        static=fs,
+        viscous=sigma,
+        stribeck_velocity=chi,
+        shape=delta,
+        smoothness=gamma,
+    )
 
 
 @lru_cache(maxsize=4)

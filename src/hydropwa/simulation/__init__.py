@@ -16,6 +16,7 @@ from ._signals import (
 )
 from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
 from ._status import SolverStats, SolverStatus
+from ._warmup import WarmUp, set_auto_warmup, warm_up
 
 __all__ = [
     "CHANNEL_UNITS",
@@ -31,11 +32,14 @@ __all__ = [
     "SolverStats",
     "SolverStatus",
     "Step",
+    "WarmUp",
     "as_signal",
     "pack_signals",
     "parse_signal",
     "set_compile_notice",
     "simulate",
     "simulate_batch",
+    "set_auto_warmup",
     "summarize",
+    "warm_up",
 ]

@@ -720,9 +720,10 @@ def point_derivatives(kind, y, u, ps, fl, p):
     """
     if int(kind) not in (REDUCED, PWA):
         raise ValueError("point_derivatives serves the reduced and PWA models")
-    f, J, G = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
-    G = np.asfortranarray(G)
-    _point(int(kind), _owned(y), float(u), float(ps), float(fl), _owned(p), f, J, G)
+    args = _point_args(kind, y, u, ps, fl, p)
+    prepare(_point, args, "linearization")
+    _point(*args)
+    f, J, G = args[-3:]
     return f, J, np.ascontiguousarray(G)
 
 
@@ -1695,6 +1696,55 @@ def _owned(a):
     return a if a.flags.writeable else a.copy()
 
 
+def _open_args(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    """The open-loop entry points' arguments, of exactly the types they are compiled for."""
+    return (
+        _owned(y0),
+        _owned(t_out),
+        _owned(p),
+        _owned(sg),
+        float(rtol),
+        _owned(scale),
+        float(h0),
+        float(hmax),
+        int(max_steps),
+        bool(jac_reuse),
+        bool(gustafsson),
+        bool(exact_jac),
+    )
+
+
+def _closed_args(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref):
+    """The closed-loop entry points' arguments, of exactly the types they are compiled for."""
+    return (
+        _owned(y0),
+        _owned(t_out),
+        _owned(p),
+        _owned(sg),
+        float(rtol),
+        _owned(scale),
+        float(h0),
+        float(hmax),
+        int(max_steps),
+        _owned(ctl),
+        _owned(ref),
+        _owned(dref),
+    )
+
+
+def _output_args(t_out, Y, n_done, p, sg):
+    """The output passes' arguments, of exactly the types they are compiled for."""
+    return (_owned(t_out), _owned(Y), int(n_done), _owned(p), _owned(sg))
+
+
+def _point_args(kind, y, u, ps, fl, p):
+    """:func:`_point`'s arguments and its result arrays f, J, G (G column-major)."""
+    f, J, G = np.zeros(3), np.zeros((3, 3)), np.asfortranarray(np.zeros((3, 3)))
+    return (int(kind), _owned(y), float(u), float(ps), float(fl), _owned(p), f, J, G)
+
+
 def integrate_closed_loop(
     kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
 ):
@@ -1709,20 +1759,7 @@ def integrate_closed_loop(
     if sg[0] != 0.0:
         raise ValueError("closed loop: the valve command must be packed as a constant signal")
     entry = (_CLOSED if int(method) == ROS34PW2 else _CLOSED_ROS23)[int(kind)]
-    args = (
-        _owned(y0),
-        _owned(t_out),
-        _owned(p),
-        _owned(sg),
-        float(rtol),
-        _owned(scale),
-        float(h0),
-        float(hmax),
-        int(max_steps),
-        _owned(ctl),
-        _owned(ref),
-        _owned(dref),
-    )
+    args = _closed_args(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref)
     # compile (or load) apart from the timed call, with numba's pedantic IR warning silenced as
     # for the open loop (pytest turns a stray compiler warning into a failure)
     prepare(entry, args, f"closed-loop {_KIND_NAMES[int(kind)]} model")
@@ -1774,19 +1811,8 @@ def integrate(
             f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}"
         )
     entry = (_ENTRY if int(method) == ROS34PW2 else _ENTRY_ROS23)[int(kind)]
-    args = (
-        _owned(y0),
-        _owned(t_out),
-        _owned(p),
-        _owned(sg),
-        float(rtol),
-        _owned(scale),
-        float(h0),
-        float(hmax),
-        int(max_steps),
-        bool(jac_reuse),
-        bool(gustafsson),
-        bool(exact_jac),
+    args = _open_args(
+        y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
     )
     prepare(entry, args, f"{_KIND_NAMES[int(kind)]} model")
     with _interruptible():
@@ -1798,6 +1824,51 @@ _compile_notice = None
 _noticed = False
 #: Seconds this process spent loading or compiling kernels (read by ``simulate``).
 compile_seconds = 0.0
+
+
+#: Kernels being compiled by a warm-up process: dispatcher -> ``threading.Event``, set once
+#: it is in the disk cache or that process has ended (see :mod:`._warmup`).
+_warming: dict = {}
+#: Longest wait [s] for a warm-up process's kernel before compiling it here.
+WARMUP_WAIT = 600.0
+#: ``callback(dispatcher)`` run before a kernel missing from the disk cache compiles here
+#: (:mod:`._warmup` starts compiling the other models' kernels in the background).
+_cold_hook = None
+
+
+def warmup_calls(name):
+    """The compiled kernels a warm-up of ``name`` compiles, as (dispatcher, args, what).
+
+    ``name``: ``"full"``, ``"reduced"``, ``"pwa"`` (the open-loop solver with the default
+    method and the model's output pass), ``"closed-<model>"`` (the closed-loop solver) or
+    ``"point"`` (the linearization's point derivatives and the PWA load flow). The
+    arguments are placeholders of exactly the types :func:`integrate`,
+    :func:`integrate_closed_loop`, :func:`outputs` and :func:`point_derivatives` pass, so
+    the compiled code is what they load.
+    """
+    z, zz = np.zeros(1), np.zeros((1, 1))
+    kinds = {"full": FULL, "reduced": REDUCED, "pwa": PWA}
+    if name == "point":
+        return [
+            (_point, _point_args(REDUCED, np.zeros(3), 0.0, 0.0, 0.0, z), "linearization"),
+            (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
+        ]
+    model = name.removeprefix("closed-")
+    if model not in kinds:
+        raise ValueError(f"unknown kernel {name!r}; choose from {', '.join(WARMUP_NAMES)}")
+    kind = kinds[model]
+    if name.startswith("closed-"):
+        args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, z)
+        return [(_CLOSED[kind], args, f"closed-loop {_KIND_NAMES[kind]} model")]
+    args = _open_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, True, True, True)
+    return [
+        (_ENTRY[kind], args, f"{_KIND_NAMES[kind]} model"),
+        (OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output"),
+    ]
+
+
+#: The names :func:`warmup_calls` takes.
+WARMUP_NAMES = ("full", "reduced", "pwa", "point", "closed-full", "closed-reduced", "closed-pwa")
 
 
 def set_compile_notice(callback):
@@ -1812,10 +1883,13 @@ def set_compile_notice(callback):
 
 
 def _cached_on_disk(dispatcher) -> bool:
-    """Whether numba's on-disk cache has an index for ``dispatcher`` (it may still be stale)."""
+    """Whether numba's on-disk cache holds ``dispatcher`` compiled from the current sources."""
     try:
-        return os.path.exists(dispatcher._cache._cache_file._index_path)
-    except AttributeError:  # pragma: no cover - numba internals differ: assume compiled
+        cache_file = dispatcher._cache._cache_file
+        if not os.path.exists(cache_file._index_path):
+            return False
+        return bool(cache_file._load_index())  # {} where the index's stamp is stale
+    except Exception:  # pragma: no cover - numba internals differ: assume compiled
         return True
 
 
@@ -1835,11 +1909,21 @@ def prepare(dispatcher, args, what="solver"):
     # the warning filter below, not at the call)
 
     t0 = time.perf_counter()
-    if _compile_notice is not None and not _noticed and not _cached_on_disk(dispatcher):
-        _noticed = True
-        _compile_notice(
-            f"compiling the {what} solver (once per installation, ~20-60 s; later runs load it from the cache)"
-        )
+    warming = _warming.get(dispatcher)
+    if warming is not None:
+        # a warm-up process (see ._warmup) is compiling this kernel: wait for it to reach the
+        # disk cache and load it from there, rather than compile it twice. Set when that
+        # process exits, however; a kernel it did not finish compiles here.
+        warming.wait(WARMUP_WAIT)
+    elif not _cached_on_disk(dispatcher):
+        if _compile_notice is not None and not _noticed:
+            _noticed = True
+            _compile_notice(
+                f"compiling the {what} solver (once per installation, ~10 s per model;"
+                " later runs load it from the cache)"
+            )
+        if _cold_hook is not None:
+            _cold_hook(dispatcher)
 
     with warnings.catch_warnings():
         # numba's pedantic scope check after inlining the PWA model's code through an overload
@@ -1859,7 +1943,7 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     run as NumPy (its SIMD exp/tanh/power take ~7 ns per sample against ~26 ns compiled
     scalar code), and written into the row the compiled pass leaves empty.
     """
-    args = (_owned(t_out), _owned(Y), int(n_done), _owned(p), _owned(sg))
+    args = _output_args(t_out, Y, n_done, p, sg)
     prepare(OUTPUTS[kind], args, "output")  # load or compile (a no-op once ready), timed apart
     with _interruptible():
         out = OUTPUTS[kind](*args)

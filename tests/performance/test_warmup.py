@@ -1,0 +1,77 @@
+"""The background warm-up compiles exactly what the public paths load, and nothing twice.
+
+A fresh process with an empty numba cache starts a warm-up, then runs the public paths
+(open-loop and closed-loop simulation, the output pass, linearization). numba's own cache
+counters of each kernel show whether it was loaded from what the warm-up process wrote
+(a hit) or compiled in the process itself (a miss): a miss would mean the warm-up compiled
+a different signature, or that ``prepare`` did not wait for it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from hydropwa import _jitcache
+from hydropwa.simulation import WarmUp, warm_up
+
+PROBE = """
+import json, sys
+import numpy as np
+from hydropwa import ReducedModel, get_preset, simulate
+from hydropwa.linearization import linearize
+from hydropwa.control import PIController
+from hydropwa.simulation import warm_up
+from hydropwa.simulation import _kernel as K
+
+w = warm_up(["reduced"], closed_loop=True, linearization=True, wait=sys.argv[1] == "wait")
+params = get_preset("paper")
+simulate(ReducedModel(params), "sine:amplitude=0.4,frequency=1", duration=0.2)
+simulate(ReducedModel(params), controller=PIController(kp=20.0), reference=0.1, duration=0.2)
+linearize(params).rhs(0.0, np.array([1e5, 0.0, 0.1]), 0.2)
+out = {"names": list(w.names), "cached": sorted(w.cached)}
+for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point"):
+    s = getattr(K, name).stats
+    out[name] = [sum(s.cache_hits.values()), sum(s.cache_misses.values())]
+print(json.dumps(out))
+"""
+
+
+def _probe(tmp_path, mode: str) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), HYDROPWA_WARMUP="0")
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, mode], capture_output=True, text=True, env=env, timeout=900
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _jitcache.INSTALLED, reason="this numba's caching internals differ")
+@pytest.mark.parametrize("mode", ["wait", "overlap"])
+def test_warm_up_compiles_what_the_public_paths_load(tmp_path, mode):
+    # "wait": everything compiled before the first call; "overlap": the calls start at once
+    # and wait for each kernel the background process has not cached yet
+    res = _probe(tmp_path, mode)
+    assert res["names"] == ["reduced", "point", "closed-reduced"]
+    assert res["cached"] == ["closed-reduced/0", "point/0", "point/1", "reduced/0", "reduced/1"]
+    for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point"):
+        assert res[name] == [1, 0], name  # loaded from the warm-up's cache, never compiled here
+
+
+def test_warm_up_rejects_unknown_models():
+    with pytest.raises(ValueError, match="unknown model 'ful'"):
+        warm_up(["ful"])
+
+
+def test_nothing_to_compile_starts_no_process(monkeypatch):
+    from hydropwa.simulation import _kernel as K
+
+    monkeypatch.setattr(K, "_cached_on_disk", lambda dispatcher: True)
+    w = WarmUp(["full", "point"])
+    assert w.names == () and not w.running and w.wait(0)
+    assert "nothing to compile" in repr(w)
