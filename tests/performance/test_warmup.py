@@ -34,7 +34,7 @@ simulate(ReducedModel(params), "sine:amplitude=0.4,frequency=1", duration=0.2)
 simulate(ReducedModel(params), controller=PIController(kp=20.0), reference=0.1, duration=0.2)
 linearize(params).rhs(0.0, np.array([1e5, 0.0, 0.1]), 0.2)
 out = {"names": list(w.names), "cached": sorted(w.cached)}
-for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point"):
+for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point_pwa"):
     s = getattr(K, name).stats
     out[name] = [sum(s.cache_hits.values()), sum(s.cache_misses.values())]
 print(json.dumps(out))
@@ -58,8 +58,15 @@ def test_warm_up_compiles_what_the_public_paths_load(tmp_path, mode):
     # and wait for each kernel the background process has not cached yet
     res = _probe(tmp_path, mode)
     assert res["names"] == ["reduced", "point", "closed-reduced"]
-    assert res["cached"] == ["closed-reduced/0", "point/0", "point/1", "reduced/0", "reduced/1"]
-    for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point"):
+    assert res["cached"] == [
+        "closed-reduced/0",
+        "point/0",
+        "point/1",
+        "point/2",
+        "reduced/0",
+        "reduced/1",
+    ]
+    for name in ("_integrate_reduced", "_outputs_reduced", "_closed_reduced", "_point_pwa"):
         assert res[name] == [1, 0], name  # loaded from the warm-up's cache, never compiled here
 
 

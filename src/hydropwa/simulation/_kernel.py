@@ -138,7 +138,7 @@ N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_C
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def n_states(kind):
     """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
     return _N_FULL if kind == FULL else _N_LOAD
@@ -171,23 +171,23 @@ def _input_rates(t, sg):
     return du, dps, dfl
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _friction(v, p):
     return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _opening(nu, p):
     return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _mean_area(p):
     """Ā = (A_A + A_B)/2 [m²] of the reduced and PWA models, Eqs. (14)–(15)."""
     return 0.5 * (p[I_AA] + p[I_AB])
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _load_gain(p):
     """4E/V_t [Pa/m³] of Eq. (14) (:func:`~hydropwa.components.load_pressure_gain`)."""
     return load_pressure_gain(p[I_E], p[I_VA] + p[I_VB])
@@ -350,7 +350,7 @@ def _cell(p, start, n, xv):
     return i
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _edge_scale(z, ps, p):
     """Normalising pressure P_e [Pa] of the flow cells and the flow scale √(P_e/(1 + α³)) [√Pa].
 
@@ -375,7 +375,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     """Active cells (g, o, n, w), opening z, the scheduled P_S and p̃ = sign(z) P_L/P_e of the PWA model."""
     ng, no, nn, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
     ps = ps_in if p[I_SCHED] > 0.5 else p[I_PSFIX]
-    s_g = I_CELLS
+    s_g = np.int64(I_CELLS)  # not a literal: one compiled _cell for all four sections
     g = _cell(p, s_g, ng, u)
     z = p[s_g + ng - 1 + g] * u + p[s_g + 2 * ng - 1 + g]
     s_o = s_g + 3 * ng - 1
@@ -390,7 +390,7 @@ def pwa_cells(pl, v, u, ps_in, p):
     return g, o, n, w, z, ps, pn
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _pwa_layout(p):
     """Cell counts (o, n, w) and where the o, n and w sections of the PWA cell table start in p.
 
@@ -402,7 +402,7 @@ def _pwa_layout(p):
     return no, nn, nw, s_o, s_n, s_n + 3 * nn - 1
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _pwa_flow_coeffs(p, o, n):
     """Slope and offset (k̂_o, d̂_o) of flow cell o and (k̂_n, d̂_n) of flow-pressure cell n."""
     no, nn, _nw, s_o, s_n, _s_w = _pwa_layout(p)
@@ -414,7 +414,7 @@ def _pwa_flow_coeffs(p, o, n):
     )
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _pwa_friction_cell(p, w):
     """Slope [N·s/m] and offset [N] of friction cell w (Table V): f = slope·ẋ + offset."""
     _no, _nn, nw, _s_o, _s_n, s_w = _pwa_layout(p)
@@ -678,19 +678,27 @@ def pwa_load_flow_at(pl, u, ps_in, p):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _point(kind, y, u, ps, fl, p, f, J, G):
-    if kind == REDUCED:
-        rhs_reduced(y, u, ps, fl, p, f)
-        jac_reduced(y, u, ps, fl, p, J)
-        dfdt_reduced(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
-        dfdt_reduced(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
-        dfdt_reduced(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
-    else:
-        rhs_pwa(y, u, ps, fl, p, f)
-        jac_pwa(y, u, ps, fl, p, J)
-        dfdt_pwa(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
-        dfdt_pwa(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
-        dfdt_pwa(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+def _point_reduced(y, u, ps, fl, p, f, J, G):
+    """f, ∂f/∂y and ∂f/∂(u, P_S, F_L) of the reduced model at one point (into f, J, G)."""
+    rhs_reduced(y, u, ps, fl, p, f)
+    jac_reduced(y, u, ps, fl, p, J)
+    dfdt_reduced(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
+    dfdt_reduced(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
+    dfdt_reduced(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _point_pwa(y, u, ps, fl, p, f, J, G):
+    """f, ∂f/∂y and ∂f/∂(u, P_S, F_L) of the PWA model at one point (into f, J, G)."""
+    rhs_pwa(y, u, ps, fl, p, f)
+    jac_pwa(y, u, ps, fl, p, J)
+    dfdt_pwa(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
+    dfdt_pwa(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
+    dfdt_pwa(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+
+
+#: One point-derivative kernel per model: a command compiles only the one it uses.
+_POINT = {REDUCED: _point_reduced, PWA: _point_pwa}
 
 
 def point_derivatives(kind, y, u, ps, fl, p):
@@ -720,9 +728,10 @@ def point_derivatives(kind, y, u, ps, fl, p):
     """
     if int(kind) not in (REDUCED, PWA):
         raise ValueError("point_derivatives serves the reduced and PWA models")
-    args = _point_args(kind, y, u, ps, fl, p)
-    prepare(_point, args, "linearization")
-    _point(*args)
+    point = _POINT[int(kind)]
+    args = _point_args(y, u, ps, fl, p)
+    prepare(point, args, "linearization")
+    point(*args)
     f, J, G = args[-3:]
     return f, J, np.ascontiguousarray(G)
 
@@ -852,7 +861,7 @@ _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _inert_column(j, p):
     """Full model: state j is constant for these parameters, so its Jacobian column is zero."""
     if j == Y_PS:
@@ -1064,7 +1073,7 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     return k_out
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _work_arrays(n, n_out, y0):
     """The integrator's work arrays for n states and n_out output samples (y starts at y0)."""
     return (
@@ -1085,7 +1094,7 @@ def _work_arrays(n, n_out, y0):
     )
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always")
 def _integrate(
     kind,
     y0,
@@ -1739,10 +1748,10 @@ def _output_args(t_out, Y, n_done, p, sg):
     return (_owned(t_out), _owned(Y), int(n_done), _owned(p), _owned(sg))
 
 
-def _point_args(kind, y, u, ps, fl, p):
-    """:func:`_point`'s arguments and its result arrays f, J, G (G column-major)."""
+def _point_args(y, u, ps, fl, p):
+    """The point-derivative kernels' arguments and result arrays f, J, G (G column-major)."""
     f, J, G = np.zeros(3), np.zeros((3, 3)), np.asfortranarray(np.zeros((3, 3)))
-    return (int(kind), _owned(y), float(u), float(ps), float(fl), _owned(p), f, J, G)
+    return (_owned(y), float(u), float(ps), float(fl), _owned(p), f, J, G)
 
 
 def integrate_closed_loop(
@@ -1849,9 +1858,11 @@ def warmup_calls(name):
     z, zz = np.zeros(1), np.zeros((1, 1))
     kinds = {"full": FULL, "reduced": REDUCED, "pwa": PWA}
     if name == "point":
+        args = _point_args(np.zeros(3), 0.0, 0.0, 0.0, z)
         return [
-            (_point, _point_args(REDUCED, np.zeros(3), 0.0, 0.0, 0.0, z), "linearization"),
+            (_point_pwa, args, "linearization"),
             (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
+            (_point_reduced, args, "linearization"),
         ]
     model = name.removeprefix("closed-")
     if model not in kinds:
@@ -1983,7 +1994,7 @@ def _outputs_pwa(t_out, Y, n_done, p, sg):
 OUTPUTS = {FULL: _outputs_full, REDUCED: _outputs_reduced, PWA: _outputs_pwa}
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _write_outputs(out, k, u, spool, z, pa, pb, pl, ps, fl, x, v, fr, p):
     """Output column k (rows from the layout table's OUTPUT_CHANNELS)."""
     out[O_U, k] = u

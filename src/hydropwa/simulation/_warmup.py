@@ -28,7 +28,7 @@ __all__ = ["WarmUp", "warm_up"]
 #: Environment variable: ``0`` turns the automatic warm-up off.
 ENV = "HYDROPWA_WARMUP"
 #: What the automatic warm-up compiles: the open-loop models and the linearization.
-AUTO = ("full", "reduced", "pwa", "point")
+AUTO = ("full", "reduced", "point", "pwa")
 
 _auto_started = False
 
