@@ -1094,7 +1094,13 @@ def _work_arrays(n, n_out, y0):
     )
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, inline="always")
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+)
 def _integrate(
     kind,
     y0,
@@ -1835,8 +1841,8 @@ _noticed = False
 compile_seconds = 0.0
 
 
-#: Kernels being compiled by a warm-up process: dispatcher -> ``threading.Event``, set once
-#: it is in the disk cache or that process has ended (see :mod:`._warmup`).
+#: Kernels in a warm-up's queue: dispatcher -> the :class:`~._warmup.WarmUp` whose
+#: ``acquire(dispatcher)`` returns once this process may load or compile it.
 _warming: dict = {}
 #: Longest wait [s] for a warm-up process's kernel before compiling it here.
 WARMUP_WAIT = 600.0
@@ -1922,10 +1928,10 @@ def prepare(dispatcher, args, what="solver"):
     t0 = time.perf_counter()
     warming = _warming.get(dispatcher)
     if warming is not None:
-        # a warm-up process (see ._warmup) is compiling this kernel: wait for it to reach the
-        # disk cache and load it from there, rather than compile it twice. Set when that
-        # process exits, however; a kernel it did not finish compiles here.
-        warming.wait(WARMUP_WAIT)
+        # a warm-up (see ._warmup) has this kernel in its queue: load it once that process has
+        # cached it (meanwhile compiling its later kernels here), or compile it here if that
+        # process has not started it
+        warming.acquire(dispatcher)
     elif not _cached_on_disk(dispatcher):
         if _compile_notice is not None and not _noticed:
             _noticed = True

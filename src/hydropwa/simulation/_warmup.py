@@ -36,11 +36,17 @@ _auto_started = False
 class WarmUp:
     """A background process compiling kernels into numba's disk cache.
 
-    Created by :func:`warm_up`. The process prints one line per kernel it has cached;
-    a reader thread releases whoever waits on that kernel in :func:`~._kernel.prepare`.
+    Created by :func:`warm_up`. The kernels form one queue shared with this process: the
+    background process takes them in order and announces each (``start``) and each it has
+    cached; when this process needs a kernel (:func:`~._kernel.prepare` calls
+    :meth:`acquire`) it loads it once cached, compiles it itself if the background process
+    has not started it, and while it waits compiles the next kernels not yet started
+    (claimed over the process's stdin), so neither core idles.
     """
 
     def __init__(self, names: Iterable[str]):
+        global _auto_started
+        _auto_started = True  # one warm-up at a time: no automatic one beside this
         calls = {n: K.warmup_calls(n) for n in names}  # checks the names first
         # only what is not on disk yet (loading costs the process more than it saves)
         self.names = tuple(
@@ -48,22 +54,28 @@ class WarmUp:
             for n, entries in calls.items()
             if not all(K._cached_on_disk(d) for d, _, _ in entries)
         )
-        self._events: dict[str, threading.Event] = {}
         self.cached: list[str] = []
+        self.compiled_here: list[str] = []
+        self._lock = threading.Lock()
+        self._queue: dict[str, tuple] = {}  # key -> (dispatcher, args, what), in order
+        self._state: dict[str, str] = {}  # key -> pending | started | cached | here
+        self._done: dict[str, threading.Event] = {}
         self._proc: subprocess.Popen | None = None
         if not self.names:
             return
         for name in self.names:
-            for i, (dispatcher, _args, _what) in enumerate(calls[name]):
-                if dispatcher in K._warming:  # another warm-up has it
+            for i, call in enumerate(calls[name]):
+                if call[0] in K._warming:  # another warm-up has it
                     continue
-                ev = threading.Event()
-                self._events[f"{name}/{i}"] = ev
-                K._warming[dispatcher] = ev
+                key = f"{name}/{i}"
+                self._queue[key] = call
+                self._state[key] = "pending"
+                self._done[key] = threading.Event()
+                K._warming[call[0]] = self
         env = dict(os.environ, **{ENV: "0"})
         self._proc = subprocess.Popen(
             [sys.executable, "-m", "hydropwa.simulation._warmup", *self.names],
-            stdin=subprocess.DEVNULL,
+            stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
             text=True,
@@ -74,22 +86,75 @@ class WarmUp:
         atexit.register(self.close)
 
     def _read(self) -> None:
-        assert self._proc.stdout is not None
+        assert self._proc is not None and self._proc.stdout is not None
         for line in self._proc.stdout:
-            key = line.strip()
-            ev = self._events.get(key)
-            if ev is not None:
-                self.cached.append(key)
-                ev.set()
+            word, _, key = line.strip().partition(" ")
+            with self._lock:
+                if key not in self._state or self._state[key] == "here":
+                    continue
+                if word == "start":
+                    self._state[key] = "started"
+                elif word == "cached":
+                    self._state[key] = "cached"
+                    self.cached.append(key)
+                    self._done[key].set()
         self._release()
 
     def _release(self) -> None:
-        """Release every waiter (the process has ended: what it left undone compiles there)."""
-        for ev in self._events.values():
-            ev.set()
-        for dispatcher, ev in list(K._warming.items()):
-            if ev in self._events.values():
-                K._warming.pop(dispatcher, None)
+        """Release every waiter (the process has ended: what it left undone compiles here)."""
+        with self._lock:
+            for key, ev in self._done.items():
+                if self._state[key] in ("pending", "started"):
+                    self._state[key] = "ended"
+                ev.set()
+            for dispatcher, owner in list(K._warming.items()):
+                if owner is self:
+                    K._warming.pop(dispatcher, None)
+
+    def _claim_next(self, exclude: str) -> tuple | None:
+        """Claim the first kernel the background process has not started; None if none."""
+        with self._lock:
+            for key, state in self._state.items():
+                if state == "pending" and key != exclude:
+                    return self._claim(key)
+        return None
+
+    def _claim(self, key: str) -> tuple:
+        # under self._lock: the kernel is this process's to compile from now on
+        self._state[key] = "here"
+        K._warming.pop(self._queue[key][0], None)
+        self.compiled_here.append(key)
+        try:
+            assert self._proc is not None and self._proc.stdin is not None
+            self._proc.stdin.write(f"claim {key}\n")
+            self._proc.stdin.flush()
+        except (OSError, ValueError):  # the process has ended: nothing to tell it
+            pass
+        return self._queue[key]
+
+    def acquire(self, dispatcher) -> None:
+        """Called by :func:`~._kernel.prepare` before ``dispatcher`` is loaded or compiled.
+
+        Returns once the background process has cached it, or has not started it (then
+        the caller compiles it); while that process compiles it, compiles the next kernels
+        it has not started.
+        """
+        key = next((k for k, c in self._queue.items() if c[0] is dispatcher), None)
+        if key is None:
+            return
+        while True:
+            with self._lock:
+                state = self._state[key]
+                if state == "pending":
+                    self._claim(key)
+                    return
+            if state != "started":  # cached, ended, or compiled here
+                return
+            other = self._claim_next(key)
+            if other is None:
+                self._done[key].wait(K.WARMUP_WAIT)
+                return
+            K.prepare(*other)  # compile a later kernel here while the background one finishes
 
     @property
     def running(self) -> bool:
@@ -194,15 +259,35 @@ K._cold_hook = _auto
 
 
 def main(argv: list[str]) -> int:
-    """Compile the named kernels (see :func:`~._kernel.warmup_calls`), one line each when cached."""
+    """Compile the named kernels (see :func:`~._kernel.warmup_calls`) in order.
+
+    Prints ``start <key>`` before and ``cached <key>`` after each; skips the kernels the
+    parent claims on stdin (``claim <key>``: it compiles them itself).
+    """
     try:
         os.nice(5)  # the parent's own work goes first where the cores are shared
     except (AttributeError, OSError):  # pragma: no cover
         pass
+    claimed: set[str] = set()
+    lock = threading.Lock()
+
+    def listen() -> None:
+        for line in sys.stdin:
+            word, _, key = line.strip().partition(" ")
+            if word == "claim":
+                with lock:
+                    claimed.add(key)
+
+    threading.Thread(target=listen, daemon=True).start()
     for name in argv:
         for i, (dispatcher, args, what) in enumerate(K.warmup_calls(name)):
+            key = f"{name}/{i}"
+            with lock:
+                if key in claimed:
+                    continue
+                print(f"start {key}", flush=True)
             K.prepare(dispatcher, args, what)
-            print(f"{name}/{i}", flush=True)
+            print(f"cached {key}", flush=True)
     return 0
 
 
