@@ -72,17 +72,14 @@ def full_rhs(t, y, p, u_of_t, ps_of_t, fl_of_t):
     vb = p[K.I_VB] + ab * (p[K.I_STROKE] - x)
     w0, zeta = p[K.I_OMEGA0], p[K.I_ZETA]
     force = pa * aa - pb * ab - _friction(v, p) - fl + _end_stop(x, v, p)
-    return np.array(
-        [
-            dnu,
-            w0 * w0 * (u - nu) - 2.0 * zeta * w0 * dnu,
-            _bulk(pa, p) / va * (qa - aa * v + cl * (pb - pa)),
-            _bulk(pb, p) / vb * (-qb + ab * v + cl * (pa - pb)),
-            v,
-            force / p[K.I_MASS],
-            0.0,
-        ]
-    )
+    dy = np.zeros(len(K.Y_FULL))  # the pump's P_S and the accumulator's gas stay constant here
+    dy[K.Y_FULL["spool"]] = dnu
+    dy[K.Y_FULL["spool_rate"]] = w0 * w0 * (u - nu) - 2.0 * zeta * w0 * dnu
+    dy[K.Y_FULL["p_a"]] = _bulk(pa, p) / va * (qa - aa * v + cl * (pb - pa))
+    dy[K.Y_FULL["p_b"]] = _bulk(pb, p) / vb * (-qb + ab * v + cl * (pa - pb))
+    dy[K.Y_FULL["x"]] = v
+    dy[K.Y_FULL["v"]] = force / p[K.I_MASS]
+    return dy
 
 
 def reduced_rhs(t, y, p, u_of_t, ps_of_t, fl_of_t):

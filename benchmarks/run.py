@@ -124,7 +124,9 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
             )
             y = (
                 model.initial_state()
-                + np.r_[[1e5, 0.01, 0.0] if KIND[model.name] == K.REDUCED else np.zeros(7)]
+                + np.r_[
+                    [1e5, 0.01, 0.0] if KIND[model.name] == K.REDUCED else np.zeros(len(K.Y_FULL))
+                ]
             )
             assert check_against_kernel(KIND[model.name], model.pack(0.4), sig, y) < 1e-9, name
         ref = simulate(

@@ -149,7 +149,7 @@ def n_states(kind):
 _CH0, _CH1, _CH2 = np.int64(0), np.int64(1), np.int64(2)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _inputs(t, sg):
     """Evaluate the three packed input signals u, P_S, F_L at time t.
 
@@ -162,7 +162,7 @@ def _inputs(t, sg):
     return u, ps, fl
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _input_rates(t, sg):
     """Time derivatives of the three packed inputs at t (:func:`~hydropwa.simulation.eval_signal_rate`)."""
     du = 0.0 if sg[0] == 0.0 else eval_signal_rate(sg, _CH0, t)
@@ -260,7 +260,7 @@ def rhs_full(y, u, ps_in, fl, p, dy):
         dy[Y_PS] = 0.0
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _reduced_terms(x, p):
     """Geometry of the load-pressure equation in the packed form (I_RFORM) at rod position x.
 
@@ -285,7 +285,7 @@ def _reduced_terms(x, p):
     return p[I_AB] / p[I_AA], p[I_PT], p[I_AA], cq, cl, dcq, dcl
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _load_and_mechanics(ql, ff, y, z, ps, fl, p, dy):
     """Ṗ_L, v̇, ẋ of the reduced and PWA models given the load flow Q_L and friction force.
 
@@ -302,7 +302,7 @@ def _load_and_mechanics(ql, ff, y, z, ps, fl, p, dy):
     dy[2] = v
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _load_jacobian(dql, ql, y, z, ps, ff_slope, p, J):
     """Exact ∂f/∂y of :func:`_load_and_mechanics` given ∂Q_L/∂P_L and the friction slope."""
     pl, v, x = y[0], y[1], y[2]
@@ -318,7 +318,7 @@ def _load_jacobian(dql, ql, y, z, ps, ff_slope, p, J):
     J[1, 1] -= ff_slope / p[I_MASS]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _load_input_rates(dq_du, dq_dps, y, z, ps, du, dps, dfl, p, dfdt):
     """Exact ∂f/∂t of :func:`_load_and_mechanics` given ∂Q_L/∂u, ∂Q_L/∂P_S and the input rates."""
     al, _pt, _area, cq, cl, _dcq, _dcl = _reduced_terms(y[2], p)
@@ -421,7 +421,7 @@ def _pwa_friction_cell(p, w):
     return p[s_w + nw - 1 + w], p[s_w + 2 * nw - 1 + w]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def _pwa_load_flow(pl, z, ps, pn, o, n, p):
     """PWA load flow Q_L = z·C_q − c·C_qp·P_L and ∂Q_L/∂P_L inside cells o, n.
 
