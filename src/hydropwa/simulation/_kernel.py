@@ -46,7 +46,9 @@ import math
 import os
 import time
 import warnings
+from collections.abc import Callable
 from contextlib import contextmanager
+from typing import Any
 
 import numpy as np
 from numba import njit, types
@@ -1848,7 +1850,7 @@ _warming: dict = {}
 WARMUP_WAIT = 600.0
 #: ``callback(dispatcher)`` run before a kernel missing from the disk cache compiles here
 #: (:mod:`._warmup` starts compiling the other models' kernels in the background).
-_cold_hook = None
+_cold_hook: Callable[[Any], None] | None = None
 
 
 def warmup_calls(name):
