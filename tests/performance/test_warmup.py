@@ -86,3 +86,20 @@ def test_nothing_to_compile_starts_no_process(monkeypatch):
     w = WarmUp(["full", "point"])
     assert w.names == () and not w.running and w.wait(0)
     assert "nothing to compile" in repr(w)
+
+
+def test_automatic_warm_up_starts_once_for_the_other_models(monkeypatch):
+    from hydropwa.simulation import _kernel as K
+    from hydropwa.simulation import _warmup
+
+    started = []
+    monkeypatch.setattr(_warmup, "WarmUp", lambda names: started.append(tuple(names)))
+    monkeypatch.setattr(_warmup, "_auto_started", False)
+    monkeypatch.setenv("HYDROPWA_WARMUP", "0")
+    _warmup._auto(K._integrate_full)
+    assert started == []  # turned off by the environment
+    monkeypatch.setattr(_warmup, "_auto_started", False)
+    monkeypatch.setenv("HYDROPWA_WARMUP", "1")
+    _warmup._auto(K._integrate_full)  # the first cold compile: the full model's solver
+    _warmup._auto(K._integrate_reduced)  # later ones start nothing more
+    assert started == [("reduced", "point", "pwa")]

@@ -9,12 +9,14 @@ compiling it a second time. On two cores the work and the compilation overlap.
 Started automatically (once per process) when a kernel missing from the disk cache is first
 compiled: the other open-loop models and the linearization then compile beside it. Set the
 environment variable ``HYDROPWA_WARMUP=0`` to turn that off (the command line does, except
-for the commands that use several models). The process ends with its parent.
+for the commands that use several models; worker processes of a pool or a Dask cluster never
+start one). The process ends with its parent.
 """
 
 from __future__ import annotations
 
 import atexit
+import multiprocessing
 import os
 import subprocess
 import sys
@@ -244,6 +246,8 @@ def _auto(dispatcher) -> None:
     if _auto_started or os.environ.get(ENV, "1").strip().lower() in ("0", "off", "false", "no"):
         return
     _auto_started = True
+    if multiprocessing.parent_process() is not None:
+        return  # a pool or Dask worker: its parent (or a sibling) already compiles the rest
     others = [n for n in AUTO if all(d is not dispatcher for d, _, _ in K.warmup_calls(n))]
     if others:
         WarmUp(others)
