@@ -81,11 +81,14 @@ def test_warm_up_rejects_unknown_models():
 
 def test_nothing_to_compile_starts_no_process(monkeypatch):
     from hydropwa.simulation import _kernel as K
+    from hydropwa.simulation import _warmup
 
     monkeypatch.setattr(K, "_cached_on_disk", lambda dispatcher: True)
+    monkeypatch.setattr(_warmup, "_auto_started", False)
     w = WarmUp(["full", "point"])
     assert w.names == () and not w.running and w.wait(0)
     assert "nothing to compile" in repr(w)
+    assert not _warmup._auto_started  # a later cold compile may still start the automatic one
 
 
 def test_automatic_warm_up_starts_once_for_the_other_models(monkeypatch):

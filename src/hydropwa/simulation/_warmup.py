@@ -48,7 +48,6 @@ class WarmUp:
 
     def __init__(self, names: Iterable[str]):
         global _auto_started
-        _auto_started = True  # one warm-up at a time: no automatic one beside this
         calls = {n: K.warmup_calls(n) for n in names}  # checks the names first
         # only what is not on disk yet (loading costs the process more than it saves)
         self.names = tuple(
@@ -65,6 +64,7 @@ class WarmUp:
         self._proc: subprocess.Popen | None = None
         if not self.names:
             return
+        _auto_started = True  # one warm-up at a time: no automatic one beside this
         for name in self.names:
             for i, call in enumerate(calls[name]):
                 if call[0] in K._warming:  # another warm-up has it
