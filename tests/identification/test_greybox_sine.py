@@ -7,10 +7,12 @@ friction, started 10–25 % away. Single shooting in 0.5 s segments (chosen auto
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
-from hydropwa.identification import fit_model
+from hydropwa.identification import IdentificationWarning, fit_model
 from hydropwa.models import FullOrderModel
 from hydropwa.params import get_preset
 from hydropwa.rig import Rig, RunSpec, execute, run_seed
@@ -44,7 +46,12 @@ def fits():
                     start_position=0.02,
                 )
                 runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
-        out.append(fit_model(FullOrderModel(start), runs, FREE, jobs=2, profile="none"))
+        with warnings.catch_warnings():
+            # a fit that stops short of its optimum (seed 4 or 5 on some machines, 1.1-1.5 std)
+            # warns, lists it in identifiability_.unconverged and adds that step to the
+            # variance: the tests below judge its estimates and intervals like the others'
+            warnings.simplefilter("ignore", IdentificationWarning)
+            out.append(fit_model(FullOrderModel(start), runs, FREE, jobs=2, profile="none"))
     return truth, out
 
 
