@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from ident_support import constant_input_runs, hinge_velocity
 
+from hydropwa import IdentificationError
 from hydropwa.identification import (
     DeadZoneIdentifier,
     RigGeometry,
@@ -42,6 +43,49 @@ def test_asymmetric_band_and_continuous_variant():
     assert fit.beta_neg.value == pytest.approx(0.09, abs=1e-3)
     assert fit.beta.value == pytest.approx(0.10, abs=1e-3)
     assert fit.gain_neg.value == pytest.approx(0.45, rel=1e-3)
+
+
+def _leaky_points(seed, c_l, noise=2e-5):
+    """Hinge points plus the leakage velocity −C_L·r of a load pressure that changes per run.
+
+    r = (P_A − P_B)/A_in [Pa/m²] between −40 and −10 bar over 20/30 cm² (as the industrial
+    axis's retracting and extending runs), growing with the opening.
+    """
+    rng = np.random.default_rng(seed)
+    u = LEVELS
+    dp = -(10e5 + 30e5 * np.abs(u) / 0.2) * np.where(u >= 0, 1.0, 1.4)
+    r = dp / np.where(u >= 0, 31e-4, 21e-4)
+    v = dead_zone_velocity(u, 0.5, 0.45, 0.05, 0.05, 0.0) - c_l * r
+    return u, v + noise * rng.standard_normal(u.size), r
+
+
+def test_leakage_regressor_recovers_the_leakage_and_the_band():
+    """v = hinge(u) − C_L·r is linear in C_L for each split: C_L, β± and the intervals are exact
+    up to the 0.02 mm/s noise. Without the regressor the same points shift β by over 0.005."""
+    c_l = 4e-12
+    hits = 0
+    for seed in range(1, 21):
+        u, v, r = _leaky_points(seed, c_l)
+        fit = fit_dead_zone(u, v, leakage_regressor=r)
+        assert fit.leakage is not None
+        assert fit.leakage.value == pytest.approx(c_l, rel=0.05)
+        assert fit.beta_pos.value == pytest.approx(0.05, abs=1e-3)
+        assert fit.beta_neg.value == pytest.approx(0.05, abs=1e-3)
+        hits += fit.leakage.ci[0] <= c_l <= fit.leakage.ci[1]
+    assert hits >= 16  # 95 % intervals: fewer than 16 of 20 has probability < 2 %
+    blind = fit_dead_zone(u, v, drift=False)
+    assert abs(blind.beta_neg.value - 0.05) > 0.005
+
+
+def test_leakage_is_never_negative():
+    """Without leakage in the data the estimate sits at its bound 0 with an interval [0, hi]."""
+    u, v, r = _leaky_points(1, 0.0)
+    fit = fit_dead_zone(u, v + 0.5e-12 * r, leakage_regressor=r)  # would fit C_L = −0.5e-12
+    assert fit.leakage.value == 0.0
+    assert fit.leakage.ci[0] == 0.0 < fit.leakage.ci[1]
+    assert fit.beta.value == pytest.approx(0.05, abs=2e-3)
+    with pytest.raises(IdentificationError, match="one finite value per point"):
+        fit_dead_zone(u, v, leakage_regressor=r[:-1])
 
 
 def test_velocity_from_position_drops_the_end_stop():

@@ -209,11 +209,15 @@ class DeadZoneFit:
         Number of velocity points.
     continuous : bool
         Model variant fitted.
-    covariance : ndarray, shape (7, 7)
-        Covariance of (g₊, g₋, β₊, β₋, c, d₊, d₋); rows of a drift that was not fitted are 0.
+    covariance : ndarray, shape (8, 8)
+        Covariance of (g₊, g₋, β₊, β₋, c, d₊, d₋, C_L); rows of a term that was not
+        fitted are 0.
     drift_pos, drift_neg : ParameterEstimate
         Velocity not proportional to the opening [m/s] for u ≥ 0 and u < 0 (piston leakage
         under the load); exactly 0 with std 0 where it was not fitted.
+    leakage : ParameterEstimate or None
+        Piston leakage coefficient C_L [m³/(s·Pa)] when the fit was given the chamber
+        pressures (``leakage_regressor``); ``None`` otherwise.
     status : OptimizerStatus
         The search: every split of the commands, each a linear least-squares solve
         (``nfev`` = splits tried); always converged, the optimum is global.
@@ -232,6 +236,7 @@ class DeadZoneFit:
     covariance: np.ndarray
     drift_pos: ParameterEstimate | None = None
     drift_neg: ParameterEstimate | None = None
+    leakage: ParameterEstimate | None = None
     status: OptimizerStatus = dataclasses.field(
         default_factory=lambda: OptimizerStatus.closed_form("given")
     )
@@ -266,11 +271,14 @@ class DeadZoneFit:
         )
 
 
-def _design(u, bp, bn, continuous, sides):
-    """Design matrix in (g₊, g₋, c, d₊, d₋) for fixed band edges; ``sides`` = (fit d₊, fit d₋)."""
+def _design(u, bp, bn, continuous, sides, r=None):
+    """Design matrix in (g₊, g₋, c, d₊, d₋, C_L) for fixed band edges; ``sides`` = (fit d₊, fit d₋).
+
+    ``r`` is the leakage regressor (P_A − P_B)/A_in per point; without it the C_L column is 0.
+    """
     pos, neg = u > bp, u < -bn
     inner = ~(pos | neg)
-    X = np.zeros((u.size, 5))
+    X = np.zeros((u.size, 6))
     X[pos, 0] = u[pos] - bp
     X[neg, 1] = u[neg] + bn
     X[inner, 2] = u[inner]
@@ -281,21 +289,23 @@ def _design(u, bp, bn, continuous, sides):
         X[u >= 0, 3] = 1.0
     if sides[1]:
         X[u < 0, 4] = 1.0
+    if r is not None:
+        X[:, 5] = -r
     return X
 
 
-def _fixed_beta_fit(u, v, bp, bn, continuous, sides=(False, False)):
-    """Slopes and drifts by linear least squares for fixed band edges; returns θ and the cost.
+def _fixed_beta_fit(u, v, bp, bn, continuous, sides=(False, False), r=None):
+    """Slopes, drifts and leakage by linear least squares for fixed band edges; returns θ and the cost.
 
-    θ = (g₊, g₋, β₊, β₋, c, d₊, d₋).
+    θ = (g₊, g₋, β₊, β₋, c, d₊, d₋, C_L).
     """
-    X = _design(u, bp, bn, continuous, sides)
+    X = _design(u, bp, bn, continuous, sides, r)
     coef, *_ = np.linalg.lstsq(X, v, rcond=None)
-    theta = np.array([coef[0], coef[1], bp, bn, coef[2], coef[3], coef[4]])
+    theta = np.array([coef[0], coef[1], bp, bn, coef[2], coef[3], coef[4], coef[5]])
     return theta, float(np.sum((X @ coef - v) ** 2))
 
 
-def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift):
+def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift, r=None):
     """Best hinge fit with the first ``k_pos`` positive and ``k_neg`` negative commands inside the band.
 
     For a fixed split the model is linear in (g₊, a₊, g₋, a₋, c, d₊, d₋) with the outer lines
@@ -311,7 +321,7 @@ def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift):
     pos, neg = u >= hi_p, u <= -hi_n
     inner = ~(pos | neg)
     sides = (drift and bool(np.any(inner & (u >= 0))), drift and bool(np.any(inner & (u < 0))))
-    X = np.zeros((u.size, 7))
+    X = np.zeros((u.size, 8))
     X[pos, 0], X[pos, 1] = u[pos], 1.0
     X[neg, 2], X[neg, 3] = u[neg], 1.0
     X[inner, 4] = u[inner]
@@ -319,19 +329,26 @@ def _split_fit(u, v, k_pos, k_neg, up, un, continuous, drift):
         X[inner & (u >= 0), 5] = 1.0
     if sides[1]:
         X[inner & (u < 0), 6] = 1.0
+    if r is not None:
+        X[:, 7] = -r
     coef, *_ = np.linalg.lstsq(X, v, rcond=None)
-    gp, ap, gn, an, c, dp, dn = coef
+    gp, ap, gn, an, c, dp, dn, _ = coef
     with np.errstate(divide="ignore", invalid="ignore"):
         bp = (ap - dp) / (c - gp) if continuous else (dp - ap) / gp
         bn = -(an - dn) / (c - gn) if continuous else (an - dn) / gn
     bp = float(np.clip(np.nan_to_num(bp, nan=lo_p), lo_p, hi_p * (1 - 1e-9)))
     bn = float(np.clip(np.nan_to_num(bn, nan=lo_n), lo_n, hi_n * (1 - 1e-9)))
-    theta, cost = _fixed_beta_fit(u, v, bp, bn, continuous, sides)
+    theta, cost = _fixed_beta_fit(u, v, bp, bn, continuous, sides, r)
     return theta, cost, sides
 
 
 def fit_dead_zone(
-    u, v, continuous: bool = False, level: float = 0.95, drift: bool = True
+    u,
+    v,
+    continuous: bool = False,
+    level: float = 0.95,
+    drift: bool = True,
+    leakage_regressor=None,
 ) -> DeadZoneFit:
     """Fit the hinge model to velocity-against-command points (Sec. VI-B, Fig. 6).
 
@@ -349,6 +366,13 @@ def fit_dead_zone(
         Fit a velocity per direction that does not depend on the opening (piston leakage
         under the load). Without it, leakage under load reads as valve creep and an
         asymmetric band (issue 18).
+    leakage_regressor : array_like, shape (K,), optional
+        r = (P̄_A − P̄_B)/A_in per point [Pa/m²]: the chamber pressures averaged over the
+        velocity window and the meter-in area (A_A for u ≥ 0, A_B for u < 0). With it the
+        piston leakage C_L [m³/(s·Pa)] is fitted as its own parameter, v = hinge(u) − C_L·r
+        (Eq. (6): the leakage flow C_L·(P_A − P_B) leaves the meter-in chamber), so a
+        leakage that changes with the load pressure of each run is not read as creep or
+        as a shifted band edge. See :func:`leakage_regressor`.
 
     Returns
     -------
@@ -379,15 +403,38 @@ def fit_dead_zone(
         )
     up = np.unique(u[u > 0])
     un = np.unique(-u[u < 0])
-    best, best_cost, best_sides = None, np.inf, (False, False)
-    n_splits = 0
-    for kp in range(up.size - 1):
-        for kn in range(un.size - 1):
-            n_splits += 1
-            theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift)
-            if cost < best_cost * (1 - 1e-12):
-                best, best_cost, best_sides = theta, cost, sides
-    assert best is not None
+    r, r_scale = None, 1.0
+    if leakage_regressor is not None:
+        r = np.asarray(leakage_regressor, dtype=float)
+        if r.shape != u.shape or not np.all(np.isfinite(r)):
+            raise IdentificationError(
+                "leakage_regressor needs one finite value per point (chamber pressures over the "
+                "velocity window); leave it out to fit without a leakage term"
+            )
+        # C_L·r is m/s while r is ~1e9 Pa/m²: fit C_L·r_scale against r/r_scale so that the
+        # SVD of the Jacobian sees every column at the same scale
+        r_scale = float(np.max(np.abs(r))) or 1.0
+        r = r / r_scale
+
+    def search(reg):
+        best, best_cost, best_sides = None, np.inf, (False, False)
+        n = 0
+        for kp in range(up.size - 1):
+            for kn in range(un.size - 1):
+                n += 1
+                theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift, reg)
+                if cost < best_cost * (1 - 1e-12):
+                    best, best_cost, best_sides = theta, cost, sides
+        assert best is not None
+        return best, best_sides, n
+
+    best, best_sides, n_splits = search(r)
+    if r is not None and best[7] < 0:
+        # leakage cannot be negative: the constrained optimum has C_L = 0 (its interval, from
+        # the Jacobian with the C_L column, still says how much leakage the data allow)
+        best, best_sides, n_more = search(None)
+        n_splits += n_more
+    leak_v = 0.0 if r is None else best[7] * r
     resid = (
         dead_zone_velocity(
             u,
@@ -400,20 +447,23 @@ def fit_dead_zone(
             drift_pos=best[5],
             drift_neg=best[6],
         )
+        - leak_v
         - v
     )
-    jac = _hinge_jacobian(u, best, continuous)
+    jac = _hinge_jacobian(u, best, continuous, r)
     free = [0, 1, 2, 3, 4] + [5 + i for i, on in enumerate(best_sides) if on]
-    cov = np.zeros((7, 7))
+    if r is not None:
+        free.append(7)
+    cov = np.zeros((8, 8))
     cov[np.ix_(free, free)] = sandwich_covariance(jac[:, free], resid)
     q = t_quantile(level, u.size - len(free))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    gp, gn, bp, bn, c, dp, dn = best
+    gp, gn, bp, bn, c, dp, dn, cl = best
     beta = 0.5 * (bp + bn)
     beta_sd = 0.5 * np.sqrt(max(cov[2, 2] + cov[3, 3] + 2 * cov[2, 3], 0.0))
     gbar = 0.5 * (gp + gn)
     kg = c / gbar
-    grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar, 0.0, 0.0])
+    grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar, 0.0, 0.0, 0.0])
     kg_sd = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
     return DeadZoneFit(
         beta=estimate(beta, beta_sd, q, "1", level),
@@ -429,6 +479,9 @@ def fit_dead_zone(
         covariance=cov,
         drift_pos=estimate(dp, sd[5], q, "m/s", level),
         drift_neg=estimate(dn, sd[6], q, "m/s", level),
+        leakage=None
+        if r is None
+        else _nonnegative(estimate(cl / r_scale, sd[7] / r_scale, q, "m**3/(s*Pa)", level)),
         status=OptimizerStatus(
             True,
             f"global optimum of {n_splits} band splits (linear least squares each)",
@@ -438,12 +491,17 @@ def fit_dead_zone(
     )
 
 
-def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool) -> np.ndarray:
-    """Analytic Jacobian of :func:`dead_zone_velocity` in (g₊, g₋, β₊, β₋, c, d₊, d₋)."""
+def _nonnegative(est: ParameterEstimate) -> ParameterEstimate:
+    """``est`` with its interval cut at 0 (a leakage coefficient is never negative)."""
+    return dataclasses.replace(est, ci=(max(est.ci[0], 0.0), max(est.ci[1], 0.0)))
+
+
+def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool, r=None) -> np.ndarray:
+    """Analytic Jacobian of v = hinge(u) − C_L·r in (g₊, g₋, β₊, β₋, c, d₊, d₋, C_L)."""
     gp, gn, bp, bn, c = th[:5]
     pos, neg = u > bp, u < -bn
     inner = ~(pos | neg)
-    J = np.zeros((u.size, 7))
+    J = np.zeros((u.size, 8))
     J[pos, 0] = u[pos] - bp
     J[neg, 1] = u[neg] + bn
     J[pos, 2] = -gp + (c if continuous else 0.0)
@@ -454,6 +512,8 @@ def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool) -> np.ndarr
         J[neg, 4] = -bn
     J[u >= 0, 5] = 1.0
     J[u < 0, 6] = 1.0
+    if r is not None:
+        J[:, 7] = -r
     return J
 
 
@@ -473,6 +533,11 @@ class DeadZoneIdentifier:
     drift : bool
         Fit a velocity per direction that does not come from the valve (piston leakage
         under the load), so it does not read as valve creep (see :func:`fit_dead_zone`).
+    leakage : bool or None
+        Fit the piston leakage C_L as its own parameter from the chamber pressures over
+        each run's velocity window (``leakage_regressor`` of :func:`fit_dead_zone`).
+        ``None`` (default): whenever every used run logs ``p_a`` and ``p_b`` and the
+        areas are known; ``True`` makes a missing pressure channel an error.
     level : float
         Confidence level [1].
     stop_margin : float
@@ -485,7 +550,12 @@ class DeadZoneIdentifier:
     Attributes
     ----------
     points_ : pandas.DataFrame
-        One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std`` [m/s], ``rms_residual`` [m].
+        One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std`` [m/s],
+        ``rms_residual`` [m], ``hit_stop``, and ``p_a``, ``p_b`` [Pa] (means over the
+        velocity window; NaN where not logged).
+    leakage_ : ParameterEstimate or None
+        Piston leakage C_L [m³/(s·Pa)] seen by the fit (``None`` when not fitted). It is
+        reported, not applied: the cylinder's leakage stays that of ``params``.
     fit_ : DeadZoneFit
         The hinge fit, with its intervals and ``status``.
     beta_ : ParameterEstimate
@@ -516,15 +586,18 @@ class DeadZoneIdentifier:
         geometry: RigGeometry | None = None,
         continuous: bool | None = None,
         drift: bool = True,
+        leakage: bool | None = None,
         level: float = 0.95,
         stop_margin: float = 1e-3,
         settle: float = 0.05,
         min_duration: float = 0.1,
     ) -> None:
-        self.geometry = resolve_geometry("DeadZoneIdentifier", params, geometry, ("stroke",))
+        needs = ("stroke", "area_a", "area_b") if leakage else ("stroke",)
+        self.geometry = resolve_geometry("DeadZoneIdentifier", params, geometry, needs)
         self.params = params
         self.continuous = continuous
         self.drift = drift
+        self.leakage = leakage
         self.level = level
         self.stop_margin = stop_margin
         self.settle = settle
@@ -578,6 +651,7 @@ class DeadZoneIdentifier:
                     "v_std": est.std,
                     "rms_residual": est.rms_residual,
                     "hit_stop": est.hit_stop,
+                    **_window_pressures(run, ch["t"], est.window),
                 }
             )
         require_usable(rows, skipped, "dead-zone identification", minimum=7)
@@ -587,9 +661,16 @@ class DeadZoneIdentifier:
             continuous = bool(self.continuous)
         else:
             continuous = self.params.dead_zone.continuous if self.params is not None else False
+        u = pts["u"].to_numpy()
         self.fit_ = fit_dead_zone(
-            pts["u"].to_numpy(), pts["v"].to_numpy(), continuous, self.level, self.drift
+            u,
+            pts["v"].to_numpy(),
+            continuous,
+            self.level,
+            self.drift,
+            self._leakage_regressor(u, pts["p_a"].to_numpy(), pts["p_b"].to_numpy()),
         )
+        self.leakage_ = self.fit_.leakage
         alpha = self.params.dead_zone.alpha if self.params is not None else 1.0
         self.dead_zone_ = self.fit_.dead_zone(alpha)
         self.beta_ = self.fit_.beta
@@ -597,6 +678,22 @@ class DeadZoneIdentifier:
         self.status_ = self.fit_.status
         self.skipped_ = skipped
         return self
+
+    def _leakage_regressor(self, u, p_a, p_b) -> np.ndarray | None:
+        """(P̄_A − P̄_B)/A_in per point, or ``None`` when the leakage is not fitted."""
+        geo = self.geometry
+        have = bool(np.all(np.isfinite(p_a) & np.isfinite(p_b)))
+        if self.leakage is False or (
+            self.leakage is None and (not have or geo.area_a is None or geo.area_b is None)
+        ):
+            return None
+        if not have:
+            raise IdentificationError(
+                "DeadZoneIdentifier(leakage=True) needs p_a and p_b in every constant-input "
+                "run; map the pressure channels or pass leakage=False"
+            )
+        assert geo.area_a is not None and geo.area_b is not None
+        return (p_a - p_b) / np.where(u >= 0, geo.area_a, geo.area_b)
 
     def apply(self, params: SystemParams) -> SystemParams:
         """``params`` with the fitted β, k_g and form; α (saturation) stays that of ``params``."""
@@ -615,6 +712,11 @@ class DeadZoneIdentifier:
             else f"; drift (leakage, load) {1e3 * fit.drift_pos.value:.3g} / "
             f"{1e3 * fit.drift_neg.value:.3g} mm/s for u ≥ 0 / u < 0, kept out of the creep"
         )
+        if fit.leakage is not None:
+            drift += (
+                f"; piston leakage {fit.leakage.value:.3g} m³/(s·Pa) fitted from the chamber "
+                "pressures (reported, not applied)"
+            )
         return (
             f"Sec. VI-B: {len(self.points_)} constant-input runs, "
             f"{'continuous' if fit.continuous else 'Table IV (discontinuous)'} hinge fit; "
@@ -638,8 +740,23 @@ class DeadZoneIdentifier:
                 if f.drift_pos is not None and f.drift_neg is not None
                 else {}
             ),
+            **({"leakage": f.leakage.to_dict()} if f.leakage is not None else {}),
             "optimizer": dataclasses.asdict(f.status),
         }
+
+
+def _window_pressures(run, t: np.ndarray, window: tuple[float, float]) -> dict[str, float]:
+    """Chamber pressures [Pa] averaged over the velocity window (NaN where not logged)."""
+    out = {}
+    for name in ("p_a", "p_b"):
+        val = np.nan
+        if name in run.channels:
+            y = np.asarray(run.channels[name], dtype=float)
+            w = (t >= window[0]) & (t <= window[1]) & np.isfinite(y)
+            if y.shape == t.shape and np.any(w):
+                val = float(np.mean(y[w]))
+        out[name] = val
+    return out
 
 
 def command_level(run) -> float | None:

@@ -424,6 +424,7 @@ def _summary(rep: IdentificationReport) -> str:
             ("outer gain −", dz.gain_neg),
             ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
             ("drift u < 0 (leakage, load)", dz.drift_neg),
+            ("piston leakage C_L seen by the fit (not applied)", dz.leakage),
         ):
             if e is None:
                 continue
