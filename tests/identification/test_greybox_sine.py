@@ -99,3 +99,45 @@ def test_interval_coverage_no_worse_than_measured(fits):
 def test_truth_inside_95_percent_interval_for_90_percent(fits):
     """The issue's aim: at least 90 % of the 95 % intervals hold the truth."""
     assert np.mean(_inside(fits)) >= 0.9
+
+
+STICK_FREE = FREE + ("friction.coulomb", "friction.static")
+STICK_START = {**START, "friction.coulomb": 1.3, "friction.static": 0.85}
+
+
+@pytest.mark.slow
+def test_coulomb_and_static_friction_found_from_sine_runs():
+    """Six free parameters, F_c started +30 % and F_s −15 % away (the benchmark's fit, 2 s runs).
+
+    The single-shooting cost is a narrow well in F_s on a plateau (a stick at a reversal shifts
+    the phase of the rest of the segment): from this start the fit without the locating stage
+    ended at F_c +48 %, F_s −20 % (benchmark, cost 3.2× that at the truth). The multiple-
+    shooting locating stage finds the well; measured here F_c +5.5 %, F_s −0.2 %, σ −1.2 %, the
+    hydraulic parameters within 0.1 % (benchmark, 5 s runs, seeds 1–2: F_c −5.2 … +2.2 %,
+    F_s +0.1 … +0.2 %). Bounds: the issue's 10 % for F_c and F_s, 3 % for σ and 1 % for the
+    hydraulic parameters (as the test above).
+    """
+    truth = get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
+    rig = Rig(params=truth)
+    runs = []
+    for f in (1.0, 2.0, 3.0):
+        for a in (0.2, 0.4, 0.6):
+            spec = RunSpec(
+                name=f"sine_f{f:g}_a{round(100 * a)}",
+                experiment="sine",
+                command=Sine(amplitude=a, frequency=f),
+                duration=2.0,
+                start_position=0.02,
+            )
+            runs.append(execute(rig, spec, run_seed(1, "sine", spec.name)))
+    start = truth.replace(**{n: STICK_START[n] * _value(truth, n) for n in STICK_FREE})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentificationWarning)
+        fit = fit_model(FullOrderModel(start), runs, STICK_FREE, jobs=2, profile="none")
+    assert fit.starts_[0]["locate_evaluations"] > 0
+    for n in STICK_FREE:
+        tol = {"friction.coulomb": 0.10, "friction.static": 0.10, "friction.viscous": 0.03}.get(
+            n, 0.01
+        )
+        print(n, f"{100 * (fit.estimates_[n].value / _value(truth, n) - 1):+.2f} %")
+        assert fit.estimates_[n].value == pytest.approx(_value(truth, n), rel=tol), n
