@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 
+import numba
 import pytest
 
 from hydropwa import _jitcache
@@ -106,3 +107,17 @@ def test_automatic_warm_up_starts_once_for_the_other_models(monkeypatch):
     _warmup._auto(K._integrate_full)  # the first cold compile: the full model's solver
     _warmup._auto(K._integrate_reduced)  # later ones start nothing more
     assert started == [("reduced", "point", "pwa")]
+
+
+def test_output_pass_alone_can_be_warmed_up():
+    """``output-<model>``: the output pass only, the call ``outputs`` makes (the CLI's
+    ``simulate`` compiles it in the background while it compiles the solver itself)."""
+    from hydropwa.simulation import _kernel as K
+
+    for model, kind in (("full", K.FULL), ("reduced", K.REDUCED), ("pwa", K.PWA)):
+        calls = K.warmup_calls(f"output-{model}")
+        assert [c[0] for c in calls] == [K.OUTPUTS[kind]]
+        own = K.warmup_calls(model)[1]  # the model's own output call: the same signature
+        assert own[0] is calls[0][0]
+        assert [numba.typeof(a) for a in own[1]] == [numba.typeof(a) for a in calls[0][1]]
+    assert "output-full" in K.WARMUP_NAMES

@@ -159,6 +159,7 @@ def simulate_command(
     )
     from ..simulation import (  # deferred: loaded only when this command runs (a fast --help)
         Sampled,
+        WarmUp,
         simulate,
     )
 
@@ -213,6 +214,9 @@ def simulate_command(
         mdl = linearize(prm, scheduled=supply_pressure is not None)
     else:
         mdl = as_model(model, prm)
+    # on a fresh install, the output pass compiles on the other core while this process
+    # compiles the solver (nothing starts when it is cached)
+    WarmUp([f"output-{model}"])
     res = simulate(
         mdl,
         u,

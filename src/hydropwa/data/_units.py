@@ -7,11 +7,14 @@ This module is the only place of the data layer that talks to pint.
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pint
 
 from hydropwa._errors import DataError
+
+if TYPE_CHECKING:
+    import pint
 
 __all__ = ["CANONICAL_UNITS", "si_unit_for", "to_si", "from_si", "convert_units", "normalize_unit"]
 
@@ -50,12 +53,24 @@ _PREFERRED_SI = (
     "N*s/m",
 )
 
+#: Units known to be valid without asking pint (a conversion between equal ones is the identity).
+_KNOWN_SI = frozenset(CANONICAL_UNITS.values()) | frozenset(_PREFERRED_SI)
+
 # Spellings that pint does not read, or reads differently from what engineers mean.
 _ALIASES = {"": "1", "-": "1", "1": "1", "%": "percent", "lpm": "L/min", "l/min": "L/min"}
 
 
+def _pint_errors():
+    """pint's error classes (pint is imported by then: the registry was built)."""
+    import pint  # deferred: see _registry
+
+    return pint.errors
+
+
 @functools.lru_cache(maxsize=1)
 def _registry() -> pint.UnitRegistry:
+    import pint  # deferred: pint costs ~0.3 s at import; SI channels never need it
+
     # pint's on-disk cache of its parsed definitions (in the user's cache folder) cuts the
     # registry's construction from ~0.15 s to ~0.05 s; without a writable folder, parse afresh
     try:
@@ -146,6 +161,8 @@ def convert_units(values, from_unit: str, to_unit: str, where: str = "") -> np.n
     """
     where = where or "unit conversion"
     arr = np.asarray(values, dtype=float)
+    if from_unit == to_unit and from_unit in _KNOWN_SI:
+        return arr  # SI to the same SI unit: nothing to convert, and no pint to load
     src = _pint_unit(from_unit, where)
     dst = _pint_unit(to_unit, where)
     if src.dimensionality != dst.dimensionality:
@@ -162,7 +179,7 @@ def convert_units(values, from_unit: str, to_unit: str, where: str = "") -> np.n
             factor = float(ureg.Quantity(1.0, src).to(dst).magnitude)
             inverse = float(ureg.Quantity(1.0, dst).to(src).magnitude)
             zero = float(ureg.Quantity(0.0, src).to(dst).magnitude)
-        except pint.errors.OffsetUnitCalculusError:  # pragma: no cover - pint version dependent
+        except _pint_errors().OffsetUnitCalculusError:  # pragma: no cover - pint version dependent
             zero = float("nan")
         if zero == 0.0:
             if factor == 1.0:
@@ -172,7 +189,7 @@ def convert_units(values, from_unit: str, to_unit: str, where: str = "") -> np.n
             with np.errstate(over="ignore", under="ignore", invalid="ignore"):
                 return arr * factor if abs(factor) >= 1.0 else arr / inverse
         return np.asarray(ureg.Quantity(arr, src).to(dst).magnitude, dtype=float)
-    except (OverflowError, ZeroDivisionError, pint.errors.PintError) as exc:
+    except (OverflowError, ZeroDivisionError, _pint_errors().PintError) as exc:
         raise DataError(
             f"{where}: cannot convert {from_unit!r} to {to_unit!r} ({exc}); "
             "hint: declare a physical unit such as bar, mm or K"

@@ -936,7 +936,6 @@ def _factor(kind, J, W, piv, hg):
     nogil=True,
     error_model="numpy",
     fastmath={"contract", "arcp", "nsz"},
-    inline="always",
     **NO_REFCOUNT,
 )
 def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
@@ -1858,7 +1857,9 @@ def warmup_calls(name):
 
     ``name``: ``"full"``, ``"reduced"``, ``"pwa"`` (the open-loop solver with the default
     method and the model's output pass), ``"closed-<model>"`` (the closed-loop solver) or
-    ``"point"`` (the linearization's point derivatives and the PWA load flow). The
+    ``"point"`` (the linearization's point derivatives and the PWA load flow) or
+    ``"output-<model>"`` (the output pass alone: a first ``simulate`` compiles the solver
+    while the background process compiles the output pass it needs next). The
     arguments are placeholders of exactly the types :func:`integrate`,
     :func:`integrate_closed_loop`, :func:`outputs` and :func:`point_derivatives` pass, so
     the compiled code is what they load.
@@ -1872,13 +1873,15 @@ def warmup_calls(name):
             (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
             (_point_reduced, args, "linearization"),
         ]
-    model = name.removeprefix("closed-")
+    model = name.removeprefix("closed-").removeprefix("output-")
     if model not in kinds:
         raise ValueError(f"unknown kernel {name!r}; choose from {', '.join(WARMUP_NAMES)}")
     kind = kinds[model]
     if name.startswith("closed-"):
         args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, z)
         return [(_CLOSED[kind], args, f"closed-loop {_KIND_NAMES[kind]} model")]
+    if name.startswith("output-"):
+        return [(OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output")]
     args = _open_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, True, True, True)
     return [
         (_ENTRY[kind], args, f"{_KIND_NAMES[kind]} model"),
@@ -1887,7 +1890,18 @@ def warmup_calls(name):
 
 
 #: The names :func:`warmup_calls` takes.
-WARMUP_NAMES = ("full", "reduced", "pwa", "point", "closed-full", "closed-reduced", "closed-pwa")
+WARMUP_NAMES = (
+    "full",
+    "reduced",
+    "pwa",
+    "point",
+    "closed-full",
+    "closed-reduced",
+    "closed-pwa",
+    "output-full",
+    "output-reduced",
+    "output-pwa",
+)
 
 
 def set_compile_notice(callback):

@@ -8,9 +8,10 @@ compiling it a second time. On two cores the work and the compilation overlap.
 
 Started automatically (once per process) when a kernel missing from the disk cache is first
 compiled: the other open-loop models and the linearization then compile beside it. Set the
-environment variable ``HYDROPWA_WARMUP=0`` to turn that off (the command line does, except
-for the commands that use several models; worker processes of a pool or a Dask cluster never
-start one). The process ends with its parent.
+environment variable ``HYDROPWA_WARMUP=0`` to turn that off (the command line does, and
+starts its own where it pays: ``simulate`` compiles the output pass beside the solver, the
+commands that use several models their models; worker processes of a pool or a Dask cluster
+never start one). The process ends with its parent.
 """
 
 from __future__ import annotations
@@ -240,10 +241,15 @@ def warm_up(
     return w
 
 
+def env_disabled() -> bool:
+    """Whether ``HYDROPWA_WARMUP`` turns background compilation off (``0``, ``off``, ...)."""
+    return os.environ.get(ENV, "1").strip().lower() in ("0", "off", "false", "no")
+
+
 def _auto(dispatcher) -> None:
     """:data:`~._kernel._cold_hook`: warm up the other models beside the first cold compile."""
     global _auto_started
-    if _auto_started or os.environ.get(ENV, "1").strip().lower() in ("0", "off", "false", "no"):
+    if _auto_started or env_disabled():
         return
     _auto_started = True
     if multiprocessing.parent_process() is not None:
