@@ -370,9 +370,9 @@ def fit_dead_zone(
         r = (P̄_A − P̄_B)/A_in per point [Pa/m²]: the chamber pressures averaged over the
         velocity window and the meter-in area (A_A for u ≥ 0, A_B for u < 0). With it the
         piston leakage C_L [m³/(s·Pa)] is fitted as its own parameter, v = hinge(u) − C_L·r
-        (Eq. (6): the leakage flow C_L·(P_A − P_B) leaves the meter-in chamber), so a
+        (Eq. (9): the leakage flow C_L·(P_A − P_B) leaves the meter-in chamber), so a
         leakage that changes with the load pressure of each run is not read as creep or
-        as a shifted band edge. See :func:`leakage_regressor`.
+        as a shifted band edge. :class:`DeadZoneIdentifier` forms it from the runs.
 
     Returns
     -------
