@@ -28,6 +28,22 @@ def _value(params, name):
     return getattr(getattr(params, comp), fld)
 
 
+def _sine_runs(rig, seed):
+    """The nine sine runs (1, 2, 3 Hz × 20, 40, 60 %) of 2 s from 2 cm, measured by ``rig``."""
+    runs = []
+    for f in (1.0, 2.0, 3.0):
+        for a in (0.2, 0.4, 0.6):
+            spec = RunSpec(
+                name=f"sine_f{f:g}_a{round(100 * a)}",
+                experiment="sine",
+                command=Sine(amplitude=a, frequency=f),
+                duration=2.0,
+                start_position=0.02,
+            )
+            runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
+    return runs
+
+
 @pytest.fixture(scope="module")
 def fits():
     truth = get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
@@ -35,17 +51,7 @@ def fits():
     start = truth.replace(**{n: START[n] * _value(truth, n) for n in FREE})
     out = []
     for seed in SEEDS:
-        runs = []
-        for f in (1.0, 2.0, 3.0):
-            for a in (0.2, 0.4, 0.6):
-                spec = RunSpec(
-                    name=f"sine_f{f:g}_a{round(100 * a)}",
-                    experiment="sine",
-                    command=Sine(amplitude=a, frequency=f),
-                    duration=2.0,
-                    start_position=0.02,
-                )
-                runs.append(execute(rig, spec, run_seed(seed, "sine", spec.name)))
+        runs = _sine_runs(rig, seed)
         with warnings.catch_warnings():
             # a fit that stops short of its optimum (seed 4 or 5 on some machines, 1.1-1.5 std)
             # warns, lists it in identifiability_.unconverged and adds that step to the
@@ -118,18 +124,7 @@ def test_coulomb_and_static_friction_found_from_sine_runs():
     hydraulic parameters (as the test above).
     """
     truth = get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
-    rig = Rig(params=truth)
-    runs = []
-    for f in (1.0, 2.0, 3.0):
-        for a in (0.2, 0.4, 0.6):
-            spec = RunSpec(
-                name=f"sine_f{f:g}_a{round(100 * a)}",
-                experiment="sine",
-                command=Sine(amplitude=a, frequency=f),
-                duration=2.0,
-                start_position=0.02,
-            )
-            runs.append(execute(rig, spec, run_seed(1, "sine", spec.name)))
+    runs = _sine_runs(Rig(params=truth), 1)
     start = truth.replace(**{n: STICK_START[n] * _value(truth, n) for n in STICK_FREE})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentificationWarning)
@@ -139,5 +134,4 @@ def test_coulomb_and_static_friction_found_from_sine_runs():
         tol = {"friction.coulomb": 0.10, "friction.static": 0.10, "friction.viscous": 0.03}.get(
             n, 0.01
         )
-        print(n, f"{100 * (fit.estimates_[n].value / _value(truth, n) - 1):+.2f} %")
         assert fit.estimates_[n].value == pytest.approx(_value(truth, n), rel=tol), n

@@ -242,7 +242,11 @@ class DeadZoneFit:
     )
 
     def velocity(self, u) -> np.ndarray:
-        """Fitted velocity [m/s] at command ``u`` [1]."""
+        """Fitted velocity [m/s] at command ``u`` [1]: the hinge with its drift.
+
+        The leakage term −C_L·r depends on each run's chamber pressures, not on ``u``, so
+        it is not part of this curve (compare with ``points_["v_valve"]`` of the identifier).
+        """
         dp = self.drift_pos.value if self.drift_pos is not None else 0.0
         dn = self.drift_neg.value if self.drift_neg is not None else 0.0
         return dead_zone_velocity(
@@ -552,7 +556,9 @@ class DeadZoneIdentifier:
     points_ : pandas.DataFrame
         One row per used run: ``run``, ``u`` [1], ``v`` [m/s], ``v_std`` [m/s],
         ``rms_residual`` [m], ``hit_stop``, and ``p_a``, ``p_b`` [Pa] (means over the
-        velocity window; NaN where not logged).
+        velocity window; NaN where not logged). With the leakage fitted also ``v_valve``
+        [m/s]: v + C_L·r, the velocity with the fitted leakage flow removed, which is what
+        ``fit_.velocity(u)`` describes.
     leakage_ : ParameterEstimate or None
         Piston leakage C_L [m³/(s·Pa)] seen by the fit (``None`` when not fitted). It is
         reported, not applied: the cylinder's leakage stays that of ``params``.
@@ -662,15 +668,12 @@ class DeadZoneIdentifier:
         else:
             continuous = self.params.dead_zone.continuous if self.params is not None else False
         u = pts["u"].to_numpy()
-        self.fit_ = fit_dead_zone(
-            u,
-            pts["v"].to_numpy(),
-            continuous,
-            self.level,
-            self.drift,
-            self._leakage_regressor(u, pts["p_a"].to_numpy(), pts["p_b"].to_numpy()),
-        )
+        r = self._leakage_regressor(u, pts["p_a"].to_numpy(), pts["p_b"].to_numpy())
+        self.fit_ = fit_dead_zone(u, pts["v"].to_numpy(), continuous, self.level, self.drift, r)
         self.leakage_ = self.fit_.leakage
+        if r is not None and self.leakage_ is not None:
+            # what the valve alone would give: the points the hinge curve (fit_.velocity) fits
+            pts["v_valve"] = pts["v"] + self.leakage_.value * r
         alpha = self.params.dead_zone.alpha if self.params is not None else 1.0
         self.dead_zone_ = self.fit_.dead_zone(alpha)
         self.beta_ = self.fit_.beta

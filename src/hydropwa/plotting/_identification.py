@@ -129,8 +129,9 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
     ----------
     points : mapping or DataFrame or DeadZoneIdentifier
         Columns ``u`` (command [1]), ``v`` (velocity [m/s]) and optionally ``v_std``
-        (its standard deviation [m/s], drawn as error bars). A fitted estimator gives its
-        ``points_`` and ``fit_``.
+        (its standard deviation [m/s], drawn as error bars) and ``v_valve`` (the velocity
+        with the fitted piston leakage removed [m/s], open squares: the points the hinge
+        curve fits). A fitted estimator gives its ``points_`` and ``fit_``.
     fit : DeadZoneFit or callable, optional
         The fitted curve: ``fit.velocity(u)`` or ``fit(u)`` [m/s]; a fit with ``beta``,
         ``beta_pos``, ``beta_neg`` and ``creep_slope`` has them in the legend and its
@@ -157,6 +158,16 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
         ms=3,
         label="measured (slope of x)",
     )
+    v_valve = _column(points, "v_valve")
+    if v_valve is not None:  # the fitted leakage flow removed: the points the hinge describes
+        a.plot(
+            100 * u,
+            1e3 * v_valve,
+            "s",
+            ms=4,
+            mfc="none",
+            label="valve alone (fitted leakage removed)",
+        )
     if fit is not None:
         curve: Callable[[np.ndarray], Any] = getattr(fit, "velocity", fit)
         uu = np.linspace(u.min(), u.max(), 800)

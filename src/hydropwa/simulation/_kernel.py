@@ -1880,13 +1880,11 @@ def warmup_calls(name):
     if name.startswith("closed-"):
         args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, z)
         return [(_CLOSED[kind], args, f"closed-loop {_KIND_NAMES[kind]} model")]
+    output = (OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output")
     if name.startswith("output-"):
-        return [(OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output")]
+        return [output]
     args = _open_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, True, True, True)
-    return [
-        (_ENTRY[kind], args, f"{_KIND_NAMES[kind]} model"),
-        (OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output"),
-    ]
+    return [(_ENTRY[kind], args, f"{_KIND_NAMES[kind]} model"), output]
 
 
 #: The names :func:`warmup_calls` takes.

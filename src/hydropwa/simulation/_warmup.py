@@ -241,7 +241,7 @@ def warm_up(
     return w
 
 
-def env_disabled() -> bool:
+def _env_disabled() -> bool:
     """Whether ``HYDROPWA_WARMUP`` turns background compilation off (``0``, ``off``, ...)."""
     return os.environ.get(ENV, "1").strip().lower() in ("0", "off", "false", "no")
 
@@ -249,7 +249,7 @@ def env_disabled() -> bool:
 def _auto(dispatcher) -> None:
     """:data:`~._kernel._cold_hook`: warm up the other models beside the first cold compile."""
     global _auto_started
-    if _auto_started or env_disabled():
+    if _auto_started or _env_disabled():
         return
     _auto_started = True
     if multiprocessing.parent_process() is not None:
