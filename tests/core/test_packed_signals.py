@@ -91,3 +91,29 @@ def test_sampled_signal_with_one_sample_is_held():
 def test_more_than_three_signals_is_refused():
     with pytest.raises(SignalError, match="at most 3"):
         pack_signals([Constant(0.0)] * 4)
+
+
+@pytest.mark.parametrize("kind", ["full", "reduced"])
+def test_simulate_packed_is_simulate_bit_for_bit(kind):
+    """The grey-box fit's lean path (inputs packed once, no result object) runs the same
+    kernel call and output pass as ``simulate``: identical channels, exactly, for measured
+    inputs starting at t ≠ 0, a constant supply and a sampled load."""
+    from hydropwa.models import FullOrderModel, ReducedModel
+    from hydropwa.params import get_preset
+    from hydropwa.simulation import simulate
+    from hydropwa.simulation._simulate import PackedInputs, simulate_packed
+
+    model = (FullOrderModel if kind == "full" else ReducedModel)(get_preset("paper"))
+    ts = np.arange(0.1, 0.3, 5e-4)
+    u = Sampled(ts, 0.3 * np.sin(2 * np.pi * 4.0 * ts))
+    fl = Sampled(ts, 200.0 * np.cos(2 * np.pi * 3.0 * ts))
+    t_out = ts[1:-1].copy()
+    y0 = model.initial_state(0.05, supply_pressure=90e5, load_force=float(fl(t_out[0])))
+    ref = simulate(
+        model, u, timepts=t_out, supply_pressure=90e5, load_force=fl, initial_state=y0, rtol=1e-6
+    )
+    inputs = PackedInputs.from_signals(u, 90e5, fl, t_out)
+    channels, n_done, status = simulate_packed(model, inputs, t_out, y0, rtol=1e-6)
+    assert status == 0 and n_done == t_out.size
+    for name, values in channels.items():
+        np.testing.assert_array_equal(values, ref[name], err_msg=name)

@@ -121,10 +121,11 @@ def test_autocorrelation_time_and_long_run_covariance_of_ar1():
 def test_recovers_bulk_modulus_and_flow_coefficient(truth, sine_runs):
     """E and K from two 1 s sines, starting 25 % and 10 % off: within 0.2 %.
 
-    Measured: E +0.04 %, K −0.02 %, intervals ±0.03 % and ±0.003 %: the sensor noise alone
-    would allow that little, and what is left is a bias of the same size from restarting
-    each 0.5 s segment at a smoothed measured state (documented limit, so no coverage
-    assertion at this level; the rig campaigns test the intervals where noise dominates).
+    Measured: E +0.041 %, K −0.015 %. The residuals alone allow ±0.03 % and ±0.007 %
+    (K at −2.3 std); restarting each 0.5 s segment at a smoothed measured state and driving
+    the model with measured inputs move the estimate by as much, and their propagation
+    (``nuisance_draws``) widens the intervals to hold the truth: K at −1.5 std (on three
+    other pairs of seeds |z| ≤ 1.4, against one miss at 1.95 without it).
     """
     start = truth.replace(**{"oil.bulk_modulus": 1.25e9, "flow.K": 0.9 * truth.flow.K})
     fit = fit_model(FullOrderModel(start), sine_runs, "oil.bulk_modulus,flow.K", jobs=2)
@@ -138,6 +139,7 @@ def test_recovers_bulk_modulus_and_flow_coefficient(truth, sine_runs):
         e = fit.estimates_[n]
         assert e.value == pytest.approx(true, rel=2e-3), n
         assert e.ci[0] < e.value < e.ci[1] and e.relative_ci_halfwidth < 1e-2, n
+        assert e.ci[0] <= true <= e.ci[1], n
     for r in fit.runs_:  # at the optimum the output error is the sensor noise (within 25 %)
         assert r.rms["x"] < 1.25 * NOISE["x"] and r.rms["p_a"] < 1.25 * NOISE["p_a"]
     assert fit.cost < 0.01 * fit.initial_cost
