@@ -376,7 +376,7 @@ class GreyBoxFit:
     correlation_ : ndarray, shape (p, p)
     inflation_ : ndarray, shape (p,)
         Variance of each log parameter over the naive s²(JᵀJ)⁻¹ value: how much the
-        residuals' correlation widens the interval.
+        residuals' correlation and the initial-state and input errors widen the interval.
     success : bool
     status : int
         ``scipy.optimize.least_squares`` status.
@@ -1562,12 +1562,10 @@ def fit_model(
     # nonlinearity). Each draw perturbs them by their own noise (_perturbed_run) and the
     # Gauss–Newton step −H⁻¹Jᵀ(w·Δr) tells how far the estimate would go; the mean square
     # of those steps (their spread and mean, i.e. bias²) is added to the covariance.
-    nuisance = np.zeros((len(names), len(names)))
     if nuisance_draws:
-        nuisance = _nuisance_covariance(
+        cov = cov + _nuisance_covariance(
             prob, prepared, theta, r, Jw, w, Hinv, nuisance_draws, np.random.default_rng([seed, 19])
         )
-        cov = cov + nuisance
     s2 = float(rw @ rw) / max(n_res - len(names), 1)
     naive = np.diag(Hinv) * s2
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -371,6 +371,7 @@ def simulate_packed(
     Y, n_done, status, _t_fail, _y_fail, _stats = _integrate_open_loop(
         kind, model, y0, t_out, p, inputs.sg, rtol, inputs.hmax, max_steps, "ros34pw2"
     )
+    Y = Y[:n_done]
     return _output_channels(kind, t_out, Y, n_done, p, inputs.sg), int(n_done), int(status)
 
 
