@@ -515,7 +515,7 @@ class _Segment:
     i1: int  # exclusive
     y0: np.ndarray
     #: the smoothed measurements y0 was built from (x, v, p_a, p_b, p_s, spool, spool_rate)
-    meas: dict[str, float] = dataclasses.field(default_factory=dict)
+    meas: dict[str, float]
 
 
 @dataclasses.dataclass
@@ -532,12 +532,12 @@ class _RunData:
     segments: list[_Segment]
     excluded: list[tuple[float, float, str]]
     #: builds an initial state from measurements (the segment's ``meas``, perturbed)
-    make_state: Callable[[dict[str, float]], np.ndarray] | None = None
+    make_state: Callable[[dict[str, float]], np.ndarray]
     #: standard deviation of each smoothed initial measurement (its sensor noise through the
     #: Savitzky–Golay filter)
-    meas_sd: dict[str, float] = dataclasses.field(default_factory=dict)
+    meas_sd: dict[str, float]
     #: per driving input (p_s, f_l): its noise level [SI] and the low-pass it went through
-    input_noise: dict[str, tuple[float, Any]] = dataclasses.field(default_factory=dict)
+    input_noise: dict[str, tuple[float, Any]]
 
 
 def noise_level(y: np.ndarray) -> float:
@@ -805,9 +805,7 @@ def _perturbed_run(rd: _RunData, rng: np.random.Generator) -> _RunData:
     """
     segs = []
     for seg in rd.segments:
-        if rd.make_state is None or not seg.meas:
-            segs.append(seg)
-            continue
+        # P_S from the parameters or the spool from the command (not logged) carry no noise
         m = {k: v + rng.normal(0.0, rd.meas_sd.get(k, 0.0)) for k, v in seg.meas.items()}
         segs.append(_Segment(seg.i0, seg.i1, rd.make_state(m), m))
     extra = {}
@@ -1249,10 +1247,10 @@ def fit_model(
         draws cost eight simulations of all runs. The fit starts every segment from
         smoothed measurements and drives the model with measured (filtered) inputs; their
         noise moves the estimate by what no residual covariance holds. Measured on the rig's
-        sine runs (seeds 1–3): with the true initial states and inputs the bulk modulus moved
-        from +0.045 … +0.061 % (1.6–2.4 std of the residual-based interval) to −0.001 …
-        +0.029 %; with the propagation the truth is inside 20 of 20 intervals over seeds
-        1–5 (16 of 20 without).
+        sine runs (seeds 1–3): with the true initial states the bulk modulus moved from
+        +0.030 … +0.061 % (1.2–2.4 std of the residual-based interval) to −0.001 … +0.029 %;
+        with the propagation the truth is inside 20 of 20 intervals over seeds 1–5 (16 of 20
+        without).
 
     Returns
     -------

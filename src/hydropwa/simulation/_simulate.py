@@ -265,9 +265,15 @@ def _diagnose(params: SystemParams, state: dict[str, float]) -> str:
     )
 
 
-def _integrate_open_loop(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver):
-    """The open-loop kernel call of :func:`simulate` (and of :func:`simulate_packed`)."""
-    return K.integrate(
+#: The solver arguments :func:`_solver_args` returns (kind … method), for the type checker.
+_SolverArgs = tuple[
+    int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, float, float, int, int
+]
+
+
+def _solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver) -> _SolverArgs:
+    """The arguments :func:`~._kernel.integrate` and its closed-loop twin share, in order."""
+    return (
         kind,
         y0,
         t_out,
@@ -279,8 +285,6 @@ def _integrate_open_loop(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, sol
         float(hmax),
         int(max_steps),
         K.SOLVERS[solver],
-        True,
-        True,
     )
 
 
@@ -308,18 +312,24 @@ class PackedInputs:
     command_amplitude: float
 
     @classmethod
+    def of(cls, sigs: list[Signal], duration: float) -> PackedInputs:
+        """Pack ``[u, P_S, F_L]`` (signals); the step limit is the shortest sample interval
+        of a sampled input (at most 10 ms), the command amplitude u's peak over ``duration``."""
+        hmax = 0.01
+        for sig in sigs:
+            if isinstance(sig, Sampled) and sig.t.size > 1:
+                hmax = min(hmax, float(np.min(np.diff(sig.t))))
+        return cls(pack_signals(sigs), hmax, float(sigs[0].peak(duration)))
+
+    @classmethod
     def from_signals(cls, u: Any, supply_pressure: Any, load_force: Any, t_out: np.ndarray):
+        """Pack the inputs as :func:`simulate` takes them, for output times ``t_out``."""
         sigs = [
             as_signal(u, "", "u"),
             as_signal(supply_pressure, "Pa", "supply_pressure"),
             as_signal(load_force, "N", "load_force"),
         ]
-        hmax = 0.01
-        for sig in sigs:
-            if isinstance(sig, Sampled) and sig.t.size > 1:
-                hmax = min(hmax, float(np.min(np.diff(sig.t))))
-        duration = float(t_out[-1] - t_out[0])
-        return cls(pack_signals(sigs), hmax, float(sigs[0].peak(duration)))
+        return cls.of(sigs, float(t_out[-1] - t_out[0]))
 
 
 def simulate_packed(
@@ -368,9 +378,10 @@ def simulate_packed(
         else packed_params
     )
     y0 = np.array(initial_state, dtype=float)
-    Y, n_done, status, _t_fail, _y_fail, _stats = _integrate_open_loop(
+    args = _solver_args(
         kind, model, y0, t_out, p, inputs.sg, rtol, inputs.hmax, max_steps, "ros34pw2"
     )
+    Y, n_done, status, _t_fail, _y_fail, _stats = K.integrate(*args, True, True)
     Y = Y[:n_done]
     return _output_channels(kind, t_out, Y, n_done, p, inputs.sg), int(n_done), int(status)
 
@@ -536,8 +547,8 @@ def simulate(
                 "supply_pressure input; build it with linearize(params, scheduled=True) to follow P_S(t), "
                 "or linearize(params, supply_pressure=...) for another constant P_S"
             )
-    sigs = [u_sig, ps_sig, fl_sig]
-    p = mdl.pack(command_amplitude=u_sig.peak(duration))
+    inputs = PackedInputs.of([u_sig, ps_sig, fl_sig], duration)
+    p = mdl.pack(command_amplitude=inputs.command_amplitude)
     if closed:  # the command amplitude is not known beforehand: the valve's nominal ω0
         p[K.I_OMEGA0] = prm.valve.omega0
     ps0 = ps_sig(t_out[0])
@@ -551,35 +562,22 @@ def simulate(
                 f"initial_state needs {len(mdl.state_names)} finite values ({', '.join(mdl.state_names)}), got {y0.size}"
             )
     if hmax is None:
-        hmax = 0.01
-        for s in sigs:
-            if isinstance(s, Sampled) and s.t.size > 1:
-                hmax = min(hmax, float(np.min(np.diff(s.t))))
-    sg = pack_signals(sigs)
+        hmax = inputs.hmax
+    sg = inputs.sg
     if closed:
         ctl, ref_sig, ref, dref = _closed_loop_setup(controller, reference, t_out)
     compiled0 = K.compile_seconds
     t0 = _time.perf_counter()
     if closed:
         Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
-            kind,
-            y0,
-            t_out,
-            p,
-            sg,
-            float(rtol),
-            mdl.state_scale(),
-            1e-5,
-            float(hmax),
-            int(max_steps),
-            K.SOLVERS[solver],
+            *_solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver),
             ctl,
             ref,
             dref,
         )
     else:
-        Y, n_done, status, t_fail, y_fail, stats = _integrate_open_loop(
-            kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver
+        Y, n_done, status, t_fail, y_fail, stats = K.integrate(
+            *_solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver), True, True
         )
     wall = _time.perf_counter() - t0
     wall -= min(wall, K.compile_seconds - compiled0)  # the kernel's first load or compile
