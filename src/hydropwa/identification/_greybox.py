@@ -209,8 +209,7 @@ class Shooting:
     ----------
     method : {"auto", "single", "multiple"}
         ``auto`` chooses per run: multiple shooting when the run oscillates (stick-slip,
-        see :func:`fit_model`), single shooting otherwise, with its segments that
-        stick-slip in windows (``segment_ratio``; the run is then ``mixed``).
+        see :func:`fit_model`), single shooting otherwise.
     window : float
         Multiple shooting window length [s] (20 ms: 3–4 stick-slip periods at 150–200 Hz).
     segment : float or None
@@ -1257,10 +1256,7 @@ def fit_model(
         which puts a jitter on the residuals; at 1e-5 it is ~5 % of a 1 % parameter change's
         effect on the paper rig's sine runs (at 1e-4 it is as large as that effect).
     fd_step : float
-        Difference step in log parameter (3e-2 = 3 %, well above the integrator's jitter) of
-        the locating and coarse stages; after a coarse stage the full-data stage and the
-        covariance use a third of it (stick events curve the residuals within a few per
-        cent of F_c, and the 3 % secant step stalled there).
+        Difference step in log parameter (3e-2 = 3 %, well above the integrator's jitter).
     differences : {"central", "forward"}
         Jacobian by central (2p simulations, error O(h²)) or forward (p simulations,
         error O(h)) differences. Central by default: at a 3 % step the forward Jacobian's
