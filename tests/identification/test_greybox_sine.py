@@ -2,8 +2,7 @@
 
 Nine sine runs (1, 2, 3 Hz × 20, 40, 60 %) of 2 s from 2 cm, rig sensors and pump supply,
 true leakage 2e-12 m³/(s·Pa). Free: bulk modulus, leakage, flow coefficient and viscous
-friction, started 10–25 % away. Single shooting in 0.5 s segments, those that stick-slip in 20 ms windows (chosen
-automatically).
+friction, started 10–25 % away. Single shooting in 0.5 s segments (chosen automatically).
 """
 
 from __future__ import annotations
@@ -72,10 +71,7 @@ def test_sine_runs_recover_hydraulic_parameters(fits):
     measured errors and below what a stall leaves."""
     truth, results = fits
     for fit in results:
-        # single shooting, with the stick-slip of the 20 % sines' retraction in windows
-        # (segment fast content 2.4-4.3x noise against 1.0-1.4 on the 40 and 60 % sines)
-        assert {r.method for r in fit.runs_} <= {"single", "mixed"}
-        assert all(r.name.endswith("_a20") for r in fit.runs_ if r.method == "mixed")
+        assert {r.method for r in fit.runs_} == {"single"}
         assert fit.optimizer_.success
         for n in FREE:
             tol = 0.03 if n == "friction.viscous" else 0.01

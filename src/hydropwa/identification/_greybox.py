@@ -229,11 +229,6 @@ class Shooting:
         load pressure around a 10 ms moving mean exceeds this many times its noise level.
         Measured on the virtual rig: 1.0–1.3 on smooth runs, 2.4–2.8 on 20 % sines (brief
         stick at the reversals), 4.5–7.5 on stick-slip runs.
-    segment_ratio : float
-        ``auto`` fits a single-shooting segment in windows (the run is then ``mixed``) when
-        the same ratio over the segment exceeds this. Measured on the virtual rig's 5 s sine
-        runs (0.5 s segments): 1.0–1.4 on the 40 % and 60 % sines, 2.4–4.3 on the 20 % ones,
-        whose retraction stick-slips; single shooting cannot follow that oscillation's phase.
     """
 
     method: str = "auto"
@@ -242,7 +237,6 @@ class Shooting:
     max_windows: int | None = 40
     velocity_window: float = 0.004
     oscillation_ratio: float = 3.5
-    segment_ratio: float = 2.0
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "single", "multiple"):
@@ -261,10 +255,6 @@ class Shooting:
             raise IdentificationError(
                 f"Shooting.max_windows = {self.max_windows!r} must be >= 1 or None"
             )
-        if not (math.isfinite(self.segment_ratio) and self.segment_ratio > 0):
-            raise IdentificationError(
-                f"Shooting.segment_ratio = {self.segment_ratio!r} must be a positive number"
-            )
         if not (self.velocity_window > 0):
             raise IdentificationError(
                 f"Shooting.velocity_window = {self.velocity_window!r} s must be > 0"
@@ -280,8 +270,7 @@ class RunFit:
     ----------
     name : str
     method : str
-        ``single`` or ``multiple`` shooting, or ``mixed`` (single, with the segments that
-        stick-slip fitted in windows).
+        ``single`` or ``multiple`` shooting.
     reason : str
         Why that method (the oscillation ratio, or forced).
     segments : list of (float, float)
@@ -750,50 +739,22 @@ def _prepare_run(
 
     segments: list[_Segment] = []
     min_len = max(10, int(round(0.25 * shooting.window / dt)))
-    w = max(4, int(round(shooting.window / dt)))
-
-    def windows(starts: list[int]) -> list[_Segment]:
+    if method == "single":
+        step = e_max = max(min_len, int(round(shooting.segment / dt))) if shooting.segment else n
+        for s, e in valid:
+            for a in range(s, e, step):
+                b = min(a + e_max, e)
+                if b - a >= min_len:
+                    segments.append(segment(a, b))
+    else:
+        w = max(4, int(round(shooting.window / dt)))
+        starts = [s0 for s, e in valid for s0 in range(s, e - w, w)]
         if shooting.max_windows is not None and len(starts) > shooting.max_windows:
             pick = np.unique(
                 np.round(np.linspace(0, len(starts) - 1, shooting.max_windows)).astype(int)
             )
             starts = [starts[i] for i in pick]
-        return [segment(s0, s0 + w + 1) for s0 in starts]
-
-    if method == "single":
-        step = e_max = max(min_len, int(round(shooting.segment / dt))) if shooting.segment else n
-        # a smooth run can still stick-slip in parts (a 20 % sine retracting): single shooting
-        # cannot follow the phase of that oscillation, and its cost jumps by thousands of noise
-        # variances between parameter sets 0.1 % apart (measured on the 5 s sine runs: the fit
-        # stalled at F_c +15 … +19 %). ``auto`` fits such segments in windows instead.
-        oscillating = []
-        for s, e in valid:
-            for a in range(s, e, step):
-                b = min(a + e_max, e)
-                if b - a < min_len:
-                    continue
-                g = good[a:b]
-                seg_ratio = (
-                    float(1.4826 * np.median(np.abs(hp[a:b][g])) / noise_level(pl))
-                    if g.sum() > 10
-                    else 0.0
-                )
-                if shooting.method == "auto" and seg_ratio > shooting.segment_ratio and b - a > w:
-                    oscillating.append((a, b))
-                else:
-                    segments.append(segment(a, b))
-        if oscillating:
-            segments = sorted(
-                segments + windows([s0 for a, b in oscillating for s0 in range(a, b - w, w)]),
-                key=lambda sg: sg.i0,
-            )
-            method = "mixed"  # not "multiple": the run's other segments stay single
-            reason += (
-                f"; {len(oscillating)} segment(s) stick-slip (fast content > "
-                f"{shooting.segment_ratio:g}× noise): fitted in {1e3 * shooting.window:g} ms windows"
-            )
-    else:
-        segments = windows([s0 for s, e in valid for s0 in range(s, e - w, w)])
+        segments = [segment(s0, s0 + w + 1) for s0 in starts]
     if not segments:
         skip(
             skipped,
@@ -1443,7 +1404,7 @@ def fit_model(
     if (
         shooting.method == "auto"
         and any(n in _STICK for n in names)
-        and any(rd.method != "multiple" for rd in prepared)
+        and any(rd.method == "single" for rd in prepared)
     ):
         windowed = dataclasses.replace(shooting, method="multiple")
         located = [
@@ -1469,11 +1430,6 @@ def fit_model(
         ]
         coarse_prob = _Problem(work_model, sub, names, used_ch, rtol, jobs, sigma)
         coarse_prob.fd_step, coarse_prob.ref = fd_step, ref
-        # the full data only refine from the coarse optimum: a third of the step there. The
-        # stick events make the residuals curve within a few per cent of F_c: at 3 % the
-        # secant Jacobian's Gauss–Newton step from F_c +13 % was −0.1 % (the fit stopped
-        # there, 6 std off), at 1 % it was −4 % and lowered the cost by 6000 (5 s sine runs)
-        prob.fd_step = fd_step / 3.0
     current = [prob]
 
     def jac(theta):
@@ -1484,10 +1440,10 @@ def fit_model(
         state["calls"] = calls + 1
         if calls % max(refresh, 1) == 0 or "J" not in state:
             if differences == "central":
-                J = prob.jac(theta, prob.fd_step, central=True)
+                J = prob.jac(theta, fd_step, central=True)
                 state["central"] = (theta.copy(), J)
             else:
-                J = prob.jac(theta, prob.fd_step, r0=r_new)
+                J = prob.jac(theta, fd_step, r0=r_new)
         else:
             J = state["J"].copy()
             d = theta - state["theta"]
@@ -1567,7 +1523,7 @@ def fit_model(
     if last is not None and np.array_equal(last[0], theta):
         J = last[1]
     else:
-        J = prob.jac(theta, prob.fd_step, central=True)
+        J = prob.jac(theta, fd_step, central=True)
     w = _loss_weights(r, loss, f_scale)
     Jw, rw = J * w[:, None], r * w
     H = Jw.T @ Jw
@@ -1739,13 +1695,9 @@ def fit_model(
         tt = np.full(rd.t.size, np.nan)
         meas = {c: np.full(rd.t.size, np.nan) for c in rd.y}
         simd = {c: np.full(rd.t.size, np.nan) for c in rd.y}
-        w_len = max(4, int(round(shooting.window / float(np.median(np.diff(rd.t)))))) + 1
         for si, seg in enumerate(rd.segments):
             # keep one NaN between windows so that plots break the line
-            windowed = rd.method == "multiple" or (
-                rd.method == "mixed" and seg.i1 - seg.i0 <= w_len
-            )
-            sl = slice(seg.i0, seg.i1 - 1 if windowed else seg.i1)
+            sl = slice(seg.i0, seg.i1 - 1 if rd.method == "multiple" else seg.i1)
             tt[sl] = rd.t[sl]
             for c in rd.y:
                 meas[c][sl] = rd.y[c][sl]
