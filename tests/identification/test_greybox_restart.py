@@ -1,9 +1,10 @@
-"""The restart from a lower difference point (``_restart_from_probes``, issue 19).
+"""The fit's escapes from the wrong minimum of a rough cost (issue 19).
 
-On a rough cost the trust region shrinks on a ridge and ``least_squares`` stops with ``xtol``
-though a central-difference point beside it is lower. These tests drive the restart with a
-one-parameter residual whose cost has a spurious local minimum, and check that it moves only
-downhill.
+``_restart_from_probes``: on a rough cost the trust region shrinks on a ridge and
+``least_squares`` stops with ``xtol`` though a central-difference point beside it is lower;
+tested with a residual whose cost has ripple minima, it moves only downhill and as often as
+allowed. ``_valley_scan``: after the locating stage, the single-shooting cost along each stick
+parameter's valley picks the basin; tested on an exact quadratic with a correlated valley.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import optimize
 
-from hydropwa.identification._greybox import _restart_from_probes
+from hydropwa.identification._greybox import _restart_from_probes, _valley_scan
 
 
 def _residual(theta: np.ndarray) -> np.ndarray:
@@ -68,3 +69,49 @@ def test_no_restart_at_the_global_minimum():
     sol, taken = _restart_from_probes(_Prob(0.03), best, _solve, _cost)
     assert taken == 0
     assert sol is best
+
+
+# ----------------------------------------------------------------------------- valley scan
+class _Linear:
+    """A linear residual r = A θ − b: the cost is an exact quadratic with a correlated valley."""
+
+    def __init__(self, A: np.ndarray, b: np.ndarray) -> None:
+        self.A, self.b = A, b
+
+    def values(self, theta):
+        return np.asarray(theta, dtype=float)
+
+    def simulate_many(self, sets):
+        return [np.asarray(v) for v in sets]
+
+    def residual_vector(self, theta):
+        return self.A @ theta - self.b
+
+
+def test_valley_scan_moves_along_the_profile_to_the_minimum():
+    # two parameters, strongly correlated (the valley runs along θ0 ≈ θ1); minimum at (0, 0)
+    A = np.array([[1.0, 1.0], [1.0, 1.02], [0.3, 0.25]])
+    prob = _Linear(A, np.zeros(3))
+    lo, hi = np.full(2, -5.0), np.full(2, 5.0)
+    # a point 0.2 along parameter 0's valley direction from the minimum, where the other
+    # parameter is at its best given θ0 (so a coordinate step cannot improve it much)
+    Hinv = np.linalg.inv(A.T @ A)
+    d = Hinv[:, 0] / Hinv[0, 0]
+    start = 0.2 * d
+    best, n = _restart_scan(prob, start, A, lo, hi)
+    assert n == 5  # the point and four steps
+    np.testing.assert_allclose(best, 0.0, atol=1e-12)
+    # from the minimum the scan stays
+    best0, _ = _restart_scan(prob, np.zeros(2), A, lo, hi)
+    np.testing.assert_allclose(best0, 0.0, atol=0)
+
+
+def _restart_scan(prob, theta, J, lo, hi):
+    return _valley_scan(prob, theta, J, [0], lo, hi, _cost)
+
+
+def test_valley_scan_without_stick_parameters_does_nothing():
+    prob = _Linear(np.eye(2), np.ones(2))
+    theta = np.array([0.3, -0.1])
+    best, n = _valley_scan(prob, theta, np.eye(2), [], -np.ones(2), np.ones(2), _cost)
+    assert n == 0 and best is theta
