@@ -1905,7 +1905,7 @@ WARMUP_NAMES = (
 def set_compile_notice(callback):
     """Call ``callback(message)`` once per process before the first kernel is compiled.
 
-    The CLI passes a printer to stderr, so a user waiting ~10 s on a fresh install is told
+    The CLI passes a printer to stderr, so a user waiting 5–10 s on a fresh install is told
     why. ``None`` (the library's default) stays silent. Returns the previous callback.
     """
     global _compile_notice, _noticed
@@ -1950,7 +1950,7 @@ def prepare(dispatcher, args, what="solver"):
         if _compile_notice is not None and not _noticed:
             _noticed = True
             _compile_notice(
-                f"compiling the {what} solver (once per installation, ~10 s per model;"
+                f"compiling the {what} solver (once per installation, ~5–10 s per model;"
                 " later runs load it from the cache)"
             )
         if _cold_hook is not None:
