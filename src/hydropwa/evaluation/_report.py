@@ -254,9 +254,10 @@ def _summary_section(info: dict, true, metrics, fit, fit_detrended) -> str:
     return (
         "<h2>Summary</h2>"
         + what
-        + "<p>The <b>reduced</b> and <b>PWA</b> models use the mean piston area, so they cannot follow the "
-        "single-rod cylinder's drift (docs/errata.md D5): their plain position fit is low by construction; "
-        "the fit with each trend removed and the load-pressure fit score their dynamics.</p>"
+        + "<p>The <b>reduced</b> and <b>PWA</b> models carry both piston areas and follow the single-rod "
+        "cylinder's drift. The paper's forms (<b>reduced-paper</b>, <b>pwa-paper</b>) use the mean piston "
+        "area, so they cannot (docs/errata.md D5): their plain position fit is low by construction; the "
+        "fit with each trend removed and the load-pressure fit score their dynamics.</p>"
         + _headline(metrics, fit, fit_detrended)
     )
 
@@ -320,13 +321,15 @@ PWA cells at the average supply pressure {info.get("supply_pressure", float("nan
 <h2>Position fit (NRMSE, %)</h2>
 <p>100·(1 − ‖x − x̂‖/‖x − mean x‖) over the runs from the first full period in steady state
 (Sec. VII). <b>full</b>: full-order model with the measured P_S(t); <b>reduced</b>, <b>pwa</b>:
-average P_S as in the paper; <b>pwa-scheduled</b>: PWA cells rescheduled on the measured P_S(t);
-<b>full (true params)</b>: the full model with the rig's true parameters, for reference.</p>
+the asymmetric models (both piston areas), average P_S as in the paper; <b>pwa-scheduled</b>: PWA
+cells rescheduled on the measured P_S(t); <b>reduced-paper</b>, <b>pwa-paper</b>: the paper's
+mean-area forms; <b>full (true params)</b>: the full model with the rig's true parameters, for
+reference.</p>
 {_table(fit, "position fit [%] per run and model")}
-<p>The reduced and PWA models use the mean piston area Ā, so a zero-mean sine moves them back
-and forth without the single-rod cylinder's drift to +x (Sec. VII); their plain position fit is
-dominated by that drift. With each signal's own straight-line trend removed, the fit scores the
-shape of the motion:</p>
+<p>The paper's forms use the mean piston area Ā, so a zero-mean sine moves them back and forth
+without the single-rod cylinder's drift to +x (Sec. VII); their plain position fit is dominated
+by that drift. With each signal's own straight-line trend removed, the fit scores the shape of
+the motion:</p>
 {_table(fit_detrended, "position fit [%] with linear trends removed")}
 
 <h2>Supply pressure (Fig. 9)</h2>
