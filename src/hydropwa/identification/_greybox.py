@@ -1352,9 +1352,10 @@ def fit_model(
     first (its cost is smooth in the friction, the single-shooting cost a narrow well on a
     plateau), and from its result a scan of the single-shooting cost along each stick
     parameter's valley (:func:`_valley_scan`); then the coarse stage (every ``coarse``-th
-    segment, every 2·``coarse``-th after locating) and the full data. Where the full stage stops beside a lower point of its last
-    central differences (a ridge of a cost made rough by stick events), it starts again from
-    that point, at most twice. ``starts_`` records each stage's evaluations.
+    segment, every 2·``coarse``-th after locating) and the full data. Where the full stage
+    stops beside a lower point of its last central differences (a ridge of a cost made rough
+    by stick events), it starts again from that point, at most twice. ``starts_`` records
+    each stage's evaluations (the scan's with the locating stage's).
     """
 
     t_start = _time.perf_counter()
