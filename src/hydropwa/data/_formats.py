@@ -19,6 +19,8 @@ import io
 import json
 import os
 import re
+import struct
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -337,10 +339,111 @@ def _write_mat(run: Run, path: Path, units, overwrite: bool = True) -> None:
         scipy.io.savemat(tmp, variables, do_compression=True, oned_as="column")
 
 
+#: MAT v5 data types → bytes per value (miINT8 … miUTF32); 14 = miMATRIX, 15 = miCOMPRESSED
+_MAT_ITEMSIZE = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 9: 8, 12: 8, 13: 8, 16: 1, 17: 2, 18: 4}
+
+
+def _mat_elements(
+    buf: bytes, pos: int, end: int, fmt: str, top: bool, depth: int = 0
+) -> list[tuple[int, int, int]]:
+    """Walk the tagged data elements of ``buf[pos:end]`` (MAT v5); raise ValueError on one
+    whose type is unknown or whose declared size does not fit in its parent, and on a matrix
+    whose parts do not match its class, dimensions and complex flag.
+
+    scipy's compiled MAT reader trusts all of these: a corrupted length or flag crashes the
+    process (segmentation fault, found by the fuzz tests) instead of raising. Compressed
+    elements (top level only) are inflated and walked; matrices are checked recursively.
+    Returns the elements found, as (type, offset of the data, bytes).
+    """
+    if depth > 32:
+        raise ValueError("MAT elements nested deeper than 32 levels")
+    found = []
+    while pos < end:
+        if end - pos < 8:
+            if top and not any(buf[pos:end]):
+                break  # zero padding at the end of the file
+            raise ValueError(f"truncated element tag at byte {pos}")
+        typ, nbytes = struct.unpack_from(fmt, buf, pos)
+        if typ >> 16:  # small data element: type and size packed in 4 bytes, data in 4
+            small = (typ & 0xFFFF, pos + 4, typ >> 16)
+            if small[2] > 4 or small[0] not in _MAT_ITEMSIZE:
+                raise ValueError(f"bad small element at byte {pos}")
+            found.append(small)
+            pos += 8
+            continue
+        if nbytes > end - pos - 8:
+            raise ValueError(f"element at byte {pos} declares {nbytes} bytes, {end - pos - 8} left")
+        body = pos + 8
+        if typ == 14:
+            _mat_matrix(buf, _mat_elements(buf, body, body + nbytes, fmt, False, depth + 1), fmt)
+        elif typ == 15 and top:
+            raw = zlib.decompressobj().decompress(buf[body : body + nbytes], 1 << 31)
+            _mat_elements(raw, 0, len(raw), fmt, True, depth + 1)
+        elif typ not in _MAT_ITEMSIZE:
+            raise ValueError(f"unknown element type {typ} at byte {pos}")
+        found.append((typ, body, nbytes))
+        pos = body + nbytes + (0 if typ in (14, 15) else (-nbytes) % 8)
+    return found
+
+
+def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None:
+    """Check one matrix's parts (flags, dimensions, name, data) against its class."""
+    if not parts:
+        return  # an empty matrix (an empty struct field or cell)
+    if len(parts) < 3 or parts[0][0] != 6 or parts[0][2] != 8 or parts[1][0] != 5:
+        raise ValueError("matrix without array flags, dimensions and name")
+    word = struct.unpack_from(fmt[0] + "I", buf, parts[0][1])[0]
+    cls, complex_ = word & 0xFF, bool(word & 0x0800)
+    n_dims = parts[1][2] // 4
+    if n_dims < 2 or parts[1][2] % 4:
+        raise ValueError("matrix dimensions malformed")
+    dims = struct.unpack_from(f"{fmt[0]}{n_dims}i", buf, parts[1][1])
+    if min(dims) < 0 or float(np.prod(np.asarray(dims, dtype=float))) > 2**31:
+        raise ValueError(f"matrix dimensions {dims} invalid")
+    count = int(np.prod(dims))
+    rest = parts[3:]
+    if cls in (4, *range(6, 16)):  # char, numeric
+        if len(rest) != 1 + complex_ or any(t == 14 for t, _, _ in rest):
+            raise ValueError("numeric matrix parts do not match its complex flag")
+        for t, _, nb in rest:
+            if t != 16 and nb != count * _MAT_ITEMSIZE[t]:
+                raise ValueError(f"matrix data of {nb} bytes for dimensions {dims}")
+    elif cls == 5:  # sparse: row indices, column starts, values (and imaginary values)
+        if len(rest) != 3 + complex_ or any(t == 14 for t, _, _ in rest):
+            raise ValueError("sparse matrix parts malformed")
+    elif cls == 1:  # cell: one matrix per element
+        if len(rest) != count or any(t != 14 for t, _, _ in rest):
+            raise ValueError("cell array parts do not match its dimensions")
+    elif cls in (2, 3):  # struct, object (class name first): field-name length, names
+        if cls == 3:
+            rest = rest[1:]
+        if len(rest) < 2 or rest[0][0] != 5 or rest[0][2] != 4 or rest[1][0] != 1:
+            raise ValueError("struct without field names")
+        fnl = struct.unpack_from(fmt[0] + "i", buf, rest[0][1])[0]
+        if fnl <= 0 or rest[1][2] % fnl:
+            raise ValueError("struct field names malformed")
+        n_fields = rest[1][2] // fnl
+        if len(rest) - 2 != count * n_fields or any(t != 14 for t, _, _ in rest[2:]):
+            raise ValueError("struct parts do not match its dimensions and fields")
+    elif cls not in (16, 17):  # function handles and opaque (MCOS) objects: left to scipy
+        raise ValueError(f"unknown matrix class {cls}")
+
+
+def _check_mat_v5(path: Path) -> None:
+    """Raise ValueError if a MAT v5 file's element structure is inconsistent (see above)."""
+    buf = path.read_bytes()
+    if len(buf) < 128:
+        raise ValueError("shorter than the 128-byte MAT header")
+    fmt = "<II" if buf[126:128] == b"IM" else ">II"
+    _mat_elements(buf, 128, len(buf), fmt, True)
+
+
 def _load_mat(path: Path) -> dict[str, Any]:
     import scipy.io  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     try:
+        if scipy.io.matlab.matfile_version(str(path))[0] == 1:
+            _check_mat_v5(path)
         return scipy.io.loadmat(path, simplify_cells=True)
     except NotImplementedError as exc:
         raise DataError(
