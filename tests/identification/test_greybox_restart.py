@@ -98,15 +98,15 @@ def test_valley_scan_moves_along_the_profile_to_the_minimum():
     Hinv = np.linalg.inv(A.T @ A)
     d = Hinv[:, 0] / Hinv[0, 0]
     start = 0.2 * d
-    best, n = _restart_scan(prob, start, A, lo, hi)
+    best, n = _scan(prob, start, A, lo, hi)
     assert n == 5  # the point and four steps
     np.testing.assert_allclose(best, 0.0, atol=1e-12)
     # from the minimum the scan stays
-    best0, _ = _restart_scan(prob, np.zeros(2), A, lo, hi)
+    best0, _ = _scan(prob, np.zeros(2), A, lo, hi)
     np.testing.assert_allclose(best0, 0.0, atol=0)
 
 
-def _restart_scan(prob, theta, J, lo, hi):
+def _scan(prob, theta, J, lo, hi):
     return _valley_scan(prob, theta, J, [0], lo, hi, _cost)
 
 

@@ -429,9 +429,8 @@ def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None
         raise ValueError(f"unknown matrix class {cls}")
 
 
-def _check_mat_v5(path: Path) -> None:
+def _check_mat_v5(buf: bytes) -> None:
     """Raise ValueError if a MAT v5 file's element structure is inconsistent (see above)."""
-    buf = path.read_bytes()
     if len(buf) < 128:
         raise ValueError("shorter than the 128-byte MAT header")
     fmt = "<II" if buf[126:128] == b"IM" else ">II"
@@ -442,9 +441,10 @@ def _load_mat(path: Path) -> dict[str, Any]:
     import scipy.io  # deferred: scipy submodules cost 0.1-0.5 s at import
 
     try:
-        if scipy.io.matlab.matfile_version(str(path))[0] == 1:
-            _check_mat_v5(path)
-        return scipy.io.loadmat(path, simplify_cells=True)
+        buf = path.read_bytes()  # read once: checked, then parsed from memory
+        if scipy.io.matlab.matfile_version(io.BytesIO(buf))[0] == 1:
+            _check_mat_v5(buf)
+        return scipy.io.loadmat(io.BytesIO(buf), simplify_cells=True)
     except NotImplementedError as exc:
         raise DataError(
             f"{str(path)!r}: MATLAB v7.3 (HDF5) files are not supported; "

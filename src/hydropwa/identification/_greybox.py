@@ -890,6 +890,8 @@ class _Problem:
         self.sigma = sigma
         self.nfev = 0
         self.failures = 0
+        #: the last ``jac`` call's difference points: (θ, the points, their residuals)
+        self.probes: tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None = None
         # fixed layout of the residual vector: (run, segment, channel) streams
         self.streams: list[tuple[int, int, str, int, int]] = []  # run, seg, channel, start, length
         pos = 0
@@ -1105,9 +1107,9 @@ def _restart_from_probes(
 
     Returns the best solution and the number of restarts taken.
     """
-    taken = 0
+    taken, nfev = 0, int(sol.nfev)
     for _ in range(n):
-        at = getattr(prob, "probes", None)
+        at = prob.probes
         if at is None or not np.array_equal(at[0], sol.x):
             prob.jac(sol.x, prob.fd_step, central=True)
             at = prob.probes
@@ -1117,11 +1119,11 @@ def _restart_from_probes(
         if not costs[k] < sol.cost * (1.0 - 1e-6):
             break
         new = solve(thetas[k])
-        taken += 1
+        taken, nfev = taken + 1, nfev + int(new.nfev)
         if not new.cost < sol.cost:
             break
-        new.nfev += sol.nfev
         sol = new
+    sol.nfev = nfev  # every restart's evaluations, kept or not
     return sol, taken
 
 
@@ -1563,6 +1565,9 @@ def fit_model(
         state.clear()
         return _solve(prob, np.clip(theta0, tlo + 1e-9, thi - 1e-9))
 
+    def loss_cost(r: np.ndarray) -> float:
+        return _loss_cost(r, loss, f_scale)
+
     starts_log = []
     for th0 in theta_starts:
         th, coarse_nfev, locate_nfev = th0, 0, 0
@@ -1582,7 +1587,7 @@ def fit_model(
                 [i for i, n in enumerate(names) if n in _STICK],
                 tlo,
                 thi,
-                lambda r: _loss_cost(r, loss, f_scale),
+                loss_cost,
             )
             locate_nfev += n_scan
         if coarse_prob is not None:
@@ -1593,9 +1598,7 @@ def fit_model(
         state.clear()
         current[0] = prob
         sol = _solve(prob, th)
-        sol, restarts = _restart_from_probes(
-            prob, sol, restart, lambda r: _loss_cost(r, loss, f_scale)
-        )
+        sol, restarts = _restart_from_probes(prob, sol, restart, loss_cost)
         starts_log.append(
             {
                 "start": dict(zip(names, prob.values(th0).tolist(), strict=True)),
