@@ -432,12 +432,21 @@ class GreyBoxFit:
     level: float = 0.95
     interval_scan_: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
 
+    @property
+    def widened_(self) -> list[str]:
+        """Parameters whose interval the cost scan widened (the cost along their valley rose
+        slower than the Gauss–Newton quadratic on at least one side)."""
+        z = float(stats.norm.ppf(0.5 + 0.5 * self.level))
+        return [
+            n for n, q in self.interval_scan_.items() if np.nanmin(q, initial=np.inf) < 4 * z * z
+        ]
+
     def __repr__(self) -> str:
         vals = ", ".join(f"{n}={e.value:.4g}" for n, e in self.estimates_.items())
         return f"GreyBoxFit({self.model}, {vals}, cost={self.cost:.4g}, success={self.success})"
 
     def to_pandas(self):
-        """One row per free parameter: value, std, interval, inflation, weak flag."""
+        """One row per free parameter: value, std, interval, inflation, weak and widened flags."""
         import pandas as pd  # deferred: pandas loads only for tables
 
         rows = []
@@ -452,6 +461,7 @@ class GreyBoxFit:
                     "unit": e.unit,
                     "inflation": float(self.inflation_[i]),
                     "weak": n in self.identifiability_.weak,
+                    "widened": n in self.widened_,
                 }
             )
         return pd.DataFrame(rows).set_index("parameter")
@@ -491,6 +501,11 @@ class GreyBoxFit:
             )
         if idf.advice:
             lines += ["", "To separate them: " + "; ".join(idf.advice) + "."]
+        if self.widened_:
+            lines.append(
+                "Widened by the cost scan (the cost rises slower than the quadratic "
+                "approximation): " + ", ".join(self.widened_) + "."
+            )
         for p in self.profiles_.values():
             lines.append(f"Profile of {p.name}: interval [{p.ci[0]:.5g}, {p.ci[1]:.5g}].")
         if self.skipped_:
@@ -1423,7 +1438,9 @@ def fit_model(
         Gauss–Newton quadratic. On runs with stick events the Coulomb friction's cost is a
         flat floor under a rough surface: measured on the rig's 5 s sine runs (seeds 1–6,
         six parameters free), the truth inside 27 of 36 intervals without the scan and
-        {COVER} with it.
+        32 of 36 with it (intervals of F_c and σ widened up to 2.8×; the remaining misses are K
+        and C_L at 2.0–2.4 std and F_s at 4.7 std on one seed). Costs 52 against 44 s on
+        one thread for the benchmark's fit.
 
     Returns
     -------
