@@ -98,7 +98,7 @@ def main() -> None:
         )
     if fit.widened_:
         print(
-            "\nwidened by the interval scan (the cost flatter than its quadratic): "
+            "\nwidened by the interval scan (the cost within the threshold beyond the quadratic interval): "
             + ", ".join(fit.widened_)
         )
 

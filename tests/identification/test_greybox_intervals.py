@@ -114,3 +114,20 @@ def test_narrow_intervals_and_points_outside_the_bounds_are_not_scanned():
     assert np.isnan(scan[1][0]) and np.isnan(scan[1][1])
     np.testing.assert_allclose(lo, Z * sd)
     np.testing.assert_allclose(hi, Z * sd)
+
+
+@settings(max_examples=40, deadline=None)
+@given(c=st.floats(0.02, 2.0), rho=st.floats(-0.99, 0.99))
+def test_points_on_another_valley_widen_a_parameter_they_fall_inside_for(c, rho):
+    """Parameter 1 is too narrow to scan (z·σ₁ < 0.2 %) and correlated (ρ) with parameter 0,
+    whose valley is scanned: the scanned points move parameter 1 by ±2z·ρ·σ₁ (its regression on
+    parameter 0). Where those points are inside the region (q = 4z²c ≤ z², the same κ for
+    both), parameter 1's interval reaches them; otherwise it keeps its Wald z·σ₁."""
+    sd = np.array([0.05, 0.0005])
+    cov = np.array([[sd[0] ** 2, rho * sd[0] * sd[1]], [rho * sd[0] * sd[1], sd[1] ** 2]])
+    H = np.linalg.inv(cov)
+    _prob, lo, hi, scan = _scan(c * H, H, sd)
+    assert 1 not in scan
+    reach = 2 * Z * abs(rho) * sd[1] if 4 * c <= 1 else 0.0
+    want = max(Z * sd[1], reach)
+    assert lo[1] == pytest.approx(want, rel=1e-9) and hi[1] == pytest.approx(want, rel=1e-9)
