@@ -404,8 +404,9 @@ class GreyBoxFit:
     interval_scan_ : dict[str, tuple[float, float]]
         Per parameter, the profile statistic 2Δcost/κ at −2z·σ and +2z·σ along its valley
         (the Wald quadratic gives 4z² ≈ 15.4; below z² ≈ 3.84 that side was widened beyond
-        the scan). NaN: not scanned (outside the bounds); empty when ``scan_intervals``
-        is off.
+        the scan). NaN: that point is outside the bounds. Parameters whose interval is
+        narrower than ±0.2 % (in ln p, below the integrator's jitter) are not scanned and
+        absent; empty when ``scan_intervals`` is off.
     widened_ : list of str
         Parameters whose interval the scan widened: the cost along their own valley rose
         slower than the quadratic, or a point scanned along another's valley lay within
