@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hydropwa.identification._greybox import _interval_scan
+from hydropwa.identification._greybox import _interval_scan, _Problem
 
 Z = 1.959963984540054  # 95 %
 
@@ -26,15 +26,16 @@ class _Quadratic:
     def __init__(self, A: np.ndarray, rtol: float = 1e-5):
         self.L = np.linalg.cholesky(A)
         self.rtol = rtol
-        self._cache: dict = {"stale": 1}
-        self.rtols_seen: list[float] = []
+        self.rtols_seen: list[float | None] = []
 
     def values(self, theta):
         return np.asarray(theta, dtype=float)
 
-    def simulate_many(self, sets):
-        self.rtols_seen.append(self.rtol)
+    def simulate_many(self, sets, rtol=None):
+        self.rtols_seen.append(rtol)
         return [np.asarray(v, dtype=float) for v in sets]
+
+    costs = _Problem.costs  # the fit's own batch of costs
 
     def residual_vector(self, sim):
         return self.L.T @ sim
@@ -95,13 +96,13 @@ def test_flat_side_ends_beyond_the_scan_and_sides_are_separate():
         assert hi[0] == pytest.approx(Z * sd[0], rel=1e-9)
 
 
-def test_scan_runs_at_a_tenth_of_the_tolerance_and_restores_it():
+def test_scan_runs_at_a_tenth_of_the_tolerance():
+    """One batch (the estimate and the scanned points) at rtol/10; the problem's own rtol and
+    its cached residuals are left alone."""
     H = np.diag([1e4, 1e2])
     prob, *_ = _scan(0.5 * H, H, np.sqrt(np.diag(np.linalg.inv(H))))
-    assert prob.rtols_seen == [
-        pytest.approx(1e-6)
-    ]  # one batch: the estimate and the scanned points
-    assert prob.rtol == 1e-5 and prob._cache == {}  # cached residuals were at rtol/10
+    assert prob.rtols_seen == [pytest.approx(1e-6)]
+    assert prob.rtol == 1e-5
 
 
 def test_narrow_intervals_and_points_outside_the_bounds_are_not_scanned():
