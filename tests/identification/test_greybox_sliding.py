@@ -1,0 +1,172 @@
+"""The sliding stage of the grey-box fit (issue 19): stretches, refit, propagated covariance.
+
+Runs are the full model's own sines with the rig's white sensor noise, so every number below
+is checked against known truth; the benchmark-sized recovery over seeds is in
+``test_greybox_sine.py`` (slow).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from test_greybox import _measured
+
+from hydropwa.identification import IdentificationWarning, Shooting, fit_model
+from hydropwa.identification._greybox import _prepare_run, _smoothed_velocity
+from hydropwa.models import FullOrderModel
+from hydropwa.params import get_preset
+from hydropwa.simulation import Sine
+
+FRICTION = ("friction.coulomb", "friction.static", "friction.viscous")
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
+
+
+@pytest.fixture(scope="module")
+def reversing_runs(truth):
+    """Two 2 s sines whose reversals pass through the Stribeck dip (20 % and 40 % at 1–2 Hz)."""
+    m = FullOrderModel(truth)
+    return [
+        _measured(m, Sine(amplitude=0.2, frequency=1.0), 2.0, 11, x0=0.03, name="s20"),
+        _measured(m, Sine(amplitude=0.4, frequency=2.0), 2.0, 12, x0=0.03, name="s40"),
+    ]
+
+
+def test_sliding_stretches_stay_above_the_speed_and_start_where_it_is_crossed(
+    truth, reversing_runs
+):
+    """Every stretch lies where the smoothed measured speed exceeds v_min, is at least one
+    window long and starts at a crossing (or the run's start) from the measured state;
+    together they hold every fast sample but those of stretches shorter than a window."""
+    shooting = Shooting()
+    v_min = 2.0 * truth.friction.stribeck_velocity
+    for run in reversing_runs:
+        rd = _prepare_run(
+            run, FullOrderModel(truth), ("x", "p_a", "p_b"), shooting, [], sliding_above=v_min
+        )
+        assert rd is not None and rd.method == "single" and "sliding" in rd.reason
+        t, x = rd.t, rd.y["x"]
+        fast = np.abs(_smoothed_velocity(t, x, shooting.velocity_window)) > v_min
+        covered = np.zeros(t.size, bool)
+        dt = float(np.median(np.diff(t)))
+        w = round(shooting.window / dt)
+        for seg in rd.segments:
+            assert fast[seg.i0 : seg.i1].all()
+            assert seg.i1 - seg.i0 >= w
+            # at a crossing, at a cut of a longer stretch, or at the run's start
+            assert seg.i0 == 0 or covered[seg.i0 - 1] or not fast[seg.i0 - 1]
+            # the initial state is the smoothed measurement there (position within 3 noise σ)
+            assert seg.meas["x"] == pytest.approx(x[seg.i0], abs=3 * 5e-6)
+            assert abs(seg.meas["v"]) > v_min
+            covered[seg.i0 : seg.i1] = True
+        # the sines reverse: a good part of each run is slower than v_min and left out
+        assert 0.1 < 1.0 - covered.mean() < 0.9
+        # fast samples left out belong to stretches shorter than a window
+        missed = fast & ~covered
+        if missed.any():
+            edges = np.diff(np.concatenate(([0], missed.astype(int), [0])))
+            lengths = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
+            assert lengths.max() < w
+
+
+@pytest.fixture(scope="module")
+def friction_fit(truth, reversing_runs):
+    start = truth.replace(
+        **{
+            "friction.coulomb": 1.25 * truth.friction.coulomb,
+            "friction.static": 0.9 * truth.friction.static,
+            "friction.viscous": 1.15 * truth.friction.viscous,
+        }
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentificationWarning)
+        return fit_model(
+            FullOrderModel(start),
+            reversing_runs,
+            FRICTION,
+            jobs=2,
+            profile="none",
+            nuisance_draws=8,
+        )
+
+
+def test_sliding_stage_refits_all_but_the_breakaway_parameters(truth, friction_fit):
+    """F_c and σ come from the sliding stretches, F_s (breakaway) from the full data.
+
+    Measured on these runs (seeds 11/12, 21/22, 31/32): F_c +6.5, +0.3, −2.7 % with the
+    sliding stage, every interval holding the truth; without it +10.2, +17.4, +7.7 %, every
+    interval missing it (eight seed pairs: −10.0 … +6.5 %, 16 of 16 intervals of F_c and σ
+    inside). σ within 1 %, F_s +0.4 … +1.5 %. Bounds: F_c 10 % (the issue's
+    figure), σ 3 % and F_s 5 % (the full fit's figures on the sine runs). F_s's interval is the
+    full fit's and not judged here (on these short runs it missed the truth on two seeds of
+    three, at +1.5 % and +0.6 %)."""
+    fit = friction_fit
+    sl = fit.sliding_
+    assert sl["parameters"] == ["friction.coulomb", "friction.viscous"]
+    assert sl["held"] == ["friction.static"]
+    assert sl["v_min"] == pytest.approx(2.0 * truth.friction.stribeck_velocity, rel=1e-12)
+    assert sl["stretches"] >= 4 and sl["runs"] == ["s20", "s40"]
+    assert fit.params_.meta["greybox"]["sliding"]["stretches"] == sl["stretches"]
+    for n, tol in zip(FRICTION, (0.10, 0.05, 0.03), strict=True):
+        comp, fld = n.split(".")
+        true = getattr(getattr(truth, comp), fld)
+        e = fit.estimates_[n]
+        assert e.value == pytest.approx(true, rel=tol), n
+        if n in sl["parameters"]:
+            assert e.ci[0] <= true <= e.ci[1], n
+    # the fitted parameter set holds the sliding stage's values
+    assert fit.params_.friction.coulomb == fit.estimates_["friction.coulomb"].value
+
+
+def test_held_parameters_uncertainty_is_propagated(friction_fit):
+    """Cov of the refitted parameters includes G·Cov_b·Gᵀ, with the cross terms G·Cov_b: the
+    covariance is symmetric positive semi-definite, its cross terms with the held F_s are
+    the propagated ones (non-zero), and F_c and σ, which share the sliding force, are
+    strongly anti-correlated (measured −0.92 … −0.96)."""
+    c = friction_fit.covariance_
+    assert np.allclose(c, c.T, rtol=0, atol=1e-12 * np.abs(c).max())
+    assert np.linalg.eigvalsh(c).min() >= -1e-9 * np.abs(c).max()
+    i_c, i_s = (
+        friction_fit.free.index("friction.coulomb"),
+        friction_fit.free.index("friction.static"),
+    )
+    i_v = friction_fit.free.index("friction.viscous")
+    assert c[i_c, i_s] != 0.0
+    assert friction_fit.correlation_[i_c, i_v] < -0.8
+    assert np.all(np.abs(friction_fit.correlation_) <= 1.0 + 1e-9)
+
+
+def test_sliding_stage_off_or_not_applicable(truth, reversing_runs):
+    """``sliding=False`` leaves ``sliding_`` empty; runs fitted in windows only have no
+    single-shot stretches, and the stage says why it did not apply."""
+    start = truth.replace(**{"friction.coulomb": 1.2 * truth.friction.coulomb})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentificationWarning)
+        off = fit_model(
+            FullOrderModel(start),
+            reversing_runs[:1],
+            "friction.coulomb",
+            jobs=2,
+            profile="none",
+            nuisance_draws=0,
+            sliding=False,
+            scan_intervals=False,
+        )
+        windows = fit_model(
+            FullOrderModel(start),
+            reversing_runs[:1],
+            "friction.coulomb",
+            jobs=2,
+            profile="none",
+            nuisance_draws=0,
+            shooting=Shooting(method="multiple", max_windows=10),
+            scan_intervals=False,
+        )
+    assert off.sliding_ == {}
+    assert "sliding" not in off.params_.meta["greybox"]
+    assert "too few" in windows.sliding_["skipped"]
