@@ -1809,8 +1809,9 @@ def fit_model(
         refit's. Around a reversal the falling branch of the Stribeck curve makes the
         simulated motion run away from the measured one, and in the full data that error
         decides F_c. Measured on the rig's 5 s sine runs (seeds 1–6, six parameters free):
-        F_c −11.1 … +6.2 % without, −6.1 … −1.0 % with (σ −2.2 … +1.8 % against within
-        ±0.5 %); see the closing figures in ``docs/architecture_identification.md``.
+        F_c −11.1 … +6.2 % without, −1.5 … +3.2 % with (σ −2.2 … +1.8 % against within
+        ±0.6 %), every F_c interval holding the truth. It adds 4–6 s to the benchmark's
+        fit on one thread (56–58 s in all).
 
     Returns
     -------
