@@ -119,8 +119,11 @@ def test_sliding_stage_refits_all_but_the_breakaway_parameters(truth, friction_f
         assert e.value == pytest.approx(true, rel=tol), n
         if n in sl["parameters"]:
             assert e.ci[0] <= true <= e.ci[1], n
-    # the fitted parameter set holds the sliding stage's values
+    # the fitted parameter set holds the sliding stage's values; the tables say which stage
     assert fit.params_.friction.coulomb == fit.estimates_["friction.coulomb"].value
+    stage = fit.to_pandas()["stage"]
+    assert stage["friction.coulomb"] == "sliding" and stage["friction.static"] == "full"
+    assert "Sliding stage: friction.coulomb, friction.viscous refitted" in fit.summary_markdown()
 
 
 def test_held_parameters_uncertainty_is_propagated(friction_fit):

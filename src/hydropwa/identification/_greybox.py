@@ -451,7 +451,8 @@ class GreyBoxFit:
         return f"GreyBoxFit({self.model}, {vals}, cost={self.cost:.4g}, success={self.success})"
 
     def to_pandas(self):
-        """One row per free parameter: value, std, interval, inflation, weak and widened flags."""
+        """One row per free parameter: value, std, interval, inflation, weak and widened flags,
+        and the stage it comes from (``full`` or ``sliding``)."""
         import pandas as pd  # deferred: pandas loads only for tables
 
         rows = []
@@ -467,6 +468,7 @@ class GreyBoxFit:
                     "inflation": float(self.inflation_[i]),
                     "weak": n in self.identifiability_.weak,
                     "widened": n in self.widened_,
+                    "stage": "sliding" if n in self.sliding_.get("parameters", ()) else "full",
                 }
             )
         return pd.DataFrame(rows).set_index("parameter")
@@ -506,6 +508,19 @@ class GreyBoxFit:
             )
         if idf.advice:
             lines += ["", "To separate them: " + "; ".join(idf.advice) + "."]
+        sl = self.sliding_
+        if sl.get("parameters"):
+            lines.append(
+                f"Sliding stage: {', '.join(sl['parameters'])} refitted on {sl['stretches']} "
+                f"stretches above {1e3 * sl['v_min']:.3g} mm/s"
+                + (
+                    f", {', '.join(sl['held'])} held at the full fit's values."
+                    if sl["held"]
+                    else "."
+                )
+            )
+        elif sl.get("skipped"):
+            lines.append(f"Sliding stage not applied: {sl['skipped']}.")
         if self.widened_:
             lines.append(
                 "Widened by the interval scan (the cost stays within the threshold beyond "
