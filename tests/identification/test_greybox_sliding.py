@@ -173,3 +173,45 @@ def test_sliding_stage_off_or_not_applicable(truth, reversing_runs):
     assert off.sliding_ == {}
     assert "sliding" not in off.params_.meta["greybox"]
     assert "too few" in windows.sliding_["skipped"]
+
+
+def test_sliding_stage_on_an_industrial_axis():
+    """A machine unlike the paper rig (63/36 mm × 500 mm, 250 kg, 210 bar; F_c 300 N, F_s
+    500 N, v_s 20 mm/s): three seeds of two 2 s sines, friction started 10–25 % off.
+
+    Measured over seeds 1–7: F_c −2.4 … +1.4 % with the sliding stage (−2.1 … +2.2 % without:
+    here F_c is a large part of the sliding force and the full data place it as well), σ
+    within 1.2 %, F_s within 0.5 %, 21 of 21 intervals holding the truth. Bounds: F_c 5 %,
+    σ 3 %, F_s 2 % (about twice the largest measured), every interval."""
+    from pathlib import Path
+
+    from hydropwa.params import load_params
+
+    truth = load_params(Path(__file__).parents[1] / "machines" / "industrial.toml").replace(
+        **{"cylinder.leakage": 5e-13}
+    )
+    m = FullOrderModel(truth)
+    start = truth.replace(
+        **{
+            "friction.coulomb": 1.25 * truth.friction.coulomb,
+            "friction.static": 0.9 * truth.friction.static,
+            "friction.viscous": 1.15 * truth.friction.viscous,
+        }
+    )
+    for k in (1, 2, 3):
+        runs = [
+            _measured(m, Sine(amplitude=0.2, frequency=1.0), 2.0, 10 * k + 1, x0=0.25, ps=210e5),
+            _measured(m, Sine(amplitude=0.4, frequency=1.5), 2.0, 10 * k + 2, x0=0.25, ps=210e5),
+        ]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", IdentificationWarning)
+            fit = fit_model(
+                FullOrderModel(start), runs, FRICTION, jobs=2, profile="none", nuisance_draws=8
+            )
+        assert fit.sliding_["parameters"] == ["friction.coulomb", "friction.viscous"]
+        assert fit.sliding_["v_min"] == pytest.approx(0.04)
+        for n, tol in zip(FRICTION, (0.05, 0.02, 0.03), strict=True):
+            true = getattr(truth.friction, n.split(".")[1])
+            e = fit.estimates_[n]
+            assert e.value == pytest.approx(true, rel=tol), (k, n)
+            assert e.ci[0] <= true <= e.ci[1], (k, n)
