@@ -148,27 +148,18 @@ def test_sliding_stage_off_or_not_applicable(truth, reversing_runs):
     """``sliding=False`` leaves ``sliding_`` empty; runs fitted in windows only have no
     single-shot stretches, and the stage says why it did not apply."""
     start = truth.replace(**{"friction.coulomb": 1.2 * truth.friction.coulomb})
+    quick = {"jobs": 2, "profile": "none", "nuisance_draws": 0, "scan_intervals": False}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentificationWarning)
         off = fit_model(
-            FullOrderModel(start),
-            reversing_runs[:1],
-            "friction.coulomb",
-            jobs=2,
-            profile="none",
-            nuisance_draws=0,
-            sliding=False,
-            scan_intervals=False,
+            FullOrderModel(start), reversing_runs[:1], "friction.coulomb", sliding=False, **quick
         )
         windows = fit_model(
             FullOrderModel(start),
             reversing_runs[:1],
             "friction.coulomb",
-            jobs=2,
-            profile="none",
-            nuisance_draws=0,
             shooting=Shooting(method="multiple", max_windows=10),
-            scan_intervals=False,
+            **quick,
         )
     assert off.sliding_ == {}
     assert "sliding" not in off.params_.meta["greybox"]
