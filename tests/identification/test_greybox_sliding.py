@@ -196,8 +196,16 @@ def test_sliding_stage_on_an_industrial_axis():
         ]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentificationWarning)
+            # a per-parameter x_scale reaches the sliding stage for its own parameters
+            xs = np.ones(len(FRICTION)) if k == 1 else 1.0
             fit = fit_model(
-                FullOrderModel(start), runs, FRICTION, jobs=2, profile="none", nuisance_draws=8
+                FullOrderModel(start),
+                runs,
+                FRICTION,
+                jobs=2,
+                profile="none",
+                nuisance_draws=8,
+                x_scale=xs,
             )
         assert fit.sliding_["parameters"] == ["friction.coulomb", "friction.viscous"]
         assert fit.sliding_["v_min"] == pytest.approx(0.04)

@@ -386,7 +386,8 @@ class GreyBoxFit:
     nfev, njev : int
         Residual and Jacobian evaluations of the best start.
     cost, initial_cost : float
-        ½Σρ(r²) at the optimum and at the start (r noise-scaled, ρ the loss).
+        ½Σρ(r²) at the full fit's optimum and at the start (r noise-scaled, ρ the loss;
+        the sliding stage's own cost is in ``sliding_``).
     runs_ : list of RunFit
     profiles_ : dict[str, Profile]
     identifiability_ : Identifiability
@@ -415,9 +416,11 @@ class GreyBoxFit:
     sliding_ : dict
         The sliding stage (``sliding`` of :func:`fit_model`): ``parameters`` refitted on
         the sliding stretches, ``held`` breakaway parameters, ``v_min`` [m/s], number of
-        ``stretches``, their ``runs``, ``cost``, ``nfev`` and ``status``; or ``skipped``
-        with the reason it did not apply; empty when not asked for (F_c fixed or
-        ``sliding=False``).
+        ``stretches``, their ``runs``, the stage's own ``cost``, ``nfev``, ``njev`` and
+        ``status``, and ``remaining_std`` (the largest Gauss–Newton step still left, in
+        standard deviations; above 1 the parameter is listed as unconverged); or
+        ``skipped`` with the reason it did not apply; empty when not asked for (F_c fixed
+        or ``sliding=False``).
     """
 
     params_: SystemParams
@@ -1431,6 +1434,7 @@ class _Sliding:
     half_hi: np.ndarray
     scan: dict[int, tuple[float, float]]
     widened: list[int]
+    left_sd: np.ndarray  # the Gauss–Newton step still left, in standard deviations
     info: dict[str, Any]
 
 
@@ -1513,6 +1517,9 @@ def _sliding_stage(
     tlo, thi = np.log(lo[i_free] / prob.ref), np.log(hi[i_free] / prob.ref)
     step = settings["fd_step"]
     loss, f_scale = settings["loss"], settings["f_scale"]
+    x_scale = settings["x_scale"]
+    if not isinstance(x_scale, str) and np.ndim(x_scale) > 0:
+        x_scale = np.asarray(x_scale, dtype=float)[i_free]  # per parameter: the refitted ones
 
     def jac(th: np.ndarray) -> np.ndarray:
         # forward differences: the walk from the full fit's values is short and smooth (no
@@ -1529,7 +1536,7 @@ def _sliding_stage(
             bounds=(tlo, thi),
             loss=loss,
             f_scale=f_scale,
-            x_scale=settings["x_scale"],
+            x_scale=x_scale,
             max_nfev=settings["max_nfev"],
             xtol=settings["xtol"],
             ftol=1e-6,
@@ -1543,7 +1550,7 @@ def _sliding_stage(
     # the Gauss–Newton step still left (a bias² term, as in the full fit)
     left = -cv.Hinv @ (cv.Jw.T @ cv.rw)
     with np.errstate(invalid="ignore", divide="ignore"):
-        left_sd = float(np.nanmax(np.abs(left) / np.sqrt(np.diag(c2))))
+        left_sd = np.nan_to_num(np.abs(left) / np.sqrt(np.diag(c2)))
     c2 = c2 + np.outer(left, left)
     s2 = float(cv.rw @ cv.rw) / max(r.size - theta.size, 1)
     naive = np.diag(cv.Hinv) * s2
@@ -1585,7 +1592,7 @@ def _sliding_stage(
         "nfev": int(sol.nfev),
         "njev": int(sol.njev or 0),
         "status": int(sol.status),
-        "remaining_std": left_sd,
+        "remaining_std": float(left_sd.max(initial=0.0)),
     }
     return _Sliding(
         i_free,
@@ -1601,6 +1608,7 @@ def _sliding_stage(
         half_hi,
         scan,
         widened,
+        left_sd,
         info,
     )
 
@@ -2185,17 +2193,6 @@ def fit_model(
                 std=float(values[i] * sd[i]),
                 ci=(float(values[i] * np.exp(-z * sd[i])), float(values[i] * np.exp(z * sd[i]))),
             )
-    if unconverged:
-        warnings.warn(
-            "the fit stopped before its optimum along "
-            + ", ".join(
-                f"{n} (a further {remaining_sd[names.index(n)]:.3g} std)" for n in unconverged
-            )
-            + "; their intervals are not trustworthy: refit from the result, with more starts, "
-            "or free fewer parameters",
-            IdentificationWarning,
-            stacklevel=2,
-        )
     # the profile statistic's scale: the sandwich variance over the unit-noise one (H⁻¹),
     # before the scan widens the covariance (the profiles' threshold)
     kappa = _kappa(cov, Hinv)
@@ -2298,6 +2295,24 @@ def fit_model(
                 ci=(float(values[i] * np.exp(-h_lo)), float(values[i] * np.exp(h_hi))),
             )
         widened += [names[idx[k]] for k in got.widened]
+        # convergence of the refitted parameters is the sliding stage's
+        unconverged = [n for n in unconverged if n not in moved]
+        for k, i in enumerate(idx):
+            remaining_sd[i] = got.left_sd[k]
+            if got.left_sd[k] > 1.0:
+                unconverged.append(names[i])
+        unconverged = [n for n in names if n in unconverged]
+    if unconverged:
+        warnings.warn(
+            "the fit stopped before its optimum along "
+            + ", ".join(
+                f"{n} (a further {remaining_sd[names.index(n)]:.3g} std)" for n in unconverged
+            )
+            + "; their intervals are not trustworthy: refit from the result, with more starts, "
+            "or free fewer parameters",
+            IdentificationWarning,
+            stacklevel=2,
+        )
     weak = [
         n
         for i, n in enumerate(names)
