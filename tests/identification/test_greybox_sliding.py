@@ -214,3 +214,42 @@ def test_sliding_stage_on_an_industrial_axis():
             e = fit.estimates_[n]
             assert e.value == pytest.approx(true, rel=tol), (k, n)
             assert e.ci[0] <= true <= e.ci[1], (k, n)
+
+
+def test_cli_sliding_switch(tmp_path, truth, reversing_runs):
+    """``hydropwa identify model --free friction.coulomb`` runs the sliding stage and says so
+    in its summary; ``--no-sliding`` leaves it out."""
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+    from hydropwa.data import write_dataset
+    from hydropwa.params import save_params
+
+    data = tmp_path / "data"
+    write_dataset(reversing_runs, data)
+    base = tmp_path / "base.toml"
+    save_params(truth.replace(**{"friction.coulomb": 1.2 * truth.friction.coulomb}), base)
+    summaries = {}
+    for flag in ("--sliding", "--no-sliding"):
+        out = tmp_path / f"fit{flag}.toml"
+        res = CliRunner().invoke(
+            app,
+            [
+                "identify",
+                "model",
+                str(data),
+                "--free",
+                "friction.coulomb",
+                "--params",
+                str(base),
+                "--jobs",
+                "2",
+                flag,
+                "--out",
+                str(out),
+            ],
+        )
+        assert res.exit_code == 0, res.output
+        summaries[flag] = out.with_suffix(".md").read_text()
+    assert "Sliding stage: friction.coulomb refitted" in summaries["--sliding"]
+    assert "Sliding stage" not in summaries["--no-sliding"]

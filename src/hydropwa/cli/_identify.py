@@ -315,6 +315,14 @@ def model(
         str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")
     ] = "linear",
     jobs: Annotated[int | None, typer.Option("--jobs", help="Threads (default all cores).")] = None,
+    sliding: Annotated[
+        bool,
+        typer.Option(
+            "--sliding/--no-sliding",
+            help="With friction.coulomb free: refit all but the breakaway parameters on the "
+            "stretches sliding faster than twice the Stribeck velocity (the sliding stage).",
+        ),
+    ] = True,
     figures: Figures = None,
     summary: Summary = None,
     force: Force = False,
@@ -350,6 +358,7 @@ def model(
         starts=starts,
         loss=loss,
         jobs=jobs,
+        sliding=sliding,
     )
     fit.save(out)
     from hydropwa._io import (
