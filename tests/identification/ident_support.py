@@ -11,6 +11,8 @@ import pytest
 
 from hydropwa.components import stribeck_friction
 from hydropwa.data import Run
+from hydropwa.params import get_preset
+from hydropwa.simulation import simulate
 
 FS = 2000.0  # Hz, the paper's sampling rate
 
@@ -117,3 +119,47 @@ def stribeck_points(fr, v, noise, seed):
         fr["smoothness"],
     )
     return f + noise * rng.standard_normal(v.size)
+
+
+#: white sensor noise of the rig's channels [SI], as in rig/_sensors.py
+NOISE = {"x": 5e-6, "p_a": 0.05e5, "p_b": 0.05e5, "p_s": 0.05e5, "f_l": 5.0, "spool": 1e-3}
+
+
+def noisy_run(model, u, duration, seed, x0=0.05, load=0.0, ps=100e5, name="run"):
+    """A run of ``model`` (simulated at rtol 1e-7) with white sensor noise at the rig's
+    levels (``NOISE``), as the grey-box tests measure it."""
+    res = simulate(
+        model,
+        u,
+        duration=duration,
+        initial_position=x0,
+        load_force=load,
+        supply_pressure=ps,
+        rtol=1e-7,
+    )
+    rng = np.random.default_rng(seed)
+    ch = {"t": res.t, "u": res["u"]}
+    for c, s in NOISE.items():
+        ch[c] = res[c] + rng.normal(0.0, s, res.t.size)
+    return Run(
+        name=name,
+        channels=ch,
+        units={
+            "t": "s",
+            "u": "1",
+            "x": "m",
+            "p_a": "Pa",
+            "p_b": "Pa",
+            "p_s": "Pa",
+            "f_l": "N",
+            "spool": "1",
+        },
+        fs=2000.0,
+        meta={"experiment": "sine"},
+    )
+
+
+@pytest.fixture(scope="module")
+def truth():
+    """The paper rig with a piston leakage of 2e-12 m³/(s·Pa): the grey-box tests' truth."""
+    return get_preset("paper").replace(**{"cylinder.leakage": 2e-12})

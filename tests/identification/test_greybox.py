@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 import pytest
+from ident_support import NOISE
+from ident_support import noisy_run as _measured
 from typer.testing import CliRunner
 
 from hydropwa._errors import IdentificationError
@@ -27,47 +29,7 @@ from hydropwa.identification._greybox import (
 )
 from hydropwa.models import FullOrderModel, ReducedModel
 from hydropwa.params import get_preset, load_params, save_params
-from hydropwa.simulation import Sine, simulate
-
-NOISE = {"x": 5e-6, "p_a": 0.05e5, "p_b": 0.05e5, "p_s": 0.05e5, "f_l": 5.0, "spool": 1e-3}
-
-
-def _measured(model, u, duration, seed, x0=0.05, load=0.0, ps=100e5, name="run"):
-    """A run of ``model`` with white sensor noise (the rig's noise levels)."""
-    res = simulate(
-        model,
-        u,
-        duration=duration,
-        initial_position=x0,
-        load_force=load,
-        supply_pressure=ps,
-        rtol=1e-7,
-    )
-    rng = np.random.default_rng(seed)
-    ch = {"t": res.t, "u": res["u"]}
-    for c, s in NOISE.items():
-        ch[c] = res[c] + rng.normal(0.0, s, res.t.size)
-    return Run(
-        name=name,
-        channels=ch,
-        units={
-            "t": "s",
-            "u": "1",
-            "x": "m",
-            "p_a": "Pa",
-            "p_b": "Pa",
-            "p_s": "Pa",
-            "f_l": "N",
-            "spool": "1",
-        },
-        fs=2000.0,
-        meta={"experiment": "sine"},
-    )
-
-
-@pytest.fixture(scope="module")
-def truth():
-    return get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
+from hydropwa.simulation import Sine
 
 
 @pytest.fixture(scope="module")

@@ -11,20 +11,14 @@ import warnings
 
 import numpy as np
 import pytest
-from test_greybox import _measured
+from ident_support import noisy_run as _measured
 
 from hydropwa.identification import IdentificationWarning, Shooting, fit_model
-from hydropwa.identification._greybox import _prepare_run, _smoothed_velocity
+from hydropwa.identification._greybox import _join_held, _prepare_run, _smoothed_velocity
 from hydropwa.models import FullOrderModel
-from hydropwa.params import get_preset
 from hydropwa.simulation import Sine
 
 FRICTION = ("friction.coulomb", "friction.static", "friction.viscous")
-
-
-@pytest.fixture(scope="module")
-def truth():
-    return get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
 
 
 @pytest.fixture(scope="module")
@@ -127,21 +121,40 @@ def test_sliding_stage_refits_all_but_the_breakaway_parameters(truth, friction_f
 
 
 def test_held_parameters_uncertainty_is_propagated(friction_fit):
-    """Cov of the refitted parameters includes G·Cov_b·Gᵀ, with the cross terms G·Cov_b: the
-    covariance is symmetric positive semi-definite, its cross terms with the held F_s are
-    the propagated ones (non-zero), and F_c and σ, which share the sliding force, are
-    strongly anti-correlated (measured −0.92 … −0.96)."""
+    """The fit's covariance is symmetric positive semi-definite, with |correlations| ≤ 1, and
+    F_c and σ, which share the sliding force, strongly anti-correlated (measured −0.92 …
+    −0.96). (The held F_s adds < 1 % to F_c's variance on these runs: the propagation itself
+    is checked against sampling below.)"""
     c = friction_fit.covariance_
     assert np.allclose(c, c.T, rtol=0, atol=1e-12 * np.abs(c).max())
     assert np.linalg.eigvalsh(c).min() >= -1e-9 * np.abs(c).max()
-    i_c, i_s = (
-        friction_fit.free.index("friction.coulomb"),
-        friction_fit.free.index("friction.static"),
-    )
+    i_c = friction_fit.free.index("friction.coulomb")
     i_v = friction_fit.free.index("friction.viscous")
-    assert c[i_c, i_s] != 0.0
     assert friction_fit.correlation_[i_c, i_v] < -0.8
     assert np.all(np.abs(friction_fit.correlation_) <= 1.0 + 1e-9)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_join_held_is_the_covariance_of_the_linearised_refit(seed):
+    """θ_f = θ̂_f + G·θ_b with θ̂_f ~ N(0, C_f) and θ_b ~ N(0, C_b) independent: the sample
+    covariance of (θ_f, θ_b), laid out at the parameters' positions, matches
+    ``_join_held`` (200 000 draws: entries within 2 % of the diagonal scale)."""
+    rng = np.random.default_rng(seed)
+    p, i_held = 5, sorted(rng.choice(5, size=2, replace=False).tolist())
+    i_free = [i for i in range(p) if i not in i_held]
+    a = rng.normal(size=(p, p))
+    cov = a @ a.T  # the full fit's covariance: only its held block is used
+    f = rng.normal(size=(len(i_free), len(i_free)))
+    c_free = f @ f.T
+    G = rng.normal(size=(len(i_free), len(i_held)))
+    n = 200_000
+    th_b = rng.multivariate_normal(np.zeros(len(i_held)), cov[np.ix_(i_held, i_held)], n)
+    th_f = rng.multivariate_normal(np.zeros(len(i_free)), c_free, n) + th_b @ G.T
+    draws = np.empty((n, p))
+    draws[:, i_free], draws[:, i_held] = th_f, th_b
+    got = _join_held(cov, c_free, G, i_free, i_held)
+    scale = np.sqrt(np.outer(np.diag(got), np.diag(got)))
+    assert np.all(np.abs(np.cov(draws, rowvar=False) - got) <= 0.02 * scale)
 
 
 def test_sliding_stage_off_or_not_applicable(truth, reversing_runs):

@@ -795,25 +795,20 @@ def _prepare_run(
 
     segments: list[_Segment] = []
     min_len = max(10, int(round(0.25 * shooting.window / dt)))
-    if sliding_above is not None:
-        # stretches of sliding, at least one window long, each cut like a single-shot stretch
+    if method == "single":
+        stretches, shortest = valid, min_len
+        if sliding_above is not None:
+            # the sliding stretches, at least one window long, selected on the same smoothed
+            # velocity as the initial states: each starts at the crossing (see the sliding
+            # stage in docs/architecture_identification.md for the delayed and the separately
+            # smoothed starts that were measured and not kept)
+            stretches = _mask_runs((np.abs(v_est) > sliding_above) & ~bad_mask)
+            shortest = max(min_len, int(round(shooting.window / dt)))
         step = e_max = max(min_len, int(round(shooting.segment / dt))) if shooting.segment else n
-        # selected on the same smoothed velocity as the initial states: a stretch starts at
-        # the crossing (see the sliding stage in docs/architecture_identification.md for the
-        # delayed and the separately smoothed starts that were measured and not kept)
-        fast = (np.abs(v_est) > sliding_above) & ~bad_mask
-        shortest = max(min_len, int(round(shooting.window / dt)))
-        for s, e in _mask_runs(fast):
+        for s, e in stretches:
             for a in range(s, e, step):
                 b = min(a + e_max, e)
                 if b - a >= shortest:
-                    segments.append(segment(a, b))
-    elif method == "single":
-        step = e_max = max(min_len, int(round(shooting.segment / dt))) if shooting.segment else n
-        for s, e in valid:
-            for a in range(s, e, step):
-                b = min(a + e_max, e)
-                if b - a >= min_len:
                     segments.append(segment(a, b))
     else:
         w = max(4, int(round(shooting.window / dt)))
@@ -1282,14 +1277,17 @@ def _interval_scan(
     q_at: dict[tuple[int, float], float] = {}
     k = 1
     for i, side, inside in where:
-        q = 2.0 * (next(costs) - c0) / kappa[i] if inside else math.nan
+        if not inside:
+            q_at[(i, side)] = math.nan
+            continue
+        q = 2.0 * (next(costs) - c0) / kappa[i]
         q_at[(i, side)] = q
+        off = sets[k] - theta  # this point's offset (sets[0] is θ itself)
+        k += 1
         if not np.isfinite(q):
             continue
         # the point is inside every other parameter j's profile region where its statistic on
         # j's scale, 2Δcost/κ_j, is within z²: j's interval must reach the point's offset
-        off = sets[k] - theta
-        k += 1
         within = q * kappa[i] / kappa <= z * z
         within[i] = False
         lo = np.where(within & (off < 0), np.maximum(lo, -off), lo)
@@ -1473,6 +1471,23 @@ def _sliding_runs(
     return model, v_min, runs
 
 
+def _join_held(
+    cov: np.ndarray, c_free: np.ndarray, G: np.ndarray, i_free: list[int], i_held: list[int]
+) -> np.ndarray:
+    """The covariance over all parameters after a refit of ``i_free`` with ``i_held`` held.
+
+    The refit's estimate is θ_f = θ̂_f + G·(θ_b − θ̂_b) to first order, θ̂_f with covariance
+    ``c_free`` (its own data, independent of the held estimate θ_b, whose covariance is the
+    ``i_held`` block of ``cov``): Cov θ_f = c_free + G·C_b·Gᵀ, Cov(θ_f, θ_b) = G·C_b.
+    """
+    out = np.array(cov, dtype=float)
+    Cb = out[np.ix_(i_held, i_held)]
+    out[np.ix_(i_free, i_free)] = c_free + G @ Cb @ G.T
+    out[np.ix_(i_free, i_held)] = G @ Cb
+    out[np.ix_(i_held, i_free)] = (G @ Cb).T
+    return out
+
+
 def _sliding_stage(
     sliding: tuple[Any, float, list[_RunData]],
     names: tuple[str, ...],
@@ -1563,7 +1578,7 @@ def _sliding_stage(
         c2, half_lo, half_hi, scan = _scan_widen(prob, theta, cv.Hinv, c2, z, tlo, thi, cost)
         widened = [k for k in range(theta.size) if max(half_lo[k], half_hi[k]) > z * sd[k]]
     # the held parameters' uncertainty through the refit: G = −H⁻¹JᵀJ_b
-    out = np.array(cov, dtype=float)
+    G = np.zeros((len(i_free), len(i_held)))
     if i_held:
         held = _Problem(
             type(model)(prob.params_at(prob.values(theta))),
@@ -1577,11 +1592,7 @@ def _sliding_stage(
         held.ref = values[i_held].copy()
         Jb = held.jac(np.zeros(len(i_held)), step, central=True) * cv.w[:, None]
         G = -cv.Hinv @ (cv.Jw.T @ Jb)
-        Cb = out[np.ix_(i_held, i_held)]
-        c2 = c2 + G @ Cb @ G.T
-        out[np.ix_(i_free, i_held)] = G @ Cb
-        out[np.ix_(i_held, i_free)] = (G @ Cb).T
-    out[np.ix_(i_free, i_free)] = c2
+    out = _join_held(cov, c2, G, i_free, i_held)
     info = {
         "parameters": list(free2),
         "held": [names[i] for i in i_held],
@@ -1610,6 +1621,20 @@ def _sliding_stage(
         widened,
         left_sd,
         info,
+    )
+
+
+def _estimate(
+    e: ParameterEstimate, value: float, sd: float, half_lo: float, half_hi: float
+) -> ParameterEstimate:
+    """``e`` at ``value`` [SI] with standard error ``sd`` and interval half-widths
+    ``half_lo``/``half_hi`` below and above, all in ln p (the fit's coordinates)."""
+    v = float(value)
+    return dataclasses.replace(
+        e,
+        value=v,
+        std=v * float(sd),
+        ci=(v * math.exp(-float(half_lo)), v * math.exp(float(half_hi))),
     )
 
 
@@ -2187,12 +2212,7 @@ def fit_model(
             sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
             corr = cov / np.outer(sd, sd)
         for i, n in enumerate(names):
-            e = estimates[n]
-            estimates[n] = dataclasses.replace(
-                e,
-                std=float(values[i] * sd[i]),
-                ci=(float(values[i] * np.exp(-z * sd[i])), float(values[i] * np.exp(z * sd[i]))),
-            )
+            estimates[n] = _estimate(estimates[n], values[i], sd[i], z * sd[i], z * sd[i])
     # the profile statistic's scale: the sandwich variance over the unit-noise one (H⁻¹),
     # before the scan widens the covariance (the profiles' threshold)
     kappa = _kappa(cov, Hinv)
@@ -2229,14 +2249,7 @@ def fit_model(
             inflation = np.diag(cov) / naive
         for i, n in enumerate(names):
             if n in widened:
-                estimates[n] = dataclasses.replace(
-                    estimates[n],
-                    std=float(values[i] * sd[i]),
-                    ci=(
-                        float(values[i] * np.exp(-half_lo[i])),
-                        float(values[i] * np.exp(half_hi[i])),
-                    ),
-                )
+                estimates[n] = _estimate(estimates[n], values[i], sd[i], half_lo[i], half_hi[i])
     # the sliding stage: everything but the breakaway parameters again, from the sliding
     # stretches alone (the stick events' runaway dominates the full cost's F_c)
     sliding_info: dict[str, Any] = {}
@@ -2288,12 +2301,7 @@ def fit_model(
             n = names[i]
             h_lo = max(float(got.half_lo[k]), z * sd[i])
             h_hi = max(float(got.half_hi[k]), z * sd[i])
-            estimates[n] = dataclasses.replace(
-                estimates[n],
-                value=float(values[i]),
-                std=float(values[i] * sd[i]),
-                ci=(float(values[i] * np.exp(-h_lo)), float(values[i] * np.exp(h_hi))),
-            )
+            estimates[n] = _estimate(estimates[n], values[i], sd[i], h_lo, h_hi)
         widened += [names[idx[k]] for k in got.widened]
         # convergence of the refitted parameters is the sliding stage's
         unconverged = [n for n in unconverged if n not in moved]
