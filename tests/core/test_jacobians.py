@@ -364,3 +364,138 @@ def pwa_scheduled():
     p = linearize(prm).pack(command_amplitude=0.4)
     p[K.I_SCHED] = 1.0
     return p
+
+
+# --- the full model's exact Jacobian ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def full_packed():
+    """The paper rig's full model, with its supply an input and with the pump as a state."""
+    prm = get_preset("paper")
+    p = as_model("full", prm).pack(command_amplitude=0.4)
+    pumped = p.copy()
+    pumped[K.I_PUMP] = 1.0
+    for slot, value in ((K.I_VLINE, 1e-3), (K.I_DROOP, 5e5), (K.I_QMAX, 1e-3), (K.I_PSET, 1e7)):
+        pumped[slot] = pumped[slot] if pumped[slot] > 0 else value
+    return {False: p, True: pumped}
+
+
+def _full_state(nu, dnu, pa, pb, x, v, ps):
+    y = np.zeros(len(K.Y_FULL))
+    y[[K.Y_NU, K.Y_DNU, K.Y_PA, K.Y_PB, K.Y_X, K.Y_V, K.Y_PS]] = nu, dnu, pa, pb, x, v, ps
+    return y
+
+
+def _full_kinks(y, h, p, ps):
+    """True if a difference stencil of half-width h around y straddles a kink of rhs_full."""
+    prm_ptr, pt = p[K.I_PTR], p[K.I_PT]
+    nu, pa, pb, x = y[K.Y_NU], y[K.Y_PA], y[K.Y_PB], y[K.Y_X]
+    zs = {K._opening(nu + s * h[K.Y_NU], p) >= 0 for s in (-1, 0, 1)}
+    corners = (p[K.I_BETA], p[K.I_ALPHA] + p[K.I_OUTER])
+    near_corner = any(abs(abs(nu) - c) < 2 * h[K.Y_NU] for c in corners)
+    drops = (ps - pa, pb - pt, pa - pt, ps - pb)
+    near_band = any(abs(abs(d) - prm_ptr) < 2 * max(h[K.Y_PA], h[K.Y_PS]) for d in drops)
+    near_release = any(
+        abs(q - p[K.I_PREL]) < 2 * h[K.Y_PA] or abs(q - p[K.I_PVAP]) < 2 * h[K.Y_PA]
+        for q in (pa, pb)
+    )
+    near_stop = min(abs(x), abs(x - p[K.I_STROKE])) < 2 * h[K.Y_X]
+    pump_edges = (p[K.I_PSET], p[K.I_PSET] - p[K.I_DROOP], p[K.I_PRELIEF])
+    near_pump = p[K.I_PUMP] > 0.5 and any(abs(y[K.Y_PS] - e) < 2 * h[K.Y_PS] for e in pump_edges)
+    return len(zs) > 1 or near_corner or near_band or near_release or near_stop or near_pump
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    pump=st.booleans(),
+    nu=st.one_of(st.floats(-1.2, 1.2), st.floats(-0.05, 0.05)),
+    dnu=st.floats(-50.0, 50.0),
+    pa=st.one_of(st.floats(1e5, 1.1e7), st.floats(-0.9e5, 2e5)),
+    pb=st.one_of(st.floats(1e5, 1.1e7), st.floats(-0.9e5, 2e5)),
+    x=st.floats(-1e-4, 0.2001),
+    v=st.one_of(st.floats(-0.3, 0.3), st.floats(-1e-3, 1e-3)),
+    ps=st.floats(8e6, 1.1e7),
+)
+def test_full_jacobian_matches_differences(full_packed, pump, nu, dnu, pa, pb, x, v, ps):
+    """jac_full equals a central difference of rhs_full, column by column (pump on and off).
+
+    The states cover the cavitation range of the chambers (down to −0.9 bar gauge), the dead
+    band, the end stops, the laminar band of the metering edges and the pump's droop band;
+    stencils across one of those kinks are skipped (see the module docstring; the pump's clip at
+    P_S = p_set was found by hypothesis). Row-wise tolerance 1e-4 of the row's largest
+    entry: the rows differ by ten orders of magnitude (Pa/s against m/s²).
+    """
+    p = full_packed[pump]
+    y = _full_state(nu, dnu, pa, pb, x, v, ps)
+    scale = as_model("full", get_preset("paper")).state_scale()
+    h = 1e-7 * np.maximum(np.abs(y), scale)
+    assume(not _full_kinks(y, h, p, ps))
+    u, ps_in, fl = 0.3, ps, 150.0
+    n = y.size
+    J = np.empty((n, n))
+    assert K.jac_full(y, u, ps_in, fl, p, J)
+    num = np.empty((n, n))
+    fp, fm = np.empty(n), np.empty(n)
+    for j in range(n):
+        yp, ym = y.copy(), y.copy()
+        yp[j] += h[j]
+        ym[j] -= h[j]
+        K.rhs_full(yp, u, ps_in, fl, p, fp)
+        K.rhs_full(ym, u, ps_in, fl, p, fm)
+        num[:, j] = (fp - fm) / (2 * h[j])
+    row_scale = np.abs(J).max(axis=1, keepdims=True) + 1e-300
+    assert np.all(np.abs(J - num) <= 1e-4 * row_scale + 1e-9), (J - num) / row_scale
+
+
+def test_full_jacobian_with_an_accumulator_is_left_to_differences():
+    """The accumulator's gas law has no exact slope: jac_full says so and leaves J alone."""
+    from hydropwa.params import Accumulator
+
+    prm = get_preset("paper").replace(accumulator=Accumulator(gas_volume=0.5e-3))
+    p = as_model("full", prm).pack()
+    J = np.full((len(K.Y_FULL),) * 2, 7.0)
+    assert not K.jac_full(np.zeros(len(K.Y_FULL)), 0.0, 1e7, 0.0, p, J)
+    assert np.all(J == 7.0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    nu=st.floats(-1.0, 1.0),
+    pa=st.floats(1e5, 9e6),
+    pb=st.floats(1e5, 9e6),
+    ps=st.floats(8e6, 1.1e7),
+    rates=st.tuples(st.floats(-5.0, 5.0), st.floats(-1e8, 1e8), st.floats(-1e5, 1e5)),
+)
+def test_full_time_derivative_matches_differences(full_packed, nu, pa, pb, ps, rates):
+    """dfdt_full equals Σ ∂f/∂input · rate over u, P_S (an input here) and F_L.
+
+    Partials by central differences of rhs_full with steps of 1e-7 of each input's scale;
+    compared row-wise to 1e-4 of Σ|∂f/∂input · rate| plus the differences' rounding
+    (4ε|f|/h per input, times its rate). Stencils across the laminar band's edges are skipped
+    (z does not move with u or P_S).
+    """
+    p = full_packed[False]
+    y = _full_state(nu, 3.0, pa, pb, 0.1, 0.05, 0.0)
+    h = 1e-7 * np.array([1.0, ps, 1e4])
+    h_states = np.full(y.size, 1e-12)  # the states stay put; P_S moves the edges' drops
+    h_states[[K.Y_PA, K.Y_PS]] = h[1]
+    assume(not _full_kinks(y, h_states, p, ps))
+    x0 = np.array([0.3, ps, 100.0])
+    n = y.size
+    parts = np.empty((3, n))
+    rounding = np.zeros(n)  # ε·|f|/h of each difference, weighted by its rate
+    fp, fm = np.empty(n), np.empty(n)
+    for i in range(3):
+        hi, lo = x0.copy(), x0.copy()
+        hi[i] += h[i]
+        lo[i] -= h[i]
+        K.rhs_full(y, hi[0], hi[1], hi[2], p, fp)
+        K.rhs_full(y, lo[0], lo[1], lo[2], p, fm)
+        parts[i] = (fp - fm) / (2 * h[i])
+        rounding += abs(rates[i]) * 4e-16 * np.maximum(np.abs(fp), np.abs(fm)) / h[i]
+    want = np.asarray(rates) @ parts
+    got = np.empty(n)
+    K.dfdt_full(y, *x0, *rates, p, got)
+    bound = 1e-4 * (np.abs(np.asarray(rates)[:, None] * parts).sum(axis=0)) + rounding + 1e-9
+    assert np.all(np.abs(got - want) <= bound), (got, want)

@@ -28,11 +28,13 @@ __all__ = [
     "signed_sqrt",
     "signed_sqrt_slope",
     "orifice_flows",
+    "orifice_flow_slopes",
     "load_flow_drop",
     "load_flow",
     "load_flow_slope",
     "load_flow_input_slopes",
     "effective_bulk_modulus",
+    "effective_bulk_modulus_slope",
     "chamber_pressure_rates",
     "load_pressure_gain",
     "load_pressure_rate",
@@ -48,6 +50,7 @@ __all__ = [
     "piston_acceleration",
     "net_piston_force",
     "pump_supply_rate",
+    "pump_supply_rate_slope",
     "supply_flow",
     "hose_flow",
     "accumulator_pressure_rate",
@@ -215,6 +218,32 @@ def orifice_flows(z: float, p_a: float, p_b: float, p_s: float, p_t: float, K: f
 
 
 @njit(**_JIT)
+def orifice_flow_slopes(
+    z: float, p_a: float, p_b: float, p_s: float, p_t: float, K: float, p_tr: float
+):
+    """Partial derivatives of :func:`orifice_flows`, Eqs. (5)–(6), for the exact Jacobian.
+
+    Returns
+    -------
+    tuple of float
+        (∂Q_A/∂z, ∂Q_A/∂P_A, ∂Q_A/∂P_S, ∂Q_B/∂z, ∂Q_B/∂P_B, ∂Q_B/∂P_S) in [m³/s],
+        [m³/(s·Pa)]. Q_A = z K r(Δp_A) depends on z linearly within a flow direction (the
+        edge switches at z = 0, where Q = 0 on both sides), on P_A and P_S through the root
+        r of :func:`signed_sqrt` (slope :func:`signed_sqrt_slope`); likewise Q_B.
+    """
+    zk = z * K
+    if z >= 0.0:
+        da, db = p_s - p_a, p_b - p_t
+        ga = zk * signed_sqrt_slope(da, p_tr)
+        gb = zk * signed_sqrt_slope(db, p_tr)
+        return K * signed_sqrt(da, p_tr), -ga, ga, K * signed_sqrt(db, p_tr), gb, 0.0
+    da, db = p_a - p_t, p_s - p_b
+    ga = zk * signed_sqrt_slope(da, p_tr)
+    gb = zk * signed_sqrt_slope(db, p_tr)
+    return K * signed_sqrt(da, p_tr), ga, 0.0, K * signed_sqrt(db, p_tr), -gb, gb
+
+
+@njit(**_JIT)
 def supply_flow(z: float, q_a: float, q_b: float) -> float:
     """Flow drawn from the supply port [m³/s] given the edge flows of :func:`orifice_flows`."""
     return q_a if z >= 0.0 else -q_b
@@ -361,6 +390,23 @@ def effective_bulk_modulus(
     if net_flow >= 0.0 and frac < 1e-3:
         frac = 1e-3
     return E * frac
+
+
+@njit(**_JIT)
+def effective_bulk_modulus_slope(
+    p: float, E: float, p_vap: float, p_rel: float, net_flow: float = 1.0
+) -> float:
+    """∂E_eff/∂p [1] of :func:`effective_bulk_modulus` at fixed net flow (same branches).
+
+    E/(p_rel − p_vap) on the falling branch below the release pressure, zero above it and on
+    the 0.1 % floor of a chamber being filled.
+    """
+    if p >= p_rel:
+        return 0.0
+    frac = (p - p_vap) / (p_rel - p_vap)
+    if net_flow >= 0.0 and frac < 1e-3:
+        return 0.0
+    return E / (p_rel - p_vap)
 
 
 @njit(**_JIT)
@@ -530,6 +576,29 @@ def pump_supply_rate(
         r = 1.0
     q_relief = relief_gain * (p_s - p_relief) if p_s > p_relief else 0.0
     return E / v_line * (q_max * r - q_draw - q_relief)
+
+
+@njit(**_JIT)
+def pump_supply_rate_slope(
+    p_s: float,
+    v_line: float,
+    E: float,
+    q_max: float,
+    p_set: float,
+    droop: float,
+    p_relief: float,
+    relief_gain: float,
+) -> tuple[float, float]:
+    """Partial derivatives of :func:`pump_supply_rate`: (∂Ṗ_S/∂P_S [1/s], ∂Ṗ_S/∂q_draw [Pa/m³]).
+
+    The pump's delivery falls with slope −q_max/droop inside its droop band, the relief valve
+    adds −relief_gain above its pressure; the valve's draw enters with −E/V_line.
+    """
+    r = (p_set - p_s) / droop
+    dr = -1.0 / droop if 0.0 < r < 1.0 else 0.0
+    drel = relief_gain if p_s > p_relief else 0.0
+    g = E / v_line
+    return g * (q_max * dr - drel), -g
 
 
 @njit(**_JIT)
