@@ -1,7 +1,8 @@
 """``hydropwa control``: design a controller on the PWA model and simulate it in closed loop.
 
 ``hydropwa control design --params P.toml --out ctrl.toml`` and
-``hydropwa control simulate --model full --controller ctrl.toml --reference "..." --out run.parquet --plot run.png``.
+``hydropwa control simulate --model full --controller ctrl.toml --reference "..." --out run.parquet --plot run.png``,
+``hydropwa control export ctrl.toml --c DIR [--fmu ctrl.fmu]``.
 Thin wrappers over :mod:`hydropwa.control`; user errors are :class:`~hydropwa.HydropwaError`.
 """
 
@@ -17,7 +18,7 @@ from .._io import check_output
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
 
-__all__ = ["app", "design_command", "simulate_command"]
+__all__ = ["app", "design_command", "simulate_command", "export_command"]
 
 app = new_app(
     "control", help="Closed-loop position control: design on the PWA model, verify on any model."
@@ -270,3 +271,31 @@ def simulate_command(
         )
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+@app.command("export")
+def export_command(
+    controller: Annotated[
+        Path, typer.Argument(help="Controller file (.toml/.json) from 'control design'.")
+    ],
+    c_dir: Annotated[
+        Path | None,
+        typer.Option(
+            "--c", help="Folder for the C99 code (hydropwa_ctrl.h, hydropwa_ctrl.c, README.md)."
+        ),
+    ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Export a controller file as dependency-free C99 code for a real-time target."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        ControlError,
+        export_c,
+        load_controller,
+    )
+
+    if c_dir is None:
+        raise ControlError("give --c DIR (the folder for the C code)")
+    check_output(c_dir, force, folder=True, option="--c")
+    ctrl = load_controller(controller)
+    export_c(ctrl, c_dir, overwrite=force)
+    typer.echo(f"wrote {c_dir}/hydropwa_ctrl.h, hydropwa_ctrl.c, README.md ({ctrl.kind})")
