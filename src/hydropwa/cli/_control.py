@@ -284,18 +284,34 @@ def export_command(
             "--c", help="Folder for the C99 code (hydropwa_ctrl.h, hydropwa_ctrl.c, README.md)."
         ),
     ] = None,
+    fmu: Annotated[
+        Path | None,
+        typer.Option(
+            "--fmu", help="Also build an FMI 2.0 co-simulation FMU (.fmu; needs a C compiler)."
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
-    """Export a controller file as dependency-free C99 code for a real-time target."""
+    """Export a controller file as dependency-free C99 code and/or an FMU for a real-time target."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         ControlError,
         export_c,
+        export_fmu,
         load_controller,
     )
 
-    if c_dir is None:
-        raise ControlError("give --c DIR (the folder for the C code)")
-    check_output(c_dir, force, folder=True, option="--c")
+    if c_dir is None and fmu is None:
+        raise ControlError("give --c DIR (the C code) and/or --fmu FILE.fmu")
+    if c_dir is not None:
+        check_output(c_dir, force, folder=True, option="--c")
+    if fmu is not None:
+        check_output(fmu, force, option="--fmu")
     ctrl = load_controller(controller)
-    export_c(ctrl, c_dir, overwrite=force)
-    typer.echo(f"wrote {c_dir}/hydropwa_ctrl.h, hydropwa_ctrl.c, README.md ({ctrl.kind})")
+    written = []
+    if c_dir is not None:
+        export_c(ctrl, c_dir, overwrite=force)
+        written.append(f"{c_dir}/hydropwa_ctrl.h, hydropwa_ctrl.c, README.md")
+    if fmu is not None:
+        export_fmu(ctrl, fmu, overwrite=force)
+        written.append(str(fmu))
+    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")

@@ -25,7 +25,7 @@ from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controll
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
-from ._target import export_c
+from ._target import export_c, export_fmu
 
 __all__ = [
     "ANTI_WINDUP",
@@ -52,6 +52,7 @@ __all__ = [
     "design_pi",
     "design_state_feedback",
     "export_c",
+    "export_fmu",
     "load_controller",
     "parse_reference",
     "save_controller",

@@ -35,9 +35,10 @@ import numpy as np
 from .. import __version__
 from .._io import atomic_write_text, check_output
 from ..simulation import _controller as C
+from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
-__all__ = ["export_c", "c_sources", "check_expressible", "C_FILES"]
+__all__ = ["export_c", "export_fmu", "c_sources", "check_expressible", "C_FILES"]
 
 #: files written by :func:`export_c`
 C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
@@ -298,3 +299,66 @@ def export_c(controller, directory: str | os.PathLike, *, overwrite: bool = Fals
     for name, text in texts.items():
         atomic_write_text(directory / name, text)
     return directory
+
+
+#: the controller FMU's variables (value references in this order; hp_model_ctrl.c's VR_*)
+FMU_VARIABLES = [
+    FmuVariable("x", "input", "continuous", 0.0, "m", "piston position (+ extends)"),
+    FmuVariable("v", "input", "continuous", 0.0, "m/s", "piston velocity"),
+    FmuVariable("p_l", "input", "continuous", 0.0, "Pa", "load pressure in the controller's form"),
+    FmuVariable("r", "input", "continuous", 0.0, "m", "reference position"),
+    FmuVariable("r_rate", "input", "continuous", 0.0, "m/s", "reference velocity"),
+    FmuVariable(
+        "u", "output", "discrete", None, "", "valve command [1] of the last sample (+-1 full)"
+    ),
+]
+
+
+def export_fmu(controller, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """Build the controller as an FMI 2.0 co-simulation FMU from the C of :func:`export_c`.
+
+    The FMU holds the platform binary of this machine and the sources (``hydropwa_ctrl.h``,
+    ``hydropwa_ctrl.c``, ``hydropwa_ctrl_fmi2.c``, README), so a user or a tool that compiles
+    source-code FMUs rebuilds it for another platform.
+
+    Parameters
+    ----------
+    controller : PIController or StateFeedbackController
+    path : path-like
+        The ``.fmu`` file.
+    overwrite : bool
+        Replace an existing file (default: refuse).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ControlError
+        The controller has a law element the C does not implement.
+    FmuBuildError
+        No C compiler (``$CC``, gcc, cc or clang) on PATH, or it failed.
+
+    Notes
+    -----
+    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s]; output u [1]. ``doStep(t, h)``
+    evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
+    at t, and u is the command of the last of them from then on (no direct feedthrough):
+    a master that sets the inputs at t_k, steps the controller, then reads u and passes it to
+    the plant's step from t_k reproduces the package's loop.
+    """
+    sources = c_sources(controller)
+    model = _read_template("hp_model_ctrl.c")
+    sources["hydropwa_ctrl_fmi2.c"] = fmi2_source(model)
+    return build_fmu(
+        path,
+        "hydropwa_ctrl",
+        f"hydropwa position controller: {_describe_line(controller)}, "
+        f"T_s = {controller.sample_time * 1e3:g} ms",
+        FMU_VARIABLES,
+        sources,
+        ["hydropwa_ctrl_fmi2.c", "hydropwa_ctrl.c"],
+        step_size=controller.sample_time,
+        overwrite=overwrite,
+    )

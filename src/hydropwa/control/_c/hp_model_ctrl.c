@@ -41,7 +41,7 @@ static double hp_sample_time(const hp_model *m, long k)
     return m->t0 + (double)k * HYDROPWA_CTRL_SAMPLE_TIME;
 }
 
-static double hp_sample(const hp_model *m, hydropwa_ctrl_state *s)
+static double hp_sample(hp_model *m, hydropwa_ctrl_state *s)
 {
     hydropwa_ctrl_meas meas;
     meas.x = m->vars[VR_X];
@@ -50,17 +50,12 @@ static double hp_sample(const hp_model *m, hydropwa_ctrl_state *s)
     return hydropwa_ctrl_step(s, &meas, m->vars[VR_R], m->vars[VR_RRATE]);
 }
 
-/* u at the current point: a sample due now is evaluated on a copy of the memory (direct
- * feedthrough of the inputs just set); doStep commits it. */
+/* u: the command of the last sample, held (no direct feedthrough: doStep(t_k, h) samples
+ * the inputs set at t_k, and the command is an output from then on, for the master to
+ * pass to the plant before the plant's step from t_k). */
 static void hp_model_outputs(hp_model *m)
 {
-    const double tol = 1e-9 * HYDROPWA_CTRL_SAMPLE_TIME;
-    if (hp_sample_time(m, m->k) <= m->time + tol) {
-        hydropwa_ctrl_state tmp = m->s;
-        m->vars[VR_U] = hp_sample(m, &tmp);
-    } else {
-        m->vars[VR_U] = m->held;
-    }
+    m->vars[VR_U] = m->held;
 }
 
 /* Every sample instant in [t, t + h) with the inputs held over the step. */
