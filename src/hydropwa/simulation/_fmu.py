@@ -25,7 +25,6 @@ from importlib import resources
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from .. import __version__
 from .._errors import HydropwaError
 from .._io import atomic_path, check_output
 
@@ -107,7 +106,10 @@ def _model_description(
     variables: list[FmuVariable],
     source_files: list[str],
     step_size: float,
+    interpolate_inputs: bool,
 ) -> str:
+    from .. import __version__  # deferred: hydropwa/__init__.py imports this package first
+
     units = sorted({v.unit for v in variables if v.unit})
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
@@ -117,7 +119,8 @@ def _model_description(
         ' numberOfEventIndicators="0">',
         f'  <CoSimulation modelIdentifier="{model_id}" canHandleVariableCommunicationStepSize="true"'
         ' canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="false"'
-        ' canGetAndSetFMUstate="false" canSerializeFMUstate="false">',
+        ' canGetAndSetFMUstate="false" canSerializeFMUstate="false"'
+        f' canInterpolateInputs="{str(interpolate_inputs).lower()}">',
         "    <SourceFiles>",
         *(f'      <File name="{f}"/>' for f in source_files),
         "    </SourceFiles>",
@@ -166,6 +169,7 @@ def build_fmu(
     compile_units: list[str],
     *,
     step_size: float,
+    interpolate_inputs: bool = False,
     overwrite: bool = False,
 ) -> Path:
     """Compile ``sources`` and zip the FMU at ``path`` (refuses an existing file without ``overwrite``).
@@ -186,6 +190,8 @@ def build_fmu(
         The files of ``sources`` to compile (the others are included).
     step_size : float
         Default communication step [s].
+    interpolate_inputs : bool
+        The model takes the inputs' first derivatives (``canInterpolateInputs``).
     overwrite : bool
         Replace an existing file.
 
@@ -202,7 +208,9 @@ def build_fmu(
     folder, suffix = _platform()
     digest = hashlib.sha256("".join(sources[k] for k in sorted(sources)).encode()).hexdigest()
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"hydropwa:{model_id}:{digest}")) + "}"
-    xml = _model_description(model_id, guid, description, variables, compile_units, step_size)
+    xml = _model_description(
+        model_id, guid, description, variables, compile_units, step_size, interpolate_inputs
+    )
     # the interface checks the GUID it is instantiated with against its own
     sources = {
         k: (f'#define HP_GUID "{guid}"\n' + v) if k.endswith("_fmi2.c") else v

@@ -58,6 +58,16 @@ static void hp_model_outputs(hp_model *m)
     m->vars[VR_U] = m->held;
 }
 
+/* The inputs are sampled: their rates are not used. */
+static int hp_model_input_derivative(hp_model *m, unsigned int vr, int order, double value)
+{
+    (void)m;
+    (void)vr;
+    (void)order;
+    (void)value;
+    return 1;
+}
+
 /* Every sample instant in [t, t + h) with the inputs held over the step. */
 static int hp_model_do_step(hp_model *m, double t, double h)
 {

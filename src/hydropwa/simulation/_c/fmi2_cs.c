@@ -5,7 +5,8 @@
  *   hp_model_reset(m)            start values and the model's memory,
  *   hp_model_start(m, t0)        leave initialisation at the start time t0,
  *   hp_model_outputs(m)          outputs from the inputs and the memory (no side effect),
- *   hp_model_do_step(m, t, h)    advance from t to t + h (0 on success).
+ *   hp_model_do_step(m, t, h)    advance from t to t + h (0 on success),
+ *   hp_model_input_derivative(m, vr, order, value)  an input's rate (0 if taken).
  * The FMI declarations are written out here (the types and signatures of the FMI 2.0
  * standard's headers), so the FMU's sources build with a C99 compiler alone.
  */
@@ -333,12 +334,15 @@ HP_EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2Valu
                                                  size_t n, const fmi2Integer order[],
                                                  const fmi2Real v[])
 {
-    (void)c;
-    (void)vr;
-    (void)n;
-    (void)order;
-    (void)v;
-    return fmi2Error;
+    hp_instance *inst = (hp_instance *)c;
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        if (hp_model_input_derivative(&inst->model, vr[i], order[i], v[i]) != 0) {
+            hp_log(inst, fmi2Error, "input derivatives: only the first, of inputs");
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
 }
 HP_EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                                   size_t n, const fmi2Integer order[],
