@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .._layout import BASE_SLOTS, FULL_STATES, SLOT, Y_FULL
+from .._errors import ParameterError
 from ..components import _physics as P
 from ..models import FullOrderModel
 from ..params import SystemParams
@@ -100,7 +101,9 @@ def export_axis_fmu(
     ``rtol``. Equations: Eqs. (1)–(11) as in :func:`hydropwa.simulate` with the full model.
     """
     if not isinstance(params, SystemParams):
-        raise TypeError("export_axis_fmu needs a SystemParams")
+        raise ParameterError(
+            f"export_axis_fmu needs a SystemParams (load_params or get_preset), got {type(params).__name__}"
+        )
     model = FullOrderModel(params)
     p = np.asarray(model.pack(), dtype=float)
     p[SLOT["omega0"]] = params.valve.omega0
