@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._layout import BASE_SLOTS, FULL_STATES, SLOT, Y_FULL
 from .._errors import ParameterError
+from .._layout import BASE_SLOTS, FULL_STATES, SLOT, Y_FULL
 from ..components import _physics as P
 from ..models import FullOrderModel
 from ..params import SystemParams
