@@ -282,6 +282,14 @@ def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr,
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
+def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
+    """A new element in the packed layout stops the export until the C implements it."""
+    monkeypatch.setattr(C, "C_ROWS", C.C_ROWS + 1)
+    with pytest.raises(ControlError, match=r"packed layout changed \(C_ROWS 18 \(C law: 17\)\)"):
+        export_c(PIController(kp=1.0), tmp_path / "c")
+    assert not (tmp_path / "c").exists()
+
+
 def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constants(paper_lqr):
     """The C's table reads back to the packed vector bit for bit; its HP_ indices are _controller's."""
     src = c_sources(paper_lqr)["hydropwa_ctrl.c"]
@@ -356,3 +364,29 @@ def test_fmu_export_without_a_c_compiler_is_one_line(paper_lqr, tmp_path, monkey
     with pytest.raises(FmuBuildError, match=r"^building an FMU needs a C compiler; [^\n]*$"):
         export_fmu(paper_lqr, tmp_path / "c.fmu")
     assert not (tmp_path / "c.fmu").exists()
+
+
+def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, capsys):
+    """``hydropwa control export``: C and FMU; an occupied target or a file it cannot read is
+    one line and exit 2; ``--force`` rewrites."""
+    from hydropwa.cli import main
+    from hydropwa.control import save_controller
+
+    ctrl_file = tmp_path / "ctrl.toml"
+    save_controller(paper_lqr, ctrl_file)
+    argv = ["control", "export", str(ctrl_file), "--c", str(tmp_path / "c")]
+    argv += ["--fmu", str(tmp_path / "c.fmu")]
+    assert main(argv) == 0
+    assert (tmp_path / "c" / "hydropwa_ctrl.c").is_file() and (tmp_path / "c.fmu").is_file()
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--force" in err[0], err
+    assert main([*argv, "--force"]) == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text('schema = "hydropwa.controller/1"\nkind = "mpc"\nsample_time = "0.5 ms"\n')
+    capsys.readouterr()
+    assert main(["control", "export", str(bad), "--c", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'mpc'" in err[0], err
+    assert not (tmp_path / "d").exists()

@@ -102,6 +102,10 @@ _COVERED = frozenset(
     }
 )
 _CELL_COVERED = frozenset({"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff"})
+#: the packed layout the C law was written for: header length, row length, memory size; a
+#: law element added to simulation/_controller.py changes one of them and stops the export
+#: until control/_c/hydropwa_ctrl_law.c implements it
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 7}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -139,6 +143,14 @@ def check_expressible(controller) -> np.ndarray:
         raise ControlError(
             f"cannot export a {type(controller).__name__} to C; the C law covers PIController and "
             "StateFeedbackController"
+        )
+    grown = [
+        f"{k} {getattr(C, k)} (C law: {v})" for k, v in _LAW_LAYOUT.items() if getattr(C, k) != v
+    ]
+    if grown:
+        raise ControlError(
+            f"the compiled law's packed layout changed ({', '.join(grown)}); the C export "
+            "implements the earlier law and cannot express this controller"
         )
     d = controller.describe()
     extra = sorted(k for k, v in d.items() if k not in _COVERED and _active(v))
