@@ -221,42 +221,41 @@ def test_c_controller_matches_the_compiled_law_in_lockstep(
     assert checked > 20000
 
 
-def test_c_controller_is_clean_under_address_and_undefined_sanitizers(paper, paper_lqr, tmp_path):
-    """The same lockstep run as a stand-alone program built with -fsanitize=address,undefined."""
-    out = export_c(paper_lqr, tmp_path / "c")
-    (out / "driver.c").write_text(DRIVER)
-    exe = out / "driver"
-    cmd = [
-        GCC,
-        *STRICT,
-        "-g",
-        "-fsanitize=address,undefined",
-        "-fno-sanitize-recover=all",
-        "-o",
-        str(exe),
-        str(out / "driver.c"),
-        str(out / "hydropwa_ctrl.c"),
-    ]
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if proc.returncode != 0 and ("asan" in proc.stderr.lower() or "ubsan" in proc.stderr.lower()):
-        pytest.skip(f"the sanitizer runtime is missing: {proc.stderr.strip().splitlines()[-1]}")
-    assert proc.returncode == 0, proc.stderr
+def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
+    paper, paper_lqr, industrial, industrial_lqr, tmp_path
+):
+    """The lockstep run as a stand-alone program built with -fsanitize=address,undefined, for
+    every controller variant (so the delay, back-calculation, filter and washout paths run)."""
     rng = np.random.default_rng(7)
-    x0, refs = _references(paper)
-    _name, ref, duration = refs[0]
-    _res, _exact, seq, r, dr = _closed_loop_samples(paper, paper_lqr, ref, x0, duration, rng)
-    a_a, a_b = paper.cylinder.area_a, paper.cylinder.area_b
-    n = len(r)
-    rows = np.column_stack([seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, dr])
-    data = struct.pack("3d", n, a_a, a_b) + rows.astype("<f8").tobytes()
-    run = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
-    assert run.returncode == 0, run.stderr.decode(errors="replace")
-    assert run.stderr == b""
-    got = np.frombuffer(run.stdout, dtype="<f8").reshape(n, 3)
-    ctl = paper_lqr.pack()
-    pl = package_load_pressure(ctl, seq["p_a"], seq["p_b"], a_a, a_b)
-    pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
-    _assert_lockstep(pkg, {"u": got[:, 0], "c": got[:, 1], "row": got[:, 2].astype(int)}, "asan")
+    variants = _variants(paper, paper_lqr, industrial, industrial_lqr)
+    for i, (name, prm, ctrl) in enumerate(variants):
+        out = export_c(ctrl, tmp_path / f"c{i}")
+        (out / "driver.c").write_text(DRIVER)
+        exe = out / "driver"
+        cmd = [GCC, *STRICT, "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+        cmd += ["-o", str(exe), str(out / "driver.c"), str(out / "hydropwa_ctrl.c")]
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if proc.returncode != 0 and (
+            "asan" in proc.stderr.lower() or "ubsan" in proc.stderr.lower()
+        ):
+            pytest.skip(f"the sanitizer runtime is missing: {proc.stderr.strip().splitlines()[-1]}")
+        assert proc.returncode == 0, proc.stderr
+        x0, refs = _references(prm)
+        _name, ref, duration = refs[i % 2]
+        _res, _exact, seq, r, dr = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
+        a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
+        n = len(r)
+        rows = np.column_stack([seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, dr])
+        data = struct.pack("3d", n, a_a, a_b) + rows.astype("<f8").tobytes()
+        run = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
+        assert run.returncode == 0, run.stderr.decode(errors="replace")
+        assert run.stderr == b""
+        got = np.frombuffer(run.stdout, dtype="<f8").reshape(n, 3)
+        ctl = ctrl.pack()
+        pl = package_load_pressure(ctl, seq["p_a"], seq["p_b"], a_a, a_b)
+        pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
+        got_d = {"u": got[:, 0], "c": got[:, 1], "row": got[:, 2].astype(int)}
+        _assert_lockstep(pkg, got_d, f"asan {name}")
 
 
 def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr, tmp_path):

@@ -61,7 +61,7 @@ typedef struct {
 typedef struct {
     hp_model model;
     fmi2CallbackFunctions cb;
-    fmi2String name;
+    char name[64]; /* a copy: the master's string is valid during fmi2Instantiate only */
     double time;
     int outputs_current;
 } hp_instance;
@@ -118,7 +118,9 @@ HP_EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2Stri
         return NULL;
     }
     memcpy((void *)&inst->cb, functions, sizeof(fmi2CallbackFunctions));
-    inst->name = name;
+    if (name != NULL) {
+        strncpy(inst->name, name, sizeof(inst->name) - 1);
+    }
     inst->time = 0.0;
     hp_model_reset(&inst->model);
     inst->outputs_current = 0;
