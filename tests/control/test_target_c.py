@@ -337,6 +337,20 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(paper, pap
         check=False,
     )
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    # every FMI function has the standard's signature: built against FMPy's copy of the FMI
+    # 2.0 headers, a mismatch is a compile error
+    check = src / "sources" / "check_fmi2.c"
+    check.write_text(
+        '#include "fmi2Functions.h"\n#define HP_HAVE_FMI2_HEADERS\n#include "hydropwa_ctrl_fmi2.c"\n'
+    )
+    headers = Path(fmpy.__file__).parent / "c-code"
+    proc = subprocess.run(
+        [GCC, *STRICT, f"-I{headers}", "-c", "-o", str(src / "check.o"), str(check)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
 
     rng = np.random.default_rng(11)
     x0, refs = _references(paper)

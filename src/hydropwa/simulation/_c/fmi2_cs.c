@@ -13,6 +13,10 @@
 #include <stddef.h>
 #include <string.h>
 
+/* The FMI 2.0 types (as in fmi2TypesPlatform.h and fmi2FunctionTypes.h). Building against the
+ * standard's headers instead: include fmi2Functions.h and define HP_HAVE_FMI2_HEADERS first
+ * (the package's tests do, so every definition below is checked against the standard). */
+#ifndef HP_HAVE_FMI2_HEADERS
 typedef void *fmi2Component;
 typedef void *fmi2ComponentEnvironment;
 typedef void *fmi2FMUstate;
@@ -47,6 +51,7 @@ typedef struct {
     const fmi2StepFinished stepFinished;
     const fmi2ComponentEnvironment componentEnvironment;
 } fmi2CallbackFunctions;
+#endif
 
 #if defined(_WIN32)
 #define HP_EXPORT __declspec(dllexport)
