@@ -305,7 +305,12 @@ def export_command(
     if c_dir is not None:
         check_output(c_dir, force, folder=True, option="--c")
     if fmu is not None:
+        from ..simulation._fmu import (
+            find_compiler,  # deferred: loaded only when this command runs (a fast --help)
+        )
+
         check_output(fmu, force, option="--fmu")
+        find_compiler()  # before anything is written: no C folder without its FMU
     ctrl = load_controller(controller)
     written = []
     if c_dir is not None:
