@@ -111,16 +111,15 @@ def export_axis_fmu(
     y0 = model.initial_state(initial_position, load_force=fl)
     rhs, _names = axis_rhs_c()
 
-    variables = [FmuVariable(n, "input", "continuous", 0.0, u, d) for n, u, d in _INPUTS]
-    variables[1] = FmuVariable(
-        "p_s", "input", "continuous", params.supply.pressure, "Pa", _INPUTS[1][2]
-    )
-    variables[2] = FmuVariable("f_l", "input", "continuous", fl, "N", _INPUTS[2][2])
+    start_inputs = {"u": 0.0, "p_s": params.supply.pressure, "f_l": fl}
+    variables = [
+        FmuVariable(n, "input", "continuous", start_inputs[n], u, d) for n, u, d in _INPUTS
+    ]
     variables += [
         FmuVariable(f"{n}_out" if n == "p_s" else n, "output", "continuous", None, u, f"state {n}")
         for n, u in AXIS_OUTPUTS
     ]
-    par_slots = [i for i, (_n, _src) in enumerate(BASE_SLOTS)]
+    par_slots = list(range(len(BASE_SLOTS)))
     variables += [
         FmuVariable(src or name, "parameter", "fixed", p[i], "", f"kernel slot {name} (SI)")
         for i, (name, src) in enumerate(BASE_SLOTS)
