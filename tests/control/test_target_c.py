@@ -313,24 +313,32 @@ def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constan
     assert f"{cost_per_step(n)['flops']} floating-point operations" in header
 
 
-def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(paper, paper_lqr, tmp_path):
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
+    paper, paper_lqr, tmp_path, version
+):
     """FMPy: no validation problem; simulated on a recorded noisy closed-loop sequence it gives
     the package's commands within 1e-12 (its output after doStep(t_k) is the command of t_k)."""
     fmpy = pytest.importorskip("fmpy")
     from fmpy.validation import validate_fmu
 
-    fmu = export_fmu(paper_lqr, tmp_path / "ctrl.fmu")
+    major = version[0]
+    fmu = export_fmu(paper_lqr, tmp_path / "ctrl.fmu", fmi_version=version)
     assert validate_fmu(str(fmu)) == []
-    names = set(fmpy.read_model_description(str(fmu)).modelVariables[i].name for i in range(6))
+    md = fmpy.read_model_description(str(fmu))
+    assert md.fmiVersion == version
+    names = {v.name for v in md.modelVariables} - {"time"}
     assert names == {"x", "v", "p_l", "r", "r_rate", "u"}
     with pytest.raises(OutputExistsError):
-        export_fmu(paper_lqr, fmu)
+        export_fmu(paper_lqr, fmu, fmi_version=version)
     # the sources inside rebuild the FMU elsewhere: they compile under the strict flags
     src = tmp_path / "unzipped"
+    binary = {"2": "linux64", "3": "x86_64-linux"}[major]
     with zipfile.ZipFile(fmu) as z:
         z.extractall(src)
-        assert "binaries/linux64/hydropwa_ctrl.so" in z.namelist() or sys.platform != "linux"
-    units = [str(src / "sources" / n) for n in ("hydropwa_ctrl_fmi2.c", "hydropwa_ctrl.c")]
+        assert f"binaries/{binary}/hydropwa_ctrl.so" in z.namelist() or sys.platform != "linux"
+    interface = f"hydropwa_ctrl_fmi{major}.c"
+    units = [str(src / "sources" / n) for n in (interface, "hydropwa_ctrl.c")]
     proc = subprocess.run(
         [GCC, *STRICT, "-shared", "-fPIC", "-o", str(src / "rebuilt.so"), *units],
         capture_output=True,
@@ -339,10 +347,11 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(paper, pap
     )
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     # every FMI function has the standard's signature: built against FMPy's copy of the FMI
-    # 2.0 headers, a mismatch is a compile error
-    check = src / "sources" / "check_fmi2.c"
+    # headers, a mismatch is a compile error
+    check = src / "sources" / "check_fmi.c"
     check.write_text(
-        '#include "fmi2Functions.h"\n#define HP_HAVE_FMI2_HEADERS\n#include "hydropwa_ctrl_fmi2.c"\n'
+        f'#include "fmi{major}Functions.h"\n#define HP_HAVE_FMI{major}_HEADERS\n'
+        f'#include "{interface}"\n'
     )
     headers = Path(fmpy.__file__).parent / "c-code"
     proc = subprocess.run(

@@ -287,9 +287,12 @@ def export_command(
     fmu: Annotated[
         Path | None,
         typer.Option(
-            "--fmu", help="Also build an FMI 2.0 co-simulation FMU (.fmu; needs a C compiler)."
+            "--fmu", help="Also build an FMI co-simulation FMU (.fmu; needs a C compiler)."
         ),
     ] = None,
+    fmi_version: Annotated[
+        str, typer.Option("--fmi-version", help="FMI version of the FMU: 2.0 or 3.0.")
+    ] = "2.0",
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Export a controller file as dependency-free C99 code and/or an FMU for a real-time target."""
@@ -302,6 +305,8 @@ def export_command(
 
     if c_dir is None and fmu is None:
         raise ControlError("give --c DIR (the C code) and/or --fmu FILE.fmu")
+    if fmi_version not in ("2.0", "3.0"):
+        raise ControlError(f"--fmi-version {fmi_version!r}: choose 2.0 or 3.0")
     if c_dir is not None:
         check_output(c_dir, force, folder=True, option="--c")
     if fmu is not None:
@@ -317,6 +322,6 @@ def export_command(
         export_c(ctrl, c_dir, overwrite=force)
         written.append(f"{c_dir}/hydropwa_ctrl.h, hydropwa_ctrl.c, README.md")
     if fmu is not None:
-        export_fmu(ctrl, fmu, overwrite=force)
+        export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")

@@ -35,7 +35,7 @@ import numpy as np
 from .. import __version__
 from .._io import atomic_write_text, check_output
 from ..simulation import _controller as C
-from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source
+from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
 __all__ = ["export_c", "export_fmu", "c_sources", "check_expressible", "C_FILES"]
@@ -326,8 +326,10 @@ FMU_VARIABLES = [
 ]
 
 
-def export_fmu(controller, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
-    """Build the controller as an FMI 2.0 co-simulation FMU from the C of :func:`export_c`.
+def export_fmu(
+    controller, path: str | os.PathLike, *, fmi_version: str = "2.0", overwrite: bool = False
+) -> Path:
+    """Build the controller as an FMI 2.0 (or 3.0) co-simulation FMU from the C of :func:`export_c`.
 
     The FMU holds the platform binary of this machine and the sources (``hydropwa_ctrl.h``,
     ``hydropwa_ctrl.c``, ``hydropwa_ctrl_fmi2.c``, README), so a user or a tool that compiles
@@ -338,6 +340,9 @@ def export_fmu(controller, path: str | os.PathLike, *, overwrite: bool = False) 
     controller : PIController or StateFeedbackController
     path : path-like
         The ``.fmu`` file.
+    fmi_version : str
+        ``"2.0"`` (default) or ``"3.0"`` (co-simulation; the same C, the FMI 3.0 interface
+        and ``sources/buildDescription.xml``).
     overwrite : bool
         Replace an existing file (default: refuse).
 
@@ -362,7 +367,12 @@ def export_fmu(controller, path: str | os.PathLike, *, overwrite: bool = False) 
     """
     sources = c_sources(controller)
     model = _read_template("hp_model_ctrl.c")
-    sources["hydropwa_ctrl_fmi2.c"] = fmi2_source(model)
+    if fmi_version == "3.0":
+        interface = "hydropwa_ctrl_fmi3.c"
+        sources[interface] = fmi3_source(model)
+    else:
+        interface = "hydropwa_ctrl_fmi2.c"
+        sources[interface] = fmi2_source(model)
     return build_fmu(
         path,
         "hydropwa_ctrl",
@@ -370,7 +380,8 @@ def export_fmu(controller, path: str | os.PathLike, *, overwrite: bool = False) 
         f"T_s = {controller.sample_time * 1e3:g} ms",
         FMU_VARIABLES,
         sources,
-        ["hydropwa_ctrl_fmi2.c", "hydropwa_ctrl.c"],
+        [interface, "hydropwa_ctrl.c"],
         step_size=controller.sample_time,
+        fmi_version=fmi_version,
         overwrite=overwrite,
     )

@@ -28,7 +28,14 @@ from xml.sax.saxutils import quoteattr
 from .._errors import HydropwaError
 from .._io import atomic_path, check_output
 
-__all__ = ["FmuVariable", "FmuBuildError", "build_fmu", "find_compiler", "fmi2_source"]
+__all__ = [
+    "FmuVariable",
+    "FmuBuildError",
+    "build_fmu",
+    "find_compiler",
+    "fmi2_source",
+    "fmi3_source",
+]
 
 #: flags of the FMU's binary; contraction off so it computes what the package's tests check
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-shared", "-fPIC")
@@ -89,14 +96,96 @@ def _platform() -> tuple[str, str]:
     raise FmuBuildError(f"no FMI 2.0 platform name for {sys.platform} {platform.machine()}")
 
 
+def _platform3() -> str:
+    """FMI 3.0 platform tuple of this machine (``x86_64-linux``, ``aarch64-darwin``, ...)."""
+    arch = {"amd64": "x86_64", "arm64": "aarch64"}.get(
+        platform.machine().lower(), platform.machine().lower()
+    )
+    system = {"linux": "linux", "darwin": "darwin", "win32": "windows"}.get(
+        "linux" if sys.platform.startswith("linux") else sys.platform
+    )
+    if system is None:
+        raise FmuBuildError(f"no FMI 3.0 platform tuple for {sys.platform} {platform.machine()}")
+    return f"{arch}-{system}"
+
+
 def fmi2_source(model_c: str) -> str:
     """The FMI 2.0 co-simulation interface with ``model_c`` (the model file) inserted."""
+    return _interface("fmi2_cs.c", model_c)
+
+
+def fmi3_source(model_c: str) -> str:
+    """The FMI 3.0 co-simulation interface with ``model_c`` (the model file) inserted."""
+    return _interface("fmi3_cs.c", model_c)
+
+
+def _interface(name: str, model_c: str) -> str:
     template = (
-        resources.files("hydropwa.simulation")
-        .joinpath("_c", "fmi2_cs.c")
-        .read_text(encoding="utf-8")
+        resources.files("hydropwa.simulation").joinpath("_c", name).read_text(encoding="utf-8")
     )
     return template.replace("@MODEL@", model_c)
+
+
+def _model_description3(
+    model_id: str,
+    token: str,
+    description: str,
+    variables: list[FmuVariable],
+    step_size: float,
+) -> str:
+    from .. import __version__  # deferred: hydropwa/__init__.py imports this package first
+
+    units = sorted({v.unit for v in variables if v.unit} | {"s"})  # "s": the time variable
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="3.0" modelName={quoteattr(model_id)}'
+        f' instantiationToken="{token}"',
+        f"  description={quoteattr(description)}",
+        f'  generationTool="hydropwa {__version__}" variableNamingConvention="flat">',
+        f'  <CoSimulation modelIdentifier="{model_id}" canHandleVariableCommunicationStepSize="true"'
+        ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
+        ' providesIntermediateUpdate="false"/>',
+    ]
+    if units:
+        lines.append("  <UnitDefinitions>")
+        for u in units:
+            exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
+            lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
+        lines.append("  </UnitDefinitions>")
+    lines.append(f'  <DefaultExperiment startTime="0" stepSize="{step_size!r}"/>')
+    lines.append("  <ModelVariables>")
+    lines.append(
+        f'    <Float64 name="time" valueReference="{len(variables)}" causality="independent"'
+        ' variability="continuous" description="simulation time" unit="s"/>'
+    )
+    for i, v in enumerate(variables):
+        attrs = f'name={quoteattr(v.name)} valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
+        if v.causality == "parameter":
+            attrs += ' initial="exact"'
+        attrs += f" description={quoteattr(v.description)}"
+        if v.unit:
+            attrs += f' unit="{v.unit}"'
+        if v.start is not None:
+            attrs += f' start="{float(v.start)!r}"'
+        lines.append(f"    <Float64 {attrs}/>")
+    lines.append("  </ModelVariables>")
+    lines.append("  <ModelStructure>")
+    outputs = [i for i, v in enumerate(variables) if v.causality == "output"]
+    lines += [f'    <Output valueReference="{i}" dependencies=""/>' for i in outputs]
+    lines += [f'    <InitialUnknown valueReference="{i}" dependencies=""/>' for i in outputs]
+    lines.append("  </ModelStructure>")
+    lines.append("</fmiModelDescription>")
+    return "\n".join(lines) + "\n"
+
+
+def _build_description3(model_id: str, compile_units: list[str]) -> str:
+    files = "\n".join(f'      <SourceFile name="{f}"/>' for f in compile_units)
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+        f'  <BuildConfiguration modelIdentifier="{model_id}">\n'
+        f'    <SourceFileSet language="C99">\n{files}\n    </SourceFileSet>\n'
+        "  </BuildConfiguration>\n</fmiBuildDescription>\n"
+    )
 
 
 def _model_description(
@@ -170,6 +259,7 @@ def build_fmu(
     *,
     step_size: float,
     interpolate_inputs: bool = False,
+    fmi_version: str = "2.0",
     overwrite: bool = False,
 ) -> Path:
     """Compile ``sources`` and zip the FMU at ``path`` (refuses an existing file without ``overwrite``).
@@ -191,7 +281,9 @@ def build_fmu(
     step_size : float
         Default communication step [s].
     interpolate_inputs : bool
-        The model takes the inputs' first derivatives (``canInterpolateInputs``).
+        The model takes the inputs' first derivatives (``canInterpolateInputs``, FMI 2.0).
+    fmi_version : str
+        ``"2.0"`` or ``"3.0"`` (the compile units then use the interface of that version).
     overwrite : bool
         Replace an existing file.
 
@@ -204,16 +296,23 @@ def build_fmu(
     if path.suffix.lower() != ".fmu":
         raise FmuBuildError(f"{path}: an FMU file must end in .fmu")
     check_output(path, overwrite)
+    if fmi_version not in ("2.0", "3.0"):
+        raise FmuBuildError(f"FMI version {fmi_version!r}: choose 2.0 or 3.0")
     cc = find_compiler()
     folder, suffix = _platform()
+    if fmi_version == "3.0":
+        folder = _platform3()
     digest = hashlib.sha256("".join(sources[k] for k in sorted(sources)).encode()).hexdigest()
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"hydropwa:{model_id}:{digest}")) + "}"
-    xml = _model_description(
-        model_id, guid, description, variables, compile_units, step_size, interpolate_inputs
-    )
+    if fmi_version == "3.0":
+        xml = _model_description3(model_id, guid, description, variables, step_size)
+    else:
+        xml = _model_description(
+            model_id, guid, description, variables, compile_units, step_size, interpolate_inputs
+        )
     # the interface checks the GUID it is instantiated with against its own
     sources = {
-        k: (f'#define HP_GUID "{guid}"\n' + v) if k.endswith("_fmi2.c") else v
+        k: (f'#define HP_GUID "{guid}"\n' + v) if k.endswith(("_fmi2.c", "_fmi3.c")) else v
         for k, v in sources.items()
     }
     with tempfile.TemporaryDirectory(prefix="hydropwa-fmu-") as tmp:
@@ -241,4 +340,8 @@ def build_fmu(
                 z.write(lib, f"binaries/{folder}/{model_id}{suffix}")
                 for name, text in sources.items():
                     z.writestr(f"sources/{name}", text)
+                if fmi_version == "3.0":
+                    z.writestr(
+                        "sources/buildDescription.xml", _build_description3(model_id, compile_units)
+                    )
     return path
