@@ -14,7 +14,7 @@ import sys
 import typer
 
 from .. import _interrupt
-from . import _control, _core, _data, _identify, _linearize, _paper, _rig, _sweep
+from . import _control, _core, _data, _export, _identify, _linearize, _paper, _rig, _sweep
 from ._app import INTERRUPTED, INTERRUPTED_CODE, exit_code, new_app
 
 __all__ = ["app", "main"]
@@ -42,7 +42,7 @@ def _root(
 
 
 # Named apps are command groups (`hydropwa data ...`); unnamed ones add top-level commands.
-for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _control):
+for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _control, _export):
     app.add_typer(_module.app)
 
 

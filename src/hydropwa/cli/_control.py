@@ -1,7 +1,8 @@
 """``hydropwa control``: design a controller on the PWA model and simulate it in closed loop.
 
 ``hydropwa control design --params P.toml --out ctrl.toml`` and
-``hydropwa control simulate --model full --controller ctrl.toml --reference "..." --out run.parquet --plot run.png``.
+``hydropwa control simulate --model full --controller ctrl.toml --reference "..." --out run.parquet --plot run.png``,
+``hydropwa control export ctrl.toml --c DIR [--fmu ctrl.fmu]``.
 Thin wrappers over :mod:`hydropwa.control`; user errors are :class:`~hydropwa.HydropwaError`.
 """
 
@@ -17,7 +18,7 @@ from .._io import check_output
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
 
-__all__ = ["app", "design_command", "simulate_command"]
+__all__ = ["app", "design_command", "simulate_command", "export_command"]
 
 app = new_app(
     "control", help="Closed-loop position control: design on the PWA model, verify on any model."
@@ -270,3 +271,57 @@ def simulate_command(
         )
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+@app.command("export")
+def export_command(
+    controller: Annotated[
+        Path, typer.Argument(help="Controller file (.toml/.json) from 'control design'.")
+    ],
+    c_dir: Annotated[
+        Path | None,
+        typer.Option(
+            "--c", help="Folder for the C99 code (hydropwa_ctrl.h, hydropwa_ctrl.c, README.md)."
+        ),
+    ] = None,
+    fmu: Annotated[
+        Path | None,
+        typer.Option(
+            "--fmu", help="Also build an FMI co-simulation FMU (.fmu; needs a C compiler)."
+        ),
+    ] = None,
+    fmi_version: Annotated[
+        str, typer.Option("--fmi-version", help="FMI version of the FMU: 2.0 or 3.0.")
+    ] = "2.0",
+    force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+) -> None:
+    """Export a controller file as dependency-free C99 code and/or an FMU for a real-time target."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        ControlError,
+        export_c,
+        export_fmu,
+        load_controller,
+    )
+
+    if c_dir is None and fmu is None:
+        raise ControlError("give --c DIR (the C code) and/or --fmu FILE.fmu")
+    if fmi_version not in ("2.0", "3.0"):
+        raise ControlError(f"--fmi-version {fmi_version!r}: choose 2.0 or 3.0")
+    if c_dir is not None:
+        check_output(c_dir, force, folder=True, option="--c")
+    if fmu is not None:
+        from ..simulation._fmu import (
+            find_compiler,  # deferred: loaded only when this command runs (a fast --help)
+        )
+
+        check_output(fmu, force, option="--fmu")
+        find_compiler()  # before anything is written: no C folder without its FMU
+    ctrl = load_controller(controller)
+    written = []
+    if c_dir is not None:
+        export_c(ctrl, c_dir, overwrite=force)
+        written.append(f"{c_dir}/hydropwa_ctrl.h, hydropwa_ctrl.c, README.md")
+    if fmu is not None:
+        export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
+        written.append(str(fmu))
+    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")

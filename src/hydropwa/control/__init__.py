@@ -6,7 +6,8 @@ every sample instant (``simulate(model, controller=..., reference=...)``); desig
 python-control on the PWA cells (:func:`design_state_feedback`, :func:`design_pi`);
 tracking metrics and the comparison of one controller on the three models
 (:func:`tracking_metrics`, :func:`compare_models`; the figure is :func:`hydropwa.plotting.plot_closed_loop`); controller
-files with units (:func:`save_controller`, :func:`load_controller`). See
+files with units (:func:`save_controller`, :func:`load_controller`); C99 code of the
+controller for a real-time target (:func:`export_c`). See
 docs/architecture_control.md.
 """
 
@@ -24,6 +25,7 @@ from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controll
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
+from ._target import export_c, export_fmu
 
 __all__ = [
     "ANTI_WINDUP",
@@ -49,6 +51,8 @@ __all__ = [
     "controller_to_dict",
     "design_pi",
     "design_state_feedback",
+    "export_c",
+    "export_fmu",
     "load_controller",
     "parse_reference",
     "save_controller",

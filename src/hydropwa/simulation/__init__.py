@@ -1,6 +1,8 @@
 """Simulation: input signals, the compiled stiff integrator and ``simulate``."""
 
+from ._axis_fmu import export_axis_fmu
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
+from ._fmu import FmuBuildError
 from ._kernel import set_compile_notice
 from ._signals import (
     Chirp,
@@ -22,6 +24,7 @@ __all__ = [
     "CHANNEL_UNITS",
     "Chirp",
     "DEFAULT_RTOL",
+    "FmuBuildError",
     "Constant",
     "Ramp",
     "SUMMARY_COLUMNS",
@@ -34,6 +37,7 @@ __all__ = [
     "Step",
     "WarmUp",
     "as_signal",
+    "export_axis_fmu",
     "pack_signals",
     "parse_signal",
     "set_compile_notice",

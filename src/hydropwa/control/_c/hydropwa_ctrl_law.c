@@ -1,0 +1,178 @@
+/* ---- The control law: one small function per element of simulation/_controller.py ----
+ *
+ * Each function below mirrors the numba function of the same name in
+ * hydropwa/simulation/_controller.py, operation for operation (same order of the
+ * floating-point operations, so the commands agree to the last bits with the package's
+ * compiled loop). Indices into the table T come from the HP_* macros above, which are
+ * generated from the packed layout's constants in that module.
+ */
+
+/* Valve command u [1] that opens the orifice by c [1] through the dead zone (Eq. (2)). */
+static double hp_dead_zone_inverse(double c, double offset, double width)
+{
+    double a;
+    if (width <= 0.0) {
+        if (c == 0.0) {
+            return 0.0;
+        }
+        return c > 0.0 ? c + offset : c - offset;
+    }
+    a = c < 0.0 ? -c : c;
+    if (a >= width) {
+        return c > 0.0 ? c + offset : c - offset;
+    }
+    return c * (width + offset) / width;
+}
+
+/* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
+static double hp_box_distance(int r, double pl, double v, double x, double c)
+{
+    const double *b = T + HP_C_ROWS + HP_ROW * r;
+    const double m[4] = {pl, v, x, c};
+    double d = 0.0;
+    int j;
+    for (j = 0; j < 4; ++j) {
+        const double lo = b[HP_R_LO + j];
+        const double hi = b[HP_R_HI + j];
+        if (m[j] < lo) {
+            d += (lo - m[j]) / T[HP_C_SCALE + j];
+        } else if (m[j] > hi) {
+            d += (m[j] - hi) / T[HP_C_SCALE + j];
+        }
+    }
+    return d;
+}
+
+/* Gain row whose box holds [P_L, v, x, c]: the last row first, then all in order, else the nearest. */
+static int hp_select_row(double pl, double v, double x, double c, int last)
+{
+    const int n = HYDROPWA_CTRL_N_ROWS;
+    int best = 0;
+    double best_d = HUGE_VAL;
+    int r;
+    if (n <= 1) {
+        return 0;
+    }
+    if (last >= 0 && last < n && hp_box_distance(last, pl, v, x, c) == 0.0) {
+        return last;
+    }
+    for (r = 0; r < n; ++r) {
+        const double d = hp_box_distance(r, pl, v, x, c);
+        if (d == 0.0) {
+            return r;
+        }
+        if (d < best_d) {
+            best_d = d;
+            best = r;
+        }
+    }
+    return best;
+}
+
+/* Filtered backward difference of P_L [Pa/s] (first-order low-pass, coefficient a). */
+static double hp_pressure_rate(const hydropwa_ctrl_state *s, double pl)
+{
+    const double a = T[HP_C_FILT];
+    return a * s->dp_l + (1.0 - a) * (pl - s->p_l_prev) / T[HP_C_TS];
+}
+
+/* P_L the pressure gains act on: P_L − P̄_L with the washout (updates P̄_L), else P_L. */
+static double hp_washout(hydropwa_ctrl_state *s, double pl)
+{
+    const double aw = T[HP_C_WASH];
+    if (aw > 0.0) {
+        s->p_l_bar = aw * s->p_l_bar + (1.0 - aw) * pl;
+        return pl - s->p_l_bar;
+    }
+    return pl;
+}
+
+/* Integral update with the anti-windup of the table (none, clamping, back-calculation). */
+static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
+                         double c_raw, double c_sat)
+{
+    const double ts = T[HP_C_TS];
+    const int aw = (int)T[HP_C_AW];
+    if (ki == 0.0) {
+        return;
+    }
+    if (aw == HP_AW_CLAMP) {
+        /* integrate unless saturated and the error would drive further into the limit */
+        if (u == u_raw || (u_raw > u && e * ki < 0.0) || (u_raw < u && e * ki > 0.0)) {
+            s->integral += ts * e;
+        }
+    } else if (aw == HP_AW_BACK) {
+        s->integral += ts * (e + T[HP_C_KT] * (c_sat - c_raw) / ki);
+    } else {
+        s->integral += ts * e;
+    }
+}
+
+double hydropwa_ctrl_load_pressure(double p_a, double p_b, double area_a, double area_b)
+{
+    const double area = T[HP_C_PLMEAN] != 0.0 ? 0.5 * (area_a + area_b) : area_a;
+    return (p_a * area_a - p_b * area_b) / area;
+}
+
+void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
+{
+    s->integral = 0.0;
+    s->p_l_prev = 0.0;
+    s->dp_l = 0.0;
+    s->pending = 0.0;
+    s->c_prev = 0.0;
+    s->p_l_bar = 0.0;
+    s->row = 0;
+    s->started = 0;
+    s->c_raw = 0.0;
+    s->u_new = 0.0;
+}
+
+void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
+{
+    hydropwa_ctrl_reset(s);
+}
+
+double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m, double r,
+                          double r_rate)
+{
+    const double x = m->x;
+    const double v = m->v;
+    const double pl = m->p_l;
+    const double e = r - x;
+    double dpl, pl_fb, ki, c_raw, u_raw, u, c_sat, u_apply;
+    const double *b;
+    int row;
+    if (!s->started) {
+        s->p_l_prev = pl;
+        s->dp_l = 0.0;
+        s->p_l_bar = pl;
+    }
+    dpl = hp_pressure_rate(s, pl);
+    pl_fb = hp_washout(s, pl);
+    row = hp_select_row(pl, v, x, s->c_prev, s->started ? s->row : -1);
+    b = T + HP_C_ROWS + HP_ROW * row;
+    ki = b[HP_R_KI];
+    c_raw = b[HP_R_UFF] + b[HP_R_KP] * e + ki * s->integral + b[HP_R_KFF] * r_rate
+            - b[HP_R_KV] * v - b[HP_R_KPL] * pl_fb - b[HP_R_KDPL] * dpl;
+    u_raw = T[HP_C_DZINV] > 0.5 ? hp_dead_zone_inverse(c_raw, T[HP_C_DZOFF], T[HP_C_DZW])
+                                : c_raw;
+    u = u_raw > T[HP_C_UMIN] ? u_raw : T[HP_C_UMIN];
+    u = u < T[HP_C_UMAX] ? u : T[HP_C_UMAX];
+    c_sat = c_raw - (u_raw - u); /* the inverse has slope 1 where the command saturates */
+    hp_integrate(s, e, ki, u_raw, u, c_raw, c_sat);
+    if (T[HP_C_DELAY] > 0.5) {
+        u_apply = s->pending;
+        s->pending = u;
+    } else {
+        u_apply = u;
+    }
+    s->p_l_prev = pl;
+    s->dp_l = dpl;
+    s->c_prev = c_sat;
+    s->row = row;
+    s->c_raw = c_raw;
+    s->u_new = u;
+    s->started = 1;
+    return u_apply;
+}

@@ -1,0 +1,387 @@
+"""The controller as dependency-free C99 code for a real-time target (issue 35).
+
+:func:`export_c` writes ``hydropwa_ctrl.h``, ``hydropwa_ctrl.c`` and a README: the control
+law of :mod:`hydropwa.simulation._controller` in C, reading the controller's packed float
+vector (:meth:`~hydropwa.control.PIController.pack`) as one ``static const`` table.
+
+How the C stays the package's law:
+
+- the **layout** (the indices ``C_*``, ``R_*``, ``ROW``, ``AW_*`` of the packed vector) is
+  emitted as ``#define HP_*`` lines from the constants of :mod:`hydropwa.simulation._controller`,
+  so the table and the law's indices cannot disagree with the compiled controller;
+- the **law** (``_c/hydropwa_ctrl_law.c``) is one small C function per element of the numba
+  law (dead-zone inverse, box distance, row selection, pressure-rate filter, washout,
+  anti-windup, the step with saturation and delay), written in the same order of
+  floating-point operations; the tests step both in lockstep on closed-loop runs of two
+  machines and require the same command within 1e-12 at every sample;
+- a controller with a law element the C does not cover is refused, by name
+  (:func:`check_expressible`).
+
+The C needs no heap, no I/O and no global beyond the caller-owned state struct (the table is
+``static const``); the worst-case cost of a step is a search over every gain row's box
+(documented in the header, measured by ``benchmarks/target.py``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from .._io import atomic_write_text, check_output
+from ..simulation import _controller as C
+from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
+from ._controllers import ControlError, PIController, StateFeedbackController
+
+__all__ = ["export_c", "export_fmu", "c_sources", "check_expressible", "C_FILES"]
+
+#: files written by :func:`export_c`
+C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
+
+#: names of the packed layout emitted as ``#define HP_<name>`` (from simulation/_controller.py)
+_LAYOUT = (
+    "C_TS",
+    "C_DELAY",
+    "C_UMIN",
+    "C_UMAX",
+    "C_AW",
+    "C_KT",
+    "C_DZINV",
+    "C_DZOFF",
+    "C_DZW",
+    "C_FILT",
+    "C_NROWS",
+    "C_WASH",
+    "C_PLMEAN",
+    "C_SCALE",
+    "C_ROWS",
+    "ROW",
+    "R_LO",
+    "R_HI",
+    "R_KP",
+    "R_KI",
+    "R_KFF",
+    "R_KV",
+    "R_KPL",
+    "R_KDPL",
+    "R_UFF",
+    "AW_NONE",
+    "AW_CLAMP",
+    "AW_BACK",
+)
+
+#: settings of ``describe()`` the C law covers (any other one that is set is refused)
+_COVERED = frozenset(
+    {
+        "kind",
+        "sample_time",
+        "delay",
+        "u_min",
+        "u_max",
+        "anti_windup",
+        "tracking_gain",
+        "pressure_washout",
+        "load_pressure",
+        "dead_zone_inverse",
+        # PI
+        "kp",
+        "ki",
+        "kff",
+        "kv",
+        "kpl",
+        "kdpl",
+        "pressure_filter",
+        # state feedback (per cell: box, k_pl, k_v, k_x, k_i, u_ff; design is provenance)
+        "cells",
+        "design",
+    }
+)
+_CELL_COVERED = frozenset({"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff"})
+#: the packed layout the C law was written for: header length, row length, memory size; a
+#: law element added to simulation/_controller.py changes one of them and stops the export
+#: until control/_c/hydropwa_ctrl_law.c implements it
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 7}
+
+#: law elements the C covers (the README and the report list them)
+LAW_ELEMENTS = (
+    "PI with velocity feed-forward k_ff·ṙ, velocity feedback k_v, load-pressure feedback k_pl and its filtered rate k_dpl",
+    "state feedback per PWA cell: gain rows with boxes over [P_L, ẋ, x, c_prev], the previous row tried first, then all in order, the nearest (scaled L1) outside all",
+    "constant command u_ff per row",
+    "dead-zone inverse with blend width",
+    "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
+    "pressure washout (P_L − low-pass of P_L) for k_pl",
+    "first-order filter of the backward difference Ṗ_L",
+    "one-sample computation delay",
+    "load pressure from the chamber pressures (asymmetric or mean-area form)",
+)
+
+
+def _active(value: Any) -> bool:
+    """Whether a setting of ``describe()`` switches something on (None, 0, False, empty: off)."""
+    if value is None or value is False:
+        return False
+    if isinstance(value, int | float):
+        return value != 0
+    if isinstance(value, str | list | tuple | dict):
+        return len(value) > 0
+    return True
+
+
+def check_expressible(controller) -> np.ndarray:
+    """The packed vector of ``controller`` if the C law expresses it; else :class:`ControlError`.
+
+    Refused (one line naming what): a controller that is neither a :class:`PIController` nor
+    a :class:`StateFeedbackController`, a setting or cell field the C does not implement that is
+    switched on, and a packed vector whose length does not match the layout.
+    """
+    if not isinstance(controller, PIController | StateFeedbackController):
+        raise ControlError(
+            f"cannot export a {type(controller).__name__} to C; the C law covers PIController and "
+            "StateFeedbackController"
+        )
+    grown = [
+        f"{k} {getattr(C, k)} (C law: {v})" for k, v in _LAW_LAYOUT.items() if getattr(C, k) != v
+    ]
+    if grown:
+        raise ControlError(
+            f"the compiled law's packed layout changed ({', '.join(grown)}); the C export "
+            "implements the earlier law and cannot express this controller"
+        )
+    d = controller.describe()
+    extra = sorted(k for k, v in d.items() if k not in _COVERED and _active(v))
+    for cell in d.get("cells", []):
+        extra += sorted(
+            f"cells.{k}" for k, v in cell.items() if k not in _CELL_COVERED and _active(v)
+        )
+    if extra:
+        raise ControlError(
+            f"the C export does not implement {', '.join(sorted(set(extra)))} of this "
+            f"{controller.kind} controller; simulate it in the package or drop the setting"
+        )
+    ctl = np.asarray(controller.pack(), dtype=float)
+    n = int(ctl[C.C_NROWS])
+    if ctl.shape[0] != C.C_ROWS + C.ROW * n:
+        raise ControlError(
+            f"the packed controller has {ctl.shape[0]} values, the C layout expects "
+            f"{C.C_ROWS + C.ROW * n}; the C export is older than this controller"
+        )
+    if np.isnan(ctl).any():
+        raise ControlError("the packed controller holds NaN; the C export needs finite gains")
+    return ctl
+
+
+def _c_float(v: float) -> str:
+    """A C double literal that reads back to exactly ``v`` (±HUGE_VAL for ±inf)."""
+    if math.isinf(v):
+        return "HUGE_VAL" if v > 0 else "-HUGE_VAL"
+    s = repr(float(v))
+    return s if ("." in s or "e" in s or "n" in s) else s + ".0"
+
+
+def _table(ctl: np.ndarray) -> str:
+    """The packed vector as C initialiser lines, rows of the gain table one per line."""
+    lines = [
+        "    /* header: T_s, delay, u_min, u_max, anti-windup, k_t, DZinv, offset, width, filter a,"
+        " rows, washout a_w, P_L form, scales[4] */",
+        "    " + ", ".join(_c_float(v) for v in ctl[: C.C_ROWS]) + ",",
+    ]
+    n = int(ctl[C.C_NROWS])
+    for r in range(n):
+        b = C.C_ROWS + C.ROW * r
+        lines.append(
+            f"    /* row {r} */ " + ", ".join(_c_float(v) for v in ctl[b : b + C.ROW]) + ","
+        )
+    return "\n".join(lines)
+
+
+def _read_template(name: str) -> str:
+    return resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+
+
+def _describe_line(controller) -> str:
+    if isinstance(controller, StateFeedbackController):
+        return f"state feedback, {len(controller.rows)} gain rows"
+    return "PI (one gain row valid everywhere)"
+
+
+def cost_per_step(n_rows: int) -> dict[str, int]:
+    """Worst-case operation counts of one ``hydropwa_ctrl_step`` with ``n_rows`` gain rows.
+
+    The row search evaluates at most n_rows + 1 box distances (the previous row, then all):
+    per distance 4 coordinates × (2 comparisons, 1 subtraction, 1 division, 1 addition) and
+    one comparison with the best so far. The rest of the law is a fixed 40 floating-point
+    operations and 16 comparisons.
+    """
+    boxes = n_rows + 1 if n_rows > 1 else 0
+    return {
+        "box_distances": boxes,
+        "divisions": 4 * boxes + 4,
+        "flops": 12 * boxes + 40,
+        "comparisons": 9 * boxes + 16,
+    }
+
+
+def c_sources(controller) -> dict[str, str]:
+    """The texts of ``hydropwa_ctrl.h``, ``hydropwa_ctrl.c`` and ``README.md`` for ``controller``.
+
+    Raises
+    ------
+    ControlError
+        The controller has a law element the C does not implement (:func:`check_expressible`).
+    """
+    ctl = check_expressible(controller)
+    n = int(ctl[C.C_NROWS])
+    cost = cost_per_step(n)
+    subs = {
+        "@VERSION@": __version__,
+        "@KIND@": _describe_line(controller),
+        "@N_ROWS@": str(n),
+        "@N_TABLE@": str(ctl.shape[0]),
+        "@SAMPLE_TIME@": _c_float(controller.sample_time),
+        "@LOAD_PRESSURE@": controller.load_pressure,
+        "@BOXES@": str(cost["box_distances"]),
+        "@DIVS@": str(cost["divisions"]),
+        "@FLOPS@": str(cost["flops"]),
+        "@CMPS@": str(cost["comparisons"]),
+        "@DELAY@": "one sample (the command computed at t_k is returned at t_{k+1})"
+        if controller.delay
+        else "none (the command computed at t_k is meant for t_k)",
+        "@ELEMENTS@": "\n".join(f"- {e}" for e in LAW_ELEMENTS),
+    }
+    header = _read_template("hydropwa_ctrl.h")
+    readme = _read_template("README.md")
+    for k, v in subs.items():
+        header = header.replace(k, v)
+        readme = readme.replace(k, v)
+    layout = "\n".join(f"#define HP_{name} {getattr(C, name)}" for name in _LAYOUT)
+    source = (
+        f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"
+        " * Do not edit: regenerate with `hydropwa control export CTRL --c DIR`.\n"
+        " * C99, no heap, no I/O; the only data is the constant table T below. */\n"
+        '#include "hydropwa_ctrl.h"\n\n'
+        "#include <math.h> /* HUGE_VAL only: no function of libm is called */\n\n"
+        "/* Packed layout of hydropwa/simulation/_controller.py (generated from its constants) */\n"
+        f"{layout}\n\n"
+        "/* The controller's packed vector (SI units; layout above) */\n"
+        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n\n"
+        + _read_template("hydropwa_ctrl_law.c")
+    )
+    return {"hydropwa_ctrl.h": header, "hydropwa_ctrl.c": source, "README.md": readme}
+
+
+def export_c(controller, directory: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """Write the controller as C99 (``hydropwa_ctrl.h``, ``hydropwa_ctrl.c``, ``README.md``).
+
+    Parameters
+    ----------
+    controller : PIController or StateFeedbackController
+        The controller (e.g. from :func:`load_controller` or a design).
+    directory : path-like
+        Folder to write into; created if missing.
+    overwrite : bool
+        Write into a folder that already holds files (default: refuse).
+
+    Returns
+    -------
+    Path
+        The folder.
+
+    Raises
+    ------
+    ControlError
+        The controller has a law element the C does not implement.
+    OutputExistsError
+        The folder exists and is not empty, and ``overwrite`` is False.
+
+    Notes
+    -----
+    The law is the one of :mod:`hydropwa.simulation._controller` (docs/control.md), with the
+    packed vector as a constant table; see the README written beside the sources for the call
+    sequence, units and sign conventions.
+    """
+    texts = c_sources(controller)
+    directory = Path(directory)
+    check_output(directory, overwrite, folder=True)
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, text in texts.items():
+        atomic_write_text(directory / name, text)
+    return directory
+
+
+#: the controller FMU's variables (value references in this order; hp_model_ctrl.c's VR_*)
+FMU_VARIABLES = [
+    FmuVariable("x", "input", "continuous", 0.0, "m", "piston position (+ extends)"),
+    FmuVariable("v", "input", "continuous", 0.0, "m/s", "piston velocity"),
+    FmuVariable("p_l", "input", "continuous", 0.0, "Pa", "load pressure in the controller's form"),
+    FmuVariable("r", "input", "continuous", 0.0, "m", "reference position"),
+    FmuVariable("r_rate", "input", "continuous", 0.0, "m/s", "reference velocity"),
+    FmuVariable(
+        "u", "output", "discrete", None, "", "valve command [1] of the last sample (+-1 full)"
+    ),
+]
+
+
+def export_fmu(
+    controller, path: str | os.PathLike, *, fmi_version: str = "2.0", overwrite: bool = False
+) -> Path:
+    """Build the controller as an FMI 2.0 (or 3.0) co-simulation FMU from the C of :func:`export_c`.
+
+    The FMU holds the platform binary of this machine and the sources (``hydropwa_ctrl.h``,
+    ``hydropwa_ctrl.c``, ``hydropwa_ctrl_fmi2.c``, README), so a user or a tool that compiles
+    source-code FMUs rebuilds it for another platform.
+
+    Parameters
+    ----------
+    controller : PIController or StateFeedbackController
+    path : path-like
+        The ``.fmu`` file.
+    fmi_version : str
+        ``"2.0"`` (default) or ``"3.0"`` (co-simulation; the same C, the FMI 3.0 interface
+        and ``sources/buildDescription.xml``).
+    overwrite : bool
+        Replace an existing file (default: refuse).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ControlError
+        The controller has a law element the C does not implement.
+    FmuBuildError
+        No C compiler (``$CC``, gcc, cc or clang) on PATH, or it failed.
+
+    Notes
+    -----
+    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s]; output u [1]. ``doStep(t, h)``
+    evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
+    at t, and u is the command of the last of them from then on (no direct feedthrough):
+    a master that sets the inputs at t_k, steps the controller, then reads u and passes it to
+    the plant's step from t_k reproduces the package's loop.
+    """
+    sources = c_sources(controller)
+    model = _read_template("hp_model_ctrl.c")
+    if fmi_version == "3.0":
+        interface = "hydropwa_ctrl_fmi3.c"
+        sources[interface] = fmi3_source(model)
+    else:
+        interface = "hydropwa_ctrl_fmi2.c"
+        sources[interface] = fmi2_source(model)
+    return build_fmu(
+        path,
+        "hydropwa_ctrl",
+        f"hydropwa position controller: {_describe_line(controller)}, "
+        f"T_s = {controller.sample_time * 1e3:g} ms",
+        FMU_VARIABLES,
+        sources,
+        [interface, "hydropwa_ctrl.c"],
+        step_size=controller.sample_time,
+        fmi_version=fmi_version,
+        overwrite=overwrite,
+    )

@@ -1,0 +1,134 @@
+"""Helpers of the C-target tests: compile the generated controller, replay measured samples.
+
+The package's compiled law (:func:`hydropwa.simulation._controller.controller_sample`) and the
+generated C are driven with the same measurement sequence; both give the command, the
+command before the inverse and limits, and the gain row at every sample.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from hydropwa._layout import Y_FULL, Y_LOAD
+from hydropwa.simulation import _controller as C
+
+#: the flags the issue requires the generated C to compile cleanly with
+STRICT = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off")
+
+GCC = shutil.which("gcc")
+
+
+class Meas(ctypes.Structure):
+    _fields_ = [("x", ctypes.c_double), ("v", ctypes.c_double), ("p_l", ctypes.c_double)]
+
+
+class State(ctypes.Structure):
+    _fields_ = [
+        ("integral", ctypes.c_double),
+        ("p_l_prev", ctypes.c_double),
+        ("dp_l", ctypes.c_double),
+        ("pending", ctypes.c_double),
+        ("c_prev", ctypes.c_double),
+        ("p_l_bar", ctypes.c_double),
+        ("row", ctypes.c_int),
+        ("started", ctypes.c_int),
+        ("c_raw", ctypes.c_double),
+        ("u_new", ctypes.c_double),
+    ]
+
+
+def compile_shared(src: Path, out: Path, extra: tuple[str, ...] = ()) -> ctypes.CDLL:
+    """Compile ``src/hydropwa_ctrl.c`` with :data:`STRICT` into a shared library and load it."""
+    cmd = [GCC, *STRICT, *extra, "-shared", "-fPIC", "-o", str(out), str(src / "hydropwa_ctrl.c")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == "", proc.stderr  # no warning at all
+    lib = ctypes.CDLL(str(out))
+    lib.hydropwa_ctrl_step.restype = ctypes.c_double
+    lib.hydropwa_ctrl_step.argtypes = [
+        ctypes.POINTER(State),
+        ctypes.POINTER(Meas),
+        ctypes.c_double,
+        ctypes.c_double,
+    ]
+    lib.hydropwa_ctrl_load_pressure.restype = ctypes.c_double
+    lib.hydropwa_ctrl_load_pressure.argtypes = [ctypes.c_double] * 4
+    return lib
+
+
+def replay_c(lib: ctypes.CDLL, x, v, pl, r, dr) -> dict[str, np.ndarray]:
+    """Step the compiled C controller over the samples; command, c and row per sample."""
+    n = len(x)
+    s = State()
+    m = Meas()
+    lib.hydropwa_ctrl_init(ctypes.byref(s))
+    u, c, row = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
+    for k in range(n):
+        m.x, m.v, m.p_l = float(x[k]), float(v[k]), float(pl[k])
+        u[k] = lib.hydropwa_ctrl_step(ctypes.byref(s), ctypes.byref(m), float(r[k]), float(dr[k]))
+        c[k], row[k] = s.c_raw, s.row
+    return {"u": u, "c": c, "row": row}
+
+
+def replay_package(ctl: np.ndarray, x, v, pl, r, dr) -> dict[str, np.ndarray]:
+    """Step the package's compiled law (the reduced-model measurement: y = [P_L, v, x])."""
+    n = len(x)
+    cst = np.zeros(C.N_CST)
+    log = np.zeros((C.N_LOG, n))
+    sg = np.zeros(32)
+    y = np.zeros(len(Y_LOAD))
+    ts = float(ctl[C.C_TS])
+    r = np.ascontiguousarray(r, dtype=float)
+    dr = np.ascontiguousarray(dr, dtype=float)
+    for k in range(n):
+        y[Y_LOAD["x"]], y[Y_LOAD["v"]], y[Y_LOAD["p_l"]] = x[k], v[k], pl[k]
+        C.controller_sample(1, k, k * ts, y, 0.0, 0.0, ctl, cst, r, dr, sg, log)
+    return {"u": log[C.L_U].copy(), "c": log[C.L_C].copy(), "row": log[C.L_ROW].astype(np.int64)}
+
+
+def package_load_pressure(ctl, p_a, p_b, a_a, a_b) -> np.ndarray:
+    """P_L the package's loop measures on the full model (:func:`~._controller.measure`)."""
+    y = np.zeros(len(Y_FULL))
+    out = np.empty(len(p_a))
+    for k in range(len(p_a)):
+        y[Y_FULL["p_a"]], y[Y_FULL["p_b"]] = p_a[k], p_b[k]
+        out[k] = C.measure(0, y, a_a, a_b, ctl[C.C_PLMEAN])[2]
+    return out
+
+
+#: a stand-alone program for the sanitizer run: reads n, then n × (x, v, p_a, p_b, r, ṙ) and
+#: the areas from stdin (binary doubles), writes n × (u, c, row) to stdout
+DRIVER = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "hydropwa_ctrl.h"
+
+int main(void)
+{
+    double head[3];
+    long n, k;
+    hydropwa_ctrl_state s;
+    if (fread(head, sizeof(double), 3, stdin) != 3) return 2;
+    n = (long)head[0];
+    hydropwa_ctrl_init(&s);
+    for (k = 0; k < n; ++k) {
+        double in[6], out[3];
+        hydropwa_ctrl_meas m;
+        if (fread(in, sizeof(double), 6, stdin) != 6) return 3;
+        m.x = in[0];
+        m.v = in[1];
+        m.p_l = hydropwa_ctrl_load_pressure(in[2], in[3], head[1], head[2]);
+        out[0] = hydropwa_ctrl_step(&s, &m, in[4], in[5]);
+        out[1] = s.c_raw;
+        out[2] = (double)s.row;
+        if (fwrite(out, sizeof(double), 3, stdout) != 3) return 4;
+    }
+    hydropwa_ctrl_reset(&s);
+    return 0;
+}
+"""

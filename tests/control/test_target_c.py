@@ -1,0 +1,430 @@
+"""The generated C controller against the package's compiled law, in lockstep (issue 35).
+
+Closed-loop runs of two machines (the paper rig and the heavy industrial axis of
+tests/machines/industrial.toml) under every controller kind the package designs, on steps
+and trapezoids: the measurement sequence the package's loop saw at its sample instants is
+taken from the run, sensor noise is added, and both the package's law and the C (compiled
+with ``-std=c99 -Wall -Wextra -Werror -pedantic -O2``) are stepped over it. Required: the
+same command within 1e-12 relative at every sample, the same gain row.
+"""
+
+from __future__ import annotations
+
+import struct
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from c_support import (
+    DRIVER,
+    GCC,
+    STRICT,
+    compile_shared,
+    package_load_pressure,
+    replay_c,
+    replay_package,
+)
+
+from hydropwa import OutputExistsError, load_params
+from hydropwa.control import (
+    ControlError,
+    DeadZoneInverse,
+    MotionProfile,
+    PIController,
+    StateFeedbackController,
+    StepSequence,
+    design_pi,
+    design_state_feedback,
+    export_c,
+    export_fmu,
+)
+from hydropwa.control._target import C_FILES, c_sources, cost_per_step
+from hydropwa.linearization import linearize
+from hydropwa.simulation import _controller as C
+from hydropwa.simulation import simulate
+
+pytestmark = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
+
+MACHINES = Path(__file__).parents[1] / "machines"
+#: relative agreement required between the C and the package's law (the issue's bar)
+RTOL = 1e-12
+#: commands are compared relative to max(|u|, FLOOR) [1]: numba's LLVM fuses multiply-adds on
+#: CPUs with FMA, the portable C rounds every product (-ffp-contract=off), so the two differ
+#: by a few ulps of the law's terms, which are of order 0.1-1 (measured over the 26 424
+#: samples of the lockstep test: at most 1.4e-15 absolute, 4.3e-14 relative where
+#: |u| > 1e-2; 2 902 row switches, all rows equal); where they cancel to |u| < 1e-2 that is
+#: 1e-14 absolute (45 ulps of the full command), not 1e-12 of u
+FLOOR = 1e-2
+
+
+@pytest.fixture(scope="module")
+def industrial():
+    return load_params(MACHINES / "industrial.toml")
+
+
+@pytest.fixture(scope="module")
+def paper_lqr(paper):
+    return design_state_feedback(linearize(paper)).controller
+
+
+@pytest.fixture(scope="module")
+def industrial_lqr(industrial):
+    return design_state_feedback(linearize(industrial)).controller
+
+
+def _variants(paper, paper_lqr, industrial, industrial_lqr):
+    """Every controller kind and law element: (name, machine, controller)."""
+    pi = design_pi(linearize(paper)).controller
+    dzi = DeadZoneInverse.from_params(paper.dead_zone)
+    full_pi = PIController(
+        kp=150.0,
+        ki=600.0,
+        kff=1.0 / 0.4,
+        kv=0.05,
+        kpl=2e-8,
+        kdpl=1e-10,
+        pressure_filter=2e-3,
+        pressure_washout=0.05,
+        anti_windup="back-calculation",
+        tracking_gain=40.0,
+        delay=True,
+        u_min=-0.8,
+        u_max=0.9,
+        load_pressure="mean-area",
+        dead_zone_inverse=dzi,
+    )
+    sf_delay = StateFeedbackController(
+        rows=paper_lqr.rows,
+        delay=True,
+        anti_windup="none",
+        pressure_washout=0.0,
+        dead_zone_inverse=None,
+    )
+    return [
+        ("paper lqr", paper, paper_lqr),
+        ("paper pi", paper, pi),
+        ("paper pi every element", paper, full_pi),
+        ("paper lqr delay, no inverse", paper, sf_delay),
+        ("industrial lqr", industrial, industrial_lqr),
+        ("industrial pi", industrial, design_pi(linearize(industrial)).controller),
+    ]
+
+
+def _references(prm):
+    """A trapezoid over a fifth of the stroke and two steps, about the mid stroke."""
+    s = prm.cylinder.stroke
+    x0 = 0.4 * s
+    trap = MotionProfile(
+        start_position=x0,
+        end_position=x0 + 0.2 * s,
+        start_time=0.02,
+        max_velocity=0.1 if s < 0.3 else 0.15,
+        max_acceleration=2.0,
+    )
+    steps = StepSequence(times=np.array([0.0, 0.02, 0.3]), positions=x0 + np.array([0, 5e-3, 2e-3]))
+    return x0, (("trapezoid", trap, 0.6), ("steps", steps, 0.5))
+
+
+def _closed_loop_samples(prm, ctrl, ref, x0, duration, rng):
+    """The measurements at the sample instants of a closed-loop run of the full model, noisy.
+
+    Output times are the sample instants t_0 + k·T_s (the expression of ``simulate``), where
+    the integrator ends a step exactly; noise: 20 µm, 5 mm/s, 0.1 bar per chamber.
+    """
+    ts = ctrl.sample_time
+    n = int(np.floor(duration / ts + 1e-9)) + 1
+    tk = 0.0 + ts * np.arange(n)
+    res = simulate(
+        "full",
+        timepts=tk,
+        params=prm,
+        controller=ctrl,
+        reference=ref,
+        initial_position=x0,
+        load_force=prm.load.force,
+        rtol=1e-6,
+    )
+    assert res.success, res.message
+    r = np.asarray(ref(tk), dtype=float)
+    dr = np.asarray(ref.rate(tk), dtype=float)
+    exact = {k: np.asarray(res[k], dtype=float) for k in ("x", "v", "p_a", "p_b")}
+    noisy = {
+        "x": exact["x"] + rng.normal(0.0, 20e-6, n),
+        "v": exact["v"] + rng.normal(0.0, 5e-3, n),
+        "p_a": exact["p_a"] + rng.normal(0.0, 0.1e5, n),
+        "p_b": exact["p_b"] + rng.normal(0.0, 0.1e5, n),
+    }
+    return res, exact, noisy, r, dr
+
+
+def _assert_lockstep(pkg, c, what):
+    """Same command and c within :data:`RTOL` relative (floor :data:`FLOOR`), same row."""
+    for key in ("u", "c"):
+        ref = pkg[key]
+        err = np.abs(c[key] - ref) / np.maximum(np.abs(ref), FLOOR)
+        worst = int(np.argmax(err))
+        assert err[worst] <= RTOL, (
+            f"{what}: {key} at sample {worst}: C {c[key][worst]!r} vs package {ref[worst]!r}"
+        )
+    np.testing.assert_array_equal(c["row"], pkg["row"], err_msg=what)
+
+
+def test_c_controller_matches_the_compiled_law_in_lockstep(
+    paper, paper_lqr, industrial, industrial_lqr, tmp_path
+):
+    """Every controller kind, both machines, steps and trapezoids, exact and noisy sensors.
+
+    Also checks that the replayed exact sequence is the one the loop saw: the package's law
+    stepped over it gives the run's logged commands (1e-9: the states at the sample instants
+    are the integrator's step ends, read back through the output pass), and that the C's
+    load pressure is the package's measurement of it from the chamber pressures.
+    """
+    rng = np.random.default_rng(35)
+    checked = 0
+    switched_rows = 0
+    for name, prm, ctrl in _variants(paper, paper_lqr, industrial, industrial_lqr):
+        out = tmp_path / name.replace(" ", "_").replace(",", "")
+        export_c(ctrl, out)
+        lib = compile_shared(out, out / "libctrl.so")
+        ctl = ctrl.pack()
+        a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
+        x0, refs = _references(prm)
+        for ref_name, ref, duration in refs:
+            what = f"{name}, {ref_name}"
+            res, exact, noisy, r, dr = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
+            pl_exact = package_load_pressure(ctl, exact["p_a"], exact["p_b"], a_a, a_b)
+            replay = replay_package(ctl, exact["x"], exact["v"], pl_exact, r, dr)
+            np.testing.assert_allclose(
+                replay["u"], res.control["u"], rtol=0, atol=1e-9, err_msg=what
+            )
+            for seq in (exact, noisy):
+                pl_pkg = package_load_pressure(ctl, seq["p_a"], seq["p_b"], a_a, a_b)
+                pl_c = np.array(
+                    [
+                        lib.hydropwa_ctrl_load_pressure(pa, pb, a_a, a_b)
+                        for pa, pb in zip(seq["p_a"], seq["p_b"], strict=True)
+                    ]
+                )
+                # the same FMA difference: ulps of the products p·A, not of their difference
+                np.testing.assert_allclose(
+                    pl_c, pl_pkg, rtol=0, atol=1e-14 * np.max(np.abs(seq["p_a"])), err_msg=what
+                )
+                pkg = replay_package(ctl, seq["x"], seq["v"], pl_pkg, r, dr)
+                c = replay_c(lib, seq["x"], seq["v"], pl_pkg, r, dr)
+                _assert_lockstep(pkg, c, what)
+                checked += len(r)
+                switched_rows += int(np.count_nonzero(np.diff(pkg["row"])))
+    # the runs exercise the row search and the saturation, not only one cell
+    assert switched_rows > 100
+    assert checked > 20000
+
+
+def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
+    paper, paper_lqr, industrial, industrial_lqr, tmp_path
+):
+    """The lockstep run as a stand-alone program built with -fsanitize=address,undefined, for
+    every controller variant (so the delay, back-calculation, filter and washout paths run)."""
+    rng = np.random.default_rng(7)
+    variants = _variants(paper, paper_lqr, industrial, industrial_lqr)
+    for i, (name, prm, ctrl) in enumerate(variants):
+        out = export_c(ctrl, tmp_path / f"c{i}")
+        (out / "driver.c").write_text(DRIVER)
+        exe = out / "driver"
+        cmd = [GCC, *STRICT, "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+        cmd += ["-o", str(exe), str(out / "driver.c"), str(out / "hydropwa_ctrl.c")]
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if proc.returncode != 0 and (
+            "asan" in proc.stderr.lower() or "ubsan" in proc.stderr.lower()
+        ):
+            pytest.skip(f"the sanitizer runtime is missing: {proc.stderr.strip().splitlines()[-1]}")
+        assert proc.returncode == 0, proc.stderr
+        x0, refs = _references(prm)
+        _name, ref, duration = refs[i % 2]
+        _res, _exact, seq, r, dr = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
+        a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
+        n = len(r)
+        rows = np.column_stack([seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, dr])
+        data = struct.pack("3d", n, a_a, a_b) + rows.astype("<f8").tobytes()
+        run = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
+        assert run.returncode == 0, run.stderr.decode(errors="replace")
+        assert run.stderr == b""
+        got = np.frombuffer(run.stdout, dtype="<f8").reshape(n, 3)
+        ctl = ctrl.pack()
+        pl = package_load_pressure(ctl, seq["p_a"], seq["p_b"], a_a, a_b)
+        pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
+        got_d = {"u": got[:, 0], "c": got[:, 1], "row": got[:, 2].astype(int)}
+        _assert_lockstep(pkg, got_d, f"asan {name}")
+
+
+def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr, tmp_path):
+    out = export_c(paper_lqr, tmp_path / "c")
+    assert sorted(p.name for p in out.iterdir()) == sorted(C_FILES)
+    before = (out / "hydropwa_ctrl.c").read_text()
+    with pytest.raises(OutputExistsError):
+        export_c(paper_lqr, out)
+    pi = PIController(kp=100.0)
+    export_c(pi, out, overwrite=True)
+    assert (out / "hydropwa_ctrl.c").read_text() != before
+
+    class Unknown:
+        kind = "mpc"
+
+    with pytest.raises(ControlError, match="cannot export a Unknown"):
+        export_c(Unknown(), tmp_path / "x")
+
+    class WithEstimator(PIController):
+        def describe(self):
+            return {**super().describe(), "estimator": {"kind": "luenberger"}}
+
+    with pytest.raises(ControlError, match="does not implement estimator"):
+        export_c(WithEstimator(kp=1.0), tmp_path / "y")
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
+    """A new element in the packed layout stops the export until the C implements it."""
+    monkeypatch.setattr(C, "C_ROWS", C.C_ROWS + 1)
+    with pytest.raises(ControlError, match=r"packed layout changed \(C_ROWS 18 \(C law: 17\)\)"):
+        export_c(PIController(kp=1.0), tmp_path / "c")
+    assert not (tmp_path / "c").exists()
+
+
+def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constants(paper_lqr):
+    """The C's table reads back to the packed vector bit for bit; its HP_ indices are _controller's."""
+    src = c_sources(paper_lqr)["hydropwa_ctrl.c"]
+    for name in ("C_TS", "C_NROWS", "C_ROWS", "ROW", "R_KPL", "AW_BACK"):
+        assert f"#define HP_{name} {getattr(C, name)}\n" in src
+    body = src.split("static const double T[", 1)[1].split("{", 1)[1].split("};", 1)[0]
+    values = []
+    for line in body.splitlines():
+        line = line.split("*/")[-1]
+        for tok in (t.strip() for t in line.split(",")):
+            if tok:
+                values.append({"HUGE_VAL": np.inf, "-HUGE_VAL": -np.inf}.get(tok) or float(tok))
+    ctl = paper_lqr.pack()
+    assert len(values) == ctl.size
+    np.testing.assert_array_equal(np.array(values), ctl)
+    header = c_sources(paper_lqr)["hydropwa_ctrl.h"]
+    n = len(paper_lqr.rows)
+    assert f"#define HYDROPWA_CTRL_N_ROWS {n}\n" in header
+    assert f"{cost_per_step(n)['flops']} floating-point operations" in header
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
+    paper, paper_lqr, tmp_path, version
+):
+    """FMPy: no validation problem; simulated on a recorded noisy closed-loop sequence it gives
+    the package's commands within 1e-12 (its output after doStep(t_k) is the command of t_k)."""
+    fmpy = pytest.importorskip("fmpy")
+    from fmpy.validation import validate_fmu
+
+    major = version[0]
+    fmu = export_fmu(paper_lqr, tmp_path / "ctrl.fmu", fmi_version=version)
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    assert md.fmiVersion == version
+    names = {v.name for v in md.modelVariables} - {"time"}
+    assert names == {"x", "v", "p_l", "r", "r_rate", "u"}
+    with pytest.raises(OutputExistsError):
+        export_fmu(paper_lqr, fmu, fmi_version=version)
+    # the sources inside rebuild the FMU elsewhere: they compile under the strict flags
+    src = tmp_path / "unzipped"
+    binary = {"2": "linux64", "3": "x86_64-linux"}[major]
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(src)
+        assert f"binaries/{binary}/hydropwa_ctrl.so" in z.namelist() or sys.platform != "linux"
+    interface = f"hydropwa_ctrl_fmi{major}.c"
+    units = [str(src / "sources" / n) for n in (interface, "hydropwa_ctrl.c")]
+    proc = subprocess.run(
+        [GCC, *STRICT, "-shared", "-fPIC", "-o", str(src / "rebuilt.so"), *units],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    # every FMI function has the standard's signature: built against FMPy's copy of the FMI
+    # headers, a mismatch is a compile error
+    check = src / "sources" / "check_fmi.c"
+    check.write_text(
+        f'#include "fmi{major}Functions.h"\n#define HP_HAVE_FMI{major}_HEADERS\n'
+        f'#include "{interface}"\n'
+    )
+    headers = Path(fmpy.__file__).parent / "c-code"
+    proc = subprocess.run(
+        [GCC, *STRICT, f"-I{headers}", "-c", "-o", str(src / "check.o"), str(check)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+
+    rng = np.random.default_rng(11)
+    x0, refs = _references(paper)
+    _name, ref, duration = refs[1]
+    _res, _exact, seq, r, dr = _closed_loop_samples(paper, paper_lqr, ref, x0, duration, rng)
+    ctl = paper_lqr.pack()
+    pl = package_load_pressure(
+        ctl, seq["p_a"], seq["p_b"], paper.cylinder.area_a, paper.cylinder.area_b
+    )
+    pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
+    ts = paper_lqr.sample_time
+    tk = ts * np.arange(len(r))
+    signals = np.zeros(
+        len(r), dtype=[(n, np.float64) for n in ("time", "x", "v", "p_l", "r", "r_rate")]
+    )
+    signals["time"], signals["x"], signals["v"] = tk, seq["x"], seq["v"]
+    signals["p_l"], signals["r"], signals["r_rate"] = pl, r, dr
+    out = fmpy.simulate_fmu(
+        str(fmu),
+        start_time=0.0,
+        stop_time=tk[-1],
+        step_size=ts,
+        output_interval=ts,
+        input=signals,
+        output=["u"],
+    )
+    np.testing.assert_array_equal(out["time"], tk)
+    assert out["u"][0] == 0.0  # nothing sampled before the first step
+    want = pkg["u"][:-1]
+    err = np.abs(out["u"][1:] - want) / np.maximum(np.abs(want), FLOOR)
+    assert err.max() <= RTOL, f"FMU command off by {err.max():.2g} (relative, floor {FLOOR})"
+    assert np.count_nonzero(np.diff(pkg["row"])) > 10  # the run crosses cells
+
+
+def test_fmu_export_without_a_c_compiler_is_one_line(paper_lqr, tmp_path, monkeypatch):
+    from hydropwa.simulation._fmu import FmuBuildError
+
+    monkeypatch.setenv("CC", "no-such-compiler-hydropwa")
+    with pytest.raises(FmuBuildError, match=r"^building an FMU needs a C compiler; [^\n]*$"):
+        export_fmu(paper_lqr, tmp_path / "c.fmu")
+    assert not (tmp_path / "c.fmu").exists()
+
+
+def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, capsys):
+    """``hydropwa control export``: C and FMU; an occupied target or a file it cannot read is
+    one line and exit 2; ``--force`` rewrites."""
+    from hydropwa.cli import main
+    from hydropwa.control import save_controller
+
+    ctrl_file = tmp_path / "ctrl.toml"
+    save_controller(paper_lqr, ctrl_file)
+    argv = ["control", "export", str(ctrl_file), "--c", str(tmp_path / "c")]
+    argv += ["--fmu", str(tmp_path / "c.fmu")]
+    assert main(argv) == 0
+    assert (tmp_path / "c" / "hydropwa_ctrl.c").is_file() and (tmp_path / "c.fmu").is_file()
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--force" in err[0], err
+    assert main([*argv, "--force"]) == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text('schema = "hydropwa.controller/1"\nkind = "mpc"\nsample_time = "0.5 ms"\n')
+    capsys.readouterr()
+    assert main(["control", "export", str(bad), "--c", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'mpc'" in err[0], err
+    assert not (tmp_path / "d").exists()
