@@ -29,6 +29,7 @@ import numpy as np
 
 from .._errors import HydropwaError, PwaError
 from .._io import atomic_path, atomic_write_text, check_output
+from .._layout import FULL_STATES
 from ..components import PiecewiseAffine
 from ..params import params_from_dict
 from ._fit import PwaFit
@@ -100,6 +101,95 @@ def model_to_dict(model) -> dict[str, Any]:
     }
 
 
+#: Schema of the chamber-level model's document (``pwa-chamber``).
+CHAMBER_SCHEMA = "hydropwa.pwa-chamber/1"
+_CHAMBER_STATE = [{"name": n, "unit": u} for n, u, _s in FULL_STATES]
+_CHAMBER_SETS = {
+    "dead_zone": ("spool", "1", "z [1]"),
+    "flow": ("q = Delta P / P_S of a metering edge", "1", "Q / (z K sqrt(P_S))"),
+    "capacitance": ("x", "m", "x_j at which V_A, V_B are evaluated [m]"),
+    "friction": ("v", "m/s", "N"),
+}
+
+
+def chamber_to_dict(model) -> dict[str, Any]:
+    """Chamber model → JSON-ready dict without per-cell dynamics (see :func:`export_pwa`)."""
+    cap = model.capacitance
+    fl = model.flow
+    sets: dict[str, Any] = {
+        "dead_zone": _pwa_dict(model.dead_zone),
+        "flow": {
+            **_pwa_dict(fl.pwa),
+            "bounds": fl.bounds.tolist(),
+            "interval": list(fl.interval),
+            "eps": fl.eps,
+            "tolerance": fl.tolerance,
+        },
+        "capacitance": {
+            "breakpoints": cap.breakpoints.tolist(),
+            "slopes": [0.0] * cap.n_cells,
+            "offsets": cap.centres.tolist(),
+            "bounds": cap.bounds.tolist(),
+            "tolerance": cap.tolerance,
+        },
+        "friction": _fit_dict(model.friction),
+    }
+    for key, (var, unit, value) in _CHAMBER_SETS.items():
+        sets[key].update(variable=var, variable_unit=unit, value=value)
+    return {
+        "schema": CHAMBER_SCHEMA,
+        "form": "chamber",
+        "scheduled": model.scheduled,
+        "supply_pressure": model.supply_pressure,
+        "state": _CHAMBER_STATE,
+        "input": _INPUT,
+        "params": model.params.to_dict(),
+        "cell_sets": sets,
+    }
+
+
+def chamber_from_dict(data: dict[str, Any]):
+    """Rebuild a :class:`~._chamber.ChamberPwaModel` from :func:`chamber_to_dict` output."""
+    from ._chamber import CapacitanceCells, ChamberPwaModel, FlowCells
+
+    try:
+        params = params_from_dict(
+            _need(data, "params", "document"), source="PWA document", check_bare=False
+        )
+        sets = _need(data, "cell_sets", "document")
+        f = _need(sets, "flow", "cell_sets")
+        c = _need(sets, "capacitance", "cell_sets")
+        iv = _need(f, "interval", "cell_sets.flow")
+        flow = FlowCells(
+            _pwa_from(f, "cell_sets.flow"),
+            np.asarray(_need(f, "bounds", "cell_sets.flow"), dtype=float),
+            (float(iv[0]), float(iv[1])),
+            float(_need(f, "eps", "cell_sets.flow")),
+            float(_need(f, "tolerance", "cell_sets.flow")),
+        )
+        cap = CapacitanceCells(
+            np.asarray(_need(c, "breakpoints", "cell_sets.capacitance"), dtype=float),
+            np.asarray(_need(c, "offsets", "cell_sets.capacitance"), dtype=float),
+            np.asarray(_need(c, "bounds", "cell_sets.capacitance"), dtype=float),
+            float(_need(c, "tolerance", "cell_sets.capacitance")),
+        )
+        return ChamberPwaModel(
+            params=params,
+            dead_zone=_pwa_from(_need(sets, "dead_zone", "cell_sets"), "cell_sets.dead_zone"),
+            flow=flow,
+            capacitance=cap,
+            friction=_fit_from(_need(sets, "friction", "cell_sets"), "cell_sets.friction"),
+            scheduled=bool(_need(data, "scheduled", "document")),
+            supply_pressure=float(_need(data, "supply_pressure", "document")),
+        )
+    except PwaError:
+        raise
+    except HydropwaError as exc:
+        raise PwaError(f"PWA document: {exc}") from None
+    except (TypeError, ValueError, IndexError, KeyError) as exc:
+        raise PwaError(f"PWA document does not match schema {CHAMBER_SCHEMA}: {exc}") from None
+
+
 def _need(d: dict, key: str, where: str):
     if not isinstance(d, dict) or key not in d:
         raise PwaError(f"PWA document: {where} has no {key!r} (schema {SCHEMA})")
@@ -141,8 +231,10 @@ def model_from_dict(data: dict[str, Any]):
     if not isinstance(data, dict):
         raise PwaError(f"PWA document must be a JSON object, got {type(data).__name__}")
     schema = data.get("schema")
+    if schema == CHAMBER_SCHEMA:
+        return chamber_from_dict(data)
     if schema != SCHEMA:
-        raise PwaError(f"PWA document schema {schema!r} is not {SCHEMA!r}")
+        raise PwaError(f"PWA document schema {schema!r} is not {SCHEMA!r} or {CHAMBER_SCHEMA!r}")
     try:
         params = params_from_dict(
             _need(data, "params", "document"), source="PWA document", check_bare=False
