@@ -46,6 +46,7 @@ MODELS: dict[str, str] = {
     "pwa-scheduled": "asymmetric PWA model, cells scheduled on the measured P_S(t)",
     "reduced-paper": "the paper's mean-area reduced model, average P_S (Sec. VII)",
     "pwa-paper": "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
+    "pwa-chamber": "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
 }
 #: Channels scored per run.
 CHANNELS = ("x", "p_a", "p_b", "p_l", "v")
@@ -313,6 +314,8 @@ def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
         return linearize(params, supply_pressure=ps_mean), None
     if name == "pwa-paper":
         return linearize(params, supply_pressure=ps_mean, form="consistent"), None
+    if name == "pwa-chamber":
+        return linearize(params, supply_pressure=ps_mean, form="chamber", scheduled=True), ps_signal
     return linearize(params, supply_pressure=ps_mean, scheduled=True), ps_signal
 
 

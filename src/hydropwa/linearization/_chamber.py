@@ -69,11 +69,11 @@ __all__ = [
     "DROP_INTERVAL",
 ]
 
-#: Default bound on the normalised metering-flow error, |Q_PWA − Q|/(|z| K √P_S) [1] (1 % of the
+#: Default bound on the normalised metering-flow error, |Q_PWA − Q|/(|z| K √P_S) [1] (0.5 % of the
 #: flow at the full drop P_S).
-FLOW_TOLERANCE = 0.01
+FLOW_TOLERANCE = 0.005
 #: Default bound on the relative chamber-capacitance error |V(x_j)/V(x) − 1| [1].
-CAPACITANCE_TOLERANCE = 0.02
+CAPACITANCE_TOLERANCE = 0.01
 #: Range of the normalised edge drop q = ΔP/P_S the flow cells cover: from a chamber at twice
 #: the supply pressure (an overrunning or braking load) to one at the vapour pressure.
 DROP_INTERVAL = (-1.0, 1.05)
