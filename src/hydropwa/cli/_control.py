@@ -13,6 +13,7 @@ from typing import Annotated
 
 import typer
 
+from .._errors import PwaError
 from .._io import check_output
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
@@ -33,6 +34,25 @@ def _pwa_model(params_src: str | None, pwa_file: Path | None):
     if pwa_file is not None:
         return load_pwa(pwa_file)
     return linearize(resolve_params(params_src))
+
+
+def _chamber_model(params_src: str | None, pwa_file: Path | None):
+    """The chamber PWA model: from a ``hydropwa.pwa-chamber/1`` document, or linearized."""
+    from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
+        ChamberPwaModel,
+        linearize,
+        load_pwa,
+    )
+
+    if pwa_file is not None:
+        model = load_pwa(pwa_file)
+        if not isinstance(model, ChamberPwaModel):
+            raise PwaError(
+                f"--pwa {pwa_file} holds a load-pressure PWA model; --model pwa-chamber needs "
+                "one written by 'hydropwa linearize --form chamber'"
+            )
+        return model
+    return linearize(resolve_params(params_src), form="chamber")
 
 
 def _weights(text: str | None) -> dict[str, float]:
@@ -173,7 +193,9 @@ def simulate_command(
             help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'.",
         ),
     ],
-    model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
+    model: Annotated[
+        str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
+    ] = "full",
     params: ParamsOption = None,
     pwa: Annotated[
         Path | None,
@@ -213,6 +235,7 @@ def simulate_command(
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
+    from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         METRIC_UNITS,
         ControlError,
@@ -232,8 +255,8 @@ def simulate_command(
         simulate,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    if model not in ("full", "reduced", "pwa"):
-        raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    if model not in MODEL_NAMES:
+        raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ControlError(f"--out {out} must end in .csv or .parquet")
     check_output(out, force, option="--out")
@@ -244,7 +267,13 @@ def simulate_command(
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
-    mdl = _pwa_model(params, pwa) if model == "pwa" else model
+    mdl = (
+        _pwa_model(params, pwa)
+        if model == "pwa"
+        else _chamber_model(params, pwa)
+        if model == "pwa-chamber"
+        else model
+    )
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(
         mdl,

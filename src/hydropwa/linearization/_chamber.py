@@ -322,7 +322,9 @@ class ChamberPwaModel:
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, SystemParams):
-            raise PwaError(f"ChamberPwaModel needs a SystemParams, got {type(self.params).__name__}")
+            raise PwaError(
+                f"ChamberPwaModel needs a SystemParams, got {type(self.params).__name__}"
+            )
         ps = self.supply_pressure
         if not (math.isfinite(ps) and ps > max(0.0, self.params.supply.tank_pressure)):
             raise PwaError(
@@ -522,7 +524,7 @@ class ChamberPwaModel:
         ps = self.supply_pressure if p_s is None else float(p_s)
         if (point is None) == (cells is None):
             raise PwaError("give exactly one of point or cells")
-        pt = dict(self.working_point(cells, ps) if cells is not None else point)  # type: ignore[arg-type]
+        pt = dict(self.working_point(cells, ps) if cells is not None else point)
         try:
             y = np.array([float(pt[n]) if n != "p_s" else ps for n in _STATE_NAMES])
             u = float(pt["u"])
@@ -546,9 +548,40 @@ class ChamberPwaModel:
         z = float(_dz(float(y[0]), dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset))
         f = self.params.flow
         qa, qb = orifice_flows(
-            z, float(y[2]), float(y[3]), ps, self.params.supply.tank_pressure, f.K, f.transition_pressure
+            z,
+            float(y[2]),
+            float(y[3]),
+            ps,
+            self.params.supply.tank_pressure,
+            f.K,
+            f.transition_pressure,
         )
         return float(qa), float(qb)
+
+    def visited_cells(self, result) -> list[ChamberCellIndex]:
+        """The cell combinations a simulation of this model visits (sorted, each once).
+
+        ``result``: a :class:`~hydropwa.SimulationResult` of a ``pwa-chamber`` model (its
+        channels cell_g, cell_qa, cell_qb, cell_x, cell_w and z); pass the list to
+        :func:`~._export.export_pwa` as ``cells``.
+        """
+        try:
+            ch = result.channels
+            rows = np.column_stack(
+                [
+                    ch["cell_g"],
+                    np.where(ch["z"] >= 0.0, 1, -1),
+                    ch["cell_qa"],
+                    ch["cell_qb"],
+                    ch["cell_x"],
+                    ch["cell_w"],
+                ]
+            ).astype(int)
+        except (AttributeError, KeyError):
+            raise PwaError(
+                "visited_cells needs a simulation result of a pwa-chamber model"
+            ) from None
+        return [ChamberCellIndex(*(int(v) for v in r)) for r in np.unique(rows, axis=0)]
 
     # --- export -------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -601,11 +634,15 @@ def linearize_chamber(
     except (TypeError, ValueError):
         raise PwaError(f"supply pressure {supply_pressure!r} is not a number in Pa") from None
     if not (math.isfinite(ps) and ps > max(0.0, params.supply.tank_pressure)):
-        raise PwaError(f"supply pressure {ps / 1e5:g} bar must be finite and above the tank pressure")
+        raise PwaError(
+            f"supply pressure {ps / 1e5:g} bar must be finite and above the tank pressure"
+        )
     eps = params.flow.transition_pressure / ps
     fc = flow_cells(eps, flow_tolerance)
     cap = capacitance_cells(params, capacitance_tolerance)
     if friction_range is None:
         friction_range = _widened(machine_velocity_range(params, ps, "asymmetric"))
     fr = friction_cells(params.friction, friction_cells_n, "machine", interval=friction_range)
-    return ChamberPwaModel(params, dead_zone_cells(params.dead_zone), fc, cap, fr, bool(scheduled), ps)
+    return ChamberPwaModel(
+        params, dead_zone_cells(params.dead_zone), fc, cap, fr, bool(scheduled), ps
+    )

@@ -2540,6 +2540,4 @@ def _fill_chamber(t_out, Y, n_done, p, sg, out):
         out[N_OUT + 3, k] = j
         out[N_OUT + 4, k] = w
         pa, pb, v = y[Y_PA], y[Y_PB], y[Y_V]
-        _write_outputs(
-            out, k, u, y[Y_NU], z, pa, pb, pa - pb, ps, fl, y[Y_X], v, fk * v + fd, p
-        )
+        _write_outputs(out, k, u, y[Y_NU], z, pa, pb, pa - pb, ps, fl, y[Y_X], v, fk * v + fd, p)
