@@ -233,6 +233,13 @@ def simulate_command(
         Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")
     ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+    compare: Annotated[
+        bool,
+        typer.Option(
+            "--compare",
+            help="Run the controller on full, reduced, pwa and pwa-chamber side by side: hold peak-to-peak, tracking error, saturation; --out gets the table.",
+        ),
+    ] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
     from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
@@ -267,6 +274,11 @@ def simulate_command(
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+    if compare:
+        _compare(
+            ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
+        )
+        return
     mdl = (
         _pwa_model(params, pwa)
         if model == "pwa"
@@ -293,6 +305,61 @@ def simulate_command(
     if plot is not None:
         save_figure(
             plot_closed_loop(res, f"{model} model, {ctrl.kind} controller"),
+            plot,
+            dpi=150,
+            overwrite=True,
+        )
+        msg += f" and {plot}"
+    typer.echo(msg)
+
+
+def _compare(
+    ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
+):
+    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        ControlError,
+        closed_loop_fidelity,
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    if supply_pressure is not None:
+        raise ControlError(
+            "--compare runs every model at the parameters' P_S; drop --supply-pressure"
+        )
+    pwa_model = _pwa_model(params, pwa) if pwa is not None else None
+    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    results, table = closed_loop_fidelity(
+        ctrl,
+        ref,
+        params=prm,
+        pwa=pwa_model,
+        duration=duration,
+        initial_position=start,
+        load_force=load_force,
+        rtol=rtol,
+    )
+    units = table.attrs["units"]
+    typer.echo(
+        table.rename(columns={c: f"{c} [{units[c]}]" for c in table.columns}).to_string(
+            float_format=lambda v: f"{v:.4g}"
+        )
+    )
+    if out.suffix.lower() == ".csv":
+        table.to_csv(out)
+    else:
+        table.to_parquet(out)
+    msg = f"wrote {out} (one row per model)"
+    if plot is not None:
+        from ..plotting import (  # deferred: loaded only when this command runs (a fast --help)
+            plot_closed_loop,
+            save_figure,
+        )
+
+        save_figure(
+            plot_closed_loop(results, f"{ctrl.kind} controller on every model"),
             plot,
             dpi=150,
             overwrite=True,
