@@ -74,9 +74,10 @@ __all__ = [
 FLOW_TOLERANCE = 0.005
 #: Default bound on the relative chamber-capacitance error |V(x_j)/V(x) − 1| [1].
 CAPACITANCE_TOLERANCE = 0.01
-#: Range of the normalised edge drop q = ΔP/P_S the flow cells cover: from a chamber at twice
-#: the supply pressure (an overrunning or braking load) to one at the vapour pressure.
-DROP_INTERVAL = (-1.0, 1.05)
+#: Range of the normalised edge drop q = ΔP/P_S the flow cells cover: a supply edge from a
+#: chamber at 2.5 P_S (braking an overrunning load) to one at the vapour pressure; a tank edge
+#: up to 2.5 P_S (the rod side of a single-rod cylinder intensifies the pressure by A_A/A_B).
+DROP_INTERVAL = (-1.5, 2.5)
 _STATE_NAMES = tuple(name for name, _u, _s in FULL_STATES)
 I_SCHED, I_PSFIX, I_FORM = PWA_SLOT["sched"], PWA_SLOT["psfix"], PWA_SLOT["form"]
 I_NG, I_NC, I_NX, I_NW = PWA_SLOT["ng"], PWA_SLOT["no"], PWA_SLOT["nn"], PWA_SLOT["nw"]
@@ -399,17 +400,17 @@ class ChamberPwaModel:
             return self.supply_pressure if p_s is None else float(p_s)
         return float(p_s)
 
-    def _packed_fixed(self, ps: float) -> np.ndarray:
-        """Packed vector with the cells fixed at P_S = ``ps`` (memoised per P_S)."""
-        cache = self.__dict__.setdefault("_packed_cache", {})
-        p = cache.get(ps)
+    def _packed_scheduled(self) -> np.ndarray:
+        """Packed vector with the cells following the P_S argument (memoised).
+
+        Point evaluations pass P_S explicitly (``_ps`` holds it at the fixed value for an
+        unscheduled model), so ∂f/∂P_S of :meth:`point` is the cells' true dependence on P_S.
+        """
+        p = self.__dict__.get("_packed_sched")
         if p is None:
             p = self.pack().copy()
-            p[I_SCHED] = 0.0
-            p[I_PSFIX] = ps
-            if len(cache) > 64:
-                cache.clear()
-            cache[ps] = p
+            p[I_SCHED] = 1.0
+            self.__dict__["_packed_sched"] = p
         return p
 
     def point(self, y, u: float, p_s: float | None = None, f_l: float | None = None):
@@ -419,7 +420,7 @@ class ChamberPwaModel:
         y = np.asarray(y, dtype=float)
         if y.shape != (len(_STATE_NAMES),):
             raise PwaError(f"state needs {len(_STATE_NAMES)} values ({', '.join(_STATE_NAMES)})")
-        return K.point_derivatives(K.CHAMBER, y, float(u), ps, fl, self._packed_fixed(ps))
+        return K.point_derivatives(K.CHAMBER, y, float(u), ps, fl, self._packed_scheduled())
 
     def rhs(self, t: float, y, u: float, p_s: float | None = None, f_l: float | None = None):
         """Right-hand side (the state rates, ``state_names`` order) at one point."""
@@ -428,13 +429,13 @@ class ChamberPwaModel:
     def flows(self, y, p_s: float | None = None) -> tuple[float, float]:
         """PWA metering flows (Q_A into A, Q_B out of B) [m³/s] at state y (kernel's cells)."""
         ps = self._ps(p_s)
-        t = K.chamber_terms(np.asarray(y, dtype=float), ps, self._packed_fixed(ps))
+        t = K.chamber_terms(np.asarray(y, dtype=float), ps, self._packed_scheduled())
         return float(t[3]), float(t[4])
 
     def cell_index(self, y, p_s: float | None = None) -> ChamberCellIndex:
         """Active cells at state y (``state_names`` order)."""
         ps = self._ps(p_s)
-        t = K.chamber_terms(np.asarray(y, dtype=float), ps, self._packed_fixed(ps))
+        t = K.chamber_terms(np.asarray(y, dtype=float), ps, self._packed_scheduled())
         z = t[0]
         return ChamberCellIndex(
             int(t[14]), 1 if z >= 0.0 else -1, int(t[15]), int(t[16]), int(t[17]), int(t[18])
