@@ -32,6 +32,7 @@ from .._io import atomic_path, atomic_write_text, check_output
 from .._layout import FULL_STATES
 from ..components import PiecewiseAffine
 from ..params import params_from_dict
+from ._chamber import CapacitanceCells, ChamberCellIndex, ChamberPwaModel, FlowCells
 from ._fit import PwaFit
 from ._model import PwaModel
 
@@ -152,8 +153,6 @@ def chamber_to_dict(model) -> dict[str, Any]:
 
 def chamber_from_dict(data: dict[str, Any]):
     """Rebuild a :class:`~._chamber.ChamberPwaModel` from :func:`chamber_to_dict` output."""
-    from ._chamber import CapacitanceCells, ChamberPwaModel, FlowCells
-
     try:
         params = params_from_dict(
             _need(data, "params", "document"), source="PWA document", check_bare=False
@@ -618,8 +617,6 @@ def chamber_regions(model, cells, ps: float):
     the capacitance cell within the stroke; ẋ: the friction cell within its fit interval; P_S
     the export's; P_acc with P_A; u within ±1.5.
     """
-    from ._chamber import ChamberCellIndex
-
     e = model.flow.edges()
     cap = model.capacitance
     xb = np.concatenate(
@@ -674,8 +671,6 @@ def _chamber_bound(model, dyn, lower, upper, ps: float) -> float:
 
 def _export_chamber(model, supply_pressure, sample_time, units, cells, max_cells):
     """:func:`export_pwa` of the chamber model (one affine system per cell combination)."""
-    from ._chamber import ChamberCellIndex
-
     if units not in _CHAMBER_UNITS:
         raise PwaError(f"units {units!r} must be one of {', '.join(_CHAMBER_UNITS)}")
     ps = model.supply_pressure if supply_pressure is None else float(supply_pressure)
