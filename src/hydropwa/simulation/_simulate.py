@@ -56,6 +56,8 @@ CHANNEL_UNITS: dict[str, str] = {
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
 _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
 _CHAMBER_COLS = tuple(name for name, _unit in CHAMBER_OUTPUT_CHANNELS)
+#: The active-cell channels of both PWA models, each once.
+_CELL_CHANNELS = tuple(dict.fromkeys(_PWA_COLS + _CHAMBER_COLS))
 
 
 @dataclass
@@ -223,7 +225,7 @@ class SimulationResult:
     def occupancy(self) -> dict[str, dict[int, float]]:
         """PWA only: fraction of time each cell of each nonlinearity is active."""
         out: dict[str, dict[int, float]] = {}
-        for key in ("cell_g", "cell_o", "cell_n", "cell_w"):
+        for key in _CELL_CHANNELS:
             if key in self.channels:
                 vals, counts = np.unique(self.channels[key].astype(int), return_counts=True)
                 out[key[5:]] = {
@@ -235,7 +237,7 @@ class SimulationResult:
         """PWA only: number of cell changes of each nonlinearity between output samples."""
         return {
             key[5:]: int(np.count_nonzero(np.diff(self.channels[key]) != 0))
-            for key in ("cell_g", "cell_o", "cell_n", "cell_w")
+            for key in _CELL_CHANNELS
             if key in self.channels
         }
 
