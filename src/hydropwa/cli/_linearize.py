@@ -83,6 +83,13 @@ def linearize_command(
         else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     )
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
+    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    chamber = form == "chamber"
+    if chamber and (tol is not None or figures is not None or tables is not None):
+        raise PwaError(
+            "--refine-tol, --figures and --tables belong to the load-pressure forms; "
+            "the chamber form's cells follow its error tolerances"
+        )
     from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step("fitting the PWA cells"):
@@ -93,13 +100,6 @@ def linearize_command(
             breakpoints=breakpoints,
             form=form,
             scheduled=scheduled,
-        )
-    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
-    chamber = form == "chamber"
-    if chamber and (tol is not None or figures is not None or tables is not None):
-        raise PwaError(
-            "--refine-tol, --figures and --tables belong to the load-pressure forms; "
-            "the chamber form's cells follow its error tolerances"
         )
     selected = None
     if chamber:  # its cell sets multiply to ~10^5 combinations: export those a run visits
