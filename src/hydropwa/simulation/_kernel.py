@@ -2286,7 +2286,6 @@ def warmup_calls(name):
             (_point_pwa, args, "linearization"),
             (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
             (_point_reduced, args, "linearization"),
-            (_point_chamber, _point_args(np.zeros(_N_FULL), 0.0, 0.0, 0.0, z), "linearization"),
         ]
     model = name.removeprefix("closed-").removeprefix("output-")
     if model not in kinds:
