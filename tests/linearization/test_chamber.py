@@ -400,3 +400,29 @@ def test_bad_input_says_what_to_do(loaded):
     m = linearize(loaded, form="chamber")
     with pytest.raises(Exception, match="fixed at P_S"):
         simulate(m, 0.1, duration=0.01, supply_pressure=80e5)
+
+
+def test_evaluate_run_scores_the_chamber_model_per_cell():
+    """evaluate_run(..., models=("full", "pwa-chamber")) on a run of the full model with the
+    rig's pump: the chamber model's fits (measured x 98.8, P_A 98.9, P_B 99.6 %) and its cell
+    coverage per set (fractions sum to 1, RMSE of P_A and P_B per cell)."""
+    from hydropwa.evaluation import evaluate_run
+    from hydropwa.rig._rig import paper_supply
+
+    prm = get_preset("paper")
+    full = simulate(
+        "full",
+        "sine:amplitude=0.4,frequency=2",
+        duration=2.5,
+        params=prm.replace(supply=paper_supply(prm.supply.pressure)),
+        initial_position=0.02,
+    )
+    run = full.to_run("sine")
+    res = evaluate_run(run, prm, models=("full", "pwa-chamber"))
+    fit = res.metrics.set_index(["model", "channel"])["nrmse_fit"]
+    assert fit["pwa-chamber", "x"] >= 97.0
+    assert fit["pwa-chamber", "p_a"] >= 90.0 and fit["pwa-chamber", "p_b"] >= 90.0
+    cm = res.cell_metrics[res.cell_metrics.model == "pwa-chamber"]
+    assert set(cm["set"]) == {"g", "qa", "qb", "x", "w"}
+    assert np.allclose(cm.groupby("set")["fraction"].sum(), 1.0)
+    assert cm[["rmse_p_a", "rmse_p_b"]].notna().all().all()
