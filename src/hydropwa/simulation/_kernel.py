@@ -150,7 +150,7 @@ OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def n_states(kind):
     """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
-    return _N_LOAD if kind == REDUCED or kind == PWA else _N_FULL
+    return _N_FULL if kind == FULL or kind == CHAMBER else _N_LOAD
 
 
 # the input channels as int64 values, not literals: a literal argument would compile
@@ -1762,7 +1762,7 @@ def _march(
                 u, ps, fl = _inputs(t, sg)
                 _rhs_for(kind, y, u, ps, fl, p, f0)
                 nfev += 1
-                if kind == REDUCED or kind == PWA:  # their ∂f/∂y depends on u
+                if kind != FULL and kind != CHAMBER:  # reduced, PWA: their ∂f/∂y depends on u
                     need_jac = True
             cb = np.cbrt(err) if err > 0.0 else 0.0
             fac = 0.9 / cb if err > 0.0 else 5.0
