@@ -49,7 +49,7 @@ from hydropwa.simulation._simulate import _KERNEL_KIND as KIND  # noqa: E402
 
 U = "sine:amplitude=0.4,frequency=1"
 DURATION, FS, TOL_MM = 10.0, 2000.0, 0.1
-X_INDEX = {K.FULL: 4, K.REDUCED: 2, K.PWA: 2}
+X_INDEX = {K.FULL: 4, K.REDUCED: 2, K.PWA: 2, K.CHAMBER: 4}
 
 
 def _models():
@@ -64,6 +64,7 @@ def _models():
         "pwa": linearize(params),
         "reduced-paper": ReducedModel(params, "paper"),
         "pwa-paper": linearize(params, form="consistent", breakpoints="paper"),
+        "pwa-chamber": linearize(params, form="chamber"),
     }
 
 
@@ -88,6 +89,8 @@ def _scipy_rhs(model):
         from hydropwa.linearization import pwa_rhs
 
         return lambda t, y: pwa_rhs(t, y, u(t), ps(t), fl(t), model)
+    if KIND[model.name] == K.CHAMBER:
+        return lambda t, y: model.rhs(t, y, u(t), ps(t), fl(t))
     f = REDUCED_RHS[model.form] if KIND[model.name] == K.REDUCED else RHS[KIND[model.name]]
     return lambda t, y: f(t, y, p, u, ps, fl)
 
@@ -114,7 +117,7 @@ def bench_single(rtol: float, repeats: int, quick: bool) -> list[dict]:
     t_out = np.linspace(0.0, DURATION, int(DURATION * FS) + 1)
     for name, model in _models().items():
         ix = X_INDEX[KIND[model.name]]
-        if KIND[model.name] != K.PWA:  # the scipy baseline must be the same vector field
+        if KIND[model.name] not in (K.PWA, K.CHAMBER):  # scipy must see the same vector field
             from numpy_rhs import check_against_kernel
 
             sig = (
@@ -278,6 +281,11 @@ def main(argv=None) -> int:
             f"{by[form]['hydropwa_s'] / by[form + '-paper']['hydropwa_s']:.2f}x "
             f"(target <= 1: at least as fast as the paper form)"
         )
+    ch = by["pwa-chamber"]
+    print(
+        f"pwa-chamber: {ch['realtime']:.0f}x real time (target >= 1000x), end-to-end time "
+        f"{ch['hydropwa_s'] / by['full']['hydropwa_s']:.2f}x the full model's"
+    )
     batch = bench_batch(n_batch, args.rtol)
     _print_table(
         "batch (cases per second)",

@@ -102,6 +102,16 @@ PWA_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("cell_n", "1"),
     ("cell_w", "1"),
 )
+#: Extra output rows of the chamber-level PWA model (``pwa-chamber``, active cells): dead zone over
+#: the spool ν, metering-flow cells of the edges A and B (over their normalised pressure drop),
+#: capacitance cell over x, friction cell over ẋ.
+CHAMBER_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
+    ("cell_g", "1"),
+    ("cell_qa", "1"),
+    ("cell_qb", "1"),
+    ("cell_x", "1"),
+    ("cell_w", "1"),
+)
 #: Channels added in closed loop (``simulate(..., controller=...)``), filled from the controller log.
 CONTROL_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("reference", "m"),
@@ -133,6 +143,21 @@ LOAD_STATES: tuple[tuple[str, str, float], ...] = (
     ("v", "m/s", 1e-2),
     ("x", "m", 1e-3),
 )
+#: The model kinds, declared once: name → (kernel kind, state table, what it is). ``simulate``
+#: selects the compiled right-hand side by the name; the CLI, sweeps, warm-ups and evaluations
+#: read their choices from here. ``pwa-chamber`` keeps the full model's state vector (spool,
+#: chamber pressures, mechanics; P_S is its scheduled input).
+MODEL_KINDS: dict[str, tuple[int, tuple[tuple[str, str, float], ...], str]] = {
+    "full": (0, FULL_STATES, "full-order model, Eqs. (1)-(11)"),
+    "reduced": (1, LOAD_STATES, "reduced load-pressure model, Eqs. (12)-(15)"),
+    "pwa": (2, LOAD_STATES, "piecewise-affine load-pressure model, Eqs. (16)-(23)"),
+    "pwa-chamber": (3, FULL_STATES, "piecewise-affine chamber-level model (spool, P_A, P_B)"),
+}
+#: Names of the model kinds, in kernel order.
+MODEL_NAMES: tuple[str, ...] = tuple(MODEL_KINDS)
+#: Model kinds built from parameters by ``hydropwa.linearize`` (not by name alone).
+LINEARIZED_MODELS: tuple[str, ...] = ("pwa", "pwa-chamber")
+
 #: A full-model state whose initial value is that of another state when the caller does not
 #: give it (a component at rest with the node it hangs on).
 FULL_STATE_TIES: dict[str, str] = {"p_acc": "p_a"}

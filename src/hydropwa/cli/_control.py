@@ -14,6 +14,7 @@ from typing import Annotated
 
 import typer
 
+from .._errors import PwaError
 from .._io import check_output
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
@@ -34,6 +35,25 @@ def _pwa_model(params_src: str | None, pwa_file: Path | None):
     if pwa_file is not None:
         return load_pwa(pwa_file)
     return linearize(resolve_params(params_src))
+
+
+def _chamber_model(params_src: str | None, pwa_file: Path | None):
+    """The chamber PWA model: from a ``hydropwa.pwa-chamber/1`` document, or linearized."""
+    from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
+        ChamberPwaModel,
+        linearize,
+        load_pwa,
+    )
+
+    if pwa_file is not None:
+        model = load_pwa(pwa_file)
+        if not isinstance(model, ChamberPwaModel):
+            raise PwaError(
+                f"--pwa {pwa_file} holds a load-pressure PWA model; --model pwa-chamber needs "
+                "one written by 'hydropwa linearize --form chamber'"
+            )
+        return model
+    return linearize(resolve_params(params_src), form="chamber")
 
 
 def _weights(text: str | None) -> dict[str, float]:
@@ -174,7 +194,9 @@ def simulate_command(
             help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'.",
         ),
     ],
-    model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
+    model: Annotated[
+        str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
+    ] = "full",
     params: ParamsOption = None,
     pwa: Annotated[
         Path | None,
@@ -212,8 +234,16 @@ def simulate_command(
         Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")
     ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
+    compare: Annotated[
+        bool,
+        typer.Option(
+            "--compare",
+            help="Run the controller on full, reduced, pwa and pwa-chamber side by side: hold peak-to-peak, tracking error, saturation; --out gets the table.",
+        ),
+    ] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
+    from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         METRIC_UNITS,
         ControlError,
@@ -233,8 +263,8 @@ def simulate_command(
         simulate,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    if model not in ("full", "reduced", "pwa"):
-        raise ControlError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    if model not in MODEL_NAMES:
+        raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ControlError(f"--out {out} must end in .csv or .parquet")
     check_output(out, force, option="--out")
@@ -245,7 +275,18 @@ def simulate_command(
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
-    mdl = _pwa_model(params, pwa) if model == "pwa" else model
+    if compare:
+        _compare(
+            ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
+        )
+        return
+    mdl = (
+        _pwa_model(params, pwa)
+        if model == "pwa"
+        else _chamber_model(params, pwa)
+        if model == "pwa-chamber"
+        else model
+    )
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(
         mdl,
@@ -325,3 +366,58 @@ def export_command(
         export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")
+
+
+def _compare(
+    ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
+):
+    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        ControlError,
+        closed_loop_fidelity,
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    if supply_pressure is not None:
+        raise ControlError(
+            "--compare runs every model at the parameters' P_S; drop --supply-pressure"
+        )
+    pwa_model = _pwa_model(params, pwa) if pwa is not None else None
+    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    results, table = closed_loop_fidelity(
+        ctrl,
+        ref,
+        params=prm,
+        pwa=pwa_model,
+        duration=duration,
+        initial_position=start,
+        load_force=load_force,
+        rtol=rtol,
+    )
+    units = table.attrs["units"]
+    typer.echo(
+        table.rename(columns={c: f"{c} [{units[c]}]" for c in table.columns}).to_string(
+            float_format=lambda v: f"{v:.4g}"
+        )
+    )
+    if out.suffix.lower() == ".csv":
+        table.to_csv(out)
+    else:
+        table.to_parquet(out)
+    msg = f"wrote {out} (one row per model)"
+    if plot is not None:
+        from ..plotting import (  # deferred: loaded only when this command runs (a fast --help)
+            plot_closed_loop,
+            save_figure,
+        )
+
+        save_figure(
+            plot_closed_loop(results, f"{ctrl.kind} controller on every model"),
+            plot,
+            dpi=150,
+            overwrite=True,
+        )
+        msg += f" and {plot}"
+    typer.echo(msg)

@@ -100,7 +100,9 @@ def params_export(
 
 @app.command("simulate")
 def simulate_command(
-    model: Annotated[str, typer.Option("--model", "-m", help="full, reduced or pwa.")] = "full",
+    model: Annotated[
+        str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
+    ] = "full",
     params: ParamsOption = None,
     input: Annotated[
         str | None,
@@ -153,6 +155,7 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
+    from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
     from ..models import (  # deferred: loaded only when this command runs (a fast --help)
         Model,
         as_model,
@@ -163,8 +166,8 @@ def simulate_command(
         simulate,
     )
 
-    if model not in ("full", "reduced", "pwa"):
-        raise ParameterError(f"--model {model!r} is unknown; choose full, reduced or pwa")
+    if model not in MODEL_NAMES:
+        raise ParameterError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     from .._limits import (  # deferred: loaded only when this command runs (a fast --help)
         check_position,
         check_rtol,
@@ -205,13 +208,14 @@ def simulate_command(
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
     mdl: Model
-    if model == "pwa":
+    if model in ("pwa", "pwa-chamber"):
         from ..linearization import (
             linearize,  # deferred: loaded only when this command runs (a fast --help)
         )
 
         # with a given P_S (constant or a signal) the cells follow it online: the scheduled model
-        mdl = linearize(prm, scheduled=supply_pressure is not None)
+        form = "chamber" if model == "pwa-chamber" else "asymmetric"
+        mdl = linearize(prm, form=form, scheduled=supply_pressure is not None)
     else:
         mdl = as_model(model, prm)
     # on a fresh install, the output pass compiles on the other core while this process

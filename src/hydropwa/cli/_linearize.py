@@ -20,6 +20,9 @@ __all__ = ["app", "linearize_command", "parse_cells"]
 
 #: The top-level ``linearize`` command.
 app = new_app()
+#: The run whose visited cell combinations ``--form chamber`` exports (from mid-stroke).
+CHAMBER_EXPORT_RUN = "sine:amplitude=0.4,frequency=1"
+CHAMBER_EXPORT_DURATION = 5.0
 
 
 def parse_cells(text: str | None) -> dict[str, int]:
@@ -80,6 +83,13 @@ def linearize_command(
         else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     )
     dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
+    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    chamber = form == "chamber"
+    if chamber and (tol is not None or figures is not None or tables is not None):
+        raise PwaError(
+            "--refine-tol, --figures and --tables belong to the load-pressure forms; "
+            "the chamber form's cells follow its error tolerances"
+        )
     from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step("fitting the PWA cells"):
@@ -91,23 +101,53 @@ def linearize_command(
             form=form,
             scheduled=scheduled,
         )
-    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    selected = None
+    if chamber:  # its cell sets multiply to ~10^5 combinations: export those a run visits
+        from hydropwa.simulation import (
+            simulate,  # deferred: loaded only when this command runs (a fast --help)
+        )
+
+        with step(f"simulating {CHAMBER_EXPORT_RUN} for the cells it visits"):
+            run = simulate(model, CHAMBER_EXPORT_RUN, duration=CHAMBER_EXPORT_DURATION)
+            selected = model.visited_cells(run)
     with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
         written = [
-            save_pwa(model, out, sample_time=dt, refine_tol=tol, units=units, overwrite=True)
+            save_pwa(
+                model,
+                out,
+                sample_time=dt,
+                refine_tol=tol,
+                units=units,
+                overwrite=True,
+                cells=selected,
+            )
         ]
-        doc = export_pwa(model, refine_tol=tol, units=units)
+        doc = export_pwa(model, refine_tol=tol, units=units, cells=selected)
         if mat is not None:
             written.append(
                 save_pwa_mat(
-                    model, mat, sample_time=dt, refine_tol=tol, units=units, overwrite=force
+                    model,
+                    mat,
+                    sample_time=dt,
+                    refine_tol=tol,
+                    units=units,
+                    overwrite=force,
+                    cells=selected,
                 )
             )
-    unit = doc["state"][0]["unit"]
-    typer.echo(
-        f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
-        f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)"
-    )
+    if chamber:
+        unit = doc["state"][2]["unit"]
+        typer.echo(
+            f"{len(doc['cells'])} cell combinations (those {CHAMBER_EXPORT_RUN} visits in "
+            f"{CHAMBER_EXPORT_DURATION:g} s); largest guaranteed vector-field error of a cell "
+            f"{doc['max_error_bound']:.4g} {unit}/s on dP_A/dt, dP_B/dt"
+        )
+    else:
+        unit = doc["state"][0]["unit"]
+        typer.echo(
+            f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
+            f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)"
+        )
     if figures is not None:
         from hydropwa.linearization._report import (
             write_figures,  # deferred: loaded only when this command runs (a fast --help)
@@ -146,7 +186,7 @@ def _run(
         str,
         typer.Option(
             "--form",
-            help="asymmetric (single-rod, default), consistent (mean area, Q_L = z·C_q) or paper (Eq. (17) as printed).",
+            help="asymmetric (single-rod, default), consistent (mean area, Q_L = z·C_q), paper (Eq. (17) as printed) or chamber (pwa-chamber: spool, P_A, P_B; exports the cells a 40 %, 1 Hz sine visits).",
         ),
     ] = "asymmetric",
     scheduled: Annotated[

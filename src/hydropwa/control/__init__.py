@@ -21,6 +21,7 @@ from ._controllers import (
     StateFeedbackController,
 )
 from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
+from ._fidelity import FIDELITY_MODELS, closed_loop_fidelity, hold_oscillations
 from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
@@ -31,6 +32,7 @@ __all__ = [
     "ANTI_WINDUP",
     "DEFAULT_SAMPLE_TIME",
     "DEFAULT_WEIGHTS",
+    "FIDELITY_MODELS",
     "METRIC_UNITS",
     "SCHEMA",
     "ControlDesign",
@@ -45,6 +47,7 @@ __all__ = [
     "StepSequence",
     "as_reference",
     "cell_plant",
+    "closed_loop_fidelity",
     "closed_loop_study",
     "compare_models",
     "controller_from_dict",
@@ -53,6 +56,7 @@ __all__ = [
     "design_state_feedback",
     "export_c",
     "export_fmu",
+    "hold_oscillations",
     "load_controller",
     "parse_reference",
     "save_controller",

@@ -184,6 +184,8 @@ def compare_models(
             if pwa is None:
                 pwa = linearize(params)
             mdl: Any = pwa
+        elif name == "pwa-chamber":
+            mdl = linearize(params, form="chamber")
         else:
             mdl = name
         results[name] = simulate(

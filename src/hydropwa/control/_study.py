@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..linearization import linearize
 from ..simulation import simulate
 from ._design import design_state_feedback
 from ._metrics import METRIC_UNITS, tracking_metrics
@@ -25,7 +26,8 @@ def _reference():
 
 
 def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any]:
-    """Design an LQR on ``pwa`` and run the positioning task on the full, reduced and PWA models.
+    """Design an LQR on ``pwa`` and run the positioning task on the full, reduced, PWA and
+    chamber-level PWA (``pwa-chamber``) models.
 
     Parameters
     ----------
@@ -51,6 +53,9 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         ("full", "full", pwa.params),
         ("reduced", "reduced", pwa.params),
         ("pwa", pwa, pwa.params),
+        # the chamber-level model of the same parameters: keeps the valve and both chambers,
+        # so it shows what the load-pressure models miss (docs/models.md, "Which model for what")
+        ("pwa-chamber", linearize(pwa.params, form="chamber"), pwa.params),
     ):
         runs[name] = simulate(
             mdl,

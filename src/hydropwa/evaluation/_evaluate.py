@@ -46,10 +46,12 @@ MODELS: dict[str, str] = {
     "pwa-scheduled": "asymmetric PWA model, cells scheduled on the measured P_S(t)",
     "reduced-paper": "the paper's mean-area reduced model, average P_S (Sec. VII)",
     "pwa-paper": "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
+    "pwa-chamber": "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
 }
 #: Channels scored per run.
 CHANNELS = ("x", "p_a", "p_b", "p_l", "v")
-_CELL_SETS = ("cell_g", "cell_o", "cell_n", "cell_w")
+#: Active-cell channels: the load-pressure PWA models' (g, o, n, w), pwa-chamber's (g, qa, qb, x, w).
+_CELL_SETS = ("cell_g", "cell_o", "cell_n", "cell_w", "cell_qa", "cell_qb", "cell_x")
 
 
 class EvaluationWarning(UserWarning):
@@ -214,8 +216,9 @@ class EvaluationResult:
         the channel, in ``unit``], ``coverage`` [1]; for ``x`` also ``drift_measured`` and
         ``drift_model`` [m per period].
     cell_metrics : pandas.DataFrame
-        PWA variants: per nonlinearity (``g``, ``o``, ``n``, ``w``) and cell, the fraction of
-        time active and the RMSE of x [m] and p_l [Pa] while it is active.
+        PWA variants: per nonlinearity (``g``, ``o``, ``n``, ``w``; pwa-chamber: ``g``, ``qa``,
+        ``qb``, ``x``, ``w``) and cell, the fraction of time active and the RMSE of x [m] and
+        p_l, p_a, p_b [Pa] while it is active (the cell coverage and the fit per cell).
     supply_pressure : float
         Average measured (or assumed) P_S [Pa] given to the paper-style variants.
     notes : list of str
@@ -313,6 +316,8 @@ def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
         return linearize(params, supply_pressure=ps_mean), None
     if name == "pwa-paper":
         return linearize(params, supply_pressure=ps_mean, form="consistent"), None
+    if name == "pwa-chamber":
+        return linearize(params, supply_pressure=ps_mean, form="chamber", scheduled=True), ps_signal
     return linearize(params, supply_pressure=ps_mean, scheduled=True), ps_signal
 
 
@@ -402,7 +407,8 @@ def _cell_rows(run_name, meas, sims) -> list[dict]:
         k = res.t.size
         ex = res.channels["x"] - meas["x"][:k]
         ep = res.channels["p_l"] - meas["p_l"][:k]
-        for key in _CELL_SETS:
+        eab = {c: res.channels[c] - meas[c][:k] for c in ("p_a", "p_b") if c in meas}
+        for key in (name for name in _CELL_SETS if name in res.channels):
             cells = res.channels[key].astype(int)
             for c in np.unique(cells):
                 sel = cells == c
@@ -415,6 +421,10 @@ def _cell_rows(run_name, meas, sims) -> list[dict]:
                         "fraction": float(np.mean(sel)),
                         "rmse_x": float(np.sqrt(np.mean(ex[sel] ** 2))),
                         "rmse_p_l": float(np.sqrt(np.mean(ep[sel] ** 2))),
+                        **{
+                            f"rmse_{c}": float(np.sqrt(np.mean(e[sel] ** 2)))
+                            for c, e in eab.items()
+                        },
                     }
                 )
     return rows
@@ -489,7 +499,17 @@ def evaluate_run(
         metrics=pd.DataFrame(_metric_rows(run.name, meas, sims, start)),
         cell_metrics=pd.DataFrame(
             _cell_rows(run.name, meas, sims),
-            columns=["run", "model", "set", "cell", "fraction", "rmse_x", "rmse_p_l"],
+            columns=[
+                "run",
+                "model",
+                "set",
+                "cell",
+                "fraction",
+                "rmse_x",
+                "rmse_p_l",
+                "rmse_p_a",
+                "rmse_p_b",
+            ],
         ),
         supply_pressure=ps_mean,
         notes=notes,

@@ -702,7 +702,7 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
         files = [save_controller(design.controller, out / "controller.toml", force=True)]
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
-        shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa")}
+        shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa", "pwa-chamber")}
         files += _save(
             plot_closed_loop(shown, "LQR designed on the identified PWA model"),
             out / "figures" / "closed_loop",
@@ -775,7 +775,15 @@ def run_paper_study(
 
 
 #: The compiled kernels the study uses besides the full model's, in the order it needs them.
-_STUDY_KERNELS = ("point", "reduced", "pwa", "closed-full", "closed-reduced", "closed-pwa")
+_STUDY_KERNELS = (
+    "point",
+    "reduced",
+    "pwa",
+    "closed-full",
+    "closed-reduced",
+    "closed-pwa",
+    "closed-pwa-chamber",
+)
 
 
 def _run_study(inp, fresh, force, progress, t0) -> StudyResult:

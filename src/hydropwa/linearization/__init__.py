@@ -18,7 +18,26 @@ from ._cells import (
     friction_function,
     table_v_residual,
 )
-from ._export import SCHEMA, UNITS, export_pwa, load_pwa, pwa_statespaces, save_pwa, save_pwa_mat
+from ._chamber import (
+    CAPACITANCE_TOLERANCE,
+    FLOW_TOLERANCE,
+    CapacitanceCells,
+    ChamberCellIndex,
+    ChamberPwaModel,
+    FlowCells,
+    capacitance_cells,
+    flow_cells,
+)
+from ._export import (
+    CHAMBER_SCHEMA,
+    SCHEMA,
+    UNITS,
+    export_pwa,
+    load_pwa,
+    pwa_statespaces,
+    save_pwa,
+    save_pwa_mat,
+)
 from ._fit import PwaFit, approximation_errors, fit_pwa, tangent_pwa
 from ._model import (
     FORMS,
@@ -51,6 +70,15 @@ from ._paper_tables import (
 
 __all__ = [
     "AffineDynamics",
+    "CAPACITANCE_TOLERANCE",
+    "CHAMBER_SCHEMA",
+    "CapacitanceCells",
+    "ChamberCellIndex",
+    "ChamberPwaModel",
+    "FLOW_TOLERANCE",
+    "FlowCells",
+    "capacitance_cells",
+    "flow_cells",
     "CQP_INTERVAL",
     "CQ_INTERVAL",
     "CellIndex",

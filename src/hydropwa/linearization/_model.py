@@ -120,6 +120,9 @@ class AffineDynamics:
         linearized.
     dt : float or None
         Sample time [s] of a discretised system; None for continuous time.
+    states : tuple of str
+        State names in the order of A's rows: [p_l, v, x] for the load-pressure forms, the
+        full model's eight states for the chamber form (``pwa-chamber``).
     """
 
     A: np.ndarray
@@ -128,6 +131,7 @@ class AffineDynamics:
     cells: CellIndex
     point: dict
     dt: float | None = None
+    states: tuple[str, ...] = ("p_l", "v", "x")
 
     def to_statespace(self):
         """python-control ``StateSpace`` (outputs = all three states) and the constant term f.
@@ -140,28 +144,15 @@ class AffineDynamics:
         """
         import control  # deferred: python-control loads scipy.signal and matplotlib
 
-        C = np.eye(3)
-        D = np.zeros((3, 1))
+        n = len(self.states)
+        C = np.eye(n)
+        D = np.zeros((n, 1))
+        names = list(self.states)
         if self.dt is None:
-            sys = control.ss(
-                self.A,
-                self.B,
-                C,
-                D,
-                inputs=["u"],
-                outputs=["p_l", "v", "x"],
-                states=["p_l", "v", "x"],
-            )
+            sys = control.ss(self.A, self.B, C, D, inputs=["u"], outputs=names, states=names)
         else:
             sys = control.ss(
-                self.A,
-                self.B,
-                C,
-                D,
-                self.dt,
-                inputs=["u"],
-                outputs=["p_l", "v", "x"],
-                states=["p_l", "v", "x"],
+                self.A, self.B, C, D, self.dt, inputs=["u"], outputs=names, states=names
             )
         return sys, self.f.copy()
 
@@ -178,11 +169,12 @@ class AffineDynamics:
         if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
             raise PwaError(f"sample time {dt!r} s must be a positive number")
         Bf = np.hstack((self.B, self.f[:, None]))
+        n = self.A.shape[0]
         Ad, Bd, *_ = cont2discrete(
-            (self.A, Bf, np.eye(3), np.zeros((3, 2))), float(dt), method="zoh"
+            (self.A, Bf, np.eye(n), np.zeros((n, 2))), float(dt), method="zoh"
         )
         return AffineDynamics(
-            Ad, Bd[:, :1], Bd[:, 1].copy(), self.cells, dict(self.point), float(dt)
+            Ad, Bd[:, :1], Bd[:, 1].copy(), self.cells, dict(self.point), float(dt), self.states
         )
 
 
@@ -801,7 +793,8 @@ def linearize(
     load_pressure_range: tuple[float, float] | None = None,
     friction_range: tuple[float, float] | None = None,
     capacitance_position: float | None = None,
-) -> PwaModel:
+    tolerances: Mapping[str, float] | None = None,
+) -> Any:
     """Build the piecewise-affine model of Sec. IV from a parameter set.
 
     Parameters
@@ -820,9 +813,11 @@ def linearize(
         ``optimized`` (minimax-optimal breakpoints), ``optimized-rms``, or a mapping
         {cell set: mode or breakpoints}; C_q/C_qp breakpoints are in p̃ = P_L/P_S [1],
         friction breakpoints in m/s.
-    form : {"asymmetric", "consistent", "paper"}
+    form : {"asymmetric", "consistent", "paper", "chamber"}
         Load-flow form (see the module docstring): the single-rod model (default) or the
-        paper's mean-area model with Q_L = z·C_q or Eq. (17) as printed.
+        paper's mean-area model with Q_L = z·C_q or Eq. (17) as printed; ``chamber``: the
+        chamber-level model (:class:`~._chamber.ChamberPwaModel`, model name ``pwa-chamber``:
+        spool, P_A, P_B, x, ẋ; cells refined until their error bounds meet ``tolerances``).
     scheduled : bool
         Follow the P_S(t) input (cells rescaled online at no cost) instead of a fixed P_S.
     working_points : mapping, optional
@@ -837,20 +832,39 @@ def linearize(
     capacitance_position : float, optional
         Rod position [m] at which the asymmetric form freezes the chamber capacitances;
         default mid-stroke.
+    tolerances : mapping, optional
+        Chamber form only: {"flow": bound [1] on the normalised metering-flow error,
+        "capacitance": bound [1] on the relative chamber-volume error}; defaults
+        :data:`~._chamber.FLOW_TOLERANCE`, :data:`~._chamber.CAPACITANCE_TOLERANCE`.
 
     Returns
     -------
-    PwaModel
+    PwaModel or ChamberPwaModel
 
     Raises
     ------
     PwaError
         Bad cell counts, breakpoints, supply pressure below the load-pressure range, form.
     """
+    if form == CHAMBER_FORM:
+        return _linearize_chamber_form(
+            params,
+            supply_pressure=supply_pressure,
+            cells=cells,
+            breakpoints=breakpoints,
+            scheduled=scheduled,
+            working_points=working_points,
+            load_pressure_range=load_pressure_range,
+            friction_range=friction_range,
+            capacitance_position=capacitance_position,
+            tolerances=tolerances,
+        )
+    if tolerances is not None:
+        raise PwaError("tolerances belong to the chamber form; pass form='chamber'")
     if not isinstance(params, SystemParams):
         raise PwaError(f"linearize needs a SystemParams, got {type(params).__name__}")
     if form not in FORMS:
-        raise PwaError(f"form {form!r} must be one of {', '.join(FORMS)}")
+        raise PwaError(f"form {form!r} must be one of {', '.join(FORMS + (CHAMBER_FORM,))}")
     ps = _check_supply(
         params.supply.pressure if supply_pressure is None else supply_pressure, params, form
     )
@@ -928,6 +942,60 @@ def linearize(
         INPUT_RANGE,
         label,
         capacitance_position,
+    )
+
+
+#: The ``form`` of :func:`linearize` that builds the chamber-level model (``pwa-chamber``).
+CHAMBER_FORM = "chamber"
+
+
+def _linearize_chamber_form(
+    params,
+    *,
+    supply_pressure,
+    cells,
+    breakpoints,
+    scheduled,
+    working_points,
+    load_pressure_range,
+    friction_range,
+    capacitance_position,
+    tolerances,
+):
+    """:func:`linearize` with ``form="chamber"``: the arguments that apply, checked."""
+    from ._chamber import linearize_chamber  # deferred: _chamber imports this module
+
+    for name, value in (
+        ("working_points", working_points),
+        ("load_pressure_range", load_pressure_range),
+        ("capacitance_position", capacitance_position),
+    ):
+        if value is not None:
+            raise PwaError(
+                f"{name} does not apply to the chamber form (its cells follow error bounds)"
+            )
+    if breakpoints != "machine":
+        raise PwaError("the chamber form's cells follow error bounds; leave breakpoints='machine'")
+    n_w = 7
+    if cells is not None:
+        if not isinstance(cells, Mapping) or set(cells) - {"friction"}:
+            raise PwaError(
+                "the chamber form takes only {'friction': n} as cells; its flow and "
+                "capacitance cells follow tolerances={'flow': ..., 'capacitance': ...}"
+            )
+        n_w = _parse_cells(cells)["friction"]
+    tol = dict(tolerances or {})
+    unknown = set(tol) - {"flow", "capacitance"}
+    if unknown:
+        raise PwaError(f"unknown tolerance(s) {sorted(unknown)}; choose flow, capacitance")
+    kw = {f"{k}_tolerance": float(v) for k, v in tol.items()}
+    return linearize_chamber(
+        params,
+        supply_pressure=supply_pressure,
+        scheduled=scheduled,
+        friction_cells_n=n_w,
+        friction_range=friction_range,
+        **kw,
     )
 
 

@@ -22,6 +22,7 @@ from .._layout import (
     FULL_STATE_TIES,
     FULL_STATES,
     LOAD_STATES,
+    MODEL_NAMES,
     N_BASE,
     SLOT,
     state_vector,
@@ -38,8 +39,8 @@ __all__ = [
     "MODEL_NAMES",
 ]
 
-#: Names of the model kinds; ``simulate`` selects the kernel's right-hand side by them.
-MODEL_NAMES = ("full", "reduced", "pwa")
+# MODEL_NAMES: the names of the model kinds (``hydropwa._layout.MODEL_KINDS``); ``simulate``
+# selects the kernel's right-hand side by them.
 
 #: Load-pressure forms of the reduced and PWA models: the single-rod model (default) and the
 #: paper's mean-area model of Eqs. (12)–(15), kept so that Sec. VII stays reproducible.
@@ -284,7 +285,12 @@ def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
                 "the PWA model is built from parameters by linearize(params); "
                 "pass hydropwa.linearize(params) instead of 'pwa'"
             )
-        raise ParameterError(f"unknown model {model!r}; choose full, reduced or pwa")
+        if name == "pwa-chamber":
+            raise ParameterError(
+                "the chamber PWA model is built from parameters by linearize(params, form='chamber'); "
+                "pass hydropwa.linearize(params, form='chamber') instead of 'pwa-chamber'"
+            )
+        raise ParameterError(f"unknown model {model!r}; choose {', '.join(MODEL_NAMES)}")
     raise ParameterError(
         f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'"
     )

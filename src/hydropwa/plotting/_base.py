@@ -48,6 +48,7 @@ MODEL_STYLE: dict[str, tuple[str, str, str]] = {
     "pwa-scheduled": ("tab:purple", ":", "PWA scheduled (P_S(t))"),
     "reduced-paper": ("tab:gray", "--", "reduced, paper form (mean area)"),
     "pwa-paper": ("tab:brown", "-.", "PWA, paper form (mean area)"),
+    "pwa-chamber": ("tab:orange", "-.", "PWA chamber-level (P_S(t))"),
 }
 
 

@@ -204,7 +204,7 @@ def plot_compare(
     return fig
 
 
-_LOOP_COLORS = {"full": "C0", "reduced": "C1", "pwa": "C2"}
+_LOOP_COLORS = {"full": "C0", "reduced": "C1", "pwa": "C2", "pwa-chamber": "C3"}
 
 
 def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = None) -> Any:

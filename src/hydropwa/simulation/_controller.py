@@ -108,7 +108,7 @@ def measure(kind, y, a_a, a_b, mean_area):
     P_A − P_B differs from it at rest by about P_S(1 − α) on a single-rod cylinder, which
     a state feedback would read as a load.
     """
-    if kind == 0:  # full model (states: hydropwa._layout.FULL_STATES)
+    if kind == 0 or kind == 3:  # full and chamber PWA models (hydropwa._layout.FULL_STATES)
         area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
         return y[_X], y[_V], (y[_PA] * a_a - y[_PB] * a_b) / area
     return y[_LX], y[_LV], y[_LPL]  # reduced, PWA (LOAD_STATES)

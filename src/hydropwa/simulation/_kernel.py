@@ -13,6 +13,9 @@ port A (not in the paper), is constant without one.
 P_L = P_A − α P_B (α = 1 and the mean area in the paper form, p[I_RFORM] = 1; see
 docs/reduced_asymmetric.md).
 ``PWA`` (2), Eqs. (16)–(23): y = [P_L, ẋ, x] with piecewise-affine cells.
+``CHAMBER`` (3), the chamber-level PWA model (``pwa-chamber``): the full model's state vector,
+PWA cells for the dead zone (over ν), the metering flows of Eqs. (5)–(6) (over each edge's
+normalised drop), the chamber capacitances (over x) and friction (over ẋ); P_S is an input.
 
 Parameter slots and output rows come from the one layout table, :mod:`hydropwa._layout`;
 :func:`point_derivatives` gives every Python-side consumer (matrices, exports) this
@@ -58,7 +61,9 @@ from numba.extending import overload
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import interrupt_cause
 from .._layout import (
+    CHAMBER_OUTPUT_CHANNELS,
     I_CELLS,
+    MODEL_KINDS,
     OUT,
     OUTPUT_CHANNELS,
     PWA_OUTPUT_CHANNELS,
@@ -100,9 +105,9 @@ from ..components._physics import (
 from ._controller import N_CST, N_LOG, controller_sample
 from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
 
-FULL, REDUCED, PWA = 0, 1, 2
+FULL, REDUCED, PWA, CHAMBER = (MODEL_KINDS[k][0] for k in ("full", "reduced", "pwa", "pwa-chamber"))
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
-N_STATES = (len(Y_FULL), len(Y_LOAD), len(Y_LOAD))
+N_STATES = tuple(len(states) for _kind, states, _what in MODEL_KINDS.values())
 _N_FULL, _N_LOAD = N_STATES[FULL], N_STATES[REDUCED]
 # State indices: generated from the state tables in hydropwa._layout.
 Y_NU, Y_DNU, Y_PA, Y_PB, Y_X, Y_V, Y_PS = (
@@ -139,6 +144,7 @@ O_U, O_SPOOL, O_Z, O_P_A, O_P_B, O_P_L, O_P_S, O_F_L, O_X, O_V, O_FRICTION = (
 )
 #: Number of output rows of the full/reduced models and of the PWA model.
 N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_CHANNELS)
+N_OUT_CHAMBER = len(OUTPUT_CHANNELS) + len(CHAMBER_OUTPUT_CHANNELS)
 
 # Status codes of integrate()
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
@@ -147,7 +153,7 @@ OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def n_states(kind):
     """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
-    return _N_FULL if kind == FULL else _N_LOAD
+    return _N_FULL if kind == FULL or kind == CHAMBER else _N_LOAD
 
 
 # the input channels as int64 values, not literals: a literal argument would compile
@@ -665,6 +671,298 @@ def dfdt_pwa(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
     _load_input_rates(dq_dz * k_g, dq_dps, y, z, ps, du, dps if sched else 0.0, dfl, p, dfdt)
 
 
+# --- the chamber-level PWA model (kind CHAMBER, model name "pwa-chamber") -----------------
+# Packed layout: the base block, the PWA slots (sched, psfix, form = 0, n_g, n_c, n_x, n_w), then
+# four cell sections of n − 1 breakpoints, n slopes, n offsets each: dead zone over ν, metering
+# flow over the normalised edge drop q = ΔP/P_S (√ of the orifice law), capacitance position over
+# x (slopes 0, offsets = the x at which the cell evaluates V_A, V_B), friction over ẋ.
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _cell_bisect(p, start, n, xv):
+    """Index of the active cell among n cells (breakpoints from p[start]), by bisection."""
+    lo, hi = 0, n - 1  # the answer lies in [lo, hi]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if xv >= p[start + mid]:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _edge_flow(z, drop, ddrop_dps, ps, root, p, s_c, nc):
+    """One metering edge of the chamber PWA model: Q = z·K·√P_S·(k_c q + d_c), q = ΔP/P_S.
+
+    The cells approximate :func:`~hydropwa.components.signed_sqrt` of Eqs. (5)–(6) in the
+    normalised drop q (signed_sqrt(ΔP, p_tr)/√P_S = signed_sqrt(q, p_tr/P_S)), so P_S(t) scales
+    them online. Returns (Q [m³/s], ∂Q/∂z, ∂Q/∂ΔP, ∂Q/∂P_S at fixed chamber pressure, cell c);
+    ``ddrop_dps`` is ∂ΔP/∂P_S (1 on the supply edge, 0 on the tank edge).
+    """
+    q = drop / ps
+    c = _cell_bisect(p, s_c, nc, q)
+    k = p[s_c + nc - 1 + c]
+    d = p[s_c + 2 * nc - 1 + c]
+    kr = p[I_K] * root
+    r = k * q + d
+    dq_dz = kr * r
+    dq_ddrop = z * kr * k / ps
+    dq_dps = z * p[I_K] * (d * 0.5 + k * (ddrop_dps - 0.5 * q)) / root
+    return z * dq_dz, dq_dz, dq_ddrop, dq_dps, c
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _chamber_layout(p):
+    """Counts and starts of the chamber model's cell sections: (n_g, n_c, n_x, n_w, s_g, s_c, s_x, s_w)."""
+    ng, nc, nx, nw = int(p[I_NG]), int(p[I_NO]), int(p[I_NN]), int(p[I_NW])
+    s_g = np.int64(I_CELLS)
+    s_c = s_g + 3 * ng - 1
+    s_x = s_c + 3 * nc - 1
+    return ng, nc, nx, nw, s_g, s_c, s_x, s_x + 3 * nx - 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def chamber_terms(y, ps_in, p):
+    """Everything the chamber PWA model's rhs, Jacobian and ∂f/∂t share, at state y.
+
+    Returns (z, dz/dν, P_S, Q_A, Q_B, ∂Q_A/∂z, ∂Q_B/∂z, ∂Q_A/∂P_A, ∂Q_B/∂P_B, ∂Q_A/∂P_S,
+    ∂Q_B/∂P_S, x_cap, friction slope, friction offset, cells g, a, b, j, w). Flow directions
+    as in :func:`~hydropwa.components.orifice_flows`: extension (z ≥ 0) drops P_S − P_A and
+    P_B − P_T, retraction P_A − P_T and P_S − P_B; Q_B is the flow out of chamber B.
+    """
+    ng, nc, nx, nw, s_g, s_c, s_x, s_w = _chamber_layout(p)
+    ps = ps_in if p[I_SCHED] > 0.5 else p[I_PSFIX]
+    nu, pa, pb, x, v = y[Y_NU], y[Y_PA], y[Y_PB], y[Y_X], y[Y_V]
+    g = _cell(p, s_g, ng, nu)
+    k_g = p[s_g + ng - 1 + g]
+    z = k_g * nu + p[s_g + 2 * ng - 1 + g]
+    root = math.sqrt(ps)
+    pt = p[I_PT]
+    if z >= 0.0:
+        qa, qa_z, qa_d, qa_s, ca = _edge_flow(z, ps - pa, 1.0, ps, root, p, s_c, nc)
+        qb, qb_z, qb_d, qb_s, cb = _edge_flow(z, pb - pt, 0.0, ps, root, p, s_c, nc)
+        qa_pa, qb_pb = -qa_d, qb_d
+    else:
+        qa, qa_z, qa_d, qa_s, ca = _edge_flow(z, pa - pt, 0.0, ps, root, p, s_c, nc)
+        qb, qb_z, qb_d, qb_s, cb = _edge_flow(z, ps - pb, 1.0, ps, root, p, s_c, nc)
+        qa_pa, qb_pb = qa_d, -qb_d
+    j = _cell_bisect(p, s_x, nx, x)
+    xcap = p[s_x + 2 * nx - 1 + j]
+    w = _cell_bisect(p, s_w, nw, v)
+    return (
+        z,
+        k_g,
+        ps,
+        qa,
+        qb,
+        qa_z,
+        qb_z,
+        qa_pa,
+        qb_pb,
+        qa_s,
+        qb_s,
+        xcap,
+        p[s_w + nw - 1 + w],
+        p[s_w + 2 * nw - 1 + w],
+        g,
+        ca,
+        cb,
+        j,
+        w,
+    )
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _chamber_capacitances(qa_net, qb, xcap, v, pa, pb, p):
+    """E_eff/V_A and E_eff/V_B [Pa/m³] at the capacitance cell's position, as in Eq. (9)."""
+    va = p[I_VA] + p[I_AA] * xcap
+    vb = p[I_VB] + p[I_AB] * (p[I_STROKE] - xcap)
+    net_a = qa_net - p[I_AA] * v + p[I_CL] * (pb - pa)
+    net_b = -qb + p[I_AB] * v + p[I_CL] * (pa - pb)
+    ea = effective_bulk_modulus(pa, p[I_E], p[I_PVAP], p[I_PREL], net_a)
+    eb = effective_bulk_modulus(pb, p[I_E], p[I_PVAP], p[I_PREL], net_b)
+    return ea / va, eb / vb
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def rhs_chamber(y, u, ps_in, fl, p, dy):
+    """Chamber-level piecewise-affine model: the full model's states, PWA cells (kind CHAMBER).
+
+    The spool (Eq. (3)) and the mechanics (Eq. (10)) as in :func:`rhs_full`; the opening from
+    the dead-zone cells over ν (Eq. (16), exact); each metering flow of Eqs. (5)–(6) from the
+    flow cells over its normalised pressure drop (scheduled on P_S); the chamber continuity
+    Eq. (9) by :func:`~hydropwa.components.chamber_pressure_rates` with V_A, V_B at the
+    capacitance cell's position; friction from cell w (Eq. (22)). P_S is the input (no pump
+    state); the gas accumulator, where the machine has one, as in the full model.
+    """
+    (
+        z,
+        _kg,
+        ps,
+        qa,
+        qb,
+        _qaz,
+        _qbz,
+        _qapa,
+        _qbpb,
+        _qas,
+        _qbs,
+        xcap,
+        fk,
+        fd,
+        _g,
+        _ca,
+        _cb,
+        _j,
+        _w,
+    ) = chamber_terms(y, ps_in, p)
+    nu, dnu, pa, pb, x, v = y[Y_NU], y[Y_DNU], y[Y_PA], y[Y_PB], y[Y_X], y[Y_V]
+    q_acc = 0.0
+    if p[I_ACCV] > 0.0:
+        pacc = y[Y_PACC]
+        q_acc = hose_flow(pa, pacc, p[I_HOSEL], p[I_HOSED], p[I_VISC])
+        dy[Y_PACC] = accumulator_pressure_rate(
+            q_acc,
+            pacc,
+            p[I_ACCV],
+            p[I_ACCP0],
+            p[I_ACCN],
+            p[I_HOSEVOL],
+            p[I_E],
+            p[I_PVAP],
+            p[I_PREL],
+        )
+    else:
+        dy[Y_PACC] = 0.0
+    dpa, dpb = chamber_pressure_rates(
+        qa - q_acc,
+        qb,
+        xcap,
+        v,
+        pa,
+        pb,
+        p[I_AA],
+        p[I_AB],
+        p[I_STROKE],
+        p[I_VA],
+        p[I_VB],
+        p[I_CL],
+        p[I_E],
+        p[I_PVAP],
+        p[I_PREL],
+    )
+    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    dy[Y_NU] = dnu
+    dy[Y_DNU] = servo_valve_acceleration(nu, dnu, u, p[I_OMEGA0], p[I_ZETA])
+    dy[Y_PA] = dpa
+    dy[Y_PB] = dpb
+    dy[Y_X] = v
+    dy[Y_V] = piston_acceleration(
+        pa * p[I_AA] - pb * p[I_AB], fk * v + fd, fl + p[I_CLOAD] * v, stop, p[I_MASS]
+    )
+    dy[Y_PS] = 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def jac_chamber(y, u, ps_in, fl, p, J):
+    """Exact Jacobian ∂f/∂y of :func:`rhs_chamber` inside the active cells; False if not filled.
+
+    Exact where both chambers are above the air-release pressure (constant bulk modulus).
+    With a gas accumulator it returns False and the integrator takes differences.
+    """
+    if p[I_ACCV] > 0.0:
+        return False
+    (
+        z,
+        kg,
+        ps,
+        qa,
+        qb,
+        qaz,
+        qbz,
+        qapa,
+        qbpb,
+        _qas,
+        _qbs,
+        xcap,
+        fk,
+        _fd,
+        _g,
+        _ca,
+        _cb,
+        _j,
+        _w,
+    ) = chamber_terms(y, ps_in, p)
+    pa, pb, x, v = y[Y_PA], y[Y_PB], y[Y_X], y[Y_V]
+    ca, cb = _chamber_capacitances(qa, qb, xcap, v, pa, pb, p)
+    n = _N_FULL
+    for i in range(n):
+        for k in range(n):
+            J[i, k] = 0.0
+    w0 = p[I_OMEGA0]
+    J[Y_NU, Y_DNU] = 1.0
+    J[Y_DNU, Y_NU] = -w0 * w0
+    J[Y_DNU, Y_DNU] = -2.0 * p[I_ZETA] * w0
+    cl = p[I_CL]
+    J[Y_PA, Y_NU] = ca * qaz * kg
+    J[Y_PA, Y_PA] = ca * (qapa - cl)
+    J[Y_PA, Y_PB] = ca * cl
+    J[Y_PA, Y_V] = -ca * p[I_AA]
+    J[Y_PB, Y_NU] = -cb * qbz * kg
+    J[Y_PB, Y_PB] = cb * (-qbpb - cl)
+    J[Y_PB, Y_PA] = cb * cl
+    J[Y_PB, Y_V] = cb * p[I_AB]
+    J[Y_X, Y_V] = 1.0
+    m = p[I_MASS]
+    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    J[Y_V, Y_PA] = p[I_AA] / m
+    J[Y_V, Y_PB] = -p[I_AB] / m
+    J[Y_V, Y_X] = kx / m
+    J[Y_V, Y_V] = (kv - fk - p[I_CLOAD]) / m
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def dfdt_chamber(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
+    """Exact ∂f/∂t of :func:`rhs_chamber` inside the active cells, given the input rates.
+
+    u enters the spool equation alone (ω0² u̇); P_S(t) the metering flows through the
+    scheduled cells (zero when the cells are fixed); F_L the piston (−Ḟ_L/m). With
+    (u̇, Ṗ_S, Ḟ_L) = (1, 0, 0) it is the input column B.
+    """
+    (
+        _z,
+        _kg,
+        ps,
+        qa,
+        qb,
+        _qaz,
+        _qbz,
+        _qapa,
+        _qbpb,
+        qas,
+        qbs,
+        xcap,
+        _fk,
+        _fd,
+        _g,
+        _ca,
+        _cb,
+        _j,
+        _w,
+    ) = chamber_terms(y, ps_in, p)
+    for i in range(_N_FULL):
+        dfdt[i] = 0.0
+    ca, cb = _chamber_capacitances(qa, qb, xcap, y[Y_V], y[Y_PA], y[Y_PB], p)
+    w0 = p[I_OMEGA0]
+    dfdt[Y_DNU] = w0 * w0 * du
+    if p[I_SCHED] > 0.5:
+        dfdt[Y_PA] = ca * qas * dps
+        dfdt[Y_PB] = -cb * qbs * dps
+    dfdt[Y_V] = -dfl / p[I_MASS]
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def rhs_at(kind, y, u, ps, fl, p, dy):
     """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
@@ -672,8 +970,10 @@ def rhs_at(kind, y, u, ps, fl, p, dy):
         rhs_full(y, u, ps, fl, p, dy)
     elif kind == REDUCED:
         rhs_reduced(y, u, ps, fl, p, dy)
-    else:
+    elif kind == PWA:
         rhs_pwa(y, u, ps, fl, p, dy)
+    else:
+        rhs_chamber(y, u, ps, fl, p, dy)
 
 
 def _literal_kind(kind):
@@ -717,6 +1017,8 @@ def _ol_rhs_for(kind, y, u, ps, fl, p, dy):
         return lambda kind, y, u, ps, fl, p, dy: rhs_reduced(y, u, ps, fl, p, dy)
     if k == PWA:
         return lambda kind, y, u, ps, fl, p, dy: rhs_pwa(y, u, ps, fl, p, dy)
+    if k == CHAMBER:
+        return lambda kind, y, u, ps, fl, p, dy: rhs_chamber(y, u, ps, fl, p, dy)
     return lambda kind, y, u, ps, fl, p, dy: rhs_at(kind, y, u, ps, fl, p, dy)
 
 
@@ -771,6 +1073,14 @@ def _exact_full(kind, t, y, u, ps, fl, p, sg, J, dfdt):
     return True
 
 
+def _exact_chamber(kind, t, y, u, ps, fl, p, sg, J, dfdt):
+    if not jac_chamber(y, u, ps, fl, p, J):
+        return False
+    du, dps, dfl = _input_rates(t, sg)
+    dfdt_chamber(y, u, ps, fl, du, dps, dfl, p, dfdt)
+    return True
+
+
 def _exact_any(kind, t, y, u, ps, fl, p, sg, J, dfdt):
     if kind == FULL:
         if not jac_full(y, u, ps, fl, p, J):
@@ -788,6 +1098,12 @@ def _exact_any(kind, t, y, u, ps, fl, p, sg, J, dfdt):
         du, dps, dfl = _input_rates(t, sg)
         dfdt_pwa(y, u, ps, fl, du, dps, dfl, p, dfdt)
         return True
+    if kind == CHAMBER:
+        if not jac_chamber(y, u, ps, fl, p, J):
+            return False
+        du, dps, dfl = _input_rates(t, sg)
+        dfdt_chamber(y, u, ps, fl, du, dps, dfl, p, dfdt)
+        return True
     return False
 
 
@@ -800,6 +1116,8 @@ def _ol_exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
         return _exact_reduced
     if k == PWA:
         return _exact_pwa
+    if k == CHAMBER:
+        return _exact_chamber
     return _exact_any
 
 
@@ -830,21 +1148,47 @@ def _point_pwa(y, u, ps, fl, p, f, J, G):
     dfdt_pwa(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _point_chamber(y, u, ps, fl, p, f, J, G):
+    """f, ∂f/∂y and ∂f/∂(u, P_S, F_L) of the chamber PWA model at one point (into f, J, G).
+
+    Without an exact Jacobian (a gas accumulator) J is by central differences.
+    """
+    rhs_chamber(y, u, ps, fl, p, f)
+    if not jac_chamber(y, u, ps, fl, p, J):
+        n = y.shape[0]
+        yp, ym, fp, fm = y.copy(), y.copy(), np.empty(n), np.empty(n)
+        for j in range(n):
+            d = 1e-6 * max(abs(y[j]), 1e-3 if j == Y_X else 1.0)
+            yp[j] = y[j] + d
+            ym[j] = y[j] - d
+            rhs_chamber(yp, u, ps, fl, p, fp)
+            rhs_chamber(ym, u, ps, fl, p, fm)
+            for i in range(n):
+                J[i, j] = (fp[i] - fm[i]) / (2.0 * d)
+            yp[j] = y[j]
+            ym[j] = y[j]
+    dfdt_chamber(y, u, ps, fl, 1.0, 0.0, 0.0, p, G[:, 0])
+    dfdt_chamber(y, u, ps, fl, 0.0, 1.0, 0.0, p, G[:, 1])
+    dfdt_chamber(y, u, ps, fl, 0.0, 0.0, 1.0, p, G[:, 2])
+
+
 #: One point-derivative kernel per model: a command compiles only the one it uses.
-_POINT = {REDUCED: _point_reduced, PWA: _point_pwa}
+_POINT = {REDUCED: _point_reduced, PWA: _point_pwa, CHAMBER: _point_chamber}
 
 
 def point_derivatives(kind, y, u, ps, fl, p):
-    """Right-hand side and exact derivatives of the reduced or PWA model at one point.
+    """Right-hand side and exact derivatives of the reduced, PWA or chamber PWA model at one point.
 
     The one assembly used by every Python-side consumer (matrices, exports, identification
     helpers): nothing outside this kernel re-derives the reduced or PWA dynamics.
 
     Parameters
     ----------
-    kind : {REDUCED, PWA}
-    y : array_like, shape (3,)
-        State [P_L (Pa), v (m/s), x (m)].
+    kind : {REDUCED, PWA, CHAMBER}
+    y : array_like, shape (n,)
+        State: [P_L (Pa), v (m/s), x (m)] (reduced, PWA) or the full model's eight states
+        (chamber PWA, ``hydropwa._layout.FULL_STATES``).
     u, ps, fl : float
         Valve command [1], supply pressure [Pa], load force [N].
     p : ndarray
@@ -852,15 +1196,15 @@ def point_derivatives(kind, y, u, ps, fl, p):
 
     Returns
     -------
-    f : ndarray, shape (3,)
-        [Ṗ_L, v̇, ẋ].
-    J : ndarray, shape (3, 3)
-        ∂f/∂y (exact; inside the active cells for the PWA model).
-    G : ndarray, shape (3, 3)
+    f : ndarray, shape (n,)
+        The state rates.
+    J : ndarray, shape (n, n)
+        ∂f/∂y (exact; inside the active cells for the PWA models).
+    G : ndarray, shape (n, 3)
         ∂f/∂(u, P_S, F_L) (columns); G[:, 0] is the input matrix B.
     """
-    if int(kind) not in (REDUCED, PWA):
-        raise ValueError("point_derivatives serves the reduced and PWA models")
+    if int(kind) not in _POINT:
+        raise ValueError("point_derivatives serves the reduced and the PWA models")
     point = _POINT[int(kind)]
     args = _point_args(y, u, ps, fl, p)
     prepare(point, args, "linearization")
@@ -995,10 +1339,10 @@ _E32 = 6.0 + math.sqrt(2.0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
-def _inert_column(j, p):
-    """Full model: state j is constant for these parameters, so its Jacobian column is zero."""
-    if j == Y_PS:
-        return p[I_PUMP] <= 0.5  # P_S is an input without the pump model
+def _inert_column(kind, j, p):
+    """Full and chamber models: state j is constant for these parameters (zero Jacobian column)."""
+    if j == Y_PS:  # P_S is an input without the pump model (always in the chamber model)
+        return kind == CHAMBER or p[I_PUMP] <= 0.5
     return j == Y_PACC and p[I_ACCV] <= 0.0  # no accumulator
 
 
@@ -1019,7 +1363,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     if exact and _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
         return 0
     for j in range(n):
-        if kind == FULL and _inert_column(j, p):
+        if (kind == FULL or kind == CHAMBER) and _inert_column(kind, j, p):
             for i in range(n):
                 J[i, j] = 0.0
             continue
@@ -1554,7 +1898,7 @@ def _march(
                 u, ps, fl = _inputs(t, sg)
                 _rhs_for(kind, y, u, ps, fl, p, f0)
                 nfev += 1
-                if kind != FULL:
+                if kind != FULL and kind != CHAMBER:  # reduced, PWA: their ∂f/∂y depends on u
                     need_jac = True
             cb = np.cbrt(err) if err > 0.0 else 0.0
             fac = 0.9 / cb if err > 0.0 else 5.0
@@ -1721,11 +2065,61 @@ def _integrate_pwa_ros23(
     )
 
 
-_ENTRY = {FULL: _integrate_full, REDUCED: _integrate_reduced, PWA: _integrate_pwa}
+@njit(cache=True, nogil=True, error_model="numpy")
+def _integrate_chamber(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        CHAMBER,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS34PW2,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _integrate_chamber_ros23(
+    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
+):
+    return _integrate(
+        CHAMBER,
+        y0,
+        t_out,
+        p,
+        sg,
+        rtol,
+        scale,
+        h0,
+        hmax,
+        max_steps,
+        ROS23,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
+
+
+_ENTRY = {
+    FULL: _integrate_full,
+    REDUCED: _integrate_reduced,
+    PWA: _integrate_pwa,
+    CHAMBER: _integrate_chamber,
+}
 _ENTRY_ROS23 = {
     FULL: _integrate_full_ros23,
     REDUCED: _integrate_reduced_ros23,
     PWA: _integrate_pwa_ros23,
+    CHAMBER: _integrate_chamber_ros23,
 }
 
 
@@ -1826,10 +2220,34 @@ def _closed_pwa_ros23(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, r
     )
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _closed_chamber(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref):
+    return _integrate_closed(
+        CHAMBER, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS34PW2, ctl, ref, dref
+    )
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _closed_chamber_ros23(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref):
+    return _integrate_closed(
+        CHAMBER, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ROS23, ctl, ref, dref
+    )
+
+
 # one closed-loop entry point per model and method (both compile-time constants): a command
 # compiles only the stepper it uses
-_CLOSED = {FULL: _closed_full, REDUCED: _closed_reduced, PWA: _closed_pwa}
-_CLOSED_ROS23 = {FULL: _closed_full_ros23, REDUCED: _closed_reduced_ros23, PWA: _closed_pwa_ros23}
+_CLOSED = {
+    FULL: _closed_full,
+    REDUCED: _closed_reduced,
+    PWA: _closed_pwa,
+    CHAMBER: _closed_chamber,
+}
+_CLOSED_ROS23 = {
+    FULL: _closed_full_ros23,
+    REDUCED: _closed_reduced_ros23,
+    PWA: _closed_pwa_ros23,
+    CHAMBER: _closed_chamber_ros23,
+}
 
 
 def _owned(a):
@@ -1888,7 +2306,8 @@ def _output_args(t_out, Y, n_done, p, sg):
 
 def _point_args(y, u, ps, fl, p):
     """The point-derivative kernels' arguments and result arrays f, J, G (G column-major)."""
-    f, J, G = np.zeros(3), np.zeros((3, 3)), np.asfortranarray(np.zeros((3, 3)))
+    n = len(y)
+    f, J, G = np.zeros(n), np.zeros((n, n)), np.asfortranarray(np.zeros((n, 3)))
     return (_owned(y), float(u), float(ps), float(fl), _owned(p), f, J, G)
 
 
@@ -1966,7 +2385,7 @@ def integrate(
         return entry(*args)
 
 
-_KIND_NAMES = ("full", "reduced", "PWA")
+_KIND_NAMES = ("full", "reduced", "PWA", "chamber PWA")
 _compile_notice = None
 _noticed = False
 #: Seconds this process spent loading or compiling kernels (read by ``simulate``).
@@ -1996,7 +2415,7 @@ def warmup_calls(name):
     the compiled code is what they load.
     """
     z, zz = np.zeros(1), np.zeros((1, 1))
-    kinds = {"full": FULL, "reduced": REDUCED, "pwa": PWA}
+    kinds = {name: kind for name, (kind, _s, _w) in MODEL_KINDS.items()}
     if name == "point":
         args = _point_args(np.zeros(3), 0.0, 0.0, 0.0, z)
         return [
@@ -2020,16 +2439,10 @@ def warmup_calls(name):
 
 #: The names :func:`warmup_calls` takes.
 WARMUP_NAMES = (
-    "full",
-    "reduced",
-    "pwa",
+    *MODEL_KINDS,
     "point",
-    "closed-full",
-    "closed-reduced",
-    "closed-pwa",
-    "output-full",
-    "output-reduced",
-    "output-pwa",
+    *(f"closed-{m}" for m in MODEL_KINDS),
+    *(f"output-{m}" for m in MODEL_KINDS),
 )
 
 
@@ -2109,7 +2522,7 @@ def outputs(kind, t_out, Y, n_done, p, sg):
     prepare(OUTPUTS[kind], args, "output")  # load or compile (a no-op once ready), timed apart
     with _interruptible():
         out = OUTPUTS[kind](*args)
-    if kind != PWA:
+    if kind == FULL or kind == REDUCED:
         out[O_FRICTION] = stribeck_friction.py_func(
             out[O_V], p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA]
         )
@@ -2141,8 +2554,20 @@ def _outputs_pwa(t_out, Y, n_done, p, sg):
     return out
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _outputs_chamber(t_out, Y, n_done, p, sg):
+    out = np.empty((N_OUT_CHAMBER, n_done))
+    _fill_chamber(t_out, Y, n_done, p, sg, out)
+    return out
+
+
 #: The output pass of each model kind: ``OUTPUTS[kind](t_out, Y, n_done, p, sg)``.
-OUTPUTS = {FULL: _outputs_full, REDUCED: _outputs_reduced, PWA: _outputs_pwa}
+OUTPUTS = {
+    FULL: _outputs_full,
+    REDUCED: _outputs_reduced,
+    PWA: _outputs_pwa,
+    CHAMBER: _outputs_chamber,
+}
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
@@ -2215,3 +2640,39 @@ def _fill_pwa(t_out, Y, n_done, p, sg, out):
         al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
         pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
         _write_outputs(out, k, u, u, z, pa, pb, pl, ps, fl, x, v, f_slope * v + f_offset, p)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _fill_chamber(t_out, Y, n_done, p, sg, out):
+    """Output pass of the chamber PWA model, with its active cells g, a, b, x, w in the extra rows."""
+    for k in range(n_done):
+        u, ps_in, fl = _inputs(t_out[k], sg)
+        y = Y[k]
+        (
+            z,
+            _kg,
+            ps,
+            _qa,
+            _qb,
+            _qaz,
+            _qbz,
+            _qapa,
+            _qbpb,
+            _qas,
+            _qbs,
+            _xcap,
+            fk,
+            fd,
+            g,
+            ca,
+            cb,
+            j,
+            w,
+        ) = chamber_terms(y, ps_in, p)
+        out[N_OUT, k] = g
+        out[N_OUT + 1, k] = ca
+        out[N_OUT + 2, k] = cb
+        out[N_OUT + 3, k] = j
+        out[N_OUT + 4, k] = w
+        pa, pb, v = y[Y_PA], y[Y_PB], y[Y_V]
+        _write_outputs(out, k, u, y[Y_NU], z, pa, pb, pa - pb, ps, fl, y[Y_X], v, fk * v + fd, p)

@@ -14,7 +14,13 @@ import numpy as np
 
 from .._display import channel_rows, html_table
 from .._errors import ParameterError, SignalError, SimulationError
-from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
+from .._layout import (
+    CHAMBER_OUTPUT_CHANNELS,
+    CONTROL_OUTPUT_CHANNELS,
+    MODEL_KINDS,
+    OUTPUT_CHANNELS,
+    PWA_OUTPUT_CHANNELS,
+)
 from ..models import Model, as_model
 from ..params import SystemParams
 from . import _kernel as K
@@ -37,17 +43,21 @@ __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: The kernel's right-hand side of each model kind (the model's ``name``): model kinds are
 #: resolved here, where they are used, so the model layers need not import the kernel.
-_KERNEL_KIND = {"full": K.FULL, "reduced": K.REDUCED, "pwa": K.PWA}
+_KERNEL_KIND = {name: kind for name, (kind, _states, _what) in MODEL_KINDS.items()}
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
 CHANNEL_UNITS: dict[str, str] = {
     "t": "s",
     **dict(OUTPUT_CHANNELS),
     **dict(PWA_OUTPUT_CHANNELS),
+    **dict(CHAMBER_OUTPUT_CHANNELS),
     **dict(CONTROL_OUTPUT_CHANNELS),
 }
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
 _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
+_CHAMBER_COLS = tuple(name for name, _unit in CHAMBER_OUTPUT_CHANNELS)
+#: The active-cell channels of both PWA models, each once.
+_CELL_CHANNELS = tuple(dict.fromkeys(_PWA_COLS + _CHAMBER_COLS))
 
 
 @dataclass
@@ -61,12 +71,13 @@ class SimulationResult:
     channels : dict[str, ndarray]
         Named channels in SI (see :data:`CHANNEL_UNITS`): t, u, spool, z, p_a,
         p_b, p_l, p_s, f_l, x, v, friction, and for the PWA model the active
-        cells cell_g, cell_o, cell_n, cell_w.
+        cells cell_g, cell_o, cell_n, cell_w (the chamber PWA model: cell_g, cell_qa,
+        cell_qb, cell_x, cell_w).
     states : ndarray, shape (n, n_states)
         Raw model states; names in ``state_names``.
     state_names : tuple of str
     model : str
-        ``"full"``, ``"reduced"`` or ``"pwa"``.
+        ``"full"``, ``"reduced"``, ``"pwa"`` or ``"pwa-chamber"``.
     params : SystemParams
         The parameters used.
     inputs : dict[str, dict]
@@ -214,7 +225,7 @@ class SimulationResult:
     def occupancy(self) -> dict[str, dict[int, float]]:
         """PWA only: fraction of time each cell of each nonlinearity is active."""
         out: dict[str, dict[int, float]] = {}
-        for key in ("cell_g", "cell_o", "cell_n", "cell_w"):
+        for key in _CELL_CHANNELS:
             if key in self.channels:
                 vals, counts = np.unique(self.channels[key].astype(int), return_counts=True)
                 out[key[5:]] = {
@@ -226,7 +237,7 @@ class SimulationResult:
         """PWA only: number of cell changes of each nonlinearity between output samples."""
         return {
             key[5:]: int(np.count_nonzero(np.diff(self.channels[key]) != 0))
-            for key in ("cell_g", "cell_o", "cell_n", "cell_w")
+            for key in _CELL_CHANNELS
             if key in self.channels
         }
 
@@ -292,9 +303,9 @@ def _output_channels(kind, t_out, Y, n_done, p, sg) -> dict[str, np.ndarray]:
     """The output pass of :func:`simulate`: channel name → rows of the done samples."""
     out = K.outputs(kind, t_out, Y, n_done, p, sg)
     channels = {name: out[i] for i, name in enumerate(_OUT_COLS)}  # contiguous rows
-    if kind == K.PWA:
-        for i, name in enumerate(_PWA_COLS):
-            channels[name] = out[len(_OUT_COLS) + i]
+    extra = _PWA_COLS if kind == K.PWA else _CHAMBER_COLS if kind == K.CHAMBER else ()
+    for i, name in enumerate(extra):
+        channels[name] = out[len(_OUT_COLS) + i]
     return channels
 
 
@@ -537,14 +548,18 @@ def simulate(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
     )
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
-    if kind == K.PWA and supply_pressure is not None and not getattr(mdl, "scheduled", True):
+    if (
+        kind in (K.PWA, K.CHAMBER)
+        and supply_pressure is not None
+        and not getattr(mdl, "scheduled", True)
+    ):
         fixed = float(getattr(mdl, "supply_pressure", np.nan))
         if not (
             isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)
         ):
             raise SignalError(
                 f"this PWA model's cells are fixed at P_S = {fixed / 1e5:g} bar and would ignore the "
-                "supply_pressure input; build it with linearize(params, scheduled=True) to follow P_S(t), "
+                "supply_pressure input; build it with linearize(params, ..., scheduled=True) to follow P_S(t), "
                 "or linearize(params, supply_pressure=...) for another constant P_S"
             )
     inputs = PackedInputs.of([u_sig, ps_sig, fl_sig], duration)

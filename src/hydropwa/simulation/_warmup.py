@@ -24,6 +24,7 @@ import sys
 import threading
 from collections.abc import Iterable
 
+from .._layout import MODEL_NAMES
 from . import _kernel as K
 
 __all__ = ["WarmUp", "warm_up"]
@@ -208,7 +209,7 @@ def warm_up(
 
     Parameters
     ----------
-    models : iterable of {"full", "reduced", "pwa"}
+    models : iterable of {"full", "reduced", "pwa", "pwa-chamber"}
         Models whose open-loop solver (default method) and output pass to compile.
     closed_loop : bool
         Also their closed-loop solvers (:mod:`hydropwa.control`).
@@ -228,13 +229,11 @@ def warm_up(
     >>> w = warm_up(["full", "pwa"], closed_loop=True)  # doctest: +SKIP
     """
     names = [str(m).lower() for m in models]
-    bad = [m for m in names if m not in ("full", "reduced", "pwa")]
+    bad = [m for m in names if m not in MODEL_NAMES]
     if bad:
-        raise ValueError(f"unknown model {bad[0]!r}; choose from full, reduced, pwa")
+        raise ValueError(f"unknown model {bad[0]!r}; choose from {', '.join(MODEL_NAMES)}")
     names += ["point"] if linearization else []
-    names += (
-        [f"closed-{m}" for m in names if m in ("full", "reduced", "pwa")] if closed_loop else []
-    )
+    names += [f"closed-{m}" for m in names if m in MODEL_NAMES] if closed_loop else []
     w = WarmUp(names)
     if wait:
         w.wait()

@@ -71,7 +71,13 @@ def run_case(
     """
     params = spec.params_for(case)
     # the PWA model is built from each case's parameters (model kinds resolve where used)
-    model = linearize(params) if spec.model == "pwa" else spec.model
+    model = (
+        linearize(params)
+        if spec.model == "pwa"
+        else linearize(params, form="chamber")
+        if spec.model == "pwa-chamber"
+        else spec.model
+    )
     res = simulate(
         model,
         spec.u,

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError, ParameterError
+from .._layout import MODEL_NAMES
 from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
 from ..params import FIELD_UNITS, SystemParams, get_preset, load_params, parse_quantity
 from ..simulation import as_signal
@@ -42,7 +43,7 @@ __all__ = ["SweepCase", "SweepSpec", "load_sweep", "parse_sweep"]
 _DISTRIBUTIONS = ("uniform", "loguniform", "normal")
 _INPUT_KEYS = {"u", "duration", "model", "fs", "rtol", "supply_pressure", "load_force", "solver"}
 _SECTIONS = ("base", "grid", "random", "input")
-_MODELS = ("full", "reduced", "pwa")
+_MODELS = MODEL_NAMES
 
 
 def _unknown(kind: str, name: str, allowed) -> ParameterError:
@@ -95,7 +96,7 @@ class SweepSpec:
     duration : float
         Simulated time per case [s].
     model : str
-        ``"full"``, ``"reduced"`` or ``"pwa"``.
+        ``"full"``, ``"reduced"``, ``"pwa"`` or ``"pwa-chamber"`` (``hydropwa._layout.MODEL_KINDS``).
     options : dict
         Further :func:`~hydropwa.simulation.simulate` keywords (fs, rtol, ...).
     """
