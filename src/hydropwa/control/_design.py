@@ -32,8 +32,10 @@ from ._controllers import (
     DEFAULT_SAMPLE_TIME,
     ControlError,
     DeadZoneInverse,
+    FlowFeedForward,
     GainRow,
     PIController,
+    SpoolModel,
     StateFeedbackController,
 )
 
@@ -137,6 +139,45 @@ def _augment(Ad, Bd, ts):
     Aa[3, 3] = 1.0
     Ba = np.zeros((4, 1))
     Ba[:3] = Bd
+    return Aa, Ba
+
+
+#: scales of the valve-aware design's extra states: ν [1] in %, ν̇ [1/s], pending command in %
+_VALVE_SCALE = np.array([1e5, 1e-3, 1e-3, 1e-2, 1.0, 1e-5, 1e-2])
+#: Bryson maxima of the spool position [1] and rate [1/s] (the opening it mirrors, a 1 % move per ms)
+_VALVE_MAXIMA = np.array([1.0, 1e3])
+
+
+def _valve_augment(A, B, ts, omega0, zeta, delay):
+    """Discrete cell plant with the servo valve, the integral and the computation delay.
+
+    States [P_L, ẋ, x, ν, ν̇, I] (and the pending command c_{k−1} with ``delay``), input
+    the opening command c: the cell's input matrix acts on the spool position ν, which
+    follows c through Eq. (1), ν̈ = ω0²(c − ν) − 2ζω0 ν̇, held over the sample (ZOH);
+    I_{k+1} = I_k + T_s (r − x_k) at r = 0. With the delay the plant receives the command
+    computed one sample earlier.
+    """
+    n = A.shape[0]
+    Av = np.zeros((n + 2, n + 2))
+    Av[:n, :n] = A
+    Av[:n, n] = B[:, 0]
+    Av[n, n + 1] = 1.0
+    Av[n + 1, n] = -(omega0**2)
+    Av[n + 1, n + 1] = -2.0 * zeta * omega0
+    Bv = np.zeros((n + 2, 1))
+    Bv[n + 1, 0] = omega0**2
+    Ad, Bd = _discrete(Av, Bv, ts)
+    m = n + 3 + (1 if delay else 0)
+    Aa = np.zeros((m, m))
+    Aa[: n + 2, : n + 2] = Ad
+    Aa[n + 2, 2] = -ts
+    Aa[n + 2, n + 2] = 1.0
+    Ba = np.zeros((m, 1))
+    if delay:
+        Aa[: n + 2, n + 3] = Bd[:, 0]
+        Ba[n + 3, 0] = 1.0
+    else:
+        Ba[: n + 2, 0] = Bd[:, 0]
     return Aa, Ba
 
 
@@ -244,6 +285,8 @@ def design_state_feedback(
     anti_windup: str = "clamp",
     friction_slopes: str = "clip",
     pressure_washout: float = 0.1,
+    feedforward: bool = True,
+    valve: bool | None = None,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -288,6 +331,17 @@ def design_state_feedback(
         k_pl acting on a static load pressure (14.6 bar at 1.5 kN) changes the command by
         Δk_pl·P_L at every cell switch; measured on the full model at ±1.5 kN without the
         washout: a 0.5 mm limit cycle at the target.
+    feedforward : bool
+        Flow feed-forward per flow direction with its load-pressure correction and the
+        reference state [P_ref, ṙ] in the feedback (:class:`FlowFeedForward`, default);
+        False: the schema-1 law (feedback only).
+    valve : bool, optional
+        Default True for ``"lqr"``, False for ``"place"``. Design on each cell augmented with the servo valve's second-order dynamics
+        (Eq. (1)), the zero-order hold and the one-sample delay if ``delay``
+        (:func:`_valve_augment`); the rows then feed back the spool position and rate,
+        estimated in the controller by the discrete valve model (:class:`SpoolModel`),
+        and with the delay the pending command. ``method="lqr"`` only; False: the cell
+        alone (schema 1).
 
     Returns
     -------
@@ -323,6 +377,10 @@ def design_state_feedback(
                 "pole placement needs four continuous-time poles with negative real parts [1/s]"
             )
         zp = np.exp(np.array(poles) * ts)
+    if valve is None:
+        valve = method == "lqr"
+    if valve and method != "lqr":
+        raise ControlError("the valve-aware design (valve=True) needs method='lqr'; pass valve=False for 'place'")
     prm = model.params
     T = np.diag(_SCALE)
     Tinv = np.diag(1.0 / _SCALE)
@@ -342,8 +400,15 @@ def design_state_feedback(
                 f"clipped to {min(max(k_w, 0.0), k_w_max):.4g} N·s/m for the design"
             )
             A[1, 1] = -min(max(k_w, 0.0), k_w_max) / prm.load.mass
-        Ad, Bd = _discrete(A, B, ts)
-        Aa, Ba = _augment(Ad, Bd, ts)
+        if valve:  # states [P_L, ẋ, x, ν, ν̇, I (, pending c)]: servo valve, ZOH, delay
+            Aa, Ba = _valve_augment(A, B, ts, prm.valve.omega0, prm.valve.zeta, delay)
+            sc = _VALVE_SCALE[: Aa.shape[0]]
+            mx = np.concatenate([maxima[:3], _VALVE_MAXIMA, maxima[3:], [u_max]])[: Aa.shape[0]]
+            T, Tinv = np.diag(sc), np.diag(1.0 / sc)
+            q = (sc / mx) ** 2
+        else:
+            Ad, Bd = _discrete(A, B, ts)
+            Aa, Ba = _augment(Ad, Bd, ts)
         As, Bs = Tinv @ Aa @ T, Tinv @ Ba
         ctrb = np.linalg.svd(control.ctrb(As, Bs), compute_uv=False)
         controllable = bool(ctrb[-1] > 1e-9 * ctrb[0])
@@ -357,13 +422,19 @@ def design_state_feedback(
             warns.append(f"cell {label}: design failed ({exc})")
             continue
         K = Ks @ Tinv
-        radius = _radius(Aa, Ba, K, delay)
-        radius_v = _valve_loop_radius(A, B, K, ts, prm.valve.omega0, prm.valve.zeta, delay)
+        if valve:
+            radius = radius_v = _radius(Aa, Ba, K, False)
+            i_int = 5
+        else:
+            radius = _radius(Aa, Ba, K, delay)
+            radius_v = _valve_loop_radius(A, B, K, ts, prm.valve.omega0, prm.valve.zeta, delay)
+            i_int = 3
         Acl = Aa - Ba @ K
-        Br = np.zeros((4, 1))
-        Br[:3, 0] = Bd[:, 0] * K[0, 2]
-        Br[3, 0] = ts
-        s, zmin, fdom, bw = _pole_stats(Acl, ts, Br, np.array([[0.0, 0.0, 1.0, 0.0]]))
+        Br = Ba * K[0, 2]
+        Br[i_int, 0] += ts
+        Cx = np.zeros((1, Aa.shape[0]))
+        Cx[0, 2] = 1.0
+        s, zmin, fdom, bw = _pole_stats(Acl, ts, Br, Cx)
         if not controllable:
             warns.append(f"cell {label}: not controllable (σ_min/σ_max = {ctrb[-1] / ctrb[0]:.2e})")
         if radius >= 1.0:
@@ -374,7 +445,23 @@ def design_state_feedback(
             warns.append(
                 f"cell {label}: unstable with the servo valve's dynamics (spectral radius {radius_v:.4f})"
             )
-        row = GainRow(lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label)
+        if valve:
+            row = GainRow(
+                lo,
+                hi,
+                k_pl=K[0, 0],
+                k_v=K[0, 1],
+                k_x=K[0, 2],
+                k_i=-K[0, 5],
+                label=label,
+                k_nu=K[0, 3],
+                k_dnu=K[0, 4],
+                k_up=K[0, 6] if delay else 0.0,
+            )
+        else:
+            row = GainRow(
+                lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label
+            )
         rows.append(row)
         recs.append(
             {
@@ -413,6 +500,8 @@ def design_state_feedback(
         "form": model.form,
         "supply_pressure": model.supply_pressure,
         "friction_slopes": friction_slopes,
+        "valve": bool(valve),
+        "feedforward": bool(feedforward),
         "notes": notes,
         "pressure_washout": float(pressure_washout),
         "load_force": float(prm.load.force if load_force is None else load_force),
@@ -432,8 +521,21 @@ def design_state_feedback(
         design=info,
         pressure_washout=float(pressure_washout),
         load_pressure=_load_pressure_of(model),
+        feedforward=_feedforward(model, ts, delay) if feedforward else None,
+        spool_model=SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts) if valve else None,
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
+
+
+def _feedforward(model, ts: float, delay: bool) -> FlowFeedForward:
+    """The flow feed-forward of the design model's parameters at its supply pressure."""
+    ps = getattr(model, "supply_pressure", None)
+    return FlowFeedForward.from_params(
+        model.params,
+        sample_time=ts,
+        delay=delay,
+        supply_pressure=None if ps is None or not math.isfinite(ps) else float(ps),
+    )
 
 
 def _margins(L: np.ndarray) -> tuple[float, float]:
@@ -473,6 +575,7 @@ def design_pi(
     include_valve: bool = True,
     u_limits: tuple[float, float] = (-1.0, 1.0),
     anti_windup: str = "clamp",
+    flow_feedforward: bool = False,
 ) -> ControlDesign:
     """P/PI position controller with velocity feed-forward, designed at one working point.
 
@@ -482,7 +585,9 @@ def design_pi(
     k_p K_v (K_v the velocity gain ∂ẋ/∂c in steady state [m/s]) is the crossover
     frequency; the largest one with both margins is taken. The integral corner sits
     at ``integral_ratio`` × crossover (k_i = k_p·ratio·ω_c) and the feed-forward is
-    k_ff = 1/K_v [s/m].
+    k_ff = 1/K_v [s/m]. With ``flow_feedforward`` the constant k_ff is replaced by the
+    flow feed-forward per direction with its load-pressure correction
+    (:class:`FlowFeedForward`).
 
     Returns
     -------
@@ -551,7 +656,8 @@ def design_pi(
         load_pressure=_load_pressure_of(model),
         kp=kp,
         ki=ki,
-        kff=(1.0 / k_v if feedforward else 0.0),
+        kff=(1.0 / k_v if feedforward and not flow_feedforward else 0.0),
+        feedforward=_feedforward(model, ts, delay) if flow_feedforward else None,
         sample_time=ts,
         delay=bool(delay),
         u_min=float(u_limits[0]),

@@ -84,7 +84,7 @@ class MotionProfile(Signal):
         return 2.0 * ta + tc + self.jerk_time
 
     def _trap(self, tau, order: int):
-        """Trapezoid position (order 0), velocity (1) or its time integral (-1) at τ = t − start."""
+        """Trapezoid position (order 0), velocity (1), acceleration (2) or its time integral (-1) at τ = t − start."""
         ta, tc, vp, d = self._phases()
         a = vp / ta if ta > 0 else 0.0
         s = 1.0 if self.end_position >= self.start_position else -1.0
@@ -95,6 +95,9 @@ class MotionProfile(Signal):
         tq = np.clip(tau, 0.0, t1)
         tcr = np.clip(tau - t1, 0.0, tc)
         td = np.clip(tau - t2, 0.0, ta)
+        if order == 2:
+            acc = np.where(tau < t1, a, np.where(tau < t2, 0.0, -a))
+            return s * np.where((tau < 0.0) | (tau >= t3), 0.0, acc)
         if order == 1:
             v = np.where(tau < t1, a * tq, np.where(tau < t2, vp, vp - a * td))
             v = np.where((tau <= 0.0) | (tau >= t3), 0.0, v)
@@ -128,6 +131,16 @@ class MotionProfile(Signal):
             out = (self._trap(tau, 0) - self._trap(tau - tj, 0)) / tj
         else:
             out = self._trap(tau, 1)
+        return out if np.ndim(t) else float(out)
+
+    def acceleration(self, t):
+        """Acceleration [m/s²] of the profile (analytic; right-continuous at the corners)."""
+        tau = np.asarray(t, dtype=float) - self.start_time
+        tj = self.jerk_time
+        if tj > 0.0:
+            out = (self._trap(tau, 1) - self._trap(tau - tj, 1)) / tj
+        else:
+            out = self._trap(tau, 2)
         return out if np.ndim(t) else float(out)
 
     def pack(self):
@@ -176,6 +189,11 @@ class MoveSequence(Signal):
         out = sum(np.asarray(m.rate(t)) for m in self.moves)
         return out if np.ndim(t) else float(out)
 
+    def acceleration(self, t):
+        """Acceleration [m/s²] (analytic)."""
+        out = sum(np.asarray(m.acceleration(t)) for m in self.moves)
+        return out if np.ndim(t) else float(out)
+
     def pack(self):
         last = self.moves[-1]
         t1 = last.start_time + last.duration
@@ -217,6 +235,10 @@ class StepSequence(Signal):
 
     def rate(self, t):
         """Zero: a step has no rate to feed forward."""
+        return np.zeros(np.shape(t)) if np.ndim(t) else 0.0
+
+    def acceleration(self, t):
+        """Zero: a step has no acceleration to feed forward."""
         return np.zeros(np.shape(t)) if np.ndim(t) else 0.0
 
     def pack(self):
