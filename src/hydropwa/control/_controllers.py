@@ -28,6 +28,8 @@ __all__ = [
     "GainRow",
     "StateFeedbackController",
     "ANTI_WINDUP",
+    "MACHINE_KEYS",
+    "machine_of",
     "DEFAULT_SAMPLE_TIME",
 ]
 
@@ -36,6 +38,20 @@ DEFAULT_SAMPLE_TIME = 5e-4
 ANTI_WINDUP = {"none": C.AW_NONE, "clamp": C.AW_CLAMP, "back-calculation": C.AW_BACK}
 #: scales [Pa, m/s, m, 1] of the distance to a gain row's box (1 bar, 1 mm/s, 1 mm, 1 %)
 BOX_SCALES = (1e5, 1e-3, 1e-3, 1e-2)
+#: the machine a controller was designed for (SI): piston areas, stroke, design supply pressure
+MACHINE_KEYS = ("area_a", "area_b", "stroke", "supply_pressure")
+
+
+def machine_of(params, supply_pressure: float | None = None) -> dict[str, float]:
+    """The :data:`MACHINE_KEYS` of a parameter set (SI)."""
+    cyl = params.cylinder
+    ps = params.supply.pressure if supply_pressure is None else supply_pressure
+    return {
+        "area_a": float(cyl.area_a),
+        "area_b": float(cyl.area_b),
+        "stroke": float(cyl.stroke),
+        "supply_pressure": float(ps),
+    }
 
 
 class ControlError(HydropwaError, ValueError):
@@ -295,6 +311,8 @@ class _Discrete:
     feedforward: FlowFeedForward | None = None
     velocity_filter: float = 0.0
     spool_model: SpoolModel | None = None
+    machine: dict = field(default_factory=dict, compare=False)
+    verification: dict = field(default_factory=dict, compare=False)
 
     kind = "controller"
 
@@ -344,6 +362,13 @@ class _Discrete:
         if self.spool_model is not None and not isinstance(self.spool_model, SpoolModel):
             raise ControlError(f"{type(self).__name__}.spool_model must be a SpoolModel or None")
         _finite(self, "velocity_filter", "s", ge=0.0)
+        if not isinstance(self.machine, dict) or not isinstance(self.verification, dict):
+            raise ControlError(f"{type(self).__name__}.machine and .verification must be dicts")
+        unknown = set(self.machine) - set(MACHINE_KEYS)
+        if unknown:
+            raise ControlError(
+                f"{type(self).__name__}.machine has unknown keys {sorted(unknown)}; known: {', '.join(MACHINE_KEYS)}"
+            )
 
     @property
     def extended(self) -> bool:

@@ -37,6 +37,7 @@ from ._controllers import (
     PIController,
     SpoolModel,
     StateFeedbackController,
+    machine_of,
 )
 
 __all__ = ["ControlDesign", "cell_plant", "design_pi", "design_state_feedback", "DEFAULT_WEIGHTS"]
@@ -523,18 +524,22 @@ def design_state_feedback(
         load_pressure=_load_pressure_of(model),
         feedforward=_feedforward(model, ts, delay) if feedforward else None,
         spool_model=SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts) if valve else None,
+        machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
 
 
+def _finite_or_none(v) -> float | None:
+    return None if v is None or not math.isfinite(float(v)) else float(v)
+
+
 def _feedforward(model, ts: float, delay: bool) -> FlowFeedForward:
     """The flow feed-forward of the design model's parameters at its supply pressure."""
-    ps = getattr(model, "supply_pressure", None)
     return FlowFeedForward.from_params(
         model.params,
         sample_time=ts,
         delay=delay,
-        supply_pressure=None if ps is None or not math.isfinite(ps) else float(ps),
+        supply_pressure=_finite_or_none(getattr(model, "supply_pressure", None)),
     )
 
 
@@ -658,6 +663,7 @@ def design_pi(
         ki=ki,
         kff=(1.0 / k_v if feedforward and not flow_feedforward else 0.0),
         feedforward=_feedforward(model, ts, delay) if flow_feedforward else None,
+        machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
         sample_time=ts,
         delay=bool(delay),
         u_min=float(u_limits[0]),
