@@ -16,9 +16,9 @@ from ._controllers import (
     ControlError,
     DeadZoneInverse,
     FlowFeedForward,
-    SpoolModel,
     GainRow,
     PIController,
+    SpoolModel,
     StateFeedbackController,
 )
 from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
@@ -26,6 +26,19 @@ from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controll
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
+from ._verify import (
+    DEFAULT_SENSOR_NOISE,
+    Verification,
+    VerificationCriteria,
+    VerificationTask,
+    check_machine,
+    closed_loop_warnings,
+    design_controller,
+    draw_parameters,
+    maximum_velocity,
+    task_set,
+    verify_controller,
+)
 
 __all__ = [
     "ANTI_WINDUP",
@@ -36,6 +49,17 @@ __all__ = [
     "ControlDesign",
     "ControlError",
     "DeadZoneInverse",
+    "DEFAULT_SENSOR_NOISE",
+    "Verification",
+    "VerificationCriteria",
+    "VerificationTask",
+    "design_controller",
+    "check_machine",
+    "closed_loop_warnings",
+    "draw_parameters",
+    "maximum_velocity",
+    "task_set",
+    "verify_controller",
     "FlowFeedForward",
     "SpoolModel",
     "GainRow",

@@ -268,7 +268,11 @@ class SpoolModel:
     def __post_init__(self) -> None:
         phi = np.asarray(self.phi, dtype=float).ravel()
         gam = np.asarray(self.gamma, dtype=float).ravel()
-        if phi.size != 4 or gam.size != 2 or not (np.all(np.isfinite(phi)) and np.all(np.isfinite(gam))):
+        if (
+            phi.size != 4
+            or gam.size != 2
+            or not (np.all(np.isfinite(phi)) and np.all(np.isfinite(gam)))
+        ):
             raise ControlError("SpoolModel needs a finite 2x2 phi and a 2-vector gamma")
         object.__setattr__(self, "phi", tuple(float(v) for v in phi))
         object.__setattr__(self, "gamma", tuple(float(v) for v in gam))

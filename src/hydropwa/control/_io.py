@@ -177,7 +177,9 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
     }
     if ctrl.machine:
         m = ctrl.machine
-        d["area_ratio"] = float(m["area_b"] / m["area_a"]) if "area_a" in m and "area_b" in m else None
+        d["area_ratio"] = (
+            float(m["area_b"] / m["area_a"]) if "area_a" in m and "area_b" in m else None
+        )
         d["machine"] = {k: _q(m[k], *_MACHINE[k][:2]) for k in _MACHINE if k in m}
     if ctrl.dead_zone_inverse is not None:
         d["dead_zone_inverse"] = {
@@ -309,7 +311,9 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
     }
     m = d.get("machine")
     if m:
-        out["machine"] = {k: _read(v, _MACHINE[k][2], f"machine.{k}") for k, v in m.items() if k in _MACHINE}
+        out["machine"] = {
+            k: _read(v, _MACHINE[k][2], f"machine.{k}") for k, v in m.items() if k in _MACHINE
+        }
     ff = d.get("feedforward")
     if ff is not None:
         kw: dict[str, Any] = {

@@ -18,8 +18,8 @@ from .._errors import ParameterError, SignalError, SimulationError
 from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
 from ..models import Model, as_model
 from ..params import SystemParams
-from . import _kernel as K
 from . import _controller as C
+from . import _kernel as K
 from ._controller import eval_rates
 from ._signals import Constant, Sampled, Signal, as_signal, pack_signals
 from ._status import SolverStats, SolverStatus
@@ -543,7 +543,9 @@ def simulate(
     elif reference is not None:
         raise SignalError("reference is the set point of a controller; pass controller=... as well")
     elif sensor_noise:
-        raise SignalError("sensor_noise is the noise of a controller's sensors; pass controller=... as well")
+        raise SignalError(
+            "sensor_noise is the noise of a controller's sensors; pass controller=... as well"
+        )
     u_sig = as_signal(u, "", "u")
     ps_sig = as_signal(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
