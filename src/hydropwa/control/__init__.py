@@ -22,7 +22,15 @@ from ._controllers import (
     StateFeedbackController,
 )
 from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
-from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
+from ._io import (
+    SCHEMA,
+    SCHEMAS,
+    controller_from_dict,
+    controller_schema,
+    controller_to_dict,
+    load_controller,
+    save_controller,
+)
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
@@ -46,6 +54,8 @@ __all__ = [
     "DEFAULT_WEIGHTS",
     "METRIC_UNITS",
     "SCHEMA",
+    "SCHEMAS",
+    "controller_schema",
     "ControlDesign",
     "ControlError",
     "DeadZoneInverse",

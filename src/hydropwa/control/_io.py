@@ -58,6 +58,7 @@ __all__ = [
     "controller_from_dict",
     "SCHEMA",
     "SCHEMAS",
+    "controller_schema",
     "CONVENTIONS",
 ]
 
@@ -328,6 +329,14 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
     if ver:
         out["verification"] = dict(ver)
     return out
+
+
+def controller_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of ``hydropwa.controller/2`` files, shipped in the package."""
+    from importlib.resources import files
+
+    text = files("hydropwa.control").joinpath("schemas/controller-2.schema.json").read_text("utf-8")
+    return json.loads(text)
 
 
 def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:
