@@ -87,8 +87,8 @@ def test_feedforward_alone_tracks_a_slow_trapezoid_on_the_reduced_model(paper):
     The reduced model's flow is Eq. (12) for the single-rod cylinder, the feed-forward its
     inverse at the measured P_L, so the rod follows ṙ up to the chamber compliance (the flow
     that changes P_L), the zero-order hold (look-ahead T_s/2 here: the reduced model has no
-    valve lag) and the leakage. Bound: 0.2 mm during the move (measured 0.08 mm) and 0.2 mm
-    at the end, 0.2 % of the move.
+    valve lag) and the leakage. Bound: 0.2 mm during the move (measured 0.070 mm) and 0.2 mm
+    at the end (measured 0.0007 mm), 0.2 % of the move.
     """
     ff = dataclasses.replace(FlowFeedForward.from_params(paper), lead=2.5e-4, reference_state=False)
     ctrl = PIController(
@@ -283,7 +283,7 @@ def test_verification_detects_the_heavy_axis_limit_cycle_and_passes_the_new_desi
 
     Exact sensors, one draw, one step and hold at +5 kN. The old design's hold: measured
     4-8 mm peak to peak with four or more crossings of its mean (a limit cycle); the
-    valve-aware one: below the 0.1 mm criterion (measured 0.03 mm).
+    valve-aware one: below the 0.1 mm criterion (measured 9.1 mm and 0.048 mm).
     """
     pwa = linearize(heavy)
     task = [_hold_task(heavy)]

@@ -1,4 +1,10 @@
-"""Controller files (TOML or JSON, schema ``hydropwa.controller/1``) that a real-time target can read.
+"""Controller files (TOML or JSON, schema ``hydropwa.controller/2``) that a real-time target can read.
+
+Schema 2 is schema 1 (below) plus ``conventions``, ``area_ratio``, ``velocity_filter``,
+``[machine]``, ``[feedforward]``, ``[spool_model]``, per-cell ``k_nu``/``k_dnu``/``k_up`` and
+``[verification]``; its specification is docs/controller_target.md and its JSON Schema
+``schemas/controller-2.schema.json`` (:func:`controller_schema`). Schema-1 files are read as
+they were.
 
 Every dimensioned value is written as a string with its unit in the units a
 hydraulics engineer reads (``"0.5 ms"``, ``"-54.17 bar"``, ``"0.2226 1/mm"``); the
