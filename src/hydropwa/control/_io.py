@@ -39,6 +39,7 @@ import json
 import math
 import os
 import tomllib
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -339,8 +340,6 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
 
 def controller_schema() -> dict[str, Any]:
     """The JSON Schema (draft 2020-12) of ``hydropwa.controller/2`` files, shipped in the package."""
-    from importlib.resources import files
-
     text = files("hydropwa.control").joinpath("schemas/controller-2.schema.json").read_text("utf-8")
     return json.loads(text)
 

@@ -13,8 +13,12 @@ limit cycles; :class:`Verification` holds the numbers and the verdict against
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import math
+import os
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -22,6 +26,7 @@ import numpy as np
 
 from ..simulation import simulate_batch
 from ._controllers import ControlError
+from ._design import DEFAULT_WEIGHTS, design_pi, design_state_feedback
 from ._reference import MotionProfile, StepSequence
 
 __all__ = [
@@ -420,8 +425,6 @@ def verify_controller(
 
 
 def _run_threads(cases, jobs):
-    from concurrent.futures import ThreadPoolExecutor
-
     workers = max(1, min(jobs or 1, len(cases)))
     if workers == 1:
         return [_run_one(c) for c in cases]
@@ -431,9 +434,6 @@ def _run_threads(cases, jobs):
 
 def _run_dask(cases, scheduler: str, jobs):
     """Client.map over the runs (a LocalCluster for ``"local"``)."""
-    import contextlib
-    import os
-
     from dask.distributed import (  # deferred: dask.distributed costs ~1 s, only for a cluster
         Client,
         LocalCluster,
@@ -518,10 +518,6 @@ def design_controller(
         With ``verification`` set (None without ``verify``) and the verdict in the
         controller's ``verification`` dict (written into the controller file).
     """
-    import dataclasses
-
-    from ._design import DEFAULT_WEIGHTS, design_pi, design_state_feedback
-
     if method not in ("lqr", "place", "pi"):
         raise ControlError(f"method {method!r} must be lqr, place or pi")
 
