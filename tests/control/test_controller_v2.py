@@ -33,6 +33,7 @@ from hydropwa.control import (
     design_pi,
     design_state_feedback,
     load_controller,
+    position_observer_gains,
     save_controller,
     verify_controller,
 )
@@ -131,6 +132,27 @@ def test_spool_model_is_the_zoh_discretisation_of_the_valve(paper):
     np.testing.assert_allclose(fixed, [1.0, 0.0], atol=1e-9)
 
 
+def test_position_observer_is_the_kalman_filter_of_python_control():
+    """The observer's gains against ``control.dlqe`` on the same model and noise levels.
+
+    python-control's gain is the predictor's, x̂_{k+1} = A x̂_k + L_p (y_k − C x̂_k); the
+    measurement-update (filter) gain of the law is L = A⁻¹ L_p. Both from the same Riccati
+    solution, so they agree to rounding (1e-9).
+    """
+    ts, sx, sa = 5e-4, 20e-6, 1.0
+    L = np.array(position_observer_gains(ts, sx, sa))
+    A = np.array([[1.0, ts], [0.0, 1.0]])
+    G = np.array([[0.5 * ts * ts], [ts]])
+    Lp, _P, _E = control.dlqe(
+        A, G, np.array([[1.0, 0.0]]), np.array([[sa**2]]), np.array([[sx**2]])
+    )
+    np.testing.assert_allclose(np.linalg.solve(A, np.asarray(Lp).ravel()), L, rtol=1e-9)
+    assert 0 < L[0] < 1 and L[1] > 0
+    # more sensor noise: a slower observer (smaller gains)
+    L2 = position_observer_gains(ts, 10 * sx, sa)
+    assert L2[0] < L[0] and L2[1] < L[1]
+
+
 def test_valve_aware_design_is_stable_with_the_valve_on_the_heavy_axis(heavy):
     """Every cell of the heavy axis stable with the servo valve, the ZOH and one sample of delay.
 
@@ -195,6 +217,7 @@ def written(paper, paper_pwa, tmp_path_factory):
         "lqr": design_state_feedback(paper_pwa, delay=True).controller,
         "lqr_plain": design_state_feedback(paper_pwa, valve=False, feedforward=False).controller,
         "place": design_state_feedback(paper_pwa, method="place").controller,
+        "observer": design_state_feedback(paper_pwa, delay=True, position_noise=20e-6).controller,
         "verified": dataclasses.replace(
             design_state_feedback(paper_pwa, delay=True).controller,
             verification={

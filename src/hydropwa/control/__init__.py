@@ -20,6 +20,7 @@ from ._controllers import (
     PIController,
     SpoolModel,
     StateFeedbackController,
+    position_observer_gains,
 )
 from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
 from ._io import (
@@ -72,6 +73,7 @@ __all__ = [
     "verify_controller",
     "FlowFeedForward",
     "SpoolModel",
+    "position_observer_gains",
     "GainRow",
     "MotionProfile",
     "MoveSequence",

@@ -38,6 +38,7 @@ from ._controllers import (
     SpoolModel,
     StateFeedbackController,
     machine_of,
+    position_observer_gains,
 )
 
 __all__ = ["ControlDesign", "cell_plant", "design_pi", "design_state_feedback", "DEFAULT_WEIGHTS"]
@@ -309,6 +310,8 @@ def design_state_feedback(
     pressure_washout: float = 0.1,
     feedforward: bool = True,
     valve: bool | None = None,
+    position_noise: float | None = None,
+    acceleration_noise: float = 1.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -364,6 +367,17 @@ def design_state_feedback(
         estimated in the controller by the discrete valve model (:class:`SpoolModel`),
         and with the delay the pending command. ``method="lqr"`` only; False: the cell
         alone (schema 1).
+    position_noise : float, optional
+        Standard deviation [m] of the position sensor's noise: adds the position observer
+        (a steady-state Kalman filter of [x, ẋ] driven by the reference acceleration,
+        :func:`~hydropwa.control.position_observer_gains`) whose x̂, v̂ the law then uses.
+        Measured on the paper rig with 20 µm / 0.1 bar noise: trapezoid peak error 0.064 →
+        0.057 mm, hold 0.038 → 0.025 mm peak to peak; the observer is not part of the LQR
+        design, so a slower one (``acceleration_noise`` 0.3 m/s² on the heavy axis) can
+        destabilise the loop. Default None: no observer.
+    acceleration_noise : float
+        Standard deviation [m/s²] of the rod's acceleration about the reference's, the
+        observer's process noise (default 1 m/s²).
 
     Returns
     -------
@@ -525,6 +539,7 @@ def design_state_feedback(
         "supply_pressure": model.supply_pressure,
         "friction_slopes": friction_slopes,
         "valve": bool(valve),
+        "position_noise": None if position_noise is None else float(position_noise),
         "feedforward": bool(feedforward),
         "notes": notes,
         "pressure_washout": float(pressure_washout),
@@ -547,6 +562,9 @@ def design_state_feedback(
         load_pressure=_load_pressure_of(model),
         feedforward=_feedforward(model, ts, delay) if feedforward else None,
         spool_model=SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts) if valve else None,
+        position_observer=None
+        if position_noise is None
+        else position_observer_gains(ts, float(position_noise), float(acceleration_noise)),
         machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)

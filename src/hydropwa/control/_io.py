@@ -198,6 +198,11 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         ff = ctrl.feedforward.describe()
         d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
         d["feedforward"]["reference_state"] = bool(ff["reference_state"])
+    if ctrl.position_observer is not None:
+        d["position_observer"] = {
+            "gain_x": ctrl.position_observer[0],
+            "gain_v": _q(ctrl.position_observer[1], "1/s", 1.0),
+        }
     if ctrl.spool_model is not None:
         d["spool_model"] = {
             "phi": list(ctrl.spool_model.phi),
@@ -329,6 +334,12 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
         }
         kw["reference_state"] = bool(ff.get("reference_state", True))
         out["feedforward"] = FlowFeedForward(**kw)
+    po = d.get("position_observer")
+    if po is not None:
+        out["position_observer"] = (
+            _read(po["gain_x"], "", "position_observer.gain_x"),
+            _read(po["gain_v"], "1/s", "position_observer.gain_v"),
+        )
     sm = d.get("spool_model")
     if sm is not None:
         out["spool_model"] = SpoolModel(tuple(sm["phi"]), tuple(sm["gamma"]))

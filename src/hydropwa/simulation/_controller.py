@@ -51,6 +51,10 @@ gain row (see :data:`EXT_SLOTS`)::
                  [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_{k−1} (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
                  ν̂ = ν̂̇ = 0 at k = 0), c_{k−1} the saturated command before the
                  dead-zone inverse that the valve received at t_k
+    e0+X_KF      position observer on (1): steady-state Kalman filter of [x, v] with the
+                 reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈,
+                 v̂⁻ = v̂ + T_s r̈, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
+                 e0+X_KFX, e0+X_KFV; x̂ = x, v̂ = ṙ at k = 0); the law then uses x̂ and v̂
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
 
@@ -124,6 +128,9 @@ EXT_SLOTS = (
     "phi11",
     "gam0",
     "gam1",
+    "kf",
+    "kf_x",
+    "kf_v",
 )
 (
     X_FF,
@@ -146,6 +153,9 @@ EXT_SLOTS = (
     _X_PHI11,
     X_GAM,
     _X_GAM1,
+    X_KF,
+    X_KFX,
+    X_KFV,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -156,10 +166,10 @@ RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
 N_RCH = 6
 #: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
 #: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
-#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay)
+#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂
 S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
-S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND = range(7, 13)
-N_CST = 13
+S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF = range(7, 15)
+N_CST = 15
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
@@ -289,6 +299,20 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
         cst[S_PRBAR] = 0.0
         cst[S_NU] = 0.0
         cst[S_DNU] = 0.0
+    if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
+        if k == 0:
+            cst[S_XKF] = x
+            cst[S_VKF] = rch[RC_DR, k]
+        else:
+            acc = rch[RC_DDR, k - 1]
+            xp = cst[S_XKF] + ts * cst[S_VKF] + 0.5 * ts * ts * acc
+            vp = cst[S_VKF] + ts * acc
+            inn = x - xp
+            cst[S_XKF] = xp + ctl[e0 + X_KFX] * inn
+            cst[S_VKF] = vp + ctl[e0 + X_KFV] * inn
+        x = cst[S_XKF]
+        v = cst[S_VKF]
+        e = r - x
     if ext and ctl[e0 + X_VEST] > 0.0:  # velocity from the position samples
         av = ctl[e0 + X_VEST]
         cst[S_VHAT] = av * cst[S_VHAT] + (1.0 - av) * (x - cst[S_XPREV]) / ts
