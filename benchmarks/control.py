@@ -80,54 +80,9 @@ MACHINES = {
 NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 
 
-def textbook_pi(pwa, ts: float):
-    """PI + velocity feed-forward: crossover min(ω_h, ω0)/3, lowered to a 6 dB gain margin.
-
-    The plant is the PWA cell moving out at 50 mm/s (as ``design_pi``'s default point), with
-    the servo valve, ZOH at ``ts`` and one sample of delay; ω_h the hydraulic natural
-    frequency of the cell (|λ| of its [P_L, ẋ] block), K_v its velocity gain.
-    """
-    import control
-
-    from hydropwa.control import DeadZoneInverse, PIController, cell_plant
-    from hydropwa.control._design import _margins
-
-    prm = pwa.params
-    point = {"p_l": prm.load.force / prm.cylinder.area_a, "v": 0.05, "u": 0.3}
-    A, B, _dyn = cell_plant(pwa, point=point)
-    k_v = float(-(np.linalg.solve(A[:2, :2], B[:2, 0]))[1])
-    w_h = float(np.max(np.abs(np.linalg.eigvals(A[:2, :2]))))
-    w0, z0 = prm.valve.omega0, prm.valve.zeta
-    plant = control.series(
-        control.tf([w0**2], [1.0, 2 * z0 * w0, w0**2]),
-        control.ss(A, B, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1))),
-    )
-    pdz = control.series(control.tf([1.0], [1.0, 0.0], ts), control.sample_system(plant, ts, "zoh"))
-    w = np.geomspace(1e-1, 0.999 * np.pi / ts, 4000)
-    zz = np.exp(1j * w * ts)
-    P = np.asarray(pdz(zz), dtype=complex).ravel()
-    wc = min(w_h, w0) / 3.0
-    while True:
-        kp = wc / k_v
-        ki = kp * wc / 5.0
-        gm, _pm = _margins((kp + ki * ts * zz / (zz - 1.0)) * P)
-        if gm >= 6.0 or wc < 1.0:
-            break
-        wc *= 0.97
-    ctrl = PIController(
-        kp=kp,
-        ki=ki,
-        kff=1.0 / k_v,
-        sample_time=ts,
-        delay=True,
-        dead_zone_inverse=DeadZoneInverse.from_params(prm.dead_zone),
-    )
-    return ctrl, wc, w_h
-
-
 def compare() -> None:
     """The design against the textbook PI and ``--method pi`` on both machines (see the docstring)."""
-    from hydropwa.control import as_reference, design_pi, tracking_metrics
+    from hydropwa.control import as_reference, design_pi, design_textbook_pi, tracking_metrics
     from hydropwa.params import load_params
 
     print(
@@ -137,7 +92,8 @@ def compare() -> None:
     for name, (path, spec, x0, dur, force) in MACHINES.items():
         prm = get_preset("paper") if path is None else load_params(path)
         pwa = linearize(prm)
-        tb, wc, w_h = textbook_pi(pwa, 5e-4)
+        tbd = design_textbook_pi(pwa, sample_time=5e-4, delay=True)
+        tb, wc = tbd.controller, 2 * np.pi * float(tbd.table["crossover_hz"].iloc[0])
         ctrls = {
             "design (LQR/cell + feed-forward)": design_state_feedback(pwa, delay=True).controller,
             f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,

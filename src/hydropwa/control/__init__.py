@@ -22,7 +22,14 @@ from ._controllers import (
     StateFeedbackController,
     position_observer_gains,
 )
-from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
+from ._design import (
+    DEFAULT_WEIGHTS,
+    ControlDesign,
+    cell_plant,
+    design_pi,
+    design_state_feedback,
+    design_textbook_pi,
+)
 from ._io import (
     SCHEMA,
     SCHEMAS,
@@ -65,6 +72,7 @@ __all__ = [
     "VerificationCriteria",
     "VerificationTask",
     "design_controller",
+    "design_textbook_pi",
     "check_machine",
     "closed_loop_warnings",
     "draw_parameters",
