@@ -42,18 +42,21 @@ gain row (see :data:`EXT_SLOTS`)::
     e0+X_PS      supply pressure P_S [Pa] of the design;  e0+X_PT  tank pressure [Pa]
     e0+X_DPMIN   smallest drop used in the inversion [Pa]
     e0+X_REFST   reference state (1): the gains k_v, k_pl act on ẋ − ṙ and on
-                 (P_L − P̄_L) − (P_ref − P̄_ref), P_ref = (m r̈ + b ṙ)/A_A
+                 (P_L − P̄_L) − (P_ref − P̄_ref), P_ref = (m r̈ + b ṙ)/A_A (P̄_ref the
+                 washout's low-pass of P_ref, 0 at k = 0); with the spool model the row's
+                 k_nu and k_up act on ν̂ − c_flow and c_pend − c_flow (c_flow the flow term)
     e0+X_MASS    moving mass m [kg];  e0+X_BV  viscous slope b [N·s/m] of P_ref
     e0+X_LEAD    look-ahead τ [s] of ṙ_ff (applied where the reference is sampled)
     e0+X_VEST    velocity from position (a_v = exp(−T_s/T_v) > 0): v̂ = a_v v̂ + (1 − a_v)(x_k − x_{k−1})/T_s,
                  v̂ = 0 and x_{−1} = x_0 at k = 0; 0: the measured ẋ
     e0+X_SPOOL   spool-state feedback: 0 off, 2 estimated by the discrete valve model
-                 [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_{k−1} (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
-                 ν̂ = ν̂̇ = 0 at k = 0), c_{k−1} the saturated command before the
-                 dead-zone inverse that the valve received at t_k
+                 [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_apply (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
+                 ν̂ = ν̂̇ = 0 at k = 0), c_apply the saturated command before the
+                 dead-zone inverse that the valve holds from t_k on (with the delay the
+                 previous sample's, kept in cst[S_CPEND])
     e0+X_KF      position observer on (1): steady-state Kalman filter of [x, v] with the
-                 reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈,
-                 v̂⁻ = v̂ + T_s r̈, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
+                 reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈_{k−1},
+                 v̂⁻ = v̂ + T_s r̈_{k−1}, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
                  e0+X_KFX, e0+X_KFV; x̂ = x, v̂ = ṙ at k = 0); the law then uses x̂ and v̂
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
@@ -61,6 +64,11 @@ gain row (see :data:`EXT_SLOTS`)::
 Reference channels ``rch`` (shape (N_RCH, samples), one column per sample): ṙ(t_k) [m/s],
 ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], and the sensor noise added to the measured x [m],
 P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors).
+
+The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
+(with the noise), the position observer, the velocity filter, the Ṗ_L filter, the washout, the
+row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
+dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
