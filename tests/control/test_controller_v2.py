@@ -393,3 +393,26 @@ def test_cli_simulate_refuses_another_machines_controller(paper_pwa, heavy, tmp_
         ],
     )
     assert res.exit_code == 2 and "key one of x, p_a, p_b" in res.output
+
+
+def test_smoothed_steps_carry_the_filters_velocity_and_acceleration():
+    """``steps:...,smooth=τ``: r, ṙ, r̈ of the critically damped filter 1/(τs + 1)² per step.
+
+    Checked against central differences (h = 1 µs, relative 1e-6 of the peak) away from the
+    step instants, the peak velocity Δ/(eτ) at one τ after a step, and the final values.
+    """
+    from hydropwa.control import parse_reference
+
+    r = parse_reference("steps:0 s=50 mm,0.1 s=150 mm,0.5 s=100 mm,smooth=20 ms")
+    assert r.smoothing == 0.02
+    t = np.array([0.05, 0.11, 0.13, 0.2, 0.33, 0.51, 0.56, 0.7, 0.9])
+    h = 1e-6
+    np.testing.assert_allclose((r(t + h) - r(t - h)) / (2 * h), r.rate(t), atol=1e-6 * 1.84)
+    np.testing.assert_allclose(
+        (r.rate(t + h) - r.rate(t - h)) / (2 * h), r.acceleration(t), atol=1e-6 * 250
+    )
+    assert math.isclose(r.rate(0.12), 0.1 / (math.e * 0.02), rel_tol=1e-12)
+    assert math.isclose(r(5.0), 0.1, rel_tol=1e-12) and r.rate(5.0) < 1e-12
+    assert r(0.0) == 0.05 and r.rate(0.05) == 0.0 and r.acceleration(0.05) == 0.0
+    plain = parse_reference("steps:0 s=50 mm,0.1 s=150 mm")
+    assert plain.smoothing == 0.0 and plain(0.1) == 0.15 and plain.rate(0.1) == 0.0
