@@ -289,12 +289,18 @@ class SpoolModel:
         Φ row-major [1, s, 1/s, 1].
     gamma : tuple of 2 floats
         Γ [1, 1/s].
+    measured : bool
+        Feed back the valve's reported spool position (the full model's spool state)
+        instead of the estimate (the estimate still runs; models without a spool state
+        use it).
     """
 
     phi: tuple[float, ...]
     gamma: tuple[float, ...]
+    measured: bool = False
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "measured", bool(self.measured))
         phi = np.asarray(self.phi, dtype=float).ravel()
         gam = np.asarray(self.gamma, dtype=float).ravel()
         if (
@@ -469,7 +475,7 @@ class _Discrete:
             ext[C.X_KF] = 1.0
             ext[C.X_KFX], ext[C.X_KFV] = self.position_observer
         if self.spool_model is not None:
-            ext[C.X_SPOOL] = C.SPOOL_ESTIMATED
+            ext[C.X_SPOOL] = C.SPOOL_MEASURED if self.spool_model.measured else C.SPOOL_ESTIMATED
             ext[C.X_PHI : C.X_PHI + 4] = self.spool_model.phi
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
         return np.concatenate([v, ext, self._ext_rows().ravel()])
@@ -495,7 +501,11 @@ class _Discrete:
             else list(self.position_observer),
             "spool_model": None
             if self.spool_model is None
-            else {"phi": list(self.spool_model.phi), "gamma": list(self.spool_model.gamma)},
+            else {
+                "phi": list(self.spool_model.phi),
+                "gamma": list(self.spool_model.gamma),
+                "measured": self.spool_model.measured,
+            },
         }
 
 

@@ -21,6 +21,7 @@ stabilised, also with the servo valve's own dynamics (Eq. (1)) in the loop.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -319,6 +320,7 @@ def design_state_feedback(
     valve: bool | None = None,
     position_noise: float | None = None,
     acceleration_noise: float = 1.0,
+    spool: str = "estimated",
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -385,6 +387,10 @@ def design_state_feedback(
     acceleration_noise : float
         Standard deviation [m/s²] of the rod's acceleration about the reference's, the
         observer's process noise (default 1 m/s²).
+    spool : {"estimated", "measured"}
+        With ``valve``: feed back the spool estimate of the discrete valve model (default),
+        or the spool position the valve reports (the paper's valve class does; the full
+        model's spool state).
 
     Returns
     -------
@@ -420,6 +426,8 @@ def design_state_feedback(
                 "pole placement needs four continuous-time poles with negative real parts [1/s]"
             )
         zp = np.exp(np.array(poles) * ts)
+    if spool not in ("estimated", "measured"):
+        raise ControlError(f"spool {spool!r} must be 'estimated' or 'measured'")
     if valve is None:
         valve = method == "lqr"
     if valve and method != "lqr":
@@ -546,6 +554,7 @@ def design_state_feedback(
         "supply_pressure": model.supply_pressure,
         "friction_slopes": friction_slopes,
         "valve": bool(valve),
+        "spool": spool,
         "position_noise": None if position_noise is None else float(position_noise),
         "feedforward": bool(feedforward),
         "notes": notes,
@@ -568,7 +577,12 @@ def design_state_feedback(
         pressure_washout=float(pressure_washout),
         load_pressure=_load_pressure_of(model),
         feedforward=_feedforward(model, ts, delay) if feedforward else None,
-        spool_model=SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts) if valve else None,
+        spool_model=dataclasses.replace(
+            SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts),
+            measured=spool == "measured",
+        )
+        if valve
+        else None,
         position_observer=None
         if position_noise is None
         else position_observer_gains(ts, float(position_noise), float(acceleration_noise)),

@@ -208,6 +208,7 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             "phi": list(ctrl.spool_model.phi),
             "gamma": list(ctrl.spool_model.gamma),
             "input": "the saturated opening command c the valve holds over the sample",
+            "measured": ctrl.spool_model.measured,
         }
     if isinstance(ctrl, PIController):
         d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
@@ -342,7 +343,9 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
         )
     sm = d.get("spool_model")
     if sm is not None:
-        out["spool_model"] = SpoolModel(tuple(sm["phi"]), tuple(sm["gamma"]))
+        out["spool_model"] = SpoolModel(
+            tuple(sm["phi"]), tuple(sm["gamma"]), measured=bool(sm.get("measured", False))
+        )
     ver = d.get("verification")
     if ver:
         out["verification"] = dict(ver)

@@ -49,7 +49,10 @@ gain row (see :data:`EXT_SLOTS`)::
     e0+X_LEAD    look-ahead τ [s] of ṙ_ff (applied where the reference is sampled)
     e0+X_VEST    velocity from position (a_v = exp(−T_s/T_v) > 0): v̂ = a_v v̂ + (1 − a_v)(x_k − x_{k−1})/T_s,
                  v̂ = 0 and x_{−1} = x_0 at k = 0; 0: the measured ẋ
-    e0+X_SPOOL   spool-state feedback: 0 off, 2 estimated by the discrete valve model
+    e0+X_SPOOL   spool-state feedback: 0 off, 1 measured (the full model's spool state, mapped
+                 to the opening through the inverse of the dead-zone inverse,
+                 :func:`spool_opening`; the load-state models have none and use the
+                 estimate), 2 estimated by the discrete valve model
                  [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_apply (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
                  ν̂ = ν̂̇ = 0 at k = 0), c_apply the saturated command before the
                  dead-zone inverse that the valve holds from t_k on (with the delay the
@@ -92,6 +95,7 @@ from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
+_NU, _DNU = Y_FULL["spool"], Y_FULL["spool_rate"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 
 (
@@ -168,7 +172,7 @@ EXT_SLOTS = (
 N_EXT = len(EXT_SLOTS)
 XROW = 3
 XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
-SPOOL_OFF, SPOOL_ESTIMATED = 0, 2
+SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
 #: reference channels (rows of ``rch``)
 RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
 N_RCH = 6
@@ -217,6 +221,25 @@ def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
         area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
         return y[_X] + nx, y[_V], ((y[_PA] + npa) * a_a - (y[_PB] + npb) * a_b) / area
     return y[_LX] + nx, y[_LV], y[_LPL] + npa  # reduced, PWA (LOAD_STATES)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def spool_opening(nu, dnu, ctl):
+    """Opening-equivalent spool position [1] and rate [1/s] of a measured spool (ν, ν̇).
+
+    The inverse of :func:`dead_zone_inverse` with the controller's offset β_o and width
+    z_w: c = ν − β_o sign(ν) for |ν| ≥ z_w + β_o, c = ν z_w/(z_w + β_o) inside (0 with
+    z_w = 0); the rate scaled by the local slope. Without the inverse c = ν.
+    """
+    if ctl[C_DZINV] < 0.5:
+        return nu, dnu
+    off, w = ctl[C_DZOFF], ctl[C_DZW]
+    if abs(nu) >= w + off:
+        return (nu - off if nu > 0.0 else nu + off), dnu
+    if w <= 0.0:
+        return 0.0, 0.0
+    g = w / (w + off)
+    return nu * g, dnu * g
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -363,9 +386,12 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
                 xb = e0 + N_EXT + XROW * row
                 kup = ctl[xb + XR_KUP] if ctl[C_DELAY] > 0.5 else 0.0
                 c_ff += (ctl[xb + XR_KNU] + kup) * c_fl
-        if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback on the valve model's estimate
+        if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback: measured, or the valve model's estimate
             xb = e0 + N_EXT + XROW * row
-            c_ff -= ctl[xb + XR_KNU] * cst[S_NU] + ctl[xb + XR_KDNU] * cst[S_DNU]
+            nu, dnu = cst[S_NU], cst[S_DNU]
+            if ctl[e0 + X_SPOOL] < 1.5 and kind == 0:
+                nu, dnu = spool_opening(y[_NU], y[_DNU], ctl)
+            c_ff -= ctl[xb + XR_KNU] * nu + ctl[xb + XR_KDNU] * dnu
             if ctl[C_DELAY] > 0.5:
                 c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
         c_raw += c_ff
