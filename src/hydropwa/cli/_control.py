@@ -347,6 +347,12 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)
+    if ctrl.verification.get("verdict") == "fail":
+        print(
+            f"warning: {controller} failed its verification on the full model "
+            f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
+            file=sys.stderr,
+        )
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
         save_figure(
