@@ -175,9 +175,12 @@ def test_schema1_file_runs_as_in_the_previous_release(paper):
     """A ``hydropwa.controller/1`` file (written by the previous release) loads and runs unchanged.
 
     Its vector has no extension block, so the compiled law is the schema-1 law. The stored
-    trajectory is the previous release's run of this file (full model, trapezoid, 1.5 kN).
-    The law is the same operation for operation; the kernel, compiled anew for the
-    reference channels, differs in rounding only: measured |Δx| 1.8e-13 m, |Δu| 1.5e-9.
+    trajectory is the previous release's (f21de42) run of this file (full model, trapezoid,
+    1.5 kN) at rtol 1e-9, so that the integrator's own error, which moves with any change of
+    the solver (the full model's exact Jacobian changed its step sequence: 2e-8 m at the
+    default rtol), stays far below the tolerances. The law is the same operation for
+    operation: measured |Δx| 1.4e-11 m, |Δu| 2.3e-7 (a command difference of that size is the
+    integrator's 1e-11 m seen through the controller's gains).
     """
     ctrl = load_controller(DATA / "paper_lqr_schema1.toml")
     assert not ctrl.extended
@@ -192,12 +195,13 @@ def test_schema1_file_runs_as_in_the_previous_release(paper):
         reference=ref,
         initial_position=0.05,
         load_force=1500.0,
+        rtol=1e-9,
     )
     want_x = np.loadtxt(DATA / "paper_lqr_schema1_x.csv", delimiter=",")
     want_u = np.loadtxt(DATA / "paper_lqr_schema1_u.csv")
     np.testing.assert_array_equal(r.t, want_x[:, 0])
     np.testing.assert_allclose(r["x"], want_x[:, 1], rtol=0, atol=1e-10)
-    np.testing.assert_allclose(r.control["u"], want_u, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(r.control["u"], want_u, rtol=0, atol=2e-6)
     # written back it is a schema-2 file of the same vector (no extension block)
     d = controller_to_dict(ctrl)
     assert d["schema"] == SCHEMA and "feedforward" not in d and "spool_model" not in d
