@@ -360,12 +360,12 @@ def model(
         jobs=jobs,
         sliding=sliding,
     )
-    fit.save(out)
+    fit.save(out, overwrite=force)
     from hydropwa._io import (
         atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    atomic_write_text(summary, fit.summary_markdown())
+    atomic_write_text(summary, fit.summary_markdown(), overwrite=force)
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
         for r in fit.runs_[:6]:

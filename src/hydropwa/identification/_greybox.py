@@ -535,12 +535,16 @@ class GreyBoxFit:
             lines += ["", "Skipped: " + "; ".join(str(s) for s in self.skipped_)]
         return "\n".join(lines) + "\n"
 
-    def save(self, path: str | os.PathLike) -> os.PathLike:
-        """Write :attr:`params_` as a parameter TOML (atomically)."""
+    def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> os.PathLike:
+        """Write :attr:`params_` as a parameter TOML (atomically).
+
+        An existing file raises :class:`~hydropwa.OutputExistsError` unless ``overwrite``.
+        """
         return save_params(
             self.params_,
             path,
             header=f"grey-box fit ({self.model} model) of {', '.join(self.free)}",
+            overwrite=overwrite,
         )
 
 
