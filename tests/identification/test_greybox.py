@@ -20,12 +20,12 @@ from hydropwa._errors import IdentificationError
 from hydropwa.cli import app
 from hydropwa.data import Run, write_dataset
 from hydropwa.identification import Shooting, expand_free, fit_model
-from hydropwa.identification._greybox import (
+from hydropwa.identification.greybox.data import noise_level
+from hydropwa.identification.greybox.data import perturbed_run as _perturbed_run
+from hydropwa.identification.greybox.data import prepare_run as _prepare_run
+from hydropwa.identification.greybox.uncertainty import (
     _long_run_covariance,
-    _perturbed_run,
-    _prepare_run,
     autocorrelation_time,
-    noise_level,
 )
 from hydropwa.models import FullOrderModel, ReducedModel
 from hydropwa.params import get_preset, load_params, save_params
