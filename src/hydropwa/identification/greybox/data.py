@@ -112,6 +112,8 @@ class RunData:
     meas_sd: dict[str, float]
     #: per driving input (p_s, f_l): its noise level [SI] and the low-pass it went through
     input_noise: dict[str, tuple[float, Any]]
+    #: the smoothed measured velocity [m/s] (what the segment selection reads)
+    speed: np.ndarray | None = None
 
 
 def noise_level(y: np.ndarray) -> float:
@@ -214,11 +216,26 @@ def _arrays(
     return arrays, y
 
 
+def _departures(stop: np.ndarray, x: np.ndarray, stroke: float) -> np.ndarray:
+    """``stop`` with each departure from an end stop given back from where the rod is 50 µm
+    (or ten noise levels) away from it: leaving a stop has no contact transient, and the
+    first millimetre is where the rod breaks away through the Stribeck peak."""
+    near = max(5e-5, 10.0 * noise_level(x))
+    small = (x < near) | (x > stroke - near)
+    out = stop.copy()
+    for s, e in _mask_runs(stop):
+        inside = np.flatnonzero(small[s:e])
+        if e < stop.size and inside.size:
+            out[s + int(inside[-1]) + 1 : e] = False
+    return out
+
+
 def _validity(
-    arrays: dict[str, np.ndarray], stroke: float, dt: float
+    arrays: dict[str, np.ndarray], stroke: float, dt: float, departures: bool = False
 ) -> tuple[np.ndarray, list[tuple[float, float, str]]]:
     """Samples left out (converter limits and end-stop contact, widened by 10 ms: their
-    transients) and the excluded stretches [s] with their reasons."""
+    transients) and the excluded stretches [s] with their reasons (``departures``: the rod
+    leaving an end stop is kept from 50 µm away, see :func:`_departures`)."""
     t = arrays["t"]
     margin = max(5e-4, 1e-3 * stroke)
     excluded: list[tuple[float, float, str]] = []
@@ -236,6 +253,8 @@ def _validity(
     stop = (x < margin) | (x > stroke - margin)
     if stop.any():
         stop = _dilate(stop, widen)
+        if departures:
+            stop = _departures(stop, x, stroke)
         for s, e in _mask_runs(stop & ~bad_mask):
             excluded.append((float(t[s]), float(t[e - 1]), "rod at an end stop"))
         bad_mask |= stop
@@ -405,12 +424,14 @@ def prepare_run(
     skipped: list[SkippedRun],
     input_cutoff: float | None = 50.0,
     sliding_above: float | None = None,
+    departures: bool = False,
 ) -> RunData | None:
     """A run's data for the fit: fitted channels, noise levels, valid stretches, segments.
 
     ``sliding_above`` [m/s]: instead of the shooting's segments, single-shooting segments
     over the stretches where the smoothed measured speed exceeds it (each started from
-    the measured state there; see the sliding stage of :func:`fit_model`).
+    the measured state there; see the sliding stage of :func:`fit_model`). ``departures``:
+    keep the rod's departures from an end stop (see :func:`_departures`).
     """
     got = _arrays(run, channels, skipped)
     if got is None:
@@ -419,7 +440,7 @@ def prepare_run(
     t = arrays["t"]
     dt = float(np.median(np.diff(t)))
     sigma = {c: noise_level(v) for c, v in y.items()}
-    bad_mask, excluded = _validity(arrays, mdl.params.cylinder.stroke, dt)
+    bad_mask, excluded = _validity(arrays, mdl.params.cylinder.stroke, dt, departures)
     method, reason = _method(oscillation_ratio(arrays, bad_mask, dt), shooting, sliding_above)
     states = _MeasuredStates.from_run(mdl, t, arrays, shooting.velocity_window)
     segments = _segments(
@@ -449,6 +470,7 @@ def prepare_run(
         states.make_state,
         _measurement_sd(arrays, shooting.velocity_window, dt),
         input_noise,
+        states.v_est,
     )
 
 

@@ -24,6 +24,7 @@ from .problem import GreyBoxProblem, expand_free
 from .profile import profile as _profile
 from .report import fitted_params, identifiability, run_fits
 from .result import FitStatus, GreyBoxFit, Profile
+from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
 from .uncertainty import Covariance, covariance, kappa, remaining_step
@@ -64,6 +65,7 @@ class FitOptions:
     nuisance_draws: int = 32
     scan_intervals: bool = True
     sliding: bool = True
+    selection: Selection | None = None
 
     def __post_init__(self) -> None:
         if self.loss not in LOSSES:
@@ -123,6 +125,22 @@ class FitData:
     sigma: dict[str, float]
     skipped: list[SkippedRun]
     notes: list[str] = dataclasses.field(default_factory=list)
+    #: per run, the spans [s] a campaign selection kept (None: all data)
+    selected: dict[str, list[tuple[float, float]]] | None = None
+    #: whether the runs keep their departures from the end stops (a selection for friction)
+    departures: bool = False
+
+    def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
+        """Other preparations of the runs (windows, sliding stretches) cut to the selection."""
+        out = []
+        for _r, rd in pairs:
+            if rd is None:
+                continue
+            if self.selected is not None:
+                rd = restrict(rd, self.selected.get(rd.name, []))
+            if rd.segments:
+                out.append(rd)
+        return out
 
     @property
     def prepared(self) -> list[RunData]:
@@ -203,7 +221,48 @@ def prepare_data(
     prepared = [rd for _r, rd in pairs]
     used = tuple(c for c in chans if any(c in rd.y for rd in prepared))
     sigma = {c: float(np.median([rd.sigma[c] for rd in prepared if c in rd.y])) for c in used}
-    return FitData(base_model, work_model, names, pairs, used, sigma, skipped)
+    data = FitData(base_model, work_model, names, pairs, used, sigma, skipped)
+    selection = opts.selection or Selection()
+    seconds = sum(float(rd.t[s.i1 - 1] - rd.t[s.i0]) for rd in prepared for s in rd.segments)
+    if selection.applies(seconds):
+        _select(data, selection, opts)
+    return data
+
+
+def _v_move(params: Any) -> float:
+    """The speed [m/s] above which the rod counts as moving: a fifth of the Stribeck velocity
+    (the falling branch starts well below it), at least 1 mm/s."""
+    return max(1e-3, 0.2 * float(params.friction.stribeck_velocity))
+
+
+def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
+    """Replace the prepared runs by their segments that excite the free parameters.
+
+    Each run is prepared again with every window (no ``max_windows``) and with its
+    departures from the end stops kept where the rod's motion events matter (friction
+    free: the breakaway), each in the shooting the fit chose for it; :class:`Selection` then
+    picks the segments.
+    """
+    shooting = opts.shooting or Shooting()
+    departures = "motion" in selection.wanted(data.names)
+    again = []
+    for r, rd in data.pairs:
+        sh = dataclasses.replace(shooting, method=rd.method, max_windows=None)
+        if rd.method == "single":
+            sh = dataclasses.replace(sh, segment=max(selection.segment, sh.window))
+        full = prepare_run(
+            r, data.work_model, data.channels, sh, [], opts.input_cutoff, departures=departures
+        )
+        if full is not None:
+            full.reason = rd.reason
+            again.append((r, full))
+    picked, note = selection.select(
+        [rd for _r, rd in again], data.names, _v_move(data.work_model.params)
+    )
+    data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
+    data.notes.append(note)
+    data.selected = {rd.name: spans(rd) for _r, rd in data.pairs}
+    data.departures = departures
 
 
 def _plan(
@@ -241,16 +300,15 @@ def _plan(
         and any(rd.method == "single" for rd in prepared)
     ):
         windowed = dataclasses.replace(shooting, method="multiple")
-        located = [
-            rd
-            for r, _rd in data.pairs
-            if (
-                rd := prepare_run(
-                    r, data.work_model, data.channels, windowed, [], opts.input_cutoff
-                )
-            )
-            is not None
-        ]
+        if data.selected is not None:  # every window, then those of the selected spans
+            windowed = dataclasses.replace(windowed, max_windows=None)
+        located = data.restricted(
+            [
+                (r, prepare_run(r, data.work_model, data.channels, windowed, [], opts.input_cutoff,
+                                departures=data.departures))
+                for r, _rd in data.pairs
+            ]
+        )  # fmt: skip
         locate = objective(located) if located else None
     coarse = None
     n_seg = sum(len(rd.segments) for rd in prepared)
@@ -410,6 +468,15 @@ def _apply_sliding(est: _Estimate, got: Sliding) -> None:
     est.unconverged = [n for n in names if n in unconverged]
 
 
+def _sliding_shooting(data: FitData, opts: FitOptions) -> Shooting:
+    """The sliding stretches' shooting: a selected campaign's shorter segments."""
+    shooting = opts.shooting or Shooting()
+    if data.selected is None:
+        return shooting
+    sel = opts.selection or Selection()
+    return dataclasses.replace(shooting, segment=max(sel.segment, shooting.window))
+
+
 def _sliding(
     est: _Estimate, plan: StagePlan, data: FitData, opts: FitOptions
 ) -> Sliding | dict[str, Any] | None:
@@ -423,8 +490,9 @@ def _sliding(
             plan.full.params_at(est.values),
             sum(n not in BREAKAWAY for n in names),
             data.channels,
-            opts.shooting or Shooting(),
+            _sliding_shooting(data, opts),
             opts.input_cutoff,
+            keep=data.selected,
         )
     if opts.scan_intervals:
         # parameters the sliding stage refits are scanned there, on its own cost

@@ -15,6 +15,7 @@ from .objective import OutputErrorObjective
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem
 from .result import StageResult
+from .selection import restrict
 from .uncertainty import covariance, join_held, kappa, remaining_step
 
 __all__ = ["BREAKAWAY", "Sliding", "SlidingSettings", "sliding_runs", "sliding_stage"]
@@ -69,6 +70,7 @@ def sliding_runs(
     channels: tuple[str, ...],
     shooting: Shooting,
     input_cutoff: float | None,
+    keep: dict[str, list[tuple[float, float]]] | None = None,
 ) -> tuple[Any, float, list[RunData]] | dict[str, Any]:
     """The sliding stage's data: the model at the full fit's values, v_min = 2 v_s and each
     single-shot run's stretches above it; or a dict with the reason the stage does not apply
@@ -83,7 +85,9 @@ def sliding_runs(
         if rd.method != "single":
             continue
         sl = prepare_run(r, model, channels, shooting, [], input_cutoff, sliding_above=v_min)
-        if sl is None:
+        if sl is not None and keep is not None:  # a campaign's selection: its spans alone
+            sl = restrict(sl, keep.get(sl.name, []))
+        if sl is None or not sl.segments:
             continue
         covered = sum(s.i1 - s.i0 for s in rd.segments)
         low_share.append(1.0 - sum(s.i1 - s.i0 for s in sl.segments) / max(covered, 1))

@@ -206,7 +206,8 @@ def remaining_step(
     """The Gauss–Newton step −H⁻¹Jᵀr still left at a result (over the parameters ``keep``,
     the others zero: a parameter at its bound does not move)."""
     p = H.shape[0]
-    keep = np.ones(p, bool) if keep is None else keep
+    if keep is None:
+        return -np.linalg.pinv(H) @ (Jw.T @ rw)
     out = np.zeros(p)
     if keep.any():
         out[keep] = -np.linalg.pinv(H[np.ix_(keep, keep)]) @ (Jw[:, keep].T @ rw)

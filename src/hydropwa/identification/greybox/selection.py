@@ -1,0 +1,202 @@
+"""Which data of a campaign enter the grey-box fit: the segments that excite the free parameters.
+
+A campaign (dozens of runs, minutes of data) repeats itself: the steady part of a
+constant-input run says the same at every instant, while what separates the parameters is
+concentrated in short transients. :class:`Selection` keeps, per run, the segments around the
+events that excite the free parameters and a few steady ones, within a budget of segments over
+the campaign:
+
+* friction: the rod's motion events — leaving standstill or an end stop (breakaway through the
+  Stribeck peak), stopping, reversing (:data:`EXCITED_BY`);
+* valve dynamics (ω0, ζ): steps of the command;
+* bulk modulus, leakage, dead volumes: pressure transients, driven by command and load steps;
+* every other parameter: command steps and motion events.
+
+Kept segments count as measured (no weights): the cost and its covariance stay those of the
+data actually fitted, and the intervals widen honestly with the data left out.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..._errors import IdentificationError
+from .data import RunData, _mask_runs
+
+__all__ = ["EXCITED_BY", "Selection", "events", "restrict", "spans"]
+
+#: the events that excite each parameter group (by the component part of its name)
+EXCITED_BY: dict[str, tuple[str, ...]] = {
+    "friction": ("motion",),
+    "valve": ("command",),
+    "oil": ("command", "load"),
+    "cylinder": ("command", "load"),
+}
+_DEFAULT_EVENTS = ("command", "motion")
+
+
+@dataclasses.dataclass(frozen=True)
+class Selection:
+    """How segments are chosen from a campaign.
+
+    Attributes
+    ----------
+    method : {"auto", "all", "events"}
+        ``auto``: select when the prepared data hold more than ``budget`` seconds of
+        simulation (the nine 2 s sine runs of the benchmark, 18 s, are fitted whole);
+        ``events``: always select; ``all``: fit every segment.
+    budget : float
+        Seconds of simulated data over the campaign after the selection (each run keeps at
+        least ``min_per_run`` segments).
+    segment : float
+        Length [s] of the single-shooting segments of a selected campaign (a transient and a
+        steady stretch each fill one).
+    transient : float
+        Length [s] after an event whose segments count as exciting (the breakaway and the
+        pressure transient of the paper rig settle within 0.1 s).
+    steady_per_run : int
+        Segments kept per run outside the events, evenly spaced (the steady friction at
+        that run's speed).
+    min_per_run : int
+        Segments kept per run at least.
+    """
+
+    method: str = "auto"
+    budget: float = 30.0
+    segment: float = 0.1
+    transient: float = 0.1
+    steady_per_run: int = 2
+    min_per_run: int = 3
+
+    def __post_init__(self) -> None:
+        if self.method not in ("auto", "all", "events"):
+            raise IdentificationError(
+                f"Selection.method = {self.method!r}; choose auto, all or events"
+            )
+        for name in ("budget", "segment", "transient"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise IdentificationError(f"Selection.{name} = {v!r} s must be > 0")
+
+    def applies(self, seconds: float) -> bool:
+        """Whether a campaign whose prepared segments hold ``seconds`` of data is selected."""
+        return self.method == "events" or (self.method == "auto" and seconds > self.budget)
+
+    def wanted(self, names: Sequence[str]) -> tuple[str, ...]:
+        """The event kinds that excite the parameters ``names``."""
+        kinds: list[str] = []
+        for n in names:
+            for k in EXCITED_BY.get(n.split(".", 1)[0], _DEFAULT_EVENTS):
+                if k not in kinds:
+                    kinds.append(k)
+        return tuple(kinds)
+
+    def select(
+        self, runs: list[RunData], names: Sequence[str], v_move: float
+    ) -> tuple[list[RunData], str]:
+        """The runs with their selected segments, and a sentence saying what was kept."""
+        kinds = self.wanted(names)
+        seconds = sum(_duration(rd) for rd in runs)
+        n_seg = sum(len(rd.segments) for rd in runs)
+        per_segment = seconds / max(n_seg, 1)
+        per_run = max(self.min_per_run, int(self.budget / per_segment) // max(len(runs), 1))
+        out, n_event, n_steady, n_all = [], 0, 0, 0
+        for rd in runs:
+            ev = events(rd, kinds, v_move)
+            keep_e, keep_s = _pick(rd, ev, self.transient, self.steady_per_run, per_run)
+            n_event += len(keep_e)
+            n_steady += len(keep_s)
+            n_all += len(rd.segments)
+            chosen = sorted(keep_e + keep_s)
+            out.append(dataclasses.replace(rd, segments=[rd.segments[i] for i in chosen]))
+        what = ", ".join(_KIND_WORDS[k] for k in kinds)
+        kept = sum(_duration(rd) for rd in out)
+        note = (
+            f"Selected {kept:.3g} s of {seconds:.3g} s of data ({n_event + n_steady} of {n_all} "
+            f"segments of {len(runs)} runs, budget {self.budget:g} s): {n_event} "
+            f"within {1e3 * self.transient:.0f} ms after {what} (they excite "
+            f"{', '.join(names)}) and {n_steady} steady ones ({self.steady_per_run} per run at "
+            f"most, evenly spaced; the rest repeats them), at most {per_run} per run."
+        )
+        return out, note
+
+
+_KIND_WORDS = {
+    "motion": "the rod's motion events (leaving standstill or an end stop, stopping, reversing)",
+    "command": "command steps",
+    "load": "load-force steps",
+}
+
+
+def _steps(y: np.ndarray, t: np.ndarray, rel: float) -> list[float]:
+    """Times where ``y`` changes by more than ``rel`` of its range within 5 ms."""
+    span = float(np.ptp(y)) if y.size else 0.0
+    if span <= 0:
+        return []
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(0.005 / dt)))
+    jump = np.abs(y[k:] - y[:-k]) > rel * span
+    return [float(t[s]) for s, _e in _mask_runs(jump)]
+
+
+def events(rd: RunData, kinds: Sequence[str], v_move: float) -> list[float]:
+    """Times [s] of the run's events of ``kinds``: ``motion`` (|v| crossing ``v_move`` either
+    way, sign changes while moving), ``command`` (steps of u by 5 % of its range), ``load``
+    (steps of F_L by 5 % of its range)."""
+    t = rd.t
+    out: list[float] = []
+    if "motion" in kinds and rd.speed is not None:
+        moving = np.abs(rd.speed) > v_move
+        for s, e in _mask_runs(moving):
+            out.append(float(t[s]))
+            if e < t.size:
+                out.append(float(t[e - 1]))
+        sign = np.sign(rd.speed)
+        flips = np.flatnonzero((sign[1:] * sign[:-1] < 0) & moving[1:])
+        out += [float(t[i]) for i in flips]
+    if "command" in kinds:
+        out += _steps(rd.u, t, 0.05)
+    if "load" in kinds and rd.f_l is not None:
+        out += _steps(rd.f_l, t, 0.05)
+    return sorted(out)
+
+
+def _pick(
+    rd: RunData, ev: list[float], transient: float, n_steady: int, per_run: int
+) -> tuple[list[int], list[int]]:
+    """Indices of the segments after an event (earliest after each event first, at most
+    ``per_run`` − the steady ones) and of the steady ones (evenly spaced)."""
+    t0 = np.array([rd.t[s.i0] for s in rd.segments])
+    t1 = np.array([rd.t[s.i1 - 1] for s in rd.segments])
+    lag = np.full(t0.size, np.inf)
+    for te in ev:
+        hit = (t1 >= te) & (t0 <= te + transient)
+        lag = np.where(hit, np.minimum(lag, np.maximum(t0 - te, 0.0)), lag)
+    event_idx = [int(i) for i in np.argsort(lag, kind="stable") if np.isfinite(lag[i])]
+    rest = [i for i in range(t0.size) if not np.isfinite(lag[i])]
+    steady = min(n_steady, len(rest), per_run)
+    keep_e = event_idx[: max(per_run - steady, 0)]
+    # evenly spaced through the rest, away from its ends (the approach to an event)
+    pick = sorted({int((k + 0.5) * len(rest) / steady) for k in range(steady)})
+    keep_s = [rest[int(i)] for i in pick]
+    return keep_e, keep_s
+
+
+def _duration(rd: RunData) -> float:
+    """Simulated seconds of a prepared run's segments."""
+    return float(sum(rd.t[s.i1 - 1] - rd.t[s.i0] for s in rd.segments))
+
+
+def spans(rd: RunData) -> list[tuple[float, float]]:
+    """The time spans [s] of a run's segments."""
+    return [(float(rd.t[s.i0]), float(rd.t[s.i1 - 1])) for s in rd.segments]
+
+
+def restrict(rd: RunData, keep: list[tuple[float, float]]) -> RunData:
+    """``rd`` with the segments that overlap one of the spans ``keep`` [s]."""
+    segs = [s for s in rd.segments if any(rd.t[s.i0] <= b and rd.t[s.i1 - 1] >= a for a, b in keep)]
+    return dataclasses.replace(rd, segments=segs)
