@@ -10,6 +10,8 @@ The package is cut on the seams of pyPESTO and scipy's ``least_squares``:
 * :mod:`.stages` – locate, valley scan, coarse, full, restarts; multi-start;
 * :mod:`.sliding` – the sliding stage;
 * :mod:`.uncertainty`, :mod:`.intervals`, :mod:`.profile` – covariance, interval scan, profiles;
+* :mod:`.selection` – which segments of a campaign excite the free parameters;
+* :mod:`.validation` – the fitted model on held-out runs;
 * :mod:`.result`, :mod:`.report` – :class:`GreyBoxFit` and what it reports;
 * :mod:`.estimator` – :func:`fit_model`, the composition of the above.
 """
@@ -18,8 +20,10 @@ from .data import Shooting, noise_level
 from .estimator import FitOptions, fit_model
 from .problem import PARAMETER_GROUPS, GreyBoxProblem, expand_free
 from .result import FitStatus, GreyBoxFit, Identifiability, Profile, RunFit, StageResult
+from .selection import Selection
 from .stages import FitProgress
 from .uncertainty import autocorrelation_time
+from .validation import Validation
 
 __all__ = [
     "PARAMETER_GROUPS",
@@ -31,8 +35,10 @@ __all__ = [
     "Identifiability",
     "Profile",
     "RunFit",
+    "Selection",
     "Shooting",
     "StageResult",
+    "Validation",
     "autocorrelation_time",
     "expand_free",
     "fit_model",

@@ -28,6 +28,7 @@ from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
 from .uncertainty import Covariance, covariance, kappa, remaining_step
+from .validation import split_runs, validate
 
 __all__ = ["FitOptions", "fit_model"]
 
@@ -66,6 +67,7 @@ class FitOptions:
     scan_intervals: bool = True
     sliding: bool = True
     selection: Selection | None = None
+    validate: float = 0.0
 
     def __post_init__(self) -> None:
         if self.loss not in LOSSES:
@@ -129,6 +131,8 @@ class FitData:
     selected: dict[str, list[tuple[float, float]]] | None = None
     #: whether the runs keep their departures from the end stops (a selection for friction)
     departures: bool = False
+    #: runs held out of the fit for validation
+    held: list = dataclasses.field(default_factory=list)
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
         """Other preparations of the runs (windows, sliding stretches) cut to the selection."""
@@ -198,7 +202,7 @@ def prepare_data(
 ) -> FitData:
     """The runs prepared for the fit (segments, noise levels, shooting per run)."""
     shooting = opts.shooting or Shooting()
-    run_list = as_runs(runs)
+    run_list, held = split_runs(as_runs(runs), opts.validate)
     names = expand_free(free, base_model.params)
     skipped: list[SkippedRun] = []
     work_model = _work_model(base_model, run_list, names)
@@ -221,7 +225,7 @@ def prepare_data(
     prepared = [rd for _r, rd in pairs]
     used = tuple(c for c in chans if any(c in rd.y for rd in prepared))
     sigma = {c: float(np.median([rd.sigma[c] for rd in prepared if c in rd.y])) for c in used}
-    data = FitData(base_model, work_model, names, pairs, used, sigma, skipped)
+    data = FitData(base_model, work_model, names, pairs, used, sigma, skipped, held=held)
     selection = opts.selection or Selection()
     seconds = sum(float(rd.t[s.i1 - 1] - rd.t[s.i0]) for rd in prepared for s in rd.segments)
     if selection.applies(seconds):
@@ -718,6 +722,7 @@ def fit_model(
             stacklevel=2,
         )
     status = FitStatus.from_scipy(sol)
+    checked = _validate(data, est, opts, plan)
     plan.report("done", 0, 0, cost=float(sol.cost), nfev=int(sol.nfev))
     return GreyBoxFit(
         params_=fitted, free=names, estimates_=est.estimates, covariance_=est.cov,
@@ -732,8 +737,25 @@ def fit_model(
         ),
         skipped_=data.skipped, wall_time=time.perf_counter() - t0, level=opts.level,
         interval_scan_=est.scan, widened_=est.widened, sliding_=sliding_info, stages_=stages,
-        data_=data.notes,
+        data_=data.notes, validation_=checked,
     )  # fmt: skip
+
+
+def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) -> Any:
+    """The fitted model on the held-out runs (None when none was held out)."""
+    if not data.held:
+        return None
+    plan.report("validation", 0, 0)
+    got = validate(
+        data.held, data.work_model, est.values, est.problem.names, data.channels, data.sigma,
+        opts.rtol, opts.jobs, opts.input_cutoff,
+    )  # fmt: skip
+    if got is not None:
+        data.notes.append(
+            f"Held out for validation: {', '.join(got.runs)} ({100 * opts.validate:.0f} % "
+            "of the runs, evenly spread)."
+        )
+    return got
 
 
 def _warn_unconverged(est: _Estimate) -> None:

@@ -266,6 +266,9 @@ class GreyBoxFit:
     data_ : list of str
         Which data the fit used and why (the segment selection of a campaign, the shooting
         per experiment), one sentence each; the summary lists them.
+    validation_ : Validation or None
+        The fitted model on the runs held out of the fit (``validate``): the normalised fit
+        per run and channel [%] (None: no run held out).
     """
 
     params_: SystemParams
@@ -295,6 +298,7 @@ class GreyBoxFit:
     sliding_: dict[str, Any] = dataclasses.field(default_factory=dict)
     stages_: list[StageResult] = dataclasses.field(default_factory=list)
     data_: list[str] = dataclasses.field(default_factory=list)
+    validation_: Any = None
 
     def __repr__(self) -> str:
         vals = ", ".join(f"{n}={e.value:.4g}" for n, e in self.estimates_.items())
@@ -361,6 +365,19 @@ class GreyBoxFit:
             ]
         if self.data_:
             lines += ["", "Data used: " + " ".join(self.data_)]
+        if self.validation_ is not None:
+            val = self.validation_
+            chans = list(val.mean)
+            lines += [
+                "",
+                val.summary(),
+                "",
+                "| held-out run | " + " | ".join(f"fit {c} [%]" for c in chans) + " |",
+                "| --- |" + " --- |" * len(chans),
+            ]
+            for name, fits in val.runs.items():
+                cells = " | ".join(f"{fits.get(c, float('nan')):.2f}" for c in chans)
+                lines.append(f"| {name} | {cells} |")
         idf = self.identifiability_
         lines += ["", f"Condition number of JᵀJ: {idf.condition:.3g}."]
         if idf.correlated:

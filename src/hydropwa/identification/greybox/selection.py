@@ -46,12 +46,15 @@ class Selection:
     Attributes
     ----------
     method : {"auto", "all", "events"}
-        ``auto``: select when the prepared data hold more than ``budget`` seconds of
+        ``auto``: select when the prepared data hold more than ``threshold`` seconds of
         simulation (the nine 2 s sine runs of the benchmark, 18 s, are fitted whole);
         ``events``: always select; ``all``: fit every segment.
+    threshold : float
+        Seconds of prepared data above which ``auto`` selects.
     budget : float
-        Seconds of simulated data over the campaign after the selection (each run keeps at
-        least ``min_per_run`` segments).
+        Seconds of simulated data over the campaign after the selection. One evaluation of
+        the paper rig's model runs about 6 s of data per second of one core, and a fit of six
+        parameters takes some 300 evaluations: 6 s keep it within minutes on two cores.
     segment : float
         Length [s] of the single-shooting segments of a selected campaign (a transient and a
         steady stretch each fill one).
@@ -61,30 +64,31 @@ class Selection:
     steady_per_run : int
         Segments kept per run outside the events, evenly spaced (the steady friction at
         that run's speed).
-    min_per_run : int
-        Segments kept per run at least.
+    per_run : int
+        Segments kept per run at most (the events' first).
     """
 
     method: str = "auto"
-    budget: float = 30.0
+    threshold: float = 30.0
+    budget: float = 6.0
     segment: float = 0.1
     transient: float = 0.1
-    steady_per_run: int = 2
-    min_per_run: int = 3
+    steady_per_run: int = 1
+    per_run: int = 2
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "all", "events"):
             raise IdentificationError(
                 f"Selection.method = {self.method!r}; choose auto, all or events"
             )
-        for name in ("budget", "segment", "transient"):
+        for name in ("threshold", "budget", "segment", "transient"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise IdentificationError(f"Selection.{name} = {v!r} s must be > 0")
 
     def applies(self, seconds: float) -> bool:
         """Whether a campaign whose prepared segments hold ``seconds`` of data is selected."""
-        return self.method == "events" or (self.method == "auto" and seconds > self.budget)
+        return self.method == "events" or (self.method == "auto" and seconds > self.threshold)
 
     def wanted(self, names: Sequence[str]) -> tuple[str, ...]:
         """The event kinds that excite the parameters ``names``."""
@@ -98,16 +102,29 @@ class Selection:
     def select(
         self, runs: list[RunData], names: Sequence[str], v_move: float
     ) -> tuple[list[RunData], str]:
-        """The runs with their selected segments, and a sentence saying what was kept."""
+        """The runs with their selected segments, and a sentence saying what was kept.
+
+        Each run offers its segments after the events and ``steady_per_run`` steady ones,
+        at most ``per_run``; when that exceeds the budget, runs are kept evenly spaced over
+        the campaign's operating points (ordered by their median speed, signed): neighbouring
+        constant-input runs repeat each other.
+        """
         kinds = self.wanted(names)
         seconds = sum(_duration(rd) for rd in runs)
-        n_seg = sum(len(rd.segments) for rd in runs)
-        per_segment = seconds / max(n_seg, 1)
-        per_run = max(self.min_per_run, int(self.budget / per_segment) // max(len(runs), 1))
+        per_segment = seconds / max(sum(len(rd.segments) for rd in runs), 1)
+        n_keep = max(1, int(self.budget / (self.per_run * per_segment)))
+        order = sorted(range(len(runs)), key=lambda k: _median_speed(runs[k]))
+        if n_keep < len(runs):
+            idx = np.unique(np.round(np.linspace(0, len(runs) - 1, n_keep)).astype(int))
+            order = [order[k] for k in idx]
+        kept_runs = set(order)
         out, n_event, n_steady, n_all = [], 0, 0, 0
-        for rd in runs:
+        for k, rd in enumerate(runs):
+            if k not in kept_runs:
+                out.append(dataclasses.replace(rd, segments=[]))
+                continue
             ev = events(rd, kinds, v_move)
-            keep_e, keep_s = _pick(rd, ev, self.transient, self.steady_per_run, per_run)
+            keep_e, keep_s = _pick(rd, ev, self.transient, self.steady_per_run, self.per_run)
             n_event += len(keep_e)
             n_steady += len(keep_s)
             n_all += len(rd.segments)
@@ -116,11 +133,12 @@ class Selection:
         what = ", ".join(_KIND_WORDS[k] for k in kinds)
         kept = sum(_duration(rd) for rd in out)
         note = (
-            f"Selected {kept:.3g} s of {seconds:.3g} s of data ({n_event + n_steady} of {n_all} "
-            f"segments of {len(runs)} runs, budget {self.budget:g} s): {n_event} "
-            f"within {1e3 * self.transient:.0f} ms after {what} (they excite "
-            f"{', '.join(names)}) and {n_steady} steady ones ({self.steady_per_run} per run at "
-            f"most, evenly spaced; the rest repeats them), at most {per_run} per run."
+            f"Selected {kept:.3g} s of {seconds:.3g} s of data (budget {self.budget:g} s): "
+            f"{len(kept_runs)} of {len(runs)} runs, evenly spaced over their speeds "
+            f"(neighbouring operating points repeat each other), and of those {n_event + n_steady}"
+            f" of {n_all} segments: {n_event} within {1e3 * self.transient:.0f} ms after {what} "
+            f"(they excite {', '.join(names)}) and {n_steady} steady ones "
+            f"({self.steady_per_run} per run, mid-run: the rest repeats them)."
         )
         return out, note
 
@@ -200,3 +218,10 @@ def restrict(rd: RunData, keep: list[tuple[float, float]]) -> RunData:
     """``rd`` with the segments that overlap one of the spans ``keep`` [s]."""
     segs = [s for s in rd.segments if any(rd.t[s.i0] <= b and rd.t[s.i1 - 1] >= a for a, b in keep)]
     return dataclasses.replace(rd, segments=segs)
+
+
+def _median_speed(rd: RunData) -> float:
+    """The run's median smoothed speed [m/s] (signed) over its segments."""
+    if rd.speed is None or not rd.segments:
+        return 0.0
+    return float(np.median(np.concatenate([rd.speed[s.i0 : s.i1] for s in rd.segments])))
