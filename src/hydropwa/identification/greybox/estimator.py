@@ -248,7 +248,7 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
     picks the segments.
     """
     shooting = opts.shooting or Shooting()
-    departures = "motion" in selection.wanted(data.names)
+    departures = selection.departures and "motion" in selection.wanted(data.names)
     again = []
     for r, rd in data.pairs:
         sh = dataclasses.replace(shooting, method=rd.method, max_windows=None)
