@@ -130,7 +130,7 @@ def test_selection_keeps_the_segments_after_the_events_within_the_budget(truth, 
     assert len(starts) == 9 and min(starts[6:]) >= 0.2 - 1e-9
     assert "command steps" in note and "2 of 4 runs" in note
     assert sel.wanted(("friction.static", "oil.bulk_modulus")) == ("motion", "command", "load")
-    assert not Selection().applies(18.0) and Selection().applies(31.0)
+    assert not Selection().applies(45.0) and Selection().applies(61.0)
     with pytest.raises(IdentificationError, match="budget"):
         Selection(budget=0.0)
 

@@ -327,7 +327,7 @@ def model(
         str,
         typer.Option(
             "--select",
-            help="Data of a campaign: auto (select above 30 s of data), events (always select "
+            help="Data of a campaign: auto (select above 60 s of data), events (always select "
             "the segments that excite the free parameters) or all.",
         ),
     ] = "auto",
@@ -364,7 +364,9 @@ def model(
         save_figure,
     )
 
-    from ._progress import fit_progress
+    from ._progress import (
+        fit_progress,  # deferred: loaded only when this command runs (a fast --help)
+    )
 
     check_output(out, force)
     summary = summary or out.with_suffix(".md")

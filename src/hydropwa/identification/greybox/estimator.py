@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
@@ -14,7 +15,14 @@ from scipy import stats
 
 from ..._errors import IdentificationError, ParameterError
 from ...models import as_model
-from .._common import IdentificationWarning, OptimizerStatus, SkippedRun, as_runs, experiment_of
+from .._common import (
+    IdentificationWarning,
+    OptimizerStatus,
+    ParameterEstimate,
+    SkippedRun,
+    as_runs,
+    experiment_of,
+)
 from .data import RunData, Shooting, prepare_run
 from .intervals import estimate, scan_widen
 from .jacobian import DIFFERENCES
@@ -380,8 +388,6 @@ class _Estimate:
 def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estimate:
     """Wald estimates at the best start's optimum: the sandwich covariance (central
     differences, loss weights, Newey–West per stream) plus the Gauss–Newton step still left."""
-    from .._common import ParameterEstimate
-
     prob, problem = plan.full, plan.problem
     theta = best.sol.x
     r = prob.fun(theta)
@@ -713,8 +719,6 @@ def fit_model(
     fitted = fitted_params(plan.full, est.values, data.base_model, est.estimates, info)
     fits = run_fits(plan.full, est.values, est.cv.taus)
     if plan.full.failures:
-        import warnings
-
         warnings.warn(
             f"{plan.full.failures} simulation(s) failed during the fit (held at their last "
             "value); check the bounds",
@@ -761,8 +765,6 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
 def _warn_unconverged(est: _Estimate) -> None:
     if not est.unconverged:
         return
-    import warnings
-
     names = est.problem.names
     warnings.warn(
         "the fit stopped before its optimum along "

@@ -47,7 +47,7 @@ class Selection:
     ----------
     method : {"auto", "all", "events"}
         ``auto``: select when the prepared data hold more than ``threshold`` seconds of
-        simulation (the nine 2 s sine runs of the benchmark, 18 s, are fitted whole);
+        simulation (the benchmark's nine 5 s sine runs, 45 s, are fitted whole);
         ``events``: always select; ``all``: fit every segment.
     threshold : float
         Seconds of prepared data above which ``auto`` selects.
@@ -74,7 +74,7 @@ class Selection:
     """
 
     method: str = "auto"
-    threshold: float = 30.0
+    threshold: float = 60.0
     budget: float = 6.0
     segment: float = 0.1
     transient: float = 0.1

@@ -11,7 +11,8 @@ import numpy as np
 from ...params import SystemParams
 from .data import RunData, Shooting, prepare_run
 from .intervals import scan_widen
-from .objective import OutputErrorObjective
+from .jacobian import FiniteDifferenceJacobian
+from .objective import OutputErrorObjective, loss_cost
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem
 from .result import StageResult
@@ -154,8 +155,6 @@ def sliding_stage(
     # forward differences: the walk from the full fit's values is short and smooth (no
     # stick events), and the covariance below takes central ones at the result
     # (benchmark seed 1: 44 against 76 simulations, F_c 20.962 against 20.956 N)
-    from .jacobian import FiniteDifferenceJacobian
-
     jac = FiniteDifferenceJacobian(prob, settings.fd_step, differences="forward")
     sol = dataclasses.replace(opt, ftol=1e-6, gtol=1e-8, verbose=0).solve(
         prob.fun, sub.clip(np.zeros(len(i_free))), jac, (tlo, thi)
@@ -221,8 +220,6 @@ def sliding_stage(
 
 
 def _cost(r: np.ndarray, opt: LeastSquares) -> float:
-    from .objective import loss_cost
-
     return loss_cost(r, opt.loss, opt.f_scale)
 
 

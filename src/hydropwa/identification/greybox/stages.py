@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -196,8 +197,6 @@ class StagePlan:
         """Send a progress event (``res``: the stage's scipy result at its end)."""
         if self.progress is None:
             return
-        import time
-
         if res is not None:
             kw.setdefault("cost", float(res.cost))
             kw.setdefault("nfev", int(res.nfev))
