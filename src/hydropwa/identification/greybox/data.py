@@ -397,7 +397,11 @@ def _segments(
 
 
 def _filtered_inputs(
-    arrays: dict[str, np.ndarray], dt: float, input_cutoff: float | None
+    arrays: dict[str, np.ndarray],
+    dt: float,
+    input_cutoff: float | None,
+    feedback: float = 0.0,
+    speed: np.ndarray | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, Any]]]:
     """Measured inputs carry sensor noise that the simulation would integrate (errors in
     variables: 5 N of force noise becomes a random walk of the rod); a zero-phase low-pass
@@ -407,6 +411,10 @@ def _filtered_inputs(
     for c in ("p_s", "f_l"):
         if c in arrays:
             v = arrays[c]
+            if c == "f_l" and feedback > 0 and speed is not None:
+                # the load's c·ẋ goes back into the model (load.damping = c), driven by the
+                # simulated velocity: as a measured input it would be an open loop
+                v = v - feedback * speed
             sos = None
             if input_cutoff and input_cutoff < 0.45 / dt and v.size > 30:
                 sos = butter(2, input_cutoff, fs=1.0 / dt, output="sos")
@@ -425,13 +433,16 @@ def prepare_run(
     input_cutoff: float | None = 50.0,
     sliding_above: float | None = None,
     departures: bool = False,
+    feedback: float = 0.0,
 ) -> RunData | None:
     """A run's data for the fit: fitted channels, noise levels, valid stretches, segments.
 
     ``sliding_above`` [m/s]: instead of the shooting's segments, single-shooting segments
     over the stretches where the smoothed measured speed exceeds it (each started from
     the measured state there; see the sliding stage of :func:`fit_model`). ``departures``:
-    keep the rod's departures from an end stop (see :func:`_departures`).
+    keep the rod's departures from an end stop (see :func:`_departures`). ``feedback``
+    [N·s/m]: the load's velocity-proportional part c·ẋ taken out of the measured F_L (the
+    model then applies it with ``load.damping = feedback``).
     """
     got = _arrays(run, channels, skipped)
     if got is None:
@@ -454,7 +465,7 @@ def prepare_run(
             4,
         )
         return None
-    inputs, input_noise = _filtered_inputs(arrays, dt, input_cutoff)
+    inputs, input_noise = _filtered_inputs(arrays, dt, input_cutoff, feedback, states.v_est)
     return RunData(
         run.name,
         t,

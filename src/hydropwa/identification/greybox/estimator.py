@@ -141,6 +141,8 @@ class FitData:
     departures: bool = False
     #: runs held out of the fit for validation
     held: list = dataclasses.field(default_factory=list)
+    #: the load's damping [N·s/m] estimated from the runs and put back into the model
+    feedback: float = 0.0
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
         """Other preparations of the runs (windows, sliding stretches) cut to the selection."""
@@ -247,6 +249,35 @@ def _v_move(params: Any) -> float:
     return max(1e-3, 0.2 * float(params.friction.stribeck_velocity))
 
 
+def load_feedback(prepared: list[RunData]) -> float:
+    """The load's velocity-proportional part c [N·s/m] from the runs' steady parts, or 0.
+
+    Per run the median measured F_L and smoothed speed over its prepared segments; per
+    direction of motion a line F_L = F_0 + c·v through them (one intercept each, the counter
+    force opposes the motion). Kept when at least three runs per direction cover a speed
+    range, c > 0, and the lines explain 90 % of the variance: a constant-counter-force
+    campaign against a damped counter cylinder (the virtual rig's: 1e4 N·s/m).
+    """
+    pts: dict[bool, list[tuple[float, float]]] = {True: [], False: []}
+    for rd in prepared:
+        if rd.f_l is None or rd.speed is None or not rd.segments:
+            continue
+        idx = np.concatenate([np.arange(s.i0, s.i1) for s in rd.segments])
+        v = float(np.median(rd.speed[idx]))
+        if v != 0.0:
+            pts[v > 0].append((v, float(np.median(rd.f_l[idx]))))
+    groups = [np.array(p) for p in pts.values() if len(p) >= 3]
+    if not groups:
+        return 0.0
+    vc = np.concatenate([g[:, 0] - g[:, 0].mean() for g in groups])
+    fc = np.concatenate([g[:, 1] - g[:, 1].mean() for g in groups])
+    if not float(vc @ vc) > 0:
+        return 0.0
+    c = float(vc @ fc) / float(vc @ vc)
+    r2 = 1.0 - float(np.sum((fc - c * vc) ** 2)) / max(float(fc @ fc), 1e-300)
+    return c if c > 0 and r2 >= 0.9 else 0.0
+
+
 def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
     """Replace the prepared runs by their segments that excite the free parameters.
 
@@ -257,14 +288,26 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
     """
     shooting = opts.shooting or Shooting()
     departures = selection.departures and "motion" in selection.wanted(data.names)
+    c = load_feedback(data.prepared) if selection.feedback else 0.0
+    if c > 0:
+        data.work_model = type(data.work_model)(
+            data.work_model.params.replace(**{"load.damping": c})
+        )
+        data.notes.append(
+            f"The measured load force rises with the speed by {c:.4g} N·s/m over the runs' "
+            "steady parts: that part is applied by the model (load.damping) from the simulated "
+            "velocity, the rest drives it (as a measured input it would be an open loop)."
+        )
+    data.feedback = c
     again = []
     for r, rd in data.pairs:
         sh = dataclasses.replace(shooting, method=rd.method, max_windows=None)
         if rd.method == "single":
             sh = dataclasses.replace(sh, segment=max(selection.segment, sh.window))
         full = prepare_run(
-            r, data.work_model, data.channels, sh, [], opts.input_cutoff, departures=departures
-        )
+            r, data.work_model, data.channels, sh, [], opts.input_cutoff,
+            departures=departures, feedback=c,
+        )  # fmt: skip
         if full is not None:
             full.reason = rd.reason
             again.append((r, full))
@@ -317,7 +360,7 @@ def _plan(
         located = data.restricted(
             [
                 (r, prepare_run(r, data.work_model, data.channels, windowed, [], opts.input_cutoff,
-                                departures=data.departures))
+                                departures=data.departures, feedback=data.feedback))
                 for r, _rd in data.pairs
             ]
         )  # fmt: skip
@@ -503,6 +546,7 @@ def _sliding(
             _sliding_shooting(data, opts),
             opts.input_cutoff,
             keep=data.selected,
+            feedback=data.feedback,
         )
     if opts.scan_intervals:
         # parameters the sliding stage refits are scanned there, on its own cost
@@ -696,12 +740,17 @@ def fit_model(
     sliding_info = got.info if isinstance(got, Sliding) else (got or {})
     _warn_unconverged(est)
     names = problem.names
+    undetermined = _undetermined(est)
     weak = [
         n
         for i, n in enumerate(names)
-        if n in est.at_bound or n in est.unconverged or est.z * est.sd[i] > math.log(1.5)
+        if n in est.at_bound
+        or n in est.unconverged
+        or n in undetermined
+        or est.z * est.sd[i] > math.log(1.5)
     ]
     ident = identifiability(names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged)
+    ident.undetermined = undetermined
     profiles = _profiles(opts, data, weak, est, plan, best, got)
     sol = best.sol
     info = {
@@ -752,7 +801,7 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
     plan.report("validation", 0, 0)
     got = validate(
         data.held, data.work_model, est.values, est.problem.names, data.channels, data.sigma,
-        opts.rtol, opts.jobs, opts.input_cutoff,
+        opts.rtol, opts.jobs, opts.input_cutoff, data.feedback,
     )  # fmt: skip
     if got is not None:
         data.notes.append(
@@ -760,6 +809,22 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
             "of the runs, evenly spread)."
         )
     return got
+
+
+def _undetermined(est: _Estimate) -> list[str]:
+    """Parameters the data do not determine: a Jacobian column of nothing (JᵀJ's diagonal
+    below 1e-10 of the largest) or no variance at all. Their estimate keeps its value with an
+    infinite standard error and its bounds as the interval, never a zero-width interval."""
+    d = np.diag(est.cv.H)
+    out = []
+    for i, n in enumerate(est.problem.names):
+        if not (d[i] > 1e-10 * d.max()) or not (est.sd[i] > 0):
+            e = est.estimates[n]
+            est.estimates[n] = dataclasses.replace(
+                e, std=math.inf, ci=(float(est.problem.lower[i]), float(est.problem.upper[i]))
+            )
+            out.append(n)
+    return out
 
 
 def _warn_unconverged(est: _Estimate) -> None:

@@ -183,6 +183,9 @@ class Identifiability:
         Jacobian at the result) would still move by more than one standard error: the
         optimiser stopped short (its step tolerance, in a narrow valley) and their
         intervals describe the local curvature, not the distance to the optimum.
+    undetermined : list of str
+        Parameters the data do not determine (the cost does not change with them): reported
+        with an infinite standard error and their bounds as the interval.
     """
 
     condition: float
@@ -191,6 +194,7 @@ class Identifiability:
     weak: list[str]
     advice: list[str]
     unconverged: list[str] = dataclasses.field(default_factory=list)
+    undetermined: list[str] = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass
@@ -388,6 +392,11 @@ class GreyBoxFit:
             )
         if idf.advice:
             lines += ["", "To separate them: " + "; ".join(idf.advice) + "."]
+        if idf.undetermined:
+            lines.append(
+                "Not determined by these data (the cost does not change with them; the "
+                "interval is the bounds): " + ", ".join(idf.undetermined) + "."
+            )
         sl = self.sliding_
         if sl.get("parameters"):
             lines.append(

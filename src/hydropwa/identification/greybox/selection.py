@@ -71,6 +71,9 @@ class Selection:
         free: the breakaway. Off by default: on the virtual rig's friction campaign the rod
         leaves the stop at 20–70 mm/s within 50 µm, and the smoothed initial velocity across
         that kink is biased (cost at the true parameters 1.6× that without them).
+    feedback : bool
+        Estimate the load's velocity-proportional force from the runs' steady parts and
+        apply it in the model from the simulated velocity (``load_feedback``).
     """
 
     method: str = "auto"
@@ -81,6 +84,7 @@ class Selection:
     steady_per_run: float = 0.1
     per_run: float = 0.2
     departures: bool = False
+    feedback: bool = True
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "all", "events"):

@@ -72,6 +72,7 @@ def sliding_runs(
     shooting: Shooting,
     input_cutoff: float | None,
     keep: dict[str, list[tuple[float, float]]] | None = None,
+    feedback: float = 0.0,
 ) -> tuple[Any, float, list[RunData]] | dict[str, Any]:
     """The sliding stage's data: the model at the full fit's values, v_min = 2 v_s and each
     single-shot run's stretches above it; or a dict with the reason the stage does not apply
@@ -85,7 +86,9 @@ def sliding_runs(
     for r, rd in pairs:
         if rd.method != "single":
             continue
-        sl = prepare_run(r, model, channels, shooting, [], input_cutoff, sliding_above=v_min)
+        sl = prepare_run(
+            r, model, channels, shooting, [], input_cutoff, sliding_above=v_min, feedback=feedback
+        )
         if sl is not None and keep is not None:  # a campaign's selection: its spans alone
             sl = restrict(sl, keep.get(sl.name, []))
         if sl is None or not sl.segments:

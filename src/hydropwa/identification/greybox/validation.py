@@ -88,11 +88,15 @@ def validate(
     rtol: float,
     jobs: int | None,
     input_cutoff: float | None,
+    feedback: float = 0.0,
 ) -> Validation | None:
-    """Simulate each held-out run with the parameters ``values`` of ``names``."""
+    """Simulate each held-out run with the parameters ``values`` of ``names`` (``feedback``:
+    the load damping the fit took out of the measured force, see ``prepare_run``)."""
     whole = Shooting(method="single", segment=None)
     prepared = [
-        rd for r in held if (rd := prepare_run(r, work_model, channels, whole, [], input_cutoff))
+        rd
+        for r in held
+        if (rd := prepare_run(r, work_model, channels, whole, [], input_cutoff, feedback=feedback))
     ]
     if not prepared:
         return None
