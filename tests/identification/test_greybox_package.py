@@ -174,3 +174,31 @@ def test_fit_reports_progress_stages_validation_and_saves_only_with_overwrite(tr
     with pytest.raises(OutputExistsError):
         fit.save(path)
     fit.save(path, overwrite=True)
+
+
+def test_cli_validates_on_held_out_runs_and_reports_progress(truth, tmp_path):
+    """``identify model --validate 0.5``: one of two runs held out, its fit % in the summary;
+    the progress lines (one per finished stage) go to stderr unless ``--quiet``."""
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+    from hydropwa.data import write_dataset
+    from hydropwa.params import save_params
+
+    m = FullOrderModel(truth)
+    runs = [
+        noisy_run(m, Sine(amplitude=a, frequency=2.0), 1.0, k, name=f"s{k}")
+        for k, a in enumerate((0.3, 0.5))
+    ]
+    write_dataset(runs, tmp_path / "data")
+    base = tmp_path / "base.toml"
+    save_params(truth.replace(**{"flow.K": 1.1 * truth.flow.K}), base)
+    args = ["identify", "model", str(tmp_path / "data"), "--free", "flow.K", "--jobs", "1"]
+    args += ["--params", str(base), "--validate", "0.5", "--out", str(tmp_path / "f.toml")]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    text = (tmp_path / "f.md").read_text()
+    assert "Validation on 1 held-out run(s)" in text and "| s1 |" in text
+    assert "grey-box fit: [" in res.output and "full: cost" in res.output
+    quiet = CliRunner().invoke(app, [*args[:-1], str(tmp_path / "g.toml"), "--quiet"])
+    assert quiet.exit_code == 0 and "grey-box fit: [" not in quiet.output

@@ -356,32 +356,7 @@ class GreyBoxFit:
             rms = ", ".join(f"{c} {_fmt_si(c, v)}" for c, v in r.rms.items())
             exc = "; ".join(f"{a:.3g}–{b:.3g} s {why}" for a, b, why in r.excluded[:3]) or "—"
             lines.append(f"| {r.name} | {r.method} | {len(r.segments)} | {exc} | {rms} |")
-        if self.stages_:
-            lines += [
-                "",
-                "Stages: "
-                + "; ".join(
-                    f"{st.name} {'converged' if st.success else 'NOT converged'} "
-                    f"({st.status.name}, {st.nfev} evaluations)"
-                    for st in self.stages_
-                )
-                + ".",
-            ]
-        if self.data_:
-            lines += ["", "Data used: " + " ".join(self.data_)]
-        if self.validation_ is not None:
-            val = self.validation_
-            chans = list(val.mean)
-            lines += [
-                "",
-                val.summary(),
-                "",
-                "| held-out run | " + " | ".join(f"fit {c} [%]" for c in chans) + " |",
-                "| --- |" + " --- |" * len(chans),
-            ]
-            for name, fits in val.runs.items():
-                cells = " | ".join(f"{fits.get(c, float('nan')):.2f}" for c in chans)
-                lines.append(f"| {name} | {cells} |")
+        lines += self._stages_data_validation()
         idf = self.identifiability_
         lines += ["", f"Condition number of JᵀJ: {idf.condition:.3g}."]
         if idf.correlated:
@@ -420,6 +395,37 @@ class GreyBoxFit:
         if self.skipped_:
             lines += ["", "Skipped: " + "; ".join(str(s) for s in self.skipped_)]
         return "\n".join(lines) + "\n"
+
+    def _stages_data_validation(self) -> list[str]:
+        """The summary's lines on the stages, the data used and the held-out validation."""
+        lines: list[str] = []
+        if self.stages_:
+            lines += [
+                "",
+                "Stages: "
+                + "; ".join(
+                    f"{st.name} {'converged' if st.success else 'NOT converged'} "
+                    f"({st.status.name}, {st.nfev} evaluations)"
+                    for st in self.stages_
+                )
+                + ".",
+            ]
+        if self.data_:
+            lines += ["", "Data used: " + " ".join(self.data_)]
+        if self.validation_ is not None:
+            val = self.validation_
+            chans = list(val.mean)
+            lines += [
+                "",
+                val.summary(),
+                "",
+                "| held-out run | " + " | ".join(f"fit {c} [%]" for c in chans) + " |",
+                "| --- |" + " --- |" * len(chans),
+            ]
+            for name, fits in val.runs.items():
+                cells = " | ".join(f"{fits.get(c, float('nan')):.2f}" for c in chans)
+                lines.append(f"| {name} | {cells} |")
+        return lines
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> os.PathLike:
         """Write :attr:`params_` as a parameter TOML (atomically).

@@ -163,32 +163,9 @@ def sliding_stage(
         prob.fun, sub.clip(np.zeros(len(i_free))), jac, (tlo, thi)
     )
     theta = sol.x
-    r = prob.fun(theta)
-    J = prob.jac(theta, settings.fd_step, central=True)
-    cv = covariance(prob, theta, r, J, opt.loss, opt.f_scale, settings.nuisance_draws, settings.rng)
-    # the Gauss–Newton step still left (a bias² term, as in the full fit)
-    left = remaining_step(cv.H, cv.Jw, cv.rw)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        left_sd = np.nan_to_num(np.abs(left) / np.sqrt(np.diag(cv.cov)))
-    c2 = cv.cov + np.outer(left, left)
-    s2 = float(cv.rw @ cv.rw) / max(r.size - theta.size, 1)
-    kap = kappa(c2, cv.Hinv)
-    sd = np.sqrt(np.clip(np.diag(c2), 0.0, None))
-    half_lo = half_hi = z * sd
-    scan: dict[int, tuple[float, float]] = {}
-    widened: list[int] = []
-    if scan_intervals:
-        c2, half_lo, half_hi, scan = scan_widen(
-            prob,
-            theta,
-            cv.Hinv,
-            c2,
-            z,
-            tlo,
-            thi,
-            lambda rr: _cost(rr, opt),
-        )
-        widened = [k for k in range(theta.size) if max(half_lo[k], half_hi[k]) > z * sd[k]]
+    cv, c2, left_sd, s2, kap, half_lo, half_hi, scan, widened = _uncertainty(
+        prob, theta, opt, settings, z, scan_intervals, (tlo, thi)
+    )
     G = _held_sensitivity(prob, theta, problem, values, i_held, runs, cv, settings)
     info = {
         "parameters": list(sub.names),
@@ -220,6 +197,40 @@ def sliding_stage(
         info,
         StageResult.from_scipy("sliding", sol),
     )
+
+
+def _uncertainty(
+    prob: OutputErrorObjective,
+    theta: np.ndarray,
+    opt: LeastSquares,
+    settings: SlidingSettings,
+    z: float,
+    scan_intervals: bool,
+    bounds: tuple[np.ndarray, np.ndarray],
+) -> tuple:
+    """The refit's covariance (central differences at its result, the remaining step added),
+    its naive scale, κ and the interval scan: (cv, cov, left_sd, s², κ, half_lo, half_hi,
+    scan, widened)."""
+    r = prob.fun(theta)
+    J = prob.jac(theta, settings.fd_step, central=True)
+    cv = covariance(prob, theta, r, J, opt.loss, opt.f_scale, settings.nuisance_draws, settings.rng)
+    # the Gauss–Newton step still left (a bias² term, as in the full fit)
+    left = remaining_step(cv.H, cv.Jw, cv.rw)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        left_sd = np.nan_to_num(np.abs(left) / np.sqrt(np.diag(cv.cov)))
+    c2 = cv.cov + np.outer(left, left)
+    s2 = float(cv.rw @ cv.rw) / max(r.size - theta.size, 1)
+    kap = kappa(c2, cv.Hinv)
+    sd = np.sqrt(np.clip(np.diag(c2), 0.0, None))
+    half_lo = half_hi = z * sd
+    scan: dict[int, tuple[float, float]] = {}
+    widened: list[int] = []
+    if scan_intervals:
+        c2, half_lo, half_hi, scan = scan_widen(
+            prob, theta, cv.Hinv, c2, z, *bounds, lambda rr: _cost(rr, opt)
+        )
+        widened = [k for k in range(theta.size) if max(half_lo[k], half_hi[k]) > z * sd[k]]
+    return cv, c2, left_sd, s2, kap, half_lo, half_hi, scan, widened
 
 
 def _cost(r: np.ndarray, opt: LeastSquares) -> float:
