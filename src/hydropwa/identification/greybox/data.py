@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -16,7 +17,7 @@ import numpy as np
 from scipy.signal import butter, savgol_coeffs, savgol_filter, sosfiltfilt
 
 from ..._errors import IdentificationError
-from .._common import SkippedRun, skip
+from .._common import IdentificationWarning, SkippedRun, skip
 
 __all__ = ["Shooting", "noise_level", "prepare_run", "perturbed_run"]
 
@@ -483,6 +484,15 @@ def prepare_run(
         input_noise,
         states.v_est,
     )
+
+
+def prepare_again(run: Any, *args: Any, **kwargs: Any) -> RunData | None:
+    """:func:`prepare_run` of a run the fit has prepared once already (other segments: the
+    locating windows, the sliding stretches, a selection, a validation): a run with none of
+    those is left out without a second warning (its first preparation warned)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentificationWarning)
+        return prepare_run(run, *args, **kwargs)
 
 
 def perturbed_run(rd: RunData, rng: np.random.Generator) -> RunData:

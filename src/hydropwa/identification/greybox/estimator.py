@@ -23,7 +23,7 @@ from .._common import (
     as_runs,
     experiment_of,
 )
-from .data import RunData, Shooting, prepare_run
+from .data import RunData, Shooting, prepare_again, prepare_run
 from .intervals import estimate, scan_widen
 from .jacobian import DIFFERENCES
 from .objective import LOSSES, OutputErrorObjective
@@ -304,7 +304,7 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
         sh = dataclasses.replace(shooting, method=rd.method, max_windows=None)
         if rd.method == "single":
             sh = dataclasses.replace(sh, segment=max(selection.segment, sh.window))
-        full = prepare_run(
+        full = prepare_again(
             r, data.work_model, data.channels, sh, [], opts.input_cutoff,
             departures=departures, feedback=c,
         )  # fmt: skip
@@ -359,7 +359,7 @@ def _plan(
             windowed = dataclasses.replace(windowed, max_windows=None)
         located = data.restricted(
             [
-                (r, prepare_run(r, data.work_model, data.channels, windowed, [], opts.input_cutoff,
+                (r, prepare_again(r, data.work_model, data.channels, windowed, [], opts.input_cutoff,
                                 departures=data.departures, feedback=data.feedback))
                 for r, _rd in data.pairs
             ]

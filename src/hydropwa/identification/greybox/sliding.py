@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ...params import SystemParams
-from .data import RunData, Shooting, prepare_run
+from .data import RunData, Shooting, prepare_again
 from .intervals import scan_widen
 from .jacobian import FiniteDifferenceJacobian
 from .objective import OutputErrorObjective, loss_cost
@@ -86,7 +86,7 @@ def sliding_runs(
     for r, rd in pairs:
         if rd.method != "single":
             continue
-        sl = prepare_run(
+        sl = prepare_again(
             r, model, channels, shooting, [], input_cutoff, sliding_above=v_min, feedback=feedback
         )
         if sl is not None and keep is not None:  # a campaign's selection: its spans alone
