@@ -7,13 +7,23 @@ and the Coulomb, static and viscous friction with one thread and with two. Print
 wall time of each, the speed-up, and the recovery table (not a timed test).
 
     python benchmarks/greybox.py [--jobs 1,2] [--seed 1]
+
+Campaign scale (issue 36): ``--campaign FOLDER`` fits the six Stribeck parameters to the
+virtual rig's friction campaign (92 constant-counter-force runs, about 244 s at 2 kHz) in
+FOLDER/friction, from 15–50 % off the truth in FOLDER/true_params.toml (made by
+``hydropwa rig run friction --out FOLDER`` when missing, about 2 minutes), with the
+campaign selection (``Selection``) and 10 % of the runs held out for validation; it prints
+the wall time and the machine's load beside the nine-run case's. ``--case sine``,
+``campaign`` or ``both`` picks what runs (default: sine, or both with ``--campaign``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 import warnings
+from pathlib import Path
 
 from hydropwa.identification import IdentificationWarning, fit_model
 from hydropwa.models import FullOrderModel
@@ -60,7 +70,73 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", default="1,2", help="thread counts to time, comma-separated")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--campaign", type=Path, default=None, help="friction campaign folder")
+    ap.add_argument("--case", choices=("sine", "campaign", "both"), default=None)
     args = ap.parse_args()
+    case = args.case or ("both" if args.campaign else "sine")
+    if case in ("sine", "both"):
+        sine_case(args)
+    if case in ("campaign", "both"):
+        campaign_case(args.campaign or Path("greybox_campaign"), int(args.jobs.split(",")[-1]))
+
+
+#: the campaign case's start: factors on the truth
+CAMPAIGN_START = {
+    "friction.coulomb": 1.3,
+    "friction.static": 0.6,
+    "friction.viscous": 1.15,
+    "friction.stribeck_velocity": 1.5,
+    "friction.shape": 1.2,
+    "friction.smoothness": 0.8,
+}
+
+
+def campaign_case(folder: Path, jobs: int) -> None:
+    """The friction campaign with ``--free friction``: wall time, load, recovery, validation."""
+    import subprocess
+    import sys
+
+    from hydropwa.identification import load_runs
+    from hydropwa.params import load_params
+
+    if not (folder / "friction").is_dir():
+        t0 = time.perf_counter()
+        cmd = [sys.executable, "-m", "hydropwa", "rig", "run", "friction", "--out", str(folder)]
+        subprocess.run([*cmd, "--quiet", "--jobs", str(jobs)], check=True)
+        print(f"virtual rig: friction campaign in {time.perf_counter() - t0:.1f} s")
+    truth = load_params(folder / "true_params.toml")
+    start = truth.replace(**{n: f * _get(truth, n) for n, f in CAMPAIGN_START.items()})
+    runs = load_runs(folder / "friction", params=start)
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentificationWarning)
+        fit = fit_model(
+            FullOrderModel(start), runs, "friction", jobs=jobs, validate=0.1,
+            progress=lambda ev: print(f"  {ev}", flush=True) if ev.event == "end" else None,
+        )  # fmt: skip
+    wall = time.perf_counter() - t0
+    print(
+        f"campaign: {len(runs)} runs, jobs={jobs}: {wall:.1f} s (load average "
+        f"{load0:.1f} → {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores), {fit.message}"
+    )
+    for note in fit.data_:
+        print("  " + note)
+    print("\n| parameter | true | start | fitted | error | 95 % interval | truth inside |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for n, e in fit.estimates_.items():
+        tv = _get(truth, n)
+        print(
+            f"| {n} | {tv:.4g} | {CAMPAIGN_START[n] * tv:.4g} | {e.value:.4g} | "
+            f"{100 * (e.value / tv - 1):+.1f} % | [{e.ci[0]:.4g}, {e.ci[1]:.4g}] | "
+            f"{'yes' if e.ci[0] <= tv <= e.ci[1] else 'no'} |"
+        )
+    if fit.validation_ is not None:
+        print("\n" + fit.validation_.summary())
+
+
+def sine_case(args: argparse.Namespace) -> None:
+    """The nine 5 s sine runs with six parameters free, timed per thread count."""
     truth = get_preset("paper").replace(**{"cylinder.leakage": 2e-12})
     t0 = time.perf_counter()
     runs = sine_runs(truth, args.seed)

@@ -20,12 +20,12 @@ from hydropwa._errors import IdentificationError
 from hydropwa.cli import app
 from hydropwa.data import Run, write_dataset
 from hydropwa.identification import Shooting, expand_free, fit_model
-from hydropwa.identification._greybox import (
+from hydropwa.identification.greybox.data import noise_level
+from hydropwa.identification.greybox.data import perturbed_run as _perturbed_run
+from hydropwa.identification.greybox.data import prepare_run as _prepare_run
+from hydropwa.identification.greybox.uncertainty import (
     _long_run_covariance,
-    _perturbed_run,
-    _prepare_run,
     autocorrelation_time,
-    noise_level,
 )
 from hydropwa.models import FullOrderModel, ReducedModel
 from hydropwa.params import get_preset, load_params, save_params
@@ -192,6 +192,17 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
     assert (tmp_path / "fitted.md").is_file()
     again = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out)])
     assert again.exit_code == 2 and "error:" in again.output
+    # --force overwrites both outputs (the fit's save and summary took no overwrite before)
+    out.write_text("# stale\n")
+    (tmp_path / "fitted.md").write_text("stale\n")
+    forced = cli.invoke(
+        app,
+        ["identify", "model", str(data), "--free", "flow.K", "--out", str(out), "--force"]
+        + ["--jobs", "1", "--params", str(base)],
+    )
+    assert forced.exit_code == 0, forced.output
+    assert load_params(out).flow.K == pytest.approx(truth.flow.K, rel=0.02)
+    assert "Grey-box fit" in (tmp_path / "fitted.md").read_text()
     bad = cli.invoke(
         app, ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
     )

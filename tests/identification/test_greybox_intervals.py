@@ -15,7 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hydropwa.identification._greybox import _interval_scan, _Problem
+from hydropwa.identification.greybox.intervals import interval_scan as _interval_scan
+from hydropwa.identification.greybox.objective import OutputErrorObjective as _Problem
 
 Z = 1.959963984540054  # 95 %
 

@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 from scipy import optimize
 
-from hydropwa.identification._greybox import _Problem, _restart_from_probes, _valley_scan
+from hydropwa.identification.greybox.objective import OutputErrorObjective as _Problem
+from hydropwa.identification.greybox.stages import restart_from_probes as _restart_from_probes
+from hydropwa.identification.greybox.stages import valley_scan as _valley_scan
 
 
 def _residual(theta: np.ndarray) -> np.ndarray:

@@ -14,7 +14,9 @@ import pytest
 from ident_support import noisy_run as _measured
 
 from hydropwa.identification import IdentificationWarning, Shooting, fit_model
-from hydropwa.identification._greybox import _join_held, _prepare_run, _smoothed_velocity
+from hydropwa.identification.greybox.data import _smoothed_velocity
+from hydropwa.identification.greybox.data import prepare_run as _prepare_run
+from hydropwa.identification.greybox.uncertainty import join_held as _join_held
 from hydropwa.models import FullOrderModel
 from hydropwa.simulation import Sine
 

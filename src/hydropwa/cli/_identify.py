@@ -323,6 +323,27 @@ def model(
             "stretches sliding faster than twice the Stribeck velocity (the sliding stage).",
         ),
     ] = True,
+    select: Annotated[
+        str,
+        typer.Option(
+            "--select",
+            help="Data of a campaign: auto (select above 60 s of data), events (always select "
+            "the segments that excite the free parameters) or all.",
+        ),
+    ] = "auto",
+    budget: Annotated[
+        float,
+        typer.Option("--budget", help="Seconds of data a selection keeps over the campaign."),
+    ] = 6.0,
+    validate: Annotated[
+        float,
+        typer.Option(
+            "--validate",
+            help="Share of the runs held out of the fit; the summary reports the fit % of "
+            "every channel on them (0: none).",
+        ),
+    ] = 0.0,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
     figures: Figures = None,
     summary: Summary = None,
     force: Force = False,
@@ -333,6 +354,9 @@ def model(
         fit_model,
         load_runs,
     )
+    from hydropwa.identification.greybox import (  # deferred: loaded only when this command runs (a fast --help)
+        Selection,
+    )
     from hydropwa.plotting import (  # deferred: loaded only when this command runs (a fast --help)
         plot_greybox_fit,
         plot_greybox_profiles,
@@ -340,32 +364,41 @@ def model(
         save_figure,
     )
 
+    from ._progress import (
+        fit_progress,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
     check_output(out, force)
     summary = summary or out.with_suffix(".md")
     check_output(summary, force)
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
+    selection = Selection(method=select, budget=budget)
     params = resolve_params(params_source(params_src, base_params))
     runs = load_runs(data_dir, params=params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
-    fit = fit_model(
-        model_kind,
-        runs,
-        free,
-        params=params,
-        channels=chans,
-        shooting=Shooting(method=shooting, window=window),
-        starts=starts,
-        loss=loss,
-        jobs=jobs,
-        sliding=sliding,
-    )
-    fit.save(out)
+    with fit_progress("grey-box fit", quiet) as progress:
+        fit = fit_model(
+            model_kind,
+            runs,
+            free,
+            params=params,
+            channels=chans,
+            shooting=Shooting(method=shooting, window=window),
+            starts=starts,
+            loss=loss,
+            jobs=jobs,
+            sliding=sliding,
+            selection=selection,
+            validate=validate,
+            progress=progress,
+        )
+    fit.save(out, overwrite=force)
     from hydropwa._io import (
         atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    atomic_write_text(summary, fit.summary_markdown())
+    atomic_write_text(summary, fit.summary_markdown(), overwrite=force)
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
         for r in fit.runs_[:6]:

@@ -7,11 +7,13 @@ of many small tasks (rig campaigns, sweeps, the paper study) use progress bars i
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
-__all__ = ["step"]
+__all__ = ["fit_progress", "step"]
 
 
 @contextmanager
@@ -28,3 +30,36 @@ def step(message: str) -> Iterator[None]:
     else:  # logs get the time on stdout; stderr stays for the one `error:` line of a failure
         yield
         print(f"{message}: {time.perf_counter() - t0:.1f} s", flush=True)
+
+
+@contextmanager
+def fit_progress(message: str, quiet: bool = False) -> Iterator[Any]:
+    """A progress callback for the grey-box fit's stages and starts (``FitProgress`` events).
+
+    On a terminal a spinner shows the running stage; every finished stage is one line on
+    stderr (``[elapsed] start k/n stage: cost … (evaluations)``), also in logs, so a long
+    campaign fit shows where it is and where the time went. ``quiet``: no output.
+    """
+    from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
+
+    console = Console(stderr=True)
+    if quiet:
+        yield None
+        return
+    if not console.is_terminal:
+
+        def to_log(ev: Any) -> None:
+            if ev.event == "end":
+                print(f"{message}: {ev}", file=sys.stderr, flush=True)
+
+        yield to_log
+        return
+    with console.status(f"{message} …") as status:
+
+        def show(ev: Any) -> None:
+            if ev.event == "begin":
+                status.update(f"{message}: {ev}")
+            else:
+                console.print(f"{message}: {ev}", highlight=False)
+
+        yield show

@@ -53,16 +53,6 @@ from ._friction import (
     friction_samples,
     steady_window,
 )
-from ._greybox import (
-    PARAMETER_GROUPS,
-    GreyBoxFit,
-    Identifiability,
-    Profile,
-    RunFit,
-    Shooting,
-    expand_free,
-    fit_model,
-)
 from ._inverse_dynamics import (
     EMPS_PUBLISHED,
     EmpsResult,
@@ -77,6 +67,20 @@ from ._pipeline import (
     default_estimators,
     identify,
     load_runs,
+)
+from .greybox import (
+    PARAMETER_GROUPS,
+    FitOptions,
+    FitProgress,
+    FitStatus,
+    GreyBoxFit,
+    Identifiability,
+    Profile,
+    RunFit,
+    Selection,
+    Shooting,
+    expand_free,
+    fit_model,
 )
 
 __all__ = [
@@ -127,6 +131,10 @@ __all__ = [
     "Profile",
     "RunFit",
     "Shooting",
+    "Selection",
+    "FitOptions",
+    "FitProgress",
+    "FitStatus",
     "expand_free",
     "fit_model",
     "OptimizerStatus",
