@@ -193,7 +193,9 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
     again = cli.invoke(app, ["identify", "model", str(data), "--free", "flow.K", "--out", str(out)])
     assert again.exit_code == 2 and "error:" in again.output
     bad = cli.invoke(
-        app, ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
+        app,
+        ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
+        + ["--params", str(base)],
     )
     assert (
         bad.exit_code == 2

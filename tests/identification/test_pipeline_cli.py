@@ -74,8 +74,15 @@ def test_all_skips_a_missing_part_loudly(tmp_path):
 def test_cli_identify_all_and_errors(tmp_path):
     root = _campaign(tmp_path / "data")
     runner = CliRunner()
+    # the datasets record no machine: no silent paper cylinder, one line saying how to give it
+    res = runner.invoke(app, ["all", str(root), "--out", str(tmp_path / "p.toml")])
+    assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+    assert "records no machine" in res.output and "--params" in res.output
+    assert not (tmp_path / "p.toml").exists()
     res = runner.invoke(
-        app, ["all", str(root), "--out", str(tmp_path / "p.toml"), "--figures", str(tmp_path / "f")]
+        app,
+        ["all", str(root), "--out", str(tmp_path / "p.toml"), "--figures", str(tmp_path / "f")]
+        + ["--params", "paper"],
     )
     assert res.exit_code == 0, res.output
     assert load_params(tmp_path / "p.toml").dead_zone.beta == pytest.approx(0.1, abs=0.005)
@@ -84,5 +91,7 @@ def test_cli_identify_all_and_errors(tmp_path):
     )
     assert res.exit_code == 2
     assert "error:" in res.output and "Traceback" not in res.output
-    res = runner.invoke(app, ["frf", str(root / "deadzone"), "--out", str(tmp_path / "q.toml")])
+    res = runner.invoke(
+        app, ["frf", str(root / "deadzone"), "--out", str(tmp_path / "q.toml"), "-p", "paper"]
+    )
     assert res.exit_code == 2 and "no runs of kind 'frf'" in res.output

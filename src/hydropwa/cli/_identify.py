@@ -16,7 +16,8 @@ from hydropwa._errors import IdentificationError, ParameterError
 from hydropwa._io import check_output
 
 from ._app import new_app
-from ._options import BaseParamsAlias, ParamsOption, params_source, resolve_params
+from ._options import BaseParamsAlias, params_source, resolve_params
+from ._options import MachineParamsOption as ParamsOption
 
 __all__ = ["app"]
 
@@ -89,6 +90,16 @@ def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
     return frf, dz
 
 
+def _machine(data_dir: Path, source: str | None):
+    """``--params`` checked against the data's machine, else the data's; none: exit 2."""
+    from hydropwa.identification import (
+        machine_for,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    given = None if source is None else resolve_params(source)
+    return machine_for(data_dir, given)
+
+
 def _run(
     parts: tuple[str, ...],
     data_dir: Path,
@@ -116,7 +127,7 @@ def _run(
     if figures is not None:
         check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
     frf_opts, dz_opts = _options(band, dead_zone_form)
-    params = resolve_params(base)
+    params = _machine(data_dir, base)
     from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step(f"identifying {', '.join(parts)} from {data_dir}"):
@@ -345,7 +356,7 @@ def model(
     check_output(summary, force)
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
-    params = resolve_params(params_source(params_src, base_params))
+    params = _machine(data_dir, params_source(params_src, base_params))
     runs = load_runs(data_dir, params=params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
     fit = fit_model(

@@ -36,6 +36,8 @@ from ..identification import (
     IdentificationWarning,
     fit_model,
     identify,
+    machine_for,
+    recorded_machine,
 )
 from ..linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
 from ..models import FullOrderModel
@@ -126,6 +128,15 @@ def _resolve(out, data, params, campaign) -> _Inputs:
         true_file = Path(data) / "true_params.toml" if data is not None else None
         if true_file is not None and true_file.is_file():
             prm, src = load_params(true_file), f"{true_file} (true parameters of the data)"
+        elif data is not None and Path(data).is_dir():
+            # measured data: their machine (a manifest's machine entry), never a preset
+            found = recorded_machine(data)
+            if found is None:
+                raise StudyError(
+                    f"{str(data)!r} records no machine (no true_params.toml, no 'machine' "
+                    "entry in its manifests); give the machine's parameters with --params FILE"
+                )
+            prm, src = found[0], f"{found[1]} (the data's machine)"
         else:
             prm, src = get_preset("paper"), "preset 'paper'"
     elif isinstance(params, str) and not Path(params).exists():
@@ -139,6 +150,7 @@ def _resolve(out, data, params, campaign) -> _Inputs:
                 f"data folder {str(d)!r} does not exist; give a folder with frf/, deadzone/, "
                 "friction/, sine/ datasets (the layout `hydropwa rig run all` writes)"
             )
+        machine_for(d, prm)  # the given parameters' geometry must be the data's machine
         if not (d / "sine" / "manifest.json").is_file():
             raise StudyError(
                 f"data folder {str(d)!r} has no sine/ dataset; the evaluation needs the sine runs"

@@ -70,6 +70,7 @@ from ._inverse_dynamics import (
     identify_emps,
     identify_inverse_dynamics,
 )
+from ._machine import MACHINE_FILE, check_same_machine, machine_for, recorded_machine
 from ._pipeline import (
     PARTS,
     Estimator,
@@ -80,6 +81,10 @@ from ._pipeline import (
 )
 
 __all__ = [
+    "MACHINE_FILE",
+    "check_same_machine",
+    "machine_for",
+    "recorded_machine",
     "ESTIMATOR_CHANNELS",
     "estimator_view",
     "sandwich_covariance",

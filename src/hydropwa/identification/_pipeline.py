@@ -30,6 +30,7 @@ from ._common import (
 from ._deadzone import DeadZoneIdentifier
 from ._frf import ValveFrfIdentifier
 from ._friction import StribeckIdentifier
+from ._machine import machine_for
 
 __all__ = [
     "IdentificationReport",
@@ -276,9 +277,11 @@ def identify(
         See :func:`load_runs`. Runs are routed by ``meta["experiment"]``/``meta["kind"]``.
     parts : iterable of str
         Any of ``"frf"``, ``"deadzone"``, ``"friction"``.
-    params : SystemParams
+    params : SystemParams, optional
         The rig: everything not identified, plus areas, stroke and mass the estimators read.
-        Required (there is no default rig); e.g. ``get_preset("paper")`` or ``load_params(...)``.
+        Default: the machine the data record (:func:`~hydropwa.identification.machine_for`:
+        a campaign's ``true_params.toml``, a manifest's ``machine`` entry); there is no
+        default rig. Given, its areas and stroke must be the recorded machine's.
     estimators : mapping of str to estimator, optional
         Estimator per part (with its settings), e.g.
         ``{"friction": StribeckIdentifier(params, method=InstantaneousBins())}``; a part not
@@ -291,7 +294,8 @@ def identify(
     Raises
     ------
     ParameterError
-        Without ``params``, or with an estimator given for a part it does not identify.
+        Without ``params`` on data that record no machine, with ``params`` of another
+        geometry than the data's machine, or with an estimator given for a part it does not identify.
     IdentificationError
         If a single part was asked for and cannot be identified, or none of several can.
         When several parts are asked for, a part without usable runs is skipped with an
@@ -303,11 +307,9 @@ def identify(
         raise IdentificationError(
             f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}"
         )
-    if params is None:
-        raise ParameterError(
-            "identify needs the rig's parameters (areas, stroke, mass and the values not "
-            "identified): pass params=get_preset('paper') or params=load_params('rig.toml')"
-        )
+    # the data's machine (a campaign's true_params.toml, a manifest's machine entry), or
+    # params checked against it; neither: one line saying how to give it (no default rig)
+    params = machine_for(data, params)
     chosen = {**default_estimators(params), **dict(estimators or {})}
     for key, est in chosen.items():
         if key not in PARTS or getattr(est, "part", None) != key:
@@ -361,6 +363,14 @@ def identify(
         done.append(part)
         setattr(report, est.field, est)  # report.valve / .dead_zone / .friction
         result = est.apply(result)
+        unid = getattr(getattr(est, "fit_", None), "unidentified", ())
+        if unid:
+            warnings.warn(
+                f"{part}: {', '.join(unid)} not identified by the data (at a bound of the fit "
+                "with a wide interval); the given value is kept, not the fit's",
+                IdentificationWarning,
+                stacklevel=2,
+            )
         uncertainty[est.field] = est.uncertainty()
         provenance[est.field] = est.provenance()
     if not done:
@@ -443,6 +453,13 @@ def _summary(rep: IdentificationReport) -> str:
             "|---|---|---|---|",
         ]
         for k, e in fit.estimates.items():
+            if k in fit.unidentified:
+                given = getattr(rep.params.friction, k)
+                lines.append(
+                    f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
+                    f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
+                )
+                continue
             lines.append(f"| {k} | {_fmt_est(e)} |")
         lines += [
             "",
@@ -452,6 +469,13 @@ def _summary(rep: IdentificationReport) -> str:
             lines.append(
                 f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
                 "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
+            )
+        if fit.unidentified:
+            lines.append(
+                f"Not identified (at a bound of the fit with a wide interval, or an interval "
+                f"covering the whole range; the given value is kept): "
+                f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
+                "machine's values with --params."
             )
         lines += [f"Note: {n}." for n in rep.friction.notes_]
         lines.append("")
