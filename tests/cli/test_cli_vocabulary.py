@@ -23,6 +23,7 @@ from hydropwa.cli import (
     _app,
     _control,
     _core,
+    _data,
     _identify,
     _linearize,
     _options,
@@ -42,6 +43,7 @@ _ARGS = {
     "paper": ["--out", "{tmp}/report"],
     "control design": ["--out", "{tmp}/ctrl.toml"],
     "control simulate": ["--controller", "{tmp}/c.toml", "--reference", "steps:0=0.1"],
+    "data convert": ["{tmp}/data", "{tmp}/copy"],
     "identify frf": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify deadzone": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify friction": ["{tmp}/data", "--out", "{tmp}/i.toml"],
@@ -49,7 +51,7 @@ _ARGS = {
     "identify model": ["{tmp}/data", "--free", "flow.K", "--out", "{tmp}/i.toml"],
 }
 
-_MODULES = (_control, _core, _identify, _linearize, _paper, _rig)
+_MODULES = (_control, _core, _data, _identify, _linearize, _paper, _rig)
 
 
 def _commands(cmd, path=()):

@@ -174,3 +174,19 @@ def test_an_undetermined_friction_value_is_not_written():
     bad = base.replace(**{"friction.coulomb": 90.0, "friction.static": 150.0})
     with pytest.raises(IdentificationError, match="not identified"):
         ident.apply(bad)
+
+
+def test_data_convert_records_the_machine(tmp_path, heavy, capsys):
+    """`data convert --params` writes the manifest's machine entry that identify then reads."""
+    raw = tmp_path / "raw"
+    Dataset.create(raw).write(_deadzone_runs()[:2], format="csv")
+    save_params(heavy, tmp_path / "axis.toml")
+    dst = tmp_path / "conv"
+    assert (
+        main(["data", "convert", str(raw), str(dst), "--params", str(tmp_path / "axis.toml")]) == 0
+    )
+    assert recorded_machine(dst)[0] == heavy
+    one = next(raw.glob("*.csv"))
+    code = main(["data", "convert", str(one), str(tmp_path / "one.csv"), "-p", "paper"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no manifest" in err and not (tmp_path / "one.csv").exists()
