@@ -302,6 +302,8 @@ def load_params(path: str | os.PathLike) -> SystemParams:
         raise ParameterError(f"{p}: not a text file; expected a TOML parameter file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{p}: invalid TOML ({exc})") from None
+    except RecursionError:  # tomllib recurses per nesting level ("a = [[[[...")
+        raise ParameterError(f"{p}: nested too deeply to be a parameter file") from None
     if "base" not in data:
         # a component class with OPTIONAL = True (e.g. an accessory that defaults to absent)
         # may be left out of a complete file
