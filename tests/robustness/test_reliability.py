@@ -455,7 +455,7 @@ def test_scheduler_addresses_fail_fast(address, expect):
     [
         (["rig", "run", "frf", "--out", "x", "--seed", "-1"], "--seed"),
         (["simulate", "--bogus"], "No such option: --bogus"),
-        (["simulate", "--fs", "abc"], "'--fs'"),
+        (["simulate", "--fs", "abc"], "--fs"),
         (["data", "check"], "Missing argument"),
         (["nosuch"], "No such command"),
         (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),

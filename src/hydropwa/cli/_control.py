@@ -216,11 +216,12 @@ def simulate_command(
         typer.Option("--pwa", help="PWA JSON document (model pwa; default: linearize the params)."),
     ] = None,
     duration: Annotated[
-        float | None,
+        str | None,
         typer.Option(
             "--duration",
             "-d",
-            help="Simulated time [s] (default: end of the move + 0.5 s, else 2 s).",
+            metavar="TIME",
+            help="Simulated time [s], e.g. '2 s' (default: end of the move + 0.5 s, else 2 s).",
         ),
     ] = None,
     x0: Annotated[
@@ -279,12 +280,14 @@ def simulate_command(
     ctrl = load_controller(controller)
     ref = as_reference(reference)
     if duration is None:
-        duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+        t_end = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+    else:
+        t_end = parse_quantity(duration, "s", "--duration")
     mdl = _pwa_model(prm, pwa) if model == "pwa" else model
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(
         mdl,
-        duration=duration,
+        duration=t_end,
         params=prm,
         controller=ctrl,
         reference=ref,
