@@ -70,6 +70,10 @@ def test_identify_without_params_uses_the_datas_machine(campaign, heavy, tmp_pat
     # the Python API agrees with the CLI: no params, the data's machine
     rep = identify(campaign, ("deadzone",))
     assert rep.params.cylinder == heavy.cylinder
+    # the report presents itself: what was identified, no object addresses
+    text = repr(rep)
+    assert " at 0x" not in text and "dead zone" in text and "β = 0.1" in text
+    assert "<table>" in rep._repr_html_() and " at 0x" not in rep._repr_html_()
 
 
 def test_params_of_another_geometry_is_an_error(campaign, tmp_path, capsys):

@@ -16,6 +16,9 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
+
+from .._display import html_table
 from .._errors import DataError, IdentificationError, ParameterError
 from .._io import atomic_write_text, check_output
 from ..params import SystemParams, save_params
@@ -164,6 +167,52 @@ class IdentificationReport:
     friction: StribeckIdentifier | None = None
     skipped: list[SkippedRun] = dataclasses.field(default_factory=list)
     source: str = ""
+
+    def _rows(self) -> list[tuple[str, str, str]]:
+        """(part, identified values, remark) per identified part, in engineering units."""
+        p, rows = self.params, []
+        if self.valve is not None:
+            rows.append(
+                (
+                    "valve",
+                    f"ω0 = {p.valve.omega0 / (2 * np.pi):.4g} Hz, ζ = {p.valve.zeta:.3g}",
+                    "",
+                )
+            )
+        if self.dead_zone is not None:
+            dz = p.dead_zone
+            rows.append(("dead zone", f"β = {dz.beta:.4g}, creep slope {dz.creep_slope:.3g}", ""))
+        if self.friction is not None:
+            fr = p.friction
+            fit = getattr(self.friction, "fit_", None)
+            unid = tuple(getattr(fit, "unidentified", ()))
+            rows.append(
+                (
+                    "friction",
+                    f"F_c = {fr.coulomb:.4g} N, F_s = {fr.static:.4g} N, "
+                    f"σ = {fr.viscous:.4g} N·s/m",
+                    f"not identified (given value kept): {', '.join(unid)}" if unid else "",
+                )
+            )
+        return rows
+
+    def __repr__(self) -> str:
+        lines = [f"IdentificationReport from {self.source!r}"]
+        lines += [
+            f"  {part:<10} {vals}" + (f"  [{rem}]" if rem else "")
+            for part, vals, rem in self._rows()
+        ]
+        if not self._rows():
+            lines.append("  nothing identified")
+        if self.skipped:
+            lines.append(f"  skipped    {len(self.skipped)} run(s) or part(s); see .skipped")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        note = f"{len(self.skipped)} run(s) or part(s) skipped" if self.skipped else ""
+        return html_table(
+            f"Identification from {self.source}", ("part", "values", "remark"), self._rows(), note
+        )
 
     def summary_markdown(self) -> str:
         """A short markdown summary: values, intervals, weak parameters, skipped runs."""
