@@ -377,11 +377,19 @@ def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:
                 None if true is None else true.dead_zone.creep_slope,
             )
         )
+    unidentified = set()
     if "friction" in fitted:
+        unidentified = {
+            f"friction.{k}" for k in getattr(fitted["friction"].fit_, "unidentified", ())
+        }
         for k, est in fitted["friction"].fit_.estimates.items():
             tv = None if true is None else getattr(true.friction, k, None)
             rows.append((f"friction.{k}", est.unit, est, tv))
-    return _estimates_rows(rows)
+    out = _estimates_rows(rows)
+    for row in out:  # the data do not determine it: no value, the base's is kept
+        if row["parameter"] in unidentified:
+            row["identified"], row["true_in_ci"] = np.nan, "not identified"
+    return out
 
 
 def _write_table(df, stem: Path, floatfmt: str = ".4g") -> list[Path]:
@@ -703,7 +711,9 @@ def _stage_evaluate(
     return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
 
 
-def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
+def _stage_control(
+    inp: _Inputs, runner: StageRunner, true, key: str, notes: list[str] | None = None
+) -> str:
     """Closed loop: an LQR designed on the identified PWA model, verified on the full model."""
     out = inp.out
 
@@ -721,7 +731,9 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
         )
         return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
 
-    runner.run("control", text_hash(inp.key(), key, "control"), work)
+    m = runner.run("control", text_hash(inp.key(), key, "control"), work)
+    if notes is not None:  # the design's warnings (cells unstable with the valve) are shown
+        notes.extend(m.get("notes", []))
     return runner.outputs_hash("control")
 
 
@@ -804,13 +816,18 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
     with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS):
         runner = StageRunner(inp.out, fresh or force, prog.stage_done)
         data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
+        by_stage: dict[str, list[str]] = {"inputs": list(notes)}
+        n0 = len(notes)
         ident, true, k1 = _stage_identify(inp, runner, data_root, data_key, notes)
+        by_stage["identify"], n0 = notes[n0:], len(notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
         _stage_greybox(inp, runner, ident, true, text_hash(k1, data_key), runs, notes)
+        by_stage["greybox"], n0 = notes[n0:], len(notes)
         metrics, k3 = _stage_evaluate(
             inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes
         )
+        by_stage["evaluate"], n0 = notes[n0:], len(notes)
         info = {
             "data": str(inp.data)
             if inp.data is not None
@@ -819,7 +836,9 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
             "supply_pressure": ps,
             "n_sine_runs": len(runs),
         }
-        k4 = _stage_control(inp, runner, true, k2)
+        k4 = _stage_control(inp, runner, true, k2, notes)
+        by_stage["control"] = notes[n0:]
+        info["stage_notes"] = by_stage
         _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, k4, info), notes, info)
     return StudyResult(
         out=inp.out,
