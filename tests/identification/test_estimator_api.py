@@ -42,7 +42,7 @@ def test_no_default_rig(cls):
 
 def test_identify_needs_params():
     runs = constant_input_runs(LEVELS, lambda u: hinge_velocity(u, 0.1, 0.5, 0.02), duration=1.0)
-    with pytest.raises(ParameterError, match=r"pass params=get_preset\('paper'\)"):
+    with pytest.raises(ParameterError, match=r"record no machine.*params=get_preset\('paper'\)"):
         identify(runs, ["deadzone"])
 
 

@@ -37,8 +37,9 @@ _GEOMETRY = (
 )
 
 HOW = (
-    "give the machine's parameters with --params FILE (a TOML from `hydropwa params export`, "
-    "or a preset), or record them with the data (`hydropwa data convert --params FILE`)"
+    "give the machine's parameters with --params FILE (Python: params=load_params(FILE) or "
+    "params=get_preset('paper')), or record them with the data (`hydropwa data convert "
+    "--params FILE`)"
 )
 
 
@@ -176,8 +177,12 @@ def machine_for(data: Any, params: SystemParams | None = None) -> SystemParams:
     rec = recorded_machine(data)
     if params is None:
         if rec is None:
-            where = str(data) if isinstance(data, str | os.PathLike) else "the runs"
-            raise ParameterError(f"{where} records no machine; {HOW}")
+            where = (
+                f"{str(data)!r} records"
+                if isinstance(data, str | os.PathLike)
+                else ("the runs record")
+            )
+            raise ParameterError(f"{where} no machine; {HOW}")
         return rec[0]
     if rec is not None:
         check_same_machine(params, rec[0], rec[1])
