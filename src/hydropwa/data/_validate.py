@@ -25,6 +25,7 @@ __all__ = [
     "validate_run",
     "COMMAND_CHANNELS",
     "converter_limits",
+    "unusable",
 ]
 
 #: Channels that are commanded, not measured: not checked for clipping (a saturated
@@ -460,6 +461,13 @@ VACUUM_GAUGE = -1.01325e5
 _FLOOR_NEAR_AMBIENT = 1e5
 
 
+def unusable(issue: Issue) -> bool:
+    """Whether a finding makes the samples it names unusable for a computation reading them:
+    every error, and a chamber at a gauge sensor's floor (its pressure is unknown there, up to
+    1 bar under the reading), which ``data check`` reports as a note."""
+    return issue.severity == "error" or issue.code == "pressure_floor"
+
+
 def _physical_floor(run: Run, channel: str, level: float, start: int, n: int) -> Issue:
     """A chamber at a gauge sensor's 0 bar: cavitation near the physical floor, not clipping."""
     lost = level - VACUUM_GAUGE
@@ -472,8 +480,8 @@ def _physical_floor(run: Run, channel: str, level: float, start: int, n: int) ->
         f"the chamber is below ambient there (cavitating; no liquid goes below vacuum, "
         f"{VACUUM_GAUGE:.6g} Pa), a physical floor at most {lost:.4g} Pa under the reading, "
         "not a clipped converter",
-        "nothing to repair; a compound (vacuum) pressure sensor, e.g. −1…250 bar, records "
-        "the sub-ambient part",
+        "nothing to repair (identification and evaluation leave out what reads it there); a "
+        "compound (vacuum) pressure sensor, e.g. −1…250 bar, records the sub-ambient part",
         severity="note",
     )
 
@@ -720,7 +728,7 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
             except DataError as exc:
                 rejected.append((name, f"cannot be read: {exc}"))
     for run in runs:
-        errors = [i for i in check_run(run, **check_options) if i.severity == "error"]
+        errors = [i for i in check_run(run, **check_options) if unusable(i)]
         if errors:
             more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
             rejected.append((run.name, f"bad data: {errors[0]}{more}"))

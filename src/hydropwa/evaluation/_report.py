@@ -323,6 +323,8 @@ def _verdict_section(out: Path, fit, true) -> str:
     f = out / "tables" / "identified.csv"
     if true is not None and f.is_file():
         df = pd.read_csv(f)
+        for col in ("true", "identified"):  # an empty table reads as text columns
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
         df = df[np.isfinite(df["true"]) & (df["true"] != 0) & np.isfinite(df["identified"])]
         if len(df):
             rel = (df["identified"] - df["true"]).abs() / df["true"].abs()

@@ -183,7 +183,8 @@ def machine_for(data: Any, params: SystemParams | None = None) -> SystemParams:
                 else ("the runs record")
             )
             raise ParameterError(f"{where} no machine; {HOW}")
-        return rec[0]
+        machine, src = rec
+        return machine.replace(meta={**machine.meta, "source": f"{src} (the data's machine)"})
     if rec is not None:
         check_same_machine(params, rec[0], rec[1])
     return params
