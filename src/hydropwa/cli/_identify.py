@@ -40,7 +40,7 @@ Force = Annotated[
 
 
 #: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
-_FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
+_FIGURES = ("fig05_valve_bode.png", "fig06_dead_zone.png", "fig08_stribeck.png")
 Band = Annotated[
     str | None,
     typer.Option(

@@ -143,6 +143,15 @@ def _read_each(src, skipped: list) -> list:
     return list(src)
 
 
+#: The figures :meth:`IdentificationReport.save` writes, named as ``hydropwa paper`` names them
+#: (the paper's figure numbers), so one figure has one file name in every command.
+FIGURE_FILES = {
+    "valve_bode": "fig05_valve_bode.png",
+    "dead_zone": "fig06_dead_zone.png",
+    "stribeck": "fig08_stribeck.png",
+}
+
+
 @dataclasses.dataclass
 class IdentificationReport:
     """What :func:`identify` found.
@@ -233,7 +242,8 @@ class IdentificationReport:
         out : path-like
             Parameter file (``load_params`` reads it back).
         figures : path-like, optional
-            Folder for ``valve_bode.png``, ``dead_zone.png``, ``stribeck.png``.
+            Folder for ``fig05_valve_bode.png``, ``fig06_dead_zone.png``, ``fig08_stribeck.png``
+            (the paper's figure numbers, the names ``hydropwa paper`` gives them).
         summary : path-like, optional
             Markdown file (default: ``out`` with suffix ``.md``).
         overwrite : bool
@@ -256,9 +266,7 @@ class IdentificationReport:
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
         targets = [out, summary]
         if figures is not None:
-            targets += [
-                Path(figures) / n for n in ("valve_bode.png", "dead_zone.png", "stribeck.png")
-            ]
+            targets += [Path(figures) / n for n in FIGURE_FILES.values()]
         for target in targets:
             check_output(target, overwrite)
         header = f"identified by hydropwa from {self.source}"
@@ -270,18 +278,23 @@ class IdentificationReport:
             fdir = Path(figures)
             fdir.mkdir(parents=True, exist_ok=True)
             if self.valve is not None:
-                save_figure(plot_bode(self.valve), fdir / "valve_bode.png", overwrite=overwrite)
-                written["valve_bode"] = fdir / "valve_bode.png"
+                path = fdir / FIGURE_FILES["valve_bode"]
+                save_figure(plot_bode(self.valve), path, overwrite=overwrite)
+                written["valve_bode"] = path
             if self.dead_zone is not None:
                 save_figure(
-                    plot_dead_zone(self.dead_zone), fdir / "dead_zone.png", overwrite=overwrite
+                    plot_dead_zone(self.dead_zone),
+                    fdir / FIGURE_FILES["dead_zone"],
+                    overwrite=overwrite,
                 )
-                written["dead_zone"] = fdir / "dead_zone.png"
+                written["dead_zone"] = fdir / FIGURE_FILES["dead_zone"]
             if self.friction is not None:
                 save_figure(
-                    plot_stribeck(self.friction), fdir / "stribeck.png", overwrite=overwrite
+                    plot_stribeck(self.friction),
+                    fdir / FIGURE_FILES["stribeck"],
+                    overwrite=overwrite,
                 )
-                written["stribeck"] = fdir / "stribeck.png"
+                written["stribeck"] = fdir / FIGURE_FILES["stribeck"]
         return written
 
 
