@@ -210,3 +210,17 @@ def test_one_error_path(demo):
     lines = bug.output.strip().splitlines()
     assert bug.exit_code == 1 and len(lines) == 1
     assert lines[0].startswith("error: internal error (ZeroDivisionError: 1/0)")
+
+
+def test_help_texts_show_no_machine_words():
+    """No integer-range limits of the machine word and no keyword spelling of an option in any
+    command's help; every --duration takes units (issue 37)."""
+    root = typer.main.get_command(app)
+    for path, cmd in _commands(root):
+        res = CliRunner().invoke(app, [*path.split(), "--help"], terminal_width=200)
+        assert res.exit_code == 0, path
+        assert "9223372036854775807" not in res.output, path
+        assert "force=True" not in res.output and "overwrite=True" not in res.output, path
+        for p in cmd.params:
+            if "--duration" in getattr(p, "opts", ()):
+                assert p.metavar == "TIME", path
