@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import html
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -383,8 +384,6 @@ def _warnings(stage_notes: dict, stage: str) -> str:
 
 def _toc(page: str) -> tuple[str, str]:
     """Put an anchor before every ``<h2>``; return the page and a table of contents linking them."""
-    import re
-
     entries = []
 
     def anchor(m):

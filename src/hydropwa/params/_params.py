@@ -311,8 +311,6 @@ class Cylinder:
         ParameterError
             Unless 0 < d < D and both are finite.
         """
-        import math
-
         if not (math.isfinite(bore) and math.isfinite(rod) and 0.0 < rod < bore):
             raise ParameterError(
                 f"cylinder bore {bore * 1e3:g} mm and rod {rod * 1e3:g} mm: need "

@@ -8,6 +8,7 @@ into plain arrays that the compiled solver evaluates without calling Python
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
 from functools import lru_cache
@@ -16,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._errors import SignalError
+from .._errors import ParameterError, SignalError
 from ..params import parse_quantity
 
 __all__ = [
@@ -524,10 +525,6 @@ def check_supply_signal(sig: Signal, supply, duration: float, where: str = "supp
     ParameterError
         Naming ``where``, the value and the bound.
     """
-    import dataclasses
-
-    from .._errors import ParameterError
-
     if isinstance(sig, Constant):
         vals = np.array([float(sig(0.0))])
     else:
