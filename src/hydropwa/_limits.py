@@ -16,6 +16,7 @@ import numpy as np
 
 from ._errors import ParameterError
 from .simulation import as_signal
+from .simulation._simulate import RTOL_RANGE as _RTOL_RANGE
 
 __all__ = [
     "RTOL_RANGE",
@@ -30,9 +31,8 @@ __all__ = [
     "check_jobs",
 ]
 
-#: Accepted relative tolerances of the integrator: tighter than 1e-12 is below what
-#: float64 arithmetic resolves over a run; looser than 0.1 is not a solution any more.
-RTOL_RANGE = (1e-12, 0.1)
+#: Accepted relative tolerances of the integrator (declared where ``simulate`` checks them).
+RTOL_RANGE = _RTOL_RANGE
 
 #: Memory one output sample costs on the way to the file (float64 states, stages and
 #: channels, the table and its text), measured on the full model with CSV output.

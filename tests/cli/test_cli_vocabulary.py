@@ -23,6 +23,7 @@ from hydropwa.cli import (
     _app,
     _control,
     _core,
+    _data,
     _export,
     _identify,
     _linearize,
@@ -44,6 +45,7 @@ _ARGS = {
     "control design": ["--out", "{tmp}/ctrl.toml"],
     "control simulate": ["--controller", "{tmp}/c.toml", "--reference", "steps:0=0.1"],
     "export fmu": ["--out", "{tmp}/axis.fmu"],
+    "data convert": ["{tmp}/data", "{tmp}/copy"],
     "identify frf": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify deadzone": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify friction": ["{tmp}/data", "--out", "{tmp}/i.toml"],
@@ -51,7 +53,7 @@ _ARGS = {
     "identify model": ["{tmp}/data", "--free", "flow.K", "--out", "{tmp}/i.toml"],
 }
 
-_MODULES = (_control, _core, _export, _identify, _linearize, _paper, _rig)
+_MODULES = (_control, _core, _data, _export, _identify, _linearize, _paper, _rig)
 
 
 def _commands(cmd, path=()):
@@ -210,3 +212,17 @@ def test_one_error_path(demo):
     lines = bug.output.strip().splitlines()
     assert bug.exit_code == 1 and len(lines) == 1
     assert lines[0].startswith("error: internal error (ZeroDivisionError: 1/0)")
+
+
+def test_help_texts_show_no_machine_words():
+    """No integer-range limits of the machine word and no keyword spelling of an option in any
+    command's help; every --duration takes units (issue 37)."""
+    root = typer.main.get_command(app)
+    for path, cmd in _commands(root):
+        res = CliRunner().invoke(app, [*path.split(), "--help"], terminal_width=200)
+        assert res.exit_code == 0, path
+        assert "9223372036854775807" not in res.output, path
+        assert "force=True" not in res.output and "overwrite=True" not in res.output, path
+        for p in cmd.params:
+            if "--duration" in getattr(p, "opts", ()):
+                assert p.metavar == "TIME", path

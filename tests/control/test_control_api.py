@@ -248,6 +248,8 @@ def test_cli_design_and_simulate(tmp_path, capsys):
             "reduced",
             "--controller",
             str(ctrl),
+            "--params",
+            "paper",
             "--reference",
             "steps:0=100 mm,0.05=110 mm",
             "--duration",

@@ -32,3 +32,48 @@ def test_a_truth_just_outside_its_interval_prints_apart_from_the_end():
     lo, hi, value, true = 627.98, 628.29, 628.14, 628.30  # the valve's ω0 at 25 %, rad/s
     d = _interval_digits(lo, hi, value, true)
     assert f"{hi:.{d}g}" != f"{true:.{d}g}"
+
+
+def test_the_first_screen_is_the_verdict(small_study):
+    """Verdict (checks, thresholds, values, pass/fail) and contents before anything else."""
+    page = (small_study.out / "index.html").read_text()
+    verdict = page.index("<h2>Verdict</h2>")
+    assert verdict < page.index('<nav class="toc">') < page.index("<h2>Summary</h2>")
+    head = page[verdict : page.index('<nav class="toc">')]
+    assert "<th>threshold</th>" in head and ("PASS" in head or "FAIL" in head)
+    assert "full model reproduces the sine runs" in head and "≥ 90 %" in head
+    assert head.count("class='pass'>pass<") + head.count("class='fail'>fail<") >= 3
+    # every section is in the contents and its anchor exists
+    toc = page[page.index('<nav class="toc">') : page.index("</nav>")]
+    for slug in re.findall(r'href="#([a-z0-9-]+)"', toc):
+        assert f'<a id="{slug}"></a><h2>' in page
+    assert re.findall(r'href="#([a-z0-9-]+)"', toc).count("the-papers-forms") == 1
+
+
+def test_the_papers_forms_have_their_own_section(small_study):
+    page = (small_study.out / "index.html").read_text()
+    headline = page[
+        page.index("headline: medians") : page.index("</table>", page.index("headline"))
+    ]
+    assert "-paper" not in headline
+    forms = page.index("<h2>The paper's forms</h2>")
+    assert "reduced-paper" in page[forms : page.index("<h2>", forms + 5)]
+
+
+def test_units_in_headers_tables_wrap_and_figures_exist(small_study):
+    page = (small_study.out / "index.html").read_text()
+    assert "overflow-x:auto" in page and "overflow-wrap:anywhere" in page
+    assert "<th>full [%]</th>" in page
+    if "<h2>Closed loop</h2>" in page:
+        assert "rise_time [ms]" in page and "steady_state_error [mm]" in page
+    # a caption names an SVG only where one is written
+    for stem in re.findall(r"\((\w+); SVG in figures/\)", page):
+        assert (small_study.out / "figures" / f"{stem}.svg").is_file(), stem
+
+
+def test_every_stage_warning_is_shown_in_its_section(small_study):
+    page = (small_study.out / "index.html").read_text()
+    for note in small_study.notes:
+        import html
+
+        assert page.count(html.escape(note)) >= 2, note  # in its section and in the notes

@@ -204,7 +204,9 @@ def test_cli_identify_model(tmp_path, truth, sine_runs):
     assert load_params(out).flow.K == pytest.approx(truth.flow.K, rel=0.02)
     assert "Grey-box fit" in (tmp_path / "fitted.md").read_text()
     bad = cli.invoke(
-        app, ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
+        app,
+        ["identify", "model", str(data), "--free", "flow.k", "--out", str(tmp_path / "b.toml")]
+        + ["--params", str(base)],
     )
     assert (
         bad.exit_code == 2

@@ -31,7 +31,7 @@ def test_cli_writes_json_figures_tables(tmp_path):
     assert res.exit_code == 0, res.output
     m = load_pwa(tmp_path / "pwa.json")
     assert m.supply_pressure == pytest.approx(95e5)
-    for name in ("fig1_cq.png", "fig1_cq.svg", "fig2_cqp.png", "fig2_cqp.svg"):
+    for name in ("fig01_cq.png", "fig01_cq.svg", "fig02_cqp.png", "fig02_cqp.svg"):
         assert (tmp_path / "fig" / name).stat().st_size > 0
     assert (tmp_path / "tab" / "paper_table_VIII.csv").exists()
     assert json.loads((tmp_path / "pwa.json").read_text())["schema"] == "hydropwa.pwa/1"

@@ -286,3 +286,21 @@ def test_greybox_figures_draw_the_fit_its_white_residuals_and_profiles():
     assert prof.get_xscale() == "log" and prof.get_xlabel() == "flow.K"
     with pytest.raises(KeyError, match="no run 'nope'"):
         plot_greybox_fit(fit, "nope")
+
+
+def test_the_partition_colour_bar_is_one_colour_per_cq_cell():
+    """A trajectory that stays in one C_q cell drew a colour bar of −0.1…0.1 (issue 37): the
+    bar now spans the model's cells, one tick per cell index."""
+    import hydropwa as hp
+    from hydropwa.linearization import linearize
+    from hydropwa.plotting import plot_cell_occupancy
+
+    pwa = linearize(hp.get_preset("paper"))
+    res = hp.simulate(pwa, 0.0, duration=0.05)  # the valve closed: one C_q cell all along
+    assert np.unique(res.channels["cell_o"]).size == 1
+    n = len(pwa.cells_at(pwa.supply_pressure)["cq"].breakpoints) + 1
+    fig = plot_cell_occupancy([], pwa=pwa, trajectory=res)
+    bar = fig.axes[-1]
+    lo, hi = bar.get_ylim()
+    assert (lo, hi) == pytest.approx((-0.5, n - 0.5)) and n >= 3
+    assert [int(t) for t in bar.get_yticks()] == list(range(n))

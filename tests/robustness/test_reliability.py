@@ -108,7 +108,7 @@ def test_atomic_no_clobber_refuses_and_leaves_no_temp(tmp_path):
         (["identify", "frf", "nowhere", "--out", "id.toml", "--summary", "keep.md"], "keep.md"),
         (["identify", "frf", "nowhere", "--out", "keep.toml"], "keep.toml"),
         (["identify", "emps", "keep.mat", "--summary", "keep.md"], "keep.md"),
-        (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig1_cq.png"),
+        (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig01_cq.png"),
         (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/V_friction.csv"),
         (["simulate", "--duration", "0.02", "--out", "new.csv", "--plot", "keep.png"], "keep.png"),
         (["params", "export", "--out", "keep.toml"], "keep.toml"),
@@ -119,7 +119,7 @@ def test_atomic_no_clobber_refuses_and_leaves_no_temp(tmp_path):
         (["sweep", "spec.toml", "-q", "--out", "keep.csv"], "keep.csv"),
         (
             ["identify", "frf", "nowhere", "--out", "id.toml", "--figures", "keepdir"],
-            "keepdir/valve_bode.png",
+            "keepdir/fig05_valve_bode.png",
         ),
     ],
 )
@@ -138,13 +138,13 @@ def test_every_writer_refuses_existing_output_without_force(tmp_path, argv, vict
 def test_a_figures_folder_may_hold_other_files(tmp_path):
     """Only the files a command writes need --force: one folder collects several commands' figures."""
     (tmp_path / "figs").mkdir()
-    (tmp_path / "figs" / "valve_bode.png").write_bytes(b"from identify")
+    (tmp_path / "figs" / "fig05_valve_bode.png").write_bytes(b"from identify")
     code, _, line = cli(tmp_path, "linearize", "--out", "l.json", "--figures", "figs")
     assert code == 0, line
-    assert (tmp_path / "figs" / "valve_bode.png").read_bytes() == b"from identify"
-    assert (tmp_path / "figs" / "fig1_cq.png").is_file()
+    assert (tmp_path / "figs" / "fig05_valve_bode.png").read_bytes() == b"from identify"
+    assert (tmp_path / "figs" / "fig01_cq.png").is_file()
     code, _, line = cli(tmp_path, "linearize", "--out", "l2.json", "--figures", "figs")
-    assert code == 2 and "fig1_cq" in line
+    assert code == 2 and "fig01_cq" in line
 
 
 def test_sweep_keeps_finished_cases_and_resumes(tmp_path):
@@ -455,7 +455,7 @@ def test_scheduler_addresses_fail_fast(address, expect):
     [
         (["rig", "run", "frf", "--out", "x", "--seed", "-1"], "--seed"),
         (["simulate", "--bogus"], "No such option: --bogus"),
-        (["simulate", "--fs", "abc"], "'--fs'"),
+        (["simulate", "--fs", "abc"], "--fs"),
         (["data", "check"], "Missing argument"),
         (["nosuch"], "No such command"),
         (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),

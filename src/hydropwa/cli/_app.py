@@ -23,6 +23,7 @@ command tree all see the same behaviour. Help texts are shown literally (no rich
 from __future__ import annotations
 
 import os
+import re
 import sys
 import warnings
 from typing import Any
@@ -69,9 +70,15 @@ _EXITS, _ABORTS, _USAGE = _click_types()
 _CLICK_FLOW = _EXITS + _ABORTS + _USAGE
 
 
+#: The Python spelling a library message gives beside the option (``--force (force=True)``):
+#: the command line shows the option only.
+_API_SPELLING = re.compile(r" \((?:force|overwrite)=True\)")
+
+
 def error_line(message: str) -> None:
-    """Print ``error: message`` as one line on stderr."""
-    print("error: " + " ".join(str(message).split()), file=sys.stderr)
+    """Print ``error: message`` as one line on stderr (the option, not the keyword argument)."""
+    text = _API_SPELLING.sub("", " ".join(str(message).split()))
+    print("error: " + text, file=sys.stderr)
 
 
 def _usage_error(exc: Any) -> int:

@@ -17,7 +17,7 @@ import typer
 from .._errors import PwaError
 from .._io import check_output
 from ._app import new_app
-from ._options import ParamsOption, resolve_params
+from ._options import MachineParamsOption, ParamsOption, resolve_params
 
 __all__ = ["app", "design_command", "simulate_command", "export_command"]
 
@@ -26,18 +26,54 @@ app = new_app(
 )
 
 
-def _pwa_model(params_src: str | None, pwa_file: Path | None):
+def _pwa_model(params_src, pwa_file: Path | None):
     from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
         linearize,
         load_pwa,
     )
+    from ..params import SystemParams  # deferred: loaded only when this command runs
 
     if pwa_file is not None:
         return load_pwa(pwa_file)
-    return linearize(resolve_params(params_src))
+    prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
+    return linearize(prm)
 
 
-def _chamber_model(params_src: str | None, pwa_file: Path | None):
+def _machine_of(controller: Path):
+    """The machine a controller file records (a ``machine`` parameter table); none: exit 2.
+
+    No default machine: a controller simulated on another cylinder than its own gives a
+    result with no meaning (a 500 mm controller on the paper's 200 mm cylinder).
+    """
+    import json  # deferred: loaded only when this command runs (a fast --help)
+    import tomllib  # deferred: loaded only when this command runs (a fast --help)
+
+    from ..params import (
+        params_from_dict,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    doc = None
+    try:
+        text = controller.read_text(encoding="utf-8")
+        doc = json.loads(text) if controller.suffix.lower() == ".json" else tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, ValueError):
+        pass  # load_controller names the problem
+    machine = doc.get("machine") if isinstance(doc, dict) else None
+    if isinstance(machine, dict):
+        return params_from_dict(machine, source=f"{controller} [machine]", check_bare=False)
+    from ..control import ControlError  # deferred: loaded only when this command runs
+
+    if doc is None:
+        from ..control import load_controller  # deferred: names the file's problem
+
+        load_controller(controller)
+    raise ControlError(
+        f"{controller} records no machine; give the machine the controller was designed for "
+        "with --params PRESET|FILE"
+    )
+
+
+def _chamber_model(params_src, pwa_file: Path | None):
     """The chamber PWA model: from a ``hydropwa.pwa-chamber/1`` document, or linearized."""
     from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
         ChamberPwaModel,
@@ -53,7 +89,10 @@ def _chamber_model(params_src: str | None, pwa_file: Path | None):
                 "one written by 'hydropwa linearize --form chamber'"
             )
         return model
-    return linearize(resolve_params(params_src), form="chamber")
+    from ..params import SystemParams  # deferred: loaded only when this command runs
+
+    prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
+    return linearize(prm, form="chamber")
 
 
 def _weights(text: str | None) -> dict[str, float]:
@@ -268,17 +307,18 @@ def simulate_command(
     model: Annotated[
         str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
     ] = "full",
-    params: ParamsOption = None,
+    params: MachineParamsOption = None,
     pwa: Annotated[
         Path | None,
         typer.Option("--pwa", help="PWA JSON document (model pwa; default: linearize the params)."),
     ] = None,
     duration: Annotated[
-        float | None,
+        str | None,
         typer.Option(
             "--duration",
             "-d",
-            help="Simulated time [s] (default: end of the move + 0.5 s, else 2 s).",
+            metavar="TIME",
+            help="Simulated time [s], e.g. '2 s' (default: end of the move + 0.5 s, else 2 s).",
         ),
     ] = None,
     x0: Annotated[
@@ -351,29 +391,29 @@ def simulate_command(
     check_output(out, force, option="--out")
     if plot is not None:
         check_output(plot, force, option="--plot")
-    prm = resolve_params(params)
+    prm = _machine_of(controller) if params is None else resolve_params(params)
     ctrl = load_controller(controller)
     check_machine(ctrl, prm)
     noise = _sensor_noise(sensor_noise)
     ref = as_reference(reference)
     if duration is None:
-        duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+        t_end = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
+    else:
+        t_end = parse_quantity(duration, "s", "--duration")
     if compare:
-        _compare(
-            ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
-        )
+        _compare(ctrl, ref, prm, prm, pwa, t_end, x0, load_force, supply_pressure, rtol, out, plot)
         return
     mdl = (
-        _pwa_model(params, pwa)
+        _pwa_model(prm, pwa)
         if model == "pwa"
-        else _chamber_model(params, pwa)
+        else _chamber_model(prm, pwa)
         if model == "pwa-chamber"
         else model
     )
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     res = simulate(
         mdl,
-        duration=duration,
+        duration=t_end,
         params=prm,
         controller=ctrl,
         reference=ref,

@@ -120,9 +120,13 @@ def simulate_command(
         ),
     ] = None,
     duration: Annotated[
-        float | None,
+        str | None,
         typer.Option(
-            "--duration", "-d", help="Simulated time [s] (default: 5, or the input file's length)."
+            "--duration",
+            "-d",
+            metavar="TIME",
+            help="Simulated time [s], e.g. '2 s' or '500 ms' (default: 5, or the input file's "
+            "length).",
         ),
     ] = None,
     supply_pressure: Annotated[
@@ -136,7 +140,9 @@ def simulate_command(
         str | None,
         typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
     ] = None,
-    fs: Annotated[float, typer.Option("--fs", help="Output rate [Hz].")] = 2000.0,
+    fs: Annotated[
+        str, typer.Option("--fs", metavar="RATE", help="Output rate [Hz], e.g. '2 kHz'.")
+    ] = "2000",
     rtol: Annotated[
         float,
         typer.Option(
@@ -188,6 +194,8 @@ def simulate_command(
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
     prm = resolve_params(params)
+    duration_s = None if duration is None else parse_quantity(duration, "s", "--duration")
+    fs_hz = parse_quantity(fs, "Hz", "--fs")
     u: Sampled | str
     if input_file is not None:
         from ..data import read_run  # deferred: loaded only when this command runs (a fast --help)
@@ -198,13 +206,13 @@ def simulate_command(
                 f"{input_file} has no valve command channel 'u'; map one with a channel map"
             )
         u = Sampled(run.t - run.t[0], run["u"])
-        if duration is None:
-            duration = float(run.t[-1] - run.t[0])
+        if duration_s is None:
+            duration_s = float(run.t[-1] - run.t[0])
     else:
         u = input if input is not None else "sine:amplitude=0.4,frequency=1"
-    duration = 5.0 if duration is None else duration
-    check_samples(duration, fs)
-    check_supply_pressure(supply_pressure, prm, duration)
+    duration_f = 5.0 if duration_s is None else duration_s
+    check_samples(duration_f, fs_hz)
+    check_supply_pressure(supply_pressure, prm, duration_f)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
     mdl: Model
@@ -224,11 +232,11 @@ def simulate_command(
     res = simulate(
         mdl,
         u,
-        duration=duration,
+        duration=duration_f,
         supply_pressure=supply_pressure,
         load_force=load_force,
         initial_position=x_init,
-        fs=fs,
+        fs=fs_hz,
         rtol=rtol,
     )
     res.save(out, overwrite=True)  # checked with --force above

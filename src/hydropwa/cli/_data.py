@@ -13,6 +13,7 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
+from ._options import PARAMS_METAVAR, resolve_params
 
 __all__ = ["app"]
 
@@ -72,6 +73,9 @@ def check(
         typer.echo(f"ok: {source} has no issues")
         return
     _print_issues(issues, plain)
+    if all(i.severity == "note" for i in issues):  # physical facts, nothing to repair
+        typer.echo(f"ok: {source} has no issues ({len(issues)} note(s) above)")
+        return
     raise typer.Exit(code=1)
 
 
@@ -92,13 +96,31 @@ def convert(
             "--force", "--overwrite", help="Replace an existing destination file or dataset."
         ),
     ] = False,
+    params: Annotated[
+        str | None,
+        typer.Option(
+            "--params",
+            "-p",
+            metavar=PARAMS_METAVAR,
+            help="The machine the runs were measured on (a TOML/JSON parameter file or a "
+            "preset), recorded in the dataset's manifest as its 'machine' entry: identify and "
+            "paper --data read it (a folder only).",
+        ),
+    ] = None,
 ) -> None:
     """Convert a run file or a folder to CSV, Parquet or MAT (validated, SI units)."""
     from hydropwa.data import (
         convert as convert_data,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    meta = None if params is None else {"machine": resolve_params(params).to_dict()}
     out = convert_data(
-        src, dst, channel_map=channel_map, format=format, overwrite=overwrite, resample=resample
+        src,
+        dst,
+        channel_map=channel_map,
+        format=format,
+        overwrite=overwrite,
+        resample=resample,
+        meta=meta,
     )
     typer.echo(f"wrote {out}")

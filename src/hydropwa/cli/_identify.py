@@ -16,7 +16,8 @@ from hydropwa._errors import IdentificationError, ParameterError
 from hydropwa._io import check_output
 
 from ._app import new_app
-from ._options import BaseParamsAlias, ParamsOption, params_source, resolve_params
+from ._options import BaseParamsAlias, params_source, resolve_params
+from ._options import MachineParamsOption as ParamsOption
 
 __all__ = ["app"]
 
@@ -39,7 +40,7 @@ Force = Annotated[
 
 
 #: Figures ``identify`` writes (``IdentificationReport.save``); other files may share the folder.
-_FIGURES = ("valve_bode.png", "dead_zone.png", "stribeck.png")
+_FIGURES = ("fig05_valve_bode.png", "fig06_dead_zone.png", "fig08_stribeck.png")
 Band = Annotated[
     str | None,
     typer.Option(
@@ -89,6 +90,16 @@ def _options(band: str | None, dead_zone_form: str | None) -> tuple[dict, dict]:
     return frf, dz
 
 
+def _machine(data_dir: Path, source: str | None):
+    """``--params`` checked against the data's machine, else the data's; none: exit 2."""
+    from hydropwa.identification import (
+        machine_for,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    given = None if source is None else resolve_params(source)
+    return machine_for(data_dir, given)
+
+
 def _run(
     parts: tuple[str, ...],
     data_dir: Path,
@@ -116,7 +127,7 @@ def _run(
     if figures is not None:
         check_output(figures, force, folder=True, option="--figures", files=_FIGURES)
     frf_opts, dz_opts = _options(band, dead_zone_form)
-    params = resolve_params(base)
+    params = _machine(data_dir, base)
     from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
 
     with step(f"identifying {', '.join(parts)} from {data_dir}"):
@@ -374,7 +385,7 @@ def model(
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
     selection = Selection(method=select, budget=budget)
-    params = resolve_params(params_source(params_src, base_params))
+    params = _machine(data_dir, params_source(params_src, base_params))
     runs = load_runs(data_dir, params=params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
     with fit_progress("grey-box fit", quiet) as progress:

@@ -234,7 +234,7 @@ def _run(
         if mat.suffix.lower() != ".mat":
             raise PwaError(f"--mat {mat} must end in .mat")
         check_output(mat, force, option="--mat")
-    names = {"--figures": ("fig1_cq.*", "fig2_cqp.*"), "--tables": ("*.csv", "*.md")}
+    names = {"--figures": ("fig01_cq.*", "fig02_cqp.*"), "--tables": ("*.csv", "*.md")}
     for option, folder in (("--figures", figures), ("--tables", tables)):
         if folder is not None:
             check_output(folder, force, folder=True, option=option, files=names[option])

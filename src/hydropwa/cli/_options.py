@@ -22,6 +22,8 @@ from ..params import PRESETS, SystemParams, get_preset, load_params, params_from
 
 __all__ = [
     "BaseParamsAlias",
+    "MACHINE_PARAMS_HELP",
+    "MachineParamsOption",
     "DEFAULT_PRESET",
     "PARAMS_HELP",
     "PARAMS_METAVAR",
@@ -47,6 +49,19 @@ PARAMS_HELP = (
 #: ``--params/-p PRESET|FILE``: the parameter set of every command that takes one.
 ParamsOption = Annotated[
     str | None, typer.Option("--params", "-p", metavar=PARAMS_METAVAR, help=PARAMS_HELP)
+]
+
+MACHINE_PARAMS_HELP = (
+    f"The machine's parameters: a TOML/JSON parameter file or a preset ({PRESET_NAMES}); "
+    "default: the machine the data or the controller file record (a campaign's "
+    "true_params.toml, a 'machine' entry); there is no default machine."
+)
+
+#: ``--params/-p PRESET|FILE`` of the commands that read measured data or a controller file:
+#: no default preset (the machine comes from the data or the file, else exit 2).
+MachineParamsOption = Annotated[
+    str | None,
+    typer.Option("--params", "-p", metavar=PARAMS_METAVAR, help=MACHINE_PARAMS_HELP),
 ]
 
 #: ``--base-params``: the old name of ``--params`` in ``identify``; hidden, still accepted.

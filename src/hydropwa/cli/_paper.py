@@ -46,7 +46,8 @@ def paper_command(
             metavar=PARAMS_METAVAR,
             help=f"Parameter set: a preset ({PRESET_NAMES}) or a TOML/JSON parameter file; the "
             "rig's true parameters, or with --data the base (datasheet) parameters (default: "
-            "paper, or with --data the data's true_params.toml if there is one).",
+            "paper; with --data the machine the data record, their true_params.toml or a manifest's "
+            "'machine' entry; data that record none need --params).",
         ),
     ] = None,
     campaign: Annotated[

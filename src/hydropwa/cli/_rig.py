@@ -48,9 +48,7 @@ def run_command(
     ] = "paper",
     seed: Annotated[
         int | None,
-        typer.Option(
-            "--seed", min=0, max=2**63 - 1, help="Campaign seed ≥ 0 (default: the campaign's)."
-        ),
+        typer.Option("--seed", min=0, help="Campaign seed ≥ 0 (default: the campaign's)."),
     ] = None,
     jobs: Annotated[
         int,
@@ -78,6 +76,10 @@ def run_command(
     )
 
     check_jobs(jobs)
+    if seed is not None and seed > 2**63 - 1:  # the seed is kept as a signed 64-bit integer
+        from hydropwa._errors import ParameterError  # deferred: loaded only when this command runs
+
+        raise ParameterError(f"--seed {seed} is larger than 2**63 - 1; give a smaller seed")
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
     camp = load_campaign(campaign)
     rig = Rig.from_params(resolve_params(params)).with_overrides(camp.sensors, camp.supply)

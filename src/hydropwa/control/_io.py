@@ -383,4 +383,6 @@ def load_controller(path: str | os.PathLike):
             d = tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ControlError(f"controller file {path} cannot be parsed: {exc}") from None
+    except RecursionError:
+        raise ControlError(f"controller file {path} is nested too deeply to be one") from None
     return controller_from_dict(d)

@@ -26,6 +26,7 @@ from ._validate import (
     ValidationReport,
     check_run,
     screen_runs,
+    unusable,
     validate_run,
 )
 
@@ -44,6 +45,7 @@ __all__ = [
     "builtin_channel_map",
     "check_dataset",
     "check_run",
+    "unusable",
     "convert",
     "convert_units",
     "load_emps",

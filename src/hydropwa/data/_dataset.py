@@ -595,6 +595,7 @@ def convert(
     format: str | None = None,
     units: Mapping[str, str] | None = None,
     overwrite: bool = False,
+    meta: Mapping[str, Any] | None = None,
     **validate_options,
 ) -> Path:
     """Convert a run file or a whole folder to another format, validating on the way.
@@ -614,6 +615,10 @@ def convert(
         Units to write per channel (SI otherwise).
     overwrite : bool
         Replace an existing destination dataset.
+    meta : mapping, optional
+        Entries added to the destination manifest's ``meta`` (a folder only), e.g.
+        ``{"machine": params.to_dict()}``: the machine the runs were measured on, which
+        identification then reads (``hydropwa data convert --params``).
     **validate_options
         Passed to :func:`~hydropwa.data.validate_run` (e.g. ``resample=True``).
 
@@ -624,6 +629,11 @@ def convert(
     """
     src, dst = Path(src), Path(dst)
     cmap = resolve_channel_map(channel_map)
+    if src.is_file() and meta:
+        raise DataError(
+            f"{str(src)!r}: a single run file has no manifest to record {', '.join(meta)} in; "
+            "hint: convert its folder into a dataset"
+        )
     if src.is_file():
         if dst.is_dir():
             dst = dst / (src.stem + suffix_of(format or "parquet"))
@@ -655,7 +665,7 @@ def convert(
     if (src / MANIFEST).is_file():
         ds = Dataset(src, validate=False)
         runs = (read_run(ds.path_of(n), cmap, name=n, **validate_options) for n in ds.names)
-        meta = ds.meta
+        meta_out = ds.meta
     else:
         files = _raw_files(src)
         if not files:
@@ -664,6 +674,8 @@ def convert(
                 "hint: point at a dataset folder or a run file"
             )
         runs = (read_run(p, cmap, **validate_options) for p in files)
-        meta = {"source": str(src)}
-    write_dataset(runs, dst, format=fmt, units=units, meta=meta, overwrite=overwrite)
+        meta_out = {"source": str(src)}
+    write_dataset(
+        runs, dst, format=fmt, units=units, meta={**meta_out, **(meta or {})}, overwrite=overwrite
+    )
     return dst

@@ -306,6 +306,19 @@ def _check_header(header: Any, path: Path) -> dict[str, Any]:
                 f"{str(path)!r}: metadata field {key!r} = {value!r:.60} has the wrong type "
                 f"({type(value).__name__}); hint: fix or remove the field"
             )
+    version = header.get("format_version")
+    if version is not None and not (
+        isinstance(version, int | float) and float(version).is_integer() and version >= 1
+    ):
+        raise DataError(
+            f"{str(path)!r}: metadata field 'format_version' = {version!r:.40} is not a "
+            "version this package knows (a positive integer); hint: fix or remove the field"
+        )
+    if version is not None and version > FORMAT_VERSION:
+        raise DataError(
+            f"{str(path)!r}: 'format_version' {int(version)} is newer than this hydropwa reads "
+            f"({FORMAT_VERSION}); hint: update hydropwa"
+        )
     for key in ("units",):
         if not all(isinstance(v, str) for v in (header.get(key) or {}).values()):
             raise DataError(

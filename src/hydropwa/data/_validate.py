@@ -25,6 +25,7 @@ __all__ = [
     "validate_run",
     "COMMAND_CHANNELS",
     "converter_limits",
+    "unusable",
 ]
 
 #: Channels that are commanded, not measured: not checked for clipping (a saturated
@@ -82,7 +83,9 @@ class Issue:
     Attributes
     ----------
     severity : str
-        ``"error"`` (validation fails) or ``"warning"``.
+        ``"error"`` (validation fails), ``"warning"``, or ``"note"`` (a physical fact about
+        the signal that needs no repair, e.g. a chamber cavitating below a gauge sensor's
+        0 bar: ``hydropwa data check`` prints it and still passes).
     code : str
         Stable identifier, e.g. ``"time_duplicate"``, ``"nonfinite"``, ``"clipped"``.
     run : str
@@ -274,7 +277,9 @@ def _runs_of(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return starts, np.flatnonzero(edges == -1) - starts
 
 
-def _check_clipping(run: Run, channel: str, min_samples: int) -> list[Issue]:
+def _check_clipping(
+    run: Run, channel: str, min_samples: int, floor_known: bool = False
+) -> list[Issue]:
     v = run.channels[channel]
     fin = v[np.isfinite(v)]
     if fin.size < 2 * min_samples or fin.min() == fin.max():
@@ -295,6 +300,8 @@ def _check_clipping(run: Run, channel: str, min_samples: int) -> list[Issue]:
             continue
         k = int(np.argmax(long))
         side = "maximum" if level == fin.max() else "minimum"
+        if side == "minimum" and floor_known:
+            continue  # the converter-limit check found a physical floor there
         out.append(
             _issue(
                 run,
@@ -418,10 +425,13 @@ def check_run(
         if ch == "t":
             continue
         issues += _check_finite(run, ch)
+        floor = False
         if ch in limits and ch not in skip:
-            issues += _check_at_limit(run, ch, limits[ch], clip_min_samples)
+            found = _check_at_limit(run, ch, limits[ch], clip_min_samples)
+            floor = any(i.code == "pressure_floor" for i in found)
+            issues += found
         if ch not in skip and measured:
-            issues += _check_clipping(run, ch, clip_min_samples)
+            issues += _check_clipping(run, ch, clip_min_samples, floor)
             issues += _check_stuck(run, ch, stuck_min_samples)
             issues += _check_spikes(run, ch, spike_factor)
         if ch in ranges:
@@ -442,8 +452,47 @@ def _unique(issues: list[Issue]) -> list[Issue]:
     return out
 
 
+#: Chamber pressures: at a converter floor near ambient they meet a physical floor.
+PRESSURE_CHANNELS = ("p_a", "p_b")
+#: Absolute vacuum as a gauge pressure [Pa]: no liquid's pressure goes below it.
+VACUUM_GAUGE = -1.01325e5
+#: A converter whose lowest value is at most this [Pa, gauge] starts near ambient (a gauge
+#: sensor, 0 bar): a chamber held at it is below ambient, i.e. between it and vacuum.
+_FLOOR_NEAR_AMBIENT = 1e5
+
+
+def unusable(issue: Issue) -> bool:
+    """Whether a finding makes the samples it names unusable for a computation reading them:
+    every error, and a chamber at a gauge sensor's floor (its pressure is unknown there, up to
+    1 bar under the reading), which ``data check`` reports as a note."""
+    return issue.severity == "error" or issue.code == "pressure_floor"
+
+
+def _physical_floor(run: Run, channel: str, level: float, start: int, n: int) -> Issue:
+    """A chamber at a gauge sensor's 0 bar: cavitation near the physical floor, not clipping."""
+    lost = level - VACUUM_GAUGE
+    return _issue(
+        run,
+        "pressure_floor",
+        channel,
+        start,
+        f"sits at the converter's lowest value {level:.6g} {run.units[channel]} for {n} samples: "
+        f"the chamber is below ambient there (cavitating; no liquid goes below vacuum, "
+        f"{VACUUM_GAUGE:.6g} Pa), a physical floor at most {lost:.4g} Pa under the reading, "
+        "not a clipped converter",
+        "nothing to repair (identification and evaluation leave out what reads it there); a "
+        "compound (vacuum) pressure sensor, e.g. −1…250 bar, records the sub-ambient part",
+        severity="note",
+    )
+
+
 def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Issue]:
-    """Samples at the converter's lowest or highest code, the whole run included."""
+    """Samples at the converter's lowest or highest code, the whole run included.
+
+    A chamber pressure at the lowest value of a converter that starts near ambient
+    (≤ 1 bar gauge) is below ambient, above vacuum: cavitation, reported as a ``note``
+    (``"pressure_floor"``); any other channel or side, or a whole run there, is clipping.
+    """
     v = run.channels[channel]
     try:
         lo, hi = (float(x) for x in limit)
@@ -458,6 +507,14 @@ def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Iss
             continue
         k = int(np.argmax(lengths))
         whole = int(lengths[k]) == v.size
+        if (
+            channel in PRESSURE_CHANNELS
+            and side == "lowest"
+            and level <= _FLOOR_NEAR_AMBIENT
+            and not whole
+        ):
+            out.append(_physical_floor(run, channel, level, int(starts[k]), int(lengths[k])))
+            continue
         out.append(
             _issue(
                 run,
@@ -671,7 +728,7 @@ def screen_runs(runs, **check_options) -> tuple[list[Run], list[tuple[str, str]]
             except DataError as exc:
                 rejected.append((name, f"cannot be read: {exc}"))
     for run in runs:
-        errors = [i for i in check_run(run, **check_options) if i.severity == "error"]
+        errors = [i for i in check_run(run, **check_options) if unusable(i)]
         if errors:
             more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
             rejected.append((run.name, f"bad data: {errors[0]}{more}"))

@@ -5,13 +5,14 @@ from __future__ import annotations
 import base64
 import html
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
 from .._io import atomic_write_text
-from ..control import POSITIONING_TASK
+from ..control import METRIC_UNITS, POSITIONING_TASK
 from ..data import read_dataset
 from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
@@ -27,7 +28,21 @@ td:first-child,th:first-child{text-align:left}
 figure{display:inline-block;margin:.4em;vertical-align:top;max-width:48%}
 figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.8em;color:#555}
 .notes li{font-size:.85em}.small{font-size:.85em;color:#555}
+table{display:block;max-width:100%;overflow-x:auto}td,th{white-space:normal;overflow-wrap:anywhere}
+caption{text-align:left;font-size:.9em;color:#444}
+nav.toc{font-size:.9em;border:1px solid #ddd;padding:.3em 1em;display:inline-block}
+.pass{color:#070;font-weight:bold}.fail{color:#b00;font-weight:bold}
+.verdict{font-size:1.1em;padding:.4em .8em;border:2px solid;display:inline-block}
+.warnbox{background:#fff8e0;border-left:4px solid #e0a000;padding:.3em .8em;font-size:.85em}
 """
+
+#: The verdict's thresholds (the first screen of the report): the median position fit over
+#: the sine runs each model must reach [%], the largest relative deviation of an identified
+#: value from the true one (virtual rig), and the closed loop's steady-state error on the full
+#: model as a fraction of its step.
+VERDICT_FIT = {"full": 90.0, "reduced": 80.0, "pwa": 80.0}
+VERDICT_PARAM_RTOL = 0.10
+VERDICT_SSE_FRACTION = 0.01
 
 _CAPTIONS = {
     "fig01": "Fig. 1: Ĉ_q coefficient and its linearization",
@@ -49,9 +64,10 @@ def _figure(path: Path) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
     key = path.stem.split("_")[0] if path.stem.startswith("fig") else path.stem
     cap = _CAPTIONS.get(key, path.stem)
+    svg = "; SVG in figures/" if path.with_suffix(".svg").is_file() else ""
     return (
         f'<figure><img alt="{html.escape(cap)}" src="data:image/png;base64,{data}">'
-        f"<figcaption>{html.escape(cap)} ({html.escape(path.stem)}; SVG in figures/)</figcaption></figure>"
+        f"<figcaption>{html.escape(cap)} ({html.escape(path.stem)}{svg})</figcaption></figure>"
     )
 
 
@@ -131,6 +147,14 @@ def _params_section(out: Path) -> str:
             return "" if not math.isfinite(float(v)) else f"{float(v):.{d}g}"
 
         true = float(r.true)
+        if str(r.true_in_ci) == "not identified":
+            rows.append(
+                f"<tr><td>{html.escape(str(r.parameter))}</td><td>{html.escape(str(r.unit))}</td>"
+                f"<td><b>not identified</b></td><td></td><td>fit's interval {g(r.ci_low)} … "
+                f"{g(r.ci_high)}: the data do not determine it; the base value is kept</td>"
+                f"<td>{g(true)}</td><td></td></tr>"
+            )
+            continue
         if math.isfinite(true) and math.isfinite(float(r.ci_low)):
             inside = float(r.ci_low) <= true <= float(r.ci_high)
             flag = "yes" if inside else "<b style='color:#b00'>no: outside</b>"
@@ -167,13 +191,17 @@ def _params_section(out: Path) -> str:
     )
 
 
-def _headline(metrics, fit, fit_detrended) -> str:
+def _headline(metrics, fit, fit_detrended, paper_forms: bool = False) -> str:
     """A few numbers per model: median fits of position (plain, detrended) and of the load
-    pressure, median RMSE of position [mm] and load pressure [bar] over the sine runs."""
+    pressure, median RMSE of position [mm] and load pressure [bar] over the sine runs; the
+    package's models, or (``paper_forms``) the paper's mean-area forms."""
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     rows = []
-    for model in [c for c in fit.columns if c != "run"]:
+    models = [c for c in fit.columns if c != "run" and c.endswith("-paper") == paper_forms]
+    if not models:
+        return ""
+    for model in models:
         m = metrics[metrics["model"] == model]
 
         def med(ch, col, fac=1.0, m=m):
@@ -198,7 +226,8 @@ def _headline(metrics, fit, fit_detrended) -> str:
                 "load-pressure RMSE [bar]": med("p_l", "rmse", 1e-5),
             }
         )
-    return _table(pd.DataFrame(rows), "headline: medians over the sine runs")
+    what = "the paper's forms" if paper_forms else "headline"
+    return _table(pd.DataFrame(rows), f"{what}: medians over the sine runs")
 
 
 def _paper_tables_section() -> str:
@@ -255,11 +284,117 @@ def _summary_section(info: dict, true, metrics, fit, fit_detrended) -> str:
         "<h2>Summary</h2>"
         + what
         + "<p>The <b>reduced</b> and <b>PWA</b> models carry both piston areas and follow the single-rod "
-        "cylinder's drift. The paper's forms (<b>reduced-paper</b>, <b>pwa-paper</b>) use the mean piston "
-        "area, so they cannot (docs/errata.md D5): their plain position fit is low by construction; the "
-        "fit with each trend removed and the load-pressure fit score their dynamics.</p>"
+        "cylinder's drift. The paper's own mean-area forms are compared in their own section "
+        '(<a href="#the-papers-forms">The paper\'s forms</a>).</p>'
         + _headline(metrics, fit, fit_detrended)
     )
+
+
+def _paper_forms_section(metrics, fit, fit_detrended) -> str:
+    """The paper's mean-area forms, apart from the headline: low plain fits by construction."""
+    table = _headline(metrics, fit, fit_detrended, paper_forms=True)
+    if not table:
+        return ""
+    return (
+        "<h2>The paper's forms</h2><p>The paper's forms (<b>reduced-paper</b>, <b>pwa-paper</b>) "
+        "use the mean piston area Ā, so a zero-mean sine moves them back and forth without the "
+        "single-rod cylinder's drift to +x (docs/errata.md D5): their plain position fit is low "
+        "by construction (it can be negative: NRMSE below 0 % means worse than the mean). The "
+        "fit with each trend removed and the load-pressure fit score their dynamics.</p>" + table
+    )
+
+
+def _verdict_section(out: Path, fit, true) -> str:
+    """The first screen: what was checked, against which threshold, pass or fail."""
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+    rows: list[tuple[str, str, str, bool | None]] = []
+    runs = fit[fit["run"] != "mean"]
+    for model, need in VERDICT_FIT.items():
+        if model in runs:
+            got = float(runs[model].median())
+            rows.append(
+                (
+                    f"{model} model reproduces the sine runs (median position fit)",
+                    f"≥ {need:g} %",
+                    f"{got:.1f} %",
+                    got >= need,
+                )
+            )
+    f = out / "tables" / "identified.csv"
+    if true is not None and f.is_file():
+        df = pd.read_csv(f)
+        for col in ("true", "identified"):  # an empty table reads as text columns
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
+        df = df[np.isfinite(df["true"]) & (df["true"] != 0) & np.isfinite(df["identified"])]
+        if len(df):
+            rel = (df["identified"] - df["true"]).abs() / df["true"].abs()
+            worst = int(rel.to_numpy().argmax())
+            rows.append(
+                (
+                    "identified values near the rig's true ones (largest relative deviation)",
+                    f"≤ {100 * VERDICT_PARAM_RTOL:g} %",
+                    f"{100 * float(rel.max()):.1f} % ({df['parameter'].iloc[worst]})",
+                    bool(float(rel.max()) <= VERDICT_PARAM_RTOL),
+                )
+            )
+    f = out / "tables" / "closed_loop.csv"
+    if f.is_file():
+        cl = pd.read_csv(f)
+        full = cl[cl.iloc[:, 0] == "full"]
+        if len(full) and {"steady_state_error", "step"} <= set(cl.columns):
+            sse = abs(float(full["steady_state_error"].iloc[0]))
+            step = abs(float(full["step"].iloc[0]))
+            rows.append(
+                (
+                    "closed loop on the full model: steady-state error over the step",
+                    f"≤ {100 * VERDICT_SSE_FRACTION:g} % of the step",
+                    f"{sse:.3g} mm of {step:.3g} mm",
+                    bool(sse <= VERDICT_SSE_FRACTION * step),
+                )
+            )
+    failed = [r for r in rows if r[3] is False]
+    verdict = (
+        f"<span class='fail'>FAIL</span>: {len(failed)} of {len(rows)} checks"
+        if failed
+        else f"<span class='pass'>PASS</span>: all {len(rows)} checks"
+    )
+    body = "".join(
+        f"<tr><td>{html.escape(w)}</td><td>{html.escape(t)}</td><td>{html.escape(v)}</td>"
+        f"<td class='{'pass' if ok else 'fail'}'>{'pass' if ok else 'fail'}</td></tr>"
+        for w, t, v, ok in rows
+    )
+    return (
+        f"<h2>Verdict</h2><p class='verdict'>{verdict}</p>"
+        "<table><thead><tr><th>what was checked</th><th>threshold</th><th>value</th>"
+        f"<th>result</th></tr></thead><tbody>{body}</tbody></table>"
+    )
+
+
+def _warnings(stage_notes: dict, stage: str) -> str:
+    """The warnings a stage recorded, shown in its section."""
+    notes = stage_notes.get(stage) or []
+    if not notes:
+        return ""
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    return (
+        f"<div class='warnbox'><b>{len(notes)} warning(s) of this stage</b><ul>{items}</ul></div>"
+    )
+
+
+def _toc(page: str) -> tuple[str, str]:
+    """Put an anchor before every ``<h2>``; return the page and a table of contents linking them."""
+    entries = []
+
+    def anchor(m):
+        title = m.group(1)
+        slug = re.sub(r"[^a-z0-9]+", "-", re.sub(r"<[^>]+>|&#x27;|'", "", title.lower())).strip("-")
+        entries.append((slug, re.sub(r"<[^>]+>", "", title)))
+        return f'<a id="{slug}"></a><h2>{title}</h2>'
+
+    page = re.sub(r"<h2>(.*?)</h2>", anchor, page)
+    items = "".join(f'<li><a href="#{s}">{t}</a></li>' for s, t in entries)
+    return page, f'<nav class="toc"><b>Contents</b><ol>{items}</ol></nav>'
 
 
 def _closed_loop_section(out: Path) -> str:
@@ -276,8 +411,24 @@ only and verified on the full model; the chamber-level PWA model (pwa-chamber: v
 chambers kept) shows how well a design model predicts the closed loop. Times in ms, errors in mm, IAE in mm·s, saturation in %,
 chattering in sign changes of the command per second; step metrics of the move out, overshoot and
 settling of the move back in the last columns.</p>
-{_table(pd.read_csv(f), "tracking metrics per model")}
+{_table(_with_units(pd.read_csv(f)), "tracking metrics per model")}
 {_figures(out, ("closed_loop",))}"""
+
+
+def _with_units(df):
+    """Closed-loop metric columns named with their units (``rise_time [ms]``)."""
+
+    def name(col: str) -> str:
+        base = col.removesuffix("_back")
+        unit = METRIC_UNITS.get(base)
+        return f"{col} [{unit}]" if unit and unit != "1" else col
+
+    return df.rename(columns={c: name(str(c)) for c in df.columns})
+
+
+def _percent(df):
+    """Fit tables: every model column in %."""
+    return df.rename(columns={c: f"{c} [%]" for c in df.columns if c != "run"})
 
 
 def _greybox_section(out: Path) -> str:
@@ -300,6 +451,7 @@ def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     fit = pd.read_csv(out / "tables" / "position_fit.csv")
     fit_detrended = pd.read_csv(out / "tables" / "position_fit_detrended.csv")
     notes_html = "".join(f"<li>{html.escape(n)}</li>" for n in notes) or "<li>none</li>"
+    by_stage: dict = info.get("stage_notes") or {}
     true_toml = (
         ""
         if true is None
@@ -317,6 +469,9 @@ def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
 parameters: {html.escape(str(info.get("params_source")))} · {info.get("n_sine_runs")} sine runs ·
 PWA cells at the average supply pressure {info.get("supply_pressure", float("nan")) / 1e5:.2f} bar</p>
 
+{_verdict_section(out, fit, true)}
+@@TOC@@
+{_warnings(by_stage, "inputs")}
 {_summary_section(info, true, metrics, fit, fit_detrended)}
 
 <h2>Position fit (NRMSE, %)</h2>
@@ -326,12 +481,13 @@ the asymmetric models (both piston areas), average P_S as in the paper; <b>pwa-s
 cells rescheduled on the measured P_S(t); <b>reduced-paper</b>, <b>pwa-paper</b>: the paper's
 mean-area forms; <b>full (true params)</b>: the full model with the rig's true parameters, for
 reference.</p>
-{_table(fit, "position fit [%] per run and model")}
-<p>The paper's forms use the mean piston area Ā, so a zero-mean sine moves them back and forth
-without the single-rod cylinder's drift to +x (Sec. VII); their plain position fit is dominated
-by that drift. With each signal's own straight-line trend removed, the fit scores the shape of
-the motion:</p>
-{_table(fit_detrended, "position fit [%] with linear trends removed")}
+{_warnings(by_stage, "evaluate")}
+{_table(_percent(fit), "position fit [%] per run and model")}
+<p>With each signal's own straight-line trend removed, the fit scores the shape of the motion
+(the paper's mean-area forms lack the single-rod drift; see the next section):</p>
+{_table(_percent(fit_detrended), "position fit [%] with linear trends removed")}
+
+{_paper_forms_section(metrics, fit, fit_detrended)}
 
 <h2>Supply pressure (Fig. 9)</h2>
 {_fig9(out, info)}
@@ -341,6 +497,7 @@ the motion:</p>
 {_figures(out, ("fig10", "fig11", "fig12", "fig13"))}
 
 <h2>Identified parameters</h2>
+{_warnings(by_stage, "identify")}
 {_params_section(out)}
 <details><summary>identified parameters (identified.toml)</summary><pre>{html.escape(params_to_toml(ident))}</pre></details>
 {true_toml}
@@ -349,6 +506,7 @@ the motion:</p>
 <p class="small">Bulk modulus and flow coefficient fitted by output error to the first second of two
 sine runs (<code>hydropwa identify model</code>), starting from the identified parameters; intervals
 corrected for the residuals' autocorrelation. Not written into identified.toml.</p>
+{_warnings(by_stage, "greybox")}
 {_greybox_section(out)}
 {_figures(out, ("greybox",))}
 
@@ -365,6 +523,7 @@ package regenerates from the paper's equations.</p>
 {_paper_tables_section()}
 
 {_closed_loop_section(out)}
+{_warnings(by_stage, "control")}
 
 <h2>All metrics</h2>
 <details><summary>per run, model and channel ({len(metrics)} rows)</summary>
@@ -373,7 +532,9 @@ mm. v is measured as the smoothed derivative of x.</p>
 {_table(metrics_for_display(metrics), "metrics")}
 </details>
 
-<h2>Notes</h2><ul class="notes">{notes_html}</ul>
+<h2>Notes</h2><p class="small">Every warning of every stage, in order (each also shown in its
+section above).</p><ul class="notes">{notes_html}</ul>
 </body></html>
 """
-    return atomic_write_text(out / "index.html", page)
+    page, toc = _toc(page)
+    return atomic_write_text(out / "index.html", page.replace("@@TOC@@", toc))

@@ -36,6 +36,8 @@ from ..identification import (
     IdentificationWarning,
     fit_model,
     identify,
+    machine_for,
+    recorded_machine,
 )
 from ..linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
 from ..models import FullOrderModel
@@ -126,6 +128,15 @@ def _resolve(out, data, params, campaign) -> _Inputs:
         true_file = Path(data) / "true_params.toml" if data is not None else None
         if true_file is not None and true_file.is_file():
             prm, src = load_params(true_file), f"{true_file} (true parameters of the data)"
+        elif data is not None and Path(data).is_dir():
+            # measured data: their machine (a manifest's machine entry), never a preset
+            found = recorded_machine(data)
+            if found is None:
+                raise StudyError(
+                    f"{str(data)!r} records no machine (no true_params.toml, no 'machine' "
+                    "entry in its manifests); give the machine's parameters with --params FILE"
+                )
+            prm, src = found[0], f"{found[1]} (the data's machine)"
         else:
             prm, src = get_preset("paper"), "preset 'paper'"
     elif isinstance(params, str) and not Path(params).exists():
@@ -139,6 +150,7 @@ def _resolve(out, data, params, campaign) -> _Inputs:
                 f"data folder {str(d)!r} does not exist; give a folder with frf/, deadzone/, "
                 "friction/, sine/ datasets (the layout `hydropwa rig run all` writes)"
             )
+        machine_for(d, prm)  # the given parameters' geometry must be the data's machine
         if not (d / "sine" / "manifest.json").is_file():
             raise StudyError(
                 f"data folder {str(d)!r} has no sine/ dataset; the evaluation needs the sine runs"
@@ -365,11 +377,19 @@ def _parameter_table(fitted: dict[str, Any], true) -> list[dict]:
                 None if true is None else true.dead_zone.creep_slope,
             )
         )
+    unidentified = set()
     if "friction" in fitted:
+        unidentified = {
+            f"friction.{k}" for k in getattr(fitted["friction"].fit_, "unidentified", ())
+        }
         for k, est in fitted["friction"].fit_.estimates.items():
             tv = None if true is None else getattr(true.friction, k, None)
             rows.append((f"friction.{k}", est.unit, est, tv))
-    return _estimates_rows(rows)
+    out = _estimates_rows(rows)
+    for row in out:  # the data do not determine it: no value, the base's is kept
+        if row["parameter"] in unidentified:
+            row["identified"], row["true_in_ci"] = np.nan, "not identified"
+    return out
 
 
 def _write_table(df, stem: Path, floatfmt: str = ".4g") -> list[Path]:
@@ -691,7 +711,9 @@ def _stage_evaluate(
     return pd.read_csv(out / "tables" / "metrics.csv"), runner.outputs_hash("evaluate")
 
 
-def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
+def _stage_control(
+    inp: _Inputs, runner: StageRunner, true, key: str, notes: list[str] | None = None
+) -> str:
     """Closed loop: an LQR designed on the identified PWA model, verified on the full model."""
     out = inp.out
 
@@ -709,7 +731,9 @@ def _stage_control(inp: _Inputs, runner: StageRunner, true, key: str) -> str:
         )
         return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
 
-    runner.run("control", text_hash(inp.key(), key, "control"), work)
+    m = runner.run("control", text_hash(inp.key(), key, "control"), work)
+    if notes is not None:  # the design's warnings (cells unstable with the valve) are shown
+        notes.extend(m.get("notes", []))
     return runner.outputs_hash("control")
 
 
@@ -800,13 +824,18 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
     with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS):
         runner = StageRunner(inp.out, fresh or force, prog.stage_done)
         data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
+        by_stage: dict[str, list[str]] = {"inputs": list(notes)}
+        n0 = len(notes)
         ident, true, k1 = _stage_identify(inp, runner, data_root, data_key, notes)
+        by_stage["identify"], n0 = notes[n0:], len(notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
         _stage_greybox(inp, runner, ident, true, text_hash(k1, data_key), runs, notes)
+        by_stage["greybox"], n0 = notes[n0:], len(notes)
         metrics, k3 = _stage_evaluate(
             inp, runner, ident, true, text_hash(k1, k2, data_key), runs, prog, notes
         )
+        by_stage["evaluate"], n0 = notes[n0:], len(notes)
         info = {
             "data": str(inp.data)
             if inp.data is not None
@@ -815,7 +844,9 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
             "supply_pressure": ps,
             "n_sine_runs": len(runs),
         }
-        k4 = _stage_control(inp, runner, true, k2)
+        k4 = _stage_control(inp, runner, true, k2, notes)
+        by_stage["control"] = notes[n0:]
+        info["stage_notes"] = by_stage
         _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, k4, info), notes, info)
     return StudyResult(
         out=inp.out,

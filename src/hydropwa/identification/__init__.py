@@ -60,6 +60,7 @@ from ._inverse_dynamics import (
     identify_emps,
     identify_inverse_dynamics,
 )
+from ._machine import MACHINE_FILE, check_same_machine, machine_for, recorded_machine
 from ._pipeline import (
     PARTS,
     Estimator,
@@ -84,6 +85,10 @@ from .greybox import (
 )
 
 __all__ = [
+    "MACHINE_FILE",
+    "check_same_machine",
+    "machine_for",
+    "recorded_machine",
     "ESTIMATOR_CHANNELS",
     "estimator_view",
     "sandwich_covariance",

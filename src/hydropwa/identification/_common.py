@@ -551,11 +551,13 @@ def screen_for_estimator(
     with the converter limits (``limits``, else the run's ``meta["converter_limits"]``);
     the first error-severity finding is the reason.
     """
-    from ..data import check_run  # deferred: hydropwa.data loads pint
+    from ..data import check_run, unusable  # deferred: hydropwa.data loads pint
 
     view = estimator_view(run, kind, stroke)
     lim = run.meta.get("converter_limits") or limits or None
-    errors = [i for i in check_run(view, limits=lim) if i.severity == "error"]
+    # a chamber at a gauge sensor's floor is a physical fact for `data check` (a note), but
+    # its pressure is unknown there (up to 1 bar under the reading): unusable where read
+    errors = [i for i in check_run(view, limits=lim) if unusable(i)]
     if not errors:
         return None
     if view is not run and view.t.size < run.t.size:
@@ -563,7 +565,7 @@ def screen_for_estimator(
         # (a dropout cut by the span's start looks like a plateau at the channel's extreme)
         cols = {c: run.channels[c] for c in view.channels}
         whole = run.replace(channels=cols, units={c: u for c, u in run.units.items() if c in cols})
-        by_channel = {i.channel: i for i in check_run(whole, limits=lim) if i.severity == "error"}
+        by_channel = {i.channel: i for i in check_run(whole, limits=lim) if unusable(i)}
         errors = [by_channel.get(i.channel, i) for i in errors]
     more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
     return f"bad data: {errors[0]}{more}"

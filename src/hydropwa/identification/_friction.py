@@ -558,6 +558,11 @@ class StribeckFit:
     weak : tuple of str
         Parameters the data barely determine (CI wider than ±50 %, a factor 2 on
         the log scale, or at a bound).
+    unidentified : tuple of str
+        Parameters the data do not determine: the estimate sits at a bound of the fit with
+        a confidence interval wider than half its value, or the interval covers the whole
+        bounded range. Not written as values (:meth:`StribeckIdentifier.apply` keeps the
+        given parameters' value) and reported as not identified.
     velocity, force, residuals : ndarray
         Data [m/s], [N] and residuals f_data − f_model [N].
     rms_residual : float
@@ -583,6 +588,7 @@ class StribeckFit:
     loss: str
     n_starts: int
     status: OptimizerStatus
+    unidentified: tuple[str, ...] = ()
 
     def force_at(self, v) -> np.ndarray:
         """Fitted friction force [N] at velocity ``v`` [m/s]."""
@@ -967,6 +973,7 @@ def _fit_stribeck_bounded(
     q = t_quantile(level, v.size - len(free_idx))
     est: dict[str, ParameterEstimate] = {}
     weak = []
+    unidentified = []
     names_free = []
     for k, i in enumerate(free_idx):
         names_free.append(STRIBECK_NAMES[i])
@@ -974,7 +981,8 @@ def _fit_stribeck_bounded(
             1 + abs(ub_all[i])
         )
         if i in (3, 5):
-            lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
+            with np.errstate(over="ignore"):  # an undetermined log-scale CI reaches inf
+                lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
             val = 10.0 ** th[i]
             std = val * np.log(10.0) * sd[k]
             is_weak = sd[k] * q > np.log10(2.0) or at_bound
@@ -997,6 +1005,18 @@ def _fit_stribeck_bounded(
         )
         if is_weak:
             weak.append(name)
+        # not identified: at (or, on the scale of its interval, next to) a bound of the fit
+        # with an interval wider than half the value, or an interval covering the bounded
+        # range (e.g. F_c = 9.6e-11 N, CI ±1209 N); then no value is written
+        lo_b, hi_b = (
+            (10.0 ** lb_all[i], 10.0 ** ub_all[i]) if i in (3, 5) else (lb_all[i], ub_all[i])
+        )
+        if i == 1:  # the bound is on F_s − F_c; at it F_s = F_c
+            lo_b, hi_b = lo_b + th[0], hi_b + th[0]
+        half = 0.5 * (hi - lo)
+        near = at_bound or min(val - lo_b, hi_b - val) < 0.01 * half
+        if (near and half > 0.5 * abs(val)) or (lo <= lo_b and hi >= hi_b):
+            unidentified.append(name)
     friction = Friction(
         coulomb=float(th[0]),
         static=float(th[0] + th[1]),
@@ -1018,6 +1038,7 @@ def _fit_stribeck_bounded(
         loss,
         len(results),
         OptimizerStatus(bool(best.success), str(best.message), nfev, None),
+        tuple(unidentified),
     )
 
 
@@ -1544,6 +1565,7 @@ class StribeckIdentifier:
         """Per-field estimates and the weakly identified names (``[uncertainty]`` table)."""
         out: dict[str, Any] = {k: e.to_dict() for k, e in self.fit_.estimates.items()}
         out["weakly_identified"] = list(self.fit_.weak)
+        out["not_identified"] = list(self.fit_.unidentified)
         out["notes"] = list(self.notes_)
         out["rms_residual_N"] = self.fit_.rms_residual
         out["method"] = self.method.name
@@ -1554,7 +1576,25 @@ class StribeckIdentifier:
         """``params`` with the fitted friction curve in place of its ``friction``."""
         if not hasattr(self, "friction_"):
             raise not_fitted("StribeckIdentifier")
-        return dataclasses.replace(params, friction=self.friction_)
+        keep = self.fit_.unidentified
+        if not keep:
+            return dataclasses.replace(params, friction=self.friction_)
+        # a value the data do not determine is not written: the given parameters' stays
+        fitted = {
+            f.name: getattr(self.friction_, f.name)
+            for f in dataclasses.fields(Friction)
+            if f.name not in keep
+        }
+        try:
+            friction = dataclasses.replace(params.friction, **fitted)
+        except ParameterError as exc:
+            raise IdentificationError(
+                f"friction: {', '.join(keep)} not identified by the data, and the given "
+                f"value(s) do not fit the identified ones ({exc}); give runs that determine "
+                "them (slower and faster steady speeds) or fix them with StribeckIdentifier("
+                "fixed=...)"
+            ) from None
+        return dataclasses.replace(params, friction=friction)
 
     def provenance(self) -> str:
         """One line on how the curve was found (``[meta.identification]`` of a parameter file)."""
@@ -1575,6 +1615,11 @@ class StribeckIdentifier:
                 else ""
             )
             + (f"; weakly identified: {', '.join(self.fit_.weak)}" if self.fit_.weak else "")
+            + (
+                f"; not identified (given value kept): {', '.join(self.fit_.unidentified)}"
+                if self.fit_.unidentified
+                else ""
+            )
             + f"; optimiser: {self.fit_.status}"
         )
 

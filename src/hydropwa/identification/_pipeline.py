@@ -16,6 +16,9 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
+
+from .._display import html_table
 from .._errors import DataError, IdentificationError, ParameterError
 from .._io import atomic_write_text, check_output
 from ..params import SystemParams, save_params
@@ -30,6 +33,7 @@ from ._common import (
 from ._deadzone import DeadZoneIdentifier
 from ._frf import ValveFrfIdentifier
 from ._friction import StribeckIdentifier
+from ._machine import machine_for
 
 __all__ = [
     "IdentificationReport",
@@ -139,6 +143,15 @@ def _read_each(src, skipped: list) -> list:
     return list(src)
 
 
+#: The figures :meth:`IdentificationReport.save` writes, named as ``hydropwa paper`` names them
+#: (the paper's figure numbers), so one figure has one file name in every command.
+FIGURE_FILES = {
+    "valve_bode": "fig05_valve_bode.png",
+    "dead_zone": "fig06_dead_zone.png",
+    "stribeck": "fig08_stribeck.png",
+}
+
+
 @dataclasses.dataclass
 class IdentificationReport:
     """What :func:`identify` found.
@@ -164,6 +177,52 @@ class IdentificationReport:
     skipped: list[SkippedRun] = dataclasses.field(default_factory=list)
     source: str = ""
 
+    def _rows(self) -> list[tuple[str, str, str]]:
+        """(part, identified values, remark) per identified part, in engineering units."""
+        p, rows = self.params, []
+        if self.valve is not None:
+            rows.append(
+                (
+                    "valve",
+                    f"ω0 = {p.valve.omega0 / (2 * np.pi):.4g} Hz, ζ = {p.valve.zeta:.3g}",
+                    "",
+                )
+            )
+        if self.dead_zone is not None:
+            dz = p.dead_zone
+            rows.append(("dead zone", f"β = {dz.beta:.4g}, creep slope {dz.creep_slope:.3g}", ""))
+        if self.friction is not None:
+            fr = p.friction
+            fit = getattr(self.friction, "fit_", None)
+            unid = tuple(getattr(fit, "unidentified", ()))
+            rows.append(
+                (
+                    "friction",
+                    f"F_c = {fr.coulomb:.4g} N, F_s = {fr.static:.4g} N, "
+                    f"σ = {fr.viscous:.4g} N·s/m",
+                    f"not identified (given value kept): {', '.join(unid)}" if unid else "",
+                )
+            )
+        return rows
+
+    def __repr__(self) -> str:
+        lines = [f"IdentificationReport from {self.source!r}"]
+        lines += [
+            f"  {part:<10} {vals}" + (f"  [{rem}]" if rem else "")
+            for part, vals, rem in self._rows()
+        ]
+        if not self._rows():
+            lines.append("  nothing identified")
+        if self.skipped:
+            lines.append(f"  skipped    {len(self.skipped)} run(s) or part(s); see .skipped")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        note = f"{len(self.skipped)} run(s) or part(s) skipped" if self.skipped else ""
+        return html_table(
+            f"Identification from {self.source}", ("part", "values", "remark"), self._rows(), note
+        )
+
     def summary_markdown(self) -> str:
         """A short markdown summary: values, intervals, weak parameters, skipped runs."""
         return _summary(self)
@@ -183,7 +242,8 @@ class IdentificationReport:
         out : path-like
             Parameter file (``load_params`` reads it back).
         figures : path-like, optional
-            Folder for ``valve_bode.png``, ``dead_zone.png``, ``stribeck.png``.
+            Folder for ``fig05_valve_bode.png``, ``fig06_dead_zone.png``, ``fig08_stribeck.png``
+            (the paper's figure numbers, the names ``hydropwa paper`` gives them).
         summary : path-like, optional
             Markdown file (default: ``out`` with suffix ``.md``).
         overwrite : bool
@@ -206,9 +266,7 @@ class IdentificationReport:
         summary = Path(summary) if summary is not None else out.with_suffix(".md")
         targets = [out, summary]
         if figures is not None:
-            targets += [
-                Path(figures) / n for n in ("valve_bode.png", "dead_zone.png", "stribeck.png")
-            ]
+            targets += [Path(figures) / n for n in FIGURE_FILES.values()]
         for target in targets:
             check_output(target, overwrite)
         header = f"identified by hydropwa from {self.source}"
@@ -220,18 +278,23 @@ class IdentificationReport:
             fdir = Path(figures)
             fdir.mkdir(parents=True, exist_ok=True)
             if self.valve is not None:
-                save_figure(plot_bode(self.valve), fdir / "valve_bode.png", overwrite=overwrite)
-                written["valve_bode"] = fdir / "valve_bode.png"
+                path = fdir / FIGURE_FILES["valve_bode"]
+                save_figure(plot_bode(self.valve), path, overwrite=overwrite)
+                written["valve_bode"] = path
             if self.dead_zone is not None:
                 save_figure(
-                    plot_dead_zone(self.dead_zone), fdir / "dead_zone.png", overwrite=overwrite
+                    plot_dead_zone(self.dead_zone),
+                    fdir / FIGURE_FILES["dead_zone"],
+                    overwrite=overwrite,
                 )
-                written["dead_zone"] = fdir / "dead_zone.png"
+                written["dead_zone"] = fdir / FIGURE_FILES["dead_zone"]
             if self.friction is not None:
                 save_figure(
-                    plot_stribeck(self.friction), fdir / "stribeck.png", overwrite=overwrite
+                    plot_stribeck(self.friction),
+                    fdir / FIGURE_FILES["stribeck"],
+                    overwrite=overwrite,
                 )
-                written["stribeck"] = fdir / "stribeck.png"
+                written["stribeck"] = fdir / FIGURE_FILES["stribeck"]
         return written
 
 
@@ -276,9 +339,11 @@ def identify(
         See :func:`load_runs`. Runs are routed by ``meta["experiment"]``/``meta["kind"]``.
     parts : iterable of str
         Any of ``"frf"``, ``"deadzone"``, ``"friction"``.
-    params : SystemParams
+    params : SystemParams, optional
         The rig: everything not identified, plus areas, stroke and mass the estimators read.
-        Required (there is no default rig); e.g. ``get_preset("paper")`` or ``load_params(...)``.
+        Default: the machine the data record (:func:`~hydropwa.identification.machine_for`:
+        a campaign's ``true_params.toml``, a manifest's ``machine`` entry); there is no
+        default rig. Given, its areas and stroke must be the recorded machine's.
     estimators : mapping of str to estimator, optional
         Estimator per part (with its settings), e.g.
         ``{"friction": StribeckIdentifier(params, method=InstantaneousBins())}``; a part not
@@ -291,7 +356,8 @@ def identify(
     Raises
     ------
     ParameterError
-        Without ``params``, or with an estimator given for a part it does not identify.
+        Without ``params`` on data that record no machine, with ``params`` of another
+        geometry than the data's machine, or with an estimator given for a part it does not identify.
     IdentificationError
         If a single part was asked for and cannot be identified, or none of several can.
         When several parts are asked for, a part without usable runs is skipped with an
@@ -303,11 +369,9 @@ def identify(
         raise IdentificationError(
             f"unknown part(s) {sorted(unknown)}; choose from {', '.join(PARTS)}"
         )
-    if params is None:
-        raise ParameterError(
-            "identify needs the rig's parameters (areas, stroke, mass and the values not "
-            "identified): pass params=get_preset('paper') or params=load_params('rig.toml')"
-        )
+    # the data's machine (a campaign's true_params.toml, a manifest's machine entry), or
+    # params checked against it; neither: one line saying how to give it (no default rig)
+    params = machine_for(data, params)
     chosen = {**default_estimators(params), **dict(estimators or {})}
     for key, est in chosen.items():
         if key not in PARTS or getattr(est, "part", None) != key:
@@ -361,6 +425,14 @@ def identify(
         done.append(part)
         setattr(report, est.field, est)  # report.valve / .dead_zone / .friction
         result = est.apply(result)
+        unid = getattr(getattr(est, "fit_", None), "unidentified", ())
+        if unid:
+            warnings.warn(
+                f"{part}: {', '.join(unid)} not identified by the data (at a bound of the fit "
+                "with a wide interval); the given value is kept, not the fit's",
+                IdentificationWarning,
+                stacklevel=2,
+            )
         uncertainty[est.field] = est.uncertainty()
         provenance[est.field] = est.provenance()
     if not done:
@@ -443,6 +515,13 @@ def _summary(rep: IdentificationReport) -> str:
             "|---|---|---|---|",
         ]
         for k, e in fit.estimates.items():
+            if k in fit.unidentified:
+                given = getattr(rep.params.friction, k)
+                lines.append(
+                    f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
+                    f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
+                )
+                continue
             lines.append(f"| {k} | {_fmt_est(e)} |")
         lines += [
             "",
@@ -452,6 +531,13 @@ def _summary(rep: IdentificationReport) -> str:
             lines.append(
                 f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
                 "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
+            )
+        if fit.unidentified:
+            lines.append(
+                f"Not identified (at a bound of the fit with a wide interval, or an interval "
+                f"covering the whole range; the given value is kept): "
+                f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
+                "machine's values with --params."
             )
         lines += [f"Note: {n}." for n in rep.friction.notes_]
         lines.append("")

@@ -49,7 +49,7 @@ def cqp_figure(model, p_s: float | None = None, openings=(0.25, 0.5, 0.75, 1.0))
 
 
 def write_figures(model, folder: str | os.PathLike, *, overwrite: bool = True) -> list[Path]:
-    """Write fig1_cq and fig2_cqp as PNG and SVG into ``folder``; return the paths.
+    """Write fig01_cq and fig02_cqp as PNG and SVG into ``folder``; return the paths.
 
     ``overwrite`` as in :func:`hydropwa.plotting.save_figure` (the CLI checks the folder
     with ``--force`` first).
@@ -58,7 +58,7 @@ def write_figures(model, folder: str | os.PathLike, *, overwrite: bool = True) -
 
     out = []
     folder = Path(folder)
-    for name, fig in (("fig1_cq", cq_figure(model)), ("fig2_cqp", cqp_figure(model))):
+    for name, fig in (("fig01_cq", cq_figure(model)), ("fig02_cqp", cqp_figure(model))):
         for ext in ("png", "svg"):
             out.append(save_figure(fig, folder / f"{name}.{ext}", dpi=150, overwrite=overwrite))
     return out

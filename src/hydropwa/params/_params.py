@@ -302,6 +302,31 @@ class Cylinder:
     end_stop_stiffness: float = 1e8
     end_stop_damping: float = 2e4
 
+    @staticmethod
+    def areas_from_diameters(bore: float, rod: float) -> dict[str, float]:
+        """``{"area_a": πD²/4, "area_b": π(D² − d²)/4}`` for bore D and rod diameter d [m].
+
+        Raises
+        ------
+        ParameterError
+            Unless 0 < d < D and both are finite.
+        """
+        if not (math.isfinite(bore) and math.isfinite(rod) and 0.0 < rod < bore):
+            raise ParameterError(
+                f"cylinder bore {bore * 1e3:g} mm and rod {rod * 1e3:g} mm: need "
+                "0 < rod < bore (diameters, e.g. bore 63 mm, rod 36 mm)"
+            )
+        return {"area_a": math.pi * bore**2 / 4.0, "area_b": math.pi * (bore**2 - rod**2) / 4.0}
+
+    @classmethod
+    def from_diameters(cls, bore: float, rod: float, stroke: float, **fields: float) -> Cylinder:
+        """A cylinder by bore D, rod diameter d and stroke l [m], as a catalogue gives it.
+
+        A_A = πD²/4 and A_B = π(D² − d²)/4 (Eq. (9)'s areas); ``fields`` sets the rest
+        (dead volumes, leakage, end stops). TOML: ``bore = "63 mm"``, ``rod = "36 mm"``.
+        """
+        return cls(**cls.areas_from_diameters(bore, rod), stroke=stroke, **fields)
+
     def __post_init__(self) -> None:
         _check(self, "area_a", "m²", gt=0.0, lt=1.0)
         _check(self, "area_b", "m²", gt=0.0, lt=1.0)

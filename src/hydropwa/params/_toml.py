@@ -18,7 +18,7 @@ import tomli_w
 
 from .._errors import ParameterError
 from .._io import atomic_write_text
-from ._params import COMPONENT_TYPES, SystemParams, flow_coefficient_from_rating
+from ._params import COMPONENT_TYPES, Cylinder, SystemParams, flow_coefficient_from_rating
 from ._presets import PRESETS, get_preset
 
 __all__ = [
@@ -246,8 +246,21 @@ def params_from_dict(
                     )
                 kwargs["K"] = flow_coefficient_from_rating(qn, pn, per)
                 continue
+            if comp == "cylinder" and key in ("bore", "rod"):
+                # the cylinder as a catalogue names it: bore D and rod d (Eq. (9)'s areas)
+                diam = parse_quantity(value, "m", where)
+                bare = isinstance(value, int | float) and not isinstance(value, bool)
+                if check_bare and bare and not (1e-3 <= diam <= 2.0):
+                    raise ParameterError(
+                        f"{where} = {value:g} read as m is implausible for a diameter; write it "
+                        f'with its unit, e.g. {key} = "{value:g} mm"'
+                    )
+                kwargs[f"_{key}"] = diam
+                continue
             if key not in units:
-                raise ParameterError(f"{where}: unknown field; known: {', '.join(units)}")
+                raise ParameterError(
+                    f"{where}: unknown field; known: {', '.join(units)}, or bore and rod"
+                )
             unit = units[key]
             if unit is None:
                 if key == "omega0_table":
@@ -267,6 +280,8 @@ def params_from_dict(
                 if check_bare:
                     _check_bare(comp, key, value, unit, where)
                 kwargs[key] = parse_quantity(value, unit, where)
+        if "_bore" in kwargs or "_rod" in kwargs:
+            kwargs.update(_areas_from_diameters(kwargs, source))
         try:
             changes[comp] = dataclasses.replace(getattr(params, comp), **kwargs)
         except ParameterError as exc:
@@ -279,6 +294,22 @@ def params_from_dict(
     if "uncertainty" in data:
         meta["uncertainty"] = data["uncertainty"]
     return dataclasses.replace(params, meta=meta, **changes)
+
+
+def _areas_from_diameters(kwargs: dict[str, Any], source: str) -> dict[str, float]:
+    """``area_a``/``area_b`` from ``bore``/``rod`` (popped from ``kwargs``); both or neither."""
+    bore, rod = kwargs.pop("_bore", None), kwargs.pop("_rod", None)
+    if bore is None or rod is None:
+        raise ParameterError(
+            f"{source}: [cylinder] gives {'bore' if rod is None else 'rod'} without "
+            f'{"rod" if rod is None else "bore"}; give both diameters, e.g. bore = "63 mm", '
+            'rod = "36 mm"'
+        )
+    if "area_a" in kwargs or "area_b" in kwargs:
+        raise ParameterError(
+            f"{source}: [cylinder] gives both bore/rod and area_a/area_b; give one of the two"
+        )
+    return Cylinder.areas_from_diameters(bore, rod)
 
 
 def load_params(path: str | os.PathLike) -> SystemParams:
@@ -302,6 +333,8 @@ def load_params(path: str | os.PathLike) -> SystemParams:
         raise ParameterError(f"{p}: not a text file; expected a TOML parameter file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{p}: invalid TOML ({exc})") from None
+    except RecursionError:  # tomllib recurses per nesting level ("a = [[[[...")
+        raise ParameterError(f"{p}: nested too deeply to be a parameter file") from None
     if "base" not in data:
         # a component class with OPTIONAL = True (e.g. an accessory that defaults to absent)
         # may be left out of a complete file

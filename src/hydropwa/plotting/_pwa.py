@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+import matplotlib
 import numpy as np
 from matplotlib.axes import Axes
 
@@ -158,7 +159,8 @@ def plot_cell_occupancy(
     a.set_xticks([])
     a.set_ylabel("time active [%]")
     a.set_title("PWA cell occupancy (mean over runs; numbers: cell)", fontsize=9)
-    a.legend(fontsize=7)
+    if len(cell_metrics):  # no occupancy given: no bars, no legend
+        a.legend(fontsize=7)
     if ncol == 2:
         a = axes[0, 1]
         ch = trajectory.channels
@@ -167,8 +169,20 @@ def plot_cell_occupancy(
             a.axvline(100 * b, color="gray", lw=0.6)
         for b in cells["cq"].breakpoints:
             a.axhline(b / 1e5, color="gray", lw=0.6)
-        sc = a.scatter(100 * ch["u"], ch["p_l"] / 1e5, c=ch["cell_o"], s=2, cmap="viridis")
-        fig.colorbar(sc, ax=a, label="C_q cell")
+        # one colour per C_q cell, whatever the trajectory visits (a trajectory in one cell
+        # drew a colour bar of -0.1...0.1 with matplotlib's autoscaling)
+        n_cells = len(cells["cq"].breakpoints) + 1
+        cmap = matplotlib.colormaps["viridis"].resampled(n_cells)
+        sc = a.scatter(
+            100 * ch["u"],
+            ch["p_l"] / 1e5,
+            c=ch["cell_o"],
+            s=2,
+            cmap=cmap,
+            vmin=-0.5,
+            vmax=n_cells - 0.5,
+        )
+        fig.colorbar(sc, ax=a, label="C_q cell (index, Table VI)", ticks=range(n_cells))
         a.set_xlabel("valve command u [%]")
         a.set_ylabel("load pressure P_L [bar]")
         a.set_title("partition (u, P_L) and one trajectory", fontsize=9)

@@ -8,6 +8,7 @@ into plain arrays that the compiled solver evaluates without calling Python
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
 from functools import lru_cache
@@ -16,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._errors import SignalError
+from .._errors import ParameterError, SignalError
 from ..params import parse_quantity
 
 __all__ = [
@@ -32,6 +33,7 @@ __all__ = [
     "eval_signal",
     "eval_signal_rate",
     "pack_signals",
+    "check_supply_signal",
 ]
 
 #: numba options for allocation-free helpers that only touch arrays their caller owns: no
@@ -509,3 +511,28 @@ def parse_signal(spec: str, unit: str = "", name: str = "signal") -> Signal:
         return cls(**kwargs)
     except SignalError as exc:
         raise SignalError(f"{name}: {exc}") from None
+
+
+def check_supply_signal(sig: Signal, supply, duration: float, where: str = "supply_pressure"):
+    """P_S (a signal over ``[0, duration]``) within the bounds of ``Supply.pressure``.
+
+    The bounds a parameter file gets (above the tank pressure, at most 1e9 Pa), so that
+    ``simulate(..., supply_pressure=0)`` or ``1e14`` is one error, not a silent run. A
+    constant is checked once, other signals at 4001 points.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``where``, the value and the bound.
+    """
+    if isinstance(sig, Constant):
+        vals = np.array([float(sig(0.0))])
+    else:
+        vals = np.asarray([float(sig(ti)) for ti in np.linspace(0.0, float(duration), 4001)])
+    if not np.all(np.isfinite(vals)):
+        raise ParameterError(f"{where}: P_S is not finite everywhere; give a finite pressure")
+    for v in (float(vals.min()), float(vals.max())):
+        try:
+            dataclasses.replace(supply, pressure=v)
+        except ParameterError as exc:
+            raise ParameterError(f"{where}: {exc}") from None

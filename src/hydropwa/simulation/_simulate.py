@@ -27,7 +27,7 @@ from ..params import SystemParams
 from . import _controller as C
 from . import _kernel as K
 from ._controller import eval_rates
-from ._signals import Constant, Sampled, Signal, as_signal, pack_signals
+from ._signals import Constant, Sampled, Signal, as_signal, check_supply_signal, pack_signals
 from ._status import SolverStats, SolverStatus
 
 if TYPE_CHECKING:
@@ -40,6 +40,9 @@ if TYPE_CHECKING:
 #: within 0.05 mm of a rtol-1e-9 reference (pressures within ~0.8 bar at sharp events such as
 #: end-stop impacts); pass rtol=1e-5 or tighter for measurement-grade pressures.
 DEFAULT_RTOL = 1e-3
+#: Accepted relative tolerances of the integrator: tighter than 1e-12 is below what
+#: float64 arithmetic resolves over a run; looser than 0.1 is not a solution any more.
+RTOL_RANGE = (1e-12, 0.1)
 
 __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
@@ -523,6 +526,12 @@ def simulate(
         initial_position = x0
     if solver not in K.SOLVERS:
         raise ParameterError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
+    if not (isinstance(rtol, int | float) and RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]):
+        raise ParameterError(
+            f"rtol = {rtol!r} is outside [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}]; the default "
+            f"{DEFAULT_RTOL:g} keeps the position within 0.1 mm, 1e-5 gives measurement-grade "
+            "pressures"
+        )
     mdl = as_model(model, params)
     kind = _KERNEL_KIND.get(mdl.name)
     if kind is None:
@@ -562,6 +571,8 @@ def simulate(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
     )
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
+    if supply_pressure is not None:  # the parameters' own P_S was validated with them
+        check_supply_signal(ps_sig, prm.supply, float(t_out[-1]))
     if (
         kind in (K.PWA, K.CHAMBER)
         and supply_pressure is not None

@@ -288,6 +288,11 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     check_supply_pressure(
         options.get("supply_pressure"), base, float(duration), "input.supply_pressure"
     )
+    if not grid and not random:
+        raise ParameterError(
+            "nothing to sweep: no [grid] values and no [random] draws; add e.g. [grid] "
+            "'supply.pressure' = ['60 bar', '100 bar'] (one run: hydropwa simulate)"
+        )
     spec = SweepSpec(base, grid, random, n_random, seed, u, float(duration), model, options)
     if spec.n_cases > MAX_SWEEP_CASES:
         sizes = " × ".join(

@@ -1,0 +1,196 @@
+"""No silent default machine (issue 37): the machine comes from the data, the controller file
+or ``--params``; none given is one line saying how (exit 2), never the paper's cylinder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomli_w
+
+from hydropwa._errors import IdentificationError, ParameterError
+from hydropwa.cli import main
+from hydropwa.data import Dataset, read_run
+from hydropwa.identification import (
+    StribeckIdentifier,
+    fit_stribeck,
+    identify,
+    machine_for,
+    recorded_machine,
+)
+from hydropwa.params import get_preset, load_params, save_params
+
+MACHINES = Path(__file__).parents[1] / "machines"
+
+
+@pytest.fixture(scope="module")
+def heavy():
+    """The 63/36 mm × 500 mm axis: areas and stroke far from the paper's (13/7.6 cm², 200 mm)."""
+    return load_params(MACHINES / "industrial.toml")
+
+
+def _deadzone_runs():
+    """Constant-command runs (the dead-zone experiment) with a hinge velocity law."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "identification"))
+    from ident_support import constant_input_runs, hinge_velocity
+
+    levels = np.concatenate([np.arange(0.01, 0.2001, 0.01), -np.arange(0.01, 0.2001, 0.01)])
+    return constant_input_runs(levels, lambda u: hinge_velocity(u, 0.1, 0.5, 0.02), duration=1.0)
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory, heavy):
+    """A campaign folder as `hydropwa rig run` lays it out: deadzone/ and true_params.toml."""
+    root = tmp_path_factory.mktemp("heavy")
+    Dataset.create(root / "deadzone").write(_deadzone_runs(), format="csv")
+    save_params(heavy, root / "true_params.toml")
+    return root
+
+
+def test_the_campaign_records_its_machine(campaign, heavy):
+    got, src = recorded_machine(campaign)
+    assert got == heavy and src.endswith("true_params.toml")
+    # a dataset folder of the campaign finds its parent's parameter file
+    assert recorded_machine(campaign / "deadzone")[0] == heavy
+    assert machine_for(campaign) == heavy
+
+
+def test_identify_without_params_uses_the_datas_machine(campaign, heavy, tmp_path, capsys):
+    out = tmp_path / "id.toml"
+    assert main(["identify", "deadzone", str(campaign), "--out", str(out)]) == 0
+    back = load_params(out)
+    # the heavy axis' geometry and untouched values, not the paper cylinder's
+    assert back.cylinder.area_a == pytest.approx(heavy.cylinder.area_a, rel=1e-12)
+    assert back.cylinder.stroke == pytest.approx(0.5, rel=1e-12)
+    assert back.load.mass == pytest.approx(heavy.load.mass, rel=1e-12)
+    assert back.dead_zone.beta == pytest.approx(0.1, abs=0.005)  # identified
+    # the Python API agrees with the CLI: no params, the data's machine
+    rep = identify(campaign, ("deadzone",))
+    assert rep.params.cylinder == heavy.cylinder
+    # the report presents itself: what was identified, no object addresses
+    text = repr(rep)
+    assert " at 0x" not in text and "dead zone" in text and "β = 0.1" in text
+    assert "<table>" in rep._repr_html_() and " at 0x" not in rep._repr_html_()
+
+
+def test_params_of_another_geometry_is_an_error(campaign, tmp_path, capsys):
+    code = main(
+        ["identify", "deadzone", str(campaign), "--out", str(tmp_path / "a.toml"), "-p", "paper"]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "piston area A_A 13 cm²" in err, err
+    assert "31.17 cm²" in err and not (tmp_path / "a.toml").exists()
+    with pytest.raises(ParameterError, match="piston area"):
+        identify(campaign, ("deadzone",), params=get_preset("paper"))
+
+
+def test_no_machine_anywhere_stops_with_one_line(tmp_path, capsys):
+    Dataset.create(tmp_path / "log" / "deadzone").write(_deadzone_runs(), format="csv")
+    out = tmp_path / "id.toml"
+    code = main(["identify", "all", str(tmp_path / "log"), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "records no machine" in err and "--params" in err
+    assert not out.exists()
+    with pytest.raises(ParameterError, match="records no machine"):
+        identify(tmp_path / "log")
+
+
+def test_a_manifests_machine_entry(tmp_path, heavy):
+    """A converted log's manifest names its machine: a parameter table or a file next to it."""
+    runs = _deadzone_runs()[:2]
+    ds = Dataset.create(tmp_path / "a", meta={"machine": heavy.to_dict()})
+    ds.write(runs, format="csv")
+    assert recorded_machine(tmp_path / "a")[0] == heavy
+    save_params(heavy, tmp_path / "b" / "axis.toml")
+    Dataset.create(tmp_path / "b", meta={"machine": "axis.toml"}).write(runs, format="csv")
+    assert recorded_machine(tmp_path / "b")[0] == heavy
+    Dataset.create(tmp_path / "c", meta={"machine": "../secret.toml"}).write(runs, format="csv")
+    with pytest.raises(ParameterError, match="machine"):
+        recorded_machine(tmp_path / "c")
+    # two datasets of one campaign that record two machines: refused, not one picked
+    camp = tmp_path / "camp"
+    Dataset.create(camp / "x", meta={"machine": heavy.to_dict()}).write(runs, format="csv")
+    Dataset.create(camp / "y", meta={"machine": get_preset("paper").to_dict()}).write(
+        runs, format="csv"
+    )
+    with pytest.raises(ParameterError, match="different machines"):
+        machine_for(camp)
+
+
+def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
+    ctrl = tmp_path / "pi.toml"
+    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
+    if machine is not None:
+        import tomllib
+
+        doc = tomllib.loads(ctrl.read_text())
+        doc["machine"] = machine
+        ctrl.write_text(tomli_w.dumps(doc))
+    return ctrl
+
+
+def test_control_simulate_takes_the_machine_from_the_controller_file(tmp_path, capsys):
+    args = ["--reference", "steps:0=100 mm,0.05=110 mm", "--duration", "0.2", "--model", "reduced"]
+    bare = _pi_controller(tmp_path, None)
+    capsys.readouterr()
+    out = tmp_path / "run.csv"
+    code = main(["control", "simulate", "--controller", str(bare), "--out", str(out), *args])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert "records no machine" in err and "--params" in err
+    assert not out.exists()
+    # the file records a machine with a 60 bar supply (the paper's: 100 bar): the trajectory
+    # was simulated on it
+    low = get_preset("paper").replace(**{"supply.pressure": 60e5})
+    ctrl = tmp_path / "m" / "pi.toml"
+    ctrl.parent.mkdir()
+    _pi_controller(ctrl.parent, low.to_dict())
+    assert main(["control", "simulate", "--controller", str(ctrl), "--out", str(out), *args]) == 0
+    assert read_run(out).meta["inputs"]["p_s"]["value"] == pytest.approx(60e5, rel=1e-12)
+
+
+def test_an_undetermined_friction_value_is_not_written():
+    """Points only at 50-200 mm/s with 40 N noise do not determine F_c (true 0): the fit ends
+    at its bound (≈ 3e-6 N, CI ±412 N). It is reported as not identified and apply() keeps
+    the given value; the determined viscous coefficient is written."""
+    rng = np.random.default_rng(0)
+    v = np.concatenate([np.linspace(0.05, 0.2, 15), -np.linspace(0.05, 0.2, 15)])
+    f = 1100.0 * v + rng.normal(0.0, 40.0, v.size)
+    fit = fit_stribeck(v, f, n_starts=4)
+    assert "coulomb" in fit.unidentified and "viscous" not in fit.unidentified
+    est = fit.estimates["coulomb"]
+    assert est.value < 1e-3 and est.ci[1] - est.ci[0] > 400.0
+    base = get_preset("paper").replace(
+        **{"friction.coulomb": 10.0, "friction.static": 20.0, "friction.viscous": 500.0}
+    )
+    ident = StribeckIdentifier(base)
+    ident.fit_, ident.friction_, ident.notes_ = fit, fit.friction, []
+    applied = ident.apply(base)
+    for name in fit.unidentified:
+        assert getattr(applied.friction, name) == getattr(base.friction, name)
+    assert applied.friction.viscous == pytest.approx(fit.friction.viscous)
+    assert ident.uncertainty()["not_identified"] == list(fit.unidentified)
+    # the given values cannot hold with the fitted ones (F_s < F_c): an error, no file
+    bad = base.replace(**{"friction.coulomb": 90.0, "friction.static": 150.0})
+    with pytest.raises(IdentificationError, match="not identified"):
+        ident.apply(bad)
+
+
+def test_data_convert_records_the_machine(tmp_path, heavy, capsys):
+    """`data convert --params` writes the manifest's machine entry that identify then reads."""
+    raw = tmp_path / "raw"
+    Dataset.create(raw).write(_deadzone_runs()[:2], format="csv")
+    save_params(heavy, tmp_path / "axis.toml")
+    dst = tmp_path / "conv"
+    assert (
+        main(["data", "convert", str(raw), str(dst), "--params", str(tmp_path / "axis.toml")]) == 0
+    )
+    assert recorded_machine(dst)[0] == heavy
+    one = next(raw.glob("*.csv"))
+    code = main(["data", "convert", str(one), str(tmp_path / "one.csv"), "-p", "paper"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no manifest" in err and not (tmp_path / "one.csv").exists()
