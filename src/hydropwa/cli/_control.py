@@ -59,9 +59,19 @@ def _machine_of(controller: Path):
     except (OSError, UnicodeDecodeError, ValueError):
         pass  # load_controller names the problem
     machine = doc.get("machine") if isinstance(doc, dict) else None
+    from ..control import (  # deferred: loaded only when this command runs
+        MACHINE_KEYS,
+        ControlError,
+    )
+
+    if isinstance(machine, dict) and machine and set(machine) <= set(MACHINE_KEYS):
+        # schema 2 records the areas, stroke and design P_S for the machine check only
+        raise ControlError(
+            f"{controller} records the machine's areas and stroke, not its full parameters; give "
+            "the machine with --params PRESET|FILE (checked against the recorded areas and stroke)"
+        )
     if isinstance(machine, dict):
         return params_from_dict(machine, source=f"{controller} [machine]", check_bare=False)
-    from ..control import ControlError  # deferred: loaded only when this command runs
 
     if doc is None:
         from ..control import load_controller  # deferred: names the file's problem

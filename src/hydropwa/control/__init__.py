@@ -14,6 +14,7 @@ docs/architecture_control.md.
 from ._controllers import (
     ANTI_WINDUP,
     DEFAULT_SAMPLE_TIME,
+    MACHINE_KEYS,
     ControlError,
     DeadZoneInverse,
     FlowFeedForward,
@@ -60,6 +61,7 @@ from ._verify import (
 )
 
 __all__ = [
+    "MACHINE_KEYS",
     "ANTI_WINDUP",
     "DEFAULT_SAMPLE_TIME",
     "DEFAULT_WEIGHTS",
