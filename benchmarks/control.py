@@ -1,8 +1,17 @@
-"""Cost of the closed loop: 10 s of the full model under a 2 kHz controller against open loop.
+"""Cost of the closed loop, and the design against two PI baselines on two machines.
 
 Usage::
 
-    python benchmarks/control.py [--repeat 5] [--duration 10]
+    python benchmarks/control.py [--repeat 5] [--duration 10] [--no-cost] [--no-compare]
+
+**Comparison** (issue 34): on the paper rig (trapezoid 50 → 150 mm, 0.2 m/s, 5 m/s²) and the heavy
+axis of ``tests/machines/industrial.toml`` (100 → 400 mm, 0.3 m/s, 3 m/s², 2 kN), full model, one
+sample of delay, sensor noise 20 µm / 0.1 bar / 0.1 bar (seed 1) and exact sensors: the default
+design (``design_state_feedback(delay=True)``: valve-aware LQR per cell with flow feed-forward),
+a textbook PI with velocity feed-forward (crossover min(ω_h, ω0)/3, lowered until the gain margin
+on the sampled plant with valve and delay is 6 dB; integral corner at a fifth of it;
+k_ff = 1/K_v), and ``design_pi(delay=True)`` (``--method pi``), side by side: peak following
+error, hold peak to peak over the last 0.2 s, saturation and command sign changes per second.
 
 Case: the paper rig (preset ``paper``), the LQR designed on its PWA model
 (``design_state_feedback``, 70 cells, 2 kHz), tracking a 50 mm, 0.5 Hz sine about
@@ -58,11 +67,71 @@ def _best(fn, repeat):
     return best_wall, best_kernel, res
 
 
+MACHINES = {
+    "paper rig": (None, "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1", 0.05, 0.9, None),
+    "heavy axis": (
+        Path(__file__).resolve().parents[1] / "tests" / "machines" / "industrial.toml",
+        "trapezoid:from=100 mm,to=400 mm,v=0.3,a=3,start=0.1",
+        0.1,
+        1.6,
+        2000.0,
+    ),
+}
+NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
+
+
+def compare() -> None:
+    """The design against the textbook PI and ``--method pi`` on both machines (see the docstring)."""
+    from hydropwa.control import as_reference, design_pi, design_textbook_pi, tracking_metrics
+    from hydropwa.params import load_params
+
+    print(
+        f"{'machine':<11}{'controller':<34}{'sensors':<8}{'peak err mm':>12}{'hold p-p mm':>12}"
+        f"{'sat %':>7}{'sign ch./s':>11}"
+    )
+    for name, (path, spec, x0, dur, force) in MACHINES.items():
+        prm = get_preset("paper") if path is None else load_params(path)
+        pwa = linearize(prm)
+        tbd = design_textbook_pi(pwa, sample_time=5e-4, delay=True)
+        tb, wc = tbd.controller, 2 * np.pi * float(tbd.table["crossover_hz"].iloc[0])
+        ctrls = {
+            "design (LQR/cell + feed-forward)": design_state_feedback(pwa, delay=True).controller,
+            f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,
+            "--method pi": design_pi(pwa, delay=True).controller,
+        }
+        for cname, ctrl in ctrls.items():
+            for sensors, noise in (("exact", None), ("noisy", NOISE)):
+                res = simulate(
+                    "full",
+                    params=prm,
+                    duration=dur,
+                    controller=ctrl,
+                    reference=as_reference(spec),
+                    initial_position=x0,
+                    load_force=force,
+                    sensor_noise=noise,
+                    seed=1,
+                )
+                m = tracking_metrics(res)
+                hold = tracking_metrics(res, t0=dur - 0.2)
+                pp = float(np.ptp(res["x"][res.t >= dur - 0.2])) * 1e3
+                print(
+                    f"{name:<11}{cname:<34}{sensors:<8}{m['max_following_error']:>12.3f}{pp:>12.3f}"
+                    f"{m['saturation']:>7.1f}{hold['chattering']:>11.0f}"
+                )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--duration", type=float, default=10.0)
+    ap.add_argument("--no-cost", action="store_true", help="skip the closed- vs open-loop cost")
+    ap.add_argument("--no-compare", action="store_true", help="skip the controller comparison")
     args = ap.parse_args()
+    if not args.no_compare:
+        compare()
+    if args.no_cost:
+        return
     prm = get_preset("paper")
     ctrl = design_state_feedback(linearize(prm)).controller
     dur = args.duration

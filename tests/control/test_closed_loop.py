@@ -285,11 +285,18 @@ def test_lqr_table_reports_cells_and_warnings(lqr):
     t = lqr.table
     assert len(t) == 70 and set(t["s"]) == {-1, 1}
     assert t["controllable"].all()
-    assert (t["bandwidth_hz"] > 1.0).all() and (t["damping_min"] > 0.05).all()
+    # the valve-aware design (servo valve, ZOH in every cell): its poles include the valve's;
+    # the hydraulic mode (~1400 rad/s) of the cells whose friction slope is clipped to zero
+    # keeps a damping of 0.038 behind the 628 rad/s valve (measured), the others >= 0.3
+    assert (t["bandwidth_hz"] > 1.0).all() and (t["damping_min"] > 0.03).all()
+    assert (t.loc[~t["friction_clipped"], "damping_min"] > 0.3).all()
+    assert (t["radius_valve"] < 1.0).all()  # stable with the servo valve: the design includes it
     # clipped: the friction cells whose slope lies outside [0, the outer (viscous) cells' slope],
     # in all 10 (s, o) combinations (Table V's breakpoints: cells III, IV, V)
     k = linearize(get_preset("paper")).friction.pwa.slopes
     k_max = max(k[0], k[-1])
     assert t["friction_clipped"].sum() == 10 * int(np.sum((k < 0) | (k > k_max)))
-    assert all("servo valve" in w for w in lqr.warnings)
+    assert (
+        lqr.warnings == []
+    )  # no cell unstable with the valve (12 were before the valve-aware design)
     assert math.isclose(lqr.controller.sample_time, 5e-4)

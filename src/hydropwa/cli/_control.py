@@ -58,6 +58,35 @@ def _weights(text: str | None) -> dict[str, float]:
     return out
 
 
+def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str, float] | None:
+    """``"x=20 um,p_a=0.1 bar,p_b=0.1 bar"`` → standard deviations in SI (None: not given)."""
+    from ..control import (
+        ControlError,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    if text is None:
+        return None
+    units = {"x": "m", "p_a": "Pa", "p_b": "Pa"}
+    out: dict[str, float] = {}
+    for part in (p for p in text.split(",") if p.strip()):
+        key, eq, val = part.partition("=")
+        key = key.strip()
+        if not eq or key not in units:
+            raise ControlError(
+                f"{option} {text!r}: write key=value with key one of x, p_a, p_b (e.g. 'x=20 um,p_a=0.1 bar')"
+            )
+        v = parse_quantity(val.strip(), units[key], f"{option} {key}")
+        if not v >= 0:
+            raise ControlError(
+                f"{option} {key} = {val.strip()!r} must be a standard deviation >= 0"
+            )
+        out[key] = v
+    return out
+
+
 def _sample_time(rate: str) -> float:
     from ..control import (
         ControlError,  # deferred: loaded only when this command runs (a fast --help)
@@ -88,8 +117,12 @@ def design_command(
         str, typer.Option("--rate", help="Controller sample rate, e.g. '2 kHz'.")
     ] = "2 kHz",
     delay: Annotated[
-        bool, typer.Option("--delay", help="One sample of computation delay.")
-    ] = False,
+        bool,
+        typer.Option(
+            "--delay/--no-delay",
+            help="One sample of computation delay (default: on, as on any target).",
+        ),
+    ] = True,
     weights: Annotated[
         str | None,
         typer.Option(
@@ -107,13 +140,39 @@ def design_command(
     table: Annotated[
         Path | None, typer.Option("--table", help="Also write the per-cell table (CSV).")
     ] = None,
+    verify: Annotated[
+        bool,
+        typer.Option(
+            "--verify/--no-verify",
+            help="Verify on the full model (task set, parameter draws, sensor noise) before writing.",
+        ),
+    ] = True,
+    draws: Annotated[
+        int,
+        typer.Option("--draws", help="Parameter draws of the verification (nominal + draws-1)."),
+    ] = 4,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Seed of the draws and the sensor noise.")
+    ] = 0,
+    sensor_noise: Annotated[
+        str | None,
+        typer.Option(
+            "--sensor-noise",
+            help="Verification sensor noise, e.g. 'x=20 um,p_a=0.1 bar,p_b=0.1 bar' (default those).",
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler", help="Dask scheduler address or 'local' for the verification runs."
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
-    """Design a controller on the PWA model and write it with its per-cell table."""
+    """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         ControlError,
-        design_pi,
-        design_state_feedback,
+        design_controller,
         save_controller,
     )
     from ..params import (
@@ -128,25 +187,37 @@ def design_command(
     model = _pwa_model(params, pwa)
     ts = _sample_time(rate)
     dzi = not no_dead_zone_inverse
-    if method == "pi":
-        d = design_pi(model, sample_time=ts, delay=delay, dead_zone_inverse=dzi)
-    elif method in ("lqr", "place"):
-        fl = None if load_force is None else parse_quantity(load_force, "N", "--load-force")
-        d = design_state_feedback(
-            model,
-            method=method,
-            sample_time=ts,
-            delay=delay,
-            weights=_weights(weights),
-            load_force=fl,
-            dead_zone_inverse=dzi,
-        )
-    else:
+    if method not in ("lqr", "place", "pi"):
         raise ControlError(f"--method {method!r} must be lqr, place or pi")
+    kw: dict = {"sample_time": ts, "delay": delay, "dead_zone_inverse": dzi}
+    if method != "pi":
+        kw["load_force"] = (
+            None if load_force is None else parse_quantity(load_force, "N", "--load-force")
+        )
+    if draws < 1:
+        raise ControlError(f"--draws {draws} must be at least 1")
+    d = design_controller(
+        model,
+        method=method,
+        weights=_weights(weights) if method != "pi" and weights else None,
+        verify=verify,
+        params=model.params,
+        draws=draws,
+        seed=seed,
+        sensor_noise=_sensor_noise(sensor_noise),
+        scheduler=scheduler,
+        **kw,
+    )
     save_controller(d.controller, out, force=force)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
+    if d.verification is not None and not d.verification.passed:
+        print(
+            "warning: the controller failed its verification on the full model; the file records "
+            "the failed checks ([verification])",
+            file=sys.stderr,
+        )
     written = [str(out)]
     if table is not None:
         from .._io import (
@@ -211,6 +282,14 @@ def simulate_command(
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Also write a plot (.png/.svg/.pdf).")
     ] = None,
+    sensor_noise: Annotated[
+        str | None,
+        typer.Option(
+            "--sensor-noise",
+            help="Noise on the controller's sensors, e.g. 'x=20 um,p_a=0.1 bar,p_b=0.1 bar'.",
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the sensor noise.")] = 0,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
@@ -219,6 +298,8 @@ def simulate_command(
         ControlError,
         MotionProfile,
         as_reference,
+        check_machine,
+        closed_loop_warnings,
         load_controller,
         tracking_metrics,
     )
@@ -242,6 +323,8 @@ def simulate_command(
         check_output(plot, force, option="--plot")
     prm = resolve_params(params)
     ctrl = load_controller(controller)
+    check_machine(ctrl, prm)
+    noise = _sensor_noise(sensor_noise)
     ref = as_reference(reference)
     if duration is None:
         duration = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
@@ -257,10 +340,14 @@ def simulate_command(
         load_force=load_force,
         supply_pressure=supply_pressure,
         rtol=rtol,
+        sensor_noise=noise,
+        seed=seed,
     )
     res.save(out, overwrite=True)  # checked with --force above
     m = tracking_metrics(res)
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
+    for w in closed_loop_warnings(res):
+        print(f"warning: {w}", file=sys.stderr)
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
         save_figure(

@@ -16,16 +16,47 @@ from ._controllers import (
     DEFAULT_SAMPLE_TIME,
     ControlError,
     DeadZoneInverse,
+    FlowFeedForward,
     GainRow,
     PIController,
+    SpoolModel,
     StateFeedbackController,
+    position_observer_gains,
 )
-from ._design import DEFAULT_WEIGHTS, ControlDesign, cell_plant, design_pi, design_state_feedback
-from ._io import SCHEMA, controller_from_dict, controller_to_dict, load_controller, save_controller
+from ._design import (
+    DEFAULT_WEIGHTS,
+    ControlDesign,
+    cell_plant,
+    design_pi,
+    design_state_feedback,
+    design_textbook_pi,
+)
+from ._io import (
+    SCHEMA,
+    SCHEMAS,
+    controller_from_dict,
+    controller_schema,
+    controller_to_dict,
+    load_controller,
+    save_controller,
+)
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
 from ._target import export_c, export_fmu
+from ._verify import (
+    DEFAULT_SENSOR_NOISE,
+    Verification,
+    VerificationCriteria,
+    VerificationTask,
+    check_machine,
+    closed_loop_warnings,
+    design_controller,
+    draw_parameters,
+    maximum_velocity,
+    task_set,
+    verify_controller,
+)
 
 __all__ = [
     "ANTI_WINDUP",
@@ -33,9 +64,26 @@ __all__ = [
     "DEFAULT_WEIGHTS",
     "METRIC_UNITS",
     "SCHEMA",
+    "SCHEMAS",
+    "controller_schema",
     "ControlDesign",
     "ControlError",
     "DeadZoneInverse",
+    "DEFAULT_SENSOR_NOISE",
+    "Verification",
+    "VerificationCriteria",
+    "VerificationTask",
+    "design_controller",
+    "design_textbook_pi",
+    "check_machine",
+    "closed_loop_warnings",
+    "draw_parameters",
+    "maximum_velocity",
+    "task_set",
+    "verify_controller",
+    "FlowFeedForward",
+    "SpoolModel",
+    "position_observer_gains",
     "GainRow",
     "MotionProfile",
     "MoveSequence",

@@ -22,10 +22,15 @@ from ..simulation import _controller as C
 __all__ = [
     "ControlError",
     "DeadZoneInverse",
+    "FlowFeedForward",
+    "SpoolModel",
     "PIController",
     "GainRow",
     "StateFeedbackController",
     "ANTI_WINDUP",
+    "MACHINE_KEYS",
+    "position_observer_gains",
+    "machine_of",
     "DEFAULT_SAMPLE_TIME",
 ]
 
@@ -34,10 +39,52 @@ DEFAULT_SAMPLE_TIME = 5e-4
 ANTI_WINDUP = {"none": C.AW_NONE, "clamp": C.AW_CLAMP, "back-calculation": C.AW_BACK}
 #: scales [Pa, m/s, m, 1] of the distance to a gain row's box (1 bar, 1 mm/s, 1 mm, 1 %)
 BOX_SCALES = (1e5, 1e-3, 1e-3, 1e-2)
+#: the machine a controller was designed for (SI): piston areas, stroke, design supply pressure
+MACHINE_KEYS = ("area_a", "area_b", "stroke", "supply_pressure")
+
+
+def machine_of(params, supply_pressure: float | None = None) -> dict[str, float]:
+    """The :data:`MACHINE_KEYS` of a parameter set (SI)."""
+    cyl = params.cylinder
+    ps = params.supply.pressure if supply_pressure is None else supply_pressure
+    return {
+        "area_a": float(cyl.area_a),
+        "area_b": float(cyl.area_b),
+        "stroke": float(cyl.stroke),
+        "supply_pressure": float(ps),
+    }
 
 
 class ControlError(HydropwaError, ValueError):
     """A controller, reference or design request that cannot be used as given."""
+
+
+def position_observer_gains(
+    sample_time: float, position_noise: float, acceleration_noise: float
+) -> tuple[float, float]:
+    """Steady-state Kalman gains (L_x [1], L_v [1/s]) of the position observer.
+
+    Model: x⁺ = x + T v + T²/2 (r̈ + w), v⁺ = v + T (r̈ + w), measured x + n, with the
+    acceleration deviation w ~ N(0, ``acceleration_noise``² [m²/s⁴]) and the position noise
+    n ~ N(0, ``position_noise``² [m²]). The filter (measurement-update) gain
+    L = P Cᵀ (C P Cᵀ + R)⁻¹, P the a-priori covariance of the discrete Riccati equation.
+    """
+    from scipy.linalg import solve_discrete_are  # deferred: scipy.linalg costs 0.1-0.5 s
+
+    if not (position_noise > 0 and acceleration_noise > 0 and sample_time > 0):
+        raise ControlError(
+            "position_observer_gains needs a positive sample time [s], position noise [m] and "
+            "acceleration noise [m/s²]"
+        )
+    T = float(sample_time)
+    A = np.array([[1.0, T], [0.0, 1.0]])
+    G = np.array([[0.5 * T * T], [T]])
+    Cm = np.array([[1.0, 0.0]])
+    Q = G @ G.T * acceleration_noise**2
+    R = np.array([[position_noise**2]])
+    P = solve_discrete_are(A.T, Cm.T, Q, R)
+    L = P @ Cm.T @ np.linalg.inv(Cm @ P @ Cm.T + R)
+    return float(L[0, 0]), float(L[1, 0])
 
 
 def _finite(
@@ -100,6 +147,180 @@ class DeadZoneInverse:
 
 
 @dataclass(frozen=True, kw_only=True)
+class FlowFeedForward:
+    """Velocity (flow) feed-forward per flow direction with its load-pressure correction.
+
+    The opening that passes the reference's flow through the metering edges, Eqs. (5)/(6)
+    inverted in quasi-steady flow at the measured load pressure:
+    c_ff = A_A ṙ(t + τ)/(K √Δp(sign ṙ, P_L, P_S)), Δp the edge drop of
+    :func:`~hydropwa.components._physics.load_flow_drop` (at least ``min_drop``). With
+    ``reference_state`` the controller's velocity and load-pressure gains act on the
+    deviation from the reference state [P_ref, ṙ]: c += k_v ṙ + k_pl P_ref, P_ref =
+    (m r̈ + b ṙ)/A_A the pressure that accelerates the mass and drives the viscous
+    friction (washed out like P_L): the acceleration/pressure feed-forward along the
+    reference.
+
+    Attributes
+    ----------
+    flow_coefficient : float
+        K [m³/(s·√Pa)] per metering edge (Eq. (5)).
+    transition_pressure : float
+        Pressure [Pa] below which the root is linearised (``flow.transition_pressure``).
+    area_a : float
+        Piston area A_A [m²].
+    area_ratio : float
+        α = A_B/A_A [1].
+    supply_pressure, tank_pressure : float
+        P_S, P_T [Pa] the feed-forward inverts the flow at.
+    min_drop : float
+        Smallest edge drop [Pa] used in the inversion (default 2 % of P_S).
+    lead : float
+        Look-ahead τ [s] of ṙ: the sample's zero-order hold (T_s/2), the computation
+        delay (T_s) and the servo valve's lag 2ζ/ω0 (Eq. (1)).
+    reference_state : bool
+        Whether the gains act on the deviation from the reference state.
+    mass : float
+        Moving mass m [kg] of P_ref.
+    viscous : float
+        Viscous friction slope b [N·s/m] of P_ref.
+    """
+
+    flow_coefficient: float
+    transition_pressure: float
+    area_a: float
+    area_ratio: float
+    supply_pressure: float
+    tank_pressure: float = 0.0
+    min_drop: float = 0.0
+    lead: float = 0.0
+    reference_state: bool = True
+    mass: float = 0.0
+    viscous: float = 0.0
+
+    def __post_init__(self) -> None:
+        _finite(self, "flow_coefficient", "m^3/(s*Pa^0.5)", gt=0.0)
+        _finite(self, "transition_pressure", "Pa", ge=0.0)
+        _finite(self, "area_a", "m^2", gt=0.0)
+        _finite(self, "area_ratio", "1", gt=0.0)
+        ps = _finite(self, "supply_pressure", "Pa", gt=0.0)
+        _finite(self, "tank_pressure", "Pa")
+        if self.min_drop == 0.0:
+            object.__setattr__(self, "min_drop", 0.02 * ps)
+        _finite(self, "min_drop", "Pa", gt=0.0)
+        _finite(self, "lead", "s", ge=0.0)
+        _finite(self, "mass", "kg", ge=0.0)
+        _finite(self, "viscous", "N*s/m", ge=0.0)
+        object.__setattr__(self, "reference_state", bool(self.reference_state))
+
+    @classmethod
+    def from_params(
+        cls,
+        params,
+        *,
+        sample_time: float = DEFAULT_SAMPLE_TIME,
+        delay: bool = False,
+        supply_pressure: float | None = None,
+        reference_state: bool = True,
+    ) -> FlowFeedForward:
+        """The feed-forward of a parameter set; the look-ahead τ = T_s(½ + delay) + 2ζ/ω0."""
+        v = params.valve
+        return cls(
+            flow_coefficient=float(params.flow.K),
+            transition_pressure=float(params.flow.transition_pressure),
+            area_a=float(params.cylinder.area_a),
+            area_ratio=float(params.cylinder.area_b / params.cylinder.area_a),
+            supply_pressure=float(
+                params.supply.pressure if supply_pressure is None else supply_pressure
+            ),
+            tank_pressure=float(params.supply.tank_pressure),
+            lead=float(sample_time * (0.5 + (1.0 if delay else 0.0)) + 2.0 * v.zeta / v.omega0),
+            reference_state=reference_state,
+            mass=float(params.load.mass),
+            viscous=float(params.friction.viscous + params.load.damping),
+        )
+
+    def __call__(self, v_ff: float, p_l: float) -> float:
+        """Opening c_ff [1] for the reference velocity v_ff [m/s] at load pressure p_l [Pa]."""
+        ext = np.zeros(C.N_EXT)
+        self._pack(ext)
+        return float(C.flow_feedforward(ext, 0, float(v_ff), float(p_l), 0.0, 1.0, 1.0))
+
+    def _pack(self, ext: np.ndarray) -> None:
+        ext[C.X_FF] = 1.0
+        ext[C.X_K] = self.flow_coefficient
+        ext[C.X_PTR] = self.transition_pressure
+        ext[C.X_AA] = self.area_a
+        ext[C.X_ALPHA] = self.area_ratio
+        ext[C.X_PS] = self.supply_pressure
+        ext[C.X_PT] = self.tank_pressure
+        ext[C.X_DPMIN] = self.min_drop
+        ext[C.X_REFST] = 1.0 if self.reference_state else 0.0
+        ext[C.X_MASS] = self.mass
+        ext[C.X_BV] = self.viscous
+        ext[C.X_LEAD] = self.lead
+
+    def describe(self) -> dict[str, Any]:
+        """Plain dict of every setting (SI)."""
+        return {
+            "flow_coefficient": self.flow_coefficient,
+            "transition_pressure": self.transition_pressure,
+            "area_a": self.area_a,
+            "area_ratio": self.area_ratio,
+            "supply_pressure": self.supply_pressure,
+            "tank_pressure": self.tank_pressure,
+            "min_drop": self.min_drop,
+            "lead": self.lead,
+            "reference_state": self.reference_state,
+            "mass": self.mass,
+            "viscous": self.viscous,
+        }
+
+
+@dataclass(frozen=True)
+class SpoolModel:
+    """Discrete servo-valve model of the controller's spool estimate, Eq. (1) with ZOH at T_s.
+
+    [ν̂, ν̂̇]_{k+1} = Φ [ν̂, ν̂̇]_k + Γ c_k, c_k the (saturated) opening command the
+    valve holds over the sample; ν̂ in units of the opening c [1], ν̂̇ [1/s].
+
+    Attributes
+    ----------
+    phi : tuple of 4 floats
+        Φ row-major [1, s, 1/s, 1].
+    gamma : tuple of 2 floats
+        Γ [1, 1/s].
+    """
+
+    phi: tuple[float, ...]
+    gamma: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        phi = np.asarray(self.phi, dtype=float).ravel()
+        gam = np.asarray(self.gamma, dtype=float).ravel()
+        if (
+            phi.size != 4
+            or gam.size != 2
+            or not (np.all(np.isfinite(phi)) and np.all(np.isfinite(gam)))
+        ):
+            raise ControlError("SpoolModel needs a finite 2x2 phi and a 2-vector gamma")
+        object.__setattr__(self, "phi", tuple(float(v) for v in phi))
+        object.__setattr__(self, "gamma", tuple(float(v) for v in gam))
+
+    @classmethod
+    def from_valve(cls, omega0: float, zeta: float, sample_time: float) -> SpoolModel:
+        """ZOH discretisation of ν̈ = ω0² (c − ν) − 2ζω0 ν̇ (Eq. (1)) at the sample time [s]."""
+        from scipy.linalg import expm  # deferred: scipy submodules cost 0.1-0.5 s at import
+
+        M = np.zeros((3, 3))
+        M[0, 1] = 1.0
+        M[1, 0] = -(omega0**2)
+        M[1, 1] = -2.0 * zeta * omega0
+        M[1, 2] = omega0**2
+        E = expm(M * sample_time)
+        return cls(tuple(E[:2, :2].ravel()), tuple(E[:2, 2]))
+
+
+@dataclass(frozen=True, kw_only=True)
 class _Discrete:
     """Settings shared by every controller: sampling, limits, anti-windup, dead-zone inverse.
 
@@ -120,6 +341,12 @@ class _Discrete:
     dead_zone_inverse: DeadZoneInverse | None = None
     pressure_washout: float = 0.0
     load_pressure: str = "asymmetric"
+    feedforward: FlowFeedForward | None = None
+    velocity_filter: float = 0.0
+    position_observer: tuple[float, float] | None = None
+    spool_model: SpoolModel | None = None
+    machine: dict = field(default_factory=dict, compare=False)
+    verification: dict = field(default_factory=dict, compare=False)
 
     kind = "controller"
 
@@ -162,6 +389,42 @@ class _Discrete:
             raise ControlError(
                 f"{type(self).__name__}.dead_zone_inverse must be a DeadZoneInverse or None"
             )
+        if self.feedforward is not None and not isinstance(self.feedforward, FlowFeedForward):
+            raise ControlError(
+                f"{type(self).__name__}.feedforward must be a FlowFeedForward or None"
+            )
+        if self.spool_model is not None and not isinstance(self.spool_model, SpoolModel):
+            raise ControlError(f"{type(self).__name__}.spool_model must be a SpoolModel or None")
+        _finite(self, "velocity_filter", "s", ge=0.0)
+        if self.position_observer is not None:
+            gains = tuple(float(g) for g in self.position_observer)
+            if len(gains) != 2 or not all(math.isfinite(g) for g in gains) or not 0 < gains[0] <= 1:
+                raise ControlError(
+                    f"{type(self).__name__}.position_observer = {self.position_observer!r} must be the "
+                    "Kalman gains (L_x in (0, 1], L_v [1/s]); see position_observer_gains"
+                )
+            object.__setattr__(self, "position_observer", gains)
+        if not isinstance(self.machine, dict) or not isinstance(self.verification, dict):
+            raise ControlError(f"{type(self).__name__}.machine and .verification must be dicts")
+        unknown = set(self.machine) - set(MACHINE_KEYS)
+        if unknown:
+            raise ControlError(
+                f"{type(self).__name__}.machine has unknown keys {sorted(unknown)}; known: {', '.join(MACHINE_KEYS)}"
+            )
+
+    @property
+    def extended(self) -> bool:
+        """Whether the controller uses a schema-2 element (feed-forward, velocity filter, spool model)."""
+        return (
+            self.feedforward is not None
+            or self.velocity_filter > 0.0
+            or self.position_observer is not None
+            or self.spool_model is not None
+        )
+
+    def _ext_rows(self) -> np.ndarray:
+        """Per-row extension gains [k_nu, k_dnu, k_up] (zero unless the spool is fed back)."""
+        return np.zeros((self._rows().shape[0], C.XROW))
 
     @property
     def sample_rate(self) -> float:
@@ -195,7 +458,21 @@ class _Discrete:
         v[C.C_PLMEAN] = 1.0 if self.load_pressure == "mean-area" else 0.0
         v[C.C_SCALE : C.C_SCALE + 4] = BOX_SCALES
         v[C.C_ROWS :] = rows.ravel()
-        return v
+        if not self.extended:  # schema 1: the vector ends after the rows
+            return v
+        ext = np.zeros(C.N_EXT)
+        if self.feedforward is not None:
+            self.feedforward._pack(ext)
+        if self.velocity_filter > 0.0:
+            ext[C.X_VEST] = math.exp(-self.sample_time / self.velocity_filter)
+        if self.position_observer is not None:
+            ext[C.X_KF] = 1.0
+            ext[C.X_KFX], ext[C.X_KFV] = self.position_observer
+        if self.spool_model is not None:
+            ext[C.X_SPOOL] = C.SPOOL_ESTIMATED
+            ext[C.X_PHI : C.X_PHI + 4] = self.spool_model.phi
+            ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
+        return np.concatenate([v, ext, self._ext_rows().ravel()])
 
     def _common(self) -> dict[str, Any]:
         return {
@@ -211,6 +488,14 @@ class _Discrete:
             "dead_zone_inverse": None
             if self.dead_zone_inverse is None
             else {"offset": self.dead_zone_inverse.offset, "width": self.dead_zone_inverse.width},
+            "feedforward": None if self.feedforward is None else self.feedforward.describe(),
+            "velocity_filter": self.velocity_filter,
+            "position_observer": None
+            if self.position_observer is None
+            else list(self.position_observer),
+            "spool_model": None
+            if self.spool_model is None
+            else {"phi": list(self.spool_model.phi), "gamma": list(self.spool_model.gamma)},
         }
 
 
@@ -328,6 +613,9 @@ class GainRow:
     k_i: float = 0.0
     u_ff: float = 0.0
     label: str = ""
+    k_nu: float = 0.0
+    k_dnu: float = 0.0
+    k_up: float = 0.0
 
     def __post_init__(self) -> None:
         lo = np.asarray(self.lower, dtype=float).ravel()
@@ -350,6 +638,9 @@ class GainRow:
             ("k_x", "1/m"),
             ("k_i", "1/(m*s)"),
             ("u_ff", "1"),
+            ("k_nu", "1"),
+            ("k_dnu", "s"),
+            ("k_up", "1"),
         ):
             _finite(self, name, unit)
 
@@ -390,6 +681,9 @@ class StateFeedbackController(_Discrete):
             ]
         )
 
+    def _ext_rows(self) -> np.ndarray:
+        return np.array([[r.k_nu, r.k_dnu, r.k_up] for r in self.rows], dtype=float)
+
     def describe(self) -> dict[str, Any]:
         d = self._common()
         d["cells"] = [
@@ -402,6 +696,9 @@ class StateFeedbackController(_Discrete):
                 "k_x": r.k_x,
                 "k_i": r.k_i,
                 "u_ff": r.u_ff,
+                "k_nu": r.k_nu,
+                "k_dnu": r.k_dnu,
+                "k_up": r.k_up,
             }
             for r in self.rows
         ]

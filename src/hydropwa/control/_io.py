@@ -1,4 +1,10 @@
-"""Controller files (TOML or JSON, schema ``hydropwa.controller/1``) that a real-time target can read.
+"""Controller files (TOML or JSON, schema ``hydropwa.controller/2``) that a real-time target can read.
+
+Schema 2 is schema 1 (below) plus ``conventions``, ``area_ratio``, ``velocity_filter``,
+``[machine]``, ``[feedforward]``, ``[spool_model]``, per-cell ``k_nu``/``k_dnu``/``k_up`` and
+``[verification]``; its specification is docs/controller_target.md and its JSON Schema
+``schemas/controller-2.schema.json`` (:func:`controller_schema`). Schema-1 files are read as
+they were.
 
 Every dimensioned value is written as a string with its unit in the units a
 hydraulics engineer reads (``"0.5 ms"``, ``"-54.17 bar"``, ``"0.2226 1/mm"``); the
@@ -33,6 +39,7 @@ import json
 import math
 import os
 import tomllib
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -44,8 +51,10 @@ from ..params import parse_quantity
 from ._controllers import (
     ControlError,
     DeadZoneInverse,
+    FlowFeedForward,
     GainRow,
     PIController,
+    SpoolModel,
     StateFeedbackController,
 )
 
@@ -55,9 +64,14 @@ __all__ = [
     "controller_to_dict",
     "controller_from_dict",
     "SCHEMA",
+    "SCHEMAS",
+    "controller_schema",
+    "CONVENTIONS",
 ]
 
-SCHEMA = "hydropwa.controller/1"
+SCHEMA = "hydropwa.controller/2"
+#: schemas :func:`controller_from_dict` reads (schema 1: the law without the extension block)
+SCHEMAS = ("hydropwa.controller/1", SCHEMA)
 _LAW = {
     "pi": "u = sat(DZinv(k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt)), e = r - x",
     "state_feedback": "u = sat(DZinv(u_ff - k_pl*(P_L - lowpass(P_L)) - k_v*v + k_x*(r - x) + k_i*integral(r - x)))",
@@ -77,6 +91,45 @@ _ROW_GAINS = {
     "k_v": ("s/m", 1.0, "s/m"),
     "k_x": ("1/mm", 1e-3, "1/m"),
     "k_i": ("1/(mm*s)", 1e-3, "1/(m*s)"),
+}
+#: schema-2 elements: the extended law, every unit and sign convention a target needs
+_LAW2 = (
+    "c = c_fb + c_ff; u = sat(DZinv(c)); "
+    "c_fb = k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt "
+    "- k_nu*nu_hat - k_dnu*dnu_hat - k_up*c_pending (state feedback: k_p = k_x, k_ff = k_dpl = 0); "
+    "c_ff = A_A*dr_ff/(K*sqrt(dp(sign(dr_ff), P_L, P_S))) "
+    "+ [reference_state] (k_v*dr + k_pl*(P_ref - lowpass(P_ref)) + (k_nu + k_up)*c_flow), "
+    "P_ref = (m*d2r + b*dr)/A_A, dr_ff = dr(t + lead), e = r - x"
+)
+CONVENTIONS = {
+    "command": "u in [u_min, u_max], +1 the full valve signal opening P->A (rod extends, +x), -1 opening P->B",
+    "position": "x [m] from the retracted end stop, +x extending",
+    "load_pressure": "P_L = P_A - area_ratio*P_B (asymmetric; mean-area: (P_A*A_A - P_B*A_B)/((A_A + A_B)/2)), positive pushes +x",
+    "velocity": "v = dx/dt [m/s], +x extending; from velocity_filter if > 0, else a velocity sensor",
+    "units": "every dimensioned value carries its unit; a bare number is SI",
+}
+_FF = {
+    "flow_coefficient": ("m**3/s/Pa**0.5", 1.0, "m**3/s/Pa**0.5"),
+    "transition_pressure": ("bar", 1e-5, "Pa"),
+    "area_a": ("cm**2", 1e4, "m**2"),
+    "area_ratio": ("", 1.0, ""),
+    "supply_pressure": ("bar", 1e-5, "Pa"),
+    "tank_pressure": ("bar", 1e-5, "Pa"),
+    "min_drop": ("bar", 1e-5, "Pa"),
+    "lead": ("ms", 1e3, "s"),
+    "mass": ("kg", 1.0, "kg"),
+    "viscous": ("N*s/m", 1.0, "N*s/m"),
+}
+_MACHINE = {
+    "area_a": ("cm**2", 1e4, "m**2"),
+    "area_b": ("cm**2", 1e4, "m**2"),
+    "stroke": ("mm", 1e3, "m"),
+    "supply_pressure": ("bar", 1e-5, "Pa"),
+}
+_ROW_GAINS2 = {
+    "k_nu": ("", 1.0, ""),
+    "k_dnu": ("ms", 1e3, "s"),
+    "k_up": ("", 1.0, ""),
 }
 _BOX = (
     ("p_l", "bar", 1e-5, "Pa"),
@@ -103,7 +156,13 @@ def _read(value: Any, si_unit: str, where: str) -> float:
 
 
 def controller_to_dict(ctrl) -> dict[str, Any]:
-    """The controller as a TOML/JSON-ready dict with units (see the module docstring)."""
+    """The controller as a TOML/JSON-ready dict with units, schema ``hydropwa.controller/2``.
+
+    Every element of schema 1 (see the module docstring) and, for a target built from the
+    file alone (docs/controller_target.md): the sign conventions, the area ratio of P_L,
+    the machine (areas, stroke, design supply pressure), the feed-forward, the velocity
+    filter, the spool model and per-cell spool gains, and the verification verdict.
+    """
     if not isinstance(ctrl, PIController | StateFeedbackController):
         raise ControlError(
             f"cannot write a {type(ctrl).__name__}; give a PIController or StateFeedbackController"
@@ -120,12 +179,35 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         "tracking_gain": _q(ctrl.tracking_gain, "1/s", 1.0),
         "pressure_washout": _q(ctrl.pressure_washout, "ms", 1e3),
         "load_pressure": ctrl.load_pressure,
-        "law": _LAW[ctrl.kind],
+        "law": _LAW[ctrl.kind] if not ctrl.extended else _LAW2,
+        "conventions": dict(CONVENTIONS),
+        "velocity_filter": _q(ctrl.velocity_filter, "ms", 1e3),
     }
+    if ctrl.machine:
+        m = ctrl.machine
+        d["area_ratio"] = (
+            float(m["area_b"] / m["area_a"]) if "area_a" in m and "area_b" in m else None
+        )
+        d["machine"] = {k: _q(m[k], *_MACHINE[k][:2]) for k in _MACHINE if k in m}
     if ctrl.dead_zone_inverse is not None:
         d["dead_zone_inverse"] = {
             "offset": ctrl.dead_zone_inverse.offset,
             "width": ctrl.dead_zone_inverse.width,
+        }
+    if ctrl.feedforward is not None:
+        ff = ctrl.feedforward.describe()
+        d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
+        d["feedforward"]["reference_state"] = bool(ff["reference_state"])
+    if ctrl.position_observer is not None:
+        d["position_observer"] = {
+            "gain_x": ctrl.position_observer[0],
+            "gain_v": _q(ctrl.position_observer[1], "1/s", 1.0),
+        }
+    if ctrl.spool_model is not None:
+        d["spool_model"] = {
+            "phi": list(ctrl.spool_model.phi),
+            "gamma": list(ctrl.spool_model.gamma),
+            "input": "the saturated opening command c the valve holds over the sample",
         }
     if isinstance(ctrl, PIController):
         d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
@@ -138,10 +220,15 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             for k, (u, f, _si) in _ROW_GAINS.items():
                 c[k] = _q(getattr(r, k), u, f)
             c["u_ff"] = r.u_ff
+            if ctrl.spool_model is not None:
+                for k, (u, f, _si) in _ROW_GAINS2.items():
+                    c[k] = _q(getattr(r, k), u, f)
             cells.append(c)
         d["cells"] = cells
         d["design"] = _plain(ctrl.design)
-    return d
+    if ctrl.verification:
+        d["verification"] = _plain(ctrl.verification)
+    return _plain(d)
 
 
 def _plain(obj):
@@ -159,10 +246,12 @@ def _plain(obj):
 
 def controller_from_dict(d: dict[str, Any]):
     """Rebuild a controller from :func:`controller_to_dict` output (units converted to SI)."""
-    if not isinstance(d, dict) or d.get("schema") != SCHEMA:
+    if not isinstance(d, dict) or d.get("schema") not in SCHEMAS:
         raise ControlError(
-            f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not {SCHEMA!r}"
+            f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not one of "
+            f"{', '.join(SCHEMAS)}"
         )
+    v2 = d["schema"] == SCHEMA
     kind = d.get("kind")
     try:
         common: dict[str, Any] = {
@@ -181,6 +270,8 @@ def controller_from_dict(d: dict[str, Any]):
                 offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
                 width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
             )
+        if v2:
+            common.update(_read_v2(d))
         if kind == "pi":
             g = d.get("gains", {})
             unknown = set(g) - set(_PI_GAINS)
@@ -202,6 +293,11 @@ def controller_from_dict(d: dict[str, Any]):
                     _read(c["upper"][n], si, f"cells[{i}].upper.{n}") for n, _u, _f, si in _BOX
                 )
                 g = {k: _read(c[k], _ROW_GAINS[k][2], f"cells[{i}].{k}") for k in _ROW_GAINS}
+                if v2:
+                    g |= {
+                        k: _read(c.get(k, 0.0), _ROW_GAINS2[k][2], f"cells[{i}].{k}")
+                        for k in _ROW_GAINS2
+                    }
                 rows.append(
                     GainRow(
                         lo,
@@ -219,6 +315,44 @@ def controller_from_dict(d: dict[str, Any]):
     except (TypeError, AttributeError) as exc:
         raise ControlError(f"controller file does not match schema {SCHEMA}: {exc}") from None
     raise ControlError(f"controller file kind {kind!r} must be 'pi' or 'state_feedback'")
+
+
+def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
+    """The schema-2 elements of a controller file as :class:`_Discrete` keyword arguments (SI)."""
+    out: dict[str, Any] = {
+        "velocity_filter": _read(d.get("velocity_filter", 0.0), "s", "velocity_filter")
+    }
+    m = d.get("machine")
+    if m:
+        out["machine"] = {
+            k: _read(v, _MACHINE[k][2], f"machine.{k}") for k, v in m.items() if k in _MACHINE
+        }
+    ff = d.get("feedforward")
+    if ff is not None:
+        kw: dict[str, Any] = {
+            k: _read(ff[k], _FF[k][2], f"feedforward.{k}") for k in _FF if k in ff
+        }
+        kw["reference_state"] = bool(ff.get("reference_state", True))
+        out["feedforward"] = FlowFeedForward(**kw)
+    po = d.get("position_observer")
+    if po is not None:
+        out["position_observer"] = (
+            _read(po["gain_x"], "", "position_observer.gain_x"),
+            _read(po["gain_v"], "1/s", "position_observer.gain_v"),
+        )
+    sm = d.get("spool_model")
+    if sm is not None:
+        out["spool_model"] = SpoolModel(tuple(sm["phi"]), tuple(sm["gamma"]))
+    ver = d.get("verification")
+    if ver:
+        out["verification"] = dict(ver)
+    return out
+
+
+def controller_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of ``hydropwa.controller/2`` files, shipped in the package."""
+    text = files("hydropwa.control").joinpath("schemas/controller-2.schema.json").read_text("utf-8")
+    return json.loads(text)
 
 
 def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:

@@ -84,7 +84,7 @@ class MotionProfile(Signal):
         return 2.0 * ta + tc + self.jerk_time
 
     def _trap(self, tau, order: int):
-        """Trapezoid position (order 0), velocity (1) or its time integral (-1) at τ = t − start."""
+        """Trapezoid position (order 0), velocity (1), acceleration (2) or its time integral (-1) at τ = t − start."""
         ta, tc, vp, d = self._phases()
         a = vp / ta if ta > 0 else 0.0
         s = 1.0 if self.end_position >= self.start_position else -1.0
@@ -95,6 +95,9 @@ class MotionProfile(Signal):
         tq = np.clip(tau, 0.0, t1)
         tcr = np.clip(tau - t1, 0.0, tc)
         td = np.clip(tau - t2, 0.0, ta)
+        if order == 2:
+            acc = np.where(tau < t1, a, np.where(tau < t2, 0.0, -a))
+            return s * np.where((tau < 0.0) | (tau >= t3), 0.0, acc)
         if order == 1:
             v = np.where(tau < t1, a * tq, np.where(tau < t2, vp, vp - a * td))
             v = np.where((tau <= 0.0) | (tau >= t3), 0.0, v)
@@ -128,6 +131,16 @@ class MotionProfile(Signal):
             out = (self._trap(tau, 0) - self._trap(tau - tj, 0)) / tj
         else:
             out = self._trap(tau, 1)
+        return out if np.ndim(t) else float(out)
+
+    def acceleration(self, t):
+        """Acceleration [m/s²] of the profile (analytic; right-continuous at the corners)."""
+        tau = np.asarray(t, dtype=float) - self.start_time
+        tj = self.jerk_time
+        if tj > 0.0:
+            out = (self._trap(tau, 1) - self._trap(tau - tj, 1)) / tj
+        else:
+            out = self._trap(tau, 2)
         return out if np.ndim(t) else float(out)
 
     def pack(self):
@@ -176,6 +189,11 @@ class MoveSequence(Signal):
         out = sum(np.asarray(m.rate(t)) for m in self.moves)
         return out if np.ndim(t) else float(out)
 
+    def acceleration(self, t):
+        """Acceleration [m/s²] (analytic)."""
+        out = sum(np.asarray(m.acceleration(t)) for m in self.moves)
+        return out if np.ndim(t) else float(out)
+
     def pack(self):
         last = self.moves[-1]
         t1 = last.start_time + last.duration
@@ -188,10 +206,19 @@ class MoveSequence(Signal):
 
 @dataclass(frozen=True)
 class StepSequence(Signal):
-    """Piecewise-constant positions [m]: ``positions[i]`` from ``times[i]`` [s] on (``positions[0]`` before)."""
+    """Piecewise-constant positions [m]: ``positions[i]`` from ``times[i]`` [s] on (``positions[0]`` before).
+
+    With ``smoothing`` τ > 0 [s] every step passes through the critically damped
+    second-order filter 1/(τs + 1)², so the reference carries a velocity and an
+    acceleration for the feed-forward: a step Δ at t_i gives
+    r = Δ(1 − (1 + θ)e^{−θ}), ṙ = Δ θ e^{−θ}/τ, r̈ = Δ(1 − θ)e^{−θ}/τ², θ = (t − t_i)/τ
+    (peak velocity Δ/(eτ) at θ = 1; 99 % of the step after 6.6 τ). Default 0: plain steps,
+    no feed-forward.
+    """
 
     times: np.ndarray = field(default_factory=lambda: np.zeros(1))
     positions: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    smoothing: float = 0.0
     _kind = _SAMPLED
 
     def __post_init__(self) -> None:
@@ -208,18 +235,52 @@ class StepSequence(Signal):
             raise ControlError("StepSequence times must be strictly increasing")
         object.__setattr__(self, "times", t)
         object.__setattr__(self, "positions", x)
+        _check(self, "smoothing", "s", ge=0.0)
+
+    def _filtered(self, t, order: int):
+        """Sum over the steps of the filtered step's position (0), velocity (1) or acceleration (2)."""
+        tt = np.asarray(t, dtype=float)
+        tau = self.smoothing
+        out = np.full(np.shape(tt), self.positions[0] if order == 0 else 0.0)
+        for k in range(1, self.times.size):
+            d = self.positions[k] - self.positions[k - 1]
+            th = np.clip((tt - self.times[k]) / tau, 0.0, None)
+            ex = np.exp(-th)
+            if order == 0:
+                out = out + d * (1.0 - (1.0 + th) * ex)
+            elif order == 1:
+                out = out + d * th * ex / tau
+            else:
+                out = out + np.where(tt >= self.times[k], d * (1.0 - th) * ex / tau**2, 0.0)
+        return out if np.ndim(t) else float(out)
 
     def __call__(self, t):
+        if self.smoothing > 0.0:
+            return self._filtered(t, 0)
         tt = np.asarray(t, dtype=float)
         i = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, self.times.size - 1)
         out = self.positions[i]
         return out if np.ndim(t) else float(out)
 
     def rate(self, t):
-        """Zero: a step has no rate to feed forward."""
+        """Velocity [m/s]: zero for plain steps, the filter's with ``smoothing``."""
+        if self.smoothing > 0.0:
+            return self._filtered(t, 1)
+        return np.zeros(np.shape(t)) if np.ndim(t) else 0.0
+
+    def acceleration(self, t):
+        """Acceleration [m/s²]: zero for plain steps, the filter's with ``smoothing``."""
+        if self.smoothing > 0.0:
+            return self._filtered(t, 2)
         return np.zeros(np.shape(t)) if np.ndim(t) else 0.0
 
     def pack(self):
+        if self.smoothing > 0.0:
+            t1 = self.times[-1] + 10.0 * self.smoothing
+            grid = np.linspace(
+                self.times[0], t1, max(3, int(math.ceil((t1 - self.times[0]) * 1e4)) + 1)
+            )
+            return _SAMPLED, np.zeros(8), grid, np.asarray(self(grid), dtype=float)
         ts = [self.times[0]]
         vs = [self.positions[0]]
         for k in range(1, self.times.size):
@@ -236,6 +297,7 @@ class StepSequence(Signal):
             isinstance(other, StepSequence)
             and np.array_equal(self.times, other.times)
             and np.array_equal(self.positions, other.positions)
+            and self.smoothing == other.smoothing
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -256,7 +318,9 @@ def parse_reference(spec: str) -> Signal:
 
     ``trapezoid:from=50 mm,to=150 mm,v=0.1,a=2,start=0.1`` and
     ``scurve:...,jerk_time=20 ms`` (:class:`MotionProfile`);
-    ``steps:0 s=50 mm,0.5 s=150 mm,1 s=50 mm`` (:class:`StepSequence`);
+    ``steps:0 s=50 mm,0.5 s=150 mm,1 s=50 mm`` (:class:`StepSequence`; ``,smooth=20 ms``
+    passes the steps through the critically damped filter of time constant 20 ms, giving
+    the feed-forward a velocity and an acceleration);
     ``file:PATH`` or ``file:PATH#channel`` (a measured or planned run, channel ``x``
     by default, linearly interpolated); any signal spec of
     :func:`~hydropwa.simulation.parse_signal` in metres (``"step:time=0.1,before=50 mm,after=60 mm"``,
@@ -284,15 +348,19 @@ def parse_reference(spec: str) -> Signal:
             return MotionProfile(**kw)
         if kind == "steps":
             times, pos = [], []
+            smooth = 0.0
             for item in (p for p in rest.split(",") if p.strip()):
                 key, eq, val = item.partition("=")
+                if key.strip() == "smooth" and eq:
+                    smooth = parse_quantity(val.strip(), "s", "reference smooth")
+                    continue
                 if not eq:
                     raise ControlError(
                         f"reference: {item.strip()!r} in {spec!r} must read 'time=position'"
                     )
                 times.append(parse_quantity(key.strip(), "s", "reference step time"))
                 pos.append(parse_quantity(val.strip(), "m", "reference step position"))
-            return StepSequence(np.array(times), np.array(pos))
+            return StepSequence(np.array(times), np.array(pos), smoothing=smooth)
         if kind == "file":
             path, _, channel = rest.partition("#")
             return _from_file(Path(path.strip()), channel.strip() or "x")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..simulation import simulate
-from ._design import design_state_feedback
+from ._design import design_state_feedback, design_textbook_pi
 from ._metrics import METRIC_UNITS, tracking_metrics
 from ._reference import MotionProfile, MoveSequence
 
@@ -26,6 +26,10 @@ def _reference():
 
 def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any]:
     """Design an LQR on ``pwa`` and run the positioning task on the full, reduced and PWA models.
+
+    The table also holds the baseline, a textbook PI with velocity feed-forward designed from
+    the same parameters (:func:`~hydropwa.control.design_textbook_pi`) on the full model, so a
+    reader sees what the PWA design buys.
 
     Parameters
     ----------
@@ -60,6 +64,17 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
             reference=ref,
             initial_position=_X0,
         )
+    # the baseline: a textbook PI with velocity feed-forward from the same parameters
+    runs["full, textbook PI + FF (baseline)"] = simulate(
+        "full",
+        duration=_DURATION,
+        params=pwa.params,
+        controller=design_textbook_pi(
+            pwa, sample_time=design.controller.sample_time, delay=design.controller.delay
+        ).controller,
+        reference=ref,
+        initial_position=_X0,
+    )
     if verify_params is not None:
         runs["full (true params)"] = simulate(
             "full",

@@ -27,6 +27,49 @@ ctl[17:]  rows of ``ROW`` values: box lower [P_L, ẋ, x, c_prev] (4), upper (4)
           k_dpl [s/Pa], u_ff [1]
 ========  ================================================================
 
+Extension block (schema ``hydropwa.controller/2`` elements; absent in schema-1 controllers,
+whose vector ends after the rows, so their law is unchanged bit for bit). It starts at
+e0 = C_ROWS + ROW·ctl[C_NROWS] and holds ``N_EXT`` header values, then ``XROW`` values per
+gain row (see :data:`EXT_SLOTS`)::
+
+    e0+X_FF      flow feed-forward on (1) / off (0): c_ff = A_A ṙ_ff / (K √Δp), Δp the
+                 metering-edge drop of Eqs. (5)/(6) at the measured load pressure for the
+                 flow direction sign(ṙ_ff) (:func:`~hydropwa.components._physics.load_flow_drop`,
+                 at least e0+X_DPMIN)
+    e0+X_K       valve flow coefficient K [m³/(s·√Pa)] per metering edge (Eq. (5))
+    e0+X_PTR     transition pressure of the root [Pa]
+    e0+X_AA      piston area A_A [m²];  e0+X_ALPHA  α = A_B/A_A [1]
+    e0+X_PS      supply pressure P_S [Pa] of the design;  e0+X_PT  tank pressure [Pa]
+    e0+X_DPMIN   smallest drop used in the inversion [Pa]
+    e0+X_REFST   reference state (1): the gains k_v, k_pl act on ẋ − ṙ and on
+                 (P_L − P̄_L) − (P_ref − P̄_ref), P_ref = (m r̈ + b ṙ)/A_A (P̄_ref the
+                 washout's low-pass of P_ref, 0 at k = 0); with the spool model the row's
+                 k_nu and k_up act on ν̂ − c_flow and c_pend − c_flow (c_flow the flow term)
+    e0+X_MASS    moving mass m [kg];  e0+X_BV  viscous slope b [N·s/m] of P_ref
+    e0+X_LEAD    look-ahead τ [s] of ṙ_ff (applied where the reference is sampled)
+    e0+X_VEST    velocity from position (a_v = exp(−T_s/T_v) > 0): v̂ = a_v v̂ + (1 − a_v)(x_k − x_{k−1})/T_s,
+                 v̂ = 0 and x_{−1} = x_0 at k = 0; 0: the measured ẋ
+    e0+X_SPOOL   spool-state feedback: 0 off, 2 estimated by the discrete valve model
+                 [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_apply (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
+                 ν̂ = ν̂̇ = 0 at k = 0), c_apply the saturated command before the
+                 dead-zone inverse that the valve holds from t_k on (with the delay the
+                 previous sample's, kept in cst[S_CPEND])
+    e0+X_KF      position observer on (1): steady-state Kalman filter of [x, v] with the
+                 reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈_{k−1},
+                 v̂⁻ = v̂ + T_s r̈_{k−1}, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
+                 e0+X_KFX, e0+X_KFV; x̂ = x, v̂ = ṙ at k = 0); the law then uses x̂ and v̂
+    e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
+                 (c −= k_up · pending command, with the one-sample delay)
+
+Reference channels ``rch`` (shape (N_RCH, samples), one column per sample): ṙ(t_k) [m/s],
+ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], and the sensor noise added to the measured x [m],
+P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors).
+
+The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
+(with the noise), the position observer, the velocity filter, the Ṗ_L filter, the washout, the
+row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
+dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
+
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
 
@@ -45,6 +88,7 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import Y_FULL, Y_LOAD
+from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
@@ -70,13 +114,73 @@ C_ROWS = 17
 ROW = 15
 R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = 0, 4, 8, 9, 10, 11, 12, 13, 14
 AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
+#: extension block (schema 2): header slots, then XROW per-row slots from N_EXT on
+EXT_SLOTS = (
+    "ff",
+    "k",
+    "ptr",
+    "aa",
+    "alpha",
+    "ps",
+    "pt",
+    "dpmin",
+    "refst",
+    "mass",
+    "bv",
+    "lead",
+    "vest",
+    "spool",
+    "phi00",
+    "phi01",
+    "phi10",
+    "phi11",
+    "gam0",
+    "gam1",
+    "kf",
+    "kf_x",
+    "kf_v",
+)
+(
+    X_FF,
+    X_K,
+    X_PTR,
+    X_AA,
+    X_ALPHA,
+    X_PS,
+    X_PT,
+    X_DPMIN,
+    X_REFST,
+    X_MASS,
+    X_BV,
+    X_LEAD,
+    X_VEST,
+    X_SPOOL,
+    X_PHI,
+    _X_PHI01,
+    _X_PHI10,
+    _X_PHI11,
+    X_GAM,
+    _X_GAM1,
+    X_KF,
+    X_KFX,
+    X_KFV,
+) = range(len(EXT_SLOTS))
+N_EXT = len(EXT_SLOTS)
+XROW = 3
+XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
+SPOOL_OFF, SPOOL_ESTIMATED = 0, 2
+#: reference channels (rows of ``rch``)
+RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
+N_RCH = 6
 #: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
-#: low-passed P_L (washout)
+#: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
+#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂
 S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
-N_CST = 7
-#: per-sample log rows (log has shape (N_LOG, samples))
-L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW = range(8)
-N_LOG = 8
+S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF = range(7, 15)
+N_CST = 15
+#: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
+L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
+N_LOG = 9
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -99,19 +203,39 @@ def dead_zone_inverse(c, offset, width):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def measure(kind, y, a_a, a_b, mean_area):
+def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
     """Measured channels (x [m], ẋ [m/s], P_L [Pa]) from the state of model ``kind``.
 
     For the full model P_L is the force-equivalent load pressure of the model the
     controller was designed on: (P_A·A_A − P_B·A_B)/A_A = P_A − α P_B for the asymmetric
     reduced/PWA models (``mean_area`` 0), /Ā for the paper's mean-area form (1). Plain
     P_A − P_B differs from it at rest by about P_S(1 − α) on a single-rod cylinder, which
-    a state feedback would read as a load.
+    a state feedback would read as a load. ``nx`` [m], ``npa``, ``npb`` [Pa]: sensor noise
+    added to x, P_A and P_B (the load-state models: ``npa`` onto P_L).
     """
     if kind == 0:  # full model (states: hydropwa._layout.FULL_STATES)
         area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
-        return y[_X], y[_V], (y[_PA] * a_a - y[_PB] * a_b) / area
-    return y[_LX], y[_LV], y[_LPL]  # reduced, PWA (LOAD_STATES)
+        return y[_X] + nx, y[_V], ((y[_PA] + npa) * a_a - (y[_PB] + npb) * a_b) / area
+    return y[_LX] + nx, y[_LV], y[_LPL] + npa  # reduced, PWA (LOAD_STATES)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def flow_feedforward(ctl, e0, v_ff, pl, mean_area, a_a, a_b):
+    """Opening c_ff [1] that passes the flow A_A·v_ff at the load pressure pl, Eqs. (5)/(6) inverted.
+
+    Quasi-steady flow through both metering edges of a single-rod cylinder
+    (:func:`~hydropwa.components._physics.load_flow_drop`): Q_A = c K √Δp(sign(c), P_L, P_S)
+    = A_A v_ff, so c_ff = A_A v_ff/(K √Δp); P_L the asymmetric load pressure P_A − α P_B
+    (converted from the mean-area form if the controller measures that), Δp at least
+    ctl[e0 + X_DPMIN] (a load that stalls the axis leaves the feed-forward finite).
+    """
+    if v_ff == 0.0:
+        return 0.0
+    pla = pl * (0.5 * (a_a + a_b)) / a_a if mean_area != 0.0 else pl
+    s = 1.0 if v_ff > 0.0 else -1.0
+    drop = load_flow_drop(s, pla, ctl[e0 + X_PS], ctl[e0 + X_ALPHA], ctl[e0 + X_PT])
+    drop = max(drop, ctl[e0 + X_DPMIN])
+    return ctl[e0 + X_AA] * v_ff / (ctl[e0 + X_K] * signed_sqrt(drop, ctl[e0 + X_PTR]))
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -155,23 +279,53 @@ def select_row(ctl, pl, v, x, c, last):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
+def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
     """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
 
     ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
     Writes the command applied from t on into the packed valve-command slot sg[16] (a
     constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
-    ``cst`` and fills column k of ``log`` (one contiguous row per quantity). ``ref[k]``, ``dref[k]``: reference position [m]
-    and its rate [m/s] at t.
+    ``cst`` and fills column k of ``log`` (one contiguous row per quantity). ``ref[k]``:
+    reference position [m] at t; ``rch[:, k]``: the reference channels and sensor noise
+    at t (rows ``RC_*``; ṙ is row ``RC_DR``).
     """
-    x, v, pl = measure(kind, y, a_a, a_b, ctl[C_PLMEAN])
+    x, v, pl = measure(
+        kind, y, a_a, a_b, ctl[C_PLMEAN], rch[RC_NX, k], rch[RC_NPA, k], rch[RC_NPB, k]
+    )
     ts = ctl[C_TS]
+    nrows = int(ctl[C_NROWS])
+    e0 = C_ROWS + ROW * nrows
+    ext = ctl.shape[0] >= e0 + N_EXT
     r = ref[k]
     e = r - x
     if k == 0:
         cst[S_PL] = pl
         cst[S_DPL] = 0.0
         cst[S_PLBAR] = pl
+        cst[S_XPREV] = x
+        cst[S_VHAT] = 0.0
+        cst[S_PRBAR] = 0.0
+        cst[S_NU] = 0.0
+        cst[S_DNU] = 0.0
+    if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
+        if k == 0:
+            cst[S_XKF] = x
+            cst[S_VKF] = rch[RC_DR, k]
+        else:
+            acc = rch[RC_DDR, k - 1]
+            xp = cst[S_XKF] + ts * cst[S_VKF] + 0.5 * ts * ts * acc
+            vp = cst[S_VKF] + ts * acc
+            inn = x - xp
+            cst[S_XKF] = xp + ctl[e0 + X_KFX] * inn
+            cst[S_VKF] = vp + ctl[e0 + X_KFV] * inn
+        x = cst[S_XKF]
+        v = cst[S_VKF]
+        e = r - x
+    if ext and ctl[e0 + X_VEST] > 0.0:  # velocity from the position samples
+        av = ctl[e0 + X_VEST]
+        cst[S_VHAT] = av * cst[S_VHAT] + (1.0 - av) * (x - cst[S_XPREV]) / ts
+        cst[S_XPREV] = x
+        v = cst[S_VHAT]
     a = ctl[C_FILT]
     dpl = a * cst[S_DPL] + (1.0 - a) * (pl - cst[S_PL]) / ts
     aw_ = ctl[C_WASH]
@@ -187,11 +341,34 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
         ctl[b + R_UFF]
         + ctl[b + R_KP] * e
         + ki * cst[S_INT]
-        + ctl[b + R_KFF] * dref[k]
+        + ctl[b + R_KFF] * rch[RC_DR, k]
         - ctl[b + R_KV] * v
         - ctl[b + R_KPL] * pl_fb
         - ctl[b + R_KDPL] * dpl
     )
+    c_ff = 0.0
+    if ext:
+        c_fl = 0.0
+        if ctl[e0 + X_FF] > 0.5:
+            c_fl = flow_feedforward(ctl, e0, rch[RC_DRFF, k], pl, ctl[C_PLMEAN], a_a, a_b)
+        c_ff = c_fl
+        if ctl[e0 + X_REFST] > 0.5:  # the gains act on the deviation from the reference state
+            dr = rch[RC_DR, k]
+            p_ref = (ctl[e0 + X_MASS] * rch[RC_DDR, k] + ctl[e0 + X_BV] * dr) / ctl[e0 + X_AA]
+            if aw_ > 0.0:
+                cst[S_PRBAR] = aw_ * cst[S_PRBAR] + (1.0 - aw_) * p_ref
+                p_ref -= cst[S_PRBAR]
+            c_ff += ctl[b + R_KV] * dr + ctl[b + R_KPL] * p_ref
+            if ctl[e0 + X_SPOOL] > 0.5:  # the spool and the pending command follow c_fl
+                xb = e0 + N_EXT + XROW * row
+                kup = ctl[xb + XR_KUP] if ctl[C_DELAY] > 0.5 else 0.0
+                c_ff += (ctl[xb + XR_KNU] + kup) * c_fl
+        if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback on the valve model's estimate
+            xb = e0 + N_EXT + XROW * row
+            c_ff -= ctl[xb + XR_KNU] * cst[S_NU] + ctl[xb + XR_KDNU] * cst[S_DNU]
+            if ctl[C_DELAY] > 0.5:
+                c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
+        c_raw += c_ff
     u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW]) if ctl[C_DZINV] > 0.5 else c_raw
     u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
     c_sat = c_raw - (u_raw - u)  # the inverse has slope 1 where the command saturates
@@ -209,8 +386,17 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     if ctl[C_DELAY] > 0.5:
         u_apply = cst[S_PEND]
         cst[S_PEND] = u
+        c_apply = cst[S_CPEND]
+        cst[S_CPEND] = c_sat
     else:
         u_apply = u
+        c_apply = c_sat
+    if ext and ctl[e0 + X_SPOOL] > 0.5:  # the valve model driven by the opening it receives
+        nu, dnu = cst[S_NU], cst[S_DNU]
+        g = e0 + X_GAM
+        f = e0 + X_PHI
+        cst[S_NU] = ctl[f] * nu + ctl[f + 1] * dnu + ctl[g] * c_apply
+        cst[S_DNU] = ctl[f + 2] * nu + ctl[f + 3] * dnu + ctl[g + 1] * c_apply
     sg[16] = u_apply
     cst[S_PL] = pl
     cst[S_DPL] = dpl
@@ -223,6 +409,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, dref, sg, log):
     log[L_C, k] = c_raw
     log[L_ROW, k] = row
     log[L_UNEW, k] = u
+    log[L_UFF, k] = c_ff
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -2009,7 +2009,7 @@ def warmup_calls(name):
         raise ValueError(f"unknown kernel {name!r}; choose from {', '.join(WARMUP_NAMES)}")
     kind = kinds[model]
     if name.startswith("closed-"):
-        args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, z)
+        args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, zz)
         return [(_CLOSED[kind], args, f"closed-loop {_KIND_NAMES[kind]} model")]
     output = (OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output")
     if name.startswith("output-"):

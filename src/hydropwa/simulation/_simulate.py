@@ -6,6 +6,7 @@ import math
 import os
 import time as _time
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -17,6 +18,7 @@ from .._errors import ParameterError, SignalError, SimulationError
 from .._layout import CONTROL_OUTPUT_CHANNELS, OUTPUT_CHANNELS, PWA_OUTPUT_CHANNELS
 from ..models import Model, as_model
 from ..params import SystemParams
+from . import _controller as C
 from . import _kernel as K
 from ._controller import eval_rates
 from ._signals import Constant, Sampled, Signal, as_signal, pack_signals
@@ -407,6 +409,8 @@ def simulate(
     reference: Any = None,
     t: np.ndarray | None = None,
     x0: float | None = None,
+    sensor_noise: Mapping[str, float] | None = None,
+    seed: int | None = None,
 ) -> SimulationResult:
     """Simulate any model (full, reduced or PWA) with time-varying inputs.
 
@@ -466,6 +470,12 @@ def simulate(
     x0 : float, optional
         Deprecated alias of ``initial_position`` (python-control's ``X0`` is the state
         vector, here ``initial_state``).
+    sensor_noise : mapping, optional
+        Closed loop: standard deviations of white Gaussian noise on the controller's
+        measurements at its sample instants, ``{"x": m, "p_a": Pa, "p_b": Pa}`` (the
+        load-state models take ``p_a`` as the noise on P_L); default exact sensors.
+    seed : int, optional
+        Seed of the sensor noise (``numpy.random.default_rng``).
 
     Returns
     -------
@@ -532,6 +542,10 @@ def simulate(
         u = 0.0
     elif reference is not None:
         raise SignalError("reference is the set point of a controller; pass controller=... as well")
+    elif sensor_noise:
+        raise SignalError(
+            "sensor_noise is the noise of a controller's sensors; pass controller=... as well"
+        )
     u_sig = as_signal(u, "", "u")
     ps_sig = as_signal(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
@@ -565,7 +579,9 @@ def simulate(
         hmax = inputs.hmax
     sg = inputs.sg
     if closed:
-        ctl, ref_sig, ref, dref = _closed_loop_setup(controller, reference, t_out)
+        ctl, ref_sig, ref, dref = _closed_loop_setup(
+            controller, reference, t_out, sensor_noise, seed
+        )
     compiled0 = K.compile_seconds
     t0 = _time.perf_counter()
     if closed:
@@ -636,9 +652,19 @@ def simulate(
 
 
 def _closed_loop_setup(
-    controller: Any, reference: Any, t_out: np.ndarray
+    controller: Any,
+    reference: Any,
+    t_out: np.ndarray,
+    sensor_noise: Mapping[str, float] | None = None,
+    seed: int | None = None,
 ) -> tuple[np.ndarray, Signal, np.ndarray, np.ndarray]:
-    """Packed controller, reference signal and reference samples/rates at the sample instants."""
+    """Packed controller, reference signal, reference samples and the reference channels.
+
+    The channels (rows ``RC_*`` of :mod:`._controller`) at the sample instants t_k: ṙ(t_k),
+    ṙ(t_k + τ) (τ the controller's feed-forward look-ahead), r̈(t_k), and the sensor noise.
+    Rates and accelerations are the reference's analytic ones (``rate``, ``acceleration``)
+    where it has them, else differences of the packed signal over one sample.
+    """
     try:
         ctl = np.ascontiguousarray(controller.pack(), dtype=float)
     except AttributeError:
@@ -660,13 +686,39 @@ def _closed_loop_setup(
     n_smp = int(math.floor(span / ts + 1e-9)) + 1
     tk = t_out[0] + ts * np.arange(n_smp)
     ref = np.ascontiguousarray(ref_sig(tk), dtype=float)
-    if hasattr(ref_sig, "rate"):
-        dref = np.ascontiguousarray(ref_sig.rate(tk), dtype=float)
+    e0 = C.C_ROWS + C.ROW * int(ctl[C.C_NROWS])
+    lead = float(ctl[e0 + C.X_LEAD]) if ctl.size >= e0 + C.N_EXT else 0.0
+
+    def rate(tt):
+        if hasattr(ref_sig, "rate"):
+            return np.asarray(ref_sig.rate(tt), dtype=float)
+        return eval_rates(pack_signals([ref_sig]), 0, tt)
+
+    rch = np.zeros((C.N_RCH, n_smp))
+    rch[C.RC_DR] = rate(tk)
+    rch[C.RC_DRFF] = rate(tk + lead) if lead > 0.0 else rch[C.RC_DR]
+    if hasattr(ref_sig, "acceleration"):
+        rch[C.RC_DDR] = np.asarray(ref_sig.acceleration(tk), dtype=float)
     else:
-        dref = eval_rates(pack_signals([ref_sig]), 0, tk)
-    if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(dref))):
+        rch[C.RC_DDR] = (rate(tk + 0.5 * ts) - rate(tk - 0.5 * ts)) / ts
+    if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(rch))):
         raise SignalError("reference is not finite at every sample instant")
-    return ctl, ref_sig, ref, dref
+    if sensor_noise:
+        rng = np.random.default_rng(seed)
+        for key, row in (("x", C.RC_NX), ("p_a", C.RC_NPA), ("p_b", C.RC_NPB)):
+            sd = sensor_noise.get(key, 0.0)
+            if not (isinstance(sd, int | float) and math.isfinite(sd) and sd >= 0.0):
+                raise SignalError(
+                    f"sensor_noise[{key!r}] = {sd!r} must be a standard deviation >= 0 in SI units"
+                )
+            if sd > 0.0:
+                rch[row] = rng.normal(0.0, float(sd), n_smp)
+        unknown = set(sensor_noise) - {"x", "p_a", "p_b"}
+        if unknown:
+            raise SignalError(
+                f"sensor_noise has unknown channels {sorted(unknown)}; use x, p_a, p_b"
+            )
+    return ctl, ref_sig, ref, rch
 
 
 def _held_command(log: np.ndarray, t0: float) -> Sampled:
@@ -706,6 +758,7 @@ def _control_record(controller: Any, ctl: np.ndarray, log: np.ndarray) -> dict[s
         "command": _done(log, 4),
         "row": _done(log, 5).astype(np.int64),
         "integral": _done(log, 6),
+        "feedforward": _done(log, C.L_UFF),
         "sample_time": float(ctl[0]),
         "u_limits": (float(ctl[2]), float(ctl[3])),
     }
