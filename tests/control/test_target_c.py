@@ -361,7 +361,8 @@ def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constan
     header = c_sources(paper_lqr)["hydropwa_ctrl.h"]
     n = len(paper_lqr.rows)
     assert f"#define HYDROPWA_CTRL_N_ROWS {n}\n" in header
-    assert f"{cost_per_step(n)['flops']} floating-point operations" in header
+    assert f"{cost_per_step(n, True)['flops']} floating-point operations" in header
+    assert cost_per_step(n, True)["flops"] > cost_per_step(n)["flops"]
 
 
 @pytest.mark.parametrize("version", ["2.0", "3.0"])

@@ -34,8 +34,8 @@ import numpy as np
 
 from .. import __version__
 from .._io import atomic_write_text, check_output
-from ..simulation import _controller as C
 from ..components import _physics as P
+from ..simulation import _controller as C
 from ..simulation._emit_c import emit_functions
 from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
@@ -272,20 +272,24 @@ def _describe_line(controller) -> str:
     return "PI (one gain row valid everywhere)"
 
 
-def cost_per_step(n_rows: int) -> dict[str, int]:
+def cost_per_step(n_rows: int, extended: bool = False) -> dict[str, int]:
     """Worst-case operation counts of one ``hydropwa_ctrl_step`` with ``n_rows`` gain rows.
 
     The row search evaluates at most n_rows + 1 box distances (the previous row, then all):
     per distance 4 coordinates × (2 comparisons, 1 subtraction, 1 division, 1 addition) and
-    one comparison with the best so far. The rest of the law is a fixed 40 floating-point
-    operations and 16 comparisons.
+    one comparison with the best so far. The rest of the schema-1 law is a fixed 40
+    floating-point operations and 16 comparisons; the schema-2 block (``extended``: position
+    observer, velocity filter, flow feed-forward with its two square roots, reference state,
+    spool terms and the valve model's update) adds at most 76 operations (6 of them
+    divisions, 2 square roots) and 14 comparisons.
     """
     boxes = n_rows + 1 if n_rows > 1 else 0
+    x = 1 if extended else 0
     return {
         "box_distances": boxes,
-        "divisions": 4 * boxes + 4,
-        "flops": 12 * boxes + 40,
-        "comparisons": 9 * boxes + 16,
+        "divisions": 4 * boxes + 4 + 6 * x,
+        "flops": 12 * boxes + 40 + 76 * x,
+        "comparisons": 9 * boxes + 16 + 14 * x,
     }
 
 
@@ -301,7 +305,7 @@ def c_sources(controller) -> dict[str, str]:
     n = int(ctl[C.C_NROWS])
     e0 = C.C_ROWS + C.ROW * n
     ext = ctl.shape[0] > e0
-    cost = cost_per_step(n)
+    cost = cost_per_step(n, ext)
     subs = {
         "@VERSION@": __version__,
         "@KIND@": _describe_line(controller),
