@@ -341,6 +341,11 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     with pytest.raises(ControlError, match=r"packed layout changed \(C_ROWS 18 \(C law: 17\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
+    monkeypatch.undo()
+    monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 24 \(C law: 23\)\)"):
+        export_c(PIController(kp=1.0), tmp_path / "c")
+    assert not (tmp_path / "c").exists()
 
 
 def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constants(paper_lqr):
@@ -358,6 +363,15 @@ def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constan
     ctl = paper_lqr.pack()
     assert len(values) == ctl.size
     np.testing.assert_array_equal(np.array(values), ctl)
+    # schema 2: the extension block is read through X = T + its start; schema 1 reads zeros
+    e0 = C.C_ROWS + C.ROW * len(paper_lqr.rows)
+    assert ctl.size == e0 + C.N_EXT + C.XROW * len(paper_lqr.rows)
+    assert f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n" in src
+    for name in ("N_EXT", "XROW", "X_FF", "X_LEAD", "X_PHI", "X_KFV", "XR_KUP"):
+        assert f"#define HP_{name} {getattr(C, name)}\n" in src
+    assert "static double hp_signed_sqrt(double dp, double p_tr)" in src  # emitted physics
+    v1 = c_sources(PIController(kp=1.0))["hydropwa_ctrl.c"]
+    assert f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW}] = {{0.0}};" in v1
     header = c_sources(paper_lqr)["hydropwa_ctrl.h"]
     n = len(paper_lqr.rows)
     assert f"#define HYDROPWA_CTRL_N_ROWS {n}\n" in header

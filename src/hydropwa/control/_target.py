@@ -11,9 +11,14 @@ How the C stays the package's law:
   so the table and the law's indices cannot disagree with the compiled controller;
 - the **law** (``_c/hydropwa_ctrl_law.c``) is one small C function per element of the numba
   law (dead-zone inverse, box distance, row selection, pressure-rate filter, washout,
-  anti-windup, the step with saturation and delay), written in the same order of
-  floating-point operations; the tests step both in lockstep on closed-loop runs of two
-  machines and require the same command within 1e-12 at every sample;
+  anti-windup, the step with saturation and delay; for schema 2 the position observer, the
+  velocity filter, the flow feed-forward, the reference state, the spool terms and the valve
+  model's update), written in the same order of floating-point operations; the tests step
+  both in lockstep on closed-loop runs of two machines and require the same command within
+  1e-12 at every sample;
+- the **physics** the law calls (the edge drop and the regularised root of Eqs. (5)/(6) in the
+  flow feed-forward) is translated from :mod:`hydropwa.components._physics` by
+  :mod:`hydropwa.simulation._emit_c`, as for the axis FMU;
 - a controller with a law element the C does not cover is refused, by name
   (:func:`check_expressible`).
 
@@ -451,7 +456,8 @@ def export_fmu(
 
     Notes
     -----
-    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s]; output u [1]. ``doStep(t, h)``
+    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s], r_rate_ff [m/s] (the rate at
+    t + the feed-forward's look-ahead), r_acc [m/s²]; output u [1]. ``doStep(t, h)``
     evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
     at t, and u is the command of the last of them from then on (no direct feedthrough):
     a master that sets the inputs at t_k, steps the controller, then reads u and passes it to
