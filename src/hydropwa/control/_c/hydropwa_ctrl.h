@@ -5,10 +5,11 @@
  *
  * Call sequence, every sample instant t_k = t_0 + k*T_s:
  *
- *     hydropwa_ctrl_state s;
+ *     hydropwa_ctrl_state s; hydropwa_ctrl_meas m; hydropwa_ctrl_ref ref;
  *     hydropwa_ctrl_init(&s);                      (once; hydropwa_ctrl_reset(&s) to start over)
  *     loop every HYDROPWA_CTRL_SAMPLE_TIME seconds:
- *         m.x = ...; m.v = ...;                     position [m], velocity [m/s]
+ *         m.x = ...; m.v = ...;                     position [m], velocity [m/s] (m.v unused
+ *                                                    with the velocity filter or the observer)
  *         m.p_l = hydropwa_ctrl_load_pressure(p_a, p_b, area_a, area_b);
  *         ref.r = r(t_k);                            reference position [m]
  *         ref.r_rate = r'(t_k);                      its rate [m/s]
