@@ -4,13 +4,15 @@ Usage::
 
     python benchmarks/target.py [--repeat 5]
 
-Controller: the LQR designed on the paper rig's PWA model (70 gain rows, 2 kHz), exported
-with ``export_c`` and compiled with ``gcc -std=c99 -O2``; a C driver steps it over the
-measurement sequence of a 0.6 s closed-loop trapezoid of the full model (1201 samples, 20 µm /
-5 mm/s / 0.1 bar noise) 200 times and reports the mean time per step, and the same with
-measurements outside every box (each step then searches all 70 rows: the worst case of the
-header's cost bound). The ratio to the 2 kHz period (500 µs) is the share of the loop's
-budget the controller takes.
+Controller: the default design of ``hydropwa control design`` on the paper rig's PWA model
+(schema 2: valve-aware LQR, 70 gain rows, 2 kHz, one sample of delay, with the flow
+feed-forward, the reference state and the spool estimate), and beside it the schema-1 LQR
+(no valve model, no feed-forward), each exported with ``export_c`` and compiled with
+``gcc -std=c99 -O2``; a C driver steps it over the measurement sequence of a 0.6 s
+closed-loop trapezoid of the full model (1201 samples, 20 µm / 5 mm/s / 0.1 bar noise) 200
+times and reports the best mean time per step, and the same with measurements outside every
+box (each step then searches all 70 rows: the worst case of the header's cost bound). The
+ratio to the 2 kHz period (500 µs) is the share of the loop's budget the controller takes.
 
 Axis FMU: ``export_axis_fmu`` of the paper rig; a C driver instantiates the FMU's own sources
 (the FMI functions, no Python) and steps it through 10 s of a 40 %, 2 Hz sine at 1 ms
@@ -58,8 +60,8 @@ int main(int argc, char **argv)
     hydropwa_ctrl_state s;
     (void)argc;
     if (fread(&n, sizeof(long), 1, stdin) != 1) return 2;
-    in = malloc(sizeof(double) * 5 * n);
-    if (fread(in, sizeof(double), 5 * n, stdin) != (size_t)(5 * n)) return 3;
+    in = malloc(sizeof(double) * 7 * n);
+    if (fread(in, sizeof(double), 7 * n, stdin) != (size_t)(7 * n)) return 3;
     for (rep = 0; rep < 5; ++rep) {
         long r;
         t0 = now();
@@ -67,10 +69,15 @@ int main(int argc, char **argv)
             hydropwa_ctrl_init(&s);
             for (k = 0; k < n; ++k) {
                 hydropwa_ctrl_meas m;
-                m.x = in[5 * k];
-                m.v = in[5 * k + 1];
-                m.p_l = in[5 * k + 2];
-                sink += hydropwa_ctrl_step(&s, &m, in[5 * k + 3], in[5 * k + 4]);
+                hydropwa_ctrl_ref ref;
+                m.x = in[7 * k];
+                m.v = in[7 * k + 1];
+                m.p_l = in[7 * k + 2];
+                ref.r = in[7 * k + 3];
+                ref.r_rate = in[7 * k + 4];
+                ref.r_rate_ff = in[7 * k + 5];
+                ref.r_acc = in[7 * k + 6];
+                sink += hydropwa_ctrl_step(&s, &m, &ref);
             }
         }
         t0 = (now() - t0) / (double)(reps * n);
@@ -133,6 +140,7 @@ def _measurements(prm, ctrl):
         "full", timepts=tk, params=prm, controller=ctrl, reference=ref, initial_position=x0
     )
     a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
+    lead = ctrl.feedforward.lead if ctrl.feedforward is not None else 0.0
     pa = np.asarray(res["p_a"]) + rng.normal(0, 0.1e5, tk.size)
     pb = np.asarray(res["p_b"]) + rng.normal(0, 0.1e5, tk.size)
     return np.column_stack(
@@ -142,6 +150,8 @@ def _measurements(prm, ctrl):
             (pa * a_a - pb * a_b) / a_a,
             ref(tk),
             ref.rate(tk),
+            ref.rate(tk + lead),
+            ref.acceleration(tk),
         ]
     )
 
@@ -156,25 +166,36 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=200, help="passes over the sequence")
     args = ap.parse_args(argv)
     prm = get_preset("paper")
-    ctrl = design_state_feedback(linearize(prm)).controller
-    meas = _measurements(prm, ctrl)
+    model = linearize(prm)
+    designs = (
+        ("schema 2 (default design)", design_state_feedback(model, delay=True).controller),
+        (
+            "schema 1 (no valve model, no feed-forward)",
+            design_state_feedback(model, delay=True, valve=False, feedforward=False).controller,
+        ),
+    )
     with tempfile.TemporaryDirectory() as tmp:
-        d = export_c(ctrl, Path(tmp) / "c")
-        (d / "bench.c").write_text(CTRL_DRIVER)
-        _gcc(d / "bench", d / "bench.c", d / "hydropwa_ctrl.c")
-        rows = []
-        outside = meas.copy()
-        outside[:, 2] = 1e9  # P_L far outside every box: every step searches all rows
-        for name, m in (("closed-loop sequence", meas), ("outside every box", outside)):
-            data = np.int64(len(m)).tobytes() + np.ascontiguousarray(m).tobytes()
-            out = subprocess.run(
-                [str(d / "bench"), str(args.repeat)], input=data, capture_output=True, check=True
-            )
-            per_step = float(out.stdout.split()[0])
-            rows.append((name, per_step))
-        print(f"C controller ({len(ctrl.rows)} gain rows, gcc -O2), time per step:")
-        for name, t in rows:
-            print(f"  {name:22s} {t * 1e9:8.1f} ns   {t / 500e-6:.2e} of the 500 µs period")
+        for label, ctrl in designs:
+            meas = _measurements(prm, ctrl)
+            d = export_c(ctrl, Path(tmp) / label.split()[1])
+            (d / "bench.c").write_text(CTRL_DRIVER)
+            _gcc(d / "bench", d / "bench.c", d / "hydropwa_ctrl.c")
+            rows = []
+            outside = meas.copy()
+            outside[:, 2] = 1e9  # P_L far outside every box: every step searches all rows
+            for name, m in (("closed-loop sequence", meas), ("outside every box", outside)):
+                data = np.int64(len(m)).tobytes() + np.ascontiguousarray(m).tobytes()
+                out = subprocess.run(
+                    [str(d / "bench"), str(args.repeat)],
+                    input=data,
+                    capture_output=True,
+                    check=True,
+                )
+                per_step = float(out.stdout.split()[0])
+                rows.append((name, per_step))
+            print(f"C controller, {label}: {len(ctrl.rows)} gain rows, gcc -O2, time per step:")
+            for name, t in rows:
+                print(f"  {name:22s} {t * 1e9:8.1f} ns   {t / 500e-6:.2e} of the 500 µs period")
 
         fmu = export_axis_fmu(prm, Path(tmp) / "axis.fmu")
         src = Path(tmp) / "axis"

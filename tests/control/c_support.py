@@ -39,12 +39,32 @@ class State(ctypes.Structure):
         ("started", ctypes.c_int),
         ("c_raw", ctypes.c_double),
         ("u_new", ctypes.c_double),
+        ("x_prev", ctypes.c_double),
+        ("v_hat", ctypes.c_double),
+        ("p_ref_bar", ctypes.c_double),
+        ("nu", ctypes.c_double),
+        ("dnu", ctypes.c_double),
+        ("c_pending", ctypes.c_double),
+        ("x_kf", ctypes.c_double),
+        ("v_kf", ctypes.c_double),
+        ("acc_prev", ctypes.c_double),
+        ("c_ff", ctypes.c_double),
+    ]
+
+
+class Ref(ctypes.Structure):
+    _fields_ = [
+        ("r", ctypes.c_double),
+        ("r_rate", ctypes.c_double),
+        ("r_rate_ff", ctypes.c_double),
+        ("r_acc", ctypes.c_double),
     ]
 
 
 def compile_shared(src: Path, out: Path, extra: tuple[str, ...] = ()) -> ctypes.CDLL:
     """Compile ``src/hydropwa_ctrl.c`` with :data:`STRICT` into a shared library and load it."""
     cmd = [GCC, *STRICT, *extra, "-shared", "-fPIC", "-o", str(out), str(src / "hydropwa_ctrl.c")]
+    cmd.append("-lm")
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == "", proc.stderr  # no warning at all
@@ -53,30 +73,48 @@ def compile_shared(src: Path, out: Path, extra: tuple[str, ...] = ()) -> ctypes.
     lib.hydropwa_ctrl_step.argtypes = [
         ctypes.POINTER(State),
         ctypes.POINTER(Meas),
-        ctypes.c_double,
-        ctypes.c_double,
+        ctypes.POINTER(Ref),
     ]
     lib.hydropwa_ctrl_load_pressure.restype = ctypes.c_double
     lib.hydropwa_ctrl_load_pressure.argtypes = [ctypes.c_double] * 4
     return lib
 
 
-def replay_c(lib: ctypes.CDLL, x, v, pl, r, dr) -> dict[str, np.ndarray]:
-    """Step the compiled C controller over the samples; command, c and row per sample."""
+def reference_channels(controller, reference, tk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The reference r and channels (ṙ, ṙ(t + τ), r̈; no noise) the package's loop samples at
+    ``tk`` (``simulate``'s own set-up of a closed-loop run)."""
+    from hydropwa.simulation._simulate import _closed_loop_setup
+
+    _ctl, _sig, r, rch = _closed_loop_setup(controller, reference, np.asarray(tk, dtype=float))
+    return r, rch
+
+
+def replay_c(lib: ctypes.CDLL, x, v, pl, r, rch) -> dict[str, np.ndarray]:
+    """Step the compiled C controller over the samples; command, c and row per sample.
+
+    ``rch``: the reference channels (rows ``RC_*`` of the compiled law) at the samples.
+    """
     n = len(x)
     s = State()
     m = Meas()
+    rf = Ref()
     lib.hydropwa_ctrl_init(ctypes.byref(s))
     u, c, row = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
     for k in range(n):
         m.x, m.v, m.p_l = float(x[k]), float(v[k]), float(pl[k])
-        u[k] = lib.hydropwa_ctrl_step(ctypes.byref(s), ctypes.byref(m), float(r[k]), float(dr[k]))
+        rf.r, rf.r_rate = float(r[k]), float(rch[C.RC_DR, k])
+        rf.r_rate_ff, rf.r_acc = float(rch[C.RC_DRFF, k]), float(rch[C.RC_DDR, k])
+        u[k] = lib.hydropwa_ctrl_step(ctypes.byref(s), ctypes.byref(m), ctypes.byref(rf))
         c[k], row[k] = s.c_raw, s.row
     return {"u": u, "c": c, "row": row}
 
 
-def replay_package(ctl: np.ndarray, x, v, pl, r, dr) -> dict[str, np.ndarray]:
-    """Step the package's compiled law (the reduced-model measurement: y = [P_L, v, x])."""
+def replay_package(ctl: np.ndarray, x, v, pl, r, rch, a_a, a_b) -> dict[str, np.ndarray]:
+    """Step the package's compiled law (the reduced-model measurement: y = [P_L, v, x]).
+
+    ``rch``: the reference channels at the samples (the noise rows are not used: the noise
+    is in the measurements); ``a_a``, ``a_b``: the piston areas [m²] the loop passes.
+    """
     n = len(x)
     cst = np.zeros(C.N_CST)
     log = np.zeros((C.N_LOG, n))
@@ -84,10 +122,11 @@ def replay_package(ctl: np.ndarray, x, v, pl, r, dr) -> dict[str, np.ndarray]:
     y = np.zeros(len(Y_LOAD))
     ts = float(ctl[C.C_TS])
     r = np.ascontiguousarray(r, dtype=float)
-    dr = np.ascontiguousarray(dr, dtype=float)
+    ch = np.zeros((C.N_RCH, n))
+    ch[: C.RC_NX] = np.asarray(rch, dtype=float)[: C.RC_NX]
     for k in range(n):
         y[Y_LOAD["x"]], y[Y_LOAD["v"]], y[Y_LOAD["p_l"]] = x[k], v[k], pl[k]
-        C.controller_sample(1, k, k * ts, y, 0.0, 0.0, ctl, cst, r, dr, sg, log)
+        C.controller_sample(1, k, k * ts, y, a_a, a_b, ctl, cst, r, ch, sg, log)
     return {"u": log[C.L_U].copy(), "c": log[C.L_C].copy(), "row": log[C.L_ROW].astype(np.int64)}
 
 
@@ -101,8 +140,8 @@ def package_load_pressure(ctl, p_a, p_b, a_a, a_b) -> np.ndarray:
     return out
 
 
-#: a stand-alone program for the sanitizer run: reads n, then n × (x, v, p_a, p_b, r, ṙ) and
-#: the areas from stdin (binary doubles), writes n × (u, c, row) to stdout
+#: a stand-alone program for the sanitizer run: reads n and the areas, then
+#: n × (x, v, p_a, p_b, r, ṙ, ṙ(t + τ), r̈) from stdin (binary doubles), writes n × (u, c, row) to stdout
 DRIVER = r"""
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,17 +152,22 @@ int main(void)
     double head[3];
     long n, k;
     hydropwa_ctrl_state s;
+    hydropwa_ctrl_ref ref;
     if (fread(head, sizeof(double), 3, stdin) != 3) return 2;
     n = (long)head[0];
     hydropwa_ctrl_init(&s);
     for (k = 0; k < n; ++k) {
-        double in[6], out[3];
+        double in[8], out[3];
         hydropwa_ctrl_meas m;
-        if (fread(in, sizeof(double), 6, stdin) != 6) return 3;
+        if (fread(in, sizeof(double), 8, stdin) != 8) return 3;
         m.x = in[0];
         m.v = in[1];
         m.p_l = hydropwa_ctrl_load_pressure(in[2], in[3], head[1], head[2]);
-        out[0] = hydropwa_ctrl_step(&s, &m, in[4], in[5]);
+        ref.r = in[4];
+        ref.r_rate = in[5];
+        ref.r_rate_ff = in[6];
+        ref.r_acc = in[7];
+        out[0] = hydropwa_ctrl_step(&s, &m, &ref);
         out[1] = s.c_raw;
         out[2] = (double)s.row;
         if (fwrite(out, sizeof(double), 3, stdout) != 3) return 4;

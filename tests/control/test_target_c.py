@@ -1,11 +1,14 @@
 """The generated C controller against the package's compiled law, in lockstep (issue 35).
 
 Closed-loop runs of two machines (the paper rig and the heavy industrial axis of
-tests/machines/industrial.toml) under every controller kind the package designs, on steps
-and trapezoids: the measurement sequence the package's loop saw at its sample instants is
-taken from the run, sensor noise is added, and both the package's law and the C (compiled
-with ``-std=c99 -Wall -Wextra -Werror -pedantic -O2``) are stepped over it. Required: the
-same command within 1e-12 relative at every sample, the same gain row.
+tests/machines/industrial.toml) under every controller kind the package designs, schema 1
+and schema 2 (the default designs: flow feed-forward, reference state, spool estimate, with
+and without the delay; a PI with the velocity filter and the position observer), on steps
+(plain and smoothed) and trapezoids: the measurement sequence the package's loop saw at its
+sample instants is taken from the run, sensor noise is added, and both the package's law and
+the C (compiled with ``-std=c99 -Wall -Wextra -Werror -pedantic -O2``) are stepped over it
+with the reference channels of the loop (r, ṙ, ṙ(t + τ), r̈). Required: the same command
+within 1e-12 relative at every sample, the same gain row.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from c_support import (
     STRICT,
     compile_shared,
     package_load_pressure,
+    reference_channels,
     replay_c,
     replay_package,
 )
@@ -32,6 +36,7 @@ from hydropwa import OutputExistsError, load_params
 from hydropwa.control import (
     ControlError,
     DeadZoneInverse,
+    FlowFeedForward,
     MotionProfile,
     PIController,
     StateFeedbackController,
@@ -40,6 +45,7 @@ from hydropwa.control import (
     design_state_feedback,
     export_c,
     export_fmu,
+    position_observer_gains,
 )
 from hydropwa.control._target import C_FILES, c_sources, cost_per_step
 from hydropwa.linearization import linearize
@@ -58,6 +64,12 @@ RTOL = 1e-12
 #: |u| > 1e-2; 2 902 row switches, all rows equal); where they cancel to |u| < 1e-2 that is
 #: 1e-14 absolute (45 ulps of the full command), not 1e-12 of u
 FLOOR = 1e-2
+#: floor with the position observer (schema 2, off by default): its x̂ differs from the package's
+#: by the FMA rounding (ulps of x ≈ 1.4e-17 m at 0.1 m), and the difference persists because an
+#: increment T_s v̂ below half an ulp of x̂ is lost, so v̂ drifts by up to ulp(x)/T_s (3e-14 m/s)
+#: before x̂ moves; k_p (r − x̂) turns that into at most 5.2e-14 absolute in the commands
+#: measured here (25 ulps of x̂ times k_p = 150/m): 1e-12 of the full valve signal
+FLOOR_OBSERVER = 1.0
 
 
 @pytest.fixture(scope="module")
@@ -67,17 +79,24 @@ def industrial():
 
 @pytest.fixture(scope="module")
 def paper_lqr(paper):
-    return design_state_feedback(linearize(paper)).controller
+    """The default design of ``hydropwa control design`` (schema 2: valve-aware LQR with the
+    flow feed-forward, the reference state and the spool estimate; one sample of delay)."""
+    ctrl = design_state_feedback(linearize(paper), delay=True).controller
+    assert ctrl.extended and ctrl.spool_model is not None and ctrl.feedforward is not None
+    return ctrl
 
 
 @pytest.fixture(scope="module")
 def industrial_lqr(industrial):
-    return design_state_feedback(linearize(industrial)).controller
+    ctrl = design_state_feedback(linearize(industrial), delay=True).controller
+    assert ctrl.extended and ctrl.spool_model is not None and ctrl.feedforward is not None
+    return ctrl
 
 
 def _variants(paper, paper_lqr, industrial, industrial_lqr):
     """Every controller kind and law element: (name, machine, controller)."""
     pi = design_pi(linearize(paper)).controller
+    assert not pi.extended  # schema 1
     dzi = DeadZoneInverse.from_params(paper.dead_zone)
     full_pi = PIController(
         kp=150.0,
@@ -96,15 +115,34 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         load_pressure="mean-area",
         dead_zone_inverse=dzi,
     )
+    lqr_v1 = design_state_feedback(linearize(paper), valve=False, feedforward=False).controller
     sf_delay = StateFeedbackController(
-        rows=paper_lqr.rows,
+        rows=lqr_v1.rows,
         delay=True,
         anti_windup="none",
         pressure_washout=0.0,
         dead_zone_inverse=None,
     )
+    ts = 5e-4
+    pi_v2 = PIController(
+        kp=150.0,
+        ki=600.0,
+        kpl=2e-8,
+        pressure_washout=0.05,
+        delay=True,
+        load_pressure="mean-area",
+        dead_zone_inverse=dzi,
+        feedforward=FlowFeedForward.from_params(paper, sample_time=ts, delay=True),
+        velocity_filter=1e-3,
+        position_observer=position_observer_gains(ts, 20e-6, 1.0),
+    )
+    lqr_no_delay = design_state_feedback(linearize(paper)).controller
+    assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr", paper, paper_lqr),
+        ("paper lqr no delay", paper, lqr_no_delay),
+        ("paper pi schema 2 observer", paper, pi_v2),
+        ("paper lqr schema 1", paper, lqr_v1),
         ("paper pi", paper, pi),
         ("paper pi every element", paper, full_pi),
         ("paper lqr delay, no inverse", paper, sf_delay),
@@ -114,7 +152,8 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
 
 
 def _references(prm):
-    """A trapezoid over a fifth of the stroke and two steps, about the mid stroke."""
+    """A trapezoid over a fifth of the stroke and two steps (plain and smoothed through the
+    20 ms filter of :class:`StepSequence`), about the mid stroke."""
     s = prm.cylinder.stroke
     x0 = 0.4 * s
     trap = MotionProfile(
@@ -124,8 +163,11 @@ def _references(prm):
         max_velocity=0.1 if s < 0.3 else 0.15,
         max_acceleration=2.0,
     )
-    steps = StepSequence(times=np.array([0.0, 0.02, 0.3]), positions=x0 + np.array([0, 5e-3, 2e-3]))
-    return x0, (("trapezoid", trap, 0.6), ("steps", steps, 0.5))
+    times = np.array([0.0, 0.02, 0.3])
+    positions = x0 + np.array([0, 5e-3, 2e-3])
+    steps = StepSequence(times=times, positions=positions)
+    smooth = StepSequence(times=times, positions=positions, smoothing=0.02)
+    return x0, (("trapezoid", trap, 0.6), ("steps", steps, 0.5), ("smoothed steps", smooth, 0.5))
 
 
 def _closed_loop_samples(prm, ctrl, ref, x0, duration, rng):
@@ -148,8 +190,7 @@ def _closed_loop_samples(prm, ctrl, ref, x0, duration, rng):
         rtol=1e-6,
     )
     assert res.success, res.message
-    r = np.asarray(ref(tk), dtype=float)
-    dr = np.asarray(ref.rate(tk), dtype=float)
+    r, rch = reference_channels(ctrl, ref, tk)
     exact = {k: np.asarray(res[k], dtype=float) for k in ("x", "v", "p_a", "p_b")}
     noisy = {
         "x": exact["x"] + rng.normal(0.0, 20e-6, n),
@@ -157,14 +198,18 @@ def _closed_loop_samples(prm, ctrl, ref, x0, duration, rng):
         "p_a": exact["p_a"] + rng.normal(0.0, 0.1e5, n),
         "p_b": exact["p_b"] + rng.normal(0.0, 0.1e5, n),
     }
-    return res, exact, noisy, r, dr
+    return res, exact, noisy, r, rch
 
 
-def _assert_lockstep(pkg, c, what):
+def _floor(ctrl) -> float:
+    return FLOOR_OBSERVER if getattr(ctrl, "position_observer", None) is not None else FLOOR
+
+
+def _assert_lockstep(pkg, c, what, floor=FLOOR):
     """Same command and c within :data:`RTOL` relative (floor :data:`FLOOR`), same row."""
     for key in ("u", "c"):
         ref = pkg[key]
-        err = np.abs(c[key] - ref) / np.maximum(np.abs(ref), FLOOR)
+        err = np.abs(c[key] - ref) / np.maximum(np.abs(ref), floor)
         worst = int(np.argmax(err))
         assert err[worst] <= RTOL, (
             f"{what}: {key} at sample {worst}: C {c[key][worst]!r} vs package {ref[worst]!r}"
@@ -183,8 +228,7 @@ def test_c_controller_matches_the_compiled_law_in_lockstep(
     load pressure is the package's measurement of it from the chamber pressures.
     """
     rng = np.random.default_rng(35)
-    checked = 0
-    switched_rows = 0
+    checked = switched_rows = extended = ff_active = 0
     for name, prm, ctrl in _variants(paper, paper_lqr, industrial, industrial_lqr):
         out = tmp_path / name.replace(" ", "_").replace(",", "")
         export_c(ctrl, out)
@@ -194,9 +238,9 @@ def test_c_controller_matches_the_compiled_law_in_lockstep(
         x0, refs = _references(prm)
         for ref_name, ref, duration in refs:
             what = f"{name}, {ref_name}"
-            res, exact, noisy, r, dr = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
+            res, exact, noisy, r, rch = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
             pl_exact = package_load_pressure(ctl, exact["p_a"], exact["p_b"], a_a, a_b)
-            replay = replay_package(ctl, exact["x"], exact["v"], pl_exact, r, dr)
+            replay = replay_package(ctl, exact["x"], exact["v"], pl_exact, r, rch, a_a, a_b)
             np.testing.assert_allclose(
                 replay["u"], res.control["u"], rtol=0, atol=1e-9, err_msg=what
             )
@@ -212,14 +256,19 @@ def test_c_controller_matches_the_compiled_law_in_lockstep(
                 np.testing.assert_allclose(
                     pl_c, pl_pkg, rtol=0, atol=1e-14 * np.max(np.abs(seq["p_a"])), err_msg=what
                 )
-                pkg = replay_package(ctl, seq["x"], seq["v"], pl_pkg, r, dr)
-                c = replay_c(lib, seq["x"], seq["v"], pl_pkg, r, dr)
-                _assert_lockstep(pkg, c, what)
+                pkg = replay_package(ctl, seq["x"], seq["v"], pl_pkg, r, rch, a_a, a_b)
+                c = replay_c(lib, seq["x"], seq["v"], pl_pkg, r, rch)
+                _assert_lockstep(pkg, c, what, _floor(ctrl))
                 checked += len(r)
                 switched_rows += int(np.count_nonzero(np.diff(pkg["row"])))
+                if ctrl.extended:
+                    extended += len(r)
+                    ff_active += int(np.count_nonzero(rch[C.RC_DRFF]))
     # the runs exercise the row search and the saturation, not only one cell
     assert switched_rows > 100
     assert checked > 20000
+    # the schema-2 terms are exercised: the feed-forward is on while the reference moves
+    assert extended > 10000 and ff_active > 2000
 
 
 def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
@@ -234,7 +283,7 @@ def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
         (out / "driver.c").write_text(DRIVER)
         exe = out / "driver"
         cmd = [GCC, *STRICT, "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
-        cmd += ["-o", str(exe), str(out / "driver.c"), str(out / "hydropwa_ctrl.c")]
+        cmd += ["-o", str(exe), str(out / "driver.c"), str(out / "hydropwa_ctrl.c"), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
         if proc.returncode != 0 and (
             "asan" in proc.stderr.lower() or "ubsan" in proc.stderr.lower()
@@ -242,11 +291,13 @@ def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
             pytest.skip(f"the sanitizer runtime is missing: {proc.stderr.strip().splitlines()[-1]}")
         assert proc.returncode == 0, proc.stderr
         x0, refs = _references(prm)
-        _name, ref, duration = refs[i % 2]
-        _res, _exact, seq, r, dr = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
+        _name, ref, duration = refs[i % 3]
+        _res, _exact, seq, r, rch = _closed_loop_samples(prm, ctrl, ref, x0, duration, rng)
         a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
         n = len(r)
-        rows = np.column_stack([seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, dr])
+        rows = np.column_stack(
+            [seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, *rch[[C.RC_DR, C.RC_DRFF, C.RC_DDR]]]
+        )
         data = struct.pack("3d", n, a_a, a_b) + rows.astype("<f8").tobytes()
         run = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
         assert run.returncode == 0, run.stderr.decode(errors="replace")
@@ -254,9 +305,9 @@ def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
         got = np.frombuffer(run.stdout, dtype="<f8").reshape(n, 3)
         ctl = ctrl.pack()
         pl = package_load_pressure(ctl, seq["p_a"], seq["p_b"], a_a, a_b)
-        pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
+        pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, rch, a_a, a_b)
         got_d = {"u": got[:, 0], "c": got[:, 1], "row": got[:, 2].astype(int)}
-        _assert_lockstep(pkg, got_d, f"asan {name}")
+        _assert_lockstep(pkg, got_d, f"asan {name}", _floor(ctrl))
 
 
 def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr, tmp_path):
@@ -290,6 +341,11 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     with pytest.raises(ControlError, match=r"packed layout changed \(C_ROWS 18 \(C law: 17\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
+    monkeypatch.undo()
+    monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 24 \(C law: 23\)\)"):
+        export_c(PIController(kp=1.0), tmp_path / "c")
+    assert not (tmp_path / "c").exists()
 
 
 def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constants(paper_lqr):
@@ -307,10 +363,20 @@ def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constan
     ctl = paper_lqr.pack()
     assert len(values) == ctl.size
     np.testing.assert_array_equal(np.array(values), ctl)
+    # schema 2: the extension block is read through X = T + its start; schema 1 reads zeros
+    e0 = C.C_ROWS + C.ROW * len(paper_lqr.rows)
+    assert ctl.size == e0 + C.N_EXT + C.XROW * len(paper_lqr.rows)
+    assert f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n" in src
+    for name in ("N_EXT", "XROW", "X_FF", "X_LEAD", "X_PHI", "X_KFV", "XR_KUP"):
+        assert f"#define HP_{name} {getattr(C, name)}\n" in src
+    assert "static double hp_signed_sqrt(double dp, double p_tr)" in src  # emitted physics
+    v1 = c_sources(PIController(kp=1.0))["hydropwa_ctrl.c"]
+    assert f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW}] = {{0.0}};" in v1
     header = c_sources(paper_lqr)["hydropwa_ctrl.h"]
     n = len(paper_lqr.rows)
     assert f"#define HYDROPWA_CTRL_N_ROWS {n}\n" in header
-    assert f"{cost_per_step(n)['flops']} floating-point operations" in header
+    assert f"{cost_per_step(n, True)['flops']} floating-point operations" in header
+    assert cost_per_step(n, True)["flops"] > cost_per_step(n)["flops"]
 
 
 @pytest.mark.parametrize("version", ["2.0", "3.0"])
@@ -328,7 +394,7 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
     md = fmpy.read_model_description(str(fmu))
     assert md.fmiVersion == version
     names = {v.name for v in md.modelVariables} - {"time"}
-    assert names == {"x", "v", "p_l", "r", "r_rate", "u"}
+    assert names == {"x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "u"}
     with pytest.raises(OutputExistsError):
         export_fmu(paper_lqr, fmu, fmi_version=version)
     # the sources inside rebuild the FMU elsewhere: they compile under the strict flags
@@ -364,20 +430,21 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
 
     rng = np.random.default_rng(11)
     x0, refs = _references(paper)
-    _name, ref, duration = refs[1]
-    _res, _exact, seq, r, dr = _closed_loop_samples(paper, paper_lqr, ref, x0, duration, rng)
+    _name, ref, duration = refs[0]  # the trapezoid: the feed-forward terms are active
+    _res, _exact, seq, r, rch = _closed_loop_samples(paper, paper_lqr, ref, x0, duration, rng)
     ctl = paper_lqr.pack()
     pl = package_load_pressure(
         ctl, seq["p_a"], seq["p_b"], paper.cylinder.area_a, paper.cylinder.area_b
     )
-    pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, dr)
+    a_a, a_b = paper.cylinder.area_a, paper.cylinder.area_b
+    pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, rch, a_a, a_b)
     ts = paper_lqr.sample_time
     tk = ts * np.arange(len(r))
-    signals = np.zeros(
-        len(r), dtype=[(n, np.float64) for n in ("time", "x", "v", "p_l", "r", "r_rate")]
-    )
+    names = ("time", "x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc")
+    signals = np.zeros(len(r), dtype=[(n, np.float64) for n in names])
     signals["time"], signals["x"], signals["v"] = tk, seq["x"], seq["v"]
-    signals["p_l"], signals["r"], signals["r_rate"] = pl, r, dr
+    signals["p_l"], signals["r"], signals["r_rate"] = pl, r, rch[C.RC_DR]
+    signals["r_rate_ff"], signals["r_acc"] = rch[C.RC_DRFF], rch[C.RC_DDR]
     out = fmpy.simulate_fmu(
         str(fmu),
         start_time=0.0,

@@ -11,9 +11,14 @@ How the C stays the package's law:
   so the table and the law's indices cannot disagree with the compiled controller;
 - the **law** (``_c/hydropwa_ctrl_law.c``) is one small C function per element of the numba
   law (dead-zone inverse, box distance, row selection, pressure-rate filter, washout,
-  anti-windup, the step with saturation and delay), written in the same order of
-  floating-point operations; the tests step both in lockstep on closed-loop runs of two
-  machines and require the same command within 1e-12 at every sample;
+  anti-windup, the step with saturation and delay; for schema 2 the position observer, the
+  velocity filter, the flow feed-forward, the reference state, the spool terms and the valve
+  model's update), written in the same order of floating-point operations; the tests step
+  both in lockstep on closed-loop runs of two machines and require the same command within
+  1e-12 at every sample;
+- the **physics** the law calls (the edge drop and the regularised root of Eqs. (5)/(6) in the
+  flow feed-forward) is translated from :mod:`hydropwa.components._physics` by
+  :mod:`hydropwa.simulation._emit_c`, as for the axis FMU;
 - a controller with a law element the C does not cover is refused, by name
   (:func:`check_expressible`).
 
@@ -34,7 +39,9 @@ import numpy as np
 
 from .. import __version__
 from .._io import atomic_write_text, check_output
+from ..components import _physics as P
 from ..simulation import _controller as C
+from ..simulation._emit_c import emit_functions
 from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
@@ -73,7 +80,36 @@ _LAYOUT = (
     "AW_NONE",
     "AW_CLAMP",
     "AW_BACK",
+    # the extension block of schema 2 (offsets from its start, per-row slots after N_EXT)
+    "N_EXT",
+    "XROW",
+    "X_FF",
+    "X_K",
+    "X_PTR",
+    "X_AA",
+    "X_ALPHA",
+    "X_PS",
+    "X_PT",
+    "X_DPMIN",
+    "X_REFST",
+    "X_MASS",
+    "X_BV",
+    "X_LEAD",
+    "X_VEST",
+    "X_SPOOL",
+    "X_PHI",
+    "X_GAM",
+    "X_KF",
+    "X_KFX",
+    "X_KFV",
+    "XR_KNU",
+    "XR_KDNU",
+    "XR_KUP",
 )
+
+#: functions of the physics the law calls (Eqs. (5)/(6) of the flow feed-forward), emitted to C
+#: from their numba source, so the C has no hand-kept copy
+_PHYSICS = (P.load_flow_drop, P.signed_sqrt)
 
 #: settings of ``describe()`` the C law covers (any other one that is set is refused)
 _COVERED = frozenset(
@@ -99,13 +135,20 @@ _COVERED = frozenset(
         # state feedback (per cell: box, k_pl, k_v, k_x, k_i, u_ff; design is provenance)
         "cells",
         "design",
+        # schema 2 (the extension block)
+        "feedforward",
+        "velocity_filter",
+        "position_observer",
+        "spool_model",
     }
 )
-_CELL_COVERED = frozenset({"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff"})
+_CELL_COVERED = frozenset(
+    {"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff", "k_nu", "k_dnu", "k_up"}
+)
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 7}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 15, "N_EXT": 23, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -118,6 +161,14 @@ LAW_ELEMENTS = (
     "first-order filter of the backward difference Ṗ_L",
     "one-sample computation delay",
     "load pressure from the chamber pressures (asymmetric or mean-area form)",
+    "schema 2: flow feed-forward per flow direction at the measured load pressure "
+    "(Eqs. (5)/(6) inverted, on the look-ahead rate r'(t_k + τ))",
+    "schema 2: reference state [P_ref, ṙ] in the k_v and k_pl feedback, P_ref = (m r̈ + b ṙ)/A_A "
+    "washed out like P_L",
+    "schema 2: velocity from the position samples (first-order filter of the backward difference)",
+    "schema 2: spool estimate by the discrete (ZOH) valve model with per-row spool gains "
+    "k_nu, k_dnu and pending-command gain k_up",
+    "schema 2: position observer (steady-state Kalman filter of [x, v] driven by r̈)",
 )
 
 
@@ -165,10 +216,12 @@ def check_expressible(controller) -> np.ndarray:
         )
     ctl = np.asarray(controller.pack(), dtype=float)
     n = int(ctl[C.C_NROWS])
-    if ctl.shape[0] != C.C_ROWS + C.ROW * n:
+    sizes = (C.C_ROWS + C.ROW * n, C.C_ROWS + C.ROW * n + C.N_EXT + C.XROW * n)
+    if ctl.shape[0] not in sizes:
         raise ControlError(
             f"the packed controller has {ctl.shape[0]} values, the C layout expects "
-            f"{C.C_ROWS + C.ROW * n}; the C export is older than this controller"
+            f"{sizes[0]} (schema 1) or {sizes[1]} (schema 2); the C export is older than this "
+            "controller"
         )
     if np.isnan(ctl).any():
         raise ControlError("the packed controller holds NaN; the C export needs finite gains")
@@ -196,6 +249,21 @@ def _table(ctl: np.ndarray) -> str:
         lines.append(
             f"    /* row {r} */ " + ", ".join(_c_float(v) for v in ctl[b : b + C.ROW]) + ","
         )
+    e0 = C.C_ROWS + C.ROW * n
+    if ctl.shape[0] > e0:
+        lines.append(
+            "    /* extension (schema 2): flow feed-forward K, p_tr, A_A, alpha, P_S, P_T, dp_min;"
+            " reference state, m, b, lead; velocity filter a_v; spool model, Phi, Gamma;"
+            " observer, L_x, L_v */"
+        )
+        lines.append("    " + ", ".join(_c_float(v) for v in ctl[e0 : e0 + C.N_EXT]) + ",")
+        for r in range(n):
+            b = e0 + C.N_EXT + C.XROW * r
+            lines.append(
+                f"    /* row {r}: k_nu, k_dnu, k_up */ "
+                + ", ".join(_c_float(v) for v in ctl[b : b + C.XROW])
+                + ","
+            )
     return "\n".join(lines)
 
 
@@ -209,20 +277,24 @@ def _describe_line(controller) -> str:
     return "PI (one gain row valid everywhere)"
 
 
-def cost_per_step(n_rows: int) -> dict[str, int]:
+def cost_per_step(n_rows: int, extended: bool = False) -> dict[str, int]:
     """Worst-case operation counts of one ``hydropwa_ctrl_step`` with ``n_rows`` gain rows.
 
     The row search evaluates at most n_rows + 1 box distances (the previous row, then all):
     per distance 4 coordinates × (2 comparisons, 1 subtraction, 1 division, 1 addition) and
-    one comparison with the best so far. The rest of the law is a fixed 40 floating-point
-    operations and 16 comparisons.
+    one comparison with the best so far. The rest of the schema-1 law is a fixed 40
+    floating-point operations and 16 comparisons; the schema-2 block (``extended``: position
+    observer, velocity filter, flow feed-forward with its two square roots, reference state,
+    spool terms and the valve model's update) adds at most 76 operations (6 of them
+    divisions, 2 square roots) and 14 comparisons.
     """
     boxes = n_rows + 1 if n_rows > 1 else 0
+    x = 1 if extended else 0
     return {
         "box_distances": boxes,
-        "divisions": 4 * boxes + 4,
-        "flops": 12 * boxes + 40,
-        "comparisons": 9 * boxes + 16,
+        "divisions": 4 * boxes + 4 + 6 * x,
+        "flops": 12 * boxes + 40 + 76 * x,
+        "comparisons": 9 * boxes + 16 + 14 * x,
     }
 
 
@@ -236,13 +308,16 @@ def c_sources(controller) -> dict[str, str]:
     """
     ctl = check_expressible(controller)
     n = int(ctl[C.C_NROWS])
-    cost = cost_per_step(n)
+    e0 = C.C_ROWS + C.ROW * n
+    ext = ctl.shape[0] > e0
+    cost = cost_per_step(n, ext)
     subs = {
         "@VERSION@": __version__,
         "@KIND@": _describe_line(controller),
         "@N_ROWS@": str(n),
         "@N_TABLE@": str(ctl.shape[0]),
         "@SAMPLE_TIME@": _c_float(controller.sample_time),
+        "@LEAD@": _c_float(float(ctl[e0 + C.X_LEAD]) if ext else 0.0),
         "@LOAD_PRESSURE@": controller.load_pressure,
         "@BOXES@": str(cost["box_distances"]),
         "@DIVS@": str(cost["divisions"]),
@@ -259,17 +334,30 @@ def c_sources(controller) -> dict[str, str]:
         header = header.replace(k, v)
         readme = readme.replace(k, v)
     layout = "\n".join(f"#define HP_{name} {getattr(C, name)}" for name in _LAYOUT)
+    if ext:
+        ext_table = (
+            "/* The extension block (schema 2) of the table */\n"
+            f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n"
+        )
+    else:
+        ext_table = (
+            "/* Schema 1: no extension block; every schema-2 element is off */\n"
+            f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW * n}] = {{0.0}};\n"
+        )
+    physics = "\n".join(emit_functions(f, {})[0] for f in _PHYSICS)
     source = (
         f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"
         " * Do not edit: regenerate with `hydropwa control export CTRL --c DIR`.\n"
         " * C99, no heap, no I/O; the only data is the constant table T below. */\n"
         '#include "hydropwa_ctrl.h"\n\n'
-        "#include <math.h> /* HUGE_VAL only: no function of libm is called */\n\n"
+        "#include <math.h> /* HUGE_VAL, fabs, sqrt (link with -lm where libm is separate) */\n\n"
         "/* Packed layout of hydropwa/simulation/_controller.py (generated from its constants) */\n"
         f"{layout}\n\n"
         "/* The controller's packed vector (SI units; layout above) */\n"
-        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n\n"
-        + _read_template("hydropwa_ctrl_law.c")
+        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n"
+        f"{ext_table}\n"
+        "/* Physics of hydropwa/components/_physics.py, translated by simulation/_emit_c.py */\n"
+        f"{physics}\n" + _read_template("hydropwa_ctrl_law.c")
     )
     return {"hydropwa_ctrl.h": header, "hydropwa_ctrl.c": source, "README.md": readme}
 
@@ -321,6 +409,15 @@ FMU_VARIABLES = [
     FmuVariable("r", "input", "continuous", 0.0, "m", "reference position"),
     FmuVariable("r_rate", "input", "continuous", 0.0, "m/s", "reference velocity"),
     FmuVariable(
+        "r_rate_ff",
+        "input",
+        "continuous",
+        0.0,
+        "m/s",
+        "reference velocity at t + lead (feed-forward)",
+    ),
+    FmuVariable("r_acc", "input", "continuous", 0.0, "m/s2", "reference acceleration"),
+    FmuVariable(
         "u", "output", "discrete", None, "", "valve command [1] of the last sample (+-1 full)"
     ),
 ]
@@ -359,7 +456,8 @@ def export_fmu(
 
     Notes
     -----
-    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s]; output u [1]. ``doStep(t, h)``
+    Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s], r_rate_ff [m/s] (the rate at
+    t + the feed-forward's look-ahead), r_acc [m/s²]; output u [1]. ``doStep(t, h)``
     evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
     at t, and u is the command of the last of them from then on (no direct feedthrough):
     a master that sets the inputs at t_k, steps the controller, then reads u and passes it to

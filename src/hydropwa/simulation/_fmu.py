@@ -44,6 +44,7 @@ CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-shared", "-fPIC")
 _UNITS = {
     "m": {"m": 1},
     "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
     "Pa": {"kg": 1, "m": -1, "s": -2},
     "N": {"kg": 1, "m": 1, "s": -2},
     "s": {"s": 1},

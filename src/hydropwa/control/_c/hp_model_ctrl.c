@@ -1,10 +1,10 @@
 #include "hydropwa_ctrl.h"
 
-/* Variables (value references): inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s];
- * output u [1]. */
-#define HP_NVARS 6
-enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_U };
-static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 0};
+/* Variables (value references): inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s],
+ * r_rate_ff [m/s] (the rate at t + HYDROPWA_CTRL_LEAD), r_acc [m/s^2]; output u [1]. */
+#define HP_NVARS 8
+enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_RRATEFF, VR_RACC, VR_U };
+static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 1, 1, 0};
 
 typedef struct {
     double vars[HP_NVARS];
@@ -44,10 +44,15 @@ static double hp_sample_time(const hp_model *m, long k)
 static double hp_sample(hp_model *m, hydropwa_ctrl_state *s)
 {
     hydropwa_ctrl_meas meas;
+    hydropwa_ctrl_ref ref;
     meas.x = m->vars[VR_X];
     meas.v = m->vars[VR_V];
     meas.p_l = m->vars[VR_PL];
-    return hydropwa_ctrl_step(s, &meas, m->vars[VR_R], m->vars[VR_RRATE]);
+    ref.r = m->vars[VR_R];
+    ref.r_rate = m->vars[VR_RRATE];
+    ref.r_rate_ff = m->vars[VR_RRATEFF];
+    ref.r_acc = m->vars[VR_RACC];
+    return hydropwa_ctrl_step(s, &meas, &ref);
 }
 
 /* u: the command of the last sample, held (no direct feedthrough: doStep(t_k, h) samples

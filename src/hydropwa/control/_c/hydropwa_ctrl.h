@@ -5,12 +5,17 @@
  *
  * Call sequence, every sample instant t_k = t_0 + k*T_s:
  *
- *     hydropwa_ctrl_state s;
+ *     hydropwa_ctrl_state s; hydropwa_ctrl_meas m; hydropwa_ctrl_ref ref;
  *     hydropwa_ctrl_init(&s);                      (once; hydropwa_ctrl_reset(&s) to start over)
  *     loop every HYDROPWA_CTRL_SAMPLE_TIME seconds:
- *         m.x = ...; m.v = ...;                     position [m], velocity [m/s]
+ *         m.x = ...; m.v = ...;                     position [m], velocity [m/s] (m.v unused
+ *                                                    with the velocity filter or the observer)
  *         m.p_l = hydropwa_ctrl_load_pressure(p_a, p_b, area_a, area_b);
- *         u = hydropwa_ctrl_step(&s, &m, r, r_rate); (reference [m] and its rate [m/s] at t_k)
+ *         ref.r = r(t_k);                            reference position [m]
+ *         ref.r_rate = r'(t_k);                      its rate [m/s]
+ *         ref.r_rate_ff = r'(t_k + HYDROPWA_CTRL_LEAD);  look-ahead rate [m/s]
+ *         ref.r_acc = r''(t_k);                      its acceleration [m/s^2]
+ *         u = hydropwa_ctrl_step(&s, &m, &ref);
  *         apply u to the valve and hold it until the next sample
  *
  * Signs and units: SI throughout; x and r grow as the piston extends (rod out), u > 0
@@ -34,6 +39,9 @@ extern "C" {
 #define HYDROPWA_CTRL_N_TABLE @N_TABLE@
 /** Sample time T_s [s]. */
 #define HYDROPWA_CTRL_SAMPLE_TIME @SAMPLE_TIME@
+/** Look-ahead tau [s] of the flow feed-forward's reference rate r_rate_ff = r'(t_k + tau)
+ *  (0: r_rate_ff = r_rate). */
+#define HYDROPWA_CTRL_LEAD @LEAD@
 
 /** Measurements at one sample instant. */
 typedef struct {
@@ -41,6 +49,16 @@ typedef struct {
     double v;   /**< piston velocity [m/s] */
     double p_l; /**< load pressure [Pa] (hydropwa_ctrl_load_pressure) */
 } hydropwa_ctrl_meas;
+
+/** Reference at one sample instant t_k (a motion profile's exact values; a step through a
+ *  smoothing filter, see the README). Only r and r_rate are read by a controller without
+ *  feed-forward, reference state or observer (the others may be 0 then). */
+typedef struct {
+    double r;         /**< reference position r(t_k) [m] */
+    double r_rate;    /**< its rate r'(t_k) [m/s] */
+    double r_rate_ff; /**< look-ahead rate r'(t_k + HYDROPWA_CTRL_LEAD) [m/s] */
+    double r_acc;     /**< its acceleration r''(t_k) [m/s^2] */
+} hydropwa_ctrl_ref;
 
 /** Memory of the controller; owned by the caller, set up by hydropwa_ctrl_init. */
 typedef struct {
@@ -54,6 +72,16 @@ typedef struct {
     int started;     /**< 0 before the first step after init/reset */
     double c_raw;    /**< diagnostics: command before inverse and limits, last step [1] */
     double u_new;    /**< diagnostics: saturated command computed in the last step [1] */
+    double x_prev;    /**< position of the last sample, velocity filter [m] */
+    double v_hat;     /**< velocity from the position samples [m/s] */
+    double p_ref_bar; /**< low-pass of the reference pressure P_ref for the washout [Pa] */
+    double nu;        /**< spool estimate of the valve model [1] */
+    double dnu;       /**< its rate [1/s] */
+    double c_pending; /**< opening command held for the next sample (with the delay) [1] */
+    double x_kf;      /**< position observer: estimated position [m] */
+    double v_kf;      /**< position observer: estimated velocity [m/s] */
+    double acc_prev;  /**< reference acceleration of the last sample [m/s^2] */
+    double c_ff;      /**< diagnostics: schema-2 part of c in the last step [1] */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */
@@ -63,8 +91,8 @@ void hydropwa_ctrl_init(hydropwa_ctrl_state *s);
 void hydropwa_ctrl_reset(hydropwa_ctrl_state *s);
 
 /** One sample: the valve command [1] to apply from now until the next sample. */
-double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m, double r,
-                          double r_rate);
+double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
+                          const hydropwa_ctrl_ref *ref);
 
 /** Load pressure [Pa] the gains were designed for, from the chamber pressures [Pa] and
  *  piston areas [m^2]: (p_a A_A - p_b A_B)/A_A (asymmetric) or /((A_A + A_B)/2) (mean-area). */

@@ -87,6 +87,100 @@ static double hp_washout(hydropwa_ctrl_state *s, double pl)
     return pl;
 }
 
+/* Opening c_ff [1] that passes the flow A_A*v_ff at the load pressure pl [Pa]: Eqs. (5)/(6)
+ * inverted per flow direction (flow_feedforward). The mean-area P_L is converted with
+ * A_B = alpha*A_A from the table (the package uses the areas of the parameter set: the same
+ * number to an ulp). */
+static double hp_flow_feedforward(double v_ff, double pl)
+{
+    const double aa = X[HP_X_AA];
+    double pla, sgn, drop;
+    if (v_ff == 0.0) {
+        return 0.0;
+    }
+    pla = T[HP_C_PLMEAN] != 0.0 ? pl * (0.5 * (aa + X[HP_X_ALPHA] * aa)) / aa : pl;
+    sgn = v_ff > 0.0 ? 1.0 : -1.0;
+    drop = hp_load_flow_drop(sgn, pla, X[HP_X_PS], X[HP_X_ALPHA], X[HP_X_PT]);
+    drop = X[HP_X_DPMIN] > drop ? X[HP_X_DPMIN] : drop;
+    return aa * v_ff / (X[HP_X_K] * hp_signed_sqrt(drop, X[HP_X_PTR]));
+}
+
+/* Position observer: steady-state Kalman filter of [x, v] driven by the reference
+ * acceleration of the last sample; replaces the measured x and v (x_kf = x, v_kf = r_rate
+ * at the first step). */
+static void hp_position_observer(hydropwa_ctrl_state *s, double *x, double *v, double r_rate)
+{
+    const double ts = T[HP_C_TS];
+    double acc, xp, vp, inn;
+    if (!s->started) {
+        s->x_kf = *x;
+        s->v_kf = r_rate;
+    } else {
+        acc = s->acc_prev;
+        xp = s->x_kf + ts * s->v_kf + 0.5 * ts * ts * acc;
+        vp = s->v_kf + ts * acc;
+        inn = *x - xp;
+        s->x_kf = xp + X[HP_X_KFX] * inn;
+        s->v_kf = vp + X[HP_X_KFV] * inn;
+    }
+    *x = s->x_kf;
+    *v = s->v_kf;
+}
+
+/* Velocity from the position samples: v_hat = a_v v_hat + (1 - a_v)(x_k - x_{k-1})/T_s. */
+static double hp_velocity_filter(hydropwa_ctrl_state *s, double x)
+{
+    const double av = X[HP_X_VEST];
+    s->v_hat = av * s->v_hat + (1.0 - av) * (x - s->x_prev) / T[HP_C_TS];
+    s->x_prev = x;
+    return s->v_hat;
+}
+
+/* Schema-2 terms added to c: the flow feed-forward, the reference state [P_ref, r'] of the
+ * row's k_v and k_pl, and the spool-state feedback on the valve model's estimate. */
+static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, double pl,
+                           const hydropwa_ctrl_ref *ref)
+{
+    const double *xb = X + HP_N_EXT + HP_XROW * row;
+    const double aw = T[HP_C_WASH];
+    double c_fl = 0.0, c_ff, dr, p_ref, kup;
+    if (X[HP_X_FF] > 0.5) {
+        c_fl = hp_flow_feedforward(ref->r_rate_ff, pl);
+    }
+    c_ff = c_fl;
+    if (X[HP_X_REFST] > 0.5) { /* the gains act on the deviation from the reference state */
+        dr = ref->r_rate;
+        p_ref = (X[HP_X_MASS] * ref->r_acc + X[HP_X_BV] * dr) / X[HP_X_AA];
+        if (aw > 0.0) {
+            s->p_ref_bar = aw * s->p_ref_bar + (1.0 - aw) * p_ref;
+            p_ref -= s->p_ref_bar;
+        }
+        c_ff += b[HP_R_KV] * dr + b[HP_R_KPL] * p_ref;
+        if (X[HP_X_SPOOL] > 0.5) { /* the spool and the pending command follow c_fl */
+            kup = T[HP_C_DELAY] > 0.5 ? xb[HP_XR_KUP] : 0.0;
+            c_ff += (xb[HP_XR_KNU] + kup) * c_fl;
+        }
+    }
+    if (X[HP_X_SPOOL] > 0.5) { /* spool-state feedback on the valve model's estimate */
+        c_ff -= xb[HP_XR_KNU] * s->nu + xb[HP_XR_KDNU] * s->dnu;
+        if (T[HP_C_DELAY] > 0.5) {
+            c_ff -= xb[HP_XR_KUP] * s->c_pending;
+        }
+    }
+    return c_ff;
+}
+
+/* The discrete valve model [nu, nu']+ = Phi [nu, nu'] + Gamma c_apply (ZOH of Eq. (1)). */
+static void hp_spool_update(hydropwa_ctrl_state *s, double c_apply)
+{
+    const double nu = s->nu;
+    const double dnu = s->dnu;
+    const double *f = X + HP_X_PHI;
+    const double *g = X + HP_X_GAM;
+    s->nu = f[0] * nu + f[1] * dnu + g[0] * c_apply;
+    s->dnu = f[2] * nu + f[3] * dnu + g[1] * c_apply;
+}
+
 /* Integral update with the anti-windup of the table (none, clamping, back-calculation). */
 static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
                          double c_raw, double c_sat)
@@ -126,6 +220,16 @@ void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
     s->started = 0;
     s->c_raw = 0.0;
     s->u_new = 0.0;
+    s->x_prev = 0.0;
+    s->v_hat = 0.0;
+    s->p_ref_bar = 0.0;
+    s->nu = 0.0;
+    s->dnu = 0.0;
+    s->c_pending = 0.0;
+    s->x_kf = 0.0;
+    s->v_kf = 0.0;
+    s->acc_prev = 0.0;
+    s->c_ff = 0.0;
 }
 
 void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
@@ -133,28 +237,46 @@ void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
     hydropwa_ctrl_reset(s);
 }
 
-double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m, double r,
-                          double r_rate)
+double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
+                          const hydropwa_ctrl_ref *ref)
 {
-    const double x = m->x;
-    const double v = m->v;
+    double x = m->x;
+    double v = m->v;
     const double pl = m->p_l;
-    const double e = r - x;
-    double dpl, pl_fb, ki, c_raw, u_raw, u, c_sat, u_apply;
+    const double r = ref->r;
+    double e = r - x;
+    double dpl, pl_fb, ki, c_raw, c_ff, u_raw, u, c_sat, u_apply, c_apply;
     const double *b;
     int row;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
         s->p_l_bar = pl;
+        s->x_prev = x;
+        s->v_hat = 0.0;
+        s->p_ref_bar = 0.0;
+        s->nu = 0.0;
+        s->dnu = 0.0;
+    }
+    if (HP_EXT && X[HP_X_KF] > 0.5) {
+        hp_position_observer(s, &x, &v, ref->r_rate);
+        e = r - x;
+    }
+    if (HP_EXT && X[HP_X_VEST] > 0.0) {
+        v = hp_velocity_filter(s, x);
     }
     dpl = hp_pressure_rate(s, pl);
     pl_fb = hp_washout(s, pl);
     row = hp_select_row(pl, v, x, s->c_prev, s->started ? s->row : -1);
     b = T + HP_C_ROWS + HP_ROW * row;
     ki = b[HP_R_KI];
-    c_raw = b[HP_R_UFF] + b[HP_R_KP] * e + ki * s->integral + b[HP_R_KFF] * r_rate
+    c_raw = b[HP_R_UFF] + b[HP_R_KP] * e + ki * s->integral + b[HP_R_KFF] * ref->r_rate
             - b[HP_R_KV] * v - b[HP_R_KPL] * pl_fb - b[HP_R_KDPL] * dpl;
+    c_ff = 0.0;
+    if (HP_EXT) {
+        c_ff = hp_extension(s, b, row, pl, ref);
+        c_raw += c_ff;
+    }
     u_raw = T[HP_C_DZINV] > 0.5 ? hp_dead_zone_inverse(c_raw, T[HP_C_DZOFF], T[HP_C_DZW])
                                 : c_raw;
     u = u_raw > T[HP_C_UMIN] ? u_raw : T[HP_C_UMIN];
@@ -164,15 +286,23 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m, d
     if (T[HP_C_DELAY] > 0.5) {
         u_apply = s->pending;
         s->pending = u;
+        c_apply = s->c_pending;
+        s->c_pending = c_sat;
     } else {
         u_apply = u;
+        c_apply = c_sat;
+    }
+    if (HP_EXT && X[HP_X_SPOOL] > 0.5) {
+        hp_spool_update(s, c_apply);
     }
     s->p_l_prev = pl;
     s->dp_l = dpl;
     s->c_prev = c_sat;
     s->row = row;
     s->c_raw = c_raw;
+    s->c_ff = c_ff;
     s->u_new = u;
+    s->acc_prev = ref->r_acc;
     s->started = 1;
     return u_apply;
 }
