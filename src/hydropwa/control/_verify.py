@@ -13,10 +13,8 @@ limit cycles; :class:`Verification` holds the numbers and the verdict against
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
-import os
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
@@ -24,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from .._dask import dask_client
 from ..simulation import simulate_batch
 from ._controllers import ControlError
 from ._design import DEFAULT_WEIGHTS, design_pi, design_state_feedback
@@ -434,38 +433,15 @@ def _run_threads(cases, jobs):
 
 def _run_dask(cases, scheduler: str, jobs):
     """Client.map over the runs (a LocalCluster for ``"local"``)."""
-    from dask.distributed import (  # deferred: dask.distributed costs ~1 s, only for a cluster
-        Client,
-        LocalCluster,
-    )
-
-    cluster = None
-    try:
-        if scheduler == "local":
-            cluster = LocalCluster(
-                n_workers=jobs or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-            )
-            client = Client(cluster)
-        else:
-            client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        if cluster is not None:
-            cluster.close()
-        raise ControlError(
-            f"scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc}); check the "
-            "address, or verify in-process without a scheduler"
-        ) from None
-    try:
+    with dask_client(
+        scheduler,
+        jobs,
+        timeout_s=20.0,
+        error=ControlError,
+        option="scheduler",
+        hint="verify in-process without a scheduler",
+    ) as client:
         return client.gather(client.map(_run_one, cases, pure=False))
-    finally:
-        with contextlib.suppress(Exception):
-            client.close()
-        if cluster is not None:
-            with contextlib.suppress(Exception):
-                cluster.close()
 
 
 def design_controller(

@@ -39,6 +39,7 @@ from typing import Any
 import pandas as pd
 
 from .. import _interrupt
+from .._dask import dask_client
 from .._errors import HydropwaError, ParameterError
 from .._io import atomic_write_text
 from ..linearization import linearize
@@ -246,57 +247,42 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, on_done) -> list[tuple[Swe
 
     Returns the cases that did not finish (a dead worker, a lost connection), with why.
     """
-    from dask.distributed import (  # deferred: dask.distributed costs ~1 s, only for a cluster
-        Client,
-        LocalCluster,
-        as_completed,
+    with dask_client(
+        scheduler,
+        jobs,
+        timeout_s=CONNECT_TIMEOUT * 2,
+        error=ParameterError,
+        option="--scheduler",
+        hint="run in-process without --scheduler",
+    ) as client:
+        return _gather_dask(client, spec, cases, traj_dir, on_done)
+
+
+def _gather_dask(client, spec, cases, traj_dir, on_done) -> list[tuple[SweepCase, str]]:
+    """The cases' results as they complete on ``client``; the ones lost, with why."""
+    from dask.distributed import (
+        as_completed,  # deferred: dask.distributed costs ~1 s, only for a cluster
     )
 
-    cluster = None
-    try:
-        if scheduler == "local":
-            cluster = LocalCluster(
-                n_workers=jobs or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-            )
-            client = Client(cluster)
-        else:
-            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT * 2:g}s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        if cluster is not None:
-            cluster.close()
-        raise ParameterError(
-            f"--scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc}); check "
-            "the address, or run in-process without --scheduler"
-        ) from None
     lost: list[tuple[SweepCase, str]] = []
-    try:
-        spec_f = client.scatter(spec, broadcast=True)
-        keep = traj_dir is not None
-        futures = client.map(run_case, [spec_f] * len(cases), cases, keep_result=keep, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
-        for fut in as_completed(futures):
-            i = index[fut.key]
-            try:
-                row, res = fut.result()
-            except HydropwaError:
-                raise
-            except Exception as exc:  # KilledWorker, FutureCancelledError, CommClosedError...
-                lost.append((cases[i], f"{type(exc).__name__}: {exc}"))
-                continue
-            finally:
-                fut.release()
-            on_done(cases[i], row, res)
-            _interrupt.checkpoint()
-        return lost
-    finally:
-        with contextlib.suppress(Exception):
-            client.close()
-        if cluster is not None:
-            with contextlib.suppress(Exception):
-                cluster.close()
+    spec_f = client.scatter(spec, broadcast=True)
+    keep = traj_dir is not None
+    futures = client.map(run_case, [spec_f] * len(cases), cases, keep_result=keep, pure=False)
+    index = {f.key: i for i, f in enumerate(futures)}
+    for fut in as_completed(futures):
+        i = index[fut.key]
+        try:
+            row, res = fut.result()
+        except HydropwaError:
+            raise
+        except Exception as exc:  # KilledWorker, FutureCancelledError, CommClosedError...
+            lost.append((cases[i], f"{type(exc).__name__}: {exc}"))
+            continue
+        finally:
+            fut.release()
+        on_done(cases[i], row, res)
+        _interrupt.checkpoint()
+    return lost
 
 
 def run_sweep(
