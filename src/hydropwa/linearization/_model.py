@@ -1043,10 +1043,13 @@ def machine_velocity_range(
 def pack_pwa(model: PwaModel) -> np.ndarray:
     """Packed float64 parameter vector of the PWA model for the compiled kernel (kind 2).
 
-    Layout: p[0:40] = ``hydropwa.models.pack_params(model.params)``; p[40] scheduled flag;
-    p[41] fixed P_S [Pa]; p[42] paper-form flag c; p[43:47] n_g, n_o, n_n, n_w; p[47:50] 0;
-    from p[50]: for dead zone (over u), C_q (over p̃), C_qp (over p̃), friction (over v) in
-    turn: n−1 breakpoints, n slopes, n offsets (normalised k̂, d̂ for C_q and C_qp).
+    Layout, by the names of the one table ``hydropwa._layout`` (its numbers move when a slot
+    is added, so none is written here): ``p[:N_BASE]`` = ``hydropwa.models.pack_params``;
+    ``p[PWA_SLOT["sched"]]`` the scheduled flag; ``p[PWA_SLOT["psfix"]]`` the fixed P_S [Pa];
+    ``p[PWA_SLOT["form"]]`` the paper-form flag c; ``p[PWA_SLOT["ng"] … PWA_SLOT["nw"]]`` the
+    cell counts n_g, n_o, n_n, n_w; zeros up to ``I_CELLS``; from ``p[I_CELLS]``, for the dead
+    zone (over u), C_q (over p̃), C_qp (over p̃) and friction (over v) in turn: n−1
+    breakpoints, n slopes, n offsets (normalised k̂, d̂ for C_q and C_qp).
     """
     asym = model.form == "asymmetric"
     base = pack_params(
