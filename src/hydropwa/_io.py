@@ -143,10 +143,28 @@ def atomic_write_text(
 
 
 # ----------------------------------------------------------------------------- targets
+def overwrite_flag(overwrite: bool, force: bool | None, where: str) -> bool:
+    """The library's one overwrite keyword: ``overwrite``; ``force=`` of older releases still works.
+
+    ``force`` (the CLI's word, which some writers took before) is honoured with a
+    ``DeprecationWarning`` naming ``where``, so a caller sees the one keyword to use.
+    """
+    if force is None:
+        return bool(overwrite)
+    import warnings  # deferred: only for the old keyword
+
+    warnings.warn(
+        f"{where}(force=...) is renamed {where}(overwrite=...); force= will be removed",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return bool(force or overwrite)
+
+
 def _exists_message(path: Path, option: str | None = None) -> str:
     what = "folder" if path.is_dir() else "file"
     alt = f"choose another {option}" if option else "choose another path"
-    return f"{path}: the {what} exists; pass --force (force=True) to overwrite it, or {alt}"
+    return f"{path}: the {what} exists; pass --force (overwrite=True) to overwrite it, or {alt}"
 
 
 def check_output(
@@ -204,7 +222,7 @@ def check_output(
         if taken:
             shown = ", ".join(taken[:3]) + (", ..." if len(taken) > 3 else "")
             raise OutputExistsError(
-                f"{where}: the folder already holds {shown}; pass --force (force=True) to "
+                f"{where}: the folder already holds {shown}; pass --force (overwrite=True) to "
                 "overwrite, or choose another folder"
             )
         return

@@ -93,7 +93,7 @@ def test_no_machine_anywhere_stops_with_one_line(tmp_path, capsys):
     code = main(["identify", "all", str(tmp_path / "log"), "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
-    assert "records no machine" in err and "--params" in err
+    assert "records no machine parameters" in err and "--params" in err
     assert not out.exists()
     with pytest.raises(ParameterError, match="records no machine"):
         identify(tmp_path / "log")
@@ -128,7 +128,7 @@ def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
         import tomllib
 
         doc = tomllib.loads(ctrl.read_text())
-        doc["machine"] = machine
+        doc["machine"]["parameters"] = machine
         ctrl.write_text(tomli_w.dumps(doc))
     return ctrl
 
@@ -141,10 +141,10 @@ def test_control_simulate_takes_the_machine_from_the_controller_file(tmp_path, c
     code = main(["control", "simulate", "--controller", str(bare), "--out", str(out), *args])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1, err
-    assert "records no machine" in err and "--params" in err
+    assert "records no machine parameters" in err and "--params" in err
     assert not out.exists()
-    # the file records a machine with a 60 bar supply (the paper's: 100 bar): the trajectory
-    # was simulated on it
+    # the file records the whole parameter set of a machine with a 60 bar supply (the paper's:
+    # 100 bar) as [machine.parameters]: the trajectory was simulated on it
     low = get_preset("paper").replace(**{"supply.pressure": 60e5})
     ctrl = tmp_path / "m" / "pi.toml"
     ctrl.parent.mkdir()

@@ -79,7 +79,7 @@ def test_other_settings_are_not_overwritten_without_force(tmp_path, rig, small_c
     run_experiment(rig, exp, tmp_path, seed=1)
     with pytest.raises(DataError, match="force"):
         run_experiment(rig, exp, tmp_path, seed=2)
-    ds = run_experiment(rig, exp, tmp_path, seed=2, force=True)
+    ds = run_experiment(rig, exp, tmp_path, seed=2, overwrite=True)
     assert ds.meta["seed"] == 2
 
 

@@ -64,11 +64,16 @@ def _machine_of(controller: Path):
         ControlError,
     )
 
+    if isinstance(machine, dict) and isinstance(machine.get("parameters"), dict):
+        return params_from_dict(
+            machine["parameters"], source=f"{controller} [machine.parameters]", check_bare=False
+        )
     if isinstance(machine, dict) and machine and set(machine) <= set(MACHINE_KEYS):
         # schema 2 records the areas, stroke and design P_S for the machine check only
         raise ControlError(
-            f"{controller} records the machine's areas and stroke, not its full parameters; give "
-            "the machine with --params PRESET|FILE (checked against the recorded areas and stroke)"
+            f"{controller} records no machine parameters (only the areas and stroke of "
+            "[machine]); give the machine with --params PRESET|FILE, or add its parameter "
+            "table as [machine.parameters]"
         )
     if isinstance(machine, dict):
         return params_from_dict(machine, source=f"{controller} [machine]", check_bare=False)
@@ -277,7 +282,7 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
-    save_controller(d.controller, out, force=force)
+    save_controller(d.controller, out, overwrite=force)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])

@@ -78,7 +78,7 @@ def paper_command(
         params=None if params is None else resolve_params(params),
         campaign=campaign,
         fresh=fresh,
-        force=force,
+        overwrite=force,
         progress=not quiet,
     )
     fit = res.position_fit("full")

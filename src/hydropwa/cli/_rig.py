@@ -89,7 +89,14 @@ def run_command(
     t0 = time.perf_counter()
     with output_lock(out, "hydropwa rig run"):  # one campaign per folder; clears stale temps
         datasets = run_campaign(
-            rig, camp, out, experiments=names, seed=seed, jobs=jobs, progress=not quiet, force=force
+            rig,
+            camp,
+            out,
+            experiments=names,
+            seed=seed,
+            jobs=jobs,
+            progress=not quiet,
+            overwrite=force,
         )
     runs = sum(len(ds) for ds in datasets.values())
     typer.echo(

@@ -46,7 +46,7 @@ from typing import Any
 import tomli_w
 
 from .._errors import HydropwaError
-from .._io import atomic_write_text, check_output
+from .._io import atomic_write_text, check_output, overwrite_flag
 from ..params import parse_quantity
 from ._controllers import (
     ControlError,
@@ -358,10 +358,13 @@ def controller_schema() -> dict[str, Any]:
     return json.loads(text)
 
 
-def save_controller(ctrl, path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``force``."""
+def save_controller(
+    ctrl, path: str | os.PathLike, *, overwrite: bool = False, force: bool | None = None
+) -> Path:
+    """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``overwrite``."""
     path = Path(path)
-    check_output(path, force)
+    overwrite = overwrite_flag(overwrite, force, "save_controller")
+    check_output(path, overwrite)
     d = controller_to_dict(ctrl)
     if path.suffix.lower() == ".json":
         return atomic_write_text(path, json.dumps(d, indent=2) + "\n")

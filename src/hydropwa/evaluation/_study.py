@@ -28,7 +28,14 @@ import numpy as np
 
 from .. import _interrupt
 from .._errors import HydropwaError, IdentificationError
-from .._io import LOCK_NAME, atomic_path, atomic_write_text, check_output, output_lock
+from .._io import (
+    LOCK_NAME,
+    atomic_path,
+    atomic_write_text,
+    check_output,
+    output_lock,
+    overwrite_flag,
+)
 from ..control import closed_loop_study, save_controller
 from ..data import Run, read_dataset
 from ..identification import (
@@ -176,12 +183,12 @@ def _claim(out: Path, key: str, force: bool) -> None:
             old = None
         if old != key and not force:
             raise StudyError(
-                f"{str(out)!r} holds a report made from other inputs; pass --force (force=True) "
+                f"{str(out)!r} holds a report made from other inputs; pass --force (overwrite=True) "
                 "to overwrite it, or choose another folder"
             )
     elif out.is_dir() and any(p.name != LOCK_NAME for p in out.iterdir()) and not force:
         raise StudyError(
-            f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (force=True) "
+            f"{str(out)!r} is not empty and holds no hydropwa report; pass --force (overwrite=True) "
             "to write into it, or choose another folder"
         )
     if force and study.is_file():
@@ -264,7 +271,7 @@ def _stage_data(
             inp.campaign,
             root,
             jobs=inp.jobs,
-            force=rerun,
+            overwrite=rerun,
             progress=lambda e, d, t: prog.update(f"rig: {e}", d, t),
         )
         return tree_files(root), {}
@@ -721,7 +728,7 @@ def _stage_control(
         from ..plotting import plot_closed_loop  # deferred: matplotlib loads only when plotting
 
         runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
-        files = [save_controller(design.controller, out / "controller.toml", force=True)]
+        files = [save_controller(design.controller, out / "controller.toml", overwrite=True)]
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
         shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa", "pwa-chamber")}
@@ -753,8 +760,9 @@ def run_paper_study(
     params=None,
     campaign=None,
     fresh: bool = False,
-    force: bool = False,
+    overwrite: bool = False,
     progress: bool = True,
+    force: bool | None = None,
 ) -> StudyResult:
     """Run the paper's study end to end and write the report folder.
 
@@ -774,10 +782,12 @@ def run_paper_study(
         campaign of Sec. VI–VII).
     fresh : bool
         Recompute every stage (including the rig runs).
-    force : bool
+    overwrite : bool
         Overwrite a report folder made from other inputs (else :class:`StudyError`).
     progress : bool
         Show rich progress bars per stage.
+    force : bool, optional
+        Former name of ``overwrite`` (deprecated).
 
     Returns
     -------
@@ -791,11 +801,12 @@ def run_paper_study(
         From the layers underneath (bad parameters, campaign, data, failed identification).
     """
     t0 = time.perf_counter()
+    overwrite = overwrite_flag(overwrite, force, "run_paper_study")
     inp = _resolve(out, data, params, campaign)
     check_output(inp.out, True, folder=True, option="--out")  # a file there is not a folder
     inp.out.mkdir(parents=True, exist_ok=True)
     with output_lock(inp.out, "hydropwa paper"):  # one run per folder; clears stale temp files
-        return _run_study(inp, fresh, force, progress, t0)
+        return _run_study(inp, fresh, overwrite, progress, t0)
 
 
 #: The compiled kernels the study uses besides the full model's, in the order it needs them.

@@ -8,7 +8,7 @@ Layout written by :func:`run_campaign` (and :func:`run_experiment` for one exper
 Runs are written one by one (file, then manifest, both atomically), so an interrupted
 campaign resumes where it stopped: a rerun with the same settings skips every run the
 manifest lists whose file exists. Different settings in an existing output are an error
-unless ``force`` is given.
+unless ``overwrite`` is given.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Any
 
 from .. import __version__, _interrupt
 from .._errors import DataError, ParameterError
-from .._io import atomic_write_text
+from .._io import atomic_write_text, overwrite_flag
 from ..data import MANIFEST, Dataset
 from ..params import params_to_toml
 from ._campaign import EXPERIMENTS, Campaign, Experiment
@@ -82,7 +82,7 @@ def _write_true_params(rig: Rig, out: Path, force: bool) -> None:
     text = _true_params_text(rig)
     if path.exists() and not force and path.read_text(encoding="utf-8") != text:
         raise DataError(
-            f"{str(path)!r} holds other parameters than this rig's; hint: pass --force (force=True) "
+            f"{str(path)!r} holds other parameters than this rig's; hint: pass --force (overwrite=True) "
             "to overwrite the output, or choose another output folder"
         )
     if not path.exists() or path.read_text(encoding="utf-8") != text:
@@ -102,7 +102,7 @@ def _open_dataset(root: Path, meta: dict[str, Any], force: bool) -> Dataset:
             raise DataError(
                 f"{str(root)!r} already holds a dataset made with other settings "
                 f"(fingerprint {old.meta.get('fingerprint')!r}, now {meta['fingerprint']!r}); "
-                "hint: pass --force (force=True) to overwrite it, or choose another output folder"
+                "hint: pass --force (overwrite=True) to overwrite it, or choose another output folder"
             )
         if old is not None:
             for e in old.manifest["runs"]:
@@ -199,9 +199,10 @@ def run_experiment(
     jobs: int = 1,
     progress: bool | Progress = False,
     *,
-    force: bool = False,
+    overwrite: bool = False,
     campaign_name: str = "",
     format: str = "parquet",
+    force: bool | None = None,
 ) -> Dataset:
     """Run one experiment on the rig and write it as ``out_dir/<experiment>/``.
 
@@ -219,12 +220,14 @@ def run_experiment(
         Worker processes (1: run here). Does not change the results.
     progress : bool or callable
         Show a progress bar (rich), or call ``progress(experiment, done, total)``.
-    force : bool
+    overwrite : bool
         Overwrite an existing output made with other settings (else :class:`DataError`).
     campaign_name : str
         Recorded in the dataset metadata.
     format : {"parquet", "csv", "mat"}
         File format of the runs.
+    force : bool, optional
+        Former name of ``overwrite`` (deprecated).
 
     Returns
     -------
@@ -233,11 +236,12 @@ def run_experiment(
     """
     if not isinstance(jobs, int) or jobs < 1:
         raise ParameterError(f"jobs = {jobs!r} must be an integer >= 1")
+    overwrite = overwrite_flag(overwrite, force, "run_experiment")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    _write_true_params(rig, out, force)
+    _write_true_params(rig, out, overwrite)
     meta = _dataset_meta(rig, experiment, campaign_name, seed)
-    ds = _open_dataset(out / experiment.name, meta, force)
+    ds = _open_dataset(out / experiment.name, meta, overwrite)
     specs = [s for s in plan(experiment, rig) if not _complete(ds, s.name)]
     total = len(plan(experiment, rig))
     done = total - len(specs)
@@ -272,8 +276,9 @@ def run_campaign(
     seed: int | None = None,
     jobs: int = 1,
     progress: bool | Progress = False,
-    force: bool = False,
+    overwrite: bool = False,
     format: str = "parquet",
+    force: bool | None = None,
 ) -> dict[str, Dataset]:
     """Run a campaign's experiments, each into ``out_dir/<experiment>/``.
 
@@ -288,7 +293,7 @@ def run_campaign(
         Names to run (default: all of the campaign's, in the order frf, deadzone, friction, sine).
     seed : int, optional
         Overrides the campaign's seed.
-    jobs, progress, force, format
+    jobs, progress, overwrite, format, force
         As in :func:`run_experiment`.
 
     Returns
@@ -296,6 +301,7 @@ def run_campaign(
     dict[str, Dataset]
         Dataset per experiment.
     """
+    overwrite = overwrite_flag(overwrite, force, "run_campaign")
     names = list(campaign.experiments) if experiments is None else list(experiments)
     for n in names:
         if n not in EXPERIMENTS:
@@ -311,7 +317,7 @@ def run_campaign(
             seed,
             jobs,
             progress,
-            force=force,
+            overwrite=overwrite,
             campaign_name=campaign.name,
             format=format,
         )
