@@ -302,7 +302,7 @@ def _cell_boxes(model, f_l):
     return list(out.values())
 
 
-def design_state_feedback(
+def design_state_feedback(  # noqa: C901 (to be split, issue 33)
     model,
     *,
     method: str = "lqr",

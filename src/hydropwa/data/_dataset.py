@@ -107,7 +107,7 @@ _ENTRY_FIELDS: dict[str, tuple[type, ...]] = {
 }
 
 
-def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:
+def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:  # noqa: C901 (to be split, issue 33)
     """Check a manifest document against the schema; one message per problem (empty: valid).
 
     The schema: an object with ``"format": "hydropwa-dataset"``, an integer

@@ -399,7 +399,7 @@ def _mat_elements(
     return found
 
 
-def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None:
+def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None:  # noqa: C901 (to be split, issue 33)
     """Check one matrix's parts (flags, dimensions, name, data) against its class."""
     if not parts:
         return  # an empty matrix (an empty struct field or cell)

@@ -771,7 +771,7 @@ def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dic
     return dataclasses.replace(best, estimates=est, status=status)
 
 
-def _fit_stribeck_bounded(
+def _fit_stribeck_bounded(  # noqa: C901 (to be split, issue 33)
     v,
     f,
     fixed: dict[str, float] | None = None,

@@ -302,7 +302,7 @@ def select_row(ctl, pl, v, x, c, last):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
+def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # noqa: C901 (compiled control law (numba), one pass per sample, mirrored by the generated C)
     """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
 
     ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).

@@ -1740,7 +1740,7 @@ def _ol_sample(kind, k, t, y, p, ctl, cst, ref, dref, sg, log):
 @njit(
     cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT
 )
-def _march(
+def _march(  # noqa: C901 (compiled step loop (numba): split only with a measured speed check)
     kind,
     Y,
     t_out,

@@ -402,7 +402,7 @@ def simulate_packed(
     return _output_channels(kind, t_out, Y, n_done, p, inputs.sg), int(n_done), int(status)
 
 
-def simulate(
+def simulate(  # noqa: C901 (to be split, issue 33)
     model: Model | str,
     u: Any = 0.0,
     *,

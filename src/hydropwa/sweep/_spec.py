@@ -211,7 +211,7 @@ def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, fl
     return n, seed, out
 
 
-def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
+def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:  # noqa: C901 (to be split, issue 33)
     """Build a :class:`SweepSpec` from a TOML document (already parsed to a dict).
 
     Everything is checked here, before any case runs: unknown sections and keys (with the
