@@ -121,3 +121,28 @@ def test_output_pass_alone_can_be_warmed_up():
         assert own[0] is calls[0][0]
         assert [numba.typeof(a) for a in own[1]] == [numba.typeof(a) for a in calls[0][1]]
     assert "output-full" in K.WARMUP_NAMES
+
+
+def test_compile_notice_says_when_compiling_starts_and_each_solver_is_ready(monkeypatch):
+    """The CLI's compile notice: one line before the first compilation, then one per kernel whose
+    wait exceeded NOTICE_AFTER_S (here 0 s), so a cold run never sits silent (issue 37)."""
+    from numba import njit
+
+    from hydropwa.simulation import _kernel as K
+
+    @njit
+    def _double(x):
+        return 2.0 * x
+
+    lines: list[str] = []
+    monkeypatch.setattr(K, "_cached_on_disk", lambda d: False)
+    monkeypatch.setattr(K, "NOTICE_AFTER_S", 0.0)
+    previous = K.set_compile_notice(lines.append)
+    try:
+        K.prepare(_double, (1.0,), "test")
+        assert K.prepare(_double, (1.0,), "test") == 0.0  # ready: no second compilation
+    finally:
+        K.set_compile_notice(previous)
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("compiling the test solver (once per installation")
+    assert lines[1].startswith("  test solver ready (") and lines[1].endswith(" s)")

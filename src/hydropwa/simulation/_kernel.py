@@ -2446,11 +2446,18 @@ WARMUP_NAMES = (
 )
 
 
-def set_compile_notice(callback):
-    """Call ``callback(message)`` once per process before the first kernel is compiled.
+#: A compilation (or a wait for a warm-up) longer than this [s] ends with a "ready" notice.
+NOTICE_AFTER_S = 2.0
 
-    The CLI passes a printer to stderr, so a user waiting 5–10 s on a fresh install is told
-    why. ``None`` (the library's default) stays silent. Returns the previous callback.
+
+def set_compile_notice(callback):
+    """Call ``callback(message)`` before the first kernel is compiled, and after each wait.
+
+    Once per process before the first compilation ("compiling the … solver"), then once for
+    every kernel whose compilation (or wait for a background warm-up) took over 2 s ("… solver
+    ready (8.1 s)"). The CLI passes a printer to stderr, so a user waiting on a fresh install
+    is told why and sees each solver arrive. ``None`` (the library's default) stays silent;
+    ``set_compile_notice(print)`` shows the same lines in Python. Returns the previous callback.
     """
     global _compile_notice, _noticed
     previous, _compile_notice, _noticed = _compile_notice, callback, False
@@ -2484,6 +2491,7 @@ def prepare(dispatcher, args, what="solver"):
     # the warning filter below, not at the call)
 
     t0 = time.perf_counter()
+    cold = False
     warming = _warming.get(dispatcher)
     if warming is not None:
         # a warm-up (see ._warmup) has this kernel in its queue: load it once that process has
@@ -2491,6 +2499,7 @@ def prepare(dispatcher, args, what="solver"):
         # process has not started it
         warming.acquire(dispatcher)
     elif not _cached_on_disk(dispatcher):
+        cold = True
         if _compile_notice is not None and not _noticed:
             _noticed = True
             _compile_notice(
@@ -2507,6 +2516,9 @@ def prepare(dispatcher, args, what="solver"):
         dispatcher.compile(sig)
     dt = time.perf_counter() - t0
     compile_seconds += dt
+    if _compile_notice is not None and dt > NOTICE_AFTER_S and (cold or warming is not None):
+        # each long wait ends with a line, so a user sees the compiler progress, not silence
+        _compile_notice(f"  {what} solver ready ({dt:.1f} s)")
     return dt
 
 
