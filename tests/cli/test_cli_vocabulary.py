@@ -44,7 +44,7 @@ _ARGS = {
     "paper": ["--out", "{tmp}/report"],
     "control design": ["--out", "{tmp}/ctrl.toml"],
     "control simulate": ["--controller", "{tmp}/c.toml", "--reference", "steps:0=0.1"],
-    "export fmu": ["--out", "{tmp}/axis.fmu"],
+    "export fmu": ["--out", "{tmp}/axis.fmu"],  # --params is added by each test
     "data convert": ["{tmp}/data", "{tmp}/copy"],
     "identify frf": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify deadzone": ["{tmp}/data", "--out", "{tmp}/i.toml"],

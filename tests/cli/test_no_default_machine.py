@@ -194,3 +194,12 @@ def test_data_convert_records_the_machine(tmp_path, heavy, capsys):
     code = main(["data", "convert", str(one), str(tmp_path / "one.csv"), "-p", "paper"])
     err = capsys.readouterr().err
     assert code == 2 and "no manifest" in err and not (tmp_path / "one.csv").exists()
+
+
+def test_export_fmu_without_params_stops_with_one_line(tmp_path, capsys):
+    """An axis FMU is a machine: none given is one line (exit 2), and nothing is written."""
+    out = tmp_path / "axis.fmu"
+    assert main(["export", "fmu", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--params" in err, err
+    assert not out.exists()

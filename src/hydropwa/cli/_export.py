@@ -13,7 +13,7 @@ import typer
 
 from .._io import check_output
 from ._app import new_app
-from ._options import ParamsOption, resolve_params
+from ._options import MachineParamsOption, resolve_params
 
 __all__ = ["app", "fmu_command"]
 
@@ -23,7 +23,7 @@ app = new_app("export", help="Export the model for other tools (FMI).")
 @app.command("fmu")
 def fmu_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="The FMU file to write (.fmu).")],
-    params: ParamsOption = None,
+    params: MachineParamsOption = None,
     x0: Annotated[
         str | None,
         typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
@@ -41,6 +41,13 @@ def fmu_command(
         export_axis_fmu,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    if params is None:  # an FMU of the paper's cylinder by default would be a silent wrong axis
+        from .._errors import ParameterError  # deferred: loaded only when this command runs
+
+        raise ParameterError(
+            "export fmu needs the axis: give its parameters with --params PRESET|FILE "
+            "(e.g. --params identified.toml, or --params paper for the paper's rig)"
+        )
     check_output(out, force, option="--out")
     prm = resolve_params(params)
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else None
