@@ -592,6 +592,17 @@ def fit_model(
         ``oil.bulk_modulus``, ``cylinder.leakage``, ``flow.K``) or groups (``friction``).
     params : SystemParams, optional
         Base parameters when ``model`` is a name.
+    options : FitOptions, optional
+        All the settings below in one object (keywords given as well replace its fields).
+    progress : callable, optional
+        Called with a :class:`FitProgress` at each stage's beginning and end (per start), and
+        for the uncertainty, sliding and profile steps: ``progress=print`` shows them.
+    **settings
+        Fields of :class:`FitOptions`, given as keywords (the keyword API of earlier
+        releases); each is listed under Other Parameters.
+
+    Other Parameters
+    ----------------
     channels : sequence of str, optional
         Output channels in the residual (default x, p_a, p_b and v where logged; p_l = p_a − p_b
         on request). Each is divided by its noise level, estimated from the data
@@ -616,11 +627,6 @@ def fit_model(
         sine runs: 14 against 8 Jacobians to the same optimum).
     verbose : int
         least_squares verbosity (0, 1, 2).
-    options : FitOptions, optional
-        All the settings below in one object (keywords given as well replace its fields).
-    progress : callable, optional
-        Called with a :class:`FitProgress` at each stage's beginning and end (per start), and
-        for the uncertainty, sliding and profile steps: ``progress=print`` shows them.
     input_cutoff : float or None
         Corner [Hz] of the zero-phase low-pass (2nd-order Butterworth) applied to the measured
         P_S(t) and F_L(t) before they drive the model (None: raw). On simulated sines the
