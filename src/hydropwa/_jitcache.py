@@ -1,8 +1,9 @@
 """One on-disk cache stamp for all compiled modules of hydropwa.
 
 numba keys each cached function on the contents of its *own* source file. The kernels
-in ``simulation/_kernel.py`` inline the physics of ``components/_physics.py`` and the
-signal code of ``simulation/_signals.py``, and compile in the slot and state indices of
+(``simulation/_march.py`` and the modules it calls, see ``simulation/_kernel.py``) inline
+the physics of ``components/_physics.py`` and the signal code of ``simulation/_signals.py``
+across files, and compile in the slot and state indices of
 the layout table ``_layout.py``; after a change to one of those files alone
 (an edit in a development checkout, or an upgrade that touches only that file) numba
 would load the old kernels from ``__pycache__`` and silently run the old physics.
@@ -24,13 +25,23 @@ from pathlib import Path
 COMPILED_MODULES = (
     "components/_physics.py",
     "simulation/_signals.py",
-    "simulation/_kernel.py",
+    "simulation/_kcommon.py",
+    "simulation/_rhs_full.py",
+    "simulation/_rhs_load.py",
+    "simulation/_rhs_chamber.py",
+    "simulation/_dispatch.py",
+    "simulation/_rosenbrock.py",
+    "simulation/_stepcontrol.py",
+    "simulation/_outputs.py",
+    "simulation/_march.py",
+    "simulation/_entries.py",
     "simulation/_controller.py",
 )
 
-#: What the compiled code depends on: those modules and the layout table whose slot and state
-#: indices the kernels compile in as constants.
-STAMPED_MODULES = (*COMPILED_MODULES, "_layout.py")
+#: What the compiled code depends on: those modules, the controller-sampling hooks (numba
+#: overloads whose implementations compile into the step loop) and the layout table whose slot
+#: and state indices the kernels compile in as constants.
+STAMPED_MODULES = (*COMPILED_MODULES, "simulation/_sampling.py", "_layout.py")
 
 _ROOT = Path(__file__).resolve().parent
 _FILES = frozenset(str(_ROOT / m) for m in COMPILED_MODULES)

@@ -81,6 +81,49 @@ PWA_SLOTS: tuple[str, ...] = ("sched", "psfix", "form", "ng", "no", "nn", "nw")
 PWA_SLOT: dict[str, int] = {name: N_BASE + i for i, name in enumerate(PWA_SLOTS)}
 I_CELLS = N_BASE + len(PWA_SLOTS) + 3
 
+#: The cell table of the PWA models from ``I_CELLS``: one section per PWA slot ``ng``, ``no``,
+#: ``nn``, ``nw`` (in that order; the load-pressure model's dead zone over u, flow cells over the
+#: supply and load drops, friction over ẋ; the chamber model's dead zone over ν, metering flow over
+#: the normalised edge drop, capacitance position over x, friction over ẋ). A section of n cells
+#: holds these fields one after the other: n − 1 breakpoints, n slopes, n offsets.
+CELL_FIELDS: tuple[str, ...] = ("breakpoints", "slopes", "offsets")
+
+
+def cell_sections(counts: tuple[int, ...]) -> list[int]:
+    """Start index in the packed vector of each cell section, given the cell counts (ng, no, nn, nw).
+
+    A section of n cells is 3n − 1 long (:data:`CELL_FIELDS`); the first starts at ``I_CELLS``.
+    The list ends with the index one past the last section (the packed vector's length).
+    """
+    starts = [I_CELLS]
+    for n in counts:
+        starts.append(starts[-1] + len(CELL_FIELDS) * int(n) - 1)
+    return starts
+
+
+#: The packed input signals of every model, in the order of the packed signal vector ``sg``
+#: (:func:`hydropwa.simulation.pack_signals`): name, SI unit.
+INPUT_SIGNALS: tuple[tuple[str, str], ...] = (("u", "1"), ("p_s", "Pa"), ("f_l", "N"))
+N_SIGNALS = len(INPUT_SIGNALS)
+#: Header blocks of ``sg``, one slot per signal each: the signal's kind (0: constant), and the
+#: first index and count of a sampled signal's samples. Signal i's kind is ``sg[SG["kind"] + i]``.
+SIGNAL_HEADER: tuple[str, ...] = ("kind", "first", "count")
+SG: dict[str, int] = {name: j * N_SIGNALS for j, name in enumerate(SIGNAL_HEADER)}
+#: Parameters of signal i: ``sg[SG_PARAMS + SIGNAL_PARAMS * i :][:SIGNAL_PARAMS]``, a constant's
+#: value first; the sampled signals' times and values follow from ``SG_DATA``.
+SG_PARAMS = 16
+SIGNAL_PARAMS = 8
+SG_DATA = SG_PARAMS + SIGNAL_PARAMS * N_SIGNALS
+assert len(SIGNAL_HEADER) * N_SIGNALS <= SG_PARAMS
+#: Slot of each input's constant value (in closed loop the controller writes the command there).
+SG_VALUE: dict[str, int] = {
+    name: SG_PARAMS + SIGNAL_PARAMS * i for i, (name, _u) in enumerate(INPUT_SIGNALS)
+}
+
+#: The compiled integrator's statistics array, in order (``SolverStats`` fields of the same names).
+SOLVER_STATS: tuple[str, ...] = ("steps", "rejected", "rhs_evaluations", "jacobians")
+STAT: dict[str, int] = {name: i for i, name in enumerate(SOLVER_STATS)}
+
 #: Output channels of every model, in the kernel's row order, with their SI units.
 OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("u", "1"),

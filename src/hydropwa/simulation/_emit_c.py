@@ -141,6 +141,12 @@ class _Func:
             return []  # docstring
         if isinstance(st, ast.Pass):
             return []
+        if isinstance(st, ast.Expr) and isinstance(st.value, ast.Call):  # a call of a void function
+            f = self.callee(st.value)
+            if f is None or f.n_out != 0:
+                self.fail(st, "a call whose value is dropped")
+            assert f is not None
+            return [f"{ind}{_c_name(f.name)}({', '.join(self.call_args(st.value, f))});"]
         if isinstance(st, ast.Return):
             if st.value is None:
                 return [f"{ind}return;"]

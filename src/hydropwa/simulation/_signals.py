@@ -18,6 +18,7 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._errors import ParameterError, SignalError
+from .._layout import N_SIGNALS, SG, SG_DATA, SG_PARAMS, SIGNAL_PARAMS
 from ..params import parse_quantity
 
 __all__ = [
@@ -49,21 +50,21 @@ _CONSTANT, _STEP, _RAMP, _SINE, _CHIRP, _SAMPLED = 0, 1, 2, 3, 4, 5
 _TWO_PI = 2.0 * math.pi
 
 
-# Layout of a packed signal vector ``sg`` (one float64 array for all input signals, so the
-# solver's inner loop reads a single array; separate arrays cost ~30 ns per call in
-# reference counting): sg[i] kind, sg[3 + i] first sample index, sg[6 + i] sample count,
-# sg[_PAR + 8 i : _PAR + 8 i + 8] parameters of signal i (i < 3); a sampled signal's
-# times are sg[lo : lo + n] and its values sg[lo + n : lo + 2 n].
-N_SIGNALS = 3
-_PAR = 16
-_DATA = _PAR + 8 * N_SIGNALS
+# Layout of a packed signal vector ``sg``, declared in hydropwa._layout (SG, SG_PARAMS, SG_DATA):
+# one float64 array for all input signals, so the solver's inner loop reads a single array
+# (separate arrays cost ~30 ns per call in reference counting): per signal i its kind, the
+# first index and count of its samples, SIGNAL_PARAMS parameters from SG_PARAMS; a sampled
+# signal's times are sg[lo : lo + n] and its values sg[lo + n : lo + 2 n].
+_PAR = SG_PARAMS
+_DATA = SG_DATA
+_SG_KIND, _SG_FIRST, _SG_COUNT = SG["kind"], SG["first"], SG["count"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def eval_signal(sg, i: int, t: float) -> float:
     """Value of packed signal ``i`` of ``sg`` at time ``t`` [s] (compiled; see :func:`pack_signals`)."""
-    kind = sg[i]
-    r = _PAR + 8 * i
+    kind = sg[_SG_KIND + i]
+    r = _PAR + SIGNAL_PARAMS * i
     if kind == _CONSTANT:
         return sg[r]
     if kind == _SINE:
@@ -87,8 +88,8 @@ def eval_signal(sg, i: int, t: float) -> float:
             return off
         return off + amp * math.sin(_TWO_PI * (f0 * tau + 0.5 * (f1 - f0) * tau * tau / dur))
     # sampled: linear interpolation (binary search), held at the ends
-    lo = int(sg[3 + i])
-    n = int(sg[6 + i])
+    lo = int(sg[_SG_FIRST + i])
+    n = int(sg[_SG_COUNT + i])
     if t <= sg[lo]:
         return sg[lo + n]
     if t >= sg[lo + n - 1]:
@@ -120,8 +121,8 @@ def eval_signal_rate(sg, i: int, t: float) -> float:
     and from the last sample on), 0 for constants and steps (the jump itself is not a
     rate), the analytic derivative of a sine or chirp inside its active span.
     """
-    kind = sg[i]
-    r = _PAR + 8 * i
+    kind = sg[_SG_KIND + i]
+    r = _PAR + SIGNAL_PARAMS * i
     if kind == _CONSTANT or kind == _STEP:
         return 0.0
     if kind == _SINE:
@@ -139,8 +140,8 @@ def eval_signal_rate(sg, i: int, t: float) -> float:
             return 0.0
         th = _TWO_PI * (f0 * tau + 0.5 * (f1 - f0) * tau * tau / dur)
         return amp * math.cos(th) * _TWO_PI * (f0 + (f1 - f0) * tau / dur)
-    lo = int(sg[3 + i])
-    n = int(sg[6 + i])
+    lo = int(sg[_SG_FIRST + i])
+    n = int(sg[_SG_COUNT + i])
     if t < sg[lo] or t >= sg[lo + n - 1]:
         return 0.0
     a = _sample_interval(sg, lo, n, t)
@@ -166,11 +167,11 @@ def pack_signals(signals) -> np.ndarray:
     pos = _DATA
     for i, sig in enumerate(signals):
         kind, par, ts, vs = sig.pack()
-        head[i] = kind
-        head[_PAR + 8 * i : _PAR + 8 * i + 8] = par
+        head[_SG_KIND + i] = kind
+        head[_PAR + SIGNAL_PARAMS * i : _PAR + SIGNAL_PARAMS * (i + 1)] = par
         if kind == _SAMPLED:
-            head[3 + i] = pos
-            head[6 + i] = ts.size
+            head[_SG_FIRST + i] = pos
+            head[_SG_COUNT + i] = ts.size
             data += [ts, vs]
             pos += 2 * ts.size
     return np.ascontiguousarray(np.concatenate([head, *data]) if data else head)

@@ -1,0 +1,144 @@
+"""What every kernel module shares: model kinds, packed indices, input evaluation.
+
+The state (``Y_*``, ``L_*``), parameter-slot (``I_*``) and output-row (``O_*``) indices are
+generated from the one layout table, :mod:`hydropwa._layout`; numba compiles them in as
+constants. The three packed inputs u, P_S, F_L are read here for every model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from .._layout import (
+    CHAMBER_OUTPUT_CHANNELS,
+    MODEL_KINDS,
+    N_SIGNALS,
+    OUT,
+    OUTPUT_CHANNELS,
+    PWA_OUTPUT_CHANNELS,
+    PWA_SLOT,
+    PWA_SLOTS,
+    SG,
+    SG_VALUE,
+    SLOT,
+    SOLVER_STATS,
+    STAT,
+    Y_FULL,
+    Y_LOAD,
+)
+from ..components._physics import (
+    dead_zone,
+    load_pressure_gain,
+    stribeck_friction,
+)
+from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
+
+FULL, REDUCED, PWA, CHAMBER = (MODEL_KINDS[k][0] for k in ("full", "reduced", "pwa", "pwa-chamber"))
+_CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
+N_STATES = tuple(len(states) for _kind, states, _what in MODEL_KINDS.values())
+_N_FULL, _N_LOAD = N_STATES[FULL], N_STATES[REDUCED]
+# State indices: generated from the state tables in hydropwa._layout.
+Y_NU, Y_DNU, Y_PA, Y_PB, Y_X, Y_V, Y_PS = (
+    Y_FULL[k] for k in ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
+)
+Y_PACC = Y_FULL["p_acc"]
+L_PL, L_V, L_X = (Y_LOAD[k] for k in ("p_l", "v", "x"))
+
+# Packed parameter vector layout: generated from the one table in hydropwa._layout.
+I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
+    SLOT[k] for k in ("omega0", "zeta", "alpha", "beta", "creep", "outer")
+)
+I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = (
+    SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl")
+)
+I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = (SLOT[k] for k in ("kstop", "cstop", "e", "pvap", "prel"))
+I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = (
+    SLOT[k] for k in ("fc", "fs", "sigma", "chi", "delta", "gamma")
+)
+I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
+    SLOT[k] for k in ("pt", "pump", "pset", "qmax", "droop", "vline", "prelief", "grelief", "mass")
+)
+I_CLOAD = SLOT["cload"]  # viscous damping of the attached load (counter cylinder) [N·s/m]
+I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (mean area)
+I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
+I_ACCV, I_ACCP0, I_ACCN, I_HOSEL, I_HOSED, I_HOSEVOL, I_VISC = (
+    SLOT[k] for k in ("accv", "accp0", "accn", "hosel", "hosed", "hosevol", "visc")
+)
+# PWA section (written by hydropwa.linearization.pack_pwa)
+I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
+#: Output rows, named in the layout table.
+O_U, O_SPOOL, O_Z, O_P_A, O_P_B, O_P_L, O_P_S, O_F_L, O_X, O_V, O_FRICTION = (
+    OUT[k] for k in ("u", "spool", "z", "p_a", "p_b", "p_l", "p_s", "f_l", "x", "v", "friction")
+)
+#: Number of output rows of the full/reduced models and of the PWA model.
+N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_CHANNELS)
+N_OUT_CHAMBER = len(OUTPUT_CHANNELS) + len(CHAMBER_OUTPUT_CHANNELS)
+
+#: Packed input signals (``sg``): the slots of each input's kind and constant value, from the layout.
+S_KIND_U, S_KIND_PS, S_KIND_FL = (SG["kind"] + i for i in range(N_SIGNALS))
+S_U, S_PS, S_FL = (SG_VALUE[k] for k in ("u", "p_s", "f_l"))
+#: The integrator's statistics array, from the layout (SOLVER_STATS).
+ST_STEPS, ST_REJECTED, ST_RHS, ST_JAC = (
+    STAT[k] for k in ("steps", "rejected", "rhs_evaluations", "jacobians")
+)
+N_STATS = len(SOLVER_STATS)
+
+# Status codes of integrate()
+OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def n_states(kind):
+    """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
+    return _N_FULL if kind == FULL or kind == CHAMBER else _N_LOAD
+
+
+# the input channels as int64 values, not literals: a literal argument would compile
+# eval_signal once per channel
+_CH0, _CH1, _CH2 = np.int64(0), np.int64(1), np.int64(2)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _inputs(t, sg):
+    """Evaluate the three packed input signals u, P_S, F_L at time t.
+
+    Inlined into its callers; constant signals (kind 0, value at ``sg[S_U]``, …) are read
+    here without a call to :func:`eval_signal`.
+    """
+    u = sg[S_U] if sg[S_KIND_U] == 0.0 else eval_signal(sg, _CH0, t)
+    ps = sg[S_PS] if sg[S_KIND_PS] == 0.0 else eval_signal(sg, _CH1, t)
+    fl = sg[S_FL] if sg[S_KIND_FL] == 0.0 else eval_signal(sg, _CH2, t)
+    return u, ps, fl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _input_rates(t, sg):
+    """Time derivatives of the three packed inputs at t (:func:`~hydropwa.simulation.eval_signal_rate`)."""
+    du = 0.0 if sg[S_KIND_U] == 0.0 else eval_signal_rate(sg, _CH0, t)
+    dps = 0.0 if sg[S_KIND_PS] == 0.0 else eval_signal_rate(sg, _CH1, t)
+    dfl = 0.0 if sg[S_KIND_FL] == 0.0 else eval_signal_rate(sg, _CH2, t)
+    return du, dps, dfl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _friction(v, p):
+    return stribeck_friction(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _opening(nu, p):
+    return dead_zone(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _mean_area(p):
+    """Ā = (A_A + A_B)/2 [m²] of the reduced and PWA models, Eqs. (14)–(15)."""
+    return 0.5 * (p[I_AA] + p[I_AB])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _load_gain(p):
+    """4E/V_t [Pa/m³] of Eq. (14) (:func:`~hydropwa.components.load_pressure_gain`)."""
+    return load_pressure_gain(p[I_E], p[I_VA] + p[I_VB])

@@ -1,0 +1,314 @@
+"""The Rosenbrock methods: LU, tableaus, Jacobian refresh and one step of each method."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from numba.extending import overload
+
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from ._dispatch import _exact_derivatives, _literal_kind, _rhs_fd, _rhs_for
+from ._kcommon import (
+    CHAMBER,
+    FULL,
+    S_KIND_FL,
+    S_KIND_PS,
+    S_KIND_U,
+    _inputs,
+    n_states,
+)
+from ._rhs_full import _inert_column
+from ._signals import NO_REFCOUNT
+
+
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
+def _lu(a, piv, n):
+    """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
+    for k in range(n):
+        m = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                m = i
+        piv[k] = m
+        if m != k:
+            for j in range(n):
+                tmp = a[k, j]
+                a[k, j] = a[m, j]
+                a[m, j] = tmp
+        if a[k, k] == 0.0:
+            a[k, k] = 1e-300
+        inv = 1.0 / a[k, k]
+        a[k, k] = inv  # the diagonal of U is stored inverted: _solve multiplies
+        for i in range(k + 1, n):
+            a[i, k] *= inv
+            f = a[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+
+
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
+def _solve(a, piv, B, r, n):
+    """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
+    for k in range(n):
+        m = piv[k]
+        if m != k:
+            tmp = B[r, k]
+            B[r, k] = B[r, m]
+            B[r, m] = tmp
+    for i in range(1, n):
+        s = B[r, i]
+        for j in range(i):
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s
+    for i in range(n - 1, -1, -1):
+        s = B[r, i]
+        for j in range(i + 1, n):
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s * a[i, i]
+
+
+# --- Rosenbrock tableaus -----------------------------------------------------
+# Solvers of integrate(): ROS23 is Shampine & Reichelt's ROS2(3) (MATLAB's ode23s);
+# ROS34PW2 is the L-stable, stiffly accurate Rosenbrock-W method of order 3 with
+# an embedded order-2 estimate (Rang & Angermann 2005). Being a W-method it keeps
+# its order with an approximate Jacobian, which is why a Jacobian may be reused.
+ROS23, ROS34PW2 = 0, 1
+SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2}
+
+
+def _transformed_tableau(alpha, gamma, b, b_hat):
+    """Coefficients of the form (I − hγJ) U_i = hγ (f(t + α_i h, y + Σ A_ij U_j) + Σ C_ij U_j / h + γ_i h f_t).
+
+    With U = Γ K (Hairer & Wanner, Sect. IV.7): A = αΓ⁻¹, C = −Γ⁻¹ (strictly lower
+    part), m = bΓ⁻¹ for the solution and e = (b − b̂)Γ⁻¹ for the error estimate.
+    """
+    g_inv = np.linalg.inv(gamma)
+    a_t = alpha @ g_inv
+    c_t = -np.tril(g_inv, -1)
+    return (
+        tuple(float(v) for v in a_t.ravel()),
+        tuple(float(v) for v in c_t.ravel()),
+        tuple(float(v) for v in alpha.sum(axis=1)),
+        tuple(float(v) for v in gamma.sum(axis=1)),
+        tuple(float(v) for v in b @ g_inv),
+        tuple(float(v) for v in (b - b_hat) @ g_inv),
+    )
+
+
+_G = 4.3586652150845900e-01
+_PW2 = _transformed_tableau(
+    np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0],
+            [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+            [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    ),
+    np.array(
+        [
+            [_G, 0.0, 0.0, 0.0],
+            [-8.7173304301691801e-01, _G, 0.0, 0.0],
+            [-9.0338057013044082e-01, 5.4180672388095326e-02, _G, 0.0],
+            [2.4212380706095346e-01, -1.2232505839045147e00, 5.4526025533510214e-01, _G],
+        ]
+    ),
+    np.array([2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, _G]),
+    np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 0.5, 2.1793326075422950e-01]),
+)
+PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E = (np.array(v) for v in _PW2)
+PW2_GAMMA = _G
+_D23 = 1.0 / (2.0 + math.sqrt(2.0))
+_E32 = 6.0 + math.sqrt(2.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
+    """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
+
+    Both are exact for the reduced and PWA models when ``exact`` (:func:`jac_reduced`,
+    :func:`jac_pwa`; :func:`dfdt_reduced`, :func:`dfdt_pwa` with the inputs' rates), so
+    a refresh costs no right-hand side. Otherwise ∂f/∂y is by forward differences with
+    the inputs evaluated once for the n state columns (columns known to vanish, P_S of
+    the full model without the pump, are skipped) and ∂f/∂t a forward difference,
+    skipped when every input is constant.
+    """
+    n = n_states(kind)
+    sqrt_eps = 1.4901161193847656e-08
+    nfev = 0
+    if exact and _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
+        return 0
+    for j in range(n):
+        if (kind == FULL or kind == CHAMBER) and _inert_column(kind, j, p):
+            for i in range(n):
+                J[i, j] = 0.0
+            continue
+        nfev += 1
+        for i in range(n):
+            yt[i] = y[i]
+        dj = sqrt_eps * max(abs(y[j]), scale[j])
+        yt[j] = y[j] + dj
+        _rhs_fd(kind, yt, u, ps, fl, p, ft)
+        for i in range(n):
+            J[i, j] = (ft[i] - f0[i]) / dj
+    if sg[S_KIND_U] == 0.0 and sg[S_KIND_PS] == 0.0 and sg[S_KIND_FL] == 0.0:  # all constant
+        for i in range(n):
+            dfdt[i] = 0.0
+    else:
+        dt = sqrt_eps * max(abs(t), 1e-3)
+        u2, ps2, fl2 = _inputs(t + dt, sg)
+        _rhs_fd(kind, y, u2, ps2, fl2, p, ft)
+        for i in range(n):
+            dfdt[i] = (ft[i] - f0[i]) / dt
+        nfev += 1
+    return nfev
+
+
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    inline="always",
+    **NO_REFCOUNT,
+)
+def _factor(kind, J, W, piv, hg):
+    """W = I − hγ J, LU-factorised in place."""
+    n = n_states(kind)
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -hg * J[i, j]
+        W[i, i] += 1.0
+    _lu(W, piv, n)
+
+
+@njit(
+    cache=True,
+    nogil=True,
+    error_model="numpy",
+    fastmath={"contract", "arcp", "nsz"},
+    **NO_REFCOUNT,
+)
+def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One ROS34PW2 step from (t, y): fills ynew and the error yerr.
+
+    Returns (rhs calls, u, P_S, F_L at t + h). f(t + h, ynew) is left to the caller, which
+    evaluates it only for an accepted step (``fnew`` is untouched here).
+    """
+    n = n_states(kind)
+    hg = h * PW2_GAMMA
+    # defined before the loop: a variable numba sees as possibly undefined cannot be
+    # inlined through an overload (_step_for)
+    u = ps = fl = 0.0
+    for i in range(4):
+        if i == 0:
+            for k in range(n):
+                ft[k] = f0[k]
+        else:
+            for k in range(n):
+                s = y[k]
+                for j in range(i):
+                    s += PW2_A[4 * i + j] * U[j, k]
+                yt[k] = s
+            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sg)  # α_4 = 1: reused for f(t + h)
+            _rhs_for(kind, yt, u, ps, fl, p, ft)
+        for k in range(n):
+            s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
+            for j in range(i):
+                s += PW2_C[4 * i + j] / h * U[j, k]
+            U[i, k] = hg * s
+        _solve(W, piv, U, i, n)
+    for k in range(n):
+        s = y[k]
+        e = 0.0
+        for j in range(4):
+            s += PW2_M[j] * U[j, k]
+            e += PW2_E[j] * U[j, k]
+        ynew[k] = s
+        yerr[k] = e
+    return 3, u, ps, fl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2).
+
+    Fills ynew, fnew = f(t + h, ynew) (its error estimate needs it) and yerr; returns
+    (rhs calls, u, P_S, F_L at t + h) like :func:`_step_ros34pw2`.
+    """
+    n = n_states(kind)
+    hd = h * _D23
+    for i in range(n):
+        U[0, i] = f0[i] + hd * dfdt[i]
+    _solve(W, piv, U, 0, n)
+    for i in range(n):
+        yt[i] = y[i] + 0.5 * h * U[0, i]
+    u, ps, fl = _inputs(t + 0.5 * h, sg)
+    _rhs_for(kind, yt, u, ps, fl, p, ft)
+    for i in range(n):
+        U[1, i] = ft[i] - U[0, i]
+    _solve(W, piv, U, 1, n)
+    for i in range(n):
+        U[1, i] += U[0, i]
+        ynew[i] = y[i] + h * U[1, i]
+    u, ps, fl = _inputs(t + h, sg)
+    _rhs_for(kind, ynew, u, ps, fl, p, fnew)
+    for i in range(n):
+        U[2, i] = fnew[i] - _E32 * (U[1, i] - ft[i]) - 2.0 * (U[0, i] - f0[i]) + hd * dfdt[i]
+    _solve(W, piv, U, 2, n)
+    for i in range(n):
+        yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
+    return 2, u, ps, fl
+
+
+def _step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One step of ``method`` (:func:`_step_ros34pw2` or :func:`_step_ros23`), chosen while typing.
+
+    Compiled code only. With a literal ``method`` (one entry point per model and method)
+    the kernel holds only the stepper it uses; otherwise both, chosen at run time.
+    """
+
+
+def _step_with_ros34pw2(
+    method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
+):
+    return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+
+
+def _step_with_ros23(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+
+
+def _step_with_either(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    if method == ROS34PW2:
+        return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+    return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+
+
+@overload(_step_for, prefer_literal=True)
+def _ol_step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    m = _literal_kind(method)
+    if m == ROS34PW2:
+        return _step_with_ros34pw2
+    if m == ROS23:
+        return _step_with_ros23
+    return _step_with_either
