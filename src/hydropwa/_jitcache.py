@@ -59,9 +59,51 @@ def source_stamp(root: str | os.PathLike = _ROOT) -> bytes:
 _STAMP = source_stamp()
 
 try:
-    from numba.core.caching import CacheImpl, InTreeCacheLocator
+    from numba.core.caching import CacheImpl, IndexDataCacheFile, InTreeCacheLocator
 except ImportError:  # pragma: no cover - numba without these names: keep its own stamps
-    CacheImpl = InTreeCacheLocator = None  # type: ignore[assignment,misc]
+    CacheImpl = IndexDataCacheFile = InTreeCacheLocator = None  # type: ignore[assignment,misc]
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX: no inter-process lock
+    fcntl = None  # type: ignore[assignment]
+
+
+def _lock_saves() -> bool:
+    """Make numba's cache save (read index, pick a data file, write both) one locked step.
+
+    numba saves a new entry by reading the index, taking the first free data-file name and
+    writing the index and then the data, with no lock. Two processes that compile different
+    overloads of one function at once (the background warm-up compiles the other models'
+    kernels while this process compiles its own; ``_march`` and ``_jacobian`` have one overload
+    per model kind) both take ``….1.nbc``; the last index and the last data written can belong
+    to different overloads, and a later process then loads one model's machine code for another
+    (seen in development after compiles beside a warm-up: the full model's 10 s paper run took
+    5116 steps instead of 5121, PWA 7600 instead of 7506, both still "converged" because the
+    W-method tolerates a wrong Jacobian; reproduced in ``tests/performance/test_jit_cache.py``).
+    An exclusive ``flock`` on ``<index>.lock`` around the save orders them.
+    """
+    if IndexDataCacheFile is None or fcntl is None:  # pragma: no cover
+        return False
+    save = IndexDataCacheFile.save
+    if getattr(save, "_hydropwa_locked", False):
+        return True
+
+    def locked_save(self, key, data):
+        with open(self._index_path + ".lock", "a") as fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            try:
+                save(self, key, data)
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
+
+    locked_save._hydropwa_locked = True  # type: ignore[attr-defined]
+    IndexDataCacheFile.save = locked_save  # type: ignore[method-assign]
+    return True
+
+
+#: Whether numba's cache saves are serialised across processes (:func:`_lock_saves`).
+SAVES_LOCKED = _lock_saves()
 
 
 if InTreeCacheLocator is not None:

@@ -80,3 +80,42 @@ def test_second_process_loads_the_cache_and_a_physics_edit_recompiles(tmp_path):
     physics.write_text(physics.read_text() + "\n# a physics edit\n")  # _kernel.py untouched
     third = probe()
     assert third["misses"] >= 1 and third["hits"] == 0  # the kernel is rebuilt, not reused
+
+
+@pytest.mark.skipif(not _jitcache.SAVES_LOCKED, reason="no inter-process lock for numba's cache")
+def test_concurrent_cache_saves_keep_each_overload_with_its_own_code(tmp_path, monkeypatch):
+    """Two compilers saving different overloads of one function at once (the warm-up's case).
+
+    Unlocked, numba reads the index, picks the first free data file and writes index and data:
+    both saves pick ``.1``, the index keeps the second key and the data file the first save's
+    code, so loading the second overload returns the first one's machine code. The delays force
+    that interleaving; with the lock the second save waits and takes ``.2``.
+    """
+    import threading
+    import time
+
+    from numba.core.caching import IndexDataCacheFile
+
+    real_index, real_data = IndexDataCacheFile._save_index, IndexDataCacheFile._save_data
+
+    def slow_index(self, overloads):
+        time.sleep(0.2)
+        real_index(self, overloads)
+
+    def slow_data(self, name, data):
+        time.sleep(0.6 if data == "code of X" else 0.0)
+        real_data(self, name, data)
+
+    monkeypatch.setattr(IndexDataCacheFile, "_save_index", slow_index)
+    monkeypatch.setattr(IndexDataCacheFile, "_save_data", slow_data)
+    cache = [IndexDataCacheFile(str(tmp_path), "f-1.py311", b"stamp") for _ in range(2)]
+    first = threading.Thread(target=cache[0].save, args=("X", "code of X"))
+    second = threading.Thread(target=cache[1].save, args=("Y", "code of Y"))
+    first.start()
+    time.sleep(0.05)  # the second save starts while the first writes its index
+    second.start()
+    first.join()
+    second.join()
+    reader = IndexDataCacheFile(str(tmp_path), "f-1.py311", b"stamp")
+    assert reader.load("X") == "code of X"
+    assert reader.load("Y") == "code of Y"
