@@ -24,6 +24,7 @@ import numpy as np
 from .._errors import IdentificationError
 from ..params import DeadZone, SystemParams
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     RigGeometry,
@@ -188,7 +189,7 @@ def dead_zone_velocity(
 
 
 @dataclasses.dataclass(frozen=True)
-class DeadZoneFit:
+class DeadZoneFit(FitResult):
     """Hinge fit of velocity against command.
 
     Attributes
@@ -260,6 +261,13 @@ class DeadZoneFit:
             dp,
             dn,
         )
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return {
+            f.name: v
+            for f in dataclasses.fields(self)
+            if isinstance(v := getattr(self, f.name), ParameterEstimate)
+        }
 
     def dead_zone(self, alpha: float = 1.0) -> DeadZone:
         """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ).

@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from .._errors import IdentificationError
 from ..params import ServoValve, SystemParams, parse_quantity
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
@@ -357,7 +358,7 @@ def second_order_response(omega, omega0: float, zeta: float) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class SecondOrderFit:
+class SecondOrderFit(FitResult):
     """Second-order model (1) fitted to one FRF (one row of Table II).
 
     Attributes
@@ -388,6 +389,9 @@ class SecondOrderFit:
     status: OptimizerStatus = dataclasses.field(
         default_factory=lambda: OptimizerStatus.closed_form("given")
     )
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return {"omega0": self.omega0, "zeta": self.zeta}
 
     def response(self, omega) -> np.ndarray:
         """Model response G(jω) [1] at ``omega`` [rad/s]."""

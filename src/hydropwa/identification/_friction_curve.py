@@ -18,6 +18,7 @@ from .._errors import IdentificationError
 from ..components import stribeck_friction
 from ..params import Friction
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     correlation,
@@ -101,7 +102,7 @@ def _velocity_bins(
 
 
 @dataclasses.dataclass(frozen=True)
-class StribeckFit:
+class StribeckFit(FitResult):
     """Eq. (11) fitted to velocity–force points.
 
     Attributes
@@ -149,6 +150,15 @@ class StribeckFit:
     n_starts: int
     status: OptimizerStatus
     unidentified: tuple[str, ...] = ()
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return self.estimates
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """The friction points, the fitted curve (11) and the residuals (Fig. 8)."""
+        from ..plotting import plot_stribeck  # deferred: matplotlib loads only when plotting
+
+        return plot_stribeck(self, self, ax=ax)
 
     def force_at(self, v) -> np.ndarray:
         """Fitted friction force [N] at velocity ``v`` [m/s]."""

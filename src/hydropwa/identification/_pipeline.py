@@ -12,7 +12,7 @@ import dataclasses
 import datetime as _dt
 import os
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
@@ -21,10 +21,12 @@ import numpy as np
 from .._display import html_table
 from .._errors import DataError, IdentificationError, ParameterError
 from .._io import atomic_write_text, check_output
+from .._result import ResultStatus
 from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
     IdentificationWarning,
+    OptimizerStatus,
     SkippedRun,
     experiment_of,
     screen_for_estimator,
@@ -226,6 +228,73 @@ class IdentificationReport:
     def summary_markdown(self) -> str:
         """A short markdown summary: values, intervals, weak parameters, skipped runs."""
         return _summary(self)
+
+    # ---------------------------------------------------------------- result protocol
+    def _parts(self) -> dict[str, Any]:
+        found = {"valve": self.valve, "dead_zone": self.dead_zone, "friction": self.friction}
+        return {k: v for k, v in found.items() if v is not None}
+
+    @property
+    def status(self) -> ResultStatus:
+        """``NOT_CONVERGED`` when a part's optimiser did not converge, ``PARTIAL`` when a run
+        or part was skipped, else ``SUCCESS`` (:class:`~hydropwa._result.ResultStatus`)."""
+        if any(not getattr(e, "status_", OK).success for e in self._parts().values()):
+            return ResultStatus.NOT_CONVERGED
+        return ResultStatus.PARTIAL if self.skipped or not self._parts() else ResultStatus.SUCCESS
+
+    @property
+    def success(self) -> bool:
+        """Every part converged and nothing was skipped."""
+        return self.status.success
+
+    @property
+    def message(self) -> str:
+        """The status's message, naming the parts or runs concerned."""
+        st = self.status
+        if st is ResultStatus.NOT_CONVERGED:
+            bad = [k for k, e in self._parts().items() if not getattr(e, "status_", OK).success]
+            return f"{', '.join(bad)}: {st.message}"
+        if st is ResultStatus.PARTIAL:
+            return f"{len(self.skipped)} run(s) or part(s) skipped ({'; '.join(map(str, self.skipped[:3]))}): {st.message}"
+        return st.message
+
+    def summary(self) -> str:
+        """The identified values per part and the status, as text."""
+        return f"{self!r}\n  {self.status.name}: {self.message}"
+
+    def to_pandas(self) -> Any:
+        """One row per estimate (the ``[uncertainty]`` table): ``part``, ``parameter``,
+        ``value``, ``std``, ``ci_low``, ``ci_high`` (SI) and ``unit``."""
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+        rows = [
+            {"part": part, "parameter": name, **{k: e[k] for k in _EST_COLUMNS}}
+            for part, table in self.params.meta.get("uncertainty", {}).items()
+            for name, e in table.items()
+            if isinstance(e, Mapping) and "value" in e
+        ]
+        df = pd.DataFrame(rows, columns=["part", "parameter", *_EST_COLUMNS])
+        df.attrs["units"] = {f"{r['part']}.{r['parameter']}": r["unit"] for r in rows}
+        return df
+
+    def plot(self, part: str | None = None, *, ax: Any = None) -> Any:
+        """The figure of one identified part (default the first): ``valve`` (Fig. 5),
+        ``dead_zone`` (Fig. 6) or ``friction`` (Fig. 8), as :meth:`save` writes them."""
+        from ..plotting import plot_bode, plot_dead_zone, plot_stribeck  # deferred: matplotlib
+
+        parts = self._parts()
+        if not parts or (part is not None and part not in parts):
+            raise IdentificationError(
+                f"no identified part {part!r} to plot; identified: {', '.join(parts) or 'none'}"
+            )
+        name = part or next(iter(parts))
+        draws: dict[str, Callable[..., Any]] = {
+            "valve": plot_bode,
+            "dead_zone": plot_dead_zone,
+            "friction": plot_stribeck,
+        }
+        draw = draws[name]
+        return draw(parts[name], ax=ax)
 
     def save(
         self,
@@ -456,6 +525,11 @@ def identify(
     }
     report.params = dataclasses.replace(result, meta=meta)
     return report
+
+
+_EST_COLUMNS = ("value", "std", "ci_low", "ci_high", "unit")
+#: the status of an estimator that carries none (treated as converged)
+OK = OptimizerStatus.closed_form()
 
 
 def _fmt_est(e) -> str:
