@@ -209,6 +209,14 @@ def _check_time(run: Run, dt_rtol: float, gap_factor: float, fs_rtol: float) -> 
             )
     if out:
         return out
+    return _check_steps(run, dt, dt_rtol, gap_factor, fs_rtol)
+
+
+def _check_steps(
+    run: Run, dt: np.ndarray, dt_rtol: float, gap_factor: float, fs_rtol: float
+) -> list[Issue]:
+    """Gaps, non-uniform steps and a declared fs the steps contradict (time increasing)."""
+    out: list[Issue] = []
     step = float(np.median(dt))
     gaps = np.flatnonzero(dt > gap_factor * step)
     if gaps.size:

@@ -472,23 +472,7 @@ def identify(
     result = base
     for part in parts:
         est = chosen[part]
-        selected = by_kind[part]
-        try:
-            if not selected:
-                why = ""
-                if unlabelled:
-                    why = (
-                        f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
-                        f'"kind": "{part}" to their metadata, or put them in a dataset folder '
-                        f"named {part}/"
-                    )
-                raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
-            est.fit(selected)
-        except IdentificationError as exc:
-            if len(parts) == 1:
-                raise
-            report.skipped.append(SkippedRun(f"<{part}>", str(exc)))
-            warnings.warn(f"{part} not identified: {exc}", IdentificationWarning, stacklevel=2)
+        if not _fit_part(part, est, by_kind[part], unlabelled, source, report, len(parts)):
             continue
         report.skipped += est.skipped_
         done.append(part)
@@ -511,11 +495,51 @@ def identify(
         )
     provenance["identified"] = done
     provenance["skipped"] = [str(s) for s in report.skipped]
-    # the base's provenance lines about what was identified here are stale now
+    meta = _identified_meta(base, source, done, provenance, uncertainty)
+    report.params = dataclasses.replace(result, meta=meta)
+    return report
+
+
+def _fit_part(
+    part: str,
+    est: Estimator,
+    selected: list,
+    unlabelled: list[str],
+    source: str,
+    report: IdentificationReport,
+    n_parts: int,
+) -> bool:
+    """Fit one part's estimator to its runs. When several parts are asked for, a part that
+    cannot be identified is skipped with an :class:`IdentificationWarning` (False)."""
+    try:
+        if not selected:
+            why = ""
+            if unlabelled:
+                why = (
+                    f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
+                    f'"kind": "{part}" to their metadata, or put them in a dataset folder '
+                    f"named {part}/"
+                )
+            raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
+        est.fit(selected)
+    except IdentificationError as exc:
+        if n_parts == 1:
+            raise
+        report.skipped.append(SkippedRun(f"<{part}>", str(exc)))
+        warnings.warn(f"{part} not identified: {exc}", IdentificationWarning, stacklevel=3)
+        return False
+    return True
+
+
+def _identified_meta(
+    base: SystemParams, source: str, done: list[str], provenance: dict, uncertainty: dict
+) -> dict[str, Any]:
+    """The identified parameters' ``meta``: the base's, less its provenance lines about the
+    parts identified here (stale now), plus this identification's."""
     identified_keys = {"source", "uncertainty", "identification", "base_source"} | {
         k for part in done for k in _META_KEYS[part]
     }
-    meta = {
+    return {
         **{k: v for k, v in base.meta.items() if k not in identified_keys},
         "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
         "the other values from the base parameters",
@@ -523,8 +547,6 @@ def identify(
         "identification": provenance,
         "uncertainty": uncertainty,
     }
-    report.params = dataclasses.replace(result, meta=meta)
-    return report
 
 
 _EST_COLUMNS = ("value", "std", "ci_low", "ci_high", "unit")
@@ -539,82 +561,103 @@ def _fmt_est(e) -> str:
 def _summary(rep: IdentificationReport) -> str:
     lines = [f"# Identification summary ({rep.source})", ""]
     if rep.valve is not None:
-        lines += [
-            "## Servo valve (Sec. VI-A, Eq. (1), Table II)",
-            "",
-            "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |",
-            "|---|---|---|---|---|---|---|---|",
-        ]
-        for a, f in rep.valve.fits_.items():
-            lines.append(
-                f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
-                f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
-                f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |"
-            )
-        lines += ["", f"Pooled ζ = {rep.valve.zeta_.value:.3f} ± {rep.valve.zeta_.std:.2g}.", ""]
+        lines += _valve_summary(rep.valve)
     if rep.dead_zone is not None:
-        dz = rep.dead_zone.fit_
-        lines += [
-            "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
-            "",
-            "| quantity | value | std | 95 % CI |",
-            "|---|---|---|---|",
-        ]
-        for name, e in (
-            ("β (symmetric)", dz.beta),
-            ("β+", dz.beta_pos),
-            ("β−", dz.beta_neg),
-            ("k_g (creep opening slope)", dz.creep_slope),
-            ("creep velocity slope", dz.creep_velocity_slope),
-            ("outer gain +", dz.gain_pos),
-            ("outer gain −", dz.gain_neg),
-            ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
-            ("drift u < 0 (leakage, load)", dz.drift_neg),
-            ("piston leakage C_L seen by the fit (not applied)", dz.leakage),
-        ):
-            if e is None:
-                continue
-            lines.append(f"| {name} | {_fmt_est(e)} |")
-        lines += [
-            "",
-            f"{dz.n_points} runs; RMS velocity residual {1e3 * dz.rms_residual:.3g} mm/s.",
-            "",
-        ]
+        lines += _dead_zone_summary(rep.dead_zone)
     if rep.friction is not None:
-        fit = rep.friction.fit_
-        lines += [
-            "## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)",
-            "",
-            "| parameter | value | std | 95 % CI |",
-            "|---|---|---|---|",
-        ]
-        for k, e in fit.estimates.items():
-            if k in fit.unidentified:
-                given = getattr(rep.params.friction, k)
-                lines.append(
-                    f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
-                    f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
-                )
-                continue
-            lines.append(f"| {k} | {_fmt_est(e)} |")
-        lines += [
-            "",
-            f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}.",
-        ]
-        if fit.weak:
-            lines.append(
-                f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
-                "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
-            )
-        if fit.unidentified:
-            lines.append(
-                f"Not identified (at a bound of the fit with a wide interval, or an interval "
-                f"covering the whole range; the given value is kept): "
-                f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
-                "machine's values with --params."
-            )
-        lines += [f"Note: {n}." for n in rep.friction.notes_]
-        lines.append("")
+        lines += _friction_summary(rep.friction, rep.params)
     if rep.skipped:
         lines += ["## Skipped", ""] + [f"- {s}" for s in rep.skipped] + [""]
     return "\n".join(lines)
+
+
+def _valve_summary(valve: ValveFrfIdentifier) -> list[str]:
+    """The valve's section: ω0 and ζ per amplitude, the pooled ζ."""
+    lines: list[str] = []
+    lines += [
+        "## Servo valve (Sec. VI-A, Eq. (1), Table II)",
+        "",
+        "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for a, f in valve.fits_.items():
+        lines.append(
+            f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
+            f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
+            f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |"
+        )
+    lines += ["", f"Pooled ζ = {valve.zeta_.value:.3f} ± {valve.zeta_.std:.2g}.", ""]
+    return lines
+
+
+def _dead_zone_summary(dead_zone: DeadZoneIdentifier) -> list[str]:
+    """The dead zone's section: the hinge fit's estimates."""
+    lines: list[str] = []
+    dz = dead_zone.fit_
+    lines += [
+        "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
+        "",
+        "| quantity | value | std | 95 % CI |",
+        "|---|---|---|---|",
+    ]
+    for name, e in (
+        ("β (symmetric)", dz.beta),
+        ("β+", dz.beta_pos),
+        ("β−", dz.beta_neg),
+        ("k_g (creep opening slope)", dz.creep_slope),
+        ("creep velocity slope", dz.creep_velocity_slope),
+        ("outer gain +", dz.gain_pos),
+        ("outer gain −", dz.gain_neg),
+        ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
+        ("drift u < 0 (leakage, load)", dz.drift_neg),
+        ("piston leakage C_L seen by the fit (not applied)", dz.leakage),
+    ):
+        if e is None:
+            continue
+        lines.append(f"| {name} | {_fmt_est(e)} |")
+    lines += [
+        "",
+        f"{dz.n_points} runs; RMS velocity residual {1e3 * dz.rms_residual:.3g} mm/s.",
+        "",
+    ]
+    return lines
+
+
+def _friction_summary(friction: StribeckIdentifier, params: SystemParams) -> list[str]:
+    """The friction section: estimates, weak and unidentified parameters, notes."""
+    lines: list[str] = []
+    fit = friction.fit_
+    lines += [
+        "## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)",
+        "",
+        "| parameter | value | std | 95 % CI |",
+        "|---|---|---|---|",
+    ]
+    for k, e in fit.estimates.items():
+        if k in fit.unidentified:
+            given = getattr(params.friction, k)
+            lines.append(
+                f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
+                f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
+            )
+            continue
+        lines.append(f"| {k} | {_fmt_est(e)} |")
+    lines += [
+        "",
+        f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}.",
+    ]
+    if fit.weak:
+        lines.append(
+            f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
+            "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
+        )
+    if fit.unidentified:
+        lines.append(
+            f"Not identified (at a bound of the fit with a wide interval, or an interval "
+            f"covering the whole range; the given value is kept): "
+            f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
+            "machine's values with --params."
+        )
+    lines += [f"Note: {n}." for n in friction.notes_]
+    lines.append("")
+    return lines
