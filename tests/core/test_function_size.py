@@ -52,7 +52,6 @@ EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
     ),
     ("linearization/_model.py", "linearize"): (97, 11, _API + "; body to be split"),
     ("data/_validate.py", "check_run"): (23, 11, _API),
-    ("params/_toml.py", "params_from_dict"): (113, 3, "one branch per TOML table; to be split"),
     ("cli/_linearize.py", "linearize_command"): (92, 14, "the CLI command's body; to be split"),
     ("cli/_control.py", "_compare"): (47, 12, "takes the command's options one to one"),
     ("identification/_friction_points.py", "friction_samples"): (
