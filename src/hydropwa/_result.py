@@ -30,7 +30,7 @@ from ._display import channel_unit, html_table
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["Result", "ResultMixin", "ResultStatus", "Status", "estimate_rows"]
+__all__ = ["DerivedResult", "Result", "ResultMixin", "ResultStatus", "Status", "estimate_rows"]
 
 
 @runtime_checkable
@@ -165,6 +165,25 @@ class ResultMixin:
             self._display_rows(),
             note=self._status_line(),
         )
+
+
+class DerivedResult(ResultMixin):
+    """For a result whose ``status`` is computed from its parts (a property, not a field):
+    ``success`` from it, and ``message`` as the parts' own details, then the status's fix."""
+
+    def _status_details(self) -> list[str]:
+        """What went wrong, one item per part (empty on success); results override it."""
+        return []
+
+    @property
+    def success(self) -> bool:
+        """``status.success``."""
+        return bool(self.status.success)  # type: ignore[attr-defined]
+
+    @property
+    def message(self) -> str:
+        """The failed parts' details, then the status's message."""
+        return "; ".join([*self._status_details(), self.status.message])  # type: ignore[attr-defined]
 
 
 def estimate_rows(estimates: dict[str, Any]) -> list[tuple[str, Any, str]]:

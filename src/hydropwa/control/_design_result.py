@@ -8,12 +8,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from .._result import ResultMixin, ResultStatus
+from .._result import DerivedResult, ResultStatus
 
 __all__ = ["DesignResult"]
 
 
-class DesignResult(ResultMixin):
+class DesignResult(DerivedResult):
     """``status``, ``success``, ``message``, ``to_pandas``, ``plot`` and the summary rows of a
     design from its ``table``, ``warnings`` and ``verification``."""
 
@@ -29,18 +29,11 @@ class DesignResult(ResultMixin):
         failed = self.warnings or (self.verification is not None and not self.verification.passed)
         return ResultStatus.CHECK_FAILED if failed else ResultStatus.SUCCESS
 
-    @property
-    def success(self) -> bool:
-        """Every cell is controllable and stable and the verification (if run) passed."""
-        return self.status.success
-
-    @property
-    def message(self) -> str:
-        """The status's message, with the failed checks named."""
+    def _status_details(self) -> list[str]:
         what = list(self.warnings)
         if self.verification is not None and not self.verification.passed:
             what += list(self.verification.failures[:3]) or ["verification failed"]
-        return "; ".join([*what, self.status.message])
+        return what
 
     def to_pandas(self) -> Any:
         """The per-cell table (gains, poles, damping, bandwidth [Hz], spectral radii)."""

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import DataError
-from .._result import ResultMixin, ResultStatus
+from .._result import DerivedResult, ResultStatus
 from ..data import screen_runs
 from ..linearization import linearize
 from ..models import FullOrderModel, ReducedModel
@@ -198,7 +198,7 @@ def _measured(
 
 
 @dataclasses.dataclass
-class EvaluationResult(ResultMixin):
+class EvaluationResult(DerivedResult):
     """Models against one measured run.
 
     Attributes
@@ -268,20 +268,12 @@ class EvaluationResult(ResultMixin):
         ok = all(getattr(r, "success", True) for r in self.simulations.values())
         return ResultStatus.SUCCESS if ok else ResultStatus.FAILED
 
-    @property
-    def success(self) -> bool:
-        """Every model's integration reached the end of the run."""
-        return self.status.success
-
-    @property
-    def message(self) -> str:
-        """The status's message, with the failed models' own messages."""
-        failed = [
+    def _status_details(self) -> list[str]:
+        return [
             f"{m}: {r.message}"
             for m, r in self.simulations.items()
             if not getattr(r, "success", True)
         ]
-        return "; ".join([*failed, self.status.message])
 
     def to_pandas(self) -> Any:
         """The metrics table (one row per model and channel; see ``metrics``)."""

@@ -21,7 +21,7 @@ import numpy as np
 from .._display import html_table
 from .._errors import DataError, IdentificationError, ParameterError
 from .._io import atomic_write_text, check_output
-from .._result import ResultStatus
+from .._result import DerivedResult, ResultStatus
 from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
@@ -155,7 +155,7 @@ FIGURE_FILES = {
 
 
 @dataclasses.dataclass
-class IdentificationReport:
+class IdentificationReport(DerivedResult):
     """What :func:`identify` found.
 
     Attributes
@@ -242,21 +242,12 @@ class IdentificationReport:
             return ResultStatus.NOT_CONVERGED
         return ResultStatus.PARTIAL if self.skipped or not self._parts() else ResultStatus.SUCCESS
 
-    @property
-    def success(self) -> bool:
-        """Every part converged and nothing was skipped."""
-        return self.status.success
-
-    @property
-    def message(self) -> str:
-        """The status's message, naming the parts or runs concerned."""
-        st = self.status
-        if st is ResultStatus.NOT_CONVERGED:
-            bad = [k for k, e in self._parts().items() if not getattr(e, "status_", OK).success]
-            return f"{', '.join(bad)}: {st.message}"
-        if st is ResultStatus.PARTIAL:
-            return f"{len(self.skipped)} run(s) or part(s) skipped ({'; '.join(map(str, self.skipped[:3]))}): {st.message}"
-        return st.message
+    def _status_details(self) -> list[str]:
+        bad = [k for k, e in self._parts().items() if not getattr(e, "status_", OK).success]
+        if bad:
+            return [f"not converged: {', '.join(bad)}"]
+        listed = "; ".join(map(str, self.skipped[:3]))
+        return [f"{len(self.skipped)} run(s) or part(s) skipped ({listed})"] if self.skipped else []
 
     def summary(self) -> str:
         """The identified values per part and the status, as text."""
