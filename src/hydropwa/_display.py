@@ -12,11 +12,14 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-#: display unit and factor from SI, per SI unit string
-_ENGINEERING = {
+#: display unit and factor from SI, per SI unit string: the package's one engineering-unit
+#: table (consoles, notebooks, ``params show``, the figures' axes)
+ENGINEERING_UNITS = {
     "Pa": ("bar", 1e-5),
     "m": ("mm", 1e3),
     "m/s": ("mm/s", 1e3),
+    "1/s": ("%/s", 100.0),
+    "m**2": ("cm²", 1e4),
     "m**3": ("L", 1e3),
     "m**3/s": ("L/min", 6e4),
     "N": ("N", 1.0),
@@ -27,7 +30,7 @@ _ENGINEERING = {
 
 def engineering(value: float, unit: str) -> str:
     """``value`` [SI ``unit``] as text in the engineering unit (``'95 bar'``, ``'0.7 L'``)."""
-    shown, factor = _ENGINEERING.get(unit, (unit, 1.0))
+    shown, factor = ENGINEERING_UNITS.get(unit, (unit, 1.0))
     try:
         v = float(value) * factor
     except (TypeError, ValueError):
@@ -37,7 +40,7 @@ def engineering(value: float, unit: str) -> str:
 
 def channel_unit(unit: str) -> tuple[str, float]:
     """Engineering unit and factor from SI for a channel's unit."""
-    return _ENGINEERING.get(unit, (unit, 1.0))
+    return ENGINEERING_UNITS.get(unit, (unit, 1.0))
 
 
 def html_table(

@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from .._display import ENGINEERING_UNITS
 from .._errors import ParameterError, SignalError
 from .._io import check_output
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
@@ -24,15 +25,10 @@ app = new_app()
 params_app = new_app("params", help="Show and export parameter sets (presets or TOML/JSON files).")
 app.add_typer(params_app)
 
-#: SI unit → (display unit, factor) for `params show`.
-_ENGINEERING = {
-    "Pa": ("bar", 1e-5),
-    "m**3": ("L", 1e3),
-    "m**3/s": ("L/min", 6e4),
-    "m**2": ("cm²", 1e4),
-    "m": ("mm", 1e3),
-    "m/s": ("mm/s", 1e3),
-    "": ("%", 100.0),
+#: SI unit → (display unit, factor) for `params show`: the package's table for the units
+#: shown otherwise than in SI, and dimensionless fields (unit "") as percentages
+_ENGINEERING = {u: ENGINEERING_UNITS[u] for u in ("Pa", "m**3", "m**3/s", "m**2", "m", "m/s")} | {
+    "": ENGINEERING_UNITS["1"]
 }
 _NOT_PERCENT = {"zeta", "shape", "creep_slope"}
 

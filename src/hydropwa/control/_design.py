@@ -41,6 +41,7 @@ from ._controllers import (
     machine_of,
     position_observer_gains,
 )
+from ._design_result import DesignResult
 
 __all__ = [
     "ControlDesign",
@@ -57,7 +58,7 @@ _SCALE = np.array([1e5, 1e-3, 1e-3, 1e-5])  # bar, mm/s, mm, mm·10 ms: states o
 
 
 @dataclass
-class ControlDesign:
+class ControlDesign(DesignResult):
     """A designed controller and what the design knows about it.
 
     Attributes
@@ -97,6 +98,7 @@ class ControlDesign:
         if self.verification is not None:
             lines.append(self.verification.summary())
         lines += [f"warning: {w}" for w in self.warnings]
+        lines.append(self._status_line())  # the result protocol's status (issue 33)
         return "\n".join(lines)
 
 

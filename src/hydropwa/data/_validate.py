@@ -12,6 +12,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from hydropwa._errors import DataError
+from hydropwa._signal import mask_runs, stuck_at_rails
 
 from ._run import Run
 
@@ -208,6 +209,14 @@ def _check_time(run: Run, dt_rtol: float, gap_factor: float, fs_rtol: float) -> 
             )
     if out:
         return out
+    return _check_steps(run, dt, dt_rtol, gap_factor, fs_rtol)
+
+
+def _check_steps(
+    run: Run, dt: np.ndarray, dt_rtol: float, gap_factor: float, fs_rtol: float
+) -> list[Issue]:
+    """Gaps, non-uniform steps and a declared fs the steps contradict (time increasing)."""
+    out: list[Issue] = []
     step = float(np.median(dt))
     gaps = np.flatnonzero(dt > gap_factor * step)
     if gaps.size:
@@ -271,35 +280,11 @@ def _check_finite(run: Run, channel: str) -> list[Issue]:
     ]
 
 
-def _runs_of(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    starts = np.flatnonzero(edges == 1)
-    return starts, np.flatnonzero(edges == -1) - starts
-
-
 def _check_clipping(
     run: Run, channel: str, min_samples: int, floor_known: bool = False
 ) -> list[Issue]:
-    v = run.channels[channel]
-    fin = v[np.isfinite(v)]
-    if fin.size < 2 * min_samples or fin.min() == fin.max():
-        return []
     out = []
-    for level in (fin.max(), fin.min()):
-        starts, lengths = _runs_of(v == level)
-        long = lengths >= min_samples
-        if not long.any():
-            continue
-        # A stuck ADC is flat only at its rail; a quantised, slowly moving signal is flat
-        # everywhere. Flag only when the signal otherwise changes from sample to sample.
-        plateau = np.zeros(v.shape, dtype=bool)
-        for s, n in zip(starts[long], lengths[long], strict=True):
-            plateau[s : s + n] = True
-        rest = np.diff(v[~plateau])
-        if rest.size and np.mean(rest == 0) > 0.5:
-            continue
-        k = int(np.argmax(long))
-        side = "maximum" if level == fin.max() else "minimum"
+    for side, level, starts, lengths in stuck_at_rails(run.channels[channel], min_samples):
         if side == "minimum" and floor_known:
             continue  # the converter-limit check found a physical floor there
         out.append(
@@ -307,9 +292,9 @@ def _check_clipping(
                 run,
                 "clipped",
                 channel,
-                starts[k],
+                starts[0],
                 f"stuck at its {side} {level:.6g} {run.units[channel]} for "
-                f"{int(lengths[k])} samples ({int(long.sum())} such stretches)",
+                f"{int(lengths[0])} samples ({lengths.size} such stretches)",
                 "the sensor or ADC saturated; re-measure with a larger range or "
                 "exclude the stretch with select()",
             )
@@ -502,7 +487,7 @@ def _check_at_limit(run: Run, channel: str, limit, min_samples: int) -> list[Iss
     out = []
     for level, side in ((hi, "highest"), (lo, "lowest")):
         at = np.abs(v - level) <= tol
-        starts, lengths = _runs_of(at)
+        starts, lengths = mask_runs(at)
         if lengths.size == 0 or lengths.max() < min_samples:
             continue
         k = int(np.argmax(lengths))
@@ -540,7 +525,7 @@ def _check_stuck(run: Run, channel: str, min_samples: int) -> list[Issue]:
     if v.size < 4 * min_samples:
         return []
     same = np.concatenate(([False], np.diff(v) == 0))
-    starts, lengths = _runs_of(same)
+    starts, lengths = mask_runs(same)
     long = lengths >= min_samples
     if not long.any():
         return []

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import DataError
+from .._result import DerivedResult, ResultStatus
 from ..data import screen_runs
 from ..linearization import linearize
 from ..models import FullOrderModel, ReducedModel
@@ -197,7 +198,7 @@ def _measured(
 
 
 @dataclasses.dataclass
-class EvaluationResult:
+class EvaluationResult(DerivedResult):
     """Models against one measured run.
 
     Attributes
@@ -250,12 +251,42 @@ class EvaluationResult:
         models: Sequence[str] | None = None,
         channels: Sequence[str] = ("u", "x", "p_l"),
         smooth: float = 0.01,
+        *,
+        ax: Any = None,
     ):
         """Measurement and models over time, like Figs. 10–13 (see
         :func:`hydropwa.plotting.plot_evaluation`)."""
         from ..plotting import plot_evaluation  # deferred: matplotlib loads only when plotting
 
-        return plot_evaluation(self, models=models, channels=channels, smooth=smooth)
+        return plot_evaluation(self, models=models, channels=channels, smooth=smooth, ax=ax)
+
+    # ---------------------------------------------------------------- result protocol
+    @property
+    def status(self) -> ResultStatus:
+        """``FAILED`` when a model's integration stopped early (it is scored over the samples
+        it reached), else ``SUCCESS`` (:class:`~hydropwa._result.ResultStatus`)."""
+        ok = all(getattr(r, "success", True) for r in self.simulations.values())
+        return ResultStatus.SUCCESS if ok else ResultStatus.FAILED
+
+    def _status_details(self) -> list[str]:
+        return [
+            f"{m}: {r.message}"
+            for m, r in self.simulations.items()
+            if not getattr(r, "success", True)
+        ]
+
+    def to_pandas(self) -> Any:
+        """The metrics table (one row per model and channel; see ``metrics``)."""
+        return self.metrics
+
+    def _summary_title(self) -> str:
+        return f"EvaluationResult: run {self.run}, t0 = {self.start.t0:.3f} s"
+
+    def _summary_rows(self) -> list[tuple[str, Any, str]]:
+        m = self.metrics
+        return [
+            (f"{r.model} {r.channel} fit", f"{r.nrmse_fit:.1f}", "%") for r in m.itertuples()
+        ] + [("P_S (average)", self.supply_pressure, "Pa")]
 
     def __repr__(self) -> str:
         fits = ", ".join(

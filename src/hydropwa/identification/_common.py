@@ -19,6 +19,7 @@ import numpy as np
 from scipy import stats
 
 from .._errors import DataError, HydropwaError, IdentificationError, ParameterError
+from .._result import ResultMixin, ResultStatus, estimate_rows
 
 __all__ = [
     "IdentificationWarning",
@@ -80,10 +81,72 @@ class OptimizerStatus:
         """The status of a fit solved in one step (linear least squares, a formula)."""
         return cls(success=True, message=what, nfev=1, nit=None)
 
+    @property
+    def name(self) -> str:
+        """``SUCCESS`` or ``NOT_CONVERGED`` (the :class:`~hydropwa._result.ResultStatus` names),
+        so this is a :class:`~hydropwa._result.Status` like every result's ``status``."""
+        return ResultStatus.SUCCESS.name if self.success else ResultStatus.NOT_CONVERGED.name
+
     def __str__(self) -> str:
         it = "" if self.nit is None else f", {self.nit} iterations"
         ok = "converged" if self.success else "NOT converged"
         return f"{ok}: {self.message} ({self.nfev} evaluations{it})"
+
+
+class FitResult(ResultMixin):
+    """The result protocol (:class:`hydropwa._result.Result`) for a fit whose ``status`` is an
+    :class:`OptimizerStatus` and whose values are :class:`ParameterEstimate` s.
+
+    A fit names its estimates in ``_estimates()``; ``success``, ``message``, ``summary()``,
+    ``to_pandas()``, ``plot()`` and ``_repr_html_()`` follow from them.
+    """
+
+    status: OptimizerStatus
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        raise NotImplementedError
+
+    @property
+    def success(self) -> bool:
+        """Whether the optimiser converged."""
+        return self.status.success
+
+    @property
+    def message(self) -> str:
+        """The optimiser's reason for stopping and, where it did not converge, what to do."""
+        if self.status.success:
+            return self.status.message
+        return f"{self.status.message}; {ResultStatus.NOT_CONVERGED.message}"
+
+    def _summary_rows(self) -> list[tuple[str, Any, str]]:
+        return estimate_rows(self._estimates())
+
+    def to_pandas(self) -> Any:
+        """One row per estimate: ``value``, ``std``, ``ci_low``, ``ci_high`` (SI) and ``unit``."""
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+        est = self._estimates()
+        df = pd.DataFrame(
+            [
+                {
+                    "value": e.value,
+                    "std": e.std,
+                    "ci_low": e.ci[0],
+                    "ci_high": e.ci[1],
+                    "unit": e.unit,
+                }
+                for e in est.values()
+            ],
+            index=pd.Index(list(est), name="parameter"),
+        )
+        df.attrs["units"] = {k: e.unit for k, e in est.items()}
+        return df
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """Each estimate with its confidence interval (:func:`hydropwa.plotting.plot_estimates`)."""
+        from ..plotting import plot_estimates  # deferred: matplotlib loads only when plotting
+
+        return plot_estimates(self._estimates(), title=type(self).__name__, ax=ax)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,6 +24,7 @@ import numpy as np
 from .._errors import IdentificationError
 from ..params import DeadZone, SystemParams
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     RigGeometry,
@@ -188,7 +189,7 @@ def dead_zone_velocity(
 
 
 @dataclasses.dataclass(frozen=True)
-class DeadZoneFit:
+class DeadZoneFit(FitResult):
     """Hinge fit of velocity against command.
 
     Attributes
@@ -260,6 +261,13 @@ class DeadZoneFit:
             dp,
             dn,
         )
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return {
+            f.name: v
+            for f in dataclasses.fields(self)
+            if isinstance(v := getattr(self, f.name), ParameterEstimate)
+        }
 
     def dead_zone(self, alpha: float = 1.0) -> DeadZone:
         """The fit as a :class:`~hydropwa.params.DeadZone` (symmetric β, k_g = c/ḡ).
@@ -407,36 +415,12 @@ def fit_dead_zone(
         )
     up = np.unique(u[u > 0])
     un = np.unique(-u[u < 0])
-    r, r_scale = None, 1.0
-    if leakage_regressor is not None:
-        r = np.asarray(leakage_regressor, dtype=float)
-        if r.shape != u.shape or not np.all(np.isfinite(r)):
-            raise IdentificationError(
-                "leakage_regressor needs one finite value per point (chamber pressures over the "
-                "velocity window); leave it out to fit without a leakage term"
-            )
-        # C_L·r is m/s while r is ~1e9 Pa/m²: fit C_L·r_scale against r/r_scale so that the
-        # SVD of the Jacobian sees every column at the same scale
-        r_scale = float(np.max(np.abs(r))) or 1.0
-        r = r / r_scale
-
-    def search(reg):
-        best, best_cost, best_sides = None, np.inf, (False, False)
-        n = 0
-        for kp in range(up.size - 1):
-            for kn in range(un.size - 1):
-                n += 1
-                theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift, reg)
-                if cost < best_cost * (1 - 1e-12):
-                    best, best_cost, best_sides = theta, cost, sides
-        assert best is not None
-        return best, best_sides, n
-
-    best, best_sides, n_splits = search(r)
+    r, r_scale = _scaled_regressor(leakage_regressor, u)
+    best, best_sides, n_splits = _search_splits(u, v, up, un, continuous, drift, r)
     if r is not None and best[7] < 0:
         # leakage cannot be negative: the constrained optimum has C_L = 0 (its interval, from
         # the Jacobian with the C_L column, still says how much leakage the data allow)
-        best, best_sides, n_more = search(None)
+        best, best_sides, n_more = _search_splits(u, v, up, un, continuous, drift, None)
         n_splits += n_more
     leak_v = 0.0 if r is None else best[7] * r
     resid = (
@@ -493,6 +477,38 @@ def fit_dead_zone(
             None,
         ),
     )
+
+
+def _scaled_regressor(leakage_regressor, u: np.ndarray) -> tuple[np.ndarray | None, float]:
+    """The leakage regressor r/r_scale and r_scale (None, 1 without one)."""
+    if leakage_regressor is None:
+        return None, 1.0
+    r = np.asarray(leakage_regressor, dtype=float)
+    if r.shape != u.shape or not np.all(np.isfinite(r)):
+        raise IdentificationError(
+            "leakage_regressor needs one finite value per point (chamber pressures over the "
+            "velocity window); leave it out to fit without a leakage term"
+        )
+    # C_L·r is m/s while r is ~1e9 Pa/m²: fit C_L·r_scale against r/r_scale so that the
+    # SVD of the Jacobian sees every column at the same scale
+    r_scale = float(np.max(np.abs(r))) or 1.0
+    return r / r_scale, r_scale
+
+
+def _search_splits(u, v, up, un, continuous: bool, drift: bool, reg):
+    """The least-squares best of every split of the commands into inside/outside the band:
+    (θ, the drift sides fitted, the number of splits)."""
+    best, best_cost, best_sides = None, np.inf, (False, False)
+    n = 0
+    for kp in range(up.size - 1):
+        for kn in range(un.size - 1):
+            n += 1
+            theta, cost, sides = _split_fit(u, v, kp, kn, up, un, continuous, drift, reg)
+            if cost < best_cost * (1 - 1e-12):
+                best, best_cost, best_sides = theta, cost, sides
+    if best is None:
+        raise IdentificationError("dead-zone fit: no split of the commands to fit")
+    return best, best_sides, n
 
 
 def _nonnegative(est: ParameterEstimate) -> ParameterEstimate:

@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from .._errors import IdentificationError
 from ..params import ServoValve, SystemParams, parse_quantity
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
@@ -357,7 +358,7 @@ def second_order_response(omega, omega0: float, zeta: float) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class SecondOrderFit:
+class SecondOrderFit(FitResult):
     """Second-order model (1) fitted to one FRF (one row of Table II).
 
     Attributes
@@ -388,6 +389,9 @@ class SecondOrderFit:
     status: OptimizerStatus = dataclasses.field(
         default_factory=lambda: OptimizerStatus.closed_form("given")
     )
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return {"omega0": self.omega0, "zeta": self.zeta}
 
     def response(self, omega) -> np.ndarray:
         """Model response G(jω) [1] at ``omega`` [rad/s]."""
@@ -664,68 +668,12 @@ class ValveFrfIdentifier:
                 continue
             t, u, y = ch["t"], ch["u"], ch["spool"]
             if self._broadband(run):
-                f_lo, f_hi = self._band(run)
-                try:
-                    period = (
-                        signal_value(run, "period")
-                        if "multisine"
-                        in {
-                            str(signal_value(run, k, default="")).lower()
-                            for k in ("excitation", "type")
-                        }
-                        else None
-                    )
-                    frf = estimate_frf_h1(
-                        t,
-                        u,
-                        y,
-                        self.nperseg,
-                        f_hi,
-                        None,
-                        run.name,
-                        f_lo,
-                        None if period is None else float(period),
-                    )
-                    amp = self._amplitude(run, frf.amplitude)
-                except IdentificationError as exc:
-                    skip(skipped, run.name, str(exc))
-                    continue
-                broadband.setdefault(amp, []).append(dataclasses.replace(frf, amplitude=amp))
+                frf = self._broadband_frf(run, t, u, y, skipped)
+                if frf is not None:
+                    broadband.setdefault(frf.amplitude, []).append(frf)
                 continue
-            for t0, t1, f in self._segments(run, t):
-                sel = (t >= t0) & (t <= t1)
-                label = (
-                    run.name
-                    if f is None or len(self._segments(run, t)) == 1
-                    else f"{run.name}@{f:g}Hz"
-                )
-                try:
-                    freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
-                    h, fu, fy = stepped_sine_point(
-                        t[sel], u[sel], y[sel], freq, self.n_periods, self.trend
-                    )
-                    amp = self._amplitude(run, fu.amplitude)
-                except IdentificationError as exc:
-                    skip(skipped, label, str(exc))
-                    continue
-                fs = 1.0 / float(np.median(np.diff(t)))
-                sd = float(np.hypot(_relative_std(fy, fs), _relative_std(fu, fs)))
-                points.setdefault(amp, []).append((freq, h, label, sd))
-        frfs: dict[float, FrequencyResponse] = {}
-        for amp, pts in points.items():
-            pts.sort()
-            frfs[amp] = FrequencyResponse(
-                np.array([p[0] for p in pts]),
-                np.array([p[1] for p in pts]),
-                None,
-                amp,
-                tuple(p[2] for p in pts),
-                np.array([p[3] for p in pts]),
-            )
-        for amp, lst in broadband.items():
-            if amp in frfs:  # stepped sine wins; keep the broadband one under its own key
-                amp = amp + 10.0 ** -(self.amplitude_decimals + 1)
-            frfs[amp] = lst[0] if len(lst) == 1 else _merge(lst, amp)
+            self._stepped_points(run, t, u, y, skipped, points)
+        frfs = self._frfs(points, broadband)
         fits: dict[float, SecondOrderFit] = {}
         for amp in sorted(frfs):
             try:
@@ -757,6 +705,67 @@ class ValveFrfIdentifier:
             None,
         )
         return self
+
+    def _broadband_frf(self, run, t, u, y, skipped: list[SkippedRun]) -> FrequencyResponse | None:
+        """The H1 estimate of one broadband run at its amplitude (None: skipped, and why)."""
+        f_lo, f_hi = self._band(run)
+        kinds = {str(signal_value(run, k, default="")).lower() for k in ("excitation", "type")}
+        try:
+            period = signal_value(run, "period") if "multisine" in kinds else None
+            frf = estimate_frf_h1(
+                t,
+                u,
+                y,
+                self.nperseg,
+                f_hi,
+                None,
+                run.name,
+                f_lo,
+                None if period is None else float(period),
+            )
+            amp = self._amplitude(run, frf.amplitude)
+        except IdentificationError as exc:
+            skip(skipped, run.name, str(exc))
+            return None
+        return dataclasses.replace(frf, amplitude=amp)
+
+    def _stepped_points(self, run, t, u, y, skipped: list[SkippedRun], points: dict) -> None:
+        """Add one point (f, H, label, relative std) per stepped-sine segment of ``run``."""
+        segments = self._segments(run, t)
+        for t0, t1, f in segments:
+            sel = (t >= t0) & (t <= t1)
+            label = run.name if f is None or len(segments) == 1 else f"{run.name}@{f:g}Hz"
+            try:
+                freq = f if f is not None else _estimate_frequency(t[sel], u[sel])
+                h, fu, fy = stepped_sine_point(
+                    t[sel], u[sel], y[sel], freq, self.n_periods, self.trend
+                )
+                amp = self._amplitude(run, fu.amplitude)
+            except IdentificationError as exc:
+                skip(skipped, label, str(exc))
+                continue
+            fs = 1.0 / float(np.median(np.diff(t)))
+            sd = float(np.hypot(_relative_std(fy, fs), _relative_std(fu, fs)))
+            points.setdefault(amp, []).append((freq, h, label, sd))
+
+    def _frfs(self, points: dict, broadband: dict) -> dict[float, FrequencyResponse]:
+        """One FRF per amplitude: the stepped-sine points, then the broadband estimates."""
+        frfs: dict[float, FrequencyResponse] = {}
+        for amp, pts in points.items():
+            pts.sort()
+            frfs[amp] = FrequencyResponse(
+                np.array([p[0] for p in pts]),
+                np.array([p[1] for p in pts]),
+                None,
+                amp,
+                tuple(p[2] for p in pts),
+                np.array([p[3] for p in pts]),
+            )
+        for amp, lst in broadband.items():
+            if amp in frfs:  # stepped sine wins; keep the broadband one under its own key
+                amp = amp + 10.0 ** -(self.amplitude_decimals + 1)
+            frfs[amp] = lst[0] if len(lst) == 1 else _merge(lst, amp)
+        return frfs
 
     def apply(self, params: SystemParams) -> SystemParams:
         """``params`` with the fitted servo valve (ω0, its amplitude schedule, ζ) in place."""

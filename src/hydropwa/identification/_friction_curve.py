@@ -18,6 +18,7 @@ from .._errors import IdentificationError
 from ..components import stribeck_friction
 from ..params import Friction
 from ._common import (
+    FitResult,
     OptimizerStatus,
     ParameterEstimate,
     correlation,
@@ -101,7 +102,7 @@ def _velocity_bins(
 
 
 @dataclasses.dataclass(frozen=True)
-class StribeckFit:
+class StribeckFit(FitResult):
     """Eq. (11) fitted to velocity–force points.
 
     Attributes
@@ -149,6 +150,15 @@ class StribeckFit:
     n_starts: int
     status: OptimizerStatus
     unidentified: tuple[str, ...] = ()
+
+    def _estimates(self) -> dict[str, ParameterEstimate]:
+        return self.estimates
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """The friction points, the fitted curve (11) and the residuals (Fig. 8)."""
+        from ..plotting import plot_stribeck  # deferred: matplotlib loads only when plotting
+
+        return plot_stribeck(self, self, ax=ax)
 
     def force_at(self, v) -> np.ndarray:
         """Fitted friction force [N] at velocity ``v`` [m/s]."""
@@ -229,26 +239,53 @@ def fit_stribeck(
     for one extra degree of freedom): with creeping runs at ~1 mm/s the data do show the
     corner, and forcing tanh ≈ 1 there biased F_s by −13 … −16 % on the virtual rig; with
     all points at several mm/s the wide family only trades γ against F_s and is rejected.
-    See :func:`_fit_stribeck_bounded` for the parameters.
+
+    Parameters
+    ----------
+    v : array_like, shape (K,)
+        Steady velocities [m/s], both directions.
+    f : array_like, shape (K,)
+        Friction forces [N] from Eq. (10).
+    fixed : dict, optional
+        Friction fields held fixed, e.g. ``{"shape": 1.0}`` (SI values).
+    loss : str
+        ``least_squares`` loss (``"soft_l1"`` keeps a stray point from dragging the curve).
+    f_scale : float, optional
+        Residual scale [N] of the robust loss; default 1.4826·MAD of a first linear-loss fit.
+    n_starts : int
+        Number of starting points over (log χ, δ, log γ); a grid plus random draws.
+    level : float
+        Confidence level [1].
+    seed : int
+        Seed of the random starts.
+    bounds : dict, optional
+        (low, high) per Friction field in SI units, replacing the defaults (see
+        :func:`_fit_stribeck_bounded`).
+    breakaway : (float, float), optional
+        Measured break-away force F_b [N] and its standard error: adds the residual
+        (max_{ẋ>0} f(ẋ) − F_b)/std, scaled like a point of the fit's robust residual scale
+        (its gradient is ∂f/∂θ at the maximising ẋ, by the envelope theorem). The maximum
+        lies below F_s by the tanh rounding, so γ should be fixed when this is used.
+
+    Returns
+    -------
+    StribeckFit
+
+    Raises
+    ------
+    IdentificationError
+        With fewer points than free parameters + 2, or points in one direction only.
     """
-    kw: dict[str, Any] = dict(
-        fixed=fixed,
-        loss=loss,
-        f_scale=f_scale,
-        n_starts=n_starts,
-        level=level,
-        seed=seed,
-        breakaway=breakaway,
-    )
+    s = _Settings(fixed, loss, f_scale, n_starts, level, seed, bounds, breakaway)
     if "smoothness" in (fixed or {}) or "smoothness" in (bounds or {}):
-        return _fit_stribeck_bounded(v, f, bounds=bounds, **kw)
+        return _fit_stribeck_bounded(v, f, s)
     va = np.abs(np.asarray(v, dtype=float))
     vmin = max(float(np.min(va[va != 0])) if np.any(va != 0) else 1e-6, 1e-6)
-    strict = _fit_stribeck_bounded(
-        v, f, bounds={**(bounds or {}), "smoothness": (3.0 / vmin, 1e7)}, **kw
-    )
-    wide = _fit_stribeck_bounded(
-        v, f, bounds={**(bounds or {}), "smoothness": (0.3 / vmin, 1e7)}, **kw
+    strict, wide = (
+        _fit_stribeck_bounded(
+            v, f, dataclasses.replace(s, bounds={**(bounds or {}), "smoothness": (g / vmin, 1e7)})
+        )
+        for g in (3.0, 0.3)
     )
     ssr_s = float(np.sum(strict.residuals**2))
     ssr_w = float(np.sum(wide.residuals**2))
@@ -257,11 +294,13 @@ def fit_stribeck(
     total = strict.status.nfev + wide.status.nfev
     chosen = dataclasses.replace(chosen, status=dataclasses.replace(chosen.status, nfev=total))
     if "smoothness" in chosen.weak:
-        chosen = _profile_smoothness(v, f, chosen, 0.3 / vmin, dof, kw)
+        chosen = _profile_smoothness(v, f, chosen, 0.3 / vmin, dof, s)
     return chosen
 
 
-def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dict) -> StribeckFit:
+def _profile_smoothness(
+    v, f, best: StribeckFit, g_low: float, dof: int, s: _Settings
+) -> StribeckFit:
     """Widen the intervals by the γ the data cannot pin (a profile over γ).
 
     With every point at |ẋ| ≫ 1/γ the tanh is saturated at the optimum, γ's Jacobian column
@@ -279,7 +318,8 @@ def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dic
         return best
     ssr0 = float(np.sum(best.residuals**2))
     s2 = ssr0 / max(dof, 1)
-    kw = {**kw, "fixed": {**(kw.get("fixed") or {})}, "n_starts": max(4, kw["n_starts"] // 3)}
+    # the profile's fits keep the caller's fixed values, not its bounds, with fewer starts
+    s = dataclasses.replace(s, bounds=None, n_starts=max(4, s.n_starts // 3))
     est = dict(best.estimates)
     nfev = best.status.nfev
     used = 0
@@ -287,8 +327,8 @@ def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dic
 
     def trial(g: float) -> StribeckFit | None:
         nonlocal nfev
-        kw["fixed"]["smoothness"] = float(g)
-        fit = _fit_stribeck_bounded(v, f, **kw)
+        at_g = dataclasses.replace(s, fixed={**(s.fixed or {}), "smoothness": float(g)})
+        fit = _fit_stribeck_bounded(v, f, at_g)
         nfev += fit.status.nfev
         return None if float(np.sum(fit.residuals**2)) - ssr0 > 3.84 * s2 else fit
 
@@ -331,71 +371,77 @@ def _profile_smoothness(v, f, best: StribeckFit, g_low: float, dof: int, kw: dic
     return dataclasses.replace(best, estimates=est, status=status)
 
 
-def _fit_stribeck_bounded(  # noqa: C901 (to be split, issue 33)
-    v,
-    f,
-    fixed: dict[str, float] | None = None,
-    loss: str = "soft_l1",
-    f_scale: float | None = None,
-    n_starts: int = 24,
-    level: float = 0.95,
-    seed: int = 0,
-    bounds: dict[str, tuple[float, float]] | None = None,
-    breakaway: tuple[float, float] | None = None,
-) -> StribeckFit:
-    """Fit the Stribeck curve, Eq. (11), within given bounds (the work of :func:`fit_stribeck`).
+@dataclasses.dataclass(frozen=True)
+class _Settings:
+    """The settings of one Stribeck fit (the keywords of :func:`fit_stribeck`), passed as one."""
 
-    Parameters
-    ----------
-    v : array_like, shape (K,)
-        Steady velocities [m/s], both directions.
-    f : array_like, shape (K,)
-        Friction forces [N] from Eq. (10).
-    fixed : dict, optional
-        Friction fields held fixed, e.g. ``{"shape": 1.0}`` (SI values).
-    loss : str
-        ``least_squares`` loss (``"soft_l1"`` keeps a stray point from dragging the curve).
-    f_scale : float, optional
-        Residual scale [N] of the robust loss; default 1.4826·MAD of a first linear-loss fit.
-    n_starts : int
-        Number of starting points over (log χ, δ, log γ); a grid plus random draws.
-    level : float
-        Confidence level [1].
-    seed : int
-        Seed of the random starts.
-    bounds : dict, optional
-        (low, high) per Friction field in SI units, replacing the defaults below.
-    breakaway : (float, float), optional
-        Measured break-away force F_b [N] and its standard error: adds the residual
-        (max_{ẋ>0} f(ẋ) − F_b)/std, scaled like a point of the fit's robust residual scale
-        (its gradient is ∂f/∂θ at the maximising ẋ, by the envelope theorem). The maximum
-        lies below F_s by the tanh rounding, so γ should be fixed when this is used.
+    fixed: dict[str, float] | None = None
+    loss: str = "soft_l1"
+    f_scale: float | None = None
+    n_starts: int = 24
+    level: float = 0.95
+    seed: int = 0
+    bounds: dict[str, tuple[float, float]] | None = None
+    breakaway: tuple[float, float] | None = None
 
-    Returns
-    -------
-    StribeckFit
 
-    Raises
-    ------
-    IdentificationError
-        With fewer points than free parameters + 2, or points in one direction only.
+@dataclasses.dataclass
+class _Problem:
+    """The bounded least-squares problem in θ = (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ)."""
 
-    Notes
-    -----
-    Fit vector θ = (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ). Default bounds, with
-    v_min the slowest measured |ẋ|: F_c, F_s − F_c ∈ [0, 1e5] N, σ ∈ [0, 1e7] N·s/m,
-    χ ∈ [v_min/10, 1] m/s, δ ∈ [0.5, 5], γ ∈ [3/v_min, 1e7] s/m. The last three
-    encode what constant-input data can say: a Stribeck decay finished well below the
-    slowest run, or a tanh transition wider than the slowest speed, trade off
-    against F_s without limit (F_s → ∞ with χ → 0 fits as well), so such optima are
-    excluded rather than reported as estimates. Covariance from
-    the Jacobian at the optimum; intervals on θ are mapped to Friction fields
-    (χ, γ: 10^(θ ± q·sd)). With |ẋ| ≥ a few mm/s and γ large, tanh(γẋ) = 1 for all
-    data: γ is then not identifiable and is reported so (``weak``).
-    """
-    v = np.asarray(v, dtype=float)
-    f = np.asarray(f, dtype=float)
-    fixed = dict(fixed or {})
+    v: np.ndarray
+    f: np.ndarray
+    fixed_th: dict[int, float]
+    free_idx: list[int]
+    lb_all: np.ndarray
+    ub_all: np.ndarray
+    vmin: float
+    fscale: float
+
+    @property
+    def lb(self) -> np.ndarray:
+        return self.lb_all[self.free_idx]
+
+    @property
+    def ub(self) -> np.ndarray:
+        return self.ub_all[self.free_idx]
+
+    def full(self, p: np.ndarray) -> np.ndarray:
+        th = np.empty(6)
+        th[self.free_idx] = p
+        for i, val in self.fixed_th.items():
+            th[i] = val
+        return th
+
+    def resid(self, p: np.ndarray) -> np.ndarray:
+        return (_eval(self.v, self.full(p)) - self.f) / self.fscale
+
+    def jac(self, p: np.ndarray) -> np.ndarray:
+        return _jac_theta(self.v, self.full(p))[:, self.free_idx] / self.fscale
+
+    def x_scale(self, p: np.ndarray) -> np.ndarray:
+        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3); every stage
+        # needs it: without it the robust refits ran out of evaluations (600) before converging
+        xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[self.free_idx]
+        forces = np.isin(self.free_idx, [0, 1, 2])
+        return np.where(forces, np.maximum(np.abs(p), self.fscale * 0.05), xs)
+
+    def solve(self, p0: np.ndarray, resid=None, jac=None, **kw: Any) -> Any:
+        """One ``least_squares`` run from ``p0`` within the bounds (trust-region reflective)."""
+        return least_squares(
+            resid or self.resid,
+            p0,
+            jac=jac or self.jac,
+            bounds=(self.lb, self.ub),
+            x_scale=self.x_scale(p0),
+            method="trf",
+            **kw,
+        )
+
+
+def _problem(v: np.ndarray, f: np.ndarray, s: _Settings) -> _Problem:
+    """Check the points and settings and set up θ's fixed values and bounds."""
+    fixed = dict(s.fixed or {})
     unknown = set(fixed) - set(STRIBECK_NAMES)
     if unknown:
         raise IdentificationError(
@@ -414,25 +460,9 @@ def _fit_stribeck_bounded(  # noqa: C901 (to be split, issue 33)
         )
     if not (np.any(v > 0) and np.any(v < 0)):
         raise IdentificationError("Stribeck fit needs points in both directions of motion")
-
-    def full(p):
-        th = np.empty(6)
-        th[free_idx] = p
-        for i, val in fixed_th.items():
-            th[i] = val
-        return th
-
-    fscale = max(float(np.max(np.abs(f))), 1.0)
-
-    def resid(p):
-        return (_eval(v, full(p)) - f) / fscale
-
-    def jac(p):
-        return _jac_theta(v, full(p))[:, free_idx] / fscale
-
     vmin = max(float(np.min(np.abs(v[v != 0]))), 1e-6)
     lb_all, ub_all = _default_bounds(vmin)
-    for key, (lo, hi) in (bounds or {}).items():
+    for key, (lo, hi) in (s.bounds or {}).items():
         if key not in STRIBECK_NAMES:
             raise IdentificationError(
                 f"no bound for {key!r}; Friction fields are {', '.join(STRIBECK_NAMES)}"
@@ -440,163 +470,202 @@ def _fit_stribeck_bounded(  # noqa: C901 (to be split, issue 33)
         i = STRIBECK_NAMES.index(key)
         tr = np.log10 if i in (3, 5) else float
         lb_all[i], ub_all[i] = tr(lo), tr(hi)
-    lb, ub = lb_all[free_idx], ub_all[free_idx]
     for i in free_idx:
         if not lb_all[i] < ub_all[i]:
             raise IdentificationError(f"empty bounds for {STRIBECK_NAMES[i]}")
-    rng = np.random.default_rng(seed)
-    lo_s, hi_s = lb_all[3:], ub_all[3:]
+    fscale = max(float(np.max(np.abs(f))), 1.0)
+    return _Problem(v, f, fixed_th, free_idx, lb_all, ub_all, vmin, fscale)
+
+
+def _starts(pr: _Problem, s: _Settings) -> list[np.ndarray]:
+    """Starting points in the free θ: a grid over (log χ, δ, log γ) plus random draws, the
+    forces from the linear fit at each."""
+    rng = np.random.default_rng(s.seed)
+    lo_s, hi_s = pr.lb_all[3:], pr.ub_all[3:]
+    v = pr.v
     grid = [
         (lc, d, lg)
         for lc in np.linspace(
-            max(np.log10(vmin / 3), lo_s[0]), np.log10(max(np.max(np.abs(v)), vmin)), 4
+            max(np.log10(pr.vmin / 3), lo_s[0]), np.log10(max(np.max(np.abs(v)), pr.vmin)), 4
         )
         for d in (0.7, 1.5)
         for lg in (lo_s[2] + 0.3, lo_s[2] + 2.0)
     ]
-    while len(grid) < n_starts:
+    while len(grid) < s.n_starts:
         grid.append(tuple(rng.uniform(lo_s, hi_s)))
     grid = [tuple(np.clip(g, lo_s + 1e-6, hi_s - 1e-6)) for g in grid]
-    xs = np.array([0.1, 0.1, 0.1, 0.3, 0.3, 0.5])[free_idx]
-
-    def x_scale(p: np.ndarray) -> np.ndarray:
-        # forces and σ scale with their start, log10 χ, δ, log10 γ with O(0.3); every stage
-        # needs it: without it the robust refits ran out of evaluations (600) before converging
-        return np.where(np.isin(free_idx, [0, 1, 2]), np.maximum(np.abs(p), fscale * 0.05), xs)
-
-    results = []
-    for lc, d, lg in grid[: max(n_starts, 1)]:
+    starts = []
+    for lc, d, lg in grid[: max(s.n_starts, 1)]:
         th0 = np.empty(6)
         th0[3:] = (lc, d, lg)
-        for i, val in fixed_th.items():
+        for i, val in pr.fixed_th.items():
             th0[i] = val
-        th0[:3] = _linear_part(v, f, th0[3], th0[4], th0[5])
-        for i, val in fixed_th.items():
+        th0[:3] = _linear_part(v, pr.f, th0[3], th0[4], th0[5])
+        for i, val in pr.fixed_th.items():
             th0[i] = val
-        p0 = np.clip(th0[free_idx], lb + 1e-9, ub - 1e-9)
-        results.append(
-            least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=x_scale(p0), method="trf")
-        )
+        starts.append(np.clip(th0[pr.free_idx], pr.lb + 1e-9, pr.ub - 1e-9))
+    return starts
+
+
+def _solve(pr: _Problem, s: _Settings) -> tuple[Any, int, int]:
+    """Multistart least squares, then the break-away constraint and the robust refits.
+
+    Returns the best ``least_squares`` result, the evaluations of all runs and the number
+    of starts.
+    """
+    results = [pr.solve(p0) for p0 in _starts(pr, s)]
+    n_starts = len(results)
     best = min(results, key=lambda r: r.cost)
     nfev = sum(int(r.nfev) for r in results)
     scale_n = (
-        f_scale / fscale if f_scale else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
+        s.f_scale / pr.fscale
+        if s.f_scale
+        else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
     )
-    if breakaway is not None:
-        f_b, sd_b = float(breakaway[0]), max(float(breakaway[1]), 1e-9)
-        w_b = scale_n / sd_b  # one point's weight at the robust residual scale
-        vcap = float(np.max(np.abs(v)))
-        resid_p, jac_p = resid, jac
-
-        def resid(p):  # noqa: F811 - the constrained objective replaces the plain one
-            return np.append(resid_p(p), w_b * (_curve_max(full(p), vcap)[0] - f_b))
-
-        def jac(p):  # noqa: F811
-            th_ = full(p)
-            row = _jac_theta(np.array([_curve_max(th_, vcap)[1]]), th_)[:, free_idx]
-            return np.vstack([jac_p(p), w_b * row])
-
+    resid, jac = pr.resid, pr.jac
+    if s.breakaway is not None:
+        resid, jac = _with_breakaway(pr, s.breakaway, scale_n)
         ranked = sorted(results, key=lambda r: r.cost)[:4]
-        results = [
-            least_squares(resid, r.x, jac=jac, bounds=(lb, ub), x_scale=x_scale(r.x), method="trf")
-            for r in ranked
-        ]
+        results = [pr.solve(r.x, resid, jac) for r in ranked]
         best = min(results, key=lambda r: r.cost)
         nfev += sum(int(r.nfev) for r in results)
-    if loss != "linear":
+    if s.loss != "linear":
         ranked = sorted(results, key=lambda r: r.cost)[:4]
-        robust = [
-            least_squares(
-                resid,
-                r.x,
-                jac=jac,
-                bounds=(lb, ub),
-                x_scale=x_scale(r.x),
-                loss=loss,
-                f_scale=scale_n,
-                method="trf",
-            )
-            for r in ranked
-        ]
+        robust = [pr.solve(r.x, resid, jac, loss=s.loss, f_scale=scale_n) for r in ranked]
         best = min(robust, key=lambda r: r.cost)
         nfev += sum(int(r.nfev) for r in robust)
-    th = full(best.x)
-    r = best.fun[: v.size] * fscale
+    return best, nfev, n_starts
+
+
+def _with_breakaway(pr: _Problem, breakaway: tuple[float, float], scale_n: float):
+    """Residual and Jacobian with the break-away residual (max_{ẋ>0} f(ẋ) − F_b)/std appended,
+    weighted like one point at the robust residual scale (gradient by the envelope theorem)."""
+    f_b, sd_b = float(breakaway[0]), max(float(breakaway[1]), 1e-9)
+    w_b = scale_n / sd_b
+    vcap = float(np.max(np.abs(pr.v)))
+
+    def resid(p):
+        return np.append(pr.resid(p), w_b * (_curve_max(pr.full(p), vcap)[0] - f_b))
+
+    def jac(p):
+        th_ = pr.full(p)
+        row = _jac_theta(np.array([_curve_max(th_, vcap)[1]]), th_)[:, pr.free_idx]
+        return np.vstack([pr.jac(p), w_b * row])
+
+    return resid, jac
+
+
+def _estimate(
+    pr: _Problem, th: np.ndarray, cov: np.ndarray, k: int, q: float
+) -> tuple[float, float, float, float, bool, bool]:
+    """Value, std, interval of free parameter ``k`` (θ index ``free_idx[k]``) in Friction
+    units, whether it is weak and whether it sits at a bound of the fit."""
+    i, free_idx, lb_all, ub_all = pr.free_idx[k], pr.free_idx, pr.lb_all, pr.ub_all
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    at_bound = th[i] <= lb_all[i] + 1e-6 * (1 + abs(lb_all[i])) or th[i] >= ub_all[i] - 1e-6 * (
+        1 + abs(ub_all[i])
+    )
+    if i in (3, 5):
+        with np.errstate(over="ignore"):  # an undetermined log-scale CI reaches inf
+            lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
+        val = 10.0 ** th[i]
+        std = val * np.log(10.0) * sd[k]
+        is_weak = sd[k] * q > np.log10(2.0) or at_bound
+    elif i == 1:  # static = F_c + ΔF: propagate with the F_c covariance when F_c is free
+        val = th[0] + th[1]
+        var = sd[k] ** 2
+        if 0 in free_idx:
+            j = free_idx.index(0)
+            var += cov[j, j] + 2 * cov[j, k]
+        std = float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else float("inf")
+        lo, hi = val - q * std, val + q * std
+        is_weak = q * std > 0.5 * abs(val)
+    else:
+        val, std = th[i], sd[k]
+        lo, hi = val - q * std, val + q * std
+        is_weak = q * std > 0.5 * abs(val) or (at_bound and i != 0)
+    return float(val), float(std), float(lo), float(hi), bool(is_weak), bool(at_bound)
+
+
+def _unidentified(pr: _Problem, th: np.ndarray, i: int, e: ParameterEstimate, at_bound: bool):
+    """Not identified: at (or, on the scale of its interval, next to) a bound of the fit with
+    an interval wider than half the value, or an interval covering the bounded range (e.g.
+    F_c = 9.6e-11 N, CI ±1209 N); then no value is written."""
+    lb_all, ub_all = pr.lb_all, pr.ub_all
+    lo_b, hi_b = (10.0 ** lb_all[i], 10.0 ** ub_all[i]) if i in (3, 5) else (lb_all[i], ub_all[i])
+    if i == 1:  # the bound is on F_s − F_c; at it F_s = F_c
+        lo_b, hi_b = lo_b + th[0], hi_b + th[0]
+    (lo, hi), val = e.ci, e.value
+    half = 0.5 * (hi - lo)
+    near = at_bound or min(val - lo_b, hi_b - val) < 0.01 * half
+    return bool((near and half > 0.5 * abs(val)) or (lo <= lo_b and hi >= hi_b))
+
+
+def _fit_stribeck_bounded(v, f, s: _Settings) -> StribeckFit:
+    """Fit the Stribeck curve, Eq. (11), within given bounds (the work of :func:`fit_stribeck`,
+    whose keywords ``s`` holds).
+
+    Notes
+    -----
+    Fit vector θ = (F_c, F_s − F_c, σ, log10 χ, δ, log10 γ). Default bounds, with
+    v_min the slowest measured |ẋ|: F_c, F_s − F_c ∈ [0, 1e5] N, σ ∈ [0, 1e7] N·s/m,
+    χ ∈ [v_min/10, 1] m/s, δ ∈ [0.5, 5], γ ∈ [3/v_min, 1e7] s/m. The last three
+    encode what constant-input data can say: a Stribeck decay finished well below the
+    slowest run, or a tanh transition wider than the slowest speed, trade off
+    against F_s without limit (F_s → ∞ with χ → 0 fits as well), so such optima are
+    excluded rather than reported as estimates. Covariance from
+    the Jacobian at the optimum; intervals on θ are mapped to Friction fields
+    (χ, γ: 10^(θ ± q·sd)). With |ẋ| ≥ a few mm/s and γ large, tanh(γẋ) = 1 for all
+    data: γ is then not identifiable and is reported so (``weak``).
+    """
+    v = np.asarray(v, dtype=float)
+    f = np.asarray(f, dtype=float)
+    pr = _problem(v, f, s)
+    best, nfev, n_starts = _solve(pr, s)
+    th = pr.full(best.x)
+    r = best.fun[: v.size] * pr.fscale
     # run-level robust (sandwich) covariance: one point per run, and the points differ in
     # quality (slow runs creep, fast ones do not), which s²(JᵀJ)⁻¹ ignores (issue 18)
     cov = (
-        sandwich_covariance(best.jac * fscale, best.fun * fscale)
+        sandwich_covariance(best.jac * pr.fscale, best.fun * pr.fscale)
         if best.jac.size
         else np.zeros((0, 0))
     )
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    q = t_quantile(level, v.size - len(free_idx))
+    q = t_quantile(s.level, v.size - len(pr.free_idx))
     est: dict[str, ParameterEstimate] = {}
-    weak = []
-    unidentified = []
-    names_free = []
-    for k, i in enumerate(free_idx):
-        names_free.append(STRIBECK_NAMES[i])
-        at_bound = th[i] <= lb_all[i] + 1e-6 * (1 + abs(lb_all[i])) or th[i] >= ub_all[i] - 1e-6 * (
-            1 + abs(ub_all[i])
-        )
-        if i in (3, 5):
-            with np.errstate(over="ignore"):  # an undetermined log-scale CI reaches inf
-                lo, hi = 10.0 ** (th[i] - q * sd[k]), 10.0 ** (th[i] + q * sd[k])
-            val = 10.0 ** th[i]
-            std = val * np.log(10.0) * sd[k]
-            is_weak = sd[k] * q > np.log10(2.0) or at_bound
-        elif i == 1:  # static = F_c + ΔF: propagate with the F_c covariance when F_c is free
-            val = th[0] + th[1]
-            var = sd[k] ** 2
-            if 0 in free_idx:
-                j = free_idx.index(0)
-                var += cov[j, j] + 2 * cov[j, k]
-            std = float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else float("inf")
-            lo, hi = val - q * std, val + q * std
-            is_weak = q * std > 0.5 * abs(val)
-        else:
-            val, std = th[i], sd[k]
-            lo, hi = val - q * std, val + q * std
-            is_weak = q * std > 0.5 * abs(val) or (at_bound and i != 0)
+    weak, unidentified = [], []
+    for k, i in enumerate(pr.free_idx):
         name = STRIBECK_NAMES[i]
-        est[name] = ParameterEstimate(
-            float(val), float(std), (float(lo), float(hi)), _UNITS[name], level
-        )
+        val, std, lo, hi, is_weak, at_bound = _estimate(pr, th, cov, k, q)
+        est[name] = ParameterEstimate(val, std, (lo, hi), _UNITS[name], s.level)
         if is_weak:
             weak.append(name)
-        # not identified: at (or, on the scale of its interval, next to) a bound of the fit
-        # with an interval wider than half the value, or an interval covering the bounded
-        # range (e.g. F_c = 9.6e-11 N, CI ±1209 N); then no value is written
-        lo_b, hi_b = (
-            (10.0 ** lb_all[i], 10.0 ** ub_all[i]) if i in (3, 5) else (lb_all[i], ub_all[i])
-        )
-        if i == 1:  # the bound is on F_s − F_c; at it F_s = F_c
-            lo_b, hi_b = lo_b + th[0], hi_b + th[0]
-        half = 0.5 * (hi - lo)
-        near = at_bound or min(val - lo_b, hi_b - val) < 0.01 * half
-        if (near and half > 0.5 * abs(val)) or (lo <= lo_b and hi >= hi_b):
+        if _unidentified(pr, th, i, est[name], at_bound):
             unidentified.append(name)
-    friction = Friction(
+    return StribeckFit(
+        _friction_of(th),
+        est,
+        correlation(cov),
+        tuple(STRIBECK_NAMES[i] for i in pr.free_idx),
+        tuple(weak),
+        v,
+        f,
+        f - _eval(v, th),
+        float(np.sqrt(np.mean(r**2))),
+        s.loss,
+        n_starts,
+        OptimizerStatus(bool(best.success), str(best.message), nfev, None),
+        tuple(unidentified),
+    )
+
+
+def _friction_of(th: np.ndarray) -> Friction:
+    """The Friction fields of θ."""
+    return Friction(
         coulomb=float(th[0]),
         static=float(th[0] + th[1]),
         viscous=float(th[2]),
         stribeck_velocity=float(10.0 ** th[3]),
         shape=float(th[4]),
         smoothness=float(10.0 ** th[5]),
-    )
-    return StribeckFit(
-        friction,
-        est,
-        correlation(cov),
-        tuple(names_free),
-        tuple(weak),
-        v,
-        f,
-        f - _eval(v, th),
-        float(np.sqrt(np.mean(r**2))),
-        loss,
-        len(results),
-        OptimizerStatus(bool(best.success), str(best.message), nfev, None),
-        tuple(unidentified),
     )

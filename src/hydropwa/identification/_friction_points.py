@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 
 from .._errors import IdentificationError
+from .._signal import robust_noise
 from ..components import net_piston_force
 
 # 8th-order central stencils of d/dt and d²/dt² (multiply by 1/dt, 1/dt²).
@@ -55,8 +56,7 @@ def _adaptive_window(
     The noise σ_x is estimated from sample-to-sample differences; a secant over a
     window T has velocity noise √2·σ_x/T.
     """
-    d = np.diff(x)
-    sigma_x = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    sigma_x = robust_noise(x, 1)
     n = t.size
     v_rough = abs(float(np.median(x[n // 2 :]) - np.median(x[: n // 2]))) / max(
         0.5 * (t[-1] - t[0]), 1e-12
@@ -291,8 +291,7 @@ def friction_samples(
     t, x, dt, h, h1, v, a, nf = _filtered_motion(t, x, p_a, p_b, f_l, area_a, area_b, cutoff, taps)
     f = nf - mass * a
     ok = _usable_samples(t, x, u, h.size, settle, stroke, stop_margin)
-    d4 = np.diff(x, 4)
-    sigma_x = 1.4826 * float(np.median(np.abs(d4 - np.median(d4)))) / np.sqrt(70.0)
+    sigma_x = robust_noise(x, 4)
     vmin = max(min_speed, 3.0 * sigma_x * float(np.sqrt(np.sum(h1**2))))
     slow = np.abs(v) < vmin
     if guard > 0:
@@ -395,8 +394,7 @@ def breakaway_peaks(
     i0, i1 = int(idx[0]), int(idx[-1])
     mean_v = float((x[i1] - x[i0]) / max(t[i1] - t[i0], dt))
     s = 1.0 if mean_v >= 0 else -1.0
-    d4 = np.diff(x, 4)
-    sigma_x = 1.4826 * float(np.median(np.abs(d4 - np.median(d4)))) / np.sqrt(70.0)
+    sigma_x = robust_noise(x, 4)
     vslip = max(min_slip, 3.0 * sigma_x * float(np.sqrt(np.sum(h1**2))))
     sv = np.where(ok, s * v, -np.inf)
     y = s * nf

@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from .._display import channel_unit
 from .._errors import DataError, ParameterError
 from ..params import SystemParams, load_params, params_from_dict
 
@@ -31,9 +32,9 @@ MACHINE_FILE = "true_params.toml"
 #: Relative tolerance on the geometry that must agree between the data and ``params``.
 _GEOMETRY_RTOL = 0.01
 _GEOMETRY = (
-    ("cylinder.area_a", "piston area A_A", "cm²", 1e4),
-    ("cylinder.area_b", "annulus area A_B", "cm²", 1e4),
-    ("cylinder.stroke", "stroke", "mm", 1e3),
+    ("cylinder.area_a", "piston area A_A", *channel_unit("m**2")),
+    ("cylinder.area_b", "annulus area A_B", *channel_unit("m**2")),
+    ("cylinder.stroke", "stroke", *channel_unit("m")),
 )
 
 HOW = (

@@ -12,7 +12,7 @@ import dataclasses
 import datetime as _dt
 import os
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
 
@@ -21,10 +21,12 @@ import numpy as np
 from .._display import html_table
 from .._errors import DataError, IdentificationError, ParameterError
 from .._io import atomic_write_text, check_output
+from .._result import DerivedResult, ResultStatus
 from ..params import SystemParams, save_params
 from ._common import (
     EXPERIMENT_ALIASES,
     IdentificationWarning,
+    OptimizerStatus,
     SkippedRun,
     experiment_of,
     screen_for_estimator,
@@ -153,7 +155,7 @@ FIGURE_FILES = {
 
 
 @dataclasses.dataclass
-class IdentificationReport:
+class IdentificationReport(DerivedResult):
     """What :func:`identify` found.
 
     Attributes
@@ -226,6 +228,64 @@ class IdentificationReport:
     def summary_markdown(self) -> str:
         """A short markdown summary: values, intervals, weak parameters, skipped runs."""
         return _summary(self)
+
+    # ---------------------------------------------------------------- result protocol
+    def _parts(self) -> dict[str, Any]:
+        found = {"valve": self.valve, "dead_zone": self.dead_zone, "friction": self.friction}
+        return {k: v for k, v in found.items() if v is not None}
+
+    @property
+    def status(self) -> ResultStatus:
+        """``NOT_CONVERGED`` when a part's optimiser did not converge, ``PARTIAL`` when a run
+        or part was skipped, else ``SUCCESS`` (:class:`~hydropwa._result.ResultStatus`)."""
+        if any(not getattr(e, "status_", OK).success for e in self._parts().values()):
+            return ResultStatus.NOT_CONVERGED
+        return ResultStatus.PARTIAL if self.skipped or not self._parts() else ResultStatus.SUCCESS
+
+    def _status_details(self) -> list[str]:
+        bad = [k for k, e in self._parts().items() if not getattr(e, "status_", OK).success]
+        if bad:
+            return [f"not converged: {', '.join(bad)}"]
+        listed = "; ".join(map(str, self.skipped[:3]))
+        return [f"{len(self.skipped)} run(s) or part(s) skipped ({listed})"] if self.skipped else []
+
+    def summary(self) -> str:
+        """The identified values per part and the status, as text."""
+        return f"{self!r}\n  {self.status.name}: {self.message}"
+
+    def to_pandas(self) -> Any:
+        """One row per estimate (the ``[uncertainty]`` table): ``part``, ``parameter``,
+        ``value``, ``std``, ``ci_low``, ``ci_high`` (SI) and ``unit``."""
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+        rows = [
+            {"part": part, "parameter": name, **{k: e[k] for k in _EST_COLUMNS}}
+            for part, table in self.params.meta.get("uncertainty", {}).items()
+            for name, e in table.items()
+            if isinstance(e, Mapping) and "value" in e
+        ]
+        df = pd.DataFrame(rows, columns=["part", "parameter", *_EST_COLUMNS])
+        df.attrs["units"] = {f"{r['part']}.{r['parameter']}": r["unit"] for r in rows}
+        return df
+
+    def plot(self, part: str | None = None, *, ax: Any = None) -> Any:
+        """The figure of one identified part (default the first): ``valve`` (Fig. 5),
+        ``dead_zone`` (Fig. 6) or ``friction`` (Fig. 8), as :meth:`save` writes them."""
+        from ..plotting import plot_bode, plot_dead_zone, plot_stribeck  # deferred: matplotlib
+
+        parts = self._parts()
+        if not parts or (part is not None and part not in parts):
+            raise IdentificationError(
+                f"no identified part {part!r} to plot; identified: {', '.join(parts) or 'none'}"
+            )
+        name = part or next(iter(parts))
+        draws: dict[str, Callable[..., Any]] = {
+            "valve": plot_bode,
+            "dead_zone": plot_dead_zone,
+            "friction": plot_stribeck,
+        }
+        draw = draws[name]
+        return draw(parts[name], ax=ax)
 
     def save(
         self,
@@ -403,23 +463,7 @@ def identify(
     result = base
     for part in parts:
         est = chosen[part]
-        selected = by_kind[part]
-        try:
-            if not selected:
-                why = ""
-                if unlabelled:
-                    why = (
-                        f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
-                        f'"kind": "{part}" to their metadata, or put them in a dataset folder '
-                        f"named {part}/"
-                    )
-                raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
-            est.fit(selected)
-        except IdentificationError as exc:
-            if len(parts) == 1:
-                raise
-            report.skipped.append(SkippedRun(f"<{part}>", str(exc)))
-            warnings.warn(f"{part} not identified: {exc}", IdentificationWarning, stacklevel=2)
+        if not _fit_part(part, est, by_kind[part], unlabelled, source, report, len(parts)):
             continue
         report.skipped += est.skipped_
         done.append(part)
@@ -442,11 +486,51 @@ def identify(
         )
     provenance["identified"] = done
     provenance["skipped"] = [str(s) for s in report.skipped]
-    # the base's provenance lines about what was identified here are stale now
+    meta = _identified_meta(base, source, done, provenance, uncertainty)
+    report.params = dataclasses.replace(result, meta=meta)
+    return report
+
+
+def _fit_part(
+    part: str,
+    est: Estimator,
+    selected: list,
+    unlabelled: list[str],
+    source: str,
+    report: IdentificationReport,
+    n_parts: int,
+) -> bool:
+    """Fit one part's estimator to its runs. When several parts are asked for, a part that
+    cannot be identified is skipped with an :class:`IdentificationWarning` (False)."""
+    try:
+        if not selected:
+            why = ""
+            if unlabelled:
+                why = (
+                    f"; {len(unlabelled)} run(s) say no kind (e.g. {unlabelled[0]!r}): add "
+                    f'"kind": "{part}" to their metadata, or put them in a dataset folder '
+                    f"named {part}/"
+                )
+            raise IdentificationError(f"no runs of kind {part!r} in {source}{why}")
+        est.fit(selected)
+    except IdentificationError as exc:
+        if n_parts == 1:
+            raise
+        report.skipped.append(SkippedRun(f"<{part}>", str(exc)))
+        warnings.warn(f"{part} not identified: {exc}", IdentificationWarning, stacklevel=3)
+        return False
+    return True
+
+
+def _identified_meta(
+    base: SystemParams, source: str, done: list[str], provenance: dict, uncertainty: dict
+) -> dict[str, Any]:
+    """The identified parameters' ``meta``: the base's, less its provenance lines about the
+    parts identified here (stale now), plus this identification's."""
     identified_keys = {"source", "uncertainty", "identification", "base_source"} | {
         k for part in done for k in _META_KEYS[part]
     }
-    meta = {
+    return {
         **{k: v for k, v in base.meta.items() if k not in identified_keys},
         "source": f"identified by hydropwa from {source} ({', '.join(done)}); "
         "the other values from the base parameters",
@@ -454,8 +538,11 @@ def identify(
         "identification": provenance,
         "uncertainty": uncertainty,
     }
-    report.params = dataclasses.replace(result, meta=meta)
-    return report
+
+
+_EST_COLUMNS = ("value", "std", "ci_low", "ci_high", "unit")
+#: the status of an estimator that carries none (treated as converged)
+OK = OptimizerStatus.closed_form()
 
 
 def _fmt_est(e) -> str:
@@ -465,82 +552,103 @@ def _fmt_est(e) -> str:
 def _summary(rep: IdentificationReport) -> str:
     lines = [f"# Identification summary ({rep.source})", ""]
     if rep.valve is not None:
-        lines += [
-            "## Servo valve (Sec. VI-A, Eq. (1), Table II)",
-            "",
-            "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |",
-            "|---|---|---|---|---|---|---|---|",
-        ]
-        for a, f in rep.valve.fits_.items():
-            lines.append(
-                f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
-                f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
-                f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |"
-            )
-        lines += ["", f"Pooled ζ = {rep.valve.zeta_.value:.3f} ± {rep.valve.zeta_.std:.2g}.", ""]
+        lines += _valve_summary(rep.valve)
     if rep.dead_zone is not None:
-        dz = rep.dead_zone.fit_
-        lines += [
-            "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
-            "",
-            "| quantity | value | std | 95 % CI |",
-            "|---|---|---|---|",
-        ]
-        for name, e in (
-            ("β (symmetric)", dz.beta),
-            ("β+", dz.beta_pos),
-            ("β−", dz.beta_neg),
-            ("k_g (creep opening slope)", dz.creep_slope),
-            ("creep velocity slope", dz.creep_velocity_slope),
-            ("outer gain +", dz.gain_pos),
-            ("outer gain −", dz.gain_neg),
-            ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
-            ("drift u < 0 (leakage, load)", dz.drift_neg),
-            ("piston leakage C_L seen by the fit (not applied)", dz.leakage),
-        ):
-            if e is None:
-                continue
-            lines.append(f"| {name} | {_fmt_est(e)} |")
-        lines += [
-            "",
-            f"{dz.n_points} runs; RMS velocity residual {1e3 * dz.rms_residual:.3g} mm/s.",
-            "",
-        ]
+        lines += _dead_zone_summary(rep.dead_zone)
     if rep.friction is not None:
-        fit = rep.friction.fit_
-        lines += [
-            "## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)",
-            "",
-            "| parameter | value | std | 95 % CI |",
-            "|---|---|---|---|",
-        ]
-        for k, e in fit.estimates.items():
-            if k in fit.unidentified:
-                given = getattr(rep.params.friction, k)
-                lines.append(
-                    f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
-                    f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
-                )
-                continue
-            lines.append(f"| {k} | {_fmt_est(e)} |")
-        lines += [
-            "",
-            f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}.",
-        ]
-        if fit.weak:
-            lines.append(
-                f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
-                "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
-            )
-        if fit.unidentified:
-            lines.append(
-                f"Not identified (at a bound of the fit with a wide interval, or an interval "
-                f"covering the whole range; the given value is kept): "
-                f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
-                "machine's values with --params."
-            )
-        lines += [f"Note: {n}." for n in rep.friction.notes_]
-        lines.append("")
+        lines += _friction_summary(rep.friction, rep.params)
     if rep.skipped:
         lines += ["## Skipped", ""] + [f"- {s}" for s in rep.skipped] + [""]
     return "\n".join(lines)
+
+
+def _valve_summary(valve: ValveFrfIdentifier) -> list[str]:
+    """The valve's section: ω0 and ζ per amplitude, the pooled ζ."""
+    lines: list[str] = []
+    lines += [
+        "## Servo valve (Sec. VI-A, Eq. (1), Table II)",
+        "",
+        "| amplitude | ω0 [rad/s] | std | 95 % CI | ζ | std | 95 % CI | points |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for a, f in valve.fits_.items():
+        lines.append(
+            f"| {100 * a:.3g} % | {f.omega0.value:.1f} | {f.omega0.std:.2g} | "
+            f"[{f.omega0.ci[0]:.1f}, {f.omega0.ci[1]:.1f}] | {f.zeta.value:.3f} | {f.zeta.std:.2g} | "
+            f"[{f.zeta.ci[0]:.3f}, {f.zeta.ci[1]:.3f}] | {f.n_points} |"
+        )
+    lines += ["", f"Pooled ζ = {valve.zeta_.value:.3f} ± {valve.zeta_.std:.2g}.", ""]
+    return lines
+
+
+def _dead_zone_summary(dead_zone: DeadZoneIdentifier) -> list[str]:
+    """The dead zone's section: the hinge fit's estimates."""
+    lines: list[str] = []
+    dz = dead_zone.fit_
+    lines += [
+        "## Dead zone (Sec. VI-B, Table IV, Fig. 6)",
+        "",
+        "| quantity | value | std | 95 % CI |",
+        "|---|---|---|---|",
+    ]
+    for name, e in (
+        ("β (symmetric)", dz.beta),
+        ("β+", dz.beta_pos),
+        ("β−", dz.beta_neg),
+        ("k_g (creep opening slope)", dz.creep_slope),
+        ("creep velocity slope", dz.creep_velocity_slope),
+        ("outer gain +", dz.gain_pos),
+        ("outer gain −", dz.gain_neg),
+        ("drift u ≥ 0 (leakage, load)", dz.drift_pos),
+        ("drift u < 0 (leakage, load)", dz.drift_neg),
+        ("piston leakage C_L seen by the fit (not applied)", dz.leakage),
+    ):
+        if e is None:
+            continue
+        lines.append(f"| {name} | {_fmt_est(e)} |")
+    lines += [
+        "",
+        f"{dz.n_points} runs; RMS velocity residual {1e3 * dz.rms_residual:.3g} mm/s.",
+        "",
+    ]
+    return lines
+
+
+def _friction_summary(friction: StribeckIdentifier, params: SystemParams) -> list[str]:
+    """The friction section: estimates, weak and unidentified parameters, notes."""
+    lines: list[str] = []
+    fit = friction.fit_
+    lines += [
+        "## Stribeck friction (Sec. VI-C, Eqs. (10)–(11), Fig. 8)",
+        "",
+        "| parameter | value | std | 95 % CI |",
+        "|---|---|---|---|",
+    ]
+    for k, e in fit.estimates.items():
+        if k in fit.unidentified:
+            given = getattr(params.friction, k)
+            lines.append(
+                f"| {k} | **not identified** (fit {e.value:.4g}, CI [{e.ci[0]:.4g}, "
+                f"{e.ci[1]:.4g}] {e.unit}; given value {given:.4g} kept) | | |"
+            )
+            continue
+        lines.append(f"| {k} | {_fmt_est(e)} |")
+    lines += [
+        "",
+        f"{len(fit.velocity)} points; RMS residual {fit.rms_residual:.3g} N; loss {fit.loss}.",
+    ]
+    if fit.weak:
+        lines.append(
+            f"Weakly identified (wide CI or at a bound): {', '.join(fit.weak)}. The runs move at "
+            "|v| ≥ a few mm/s, so the shape of the curve near zero speed is an extrapolation."
+        )
+    if fit.unidentified:
+        lines.append(
+            f"Not identified (at a bound of the fit with a wide interval, or an interval "
+            f"covering the whole range; the given value is kept): "
+            f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
+            "machine's values with --params."
+        )
+    lines += [f"Note: {n}." for n in friction.notes_]
+    lines.append("")
+    return lines

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from .._display import channel_unit
 from .._errors import HydropwaError, PwaError
 from .._io import atomic_path, atomic_write_text, check_output
 from .._layout import FULL_STATES
@@ -279,7 +280,7 @@ def _box_rows(lower: np.ndarray, upper: np.ndarray) -> tuple[list, list]:
 #: Unit systems of the exported matrices: factor from SI to the unit, per variable of [P_L, v, x, u].
 UNITS: dict[str, tuple[tuple[str, float], ...]] = {
     "si": (("Pa", 1.0), ("m/s", 1.0), ("m", 1.0), ("1", 1.0)),
-    "engineering": (("bar", 1e-5), ("mm/s", 1e3), ("mm", 1e3), ("%", 100.0)),
+    "engineering": tuple(channel_unit(u) for u in ("Pa", "m/s", "m", "1")),
 }
 #: Most bisections of one cell while refining it below ``refine_tol``.
 MAX_REFINE_DEPTH = 12
@@ -579,29 +580,10 @@ def load_pwa(path: str | os.PathLike):
 
 # --- the chamber-level model (pwa-chamber) ----------------------------------------------
 #: Chamber model: factor from SI to each unit system, per variable of [state..., u].
+_CHAMBER_SI = tuple((unit, 1.0) for _name, unit, _scale in FULL_STATES) + (("1", 1.0),)
 _CHAMBER_UNITS: dict[str, tuple[tuple[str, float], ...]] = {
-    "si": (
-        ("1", 1.0),
-        ("1/s", 1.0),
-        ("Pa", 1.0),
-        ("Pa", 1.0),
-        ("m", 1.0),
-        ("m/s", 1.0),
-        ("Pa", 1.0),
-        ("Pa", 1.0),
-        ("1", 1.0),
-    ),
-    "engineering": (
-        ("%", 100.0),
-        ("%/s", 100.0),
-        ("bar", 1e-5),
-        ("bar", 1e-5),
-        ("mm", 1e3),
-        ("mm/s", 1e3),
-        ("bar", 1e-5),
-        ("bar", 1e-5),
-        ("%", 100.0),
-    ),
+    "si": _CHAMBER_SI,
+    "engineering": tuple(channel_unit(unit) for unit, _ in _CHAMBER_SI),
 }
 
 

@@ -164,7 +164,7 @@ def parse_quantity(value: Any, unit: str, where: str) -> float:
         ) from None
 
 
-def params_from_dict(  # noqa: C901 (to be split, issue 33)
+def params_from_dict(
     data: dict[str, Any], source: str = "<dict>", *, check_bare: bool = True
 ) -> SystemParams:
     """Build :class:`SystemParams` from a nested dict as read from TOML.
@@ -202,86 +202,7 @@ def params_from_dict(  # noqa: C901 (to be split, issue 33)
             continue
         if not isinstance(section, dict):
             raise ParameterError(f"{source}: [{comp}] must be a table")
-        units = FIELD_UNITS[comp]
-        kwargs: dict[str, Any] = {}
-        for key, value in section.items():
-            where = f"{source}: {comp}.{key}"
-            if comp == "flow" and key == "rating":
-                if not isinstance(value, dict) or {"flow", "pressure_drop"} - set(value):
-                    raise ParameterError(
-                        f'{where} must be a table such as {{flow = "60 L/min", pressure_drop = '
-                        f'"70 bar", per = "valve"}}'
-                    )
-                extra = set(value) - {"flow", "pressure_drop", "per"}
-                if extra:
-                    raise ParameterError(
-                        f"{where}: unknown key(s) {', '.join(sorted(extra))}; "
-                        "known: flow, pressure_drop, per"
-                    )
-                per = value.get("per", "land")
-                if per not in ("land", "valve"):
-                    raise ParameterError(
-                        f"{where}.per = {per!r} must be 'land' (drop across one metering edge) or "
-                        "'valve' (across the whole valve, P→A→B→T, as most datasheets rate it)"
-                    )
-                qn = parse_quantity(value["flow"], "m**3/s", where + ".flow")
-                pn = parse_quantity(value["pressure_drop"], "Pa", where + ".pressure_drop")
-                if (
-                    isinstance(value["pressure_drop"], int | float)
-                    and not isinstance(value["pressure_drop"], bool)
-                    and 0 < pn < 1e4
-                ):
-                    raise ParameterError(
-                        f"{where}.pressure_drop = {pn:g} read as Pa is implausible; "
-                        f'did you mean "{pn:g} bar"?'
-                    )
-                if (
-                    isinstance(value["flow"], int | float)
-                    and not isinstance(value["flow"], bool)
-                    and qn > 1.0
-                ):
-                    raise ParameterError(
-                        f"{where}.flow = {qn:g} read as m³/s is implausible; "
-                        f'did you mean "{qn:g} L/min"?'
-                    )
-                kwargs["K"] = flow_coefficient_from_rating(qn, pn, per)
-                continue
-            if comp == "cylinder" and key in ("bore", "rod"):
-                # the cylinder as a catalogue names it: bore D and rod d (Eq. (9)'s areas)
-                diam = parse_quantity(value, "m", where)
-                bare = isinstance(value, int | float) and not isinstance(value, bool)
-                if check_bare and bare and not (1e-3 <= diam <= 2.0):
-                    raise ParameterError(
-                        f"{where} = {value:g} read as m is implausible for a diameter; write it "
-                        f'with its unit, e.g. {key} = "{value:g} mm"'
-                    )
-                kwargs[f"_{key}"] = diam
-                continue
-            if key not in units:
-                raise ParameterError(
-                    f"{where}: unknown field; known: {', '.join(units)}, or bore and rod"
-                )
-            unit = units[key]
-            if unit is None:
-                if key == "omega0_table":
-                    try:
-                        value = tuple(
-                            (parse_quantity(a, "", where), parse_quantity(w, "rad/s", where))
-                            for a, w in value
-                        )
-                    except (TypeError, ValueError) as exc:
-                        if isinstance(exc, ParameterError):
-                            raise
-                        raise ParameterError(
-                            f"{where} must be a list of [amplitude, omega0] pairs"
-                        ) from None
-                kwargs[key] = value
-            else:
-                if check_bare:
-                    _check_bare(comp, key, value, unit, where)
-                kwargs[key] = parse_quantity(value, unit, where)
-        if "_bore" in kwargs or "_rod" in kwargs:
-            kwargs.update(_areas_from_diameters(kwargs, source))
+        kwargs = _section_fields(comp, section, source, check_bare)
         try:
             changes[comp] = dataclasses.replace(getattr(params, comp), **kwargs)
         except ParameterError as exc:
@@ -294,6 +215,88 @@ def params_from_dict(  # noqa: C901 (to be split, issue 33)
     if "uncertainty" in data:
         meta["uncertainty"] = data["uncertainty"]
     return dataclasses.replace(params, meta=meta, **changes)
+
+
+def _section_fields(
+    comp: str, section: dict[str, Any], source: str, check_bare: bool
+) -> dict[str, Any]:
+    """The fields of one section in SI (``K`` from a flow rating, areas from bore and rod)."""
+    units = FIELD_UNITS[comp]
+    kwargs: dict[str, Any] = {}
+    for key, value in section.items():
+        where = f"{source}: {comp}.{key}"
+        if comp == "flow" and key == "rating":
+            kwargs["K"] = _rated_flow_coefficient(value, where)
+            continue
+        if comp == "cylinder" and key in ("bore", "rod"):
+            # the cylinder as a catalogue names it: bore D and rod d (Eq. (9)'s areas)
+            diam = parse_quantity(value, "m", where)
+            bare = isinstance(value, int | float) and not isinstance(value, bool)
+            if check_bare and bare and not (1e-3 <= diam <= 2.0):
+                raise ParameterError(
+                    f"{where} = {value:g} read as m is implausible for a diameter; write it "
+                    f'with its unit, e.g. {key} = "{value:g} mm"'
+                )
+            kwargs[f"_{key}"] = diam
+            continue
+        if key not in units:
+            raise ParameterError(
+                f"{where}: unknown field; known: {', '.join(units)}, or bore and rod"
+            )
+        unit = units[key]
+        if unit is None:
+            kwargs[key] = _omega0_table(value, where) if key == "omega0_table" else value
+        else:
+            if check_bare:
+                _check_bare(comp, key, value, unit, where)
+            kwargs[key] = parse_quantity(value, unit, where)
+    if "_bore" in kwargs or "_rod" in kwargs:
+        kwargs.update(_areas_from_diameters(kwargs, source))
+    return kwargs
+
+
+def _omega0_table(value: Any, where: str) -> tuple[tuple[float, float], ...]:
+    """[[amplitude, omega0], ...] with units → ((amplitude [1], ω0 [rad/s]), ...)."""
+    try:
+        return tuple(
+            (parse_quantity(a, "", where), parse_quantity(w, "rad/s", where)) for a, w in value
+        )
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ParameterError):
+            raise
+        raise ParameterError(f"{where} must be a list of [amplitude, omega0] pairs") from None
+
+
+def _rated_flow_coefficient(value: Any, where: str) -> float:
+    """K [m³/(s·√Pa)] from ``rating = {flow, pressure_drop, per}`` (Eq. (8))."""
+    if not isinstance(value, dict) or {"flow", "pressure_drop"} - set(value):
+        raise ParameterError(
+            f'{where} must be a table such as {{flow = "60 L/min", pressure_drop = '
+            f'"70 bar", per = "valve"}}'
+        )
+    extra = set(value) - {"flow", "pressure_drop", "per"}
+    if extra:
+        raise ParameterError(
+            f"{where}: unknown key(s) {', '.join(sorted(extra))}; known: flow, pressure_drop, per"
+        )
+    per = value.get("per", "land")
+    if per not in ("land", "valve"):
+        raise ParameterError(
+            f"{where}.per = {per!r} must be 'land' (drop across one metering edge) or "
+            "'valve' (across the whole valve, P→A→B→T, as most datasheets rate it)"
+        )
+    qn = parse_quantity(value["flow"], "m**3/s", where + ".flow")
+    pn = parse_quantity(value["pressure_drop"], "Pa", where + ".pressure_drop")
+    bare_p = isinstance(value["pressure_drop"], int | float)
+    if bare_p and not isinstance(value["pressure_drop"], bool) and 0 < pn < 1e4:
+        raise ParameterError(
+            f'{where}.pressure_drop = {pn:g} read as Pa is implausible; did you mean "{pn:g} bar"?'
+        )
+    if isinstance(value["flow"], int | float) and not isinstance(value["flow"], bool) and qn > 1.0:
+        raise ParameterError(
+            f'{where}.flow = {qn:g} read as m³/s is implausible; did you mean "{qn:g} L/min"?'
+        )
+    return flow_coefficient_from_rating(qn, pn, per)
 
 
 def _areas_from_diameters(kwargs: dict[str, Any], source: str) -> dict[str, float]:

@@ -1,8 +1,9 @@
 """The one plotting layer: every figure of the package, in engineering units (%, mm, bar, N).
 
-Functions take plain arrays or result objects (read by duck typing; this package imports only
-numpy, matplotlib and the package's leaf modules, never a layer above it) and an optional
-``ax`` to draw into, and return a :class:`matplotlib.figure.Figure` made without pyplot: no
+Functions take plain arrays or result objects (the attributes they read from a result of a
+layer above are declared as protocols in ``_shapes``; this package imports only numpy,
+matplotlib and the package's leaf modules, never a layer above it) and an optional ``ax``
+to draw into, and return a :class:`matplotlib.figure.Figure` made without pyplot: no
 global state, no backend chosen here, shown inline by Jupyter when returned from a cell.
 :func:`save_figure` writes any of them atomically (nothing overwritten without
 ``overwrite=True``). See ``docs/architecture.md``.
@@ -12,6 +13,7 @@ from ._base import DISPLAY, MODEL_STYLE, InlineFigure, moving_average, new_figur
 from ._identification import (
     plot_bode,
     plot_dead_zone,
+    plot_estimates,
     plot_greybox_fit,
     plot_greybox_profiles,
     plot_greybox_residuals,
@@ -20,6 +22,7 @@ from ._identification import (
 )
 from ._pwa import plot_cell_occupancy, plot_cq, plot_cqp
 from ._results import (
+    plot_cell_design,
     plot_closed_loop,
     plot_compare,
     plot_evaluation,
@@ -35,11 +38,13 @@ __all__ = [
     "new_figure",
     "plot_bode",
     "plot_cell_occupancy",
+    "plot_cell_design",
     "plot_closed_loop",
     "plot_compare",
     "plot_cq",
     "plot_cqp",
     "plot_dead_zone",
+    "plot_estimates",
     "plot_evaluation",
     "plot_greybox_fit",
     "plot_greybox_profiles",

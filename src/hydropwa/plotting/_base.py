@@ -13,7 +13,9 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from .._display import channel_unit
 from .._io import atomic_path
+from .._layout import OUTPUT_CHANNELS
 
 __all__ = [
     "DISPLAY",
@@ -24,19 +26,25 @@ __all__ = [
     "save_figure",
 ]
 
-#: channel → (label, factor from SI, display unit)
+_LABELS = {
+    "u": "valve command",
+    "spool": "spool position",
+    "z": "orifice opening",
+    "x": "rod position",
+    "v": "rod velocity",
+    "p_a": "P_A",
+    "p_b": "P_B",
+    "p_l": "P_L",
+    "p_s": "P_S",
+    "f_l": "load force",
+    "friction": "friction force",
+}
+#: channel → (label, factor from SI, display unit): the channel's SI unit from the layout,
+#: shown in the package's engineering unit (:data:`hydropwa._display.ENGINEERING_UNITS`)
 DISPLAY: dict[str, tuple[str, float, str]] = {
-    "u": ("valve command", 100.0, "%"),
-    "spool": ("spool position", 100.0, "%"),
-    "z": ("orifice opening", 100.0, "%"),
-    "x": ("rod position", 1e3, "mm"),
-    "v": ("rod velocity", 1e3, "mm/s"),
-    "p_a": ("P_A", 1e-5, "bar"),
-    "p_b": ("P_B", 1e-5, "bar"),
-    "p_l": ("P_L", 1e-5, "bar"),
-    "p_s": ("P_S", 1e-5, "bar"),
-    "f_l": ("load force", 1.0, "N"),
-    "friction": ("friction force", 1.0, "N"),
+    name: (_LABELS[name], channel_unit(unit)[1], channel_unit(unit)[0])
+    for name, unit in OUTPUT_CHANNELS
+    if name in _LABELS
 }
 
 #: Line style per model variant (colour, line style, label).

@@ -2,7 +2,7 @@
 friction (Fig. 8), the inverse-dynamics force fit and the grey-box fit.
 
 Each function takes plain arrays or the fitted objects of :mod:`hydropwa.identification`
-(read by duck typing, nothing is imported from there) and an optional ``ax``; it returns the
+(the attributes read are declared as protocols in ``_shapes``; nothing is imported from there) and an optional ``ax``; it returns the
 figure. Nothing here computes physics: fitted curves come from the objects' own methods.
 """
 
@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import new_figure
+from ._shapes import EstimateShape, TracedFit, TracedRun, require
 
 __all__ = [
     "plot_bode",
@@ -24,6 +25,7 @@ __all__ = [
     "plot_greybox_fit",
     "plot_greybox_residuals",
     "plot_greybox_profiles",
+    "plot_estimates",
 ]
 
 _AxesArg = Axes | Sequence[Axes] | None
@@ -316,7 +318,8 @@ _GB_SCALE = {
 }
 
 
-def _greybox_run(fit: Any, run: str | None) -> Any:
+def _greybox_run(fit: TracedFit, run: str | None, who: str) -> TracedRun:
+    require(fit, TracedFit, who)
     if run is None:
         return fit.runs_[0]
     for r in fit.runs_:
@@ -325,7 +328,7 @@ def _greybox_run(fit: Any, run: str | None) -> Any:
     raise KeyError(f"no run {run!r} in the fit; runs: {', '.join(r.name for r in fit.runs_)}")
 
 
-def plot_greybox_fit(fit: Any, run: str | None = None, *, ax: _AxesArg = None) -> Any:
+def plot_greybox_fit(fit: TracedFit, run: str | None = None, *, ax: _AxesArg = None) -> Any:
     """Measured and fitted channels of one run of a grey-box fit.
 
     Parameters
@@ -342,7 +345,7 @@ def plot_greybox_fit(fit: Any, run: str | None = None, *, ax: _AxesArg = None) -
     -------
     matplotlib.figure.Figure
     """
-    r = _greybox_run(fit, run)
+    r = _greybox_run(fit, run, "plot_greybox_fit")
     chans = list(r.measured)
     fig, axes = new_figure(len(chans), 1, ax=ax, sharex=True, figsize=(7.0, 1.8 + 1.6 * len(chans)))
     for a, c in zip(axes[:, 0], chans, strict=True):
@@ -360,7 +363,7 @@ def plot_greybox_fit(fit: Any, run: str | None = None, *, ax: _AxesArg = None) -
 
 
 def plot_greybox_residuals(
-    fit: Any, run: str | None = None, *, max_lag: float = 0.1, ax: _AxesArg = None
+    fit: TracedFit, run: str | None = None, *, max_lag: float = 0.1, ax: _AxesArg = None
 ) -> Any:
     """Noise-scaled residuals of one run of a grey-box fit and their autocorrelation.
 
@@ -378,7 +381,7 @@ def plot_greybox_residuals(
     -------
     matplotlib.figure.Figure
     """
-    r = _greybox_run(fit, run)
+    r = _greybox_run(fit, run, "plot_greybox_residuals")
     fig, axes = new_figure(2, 1, ax=ax, figsize=(7.0, 5.5))
     a, a_c = axes[0, 0], axes[1, 0]
     dt = float(np.nanmedian(np.diff(r.t)))
@@ -411,7 +414,7 @@ def plot_greybox_residuals(
     return fig
 
 
-def plot_greybox_profiles(fit: Any, *, ax: _AxesArg = None) -> Any:
+def plot_greybox_profiles(fit: TracedFit, *, ax: _AxesArg = None) -> Any:
     """Profile likelihoods of the profiled parameters (χ² scale, 95 % threshold 3.84).
 
     Parameters
@@ -425,6 +428,7 @@ def plot_greybox_profiles(fit: Any, *, ax: _AxesArg = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
+    require(fit, TracedFit, "plot_greybox_profiles")
     profs = list(fit.profiles_.values())
     n = max(1, len(profs))
     fig, axes = new_figure(1, n, ax=ax, figsize=(3.2 * n, 3.2))
@@ -441,4 +445,43 @@ def plot_greybox_profiles(fit: Any, *, ax: _AxesArg = None) -> Any:
             0.5, 0.5, "no parameter was profiled", ha="center", transform=axes[0, 0].transAxes
         )
     axes[0, 0].set_title("Profile likelihoods")
+    return fig
+
+
+def plot_estimates(
+    estimates: Mapping[str, EstimateShape], title: str = "", *, ax: Axes | None = None
+) -> Any:
+    """Each parameter estimate with its confidence interval, relative to its value.
+
+    Parameters
+    ----------
+    estimates : dict[str, ParameterEstimate]
+        Name → ``value``, ``ci`` (low, high) [SI] and ``unit``.
+    title : str
+        Axes title (for instance the fit's class).
+    ax : Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per estimate: the interval as a bar around 100 % of the value, labelled with
+        the value and its SI unit.
+    """
+    names = list(estimates)
+    for n in names:
+        require(estimates[n], EstimateShape, "plot_estimates")
+    fig, axes = new_figure(ax=ax, figsize=(6.0, 0.8 + 0.35 * max(1, len(names))))
+    a = axes[0, 0]
+    for i, n in enumerate(names):
+        e = estimates[n]
+        scale = abs(e.value) if e.value else 1.0
+        lo, hi = 100 * e.ci[0] / scale, 100 * e.ci[1] / scale
+        ref = 100.0 if e.value >= 0 else -100.0
+        a.plot([lo, hi], [i, i], "-", lw=3, color="C0", alpha=0.6)
+        a.plot([ref], [i], "o", color="C3")
+    a.set_yticks(range(len(names)))
+    a.set_yticklabels([f"{n} = {estimates[n].value:.4g} {estimates[n].unit}" for n in names])
+    a.set_xlabel("confidence interval [% of the estimate]")
+    a.set_title(title or "Parameter estimates", fontsize=10)
+    a.grid(True, axis="x", alpha=0.3)
     return fig

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
+from ._shapes import EvaluationShape, require
 
 __all__ = [
     "plot_result",
@@ -21,6 +22,7 @@ __all__ = [
     "plot_compare",
     "plot_closed_loop",
     "plot_supply_pressure",
+    "plot_cell_design",
 ]
 
 _AxesArg = Axes | Sequence[Axes] | None
@@ -71,7 +73,7 @@ def plot_result(
 
 
 def plot_evaluation(
-    result: Any,
+    result: EvaluationShape,
     models: Sequence[str] | None = None,
     channels: Sequence[str] = ("u", "x", "p_l"),
     smooth: float = 0.01,
@@ -98,6 +100,7 @@ def plot_evaluation(
     -------
     matplotlib.figure.Figure
     """
+    require(result, EvaluationShape, "plot_evaluation")
     meas = result.measured
     t = meas["t"] - meas["t"][0]
     dt = float(np.median(np.diff(meas["t"]))) if t.size > 1 else 1.0
@@ -274,4 +277,33 @@ def plot_supply_pressure(
     a.set_ylabel("P_S [bar]")
     a.set_title(f"Fig. 9: supply pressure during {name}".rstrip(), fontsize=10)
     a.grid(True, alpha=0.3)
+    return fig
+
+
+def plot_cell_design(damping: Any, bandwidth_hz: Any, *, ax: _AxesArg = None) -> Any:
+    """Smallest closed-loop damping and bandwidth r → x of each cell of a controller design.
+
+    Parameters
+    ----------
+    damping : array_like
+        Smallest damping ratio of the closed-loop poles per cell [1].
+    bandwidth_hz : array_like
+        Closed-loop bandwidth per cell [Hz].
+    ax : sequence of two Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    zeta, bw = np.asarray(damping, dtype=float), np.asarray(bandwidth_hz, dtype=float)
+    fig, axes = new_figure(2, 1, ax=ax, sharex=True, figsize=(6.5, 4.5))
+    cells = np.arange(zeta.size)
+    axes[0, 0].bar(cells, zeta, color="C0")
+    axes[0, 0].set_ylabel("smallest damping [1]")
+    axes[1, 0].bar(cells, bw, color="C1")
+    axes[1, 0].set_ylabel("bandwidth [Hz]")
+    axes[1, 0].set_xlabel("cell (row of the design table)")
+    for a in axes[:, 0]:
+        a.grid(True, axis="y", alpha=0.3)
+    axes[0, 0].set_title("Closed loop per cell", fontsize=10)
     return fig

@@ -157,6 +157,15 @@ class SimulationResult:
             note=note,
         )
 
+    def summary(self) -> str:
+        """The run, the solver's outcome and each channel's range in engineering units."""
+        lines = [repr(self), f"  {self.status.name}: {self.message}"]
+        lines += [
+            f"  {name}: {lo} … {hi} {unit}".rstrip()
+            for name, unit, lo, hi in channel_rows(self.channels, self.units)
+        ]
+        return "\n".join(lines)
+
     def to_pandas(self) -> pd.DataFrame:
         """DataFrame with one column per channel, ``t`` [s] first (as :meth:`Run.to_pandas`).
 
@@ -634,11 +643,11 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     if closed:
         control = _control_record(controller, ctl, log)
         tt = channels["t"]
-        j = np.clip(np.floor((tt - t_out[0]) / ctl[0] + 1e-6).astype(int), 0, log.shape[1] - 1)
+        j = np.clip(np.floor((tt - t_out[0]) / ctl[C.C_TS] + 1e-6).astype(int), 0, log.shape[1] - 1)
         channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
         channels["error"] = channels["reference"] - channels["x"]
-        channels["command"] = log[4, j]
-        channels["cell_ctl"] = log[5, j]
+        channels["command"] = log[C.L_C, j]
+        channels["cell_ctl"] = log[C.L_ROW, j]
     solver_status = SolverStatus(int(status))
     message = solver_status.message
     state: dict[str, float] = {}
@@ -697,17 +706,21 @@ def _closed_loop_setup(
         raise SignalError(
             f"cannot use a {type(controller).__name__} as a controller; give one of hydropwa.control's controllers"
         ) from None
-    ts = float(ctl[0]) if ctl.size else 0.0
-    if ctl.size < 16 or not (ts > 0) or not math.isfinite(ts):
+    ts = float(ctl[C.C_TS]) if ctl.size else 0.0
+    if ctl.size < C.C_ROWS or not (ts > 0) or not math.isfinite(ts):
         raise SignalError(
             "controller vector is malformed (sample time must be a positive number of seconds)"
         )
-    if isinstance(reference, str) and reference.split(":", 1)[0].strip().lower() in _PROFILES:
+    try:
+        ref_sig = as_signal(reference, "m", "reference")
+    except SignalError as exc:
+        if not isinstance(reference, str):
+            raise
+        # simulation knows no motion-profile names: those are the control layer's
         raise SignalError(
-            f"reference {reference!r} is a motion profile of the control layer; pass "
-            "hydropwa.control.as_reference(...) (a Signal) as the reference"
-        )
-    ref_sig = as_signal(reference, "m", "reference")
+            f"{exc}; a motion profile is made into a Signal by the control layer: pass "
+            "hydropwa.control.as_reference(...) as the reference"
+        ) from None
     span = float(t_out[-1] - t_out[0])
     n_smp = int(math.floor(span / ts + 1e-9)) + 1
     tk = t_out[0] + ts * np.arange(n_smp)
@@ -749,7 +762,7 @@ def _closed_loop_setup(
 
 def _held_command(log: np.ndarray, t0: float) -> Sampled:
     """The applied command of every sample interval as a staircase signal (zero-order hold)."""
-    tk, uk = _done(log, 0), _done(log, 1)
+    tk, uk = _done(log, C.L_T), _done(log, C.L_U)
     if tk.size < 2:
         u0 = float(uk[0]) if uk.size else 0.0
         return Sampled(np.array([t0, t0 + 1.0]), np.array([u0, u0]))
@@ -765,28 +778,24 @@ def _held_command(log: np.ndarray, t0: float) -> Sampled:
 def _done(log: np.ndarray, row: int) -> np.ndarray:
     """Row ``row`` of the log over the samples reached (a failed run stops early; no copy otherwise)."""
     n = log.shape[1]
-    if n and not np.isfinite(log[0, n - 1]):
-        n = int(np.count_nonzero(np.isfinite(log[0])))
+    if n and not np.isfinite(log[C.L_T, n - 1]):
+        n = int(np.count_nonzero(np.isfinite(log[C.L_T])))
     return log[row, :n]
-
-
-#: Reference specs that :func:`hydropwa.control.as_reference` parses (a layer above this one).
-_PROFILES = ("trapezoid", "scurve", "steps", "file")
 
 
 def _control_record(controller: Any, ctl: np.ndarray, log: np.ndarray) -> dict[str, Any]:
     """The controller's per-sample log as named arrays (see ``SimulationResult.control``)."""
     rec: dict[str, Any] = {
-        "t": _done(log, 0),
-        "u": _done(log, 1),
-        "reference": _done(log, 2),
-        "error": _done(log, 3),
-        "command": _done(log, 4),
-        "row": _done(log, 5).astype(np.int64),
-        "integral": _done(log, 6),
+        "t": _done(log, C.L_T),
+        "u": _done(log, C.L_U),
+        "reference": _done(log, C.L_R),
+        "error": _done(log, C.L_E),
+        "command": _done(log, C.L_C),
+        "row": _done(log, C.L_ROW).astype(np.int64),
+        "integral": _done(log, C.L_INT),
         "feedforward": _done(log, C.L_UFF),
-        "sample_time": float(ctl[0]),
-        "u_limits": (float(ctl[2]), float(ctl[3])),
+        "sample_time": float(ctl[C.C_TS]),
+        "u_limits": (float(ctl[C.C_UMIN]), float(ctl[C.C_UMAX])),
     }
     describe = getattr(controller, "describe", None)
     rec["description"] = describe() if callable(describe) else {"kind": type(controller).__name__}

@@ -211,7 +211,7 @@ def _parse_random(table: dict) -> tuple[int, int, dict[str, tuple[str, float, fl
     return n, seed, out
 
 
-def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:  # noqa: C901 (to be split, issue 33)
+def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     """Build a :class:`SweepSpec` from a TOML document (already parsed to a dict).
 
     Everything is checked here, before any case runs: unknown sections and keys (with the
@@ -228,59 +228,12 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:  # noqa
         raise ParameterError(f"base = {base_src!r} must be a preset name or a parameter TOML file")
     base_path = Path(root) / str(base_src)
     base = load_params(base_path) if str(base_src).endswith(".toml") else get_preset(str(base_src))
-    grid = {}
-    grid_table = data.get("grid", {})
-    if not isinstance(grid_table, dict):
-        raise ParameterError("[grid] must be a table of 'group.field' = [values]")
-    for key, values in grid_table.items():
-        _g, _f, unit = _field_unit(key)
-        vals = values if isinstance(values, list) else [values]
-        if not vals:
-            raise ParameterError(f"[grid] {key!r} is an empty list; give at least one value")
-        grid[key] = [parse_quantity(v, unit or "", key) for v in vals]
-        for v in grid[key]:  # each value must make valid parameters on its own
-            try:
-                apply_overrides(base, {key: v})
-            except ParameterError as exc:
-                raise ParameterError(f"[grid] {key!r}: {exc}") from None
+    grid = _parse_grid(data.get("grid", {}), base)
     n_random, seed, random = _parse_random(data.get("random", {}))
     both = sorted(set(grid) & set(random))
     if both:
         raise ParameterError(f"{both} are in both [grid] and [random]; vary each parameter in one")
-    inp_table = data.get("input", {})
-    if not isinstance(inp_table, dict):
-        raise ParameterError("[input] must be a table (u, duration, model, fs, rtol, ...)")
-    inp = dict(inp_table)
-    for key in inp:
-        if key not in _INPUT_KEYS:
-            raise _unknown("[input] key", key, _INPUT_KEYS)
-    duration = parse_quantity(inp.pop("duration", 1.0), "s", "input.duration")
-    model = inp.pop("model", "full")
-    if model not in _MODELS:
-        raise ParameterError(f"input.model = {model!r} is unknown; choose {', '.join(_MODELS)}")
-    u = inp.pop("u", 0.0)
-    options = {}
-    for key, value in inp.items():
-        if key == "supply_pressure":
-            options[key] = (
-                parse_quantity(value, "Pa", "input.supply_pressure")
-                if not _is_spec(value)
-                else value
-            )
-        elif key == "load_force":
-            options[key] = (
-                parse_quantity(value, "N", "input.load_force") if not _is_spec(value) else value
-            )
-        elif key == "fs":
-            options[key] = parse_quantity(value, "Hz", "input.fs")
-        elif key == "rtol":
-            options[key] = check_rtol(value, "input.rtol")
-        elif key == "solver":
-            if not isinstance(value, str):
-                raise ParameterError(f"input.solver = {value!r} must be a solver name")
-            options[key] = value
-        else:
-            options[key] = value
+    duration, model, u, options = _parse_input(data.get("input", {}))
     check_samples(float(duration), float(options.get("fs", 2000.0)), "input.duration")
     as_signal(u, "", "u")  # a malformed command spec fails here, not in every case
     if "load_force" in options:
@@ -303,6 +256,63 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:  # noqa
             "run in one sweep: split it, or draw fewer random cases"
         )
     return spec
+
+
+def _parse_grid(grid_table: Any, base: SystemParams) -> dict[str, list[float]]:
+    """[grid]: 'group.field' = [values] in SI, each value checked against ``base``."""
+    grid = {}
+    if not isinstance(grid_table, dict):
+        raise ParameterError("[grid] must be a table of 'group.field' = [values]")
+    for key, values in grid_table.items():
+        _g, _f, unit = _field_unit(key)
+        vals = values if isinstance(values, list) else [values]
+        if not vals:
+            raise ParameterError(f"[grid] {key!r} is an empty list; give at least one value")
+        grid[key] = [parse_quantity(v, unit or "", key) for v in vals]
+        for v in grid[key]:  # each value must make valid parameters on its own
+            try:
+                apply_overrides(base, {key: v})
+            except ParameterError as exc:
+                raise ParameterError(f"[grid] {key!r}: {exc}") from None
+    return grid
+
+
+def _parse_input(inp_table: Any) -> tuple[float, str, Any, dict[str, Any]]:
+    """[input]: (duration [s], model, command u, the other simulate options in SI)."""
+    if not isinstance(inp_table, dict):
+        raise ParameterError("[input] must be a table (u, duration, model, fs, rtol, ...)")
+    inp = dict(inp_table)
+    for key in inp:
+        if key not in _INPUT_KEYS:
+            raise _unknown("[input] key", key, _INPUT_KEYS)
+    duration = parse_quantity(inp.pop("duration", 1.0), "s", "input.duration")
+    model = inp.pop("model", "full")
+    if model not in _MODELS:
+        raise ParameterError(f"input.model = {model!r} is unknown; choose {', '.join(_MODELS)}")
+    u = inp.pop("u", 0.0)
+    options: dict[str, Any] = {}
+    for key, value in inp.items():
+        if key == "supply_pressure":
+            options[key] = (
+                parse_quantity(value, "Pa", "input.supply_pressure")
+                if not _is_spec(value)
+                else value
+            )
+        elif key == "load_force":
+            options[key] = (
+                parse_quantity(value, "N", "input.load_force") if not _is_spec(value) else value
+            )
+        elif key == "fs":
+            options[key] = parse_quantity(value, "Hz", "input.fs")
+        elif key == "rtol":
+            options[key] = check_rtol(value, "input.rtol")
+        elif key == "solver":
+            if not isinstance(value, str):
+                raise ParameterError(f"input.solver = {value!r} must be a solver name")
+            options[key] = value
+        else:
+            options[key] = value
+    return duration, model, u, options
 
 
 def _is_spec(value) -> bool:

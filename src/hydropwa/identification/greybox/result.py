@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..._result import ResultMixin, estimate_rows
 from ...params import SystemParams, save_params
 from .._common import OptimizerStatus, ParameterEstimate, SkippedRun
 
@@ -198,7 +199,7 @@ class Identifiability:
 
 
 @dataclasses.dataclass
-class GreyBoxFit:
+class GreyBoxFit(ResultMixin):
     """Result of :func:`fit_model`.
 
     Attributes
@@ -307,6 +308,15 @@ class GreyBoxFit:
     def __repr__(self) -> str:
         vals = ", ".join(f"{n}={e.value:.4g}" for n, e in self.estimates_.items())
         return f"GreyBoxFit({self.model}, {vals}, cost={self.cost:.4g}, success={self.success})"
+
+    def _summary_rows(self) -> list[tuple[str, Any, str]]:  # result protocol
+        return estimate_rows(self.estimates_)
+
+    def plot(self, run: str | None = None, *, ax: Any = None) -> Any:
+        """Measured and fitted channels of one run (:func:`hydropwa.plotting.plot_greybox_fit`)."""
+        from ...plotting import plot_greybox_fit  # deferred: matplotlib loads only when plotting
+
+        return plot_greybox_fit(self, run, ax=ax)
 
     def to_pandas(self):
         """One row per free parameter: value, std, interval, inflation, weak and widened flags,
