@@ -17,6 +17,7 @@ from ._signals import (
     parse_signal,
 )
 from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
+from ._small_signal import FullSmallSignal, full_point_derivatives, full_small_signal
 from ._status import SolverStats, SolverStatus
 from ._warmup import WarmUp, set_auto_warmup, warm_up
 
@@ -25,6 +26,7 @@ __all__ = [
     "Chirp",
     "DEFAULT_RTOL",
     "FmuBuildError",
+    "FullSmallSignal",
     "Constant",
     "Ramp",
     "SUMMARY_COLUMNS",
@@ -38,6 +40,8 @@ __all__ = [
     "WarmUp",
     "as_signal",
     "export_axis_fmu",
+    "full_point_derivatives",
+    "full_small_signal",
     "pack_signals",
     "parse_signal",
     "set_compile_notice",
