@@ -447,7 +447,7 @@ def simulate_command(
         seed=seed,
     )
     res.save(out, overwrite=True)  # checked with --force above
-    m = tracking_metrics(res)
+    m = tracking_metrics(res).display()
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)
