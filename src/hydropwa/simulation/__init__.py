@@ -4,6 +4,7 @@ from ._axis_fmu import export_axis_fmu
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
 from ._fmu import FmuBuildError
 from ._kernel import set_compile_notice
+from ._notice import ENV_NOTICE, default_compile_notice, install_default_notice
 from ._signals import (
     Chirp,
     Constant,
@@ -45,9 +46,14 @@ __all__ = [
     "pack_signals",
     "parse_signal",
     "set_compile_notice",
+    "default_compile_notice",
+    "ENV_NOTICE",
     "simulate",
     "simulate_batch",
     "set_auto_warmup",
     "summarize",
     "warm_up",
 ]
+
+# a first simulate on a fresh installation says that it compiles (docs/performance.md)
+install_default_notice()
