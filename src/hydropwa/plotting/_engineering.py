@@ -175,8 +175,9 @@ def plot_error_bound_map(bounds: Any, *, ax: Axes | None = None) -> Any:
     """Heat map of the PWA model's guaranteed Ṗ_L error bound [bar/s] per cell.
 
     One panel per flow direction (extending s = +1, retracting s = −1); rows the load-pressure
-    cells (their P_L range in bar), columns the friction cells (their velocity range in
-    mm/s); each entry the largest bound over the dead-zone cells; logarithmic colour scale.
+    cells (their P_L range in bar), columns the command (dead-zone) cells (their range of u in
+    %); each entry the largest bound over the friction cells (Ṗ_L does not depend on them),
+    written in the cell; logarithmic colour scale.
 
     Parameters
     ----------
@@ -188,28 +189,43 @@ def plot_error_bound_map(bounds: Any, *, ax: Axes | None = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
-    fig, axes = new_figure(1, 2, ax=ax, figsize=(10.0, 4.6))
+    fig, axes = new_figure(1, 2, ax=ax, figsize=(10.0, 4.8))
     b = bounds
-    pos = b["error_bound"][b["error_bound"] > 0]
-    norm = (
-        LogNorm(vmin=max(float(pos.min()), 1e-12) / 1e5, vmax=float(pos.max()) / 1e5)
-        if len(pos)
-        else None
-    )
+    grids = {}
+    for s in (1, -1):
+        part = b[b["s"] == s]
+        if not part.empty:
+            grids[s] = (part, part.groupby(["o", "g"])["error_bound"].max().unstack("g") / 1e5)
+    vals: Any = np.concatenate([g.to_numpy().ravel() for _, g in grids.values()]) if grids else []
+    vals = np.asarray(vals, float)
+    vals = vals[np.isfinite(vals) & (vals > 0)]
+    norm = LogNorm(vmin=float(vals.min()), vmax=float(vals.max())) if vals.size else None
     im = None
     for a, s in zip(axes[0], (1, -1), strict=True):
-        part = b[b["s"] == s]
-        if part.empty:
+        if s not in grids:
             a.set_visible(False)
             continue
-        grid = part.groupby(["o", "w"])["error_bound"].max().unstack("w") / 1e5
-        p_rng = part.groupby("o")[["p_l_lo", "p_l_hi"]].agg({"p_l_lo": "min", "p_l_hi": "max"})
-        v_rng = part.groupby("w")[["v_lo", "v_hi"]].agg({"v_lo": "min", "v_hi": "max"})
-        im = a.imshow(grid.to_numpy(), aspect="auto", origin="lower", norm=norm, cmap="viridis")
+        part, grid = grids[s]
+        p_rng = part.groupby("o").agg(lo=("p_l_lo", "min"), hi=("p_l_hi", "max"))
+        u_rng = part.groupby("g").agg(lo=("u_lo", "min"), hi=("u_hi", "max"))
+        data = grid.to_numpy(float)
+        im = a.imshow(data, aspect="auto", origin="lower", norm=norm, cmap="viridis")
+        for (i, j), v in np.ndenumerate(data):
+            if np.isfinite(v):
+                bright = norm is not None and v > 0 and norm(v) > 0.6  # viridis turns yellow
+                a.text(
+                    j,
+                    i,
+                    f"{v:.3g}",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="k" if bright else "w",
+                )
         a.set_yticks(
             range(len(grid.index)),
             [
-                f"{p_rng.loc[o, 'p_l_lo'] / 1e5:.0f}…{p_rng.loc[o, 'p_l_hi'] / 1e5:.0f}"
+                f"{p_rng.loc[o, 'lo'] / 1e5:.4g} … {p_rng.loc[o, 'hi'] / 1e5:.4g}"
                 for o in grid.index
             ],
             fontsize=7,
@@ -217,14 +233,13 @@ def plot_error_bound_map(bounds: Any, *, ax: Axes | None = None) -> Any:
         a.set_xticks(
             range(len(grid.columns)),
             [
-                f"{v_rng.loc[w, 'v_lo'] * 1e3:.3g}…{v_rng.loc[w, 'v_hi'] * 1e3:.3g}"
-                for w in grid.columns
+                f"{100 * u_rng.loc[g, 'lo']:.3g} … {100 * u_rng.loc[g, 'hi']:.3g}"
+                for g in grid.columns
             ],
-            rotation=90,
-            fontsize=6,
+            fontsize=7,
         )
         a.set_ylabel("P_L cell [bar]")
-        a.set_xlabel("friction cell, ẋ [mm/s]")
+        a.set_xlabel("command cell, u [%]")
         a.set_title("extending (s = +1)" if s > 0 else "retracting (s = −1)", fontsize=9)
     if im is not None:
         fig.colorbar(im, ax=list(axes[0]), label="guaranteed |Ṗ_L error| [bar/s]")
