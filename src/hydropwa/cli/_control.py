@@ -289,7 +289,8 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
-    save_controller(d.controller, out, overwrite=force)
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
