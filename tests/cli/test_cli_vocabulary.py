@@ -250,3 +250,15 @@ def test_one_name_and_one_default_for_out_jobs_and_sampling():
             if opts & {"--fs", "--rate"}:
                 assert p.hidden and "Deprecated name of --sample-time" in p.help, path
     assert seen["--out"] >= 14 and seen["--jobs"] == 3 and seen["--sample-time"] == 3, seen
+
+
+def test_a_result_on_the_default_preset_says_so(tmp_path, capsys):
+    """Without --params a command runs on the paper's rig (the documented default) and ends with
+    one line saying so; with --params, or when it fails, no such line."""
+    args = ["simulate", "--model", "reduced", "--duration", "10 ms"]
+    assert main([*args, "--out", str(tmp_path / "a.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1].startswith("note: no --params given")
+    assert main([*args, "--params", "paper", "--out", str(tmp_path / "b.csv")]) == 0
+    assert main([*args, "--params", "paper", "--out", str(tmp_path / "b.csv")]) == 2
+    assert "note: no --params" not in capsys.readouterr().err

@@ -47,6 +47,7 @@ __all__ = [
     "ParamsOption",
     "JOBS_HELP",
     "SAMPLE_TIME_METAVAR",
+    "default_machine_note",
     "params_source",
     "parse_sample_time",
     "resolve_params",
@@ -128,6 +129,28 @@ def _read_json(path: Path) -> SystemParams:
     return params_from_dict(data, source=str(path))
 
 
+#: Whether the running command fell back to :data:`DEFAULT_PRESET` (no ``--params``).
+_fallback = {"used": False}
+
+
+def default_machine_note(reset: bool = False) -> str | None:
+    """The line a command that ran on the default preset ends with (None if it did not).
+
+    A user with a machine of their own who forgets ``--params`` gets a result on the paper's
+    rig; the command still runs (the preset is the documented default), but says so last.
+    ``reset`` clears the record (before a command runs).
+    """
+    if reset:
+        _fallback["used"] = False
+        return None
+    if not _fallback["used"]:
+        return None
+    return (
+        f"note: no --params given, so this ran on the paper's rig (preset '{DEFAULT_PRESET}'); "
+        "give --params FILE for your own machine"
+    )
+
+
 def resolve_params(source: str | os.PathLike | None, option: str = "--params") -> SystemParams:
     """The parameter set a command line names: a preset, a TOML file or a JSON file.
 
@@ -145,6 +168,7 @@ def resolve_params(source: str | os.PathLike | None, option: str = "--params") -
         One line naming ``source`` and the presets, when it is neither; or the file's error.
     """
     if source is None:
+        _fallback["used"] = True
         return get_preset(DEFAULT_PRESET)
     path = Path(source)
     if not path.is_file():
