@@ -91,7 +91,7 @@ def check_samples(duration: float, fs: float, what: str = "--duration", copies: 
     """
     for name, v, unit in (
         (what, duration, "s"),
-        ("--fs" if what.startswith("--") else "fs", fs, "Hz"),
+        ("--sample-time" if what.startswith("--") else "fs", fs, "Hz"),
     ):
         if not isinstance(v, int | float) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
             raise ParameterError(f"{name} = {v!r} {unit} must be a positive, finite number")

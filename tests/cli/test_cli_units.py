@@ -9,15 +9,48 @@ from hydropwa.data import read_run
 
 
 @pytest.mark.parametrize(
-    "duration, fs, n",
-    [("50 ms", "1 kHz", 51), ("0.05 s", "1000", 51), ("0.05", "2 kHz", 101)],
+    "duration, sampling, n",
+    [("50 ms", "1 kHz", 51), ("0.05 s", "1 ms", 51), ("0.05", "5e-4", 101), ("0.05", "2 kHz", 101)],
 )
-def test_simulate_takes_duration_and_rate_with_units(tmp_path, duration, fs, n):
+def test_simulate_takes_duration_and_sampling_with_units(tmp_path, duration, sampling, n):
+    """--sample-time takes a period or a rate; a plain number is seconds."""
     out = tmp_path / "r.csv"
-    argv = ["simulate", "--model", "reduced", "--duration", duration, "--fs", fs, "--out", str(out)]
-    assert main(argv) == 0
+    argv = ["simulate", "--model", "reduced", "--duration", duration, "--sample-time", sampling]
+    assert main([*argv, "--out", str(out)]) == 0
     run = read_run(out)
     assert run.t.size == n and run.t[-1] == pytest.approx(0.05, rel=1e-12)
+
+
+def test_old_sampling_names_still_work_and_warn(tmp_path, capsys):
+    """--fs (simulate) keeps working, a plain number still in Hz, with one warning line."""
+    out = tmp_path / "r.csv"
+    argv = ["simulate", "--model", "reduced", "--duration", "50 ms", "--fs", "1000"]
+    assert main([*argv, "--out", str(out)]) == 0
+    assert read_run(out).t.size == 51
+    err = capsys.readouterr().err
+    assert "warning: --fs is deprecated" in err and "--sample-time" in err
+    assert main([*argv, "--sample-time", "1 ms", "--out", str(tmp_path / "s.csv")]) == 2
+    assert "give --sample-time only" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "text, seconds",
+    [("0.5 ms", 5e-4), ("2 kHz", 5e-4), ("0.001", 1e-3), ("500 us", 5e-4), ("1 min", 60.0)],
+)
+def test_sample_time_is_a_period_or_a_rate(text, seconds):
+    from hydropwa.cli._options import parse_sample_time, sample_time_source
+
+    assert parse_sample_time(text) == pytest.approx(seconds, rel=1e-12)
+    assert parse_sample_time(sample_time_source(None, "2000", "--rate", "Hz")) == 5e-4
+
+
+@pytest.mark.parametrize("bad", ["0", "-1 ms", "0 Hz", "2 bar", "x", "inf"])
+def test_a_bad_sample_time_is_one_message(bad):
+    from hydropwa import ParameterError
+    from hydropwa.cli._options import parse_sample_time
+
+    with pytest.raises(ParameterError, match=r"--sample-time .*(period|positive)"):
+        parse_sample_time(bad)
 
 
 @pytest.mark.parametrize("bad", ["2 bar", "x", "nan"])

@@ -226,3 +226,39 @@ def test_help_texts_show_no_machine_words():
         for p in cmd.params:
             if "--duration" in getattr(p, "opts", ()):
                 assert p.metavar == "TIME", path
+
+
+def test_one_name_and_one_default_for_out_jobs_and_sampling():
+    """--out/-o always has a default file or folder (nothing overwritten without --force);
+    --jobs/-j always defaults to all cores; sampling is --sample-time PERIOD|RATE, its old
+    names --fs and --rate hidden."""
+    root = typer.main.get_command(app)
+    seen = {"--out": 0, "--jobs": 0, "--sample-time": 0}
+    for path, cmd in _commands(root):
+        for p in cmd.params:
+            opts = set(getattr(p, "opts", ()))
+            if "--out" in opts:
+                seen["--out"] += 1
+                assert "-o" in opts and not p.required and p.default is not None, path
+            if "--jobs" in opts:
+                seen["--jobs"] += 1
+                assert "-j" in opts and p.default is None, path
+                assert _options.JOBS_HELP in p.help, path
+            if "--sample-time" in opts:
+                seen["--sample-time"] += 1
+                assert p.metavar == _options.SAMPLE_TIME_METAVAR, path
+            if opts & {"--fs", "--rate"}:
+                assert p.hidden and "Deprecated name of --sample-time" in p.help, path
+    assert seen["--out"] >= 14 and seen["--jobs"] == 3 and seen["--sample-time"] == 3, seen
+
+
+def test_a_result_on_the_default_preset_says_so(tmp_path, capsys):
+    """Without --params a command runs on the paper's rig (the documented default) and ends with
+    one line saying so; with --params, or when it fails, no such line."""
+    args = ["simulate", "--model", "reduced", "--duration", "10 ms"]
+    assert main([*args, "--out", str(tmp_path / "a.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1].startswith("note: no --params given")
+    assert main([*args, "--params", "paper", "--out", str(tmp_path / "b.csv")]) == 0
+    assert main([*args, "--params", "paper", "--out", str(tmp_path / "b.csv")]) == 2
+    assert "note: no --params" not in capsys.readouterr().err

@@ -124,13 +124,28 @@ def test_a_manifests_machine_entry(tmp_path, heavy):
 def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
     ctrl = tmp_path / "pi.toml"
     assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
-    if machine is not None:
-        import tomllib
+    import tomllib
 
-        doc = tomllib.loads(ctrl.read_text())
+    doc = tomllib.loads(ctrl.read_text())
+    if machine is None:  # a file that records only the areas and stroke (hand-written, schema 2)
+        del doc["machine"]["parameters"]
+    else:
         doc["machine"]["parameters"] = machine
-        ctrl.write_text(tomli_w.dumps(doc))
+    ctrl.write_text(tomli_w.dumps(doc))
     return ctrl
+
+
+def test_control_design_writes_its_machine_for_control_simulate(tmp_path):
+    """design --params M writes M as [machine.parameters]; simulate then runs on M without
+    --params (a new user's two commands, issue 37), and refuses another machine."""
+    low = get_preset("paper").replace(**{"supply.pressure": 60e5})
+    save_params(low, tmp_path / "low.toml")
+    ctrl, out = tmp_path / "pi.toml", tmp_path / "run.csv"
+    design = ["control", "design", "--method", "pi", "--params", str(tmp_path / "low.toml")]
+    assert main([*design, "--out", str(ctrl)]) == 0
+    args = ["--reference", "steps:0=100 mm,0.05=110 mm", "--duration", "0.2", "--model", "reduced"]
+    assert main(["control", "simulate", "--controller", str(ctrl), "--out", str(out), *args]) == 0
+    assert read_run(out).meta["inputs"]["p_s"]["value"] == pytest.approx(60e5, rel=1e-12)
 
 
 def test_control_simulate_takes_the_machine_from_the_controller_file(tmp_path, capsys):

@@ -128,8 +128,8 @@ def test_dead_zone_inverse_removes_the_dead_band_error(paper):
         reference=ref,
         initial_position=0.1,
     )
-    e_plain = tracking_metrics(plain, 0.01)["steady_state_error"] * 1e-3
-    e_inv = tracking_metrics(inv, 0.01)["steady_state_error"] * 1e-3
+    e_plain = tracking_metrics(plain, 0.01).steady_state_error
+    e_inv = tracking_metrics(inv, 0.01).steady_state_error
     assert 0.5 * band < e_plain <= 1.05 * band
     assert abs(e_inv) <= 1.05 * dzi.width / KP
     assert dzi.width == pytest.approx(0.01 * prm.dead_zone.beta)
@@ -222,12 +222,12 @@ def test_anti_windup_bounds_the_overshoot_after_a_saturating_step(linear_valve):
             reference=f"step:time=0.01,before=0.05,after={0.05 + step}",
         )
         out[aw] = tracking_metrics(r, 0.01)
-    assert out["linear"]["saturation"] == 0.0 and out["clamp"]["saturation"] > 5.0
-    small = out["linear"]["overshoot"]
-    assert 5.0 < small < 20.0
-    assert out["clamp"]["overshoot"] < small
-    assert out["back-calculation"]["overshoot"] < small
-    assert out["none"]["overshoot"] > 2.0 * small
+    assert out["linear"].saturation == 0.0 and out["clamp"].saturation > 0.05
+    small = out["linear"].overshoot
+    assert 0.05 < small < 0.20
+    assert out["clamp"].overshoot < small
+    assert out["back-calculation"].overshoot < small
+    assert out["none"].overshoot > 2.0 * small
 
 
 def test_one_sample_delay_shifts_the_applied_command(linear_valve):

@@ -231,7 +231,40 @@ def test_pi_design_meets_its_margins_and_tracks_on_the_full_model(paper):
         reference=as_reference("trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05"),
     )
     m = tracking_metrics(r)
-    assert m["max_following_error"] < 2.0 and abs(m["steady_state_error"]) < 0.1
+    assert m.max_following_error < 2e-3 and abs(m.steady_state_error) < 1e-4
+
+
+def test_tracking_metrics_are_an_si_object_with_a_table_view(paper):
+    """A step on the reduced model under a P controller: the metrics are in SI units, the
+    display view in mm/ms/% is the former dict, and the former dict access still works with a
+    DeprecationWarning."""
+    from hydropwa.control import METRIC_UNITS, PIController, TrackingMetrics
+
+    r = simulate(
+        "reduced",
+        params=paper,
+        duration=0.3,
+        controller=PIController(kp=300.0),
+        initial_position=0.1,
+        reference="step:time=0.01,before=0.1,after=0.102",
+    )
+    m = tracking_metrics(r, 0.01)
+    assert isinstance(m, TrackingMetrics) and m.window == pytest.approx((0.01, 0.3))
+    assert m.step == pytest.approx(2e-3, rel=1e-12)  # metres, not millimetres
+    shown = m.display()
+    assert set(shown) == set(METRIC_UNITS) == set(m.UNITS)
+    for k, v in shown.items():
+        si = getattr(m, k)
+        factor = {"mm": 1e3, "ms": 1e3, "%": 100.0, "mm·s": 1e3}.get(METRIC_UNITS[k], 1.0)
+        assert v == pytest.approx(si * factor, nan_ok=True)
+    assert 0.0 <= m.overshoot < 0.5 and 0.0 < m.rise_time < 0.3 and abs(m.steady_state_error) < 5e-4
+    df = m.to_pandas()
+    assert df.loc["rise_time", "unit"] == "s" and df.loc["rise_time", "display unit"] == "ms"
+    assert "rise_time" in repr(m) and "<table>" in m._repr_html_()
+    with pytest.warns(DeprecationWarning, match="TrackingMetrics object in SI"):
+        assert m["rise_time"] == pytest.approx(1e3 * m.rise_time)
+    with pytest.warns(DeprecationWarning):
+        assert list(m.keys()) == list(shown)
 
 
 def test_cli_design_and_simulate(tmp_path, capsys):

@@ -77,3 +77,26 @@ def test_every_stage_warning_is_shown_in_its_section(small_study):
         import html
 
         assert page.count(html.escape(note)) >= 2, note  # in its section and in the notes
+
+
+def test_the_engineering_section_shows_written_figures(small_study):
+    """Bode, pole map, per-cell margins and the error-bound map are in the report, and every
+    file their captions and texts name is written."""
+    out = small_study.out
+    page = (out / "index.html").read_text()
+    sec = page[page.index("Small signal, poles and margins</h2>") :]
+    sec = sec[: sec.index("<h2>")]
+    for title in (
+        "Small-signal Bode plot",
+        "Pole map with the valve",
+        "Per-cell margins",
+        "Error-bound map",
+    ):
+        assert f"<h3>{title}</h3>" in sec
+    assert "could not" not in sec and '<p class="small">(' not in sec  # nothing fell back
+    named = set(re.findall(r"((?:figures|tables)/[\w.]+\.(?:png|svg|csv))", sec))
+    assert len(named) >= 10
+    for rel in named:
+        assert (out / rel).is_file(), rel
+    m = re.search(r"differ by at most ([\d.]+) % in magnitude and ([\d.]+)° in phase", sec)
+    assert m and float(m.group(1)) < 3.0 and float(m.group(2)) < 3.0

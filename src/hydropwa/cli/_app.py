@@ -128,7 +128,9 @@ def exit_code(exc: BaseException) -> int:
         error_line(os_error_message(exc))
         return 2
     if isinstance(exc, MemoryError):
-        error_line("out of memory; ask for less (shorter --duration, lower --fs, fewer cases)")
+        error_line(
+            "out of memory; ask for less (shorter --duration, longer --sample-time, fewer cases)"
+        )
         return 2
     if isinstance(exc, RecursionError):
         error_line(

@@ -17,7 +17,14 @@ import typer
 from .._errors import PwaError
 from .._io import check_output
 from ._app import new_app
-from ._options import MachineParamsOption, ParamsOption, resolve_params
+from ._options import (
+    SAMPLE_TIME_METAVAR,
+    MachineParamsOption,
+    ParamsOption,
+    parse_sample_time,
+    resolve_params,
+    sample_time_source,
+)
 
 __all__ = ["app", "design_command", "simulate_command", "export_command"]
 
@@ -161,25 +168,16 @@ def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str,
     return out
 
 
-def _sample_time(rate: str) -> float:
-    from ..control import (
-        ControlError,  # deferred: loaded only when this command runs (a fast --help)
-    )
-    from ..params import (
-        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
-    )
-
-    f = parse_quantity(rate, "Hz", "--rate")
-    if not f > 0:
-        raise ControlError(f"--rate {rate!r} must be a positive rate, e.g. '2 kHz'")
-    return 1.0 / f
+def _sample_time(sample_time: str | None, rate: str | None) -> float:
+    """T_s [s] from ``--sample-time`` (or its old name ``--rate``); default 0.5 ms (2 kHz)."""
+    return parse_sample_time(sample_time_source(sample_time, rate, "--rate", "Hz") or "0.5 ms")
 
 
 @app.command("design")
 def design_command(
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Controller file to write (.toml or .json).")
-    ],
+    ] = Path("controller.toml"),
     params: ParamsOption = None,
     pwa: Annotated[
         Path | None, typer.Option("--pwa", help="Design on this PWA JSON document instead.")
@@ -187,9 +185,18 @@ def design_command(
     method: Annotated[
         str, typer.Option("--method", help="lqr (per cell), place (per cell) or pi.")
     ] = "lqr",
+    sample_time: Annotated[
+        str | None,
+        typer.Option(
+            "--sample-time",
+            metavar=SAMPLE_TIME_METAVAR,
+            help="Controller sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms).",
+        ),
+    ] = None,
     rate: Annotated[
-        str, typer.Option("--rate", help="Controller sample rate, e.g. '2 kHz'.")
-    ] = "2 kHz",
+        str | None,
+        typer.Option("--rate", hidden=True, help="Deprecated name of --sample-time."),
+    ] = None,
     delay: Annotated[
         bool,
         typer.Option(
@@ -259,7 +266,7 @@ def design_command(
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
     model = _pwa_model(params, pwa)
-    ts = _sample_time(rate)
+    ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
     if method not in ("lqr", "place", "pi"):
         raise ControlError(f"--method {method!r} must be lqr, place or pi")
@@ -282,7 +289,8 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
-    save_controller(d.controller, out, overwrite=force)
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
@@ -440,7 +448,7 @@ def simulate_command(
         seed=seed,
     )
     res.save(out, overwrite=True)  # checked with --force above
-    m = tracking_metrics(res)
+    m = tracking_metrics(res).display()
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)

@@ -13,7 +13,13 @@ from .._errors import ParameterError, SignalError
 from .._io import check_output
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
-from ._options import ParamsOption, resolve_params
+from ._options import (
+    SAMPLE_TIME_METAVAR,
+    ParamsOption,
+    parse_sample_time,
+    resolve_params,
+    sample_time_source,
+)
 
 __all__ = ["app", "params_app", "simulate_command"]
 
@@ -136,9 +142,17 @@ def simulate_command(
         str | None,
         typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
     ] = None,
+    sample_time: Annotated[
+        str | None,
+        typer.Option(
+            "--sample-time",
+            metavar=SAMPLE_TIME_METAVAR,
+            help="Output sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms).",
+        ),
+    ] = None,
     fs: Annotated[
-        str, typer.Option("--fs", metavar="RATE", help="Output rate [Hz], e.g. '2 kHz'.")
-    ] = "2000",
+        str | None, typer.Option("--fs", hidden=True, help="Deprecated name of --sample-time.")
+    ] = None,
     rtol: Annotated[
         float,
         typer.Option(
@@ -191,7 +205,8 @@ def simulate_command(
         raise SignalError("give either --input or --input-file, not both")
     prm = resolve_params(params)
     duration_s = None if duration is None else parse_quantity(duration, "s", "--duration")
-    fs_hz = parse_quantity(fs, "Hz", "--fs")
+    sampling = sample_time_source(sample_time, fs, "--fs", "Hz") or "0.5 ms"
+    fs_hz = round(1.0 / parse_sample_time(sampling), 9)  # '0.5 ms' → exactly 2000 Hz
     u: Sampled | str
     if input_file is not None:
         from ..data import read_run  # deferred: loaded only when this command runs (a fast --help)

@@ -22,7 +22,9 @@ app = new_app("export", help="Export the model for other tools (FMI).")
 
 @app.command("fmu")
 def fmu_command(
-    out: Annotated[Path, typer.Option("--out", "-o", help="The FMU file to write (.fmu).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The FMU file to write (.fmu).")] = Path(
+        "axis.fmu"
+    ),
     params: MachineParamsOption = None,
     x0: Annotated[
         str | None,

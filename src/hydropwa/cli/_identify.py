@@ -325,7 +325,10 @@ def model(
     loss: Annotated[
         str, typer.Option("--loss", help="linear, soft_l1, huber, cauchy or arctan.")
     ] = "linear",
-    jobs: Annotated[int | None, typer.Option("--jobs", help="Threads (default all cores).")] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option("--jobs", "-j", min=1, max=1024, help="Threads (default: all cores)."),
+    ] = None,
     sliding: Annotated[
         bool,
         typer.Option(

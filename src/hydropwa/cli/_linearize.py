@@ -14,7 +14,7 @@ import typer
 from hydropwa._errors import PwaError
 
 from ._app import new_app
-from ._options import ParamsOption, resolve_params
+from ._options import SAMPLE_TIME_METAVAR, ParamsOption, parse_sample_time, resolve_params
 
 __all__ = ["app", "linearize_command", "parse_cells"]
 
@@ -82,7 +82,7 @@ def linearize_command(
         if supply_pressure is None
         else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
     )
-    dt = None if sample_time is None else parse_quantity(sample_time, "s", "--sample-time")
+    dt = None if sample_time is None else parse_sample_time(sample_time)
     tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
     chamber = form == "chamber"
     if chamber and (tol is not None or figures is not None or tables is not None):
@@ -167,7 +167,9 @@ def linearize_command(
 
 @app.command("linearize")
 def _run(
-    out: Annotated[Path, typer.Option("--out", "-o", help="PWA JSON document to write.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PWA JSON document to write.")] = Path(
+        "pwa.json"
+    ),
     params: ParamsOption = None,
     supply_pressure: Annotated[
         str | None, typer.Option("--supply-pressure", help='Fixed P_S, e.g. "95 bar".')
@@ -193,7 +195,12 @@ def _run(
         bool, typer.Option("--scheduled", help="Cells follow the P_S(t) input.")
     ] = False,
     sample_time: Annotated[
-        str | None, typer.Option("--sample-time", help='ZOH-discretise the cells, e.g. "1 ms".')
+        str | None,
+        typer.Option(
+            "--sample-time",
+            metavar=SAMPLE_TIME_METAVAR,
+            help="ZOH-discretise the cells: a period ('1 ms') or a rate ('1 kHz').",
+        ),
     ] = None,
     figures: Annotated[
         Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")
@@ -253,7 +260,7 @@ def _run(
             parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
         )
 
-        dt = parse_quantity(sample_time, "s", "--sample-time")
+        dt = parse_sample_time(sample_time)
         if not (0.0 < dt <= 1.0):
             raise PwaError(f"--sample-time {sample_time!r} must be in (0, 1] s, e.g. '1 ms'")
     if units not in ("si", "engineering"):

@@ -6,11 +6,20 @@ one, and :func:`resolve_params` is the one function that reads it: a preset name
 ``SystemParams.to_dict`` writes it, or a PWA JSON export, whose parameters are used).
 ``--base-params`` is the old name used by ``identify``: hidden, still accepted, with one
 ``warning:`` line (:func:`params_source`).
+
+``--sample-time PERIOD|RATE`` is the one name for a sampling interval (the simulated output's,
+a controller's, the discretised PWA cells'): a period (``0.5 ms``; a plain number is seconds)
+or a rate (``2 kHz``), read by :func:`parse_sample_time`. ``--fs`` (``simulate``) and
+``--rate`` (``control design``) are its old names: hidden, still accepted, with one
+``warning:`` line (:func:`sample_time_source`). ``--jobs/-j`` defaults to all cores and
+``--out/-o`` to a fixed name in the working folder on every command (nothing is overwritten
+without ``--force``).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Annotated
@@ -18,7 +27,14 @@ from typing import Annotated
 import typer
 
 from .._errors import ParameterError
-from ..params import PRESETS, SystemParams, get_preset, load_params, params_from_dict
+from ..params import (
+    PRESETS,
+    SystemParams,
+    get_preset,
+    load_params,
+    params_from_dict,
+    parse_quantity,
+)
 
 __all__ = [
     "BaseParamsAlias",
@@ -29,9 +45,19 @@ __all__ = [
     "PARAMS_METAVAR",
     "PRESET_NAMES",
     "ParamsOption",
+    "JOBS_HELP",
+    "SAMPLE_TIME_METAVAR",
+    "default_machine_note",
     "params_source",
+    "parse_sample_time",
     "resolve_params",
+    "sample_time_source",
 ]
+
+#: How help texts show the value of ``--sample-time``.
+SAMPLE_TIME_METAVAR = "PERIOD|RATE"
+#: The help ending of every ``--jobs/-j`` (default ``None``: all cores).
+JOBS_HELP = "(default: all cores)"
 
 #: Default when ``--params`` is not given.
 DEFAULT_PRESET = "paper"
@@ -103,6 +129,28 @@ def _read_json(path: Path) -> SystemParams:
     return params_from_dict(data, source=str(path))
 
 
+#: Whether the running command fell back to :data:`DEFAULT_PRESET` (no ``--params``).
+_fallback = {"used": False}
+
+
+def default_machine_note(reset: bool = False) -> str | None:
+    """The line a command that ran on the default preset ends with (None if it did not).
+
+    A user with a machine of their own who forgets ``--params`` gets a result on the paper's
+    rig; the command still runs (the preset is the documented default), but says so last.
+    ``reset`` clears the record (before a command runs).
+    """
+    if reset:
+        _fallback["used"] = False
+        return None
+    if not _fallback["used"]:
+        return None
+    return (
+        f"note: no --params given, so this ran on the paper's rig (preset '{DEFAULT_PRESET}'); "
+        "give --params FILE for your own machine"
+    )
+
+
 def resolve_params(source: str | os.PathLike | None, option: str = "--params") -> SystemParams:
     """The parameter set a command line names: a preset, a TOML file or a JSON file.
 
@@ -120,6 +168,7 @@ def resolve_params(source: str | os.PathLike | None, option: str = "--params") -
         One line naming ``source`` and the presets, when it is neither; or the file's error.
     """
     if source is None:
+        _fallback["used"] = True
         return get_preset(DEFAULT_PRESET)
     path = Path(source)
     if not path.is_file():
@@ -136,3 +185,49 @@ def resolve_params(source: str | os.PathLike | None, option: str = "--params") -
         return load_params(path)
     except RecursionError:
         raise ParameterError(f"{source}: nested too deeply to be a parameter file") from None
+
+
+def parse_sample_time(text: str, option: str = "--sample-time") -> float:
+    """A sampling interval [s] from a period (``"0.5 ms"``, a plain number in s) or a rate
+    (``"2 kHz"``).
+
+    Raises
+    ------
+    ParameterError
+        One line when ``text`` is neither, or not positive.
+    """
+    try:
+        dt = parse_quantity(text, "s", option)
+    except ParameterError:
+        try:
+            rate = parse_quantity(text, "Hz", option)
+        except ParameterError:
+            raise ParameterError(
+                f"{option} {text!r} is neither a period nor a rate; give e.g. '0.5 ms' or '2 kHz'"
+            ) from None
+        dt = 1.0 / rate if rate > 0 else -1.0
+    if not (math.isfinite(dt) and dt > 0):
+        raise ParameterError(f"{option} {text!r} must be positive, e.g. '0.5 ms' or '2 kHz'")
+    return dt
+
+
+def sample_time_source(
+    sample_time: str | None, old: str | None, old_name: str, old_unit: str
+) -> str | None:
+    """``--sample-time``, or its deprecated old name (``--fs``, ``--rate``) with one ``warning:``
+    line on stderr; a plain number given to the old name keeps that name's unit (Hz)."""
+    if old is None:
+        return sample_time
+    if sample_time is not None:
+        raise ParameterError(
+            f"give --sample-time only; {old_name} is its old name and names the same thing"
+        )
+    typer.echo(
+        f"warning: {old_name} is deprecated and will be removed; use --sample-time "
+        "(a period such as '0.5 ms' or a rate such as '2 kHz')",
+        err=True,
+    )
+    try:
+        return f"{float(old)!r} {old_unit}"
+    except ValueError:
+        return old

@@ -6,6 +6,7 @@ Errors (:class:`~hydropwa.HydropwaError`) go through the CLI's one error path
 
 from __future__ import annotations
 
+import os
 import time
 from enum import StrEnum
 from pathlib import Path
@@ -41,7 +42,7 @@ def run_command(
             "-o",
             help="Output folder: DIR/<experiment>/ datasets and DIR/true_params.toml.",
         ),
-    ],
+    ] = Path("campaign"),
     params: ParamsOption = None,
     campaign: Annotated[
         str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
@@ -51,11 +52,15 @@ def run_command(
         typer.Option("--seed", min=0, help="Campaign seed ≥ 0 (default: the campaign's)."),
     ] = None,
     jobs: Annotated[
-        int,
+        int | None,
         typer.Option(
-            "--jobs", "-j", min=1, max=1024, help="Worker processes (results do not depend on it)."
+            "--jobs",
+            "-j",
+            min=1,
+            max=1024,
+            help="Worker processes; results do not depend on it (default: all cores).",
         ),
-    ] = 1,
+    ] = None,
     force: Annotated[
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")
     ] = False,
@@ -94,7 +99,7 @@ def run_command(
             out,
             experiments=names,
             seed=seed,
-            jobs=jobs,
+            jobs=jobs or os.cpu_count() or 1,
             progress=not quiet,
             overwrite=force,
         )

@@ -42,7 +42,7 @@ from ._io import (
     load_controller,
     save_controller,
 )
-from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
+from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_metrics
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
 from ._target import export_c, export_fmu
@@ -111,4 +111,5 @@ __all__ = [
     "parse_reference",
     "save_controller",
     "tracking_metrics",
+    "TrackingMetrics",
 ]

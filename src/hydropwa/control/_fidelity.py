@@ -117,7 +117,7 @@ def closed_loop_fidelity(
     full = holds.get("full")
     rows = {}
     for name, res in results.items():
-        m = tracking_metrics(res)
+        m = tracking_metrics(res).display()  # the table's units: mm, %
         row: dict[str, float] = {f"hold_{i + 1}": h["p2p"] for i, h in enumerate(holds[name])}
         row["max_hold"] = max((h["p2p"] for h in holds[name]), default=float("nan"))
         ratios = [

@@ -359,13 +359,25 @@ def controller_schema() -> dict[str, Any]:
 
 
 def save_controller(
-    ctrl, path: str | os.PathLike, *, overwrite: bool = False, force: bool | None = None
+    ctrl,
+    path: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    force: bool | None = None,
+    machine_parameters=None,
 ) -> Path:
-    """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``overwrite``."""
+    """Write a controller to ``.toml`` or ``.json`` atomically; refuses to overwrite without ``overwrite``.
+
+    ``machine_parameters`` (a :class:`~hydropwa.params.SystemParams`, optional): the machine
+    the controller was designed for, written as ``[machine.parameters]`` (SI), so that
+    ``hydropwa control simulate`` runs it on that machine without ``--params``.
+    """
     path = Path(path)
     overwrite = overwrite_flag(overwrite, force, "save_controller")
     check_output(path, overwrite)
     d = controller_to_dict(ctrl)
+    if machine_parameters is not None:
+        d.setdefault("machine", {})["parameters"] = machine_parameters.to_dict()
     if path.suffix.lower() == ".json":
         return atomic_write_text(path, json.dumps(d, indent=2) + "\n")
     if path.suffix.lower() == ".toml":

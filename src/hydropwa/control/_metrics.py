@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -13,9 +14,10 @@ from ..simulation import DEFAULT_RTOL, simulate
 from ._controllers import ControlError
 from ._reference import as_reference
 
-__all__ = ["tracking_metrics", "METRIC_UNITS", "compare_models"]
+__all__ = ["TrackingMetrics", "tracking_metrics", "METRIC_UNITS", "compare_models"]
 
-#: Unit of every metric of :func:`tracking_metrics`.
+#: Display (engineering) unit of every metric: :meth:`TrackingMetrics.display`, the tables of
+#: :func:`compare_models` and the report.
 METRIC_UNITS = {
     "step": "mm",
     "rise_time": "ms",
@@ -30,9 +32,135 @@ METRIC_UNITS = {
 }
 
 
+#: SI unit of every field of :class:`TrackingMetrics`, and its factor to the display unit.
+_SI = {
+    "step": ("m", 1e3),
+    "rise_time": ("s", 1e3),
+    "overshoot": ("1", 100.0),
+    "settling_time": ("s", 1e3),
+    "steady_state_error": ("m", 1e3),
+    "iae": ("m·s", 1e3),
+    "max_following_error": ("m", 1e3),
+    "saturation": ("1", 100.0),
+    "cell_switches": ("1", 1.0),
+    "chattering": ("1/s", 1.0),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackingMetrics:
+    """Tracking metrics of a closed-loop run over a window, in SI units.
+
+    Attributes
+    ----------
+    step : float
+        Reference change over the window [m].
+    rise_time : float
+        10 → 90 % of the step [s] (NaN without a step).
+    overshoot : float
+        Beyond the final reference, as a fraction of the step [1].
+    settling_time : float
+        From the window's start until |e| stays within the band [s].
+    steady_state_error : float
+        Mean r − x over the last 10 % of the window [m].
+    iae : float
+        ∫|e| dt [m·s].
+    max_following_error : float
+        max |e| [m].
+    saturation : float
+        Share of the samples with the command at a limit [1].
+    cell_switches : int
+        Changes of the gain row plus the PWA model's own cell changes.
+    chattering : float
+        Sign changes of the applied command per second [1/s] (beyond ±1 % of its range).
+    window : (float, float)
+        [t0, t1] [s].
+
+    Notes
+    -----
+    :meth:`display` gives the values in engineering units (:data:`METRIC_UNITS`: mm, ms, %).
+    Indexing (``m["overshoot"]``), ``keys()``, ``items()`` and ``values()`` are the former
+    dict in those units: deprecated, with a ``DeprecationWarning``.
+    """
+
+    step: float
+    rise_time: float
+    overshoot: float
+    settling_time: float
+    steady_state_error: float
+    iae: float
+    max_following_error: float
+    saturation: float
+    cell_switches: int
+    chattering: float
+    window: tuple[float, float] = (math.nan, math.nan)
+
+    #: SI unit of each metric.
+    UNITS: ClassVar[dict[str, str]] = {k: u for k, (u, _) in _SI.items()}
+
+    def display(self) -> dict[str, float]:
+        """The metrics in engineering units (:data:`METRIC_UNITS`: mm, ms, %, 1/s)."""
+        return {k: float(getattr(self, k)) * f for k, (_, f) in _SI.items()}
+
+    def to_pandas(self):
+        """One row per metric: SI value and unit, display value and unit."""
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+        shown = self.display()
+        return pd.DataFrame(
+            {
+                "value": [float(getattr(self, k)) for k in _SI],
+                "unit": [u for u, _ in _SI.values()],
+                "display": list(shown.values()),
+                "display unit": [METRIC_UNITS[k] for k in _SI],
+            },
+            index=pd.Index(list(_SI), name="metric"),
+        )
+
+    def summary(self) -> str:
+        """One line per metric in engineering units."""
+        return "\n".join(f"{k:<20} {v:>10.4g} {METRIC_UNITS[k]}" for k, v in self.display().items())
+
+    def __repr__(self) -> str:
+        t0, t1 = self.window
+        return f"TrackingMetrics(window {t0:g}…{t1:g} s)\n{self.summary()}"
+
+    def _repr_html_(self) -> str:
+        rows = "".join(
+            f"<tr><td>{k}</td><td>{v:.4g}</td><td>{METRIC_UNITS[k]}</td></tr>"
+            for k, v in self.display().items()
+        )
+        return (
+            "<table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"
+            f"<tbody>{rows}</tbody></table>"
+        )
+
+    # --- the former dict (engineering units), deprecated ------------------------------------
+    def _old(self) -> dict[str, float]:
+        warnings.warn(
+            "tracking metrics are a TrackingMetrics object in SI units; read attributes "
+            "(m.overshoot [1], m.rise_time [s]) or m.display() for the former dict in mm, ms, %",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return self.display()
+
+    def __getitem__(self, key: str) -> float:
+        return self._old()[key]
+
+    def keys(self):
+        return self._old().keys()
+
+    def items(self):
+        return self._old().items()
+
+    def values(self):
+        return self._old().values()
+
+
 def tracking_metrics(
     result, t0: float | None = None, t1: float | None = None, band: float | None = None
-) -> dict[str, float]:
+) -> TrackingMetrics:
     """Tracking metrics of a closed-loop result over the window from t0 to t1 (seconds).
 
     Parameters
@@ -47,10 +175,10 @@ def tracking_metrics(
 
     Returns
     -------
-    dict
-        In :data:`METRIC_UNITS` (engineering units): ``step`` (reference change over the
+    TrackingMetrics
+        In SI units (``display()``: mm, ms, %): ``step`` (reference change over the
         window), ``rise_time`` (10 → 90 % of the step), ``overshoot`` (beyond the final
-        reference, % of the step), ``settling_time`` (from t0 until |e| stays within
+        reference, fraction of the step), ``settling_time`` (from t0 until |e| stays within
         the band), ``steady_state_error`` (mean r − x over the last 10 % of the window),
         ``iae`` (∫|e| dt), ``max_following_error`` (max |e|), ``saturation`` (share of
         samples with the command at a limit), ``cell_switches`` (changes of the gain
@@ -77,14 +205,14 @@ def tracking_metrics(
     r_a, r_b = float(result["reference"][i0]), float(r[-1])
     x_a = float(result["x"][i0])
     step = r_b - r_a
-    out: dict[str, float] = {"step": step * 1e3}
+    out: dict[str, float] = {"step": step}
     nan = math.nan
     if abs(step) > 0:
         prog = (x - x_a) / step  # 0 → 1 along the move
         i10 = np.flatnonzero(prog >= 0.1)
         i90 = np.flatnonzero(prog >= 0.9)
-        out["rise_time"] = float(tt[i90[0]] - tt[i10[0]]) * 1e3 if i10.size and i90.size else nan
-        out["overshoot"] = max(0.0, float(np.max((x - r_b) * np.sign(step)))) / abs(step) * 100.0
+        out["rise_time"] = float(tt[i90[0]] - tt[i10[0]]) if i10.size and i90.size else nan
+        out["overshoot"] = max(0.0, float(np.max((x - r_b) * np.sign(step)))) / abs(step)
         bw = band if band is not None else max(0.02 * abs(step), 5e-5)
         outside = np.flatnonzero(np.abs(x - r_b) > bw)
         if outside.size == 0:
@@ -92,31 +220,30 @@ def tracking_metrics(
         elif outside[-1] == tt.size - 1:
             out["settling_time"] = nan
         else:
-            out["settling_time"] = float(tt[outside[-1] + 1] - a) * 1e3
+            out["settling_time"] = float(tt[outside[-1] + 1] - a)
     else:
         out["rise_time"] = out["overshoot"] = out["settling_time"] = nan
     tail = tt >= b - 0.1 * (b - a)
-    out["steady_state_error"] = float(np.mean(e[tail])) * 1e3
-    out["iae"] = float(np.sum(0.5 * (np.abs(e[1:]) + np.abs(e[:-1])) * np.diff(tt))) * 1e3
-    out["max_following_error"] = float(np.max(np.abs(e))) * 1e3
+    out["steady_state_error"] = float(np.mean(e[tail]))
+    out["iae"] = float(np.sum(0.5 * (np.abs(e[1:]) + np.abs(e[:-1])) * np.diff(tt)))
+    out["max_following_error"] = float(np.max(np.abs(e)))
     ts = ctl["t"]
     ms = (ts >= a - 1e-12) & (ts <= b + 1e-12)
     u = ctl["u"][ms]
     lo, hi = ctl["u_limits"]
     tol = 1e-9 * max(1.0, abs(lo), abs(hi))
-    out["saturation"] = float(np.mean((u <= lo + tol) | (u >= hi - tol))) * 100.0 if u.size else nan
+    out["saturation"] = float(np.mean((u <= lo + tol) | (u >= hi - tol))) if u.size else nan
     rows = ctl["row"][ms]
     switches = int(np.count_nonzero(np.diff(rows) != 0))
     for key in ("cell_g", "cell_o", "cell_n", "cell_w"):
         if key in result.channels:
             switches += int(np.count_nonzero(np.diff(result.channels[key][m]) != 0))
-    out["cell_switches"] = float(switches)
     # a sign change counts between commands beyond ±1 % of the range (hysteresis): the
     # sub-percent dither of a held position is not chattering
     thr = 0.01 * max(abs(lo), abs(hi))
     sg = np.sign(u[np.abs(u) > thr])
     out["chattering"] = float(np.count_nonzero(np.diff(sg) != 0)) / max(b - a, 1e-12)
-    return out
+    return TrackingMetrics(**out, cell_switches=switches, window=(a, b))
 
 
 def compare_models(
@@ -161,7 +288,8 @@ def compare_models(
     -------
     results : dict of SimulationResult
     table : pandas.DataFrame
-        One row per model, columns :data:`METRIC_UNITS` (units in ``attrs['units']``).
+        One row per model, columns :data:`METRIC_UNITS` in those display units (mm, ms, %;
+        units in ``attrs['units']``).
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
@@ -199,7 +327,9 @@ def compare_models(
             rtol=DEFAULT_RTOL if rtol is None else rtol,
         )
     w = window or (None, None)
-    table = pd.DataFrame({name: tracking_metrics(res, *w) for name, res in results.items()}).T
+    table = pd.DataFrame(
+        {name: tracking_metrics(res, *w).display() for name, res in results.items()}
+    ).T
     table.index.name = "model"
     table.attrs["units"] = dict(METRIC_UNITS)
     return results, table

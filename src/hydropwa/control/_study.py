@@ -91,8 +91,8 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         )
     rows = {}
     for name, res in runs.items():
-        m = tracking_metrics(res, 0.05, 1.05)  # the move out, its settling and hold
-        back = tracking_metrics(res, 1.05, _DURATION)
+        m = tracking_metrics(res, 0.05, 1.05).display()  # the move out, its settling and hold
+        back = tracking_metrics(res, 1.05, _DURATION).display()
         m["max_following_error"] = max(m["max_following_error"], back["max_following_error"])
         m["iae"] += back["iae"]
         m["cell_switches"] += back["cell_switches"]

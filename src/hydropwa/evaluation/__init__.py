@@ -7,6 +7,14 @@
 """
 
 from ._compare import compare
+from ._engineering import (
+    BodeComparison,
+    CellLoops,
+    EngineeringError,
+    cell_loops,
+    error_bound_map,
+    small_signal_bode,
+)
 from ._evaluate import (
     CHANNELS,
     MODELS,
@@ -23,6 +31,12 @@ from ._report import write_report
 from ._study import StudyError, StudyResult, run_paper_study
 
 __all__ = [
+    "BodeComparison",
+    "CellLoops",
+    "EngineeringError",
+    "cell_loops",
+    "error_bound_map",
+    "small_signal_bode",
     "CHANNELS",
     "MODELS",
     "EvaluationResult",

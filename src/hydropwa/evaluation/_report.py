@@ -16,6 +16,7 @@ from ..control import METRIC_UNITS, POSITIONING_TASK
 from ..data import read_dataset
 from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
+from ._report_engineering import engineering_section
 
 __all__ = ["write_report", "metrics_for_display"]
 
@@ -516,6 +517,7 @@ corrected for the residuals' autocorrelation. Not written into identified.toml.<
 <h2>Piecewise-affine model (Figs. 1, 2, cells)</h2>
 <p class="small">pwa.json holds the model with one affine system per cell.</p>
 {_figures(out, ("fig01", "fig02", "pwa_cells"))}
+{engineering_section(out)}
 
 <h2>The paper's Tables IV–IX</h2>
 <p class="small">Printed values (typos corrected: docs/errata.md E6, E8) next to the values this

@@ -10,6 +10,12 @@ global state, no backend chosen here, shown inline by Jupyter when returned from
 """
 
 from ._base import DISPLAY, MODEL_STYLE, InlineFigure, moving_average, new_figure, save_figure
+from ._engineering import (
+    plot_cell_margins,
+    plot_error_bound_map,
+    plot_pole_map,
+    plot_small_signal_bode,
+)
 from ._identification import (
     plot_bode,
     plot_dead_zone,
@@ -37,6 +43,10 @@ __all__ = [
     "moving_average",
     "new_figure",
     "plot_bode",
+    "plot_cell_margins",
+    "plot_error_bound_map",
+    "plot_pole_map",
+    "plot_small_signal_bode",
     "plot_cell_occupancy",
     "plot_cell_design",
     "plot_closed_loop",

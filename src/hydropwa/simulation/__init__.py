@@ -4,6 +4,7 @@ from ._axis_fmu import export_axis_fmu
 from ._batch import SUMMARY_COLUMNS, simulate_batch, summarize
 from ._fmu import FmuBuildError
 from ._kernel import set_compile_notice
+from ._notice import ENV_NOTICE, default_compile_notice, install_default_notice
 from ._signals import (
     Chirp,
     Constant,
@@ -17,6 +18,7 @@ from ._signals import (
     parse_signal,
 )
 from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
+from ._small_signal import FullSmallSignal, full_point_derivatives, full_small_signal
 from ._status import SolverStats, SolverStatus
 from ._warmup import WarmUp, set_auto_warmup, warm_up
 
@@ -25,6 +27,7 @@ __all__ = [
     "Chirp",
     "DEFAULT_RTOL",
     "FmuBuildError",
+    "FullSmallSignal",
     "Constant",
     "Ramp",
     "SUMMARY_COLUMNS",
@@ -38,12 +41,19 @@ __all__ = [
     "WarmUp",
     "as_signal",
     "export_axis_fmu",
+    "full_point_derivatives",
+    "full_small_signal",
     "pack_signals",
     "parse_signal",
     "set_compile_notice",
+    "default_compile_notice",
+    "ENV_NOTICE",
     "simulate",
     "simulate_batch",
     "set_auto_warmup",
     "summarize",
     "warm_up",
 ]
+
+# a first simulate on a fresh installation says that it compiles (docs/performance.md)
+install_default_notice()
