@@ -7,6 +7,13 @@
 """
 
 from ._compare import compare
+from ._coverage import (
+    CoverageResult,
+    cell_coverage,
+    coverage_study,
+    load_pressure_coverage,
+    pressure_band_scores,
+)
 from ._evaluate import (
     CHANNELS,
     MODELS,
@@ -25,11 +32,14 @@ from ._study import StudyError, StudyResult, run_paper_study
 __all__ = [
     "CHANNELS",
     "MODELS",
+    "CoverageResult",
     "EvaluationResult",
     "EvaluationStart",
     "EvaluationWarning",
     "StudyError",
+    "cell_coverage",
     "compare",
+    "coverage_study",
     "StudyResult",
     "channel_metrics",
     "drift_per_period",
@@ -37,8 +47,10 @@ __all__ = [
     "evaluate_run",
     "evaluation_params",
     "evaluation_start",
+    "load_pressure_coverage",
     "nrmse_fit",
     "peak_error",
+    "pressure_band_scores",
     "rmse",
     "run_paper_study",
     "write_report",
