@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from ..linearization import linearize
+from ..linearization import ChamberPwaModel, linearize
 from ._controllers import ControlError
 from ._design import DEFAULT_WEIGHTS, design_state_feedback
 from ._fidelity import closed_loop_fidelity
@@ -113,8 +113,6 @@ def design_on_chamber(
         maximum and the full and chamber holds [mm] of the kept design; a warning where a hold
         on the chamber model exceeds ``hold_limit`` or the two models disagree beyond ×1.5.
     """
-    from ..linearization import ChamberPwaModel  # the class, for the check only
-
     if not isinstance(chamber, ChamberPwaModel):
         raise ControlError(
             f"design_on_chamber needs a ChamberPwaModel (linearize(params, form='chamber')), "
