@@ -161,3 +161,37 @@ def test_chamber_model_agrees_on_the_quiet_default_design(heavy):
     assert np.all(full < 0.1), table
     ratio_ok = (ch / full > 1 / 1.5) & (ch / full < 1.5)
     assert np.all(ratio_ok | ((full < 0.1) & (ch < 0.1))), table
+
+
+@pytest.mark.parametrize("machine", ["heavy axis", "paper rig"])
+def test_a_hold_within_50_um_on_the_full_model_is_one_on_pwa_chamber(machine, heavy, paper):
+    """Issue 38: for a controller that the full model holds within 0.05 mm, pwa-chamber also
+    shows ≤ 0.05 mm. The default LQR with a 10× larger integral maximum (1e-3 m·s: weaker
+    integral action) stops the 2 Hz dead-band hunting of the default (0.057-0.063 mm on the
+    heavy axis at 5 kN). Measured: heavy axis full 0.027 / 0.031 / 0.018 mm, pwa-chamber
+    0.028 / 0.036 / 0.016 mm; paper rig full 0.009 / 0.013 / 0.005 mm, pwa-chamber 0.010 /
+    0.011 / 0.003 mm. The integral still removes the offset: mean error ≤ 0.05 mm per hold."""
+    if machine == "heavy axis":
+        prm, pwa, _ = heavy
+        ref, dur, x0 = as_reference(STEPS), 7.0, 0.025
+    else:
+        prm, pwa = paper, linearize(paper)
+        ref = as_reference("steps:0 s=20 mm,0.1 s=150 mm,1.5 s=40 mm,3 s=100 mm")
+        dur, x0 = 4.5, 0.02
+    design = design_state_feedback(pwa, weights={"integral": 1e-3})
+    results, table = closed_loop_fidelity(
+        design.controller,
+        ref,
+        params=prm,
+        pwa=pwa,
+        duration=dur,
+        initial_position=x0,
+        models=("full", "pwa-chamber"),
+    )
+    holds = [c for c in table.columns if c.startswith("hold_")][1:]
+    assert np.all(table.loc["full", holds].to_numpy() <= 0.05), table
+    assert np.all(table.loc["pwa-chamber", holds].to_numpy() <= 0.05), table
+    res = results["full"]
+    for h in hold_oscillations(res)[1:]:
+        sel = (res.t >= h["end"] - 0.25 * (h["end"] - h["start"])) & (res.t <= h["end"])
+        assert abs(np.mean(res["x"][sel] - res["reference"][sel])) <= 0.05e-3, h

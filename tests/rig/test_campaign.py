@@ -23,7 +23,7 @@ def test_paper_campaign_has_the_papers_settings(rig):
     sine = c["sine"]
     assert sine.frequencies == (1.0, 2.0, 3.0) and sine.amplitudes == (0.2, 0.4, 0.6)
     counts = {name: len(plan(exp, rig)) for name, exp in c.experiments.items()}
-    assert counts == {"frf": 125, "deadzone": 78, "friction": 92, "sine": 9}
+    assert counts == {"frf": 125, "deadzone": 78, "friction": 92, "sine": 11}
 
 
 def test_run_names_are_unique(rig):

@@ -95,6 +95,14 @@ def _machine_of(controller: Path):
     )
 
 
+def _design_on_chamber(model, *, method, weights, verify, params, **kw):
+    """``control design --model pwa-chamber``: :func:`hydropwa.control.design_on_chamber`."""
+    from ..control import design_on_chamber  # deferred: loaded only when this command runs
+
+    vkw = {k: kw.pop(k) for k in ("draws", "seed", "sensor_noise", "scheduler")}
+    return design_on_chamber(model, weights=weights, verify=verify, verify_kwargs=vkw, **kw)
+
+
 def _chamber_model(params_src, pwa_file: Path | None):
     """The chamber PWA model: from a ``hydropwa.pwa-chamber/1`` document, or linearized."""
     from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
@@ -221,6 +229,14 @@ def design_command(
     table: Annotated[
         Path | None, typer.Option("--table", help="Also write the per-cell table (CSV).")
     ] = None,
+    model_name: Annotated[
+        str,
+        typer.Option(
+            "--model",
+            "-m",
+            help="Design model: pwa, or pwa-chamber (its integral tuning chosen and checked on the chamber-level model).",
+        ),
+    ] = "pwa",
     verify: Annotated[
         bool,
         typer.Option(
@@ -265,7 +281,11 @@ def design_command(
         check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
-    model = _pwa_model(params, pwa)
+    if model_name not in ("pwa", "pwa-chamber"):
+        raise ControlError(f"--model {model_name!r} must be pwa or pwa-chamber")
+    if model_name == "pwa-chamber" and method != "lqr":
+        raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
+    model = _pwa_model(params, pwa) if model_name == "pwa" else _chamber_model(params, pwa)
     ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
     if method not in ("lqr", "place", "pi"):
@@ -277,7 +297,8 @@ def design_command(
         )
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
-    d = design_controller(
+    design = design_controller if model_name == "pwa" else _design_on_chamber
+    d = design(
         model,
         method=method,
         weights=_weights(weights) if method != "pi" and weights else None,

@@ -40,6 +40,7 @@ __all__ = [
     "load_pressure_rate",
     "asymmetric_load_pressure_rate",
     "chamber_pressures_from_load",
+    "load_pressure_range",
     "chamber_pressure_difference_slopes",
     "load_capacitance",
     "load_capacitance_slope",
@@ -319,6 +320,30 @@ def chamber_pressures_from_load(
     if z >= 0.0:
         return p_s - drop, p_t + alpha * alpha * drop
     return p_t + drop, p_s - alpha * alpha * drop
+
+
+def load_pressure_range(
+    direction: int, p_s: float, alpha: float = 1.0, p_t: float = 0.0
+) -> tuple[float, float]:
+    """Load pressures P_L = P_A − α P_B [Pa] at which the valve meters steadily in one direction
+    with both chambers between tank and supply pressure.
+
+    Along :func:`chamber_pressures_from_load` the edge drop Δp runs from 0 (the cylinder
+    stalls: P_L = P_S − α P_T extending, P_T − α P_S retracting) to the drop at which one
+    chamber reaches tank or supply pressure, Δp_max = (P_S − P_T)·min(1, 1/α²):
+
+    - extension (``direction`` > 0): [P_S − α P_T − (1 + α³) Δp_max, P_S − α P_T];
+    - retraction (``direction`` < 0): [P_T − α P_S, P_T − α P_S + (1 + α³) Δp_max].
+
+    With P_T = 0 and α ≤ 1: [−α³ P_S, P_S] and [−α P_S, (1 − α + α³) P_S]; α = 1 gives the
+    paper's |P_L| ≤ P_S (Eq. (13)) in both directions. Beyond the lower end extending (upper
+    end retracting) the chamber that is filled cavitates (exceeds the supply pressure).
+    """
+    a3 = 1.0 + alpha * alpha * alpha
+    span = a3 * (p_s - p_t) * min(1.0, 1.0 / (alpha * alpha))
+    if direction > 0:
+        return p_s - alpha * p_t - span, p_s - alpha * p_t
+    return p_t - alpha * p_s, p_t - alpha * p_s + span
 
 
 @njit(**_JIT)

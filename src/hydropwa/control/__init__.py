@@ -32,6 +32,7 @@ from ._design import (
     design_state_feedback,
     design_textbook_pi,
 )
+from ._design_chamber import design_on_chamber
 from ._fidelity import FIDELITY_MODELS, closed_loop_fidelity, hold_oscillations
 from ._io import (
     SCHEMA,
@@ -78,6 +79,7 @@ __all__ = [
     "VerificationCriteria",
     "VerificationTask",
     "design_controller",
+    "design_on_chamber",
     "design_textbook_pi",
     "check_machine",
     "closed_loop_warnings",

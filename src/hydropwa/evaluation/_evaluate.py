@@ -218,7 +218,7 @@ class EvaluationResult(DerivedResult):
         ``drift_model`` [m per period].
     cell_metrics : pandas.DataFrame
         PWA variants: per nonlinearity (``g``, ``o``, ``n``, ``w``; pwa-chamber: ``g``, ``qa``,
-        ``qb``, ``x``, ``w``) and cell, the fraction of time active and the RMSE of x [m] and
+        ``qb``, ``x``, ``w``) and cell, the samples and fraction of time active and the RMSE of x [m] and
         p_l, p_a, p_b [Pa] while it is active (the cell coverage and the fit per cell).
     supply_pressure : float
         Average measured (or assumed) P_S [Pa] given to the paper-style variants.
@@ -449,6 +449,7 @@ def _cell_rows(run_name, meas, sims) -> list[dict]:
                         "model": model,
                         "set": key[5:],
                         "cell": int(c),
+                        "samples": int(np.count_nonzero(sel)),
                         "fraction": float(np.mean(sel)),
                         "rmse_x": float(np.sqrt(np.mean(ex[sel] ** 2))),
                         "rmse_p_l": float(np.sqrt(np.mean(ep[sel] ** 2))),
@@ -535,6 +536,7 @@ def evaluate_run(
                 "model",
                 "set",
                 "cell",
+                "samples",
                 "fraction",
                 "rmse_x",
                 "rmse_p_l",

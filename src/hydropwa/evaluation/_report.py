@@ -17,6 +17,7 @@ from ..data import read_dataset
 from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
 from ._report_engineering import engineering_section
+from ._report_coverage import coverage_section
 
 __all__ = ["write_report", "metrics_for_display"]
 
@@ -489,6 +490,8 @@ reference.</p>
 {_table(_percent(fit_detrended), "position fit [%] with linear trends removed")}
 
 {_paper_forms_section(metrics, fit, fit_detrended)}
+
+{coverage_section(out, _table)}
 
 <h2>Supply pressure (Fig. 9)</h2>
 {_fig9(out, info)}

@@ -51,6 +51,7 @@ from ..models import FullOrderModel
 from ..params import SystemParams, get_preset, load_params, params_to_toml
 from ..rig import Rig, load_campaign, run_campaign
 from ..simulation import WarmUp
+from ._coverage import coverage_study
 from ._evaluate import evaluate_run, evaluation_params, sound_runs
 from ._report import write_report
 from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
@@ -60,7 +61,7 @@ __all__ = ["StudyError", "StudyResult", "run_paper_study", "EXPERIMENT_NAMES", "
 #: Dataset sub-folders of a study's data (the rig's layout).
 EXPERIMENT_NAMES = ("frf", "deadzone", "friction", "sine")
 #: Bumped when a stage's outputs change meaning (invalidates finished stages).
-STUDY_VERSION = 1
+STUDY_VERSION = 2
 _STUDY_FILE = "study.json"
 
 
@@ -646,6 +647,13 @@ def _summary(metrics, channel: str = "x"):
     return x.reset_index()
 
 
+def _coverage_tables(cov, out: Path) -> list[Path]:
+    """The partition's coverage (evaluation/_coverage.py) as tables/coverage_*.csv/.md."""
+    files = _write_table(cov.load_pressure, out / "tables" / "coverage_load_pressure")
+    files += _write_table(cov.bands, out / "tables" / "coverage_bands")
+    return files + _write_table(cov.cells, out / "tables" / "coverage_cells")
+
+
 def _stage_evaluate(
     inp: _Inputs,
     runner: StageRunner,
@@ -666,6 +674,7 @@ def _stage_evaluate(
         corners = _corners(runs)
         frames: list[Any] = []
         cells: list[Any] = []
+        results: list[Any] = []
         stage_notes: list[str] = []
         files: list[Any] = []
         example = None
@@ -683,6 +692,7 @@ def _stage_evaluate(
                         "pwa-scheduled",
                         "reduced-paper",
                         "pwa-paper",
+                        "pwa-chamber",
                     ),
                 )
                 if true is not None:
@@ -701,6 +711,7 @@ def _stage_evaluate(
                 )
             frames.append(df)
             cells.append(res.cell_metrics)
+            results.append(res)
             for num, r in corners.items():
                 if r is run:
                     files += _save(
@@ -718,9 +729,11 @@ def _stage_evaluate(
             _summary(metrics, "x_detrended"), out / "tables" / "position_fit_detrended", ".1f"
         )
         files += _write_table(cell_df, out / "tables" / "pwa_cells")
+        files += _coverage_tables(coverage_study(results, ident), out)
         traj = example.simulations.get("pwa") if example is not None else None
+        load_pressure_forms = cell_df[cell_df["model"] != "pwa-chamber"]
         files += _save(
-            plot_cell_occupancy(cell_df, load_pwa(out / "pwa.json"), traj),
+            plot_cell_occupancy(load_pressure_forms, load_pwa(out / "pwa.json"), traj),
             out / "figures" / "pwa_cells",
         )
         return files, {"notes": stage_notes}
@@ -828,6 +841,7 @@ _STUDY_KERNELS = (
     "point",
     "reduced",
     "pwa",
+    "pwa-chamber",
     "closed-full",
     "closed-reduced",
     "closed-pwa",

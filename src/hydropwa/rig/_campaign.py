@@ -30,6 +30,7 @@ __all__ = [
     "FrfExperiment",
     "FrfSweep",
     "FrictionExperiment",
+    "LoadRuns",
     "SineExperiment",
     "builtin_campaigns",
     "load_campaign",
@@ -288,6 +289,51 @@ class FrictionExperiment:
 
 
 @dataclass(frozen=True)
+class LoadRuns:
+    """Evaluation runs under a counter force that steps and ramps through the load-pressure range.
+
+    Each run opens the valve to one opening in one direction (after ``valve_delay``) and the
+    second cylinder's force walks the load pressure P_L = F_L/A_A through ``levels``: fractions
+    of the range of P_L at which the valve meters steadily in that direction with both chambers
+    between tank and supply pressure (:func:`hydropwa.evaluation.load_pressure_range`). The
+    transitions between levels alternate: ramp, step, ramp, ... The force is scaled to the
+    machine (its areas, supply and tank pressure), so one campaign serves every machine.
+
+    Attributes
+    ----------
+    inputs : tuple of float
+        Valve openings [1] (fractions of full opening; outside the dead band).
+    directions : tuple of int
+        +1 (extend, from near the retracted end) and/or −1 (retract, from near the extended end).
+    levels : tuple of float
+        Load-pressure levels [1], fractions of the direction's range (0: its lower end, 1: its
+        upper end).
+    ramp : float
+        Duration of each ramp between levels [s].
+    hold : float
+        Time at each level [s].
+    force_ramp : float
+        Raised-cosine ramp from the machine's static load to the first level [s].
+    valve_delay : float
+        Time at which the valve opens [s] (after ``force_ramp``).
+    start_margin : float
+        The rod starts this fraction of the stroke [1] from the end it leaves.
+    stop_margin : float
+        A run ends once the rod comes within this fraction of the stroke [1] of an end stop.
+    """
+
+    inputs: tuple[float, ...]
+    directions: tuple[int, ...] = (1, -1)
+    levels: tuple[float, ...] = (0.05, 0.95, 0.5, 0.05)
+    ramp: float = 1.0
+    hold: float = 0.2
+    force_ramp: float = 0.2
+    valve_delay: float = 0.3
+    start_margin: float = 0.1
+    stop_margin: float = 0.05
+
+
+@dataclass(frozen=True)
 class SineExperiment:
     """Evaluation runs, Sec. VII: sines f × amplitude, sagging supply pressure recorded.
 
@@ -306,6 +352,9 @@ class SineExperiment:
         A run ends (after at least one period) once the rod comes within this fraction of
         the stroke of an end stop [1]: on a short fast axis a large slow sine reaches the
         stop, where a chamber empties below the pressure converter's range.
+    load : LoadRuns or None
+        ``[sine.load]``: runs under a stepped and ramped counter force that cover the load
+        pressure range in both flow directions (the pressure cells of the PWA models).
     """
 
     name = "sine"
@@ -314,6 +363,7 @@ class SineExperiment:
     periods: int = 5
     start_position: float = 0.1
     stop_margin: float = 0.02
+    load: LoadRuns | None = None
 
 
 Experiment = FrfExperiment | DeadZoneExperiment | FrictionExperiment | SineExperiment
@@ -450,6 +500,32 @@ def _friction(t: _Table) -> FrictionExperiment:
     return exp
 
 
+def _load_runs(t: _Table) -> LoadRuns | None:
+    if "load" not in t.data:
+        return None
+    lt = _Table(t.raw("load"), t.key("load"))
+    runs = LoadRuns(
+        inputs=lt.values("inputs", "", gt=0.0, le=1.0),
+        directions=lt.directions("directions"),
+        levels=lt.values("levels", "", ge=0.0, le=1.0) if "levels" in lt.data else LoadRuns.levels,
+        ramp=lt.quantity("ramp", "s", 1.0, gt=0.0),
+        hold=lt.quantity("hold", "s", 0.2, gt=0.0),
+        force_ramp=lt.quantity("force_ramp", "s", 0.2, gt=0.0),
+        valve_delay=lt.quantity("valve_delay", "s", 0.3, ge=0.0),
+        start_margin=lt.quantity("start_margin", "", 0.1, ge=0.0, le=0.5),
+        stop_margin=lt.quantity("stop_margin", "", 0.05, ge=0.0, le=0.4),
+    )
+    lt.finish()
+    if len(runs.levels) < 2:
+        raise ParameterError(f"{lt.key('levels')} needs at least two levels to walk between")
+    if runs.valve_delay < runs.force_ramp:
+        raise ParameterError(
+            f"{lt.key('valve_delay')} = {runs.valve_delay:g} s must not be shorter than "
+            f"force_ramp = {runs.force_ramp:g} s (the valve opens once the first level is reached)"
+        )
+    return runs
+
+
 def _sine(t: _Table) -> SineExperiment:
     return SineExperiment(
         frequencies=t.values("frequencies", "Hz", gt=0.0),
@@ -457,6 +533,7 @@ def _sine(t: _Table) -> SineExperiment:
         periods=t.integer("periods", 5, ge=1),
         start_position=t.quantity("start_position", "", 0.1, ge=0.0, le=1.0),
         stop_margin=t.quantity("stop_margin", "", 0.02, ge=0.0, le=0.4),
+        load=_load_runs(t),
     )
 
 

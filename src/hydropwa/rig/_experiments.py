@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..components import load_pressure_range
 from ..models import FullOrderModel
 from ..simulation import Chirp, Constant, Sampled, Signal, Sine, Step, simulate
 from ._campaign import (
@@ -22,12 +23,21 @@ from ._campaign import (
     Experiment,
     FrfExperiment,
     FrictionExperiment,
+    LoadRuns,
     SineExperiment,
 )
 from ._rig import Rig
 from ._sensors import measure
 
-__all__ = ["RunSpec", "plan", "execute", "run_seed", "counter_force_signal", "multisine"]
+__all__ = [
+    "RunSpec",
+    "plan",
+    "execute",
+    "run_seed",
+    "counter_force_signal",
+    "load_profile",
+    "multisine",
+]
 
 _DIRNAME = {1: "extend", -1: "retract"}
 
@@ -57,6 +67,8 @@ class RunSpec:
         runs: a chamber emptied against the stop reads below the pressure converter's range).
     counter_force : dict or None
         Counter-force settings (friction runs); the signal is drawn per run.
+    load_profile : (tuple of float, tuple of float) or None
+        Load force F_L [N] at times [s], linearly interpolated (the sine experiment's load runs).
     meta : dict
         Setting of the run for the metadata (``level``, ``frequency``, ``direction``, ...).
     """
@@ -70,6 +82,7 @@ class RunSpec:
     min_duration: float = 0.0
     stop_margin: float | None = None
     counter_force: dict[str, float] | None = None
+    load_profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
 
@@ -231,8 +244,81 @@ def _constant_runs(
     return runs
 
 
+def load_profile(
+    runs: LoadRuns, params, direction: int
+) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Load force F_L(t) of one load run: ramp-up, then the levels joined by ramps and steps.
+
+    Parameters
+    ----------
+    runs : LoadRuns
+        The campaign's ``[sine.load]`` settings.
+    params : SystemParams
+        The machine: areas, supply and tank pressure, static load F_0.
+    direction : int
+        +1 extend, −1 retract: the levels are fractions of this direction's load-pressure range
+        (:func:`hydropwa.components.load_pressure_range`).
+
+    Returns
+    -------
+    (times, forces) : tuple of tuple of float
+        Breakpoints [s], [N] of a piecewise-linear F_L = A_A·P_L (positive opposes extension),
+        starting at F_0 with a raised-cosine ramp (``force_ramp``) to the first level; after
+        ``valve_delay`` each level is held ``hold`` and reached from the previous one by a
+        ramp of ``ramp`` (odd transitions) or a step (even transitions).
+    """
+    cyl, sup = params.cylinder, params.supply
+    lo, hi = load_pressure_range(
+        direction, sup.pressure, cyl.area_b / cyl.area_a, sup.tank_pressure
+    )
+    force = [cyl.area_a * (lo + lev * (hi - lo)) for lev in runs.levels]
+    f0 = params.load.force
+    s = np.linspace(0.0, 1.0, 17)
+    t = list(runs.force_ramp * s)
+    f = list(f0 + (force[0] - f0) * 0.5 * (1.0 - np.cos(np.pi * s)))
+    now = runs.valve_delay + runs.hold
+    t.append(now)
+    f.append(force[0])
+    step = 1e-3  # a step: 1 ms, the rig's force loop
+    for k, level in enumerate(force[1:]):
+        now += runs.ramp if k % 2 == 0 else step
+        t += [now, now + runs.hold]
+        f += [level, level]
+        now += runs.hold
+    return tuple(float(v) for v in t), tuple(float(v) for v in f)
+
+
+def _plan_load(runs: LoadRuns, rig: Rig) -> list[RunSpec]:
+    stroke = rig.params.cylinder.stroke
+    out = []
+    for d in runs.directions:
+        times, forces = load_profile(runs, rig.params, d)
+        for u in runs.inputs:
+            out.append(
+                RunSpec(
+                    name=f"sine_load_{_DIRNAME[d]}_u{_pct(u)}",
+                    experiment="sine",
+                    command=Step(time=runs.valve_delay, before=0.0, after=d * u),
+                    duration=times[-1],
+                    start_position=(runs.start_margin if d > 0 else 1.0 - runs.start_margin)
+                    * stroke,
+                    stop_margin=runs.stop_margin * stroke,
+                    min_duration=runs.valve_delay + runs.hold,
+                    load_profile=(times, forces),
+                    meta={
+                        "level": d * u,
+                        "direction": _DIRNAME[d],
+                        "valve_delay": runs.valve_delay,
+                        "load_levels": list(runs.levels),
+                    },
+                )
+            )
+    return out
+
+
 def _plan_sine(exp: SineExperiment, rig: Rig) -> list[RunSpec]:
     x0 = exp.start_position * rig.params.cylinder.stroke
+    load = [] if exp.load is None else _plan_load(exp.load, rig)
     return [
         RunSpec(
             name=f"sine_f{f:g}_a{_pct(a)}".replace(".", "p"),
@@ -246,7 +332,7 @@ def _plan_sine(exp: SineExperiment, rig: Rig) -> list[RunSpec]:
         )
         for f in exp.frequencies
         for a in exp.amplitudes
-    ]
+    ] + load
 
 
 def plan(experiment: Experiment, rig: Rig) -> list[RunSpec]:
@@ -315,6 +401,18 @@ def _stop_index(x: np.ndarray, t: np.ndarray, spec: RunSpec, stroke: float = np.
     return int(np.searchsorted(t, keep_until, side="right"))
 
 
+def _load_meta(spec: RunSpec) -> dict[str, Any]:
+    if spec.counter_force:
+        return {"type": "counter_force", **spec.counter_force}
+    if spec.load_profile is not None:
+        return {
+            "type": "profile",
+            "times": list(spec.load_profile[0]),
+            "forces": list(spec.load_profile[1]),
+        }
+    return {"type": "none"}
+
+
 def execute(
     rig: Rig, spec: RunSpec, seed: np.random.SeedSequence, base_meta: dict[str, Any] | None = None
 ):
@@ -341,6 +439,8 @@ def execute(
         load = counter_force_signal(
             spec.counter_force, spec.duration, force_rng, rig.params.load.force
         )
+    elif spec.load_profile is not None:
+        load = Sampled(np.asarray(spec.load_profile[0]), np.asarray(spec.load_profile[1]))
     params = rig.params
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
@@ -367,9 +467,7 @@ def execute(
         "signal": signal,
         **spec.meta,
         "start_position": spec.start_position,
-        "load": {"type": "counter_force", **spec.counter_force}
-        if spec.counter_force
-        else {"type": "none"},
+        "load": _load_meta(spec),
         "stopped_early": bool(n < round(spec.duration * rig.fs) + 1),
         "solver": {"steps": result.stats.steps, "rtol": rig.rtol},
     }
