@@ -161,6 +161,20 @@ def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str,
     return out
 
 
+def _noise_from(path: Path, given: str | None) -> dict[str, float]:
+    """Sensor noise measured from a dataset's standstill stretches (``--noise-from``), printed."""
+    from ..control import ControlError, sensor_noise_from  # deferred: a fast --help
+    from ..data import read_dataset
+
+    if given is not None:
+        raise ControlError("give either --sensor-noise or --noise-from, not both")
+    noise = sensor_noise_from(read_dataset(path))
+    units = {"x": (1e6, "um"), "p_a": (1e-5, "bar"), "p_b": (1e-5, "bar")}
+    shown = ", ".join(f"{c} {v * units[c][0]:.3g} {units[c][1]}" for c, v in noise.items())
+    typer.echo(f"sensor noise measured at standstill in {path}: {shown}")
+    return noise
+
+
 def _sample_time(rate: str) -> float:
     from ..control import (
         ControlError,  # deferred: loaded only when this command runs (a fast --help)
@@ -235,6 +249,13 @@ def design_command(
             help="Verification sensor noise, e.g. 'x=20 um,p_a=0.1 bar,p_b=0.1 bar' (default those).",
         ),
     ] = None,
+    noise_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--noise-from",
+            help="Measure the verification's sensor noise from this dataset's standstill stretches.",
+        ),
+    ] = None,
     scheduler: Annotated[
         str | None,
         typer.Option(
@@ -270,6 +291,9 @@ def design_command(
         )
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
+    noise = _sensor_noise(sensor_noise)
+    if noise_from is not None:
+        noise = _noise_from(noise_from, sensor_noise)
     d = design_controller(
         model,
         method=method,
@@ -278,7 +302,7 @@ def design_command(
         params=model.params,
         draws=draws,
         seed=seed,
-        sensor_noise=_sensor_noise(sensor_noise),
+        sensor_noise=noise,
         scheduler=scheduler,
         **kw,
     )

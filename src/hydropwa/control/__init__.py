@@ -43,6 +43,7 @@ from ._io import (
     save_controller,
 )
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
+from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study
 from ._target import export_c, export_fmu
@@ -88,6 +89,8 @@ __all__ = [
     "FlowFeedForward",
     "SpoolModel",
     "position_observer_gains",
+    "NOISE_CHANNELS",
+    "sensor_noise_from",
     "GainRow",
     "MotionProfile",
     "MoveSequence",
