@@ -45,7 +45,7 @@ from ._io import (
 from ._metrics import METRIC_UNITS, compare_models, tracking_metrics
 from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
-from ._study import POSITIONING_TASK, closed_loop_study
+from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
 from ._target import export_c, export_fmu
 from ._verify import (
     DEFAULT_SENSOR_NOISE,
@@ -102,6 +102,7 @@ __all__ = [
     "cell_plant",
     "closed_loop_fidelity",
     "closed_loop_study",
+    "closed_loop_verification",
     "compare_models",
     "controller_from_dict",
     "controller_to_dict",

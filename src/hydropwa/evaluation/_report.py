@@ -16,6 +16,7 @@ from ..control import METRIC_UNITS, POSITIONING_TASK
 from ..data import read_dataset
 from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
+from ._report_control import closed_loop_verification_html
 
 __all__ = ["write_report", "metrics_for_display"]
 
@@ -412,6 +413,7 @@ chambers kept) shows how well a design model predicts the closed loop. Times in 
 chattering in sign changes of the command per second; step metrics of the move out, overshoot and
 settling of the move back in the last columns.</p>
 {_table(_with_units(pd.read_csv(f)), "tracking metrics per model")}
+{closed_loop_verification_html(out)}
 {_figures(out, ("closed_loop",))}"""
 
 
