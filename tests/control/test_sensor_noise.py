@@ -101,3 +101,25 @@ def test_cli_design_measures_the_verification_noise_from_a_dataset(tmp_path, cap
     code = main([*args, "--force", "--noise-from", str(data), "--sensor-noise", "x=1 um"])
     err = capsys.readouterr().err
     assert code == 2 and "either --sensor-noise or --noise-from" in err and err.count("\n") == 1
+
+
+@pytest.mark.slow  # an LQR design of 70 cells: 10-26 s on the shared 2-core machine
+def test_cli_observer_is_designed_for_the_measured_noise(tmp_path, capsys):
+    """``--observer --noise-from DATA`` writes the Kalman gains of the measured position noise
+    (the steady-state filter of python-control's ``dlqe``, tested in test_controller_v2)."""
+    from hydropwa.cli import main
+    from hydropwa.control import load_controller, position_observer_gains
+    from hydropwa.data import write_dataset
+
+    data = tmp_path / "data"
+    write_dataset([_measured()[0]], data)
+    sx = sensor_noise_from(_measured()[0])["x"]
+    ctrl = tmp_path / "lqr.toml"
+    args = ["control", "design", "--no-verify", "--observer", "--out", str(ctrl)]
+    assert main([*args, "--noise-from", str(data)]) == 0
+    got = load_controller(ctrl).position_observer
+    assert got == pytest.approx(position_observer_gains(5e-4, sx, 1.0), rel=1e-9)
+    code = main([*args, "--force", "--sensor-noise", "x=0 um"])
+    assert code == 2 and "position noise x > 0" in capsys.readouterr().err
+    pi = ["control", "design", "--method", "pi", "--observer", "--out", str(tmp_path / "pi.toml")]
+    assert main(pi) == 2 and "--observer needs --method lqr" in capsys.readouterr().err

@@ -262,10 +262,19 @@ def design_command(
             "--scheduler", help="Dask scheduler address or 'local' for the verification runs."
         ),
     ] = None,
+    observer: Annotated[
+        bool,
+        typer.Option(
+            "--observer",
+            help="Add the position observer (Kalman filter of x, v) designed for the sensor noise "
+            "(--sensor-noise, --noise-from, or 20 um).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_SENSOR_NOISE,
         ControlError,
         design_controller,
         save_controller,
@@ -294,6 +303,13 @@ def design_command(
     noise = _sensor_noise(sensor_noise)
     if noise_from is not None:
         noise = _noise_from(noise_from, sensor_noise)
+    if observer:
+        if method == "pi":
+            raise ControlError("--observer needs --method lqr or place (state feedback)")
+        sx = (noise or DEFAULT_SENSOR_NOISE).get("x", 0.0)
+        if not sx > 0:
+            raise ControlError("--observer needs a position noise x > 0 (--sensor-noise 'x=20 um')")
+        kw["position_noise"] = sx
     d = design_controller(
         model,
         method=method,
