@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/control.py [--repeat 5] [--duration 10] [--no-cost] [--no-compare]
+    python benchmarks/control.py [--repeat 5] [--duration 10] [--no-cost] [--no-compare] [--verify N]
 
 **Comparison** (issue 34): on the paper rig (trapezoid 50 → 150 mm, 0.2 m/s, 5 m/s²) and the heavy
 axis of ``tests/machines/industrial.toml`` (100 → 400 mm, 0.3 m/s, 3 m/s², 2 kN), full model, one
@@ -12,6 +12,12 @@ a textbook PI with velocity feed-forward (crossover min(ω_h, ω0)/3, lowered un
 on the sampled plant with valve and delay is 6 dB; integral corner at a fifth of it;
 k_ff = 1/K_v), and ``design_pi(delay=True)`` (``--method pi``), side by side: peak following
 error, hold peak to peak over the last 0.2 s, saturation and command sign changes per second.
+
+**Verification** (``--verify N``, issue 34): the default design and the textbook PI + FF through
+``closed_loop_verification`` on each machine (``verify_controller``'s task set on the full model,
+sensor noise 20 µm / 0.1 bar / 0.1 bar, one sample of delay, N parameter draws): the verdict, the
+worst hold peak to peak, trapezoid error, saturation, sign changes per second and limit cycles,
+and the first failed check.
 
 Case: the paper rig (preset ``paper``), the LQR designed on its PWA model
 (``design_state_feedback``, 70 cells, 2 kHz), tracking a 50 mm, 0.5 Hz sine about
@@ -121,13 +127,40 @@ def compare() -> None:
                 )
 
 
+def verify(draws: int) -> None:
+    """The verification verdict of the default design beside the textbook PI, both machines."""
+    from hydropwa.control import closed_loop_verification
+    from hydropwa.params import load_params
+
+    print(
+        f"{'machine':<11}{'controller':<30}{'verdict':>8}{'hold p-p mm':>12}{'peak err mm':>12}"
+        f"{'sat %':>7}{'sign ch./s':>11}{'cycles':>7}  first failed check"
+    )
+    for name, (path, *_rest) in MACHINES.items():
+        prm = get_preset("paper") if path is None else load_params(path)
+        pwa = linearize(prm)
+        ctrl = design_state_feedback(pwa, delay=True).controller
+        tab = closed_loop_verification(pwa, ctrl, draws=draws)
+        for cname, r in tab.iterrows():
+            print(
+                f"{name:<11}{cname:<30}{r['verdict']:>8}{r['hold_peak_to_peak_mm']:>12.3f}"
+                f"{r['following_error_mm']:>12.3f}{r['saturation_percent']:>7.1f}"
+                f"{r['sign_changes_per_s']:>11.0f}{r['limit_cycles']:>7.0f}  {r['first_failure']}"
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--no-cost", action="store_true", help="skip the closed- vs open-loop cost")
     ap.add_argument("--no-compare", action="store_true", help="skip the controller comparison")
+    ap.add_argument(
+        "--verify", type=int, default=0, metavar="N", help="verification verdicts with N draws"
+    )
     args = ap.parse_args()
+    if args.verify > 0:
+        verify(args.verify)
     if not args.no_compare:
         compare()
     if args.no_cost:

@@ -181,6 +181,20 @@ def _sample_time(sample_time: str | None, rate: str | None) -> float:
     return parse_sample_time(sample_time_source(sample_time, rate, "--rate", "Hz") or "0.5 ms")
 
 
+def _noise_from(path: Path, given: str | None) -> dict[str, float]:
+    """Sensor noise measured from a dataset's standstill stretches (``--noise-from``), printed."""
+    from ..control import ControlError, sensor_noise_from  # deferred: a fast --help
+    from ..data import read_dataset
+
+    if given is not None:
+        raise ControlError("give either --sensor-noise or --noise-from, not both")
+    noise = sensor_noise_from(read_dataset(path))
+    units = {"x": (1e6, "um"), "p_a": (1e-5, "bar"), "p_b": (1e-5, "bar")}
+    shown = ", ".join(f"{c} {v * units[c][0]:.3g} {units[c][1]}" for c, v in noise.items())
+    typer.echo(f"sensor noise measured at standstill in {path}: {shown}")
+    return noise
+
+
 @app.command("design")
 def design_command(
     out: Annotated[
@@ -258,16 +272,32 @@ def design_command(
             help="Verification sensor noise, e.g. 'x=20 um,p_a=0.1 bar,p_b=0.1 bar' (default those).",
         ),
     ] = None,
+    noise_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--noise-from",
+            help="Measure the verification's sensor noise from this dataset's standstill stretches.",
+        ),
+    ] = None,
     scheduler: Annotated[
         str | None,
         typer.Option(
             "--scheduler", help="Dask scheduler address or 'local' for the verification runs."
         ),
     ] = None,
+    observer: Annotated[
+        bool,
+        typer.Option(
+            "--observer",
+            help="Add the position observer (Kalman filter of x, v) designed for the sensor noise "
+            "(--sensor-noise, --noise-from, or 20 um).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_SENSOR_NOISE,
         ControlError,
         design_controller,
         save_controller,
@@ -297,6 +327,16 @@ def design_command(
         )
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
+    noise = _sensor_noise(sensor_noise)
+    if noise_from is not None:
+        noise = _noise_from(noise_from, sensor_noise)
+    if observer:
+        if method == "pi":
+            raise ControlError("--observer needs --method lqr or place (state feedback)")
+        sx = (noise or DEFAULT_SENSOR_NOISE).get("x", 0.0)
+        if not sx > 0:
+            raise ControlError("--observer needs a position noise x > 0 (--sensor-noise 'x=20 um')")
+        kw["position_noise"] = sx
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,
@@ -306,7 +346,7 @@ def design_command(
         params=model.params,
         draws=draws,
         seed=seed,
-        sensor_noise=_sensor_noise(sensor_noise),
+        sensor_noise=noise,
         scheduler=scheduler,
         **kw,
     )

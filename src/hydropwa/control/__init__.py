@@ -44,8 +44,9 @@ from ._io import (
     save_controller,
 )
 from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_metrics
+from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
-from ._study import POSITIONING_TASK, closed_loop_study
+from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
 from ._target import export_c, export_fmu
 from ._verify import (
     DEFAULT_SENSOR_NOISE,
@@ -90,6 +91,8 @@ __all__ = [
     "FlowFeedForward",
     "SpoolModel",
     "position_observer_gains",
+    "NOISE_CHANNELS",
+    "sensor_noise_from",
     "GainRow",
     "MotionProfile",
     "MoveSequence",
@@ -101,6 +104,7 @@ __all__ = [
     "cell_plant",
     "closed_loop_fidelity",
     "closed_loop_study",
+    "closed_loop_verification",
     "compare_models",
     "controller_from_dict",
     "controller_to_dict",

@@ -18,6 +18,7 @@ from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
 from ._report_engineering import engineering_section
 from ._report_coverage import coverage_section
+from ._report_control import closed_loop_verification_html
 
 __all__ = ["write_report", "metrics_for_display"]
 
@@ -414,6 +415,7 @@ chambers kept) shows how well a design model predicts the closed loop. Times in 
 chattering in sign changes of the command per second; step metrics of the move out, overshoot and
 settling of the move back in the last columns.</p>
 {_table(_with_units(pd.read_csv(f)), "tracking metrics per model")}
+{closed_loop_verification_html(out)}
 {_figures(out, ("closed_loop",))}"""
 
 

@@ -36,7 +36,7 @@ from .._io import (
     output_lock,
     overwrite_flag,
 )
-from ..control import closed_loop_study, save_controller
+from ..control import closed_loop_study, closed_loop_verification, save_controller
 from ..data import Run, read_dataset
 from ..identification import (
     PARTS,
@@ -754,9 +754,12 @@ def _stage_control(
     def work():
         from ..plotting import plot_closed_loop  # deferred: matplotlib loads only when plotting
 
-        runs, table, design = closed_loop_study(load_pwa(out / "pwa.json"), true)
+        pwa = load_pwa(out / "pwa.json")
+        runs, table, design = closed_loop_study(pwa, true)
         files = [save_controller(design.controller, out / "controller.toml", overwrite=True)]
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
+        ver = closed_loop_verification(pwa, design.controller)  # the verdict beside the PI
+        files += _write_table(ver.reset_index(), out / "tables" / "closed_loop_verification")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
         shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa", "pwa-chamber")}
         files += _save(
