@@ -35,6 +35,7 @@ from .result import FitStatus, GreyBoxFit, Profile
 from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
+from .steady import steady_runs
 from .uncertainty import Covariance, covariance, kappa, remaining_step
 from .validation import split_runs, validate
 
@@ -143,6 +144,8 @@ class FitData:
     held: list = dataclasses.field(default_factory=list)
     #: the load's damping [N·s/m] estimated from the runs and put back into the model
     feedback: float = 0.0
+    #: the steady stretches' means as pseudo-runs (a selected campaign, :mod:`.steady`)
+    steady: list[RunData] = dataclasses.field(default_factory=list)
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
         """Other preparations of the runs (windows, sliding stretches) cut to the selection."""
@@ -311,11 +314,28 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
         if full is not None:
             full.reason = rd.reason
             again.append((r, full))
-    picked, note = selection.select(
-        [rd for _r, rd in again], data.names, _v_move(data.work_model.params)
-    )
+    v_move = _v_move(data.work_model.params)
+    steady_note = ""
+    if selection.steady_means:
+        data.steady, steady_note = steady_runs(
+            [rd for _r, rd in again], data.channels, data.sigma, v_move,
+            selection.transient, selection.segment,
+        )  # fmt: skip
+    transients = selection.transients
+    if transients is None:
+        transients = not (c > 0 and data.steady)
+    picked, note = selection.select([rd for _r, rd in again], data.names, v_move, transients)
     data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
     data.notes.append(note)
+    if steady_note:
+        data.notes.append(steady_note)
+    if not transients:
+        data.notes.append(
+            "The segments after the events are left out: the measured load force holds the "
+            "load's damping c·ẋ, and within milliseconds of a motion event the smoothed "
+            "velocity taken out of it misses c·(ẋ − ẋ̂), an input error of tens of newtons; "
+            "the steady segments and means carry the friction curve instead."
+        )
     data.selected = {rd.name: spans(rd) for _r, rd in data.pairs}
     data.departures = departures
 
@@ -340,7 +360,7 @@ def _plan(
     every 2·``coarse``-th segment does it (benchmark: 54 s against 78 s, the same optimum).
     """
     shooting = opts.shooting or Shooting()
-    prepared = data.prepared
+    prepared = data.prepared + data.steady
 
     def objective(runs: list[RunData]) -> OutputErrorObjective:
         return OutputErrorObjective(
