@@ -3,16 +3,18 @@ uncertainty → sliding stage → result (:func:`fit_model`)."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
+from ..._dask import dask_client
 from ..._errors import IdentificationError, ParameterError
 from ...models import as_model
 from .._common import (
@@ -77,6 +79,7 @@ class FitOptions:
     sliding: bool = True
     selection: Selection | None = None
     validate: float = 0.0
+    scheduler: str | None = None
 
     def __post_init__(self) -> None:
         if self.loss not in LOSSES:
@@ -684,6 +687,11 @@ def fit_model(
         Iteration budget per start (least_squares ``max_nfev``).
     profile : "weak", "all", "none" or names
         Parameters to profile (``weak``: those flagged weak after the fit).
+    scheduler : str, optional
+        Run the starts and the profiles as Dask tasks: ``"local"`` (a local cluster of
+        ``jobs`` single-threaded worker processes) or a scheduler's address. Each task
+        runs what the in-process fit runs, so the estimates are the same (the test
+        compares them); without it (default) everything runs in this process.
     level : float
         Confidence level of the intervals.
     nuisance_draws : int
@@ -758,26 +766,24 @@ def fit_model(
     data = prepare_data(_base_model(model, params), runs, free, opts)
     problem = GreyBoxProblem.build(data.names, data.base_model.params, opts.initial, opts.bounds)
     plan = _plan(data, problem, opts, progress, t0)
-    best, logs = plan.minimize(theta_starts(problem, opts.starts, np.random.default_rng(opts.seed)))
-    plan.report("uncertainty", 0, 0)
-    est = _at_optimum(plan, best, opts)
-    got = _sliding(est, plan, data, opts)
-    stages = best.stages + ([got.stage] if isinstance(got, Sliding) else [])
-    sliding_info = got.info if isinstance(got, Sliding) else (got or {})
-    _warn_unconverged(est)
-    names = problem.names
-    undetermined = _undetermined(est)
-    weak = [
-        n
-        for i, n in enumerate(names)
-        if n in est.at_bound
-        or n in est.unconverged
-        or n in undetermined
-        or est.z * est.sd[i] > math.log(1.5)
-    ]
-    ident = identifiability(names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged)
-    ident.undetermined = undetermined
-    profiles = _profiles(opts, data, weak, est, plan, best, got)
+    with _client(opts) as client:
+        best, logs = plan.minimize(
+            theta_starts(problem, opts.starts, np.random.default_rng(opts.seed)), client
+        )
+        plan.report("uncertainty", 0, 0)
+        est = _at_optimum(plan, best, opts)
+        got = _sliding(est, plan, data, opts)
+        stages = best.stages + ([got.stage] if isinstance(got, Sliding) else [])
+        sliding_info = got.info if isinstance(got, Sliding) else (got or {})
+        _warn_unconverged(est)
+        names = problem.names
+        undetermined = _undetermined(est)
+        weak = _weak(est, undetermined)
+        ident = identifiability(
+            names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged
+        )
+        ident.undetermined = undetermined
+        profiles = _profiles(opts, data, weak, est, plan, best, got, client)
     sol = best.sol
     info = {
         "model": data.base_model.name,
@@ -820,6 +826,20 @@ def fit_model(
     )  # fmt: skip
 
 
+@contextlib.contextmanager
+def _client(opts: FitOptions) -> Iterator[Any]:
+    """A Dask client on ``opts.scheduler`` (``"local"``: a local cluster of ``jobs`` worker
+    processes) for the starts and profiles, or None (in-process)."""
+    if not opts.scheduler:
+        yield None
+        return
+    with dask_client(
+        opts.scheduler, opts.jobs, timeout_s=10.0, error=IdentificationError,
+        option="scheduler", hint="fit in-process (no scheduler)",
+    ) as client:  # fmt: skip
+        yield client
+
+
 def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) -> Any:
     """The fitted model on the held-out runs (None when none was held out)."""
     if not data.held:
@@ -835,6 +855,18 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
             "of the runs, evenly spread)."
         )
     return got
+
+
+def _weak(est: _Estimate, undetermined: list[str]) -> list[str]:
+    """Parameters at a bound, unconverged, undetermined or known to worse than ×/÷ 1.5."""
+    return [
+        n
+        for i, n in enumerate(est.problem.names)
+        if n in est.at_bound
+        or n in est.unconverged
+        or n in undetermined
+        or est.z * est.sd[i] > math.log(1.5)
+    ]
 
 
 def _undetermined(est: _Estimate) -> list[str]:
@@ -877,9 +909,11 @@ def _profiles(
     plan: StagePlan,
     best: StartResult,
     got: Any,
+    client: Any = None,
 ) -> dict[str, Profile]:
     """Profiles of the parameters ``opts.profile`` names (``weak``: those flagged weak); the
-    χ² threshold is scaled by κ from before the scan widened the covariance."""
+    χ² threshold is scaled by κ from before the scan widened the covariance. ``client``: a
+    Dask client that computes them as one task per parameter."""
     names = est.problem.names
     if opts.profile == "weak":
         to_profile = weak
@@ -893,20 +927,24 @@ def _profiles(
         plan.report("profiles", 0, 0)
     kap = kappa(est.cov_before_scan, est.cv.Hinv)
     tlo, thi = est.problem.theta_bounds
-    out = {}
+    calls = {}
     for n in to_profile:
         i = names.index(n)
         sd = float(est.sd[i])
         if isinstance(got, Sliding) and i in got.index:
             # a parameter of the sliding stage: its profile on the sliding stretches
             k = got.index.index(i)
-            out[n] = _profile(
+            calls[n] = (
                 got.prob, got.theta, k, got.tlo, got.thi, opts.loss, opts.f_scale, got.cost,
                 float(got.kappa[k]), est.z, sd,
             )  # fmt: skip
         else:
-            out[n] = _profile(
+            calls[n] = (
                 plan.full, est.theta, i, tlo, thi, opts.loss, opts.f_scale, best.sol.cost,
                 float(kap[i]), est.z, sd,
             )  # fmt: skip
-    return out
+    if client is not None and len(calls) > 1:
+        # one task per parameter (each refits the others along its grid)
+        futures = {n: client.submit(_profile, *args, pure=False) for n, args in calls.items()}
+        return {n: fut.result() for n, fut in futures.items()}
+    return {n: _profile(*args) for n, args in calls.items()}
