@@ -783,7 +783,9 @@ def fit_model(
             names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged
         )
         ident.undetermined = undetermined
-        profiles = _profiles(opts, data, weak, est, plan, best, got, client)
+        to_profile = list(dict.fromkeys(weak + est.widened))  # the cost is not quadratic
+        profiles = _profiles(opts, data, to_profile, est, plan, best, got, client)
+    ident.undetermined += _profile_intervals(est, profiles, ident.undetermined)
     sol = best.sol
     info = {
         "model": data.base_model.name,
@@ -855,6 +857,36 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
             "of the runs, evenly spread)."
         )
     return got
+
+
+def _profile_intervals(
+    est: _Estimate, profiles: dict[str, Profile], undetermined: list[str]
+) -> list[str]:
+    """The profiles' intervals in place of the quadratic ones (as pyPESTO reports them):
+    per side the wider of the two (a profile refitted in few iterations can only rise too
+    early). A profile that stays below the threshold to a bound of the parameter, or to
+    the end of its grid (×/÷ 20), leaves the parameter undetermined on that side: its
+    interval reaches the bound there and its standard error is infinite. Returns the
+    parameters newly found undetermined."""
+    names, out = est.problem.names, []
+    for n, p in profiles.items():
+        if n in undetermined or not all(math.isfinite(c) for c in p.ci):
+            continue
+        i = names.index(n)
+        e = est.estimates[n]
+        lo, hi = min(e.ci[0], p.ci[0]), max(e.ci[1], p.ci[1])
+        level = est.z**2
+        # the profile walked to the bound or ×/÷ 20 (REACH) without rising above z²
+        open_lo = bool(p.cost[0] <= level)
+        open_hi = bool(p.cost[-1] <= level)
+        if open_lo or open_hi:
+            lo = float(est.problem.lower[i]) if open_lo else lo
+            hi = float(est.problem.upper[i]) if open_hi else hi
+            est.estimates[n] = dataclasses.replace(e, std=math.inf, ci=(lo, hi))
+            out.append(n)
+        else:
+            est.estimates[n] = dataclasses.replace(e, ci=(lo, hi))
+    return out
 
 
 def _weak(est: _Estimate, undetermined: list[str]) -> list[str]:
