@@ -357,6 +357,14 @@ def model(
             "every channel on them (0: none).",
         ),
     ] = 0.0,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="Dask scheduler address or 'local' for the starts and profiles (default: a "
+            "local cluster when --jobs > 1 and --starts > 1, else in-process).",
+        ),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
     figures: Figures = None,
     summary: Summary = None,
@@ -388,6 +396,14 @@ def model(
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
     selection = Selection(method=select, budget=budget)
+    if scheduler is not None:
+        from hydropwa.sweep import (  # deferred: loaded only when this command runs (a fast --help)
+            check_scheduler,
+        )
+
+        check_scheduler(scheduler)
+    elif (jobs or 1) > 1 and starts > 1:
+        scheduler = "local"
     params = _machine(data_dir, params_source(params_src, base_params))
     runs = load_runs(data_dir, params=params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
@@ -405,6 +421,7 @@ def model(
             sliding=sliding,
             selection=selection,
             validate=validate,
+            scheduler=scheduler,
             progress=progress,
         )
     fit.save(out, overwrite=force)

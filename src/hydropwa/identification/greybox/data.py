@@ -91,6 +91,9 @@ class _Segment:
     y0: np.ndarray
     #: the smoothed measurements y0 was built from (x, v, p_a, p_b, p_s, spool, spool_rate)
     meas: dict[str, float]
+    #: per channel, a factor on the segment's noise-scaled residuals, one for all or one per
+    #: residual sample (None: 1); a steady stretch's mean stands for many samples (:mod:`.steady`)
+    weight: dict[str, Any] | None = None
 
 
 @dataclasses.dataclass
@@ -507,7 +510,7 @@ def perturbed_run(rd: RunData, rng: np.random.Generator) -> RunData:
     for seg in rd.segments:
         # P_S from the parameters or the spool from the command (not logged) carry no noise
         m = {k: v + rng.normal(0.0, rd.meas_sd.get(k, 0.0)) for k, v in seg.meas.items()}
-        segs.append(_Segment(seg.i0, seg.i1, rd.make_state(m), m))
+        segs.append(dataclasses.replace(seg, y0=rd.make_state(m), meas=m))
     extra = {}
     for c in ("p_s", "f_l"):
         arr = getattr(rd, c)

@@ -3,16 +3,18 @@ uncertainty → sliding stage → result (:func:`fit_model`)."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
+from ..._dask import dask_client
 from ..._errors import IdentificationError, ParameterError
 from ...models import as_model
 from .._common import (
@@ -35,6 +37,7 @@ from .result import FitStatus, GreyBoxFit, Profile
 from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
+from .steady import steady_runs
 from .uncertainty import Covariance, covariance, kappa, remaining_step
 from .validation import split_runs, validate
 
@@ -76,6 +79,7 @@ class FitOptions:
     sliding: bool = True
     selection: Selection | None = None
     validate: float = 0.0
+    scheduler: str | None = None
 
     def __post_init__(self) -> None:
         if self.loss not in LOSSES:
@@ -143,6 +147,8 @@ class FitData:
     held: list = dataclasses.field(default_factory=list)
     #: the load's damping [N·s/m] estimated from the runs and put back into the model
     feedback: float = 0.0
+    #: the steady stretches' means as pseudo-runs (a selected campaign, :mod:`.steady`)
+    steady: list[RunData] = dataclasses.field(default_factory=list)
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
         """Other preparations of the runs (windows, sliding stretches) cut to the selection."""
@@ -311,11 +317,28 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
         if full is not None:
             full.reason = rd.reason
             again.append((r, full))
-    picked, note = selection.select(
-        [rd for _r, rd in again], data.names, _v_move(data.work_model.params)
-    )
+    v_move = _v_move(data.work_model.params)
+    steady_note = ""
+    if selection.steady_means:
+        data.steady, steady_note = steady_runs(
+            [rd for _r, rd in again], data.channels, data.sigma, v_move,
+            selection.transient, selection.segment,
+        )  # fmt: skip
+    transients = selection.transients
+    if transients is None:
+        transients = not (c > 0 and data.steady)
+    picked, note = selection.select([rd for _r, rd in again], data.names, v_move, transients)
     data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
     data.notes.append(note)
+    if steady_note:
+        data.notes.append(steady_note)
+    if not transients:
+        data.notes.append(
+            "The segments after the events are left out: the measured load force holds the "
+            "load's damping c·ẋ, and within milliseconds of a motion event the smoothed "
+            "velocity taken out of it misses c·(ẋ − ẋ̂), an input error of tens of newtons; "
+            "the steady segments and means carry the friction curve instead."
+        )
     data.selected = {rd.name: spans(rd) for _r, rd in data.pairs}
     data.departures = departures
 
@@ -340,7 +363,7 @@ def _plan(
     every 2·``coarse``-th segment does it (benchmark: 54 s against 78 s, the same optimum).
     """
     shooting = opts.shooting or Shooting()
-    prepared = data.prepared
+    prepared = data.prepared + data.steady
 
     def objective(runs: list[RunData]) -> OutputErrorObjective:
         return OutputErrorObjective(
@@ -664,6 +687,11 @@ def fit_model(
         Iteration budget per start (least_squares ``max_nfev``).
     profile : "weak", "all", "none" or names
         Parameters to profile (``weak``: those flagged weak after the fit).
+    scheduler : str, optional
+        Run the starts and the profiles as Dask tasks: ``"local"`` (a local cluster of
+        ``jobs`` single-threaded worker processes) or a scheduler's address. Each task
+        runs what the in-process fit runs, so the estimates are the same (the test
+        compares them); without it (default) everything runs in this process.
     level : float
         Confidence level of the intervals.
     nuisance_draws : int
@@ -738,26 +766,26 @@ def fit_model(
     data = prepare_data(_base_model(model, params), runs, free, opts)
     problem = GreyBoxProblem.build(data.names, data.base_model.params, opts.initial, opts.bounds)
     plan = _plan(data, problem, opts, progress, t0)
-    best, logs = plan.minimize(theta_starts(problem, opts.starts, np.random.default_rng(opts.seed)))
-    plan.report("uncertainty", 0, 0)
-    est = _at_optimum(plan, best, opts)
-    got = _sliding(est, plan, data, opts)
-    stages = best.stages + ([got.stage] if isinstance(got, Sliding) else [])
-    sliding_info = got.info if isinstance(got, Sliding) else (got or {})
-    _warn_unconverged(est)
-    names = problem.names
-    undetermined = _undetermined(est)
-    weak = [
-        n
-        for i, n in enumerate(names)
-        if n in est.at_bound
-        or n in est.unconverged
-        or n in undetermined
-        or est.z * est.sd[i] > math.log(1.5)
-    ]
-    ident = identifiability(names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged)
-    ident.undetermined = undetermined
-    profiles = _profiles(opts, data, weak, est, plan, best, got)
+    with _client(opts) as client:
+        best, logs = plan.minimize(
+            theta_starts(problem, opts.starts, np.random.default_rng(opts.seed)), client
+        )
+        plan.report("uncertainty", 0, 0)
+        est = _at_optimum(plan, best, opts)
+        got = _sliding(est, plan, data, opts)
+        stages = best.stages + ([got.stage] if isinstance(got, Sliding) else [])
+        sliding_info = got.info if isinstance(got, Sliding) else (got or {})
+        _warn_unconverged(est)
+        names = problem.names
+        undetermined = _undetermined(est)
+        weak = _weak(est, undetermined)
+        ident = identifiability(
+            names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged
+        )
+        ident.undetermined = undetermined
+        to_profile = list(dict.fromkeys(weak + est.widened))  # the cost is not quadratic
+        profiles = _profiles(opts, data, to_profile, est, plan, best, got, client)
+    ident.undetermined += _profile_intervals(est, profiles, ident.undetermined)
     sol = best.sol
     info = {
         "model": data.base_model.name,
@@ -800,6 +828,20 @@ def fit_model(
     )  # fmt: skip
 
 
+@contextlib.contextmanager
+def _client(opts: FitOptions) -> Iterator[Any]:
+    """A Dask client on ``opts.scheduler`` (``"local"``: a local cluster of ``jobs`` worker
+    processes) for the starts and profiles, or None (in-process)."""
+    if not opts.scheduler:
+        yield None
+        return
+    with dask_client(
+        opts.scheduler, opts.jobs, timeout_s=10.0, error=IdentificationError,
+        option="scheduler", hint="fit in-process (no scheduler)",
+    ) as client:  # fmt: skip
+        yield client
+
+
 def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) -> Any:
     """The fitted model on the held-out runs (None when none was held out)."""
     if not data.held:
@@ -815,6 +857,48 @@ def _validate(data: FitData, est: _Estimate, opts: FitOptions, plan: StagePlan) 
             "of the runs, evenly spread)."
         )
     return got
+
+
+def _profile_intervals(
+    est: _Estimate, profiles: dict[str, Profile], undetermined: list[str]
+) -> list[str]:
+    """The profiles' intervals in place of the quadratic ones (as pyPESTO reports them):
+    per side the wider of the two (a profile refitted in few iterations can only rise too
+    early). A profile that stays below the threshold to a bound of the parameter, or to
+    the end of its grid (×/÷ 20), leaves the parameter undetermined on that side: its
+    interval reaches the bound there and its standard error is infinite. Returns the
+    parameters newly found undetermined."""
+    names, out = est.problem.names, []
+    for n, p in profiles.items():
+        if n in undetermined or not all(math.isfinite(c) for c in p.ci):
+            continue
+        i = names.index(n)
+        e = est.estimates[n]
+        lo, hi = min(e.ci[0], p.ci[0]), max(e.ci[1], p.ci[1])
+        level = est.z**2
+        # the profile walked to the bound or ×/÷ 20 (REACH) without rising above z²
+        open_lo = bool(p.cost[0] <= level)
+        open_hi = bool(p.cost[-1] <= level)
+        if open_lo or open_hi:
+            lo = float(est.problem.lower[i]) if open_lo else lo
+            hi = float(est.problem.upper[i]) if open_hi else hi
+            est.estimates[n] = dataclasses.replace(e, std=math.inf, ci=(lo, hi))
+            out.append(n)
+        else:
+            est.estimates[n] = dataclasses.replace(e, ci=(lo, hi))
+    return out
+
+
+def _weak(est: _Estimate, undetermined: list[str]) -> list[str]:
+    """Parameters at a bound, unconverged, undetermined or known to worse than ×/÷ 1.5."""
+    return [
+        n
+        for i, n in enumerate(est.problem.names)
+        if n in est.at_bound
+        or n in est.unconverged
+        or n in undetermined
+        or est.z * est.sd[i] > math.log(1.5)
+    ]
 
 
 def _undetermined(est: _Estimate) -> list[str]:
@@ -857,9 +941,11 @@ def _profiles(
     plan: StagePlan,
     best: StartResult,
     got: Any,
+    client: Any = None,
 ) -> dict[str, Profile]:
     """Profiles of the parameters ``opts.profile`` names (``weak``: those flagged weak); the
-    χ² threshold is scaled by κ from before the scan widened the covariance."""
+    χ² threshold is scaled by κ from before the scan widened the covariance. ``client``: a
+    Dask client that computes them as one task per parameter."""
     names = est.problem.names
     if opts.profile == "weak":
         to_profile = weak
@@ -873,20 +959,24 @@ def _profiles(
         plan.report("profiles", 0, 0)
     kap = kappa(est.cov_before_scan, est.cv.Hinv)
     tlo, thi = est.problem.theta_bounds
-    out = {}
+    calls = {}
     for n in to_profile:
         i = names.index(n)
         sd = float(est.sd[i])
         if isinstance(got, Sliding) and i in got.index:
             # a parameter of the sliding stage: its profile on the sliding stretches
             k = got.index.index(i)
-            out[n] = _profile(
+            calls[n] = (
                 got.prob, got.theta, k, got.tlo, got.thi, opts.loss, opts.f_scale, got.cost,
                 float(got.kappa[k]), est.z, sd,
             )  # fmt: skip
         else:
-            out[n] = _profile(
+            calls[n] = (
                 plan.full, est.theta, i, tlo, thi, opts.loss, opts.f_scale, best.sol.cost,
                 float(kap[i]), est.z, sd,
             )  # fmt: skip
-    return out
+    if client is not None and len(calls) > 1:
+        # one task per parameter (each refits the others along its grid)
+        futures = {n: client.submit(_profile, *args, pure=False) for n, args in calls.items()}
+        return {n: fut.result() for n, fut in futures.items()}
+    return {n: _profile(*args) for n, args in calls.items()}

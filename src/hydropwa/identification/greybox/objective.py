@@ -63,8 +63,10 @@ class OutputErrorObjective:
         self.streams: list[tuple[int, int, str, int, int]] = []  # run, seg, channel, start, length
         pos = 0
         for ri, rd in enumerate(runs):
+            # the fitted channels, then any other the run compares (a steady stretch's speed)
+            own = [c for c in channels if c in rd.y] + [c for c in rd.y if c not in channels]
             for si, seg in enumerate(rd.segments):
-                for c in channels:
+                for c in own:
                     if c in rd.y:
                         n = seg.i1 - seg.i0 - 1
                         self.streams.append((ri, si, c, pos, n))
@@ -191,7 +193,10 @@ class OutputErrorObjective:
         for ri, si, c, pos, n in self.streams:
             rd = self.runs[ri]
             seg = rd.segments[si]
-            r[pos : pos + n] = (sims[ri][si][c][1:] - rd.y[c][seg.i0 + 1 : seg.i1]) / self.sigma[c]
+            sig = self.sigma.get(c, 1.0)
+            r[pos : pos + n] = (sims[ri][si][c][1:] - rd.y[c][seg.i0 + 1 : seg.i1]) / sig
+            if seg.weight is not None:
+                r[pos : pos + n] *= seg.weight.get(c, 1.0)
         return r
 
     def costs(

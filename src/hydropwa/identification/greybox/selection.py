@@ -74,6 +74,17 @@ class Selection:
     feedback : bool
         Estimate the load's velocity-proportional force from the runs' steady parts and
         apply it in the model from the simulated velocity (``load_feedback``).
+    steady_means : bool
+        Add each run's steady stretch as its means (:func:`~.steady.steady_runs`): the
+        information of the samples the selection leaves out, at the cost of one short
+        simulation per run. On the virtual rig's friction campaign it took the Coulomb
+        friction from −15.8 % to TODO (paper set) and from −21.4 % to TODO (set B).
+    transients : bool or None
+        Keep the segments after the events (None: unless the load feedback applies and
+        the steady means are there: the measured force then holds c·ẋ, and within the
+        milliseconds of a motion event the smoothed velocity taken out of it misses
+        c·(ẋ − ẋ̂) of tens of newtons, an input error that biased the Coulomb friction
+        (−22.6 % with them on the paper set, −4.0 % without)).
     standstill : bool
         Keep the segments that start near standstill (the creeping runs, the breakaway).
         With the load feedback they inform F_s, the Stribeck velocity and the smoothness:
@@ -93,6 +104,8 @@ class Selection:
     departures: bool = False
     feedback: bool = True
     standstill: bool = True
+    steady_means: bool = True
+    transients: bool | None = None
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "all", "events"):
@@ -118,14 +131,16 @@ class Selection:
         return tuple(kinds)
 
     def select(
-        self, runs: list[RunData], names: Sequence[str], v_move: float
+        self, runs: list[RunData], names: Sequence[str], v_move: float, transients: bool = True
     ) -> tuple[list[RunData], str]:
         """The runs with their selected segments, and a sentence saying what was kept.
 
         Each run offers its segments after the events and ``steady_per_run`` steady ones,
         at most ``per_run``; when that exceeds the budget, runs are kept evenly spaced over
         the campaign's operating points (ordered by their median speed, signed): neighbouring
-        constant-input runs repeat each other.
+        constant-input runs repeat each other. ``transients=False``: the steady segments
+        alone (see :func:`~.estimator.fit_model`'s campaign notes: a measured load force
+        that holds the load's damping makes the transients' input wrong).
         """
         kinds = self.wanted(names)
         seconds = sum(_duration(rd) for rd in runs)
@@ -147,6 +162,7 @@ class Selection:
             if "motion" in kinds:
                 rd = rd if self.standstill else _moving_starts(rd, v_move)
             keep_e, keep_s = _pick(rd, ev, self.transient, n_steady, n_run)
+            keep_e = keep_e if transients else []
             n_event += len(keep_e)
             got_steady += len(keep_s)
             n_all += len(rd.segments)

@@ -37,8 +37,9 @@ class FitProgress:
     Attributes
     ----------
     stage : str
-        ``locate``, ``scan``, ``coarse``, ``full``, ``restart``, ``uncertainty``,
-        ``sliding``, ``profiles`` or ``done``.
+        ``locate``, ``scan``, ``coarse``, ``full``, ``restart``, ``start`` (one start
+        as a Dask task), ``uncertainty``, ``sliding``, ``profiles``, ``validation`` or
+        ``done``.
     start : int
         Start number (1-based; 0 outside the starts).
     starts : int
@@ -275,18 +276,42 @@ class StagePlan:
         }
         return StartResult(sol, math.nan, log, stages, last[0].central)
 
-    def minimize(self, theta_starts: list[np.ndarray]) -> tuple[StartResult, list[dict[str, Any]]]:
-        """Every start; the one with the lowest cost (its ``initial_cost`` set) and the log."""
+    def minimize(
+        self, theta_starts: list[np.ndarray], client: Any = None
+    ) -> tuple[StartResult, list[dict[str, Any]]]:
+        """Every start; the one with the lowest cost (its ``initial_cost`` set) and the log.
+
+        ``client``: a ``dask.distributed.Client`` that runs the starts as tasks (each walks
+        its stages alone, as in-process; the plan travels pickled, without its progress
+        callback: each start reports its beginning and end from here).
+        """
+        n = len(theta_starts)
+        if client is not None and n > 1:
+            shipped = dataclasses.replace(self, progress=None)
+            futures = []
+            for j, th0 in enumerate(theta_starts):
+                self.report("start", j + 1, n)
+                futures.append(client.submit(_run_start, shipped, th0, (j + 1, n), pure=False))
+            results = []
+            for j, fut in enumerate(futures):
+                results.append(fut.result())
+                self.report("start", j + 1, n, res=results[-1].sol)
+        else:
+            results = [self.run_start(th0, (j + 1, n)) for j, th0 in enumerate(theta_starts)]
         best: StartResult | None = None
         logs = []
-        for j, th0 in enumerate(theta_starts):
-            got = self.run_start(th0, (j + 1, len(theta_starts)))
+        for th0, got in zip(theta_starts, results, strict=True):
             logs.append(got.log)
             if best is None or got.sol.cost < best.sol.cost:
                 got.initial_cost = self.cost(self.full.fun(th0))
                 best = got
         assert best is not None  # theta_starts holds at least the base start
         return best, logs
+
+
+def _run_start(plan: StagePlan, th0: np.ndarray, k: tuple[int, int]) -> StartResult:
+    """One start on a worker (a module-level function: Dask pickles it by name)."""
+    return plan.run_start(th0, k)
 
 
 def theta_starts(problem: GreyBoxProblem, starts: int, rng: np.random.Generator) -> list:
