@@ -7,6 +7,13 @@
 """
 
 from ._compare import compare
+from ._coverage import (
+    CoverageResult,
+    cell_coverage,
+    coverage_study,
+    load_pressure_coverage,
+    pressure_band_scores,
+)
 from ._engineering import (
     BodeComparison,
     CellLoops,
@@ -14,13 +21,6 @@ from ._engineering import (
     cell_loops,
     error_bound_map,
     small_signal_bode,
-)
-from ._coverage import (
-    CoverageResult,
-    cell_coverage,
-    coverage_study,
-    load_pressure_coverage,
-    pressure_band_scores,
 )
 from ._evaluate import (
     CHANNELS,

@@ -16,9 +16,9 @@ from ..control import METRIC_UNITS, POSITIONING_TASK
 from ..data import read_dataset
 from ..linearization import reproduce_paper_tables
 from ..params import params_to_toml
-from ._report_engineering import engineering_section
-from ._report_coverage import coverage_section
 from ._report_control import closed_loop_verification_html
+from ._report_coverage import coverage_section
+from ._report_engineering import engineering_section
 
 __all__ = ["write_report", "metrics_for_display"]
 
