@@ -80,6 +80,7 @@ def test_exact_standstill_gives_the_quantization_alone():
     assert got["x"] == pytest.approx(s.quantization_step / np.sqrt(12.0), rel=0.15)
 
 
+@pytest.mark.slow  # a PI design verified on the full model (3 tasks): 18-25 s on the shared machine
 def test_cli_design_measures_the_verification_noise_from_a_dataset(tmp_path, capsys):
     """``control design --noise-from DATA`` verifies with the levels measured at standstill, and
     says so; together with ``--sensor-noise`` it is refused in one line (exit 2)."""
@@ -123,3 +124,36 @@ def test_cli_observer_is_designed_for_the_measured_noise(tmp_path, capsys):
     assert code == 2 and "position noise x > 0" in capsys.readouterr().err
     pi = ["control", "design", "--method", "pi", "--observer", "--out", str(tmp_path / "pi.toml")]
     assert main(pi) == 2 and "--observer needs --method lqr" in capsys.readouterr().err
+
+
+def test_cli_simulate_runs_with_the_measured_noise(tmp_path, capsys):
+    """``control simulate --noise-from DATA`` adds the measured noise to the controller's sensors.
+
+    At a hold of the reduced model the exact loop's command is constant; with the noise it
+    scatters by about k_p σ_x (the PI's position gain times the measured noise; the loop and
+    the pressure terms change it by tens of percent: bound 0.5-1.5).
+    """
+    import pandas as pd
+
+    from hydropwa.cli import main
+    from hydropwa.control import load_controller
+    from hydropwa.data import write_dataset
+
+    data = tmp_path / "data"
+    write_dataset([_measured()[0]], data)
+    sx = sensor_noise_from(_measured()[0])["x"]
+    ctrl = tmp_path / "pi.toml"
+    assert main(["control", "design", "--method", "pi", "--no-verify", "--out", str(ctrl)]) == 0
+    sim = ["control", "simulate", "--model", "reduced", "--controller", str(ctrl), "-p", "paper"]
+    sim += ["--reference", "0.1", "--duration", "0.3"]
+    for name, extra in (("exact", []), ("noisy", ["--noise-from", str(data)])):
+        assert main([*sim, "--out", str(tmp_path / f"{name}.csv"), *extra]) == 0
+    assert "sensor noise measured at standstill" in capsys.readouterr().out
+    cmd = {}
+    for name in ("exact", "noisy"):
+        df = pd.read_csv(tmp_path / f"{name}.csv", comment="#")
+        df.columns = [c.split(" ")[0] for c in df.columns]
+        cmd[name] = df["command"][df["t"] >= 0.1].to_numpy()
+    assert np.ptp(cmd["exact"]) < 1e-9
+    kp = load_controller(ctrl).kp
+    assert 0.5 * kp * sx < np.std(cmd["noisy"]) < 1.5 * kp * sx

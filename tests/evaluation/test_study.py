@@ -34,12 +34,15 @@ def test_study_writes_the_report_folder(small_study):
         "figures/fig08_stribeck.png",
         "figures/pwa_cells.png",
         "tables/closed_loop.csv",
+        "tables/closed_loop_verification.csv",
         "controller.toml",
         "figures/closed_loop.png",
     ):
         assert (out / rel).is_file(), rel
     assert len(list((out / "figures").glob("fig1[0-3]_*.png"))) == 4
-    assert "<h2>Closed loop</h2>" in (out / "index.html").read_text(encoding="utf-8")
+    page = (out / "index.html").read_text(encoding="utf-8")
+    assert "<h2>Closed loop</h2>" in page
+    assert "verification verdict: the design and the textbook PI" in page
     assert small_study.position_fit("full").min() >= 90.0
     assert set(small_study.metrics.model) >= {
         "full",

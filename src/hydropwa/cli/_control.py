@@ -435,6 +435,13 @@ def simulate_command(
             help="Noise on the controller's sensors, e.g. 'x=20 um,p_a=0.1 bar,p_b=0.1 bar'.",
         ),
     ] = None,
+    noise_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--noise-from",
+            help="Sensor noise measured from this dataset's standstill stretches.",
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the sensor noise.")] = 0,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
     compare: Annotated[
@@ -479,6 +486,8 @@ def simulate_command(
     ctrl = load_controller(controller)
     check_machine(ctrl, prm)
     noise = _sensor_noise(sensor_noise)
+    if noise_from is not None:
+        noise = _noise_from(noise_from, sensor_noise)
     ref = as_reference(reference)
     if duration is None:
         t_end = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
