@@ -14,6 +14,7 @@ from ._errors import (
     SignalError,
     SimulationError,
 )
+from ._result import Result, ResultStatus, Status
 from .models import FullOrderModel, Model, ReducedModel
 from .params import (
     Cylinder,
@@ -84,4 +85,7 @@ __all__ = [
     "Model",
     "SolverStats",
     "SolverStatus",
+    "Result",
+    "ResultStatus",
+    "Status",
 ]

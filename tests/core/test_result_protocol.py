@@ -17,8 +17,7 @@ import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
-from hydropwa import FullOrderModel, ReducedModel, simulate
-from hydropwa._result import Result, ResultStatus, Status
+from hydropwa import FullOrderModel, ReducedModel, Result, ResultStatus, Status, simulate
 from hydropwa.components import stribeck_friction
 from hydropwa.control import ControlDesign, design_pi
 from hydropwa.data import Run

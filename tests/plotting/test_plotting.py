@@ -30,7 +30,8 @@ from hydropwa.plotting import (
 SRC = Path(hydropwa.__file__).parent
 PLOTTING = SRC / "plotting"
 #: the leaf modules the plotting layer may use (no layer above it)
-LEAVES = {"_errors", "_io", "_layout"}
+#: leaf modules (numpy and the standard library only); _display holds the one unit table
+LEAVES = {"_display", "_errors", "_io", "_layout"}
 
 
 def _modules():
