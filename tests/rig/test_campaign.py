@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from hydropwa import ParameterError
@@ -51,6 +52,50 @@ def test_load_by_path(small_campaign_file):
         ({"deadzone": {"inputs": [0.05], "directions": ["up"]}}, "directions"),
         ({"stribeck": {}}, "unknown table"),
         ({"campaign": {"seed": -1}}, r"\[campaign\]\.seed"),
+        (
+            {"sine": {"frequencies": [1], "amplitudes": [0.2], "load": {}}},
+            r"load\.inputs is missing",
+        ),
+        (
+            {
+                "sine": {
+                    "frequencies": [1],
+                    "amplitudes": [0.2],
+                    "load": {"inputs": [0.2], "levels": [0.5]},
+                }
+            },
+            "at least two levels",
+        ),
+        (
+            {
+                "sine": {
+                    "frequencies": [1],
+                    "amplitudes": [0.2],
+                    "load": {"inputs": [0.2], "levels": [0, 1.5]},
+                }
+            },
+            r"levels\[1\]",
+        ),
+        (
+            {
+                "sine": {
+                    "frequencies": [1],
+                    "amplitudes": [0.2],
+                    "load": {"inputs": [0.2], "valve_delay": "0.1 s"},
+                }
+            },
+            "force_ramp",
+        ),
+        (
+            {
+                "sine": {
+                    "frequencies": [1],
+                    "amplitudes": [0.2],
+                    "load": {"inputs": [0.2], "push": 1},
+                }
+            },
+            "unknown key",
+        ),
     ],
 )
 def test_errors_name_the_key(doc, key):
@@ -61,3 +106,24 @@ def test_errors_name_the_key(doc, key):
 def test_missing_campaign_lists_builtins():
     with pytest.raises(ParameterError, match="paper"):
         load_campaign("no-such-campaign")
+
+
+def test_load_profile_walks_the_load_pressure_range(rig):
+    """[sine.load]: F_L starts at the machine's static load, reaches A_A·P_L at each level of the
+    direction's range (components.load_pressure_range) and joins the levels by ramp, step, ramp."""
+    from hydropwa.components import load_pressure_range
+    from hydropwa.rig import load_profile
+
+    exp = load_campaign("paper")["sine"].load
+    prm = rig.params
+    cyl, sup = prm.cylinder, prm.supply
+    for d in (1, -1):
+        t, f = (np.asarray(v) for v in load_profile(exp, prm, d))
+        assert np.all(np.diff(t) > 0) and f[0] == pytest.approx(prm.load.force)
+        lo, hi = load_pressure_range(d, sup.pressure, cyl.area_b / cyl.area_a, sup.tank_pressure)
+        want = [cyl.area_a * (lo + lev * (hi - lo)) for lev in exp.levels]
+        held = f[np.r_[np.diff(f) == 0, False]]  # the start of each hold
+        assert np.allclose(held, want)
+        gaps = np.diff(t)[np.diff(f) != 0][1:]  # the transitions after the ramp-up
+        trans = gaps[-(len(exp.levels) - 1) :]
+        assert np.allclose(trans, [exp.ramp, 1e-3, exp.ramp][: len(trans)])

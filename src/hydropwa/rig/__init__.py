@@ -15,12 +15,21 @@ from ._campaign import (
     FrfExperiment,
     FrfSweep,
     FrictionExperiment,
+    LoadRuns,
     SineExperiment,
     builtin_campaigns,
     load_campaign,
     parse_campaign,
 )
-from ._experiments import RunSpec, counter_force_signal, execute, multisine, plan, run_seed
+from ._experiments import (
+    RunSpec,
+    counter_force_signal,
+    execute,
+    load_profile,
+    multisine,
+    plan,
+    run_seed,
+)
 from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
 from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
@@ -36,6 +45,7 @@ __all__ = [
     "FrfExperiment",
     "FrfSweep",
     "FrictionExperiment",
+    "LoadRuns",
     "Rig",
     "RunSpec",
     "SensorModel",
@@ -44,6 +54,7 @@ __all__ = [
     "counter_force_signal",
     "execute",
     "load_campaign",
+    "load_profile",
     "machine_sensors",
     "machine_supply",
     "multisine",
