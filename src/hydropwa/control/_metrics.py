@@ -56,7 +56,7 @@ class TrackingMetrics:
     step : float
         Reference change over the window [m].
     rise_time : float
-        10 → 90 % of the step [s] (NaN without a step).
+        10 → 90 % of the step [s]; NaN without a step.
     overshoot : float
         Beyond the final reference, as a fraction of the step [1].
     settling_time : float
@@ -74,7 +74,7 @@ class TrackingMetrics:
     chattering : float
         Sign changes of the applied command per second [1/s] (beyond ±1 % of its range).
     window : (float, float)
-        [t0, t1] [s].
+        Start and end t0, t1 of the window [s].
 
     Notes
     -----
