@@ -260,7 +260,9 @@ def test_tracking_metrics_are_an_si_object_with_a_table_view(paper):
     assert 0.0 <= m.overshoot < 0.5 and 0.0 < m.rise_time < 0.3 and abs(m.steady_state_error) < 5e-4
     df = m.to_pandas()
     assert df.loc["rise_time", "unit"] == "s" and df.loc["rise_time", "display unit"] == "ms"
-    assert "rise_time" in repr(m) and "<table>" in m._repr_html_()
+    assert "\n" not in repr(m) and len(repr(m)) < 250 and "rise" in repr(m)
+    assert m._repr_html_().startswith("<div>") and "<table>" in m._repr_html_()
+    assert "rise_time" in m.summary()
     with pytest.warns(DeprecationWarning, match="TrackingMetrics object in SI"):
         assert m["rise_time"] == pytest.approx(1e3 * m.rise_time)
     with pytest.warns(DeprecationWarning):

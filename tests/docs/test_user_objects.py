@@ -113,4 +113,4 @@ def test_cli_reference_lists_every_command():
         "rig run",
     ):
         assert f"`hydropwa {cmd}`" in text, cmd
-    assert "`--sample-time <str>`" in text  # options come from the typer definitions
+    assert "`--sample-time PERIOD\\|RATE`" in text  # options come from the typer definitions

@@ -196,7 +196,10 @@ def test_views_draw_and_the_margins_need_gain_rows(pwa, loops):
     from hydropwa.evaluation import EngineeringError
     from hydropwa.plotting import plot_cell_margins, plot_error_bound_map, plot_pole_map
 
-    assert re.search(r"CellLoops\(\d+ cells\)", repr(loops))
+    for obj in (loops, small_signal_bode(pwa, command=0.3)):
+        assert "\n" not in repr(obj) and len(repr(obj)) < 250, repr(obj)
+        assert obj._repr_html_().startswith("<div>") and "<table>" in obj._repr_html_()
+    assert re.search(r"CellLoops\(70 cells: closed-loop radius ≤ 0\.99", repr(loops))
     for fig in (
         plot_pole_map(loops),
         plot_cell_margins(loops),

@@ -56,7 +56,7 @@ class TrackingMetrics:
     step : float
         Reference change over the window [m].
     rise_time : float
-        10 → 90 % of the step [s] (NaN without a step).
+        10 → 90 % of the step [s]; NaN without a step.
     overshoot : float
         Beyond the final reference, as a fraction of the step [1].
     settling_time : float
@@ -74,7 +74,7 @@ class TrackingMetrics:
     chattering : float
         Sign changes of the applied command per second [1/s] (beyond ±1 % of its range).
     window : (float, float)
-        [t0, t1] [s].
+        Start and end t0, t1 of the window [s].
 
     Notes
     -----
@@ -123,7 +123,12 @@ class TrackingMetrics:
 
     def __repr__(self) -> str:
         t0, t1 = self.window
-        return f"TrackingMetrics(window {t0:g}…{t1:g} s)\n{self.summary()}"
+        d = self.display()
+        return (
+            f"TrackingMetrics(window {t0:g}…{t1:g} s: max error {d['max_following_error']:.3g} mm, "
+            f"steady-state error {d['steady_state_error']:.3g} mm, overshoot "
+            f"{d['overshoot']:.3g} %, rise {d['rise_time']:.4g} ms, saturation {d['saturation']:.3g} %)"
+        )
 
     def _repr_html_(self) -> str:
         rows = "".join(
@@ -131,8 +136,8 @@ class TrackingMetrics:
             for k, v in self.display().items()
         )
         return (
-            "<table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"
-            f"<tbody>{rows}</tbody></table>"
+            "<div><table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"
+            f"<tbody>{rows}</tbody></table></div>"
         )
 
     # --- the former dict (engineering units), deprecated ------------------------------------

@@ -87,6 +87,28 @@ class BodeComparison:
             np.max(np.abs(np.degrees(np.angle(r))))
         )
 
+    def __repr__(self) -> str:
+        mag, ph = self.agreement(0.5)
+        u = self.working_point["u"]
+        return (
+            f"BodeComparison({self.frequency.size} frequencies, u = {100 * u:.0f} %: hydraulic "
+            f"{self.natural_frequency:.0f} Hz, valve {self.valve_frequency:.0f} Hz; below half "
+            f"the hydraulic one within {100 * mag:.2g} % / {ph:.2g}°)"
+        )
+
+    def _repr_html_(self) -> str:
+        mag, ph = self.agreement(0.5)
+        rows = (
+            ("hydraulic natural frequency", f"{self.natural_frequency:.4g}", "Hz"),
+            ("valve ω0/2π", f"{self.valve_frequency:.4g}", "Hz"),
+            ("static gain, linearized", f"{abs(self.linearized[0]) * 10:.4g}", "(mm/s)/%"),
+            ("static gain, full", f"{abs(self.full[0]) * 10:.4g}", "(mm/s)/%"),
+            ("largest magnitude error below f_h/2", f"{100 * mag:.3g}", "%"),
+            ("largest phase error below f_h/2", f"{ph:.3g}", "deg"),
+        )
+        body = "".join(f"<tr><td>{a}</td><td>{b}</td><td>{c}</td></tr>" for a, b, c in rows)
+        return f"<div><table><tbody>{body}</tbody></table></div>"
+
     def to_pandas(self):
         """One row per frequency: magnitude [(mm/s)/%] and phase [deg] of both models."""
         import pandas as pd  # deferred: pandas costs ~0.3 s at import
@@ -237,10 +259,20 @@ class CellLoops:
         return self.table.copy()
 
     def _repr_html_(self) -> str:
-        return self.table.to_html(index=False, float_format=lambda v: f"{v:.4g}")
+        table = self.table.to_html(index=False, float_format=lambda v: f"{v:.4g}", border=0)
+        plain = table.replace('<table class="dataframe">', "<table>")
+        return f"<div>{plain}</div>"
 
     def __repr__(self) -> str:
-        return f"CellLoops({len(self.table)} cells)\n{self.table.to_string(index=False)}"
+        t = self.table
+        if "radius [1]" not in t:
+            worst = float(t["open_loop_max_real [1/s]"].max()) if len(t) else math.nan
+            return f"CellLoops({len(t)} cells, open loop only: largest real part {worst:.4g} 1/s)"
+        return (
+            f"CellLoops({len(t)} cells: closed-loop radius ≤ {t['radius [1]'].max():.4f}, "
+            f"phase margin ≥ {t['phase_margin [deg]'].min():.1f}°, "
+            f"gain margin ≥ {t['gain_margin [dB]'].min():.1f} dB)"
+        )
 
 
 def _cell_keys(pwa, controller) -> list[tuple[str, tuple[int, int, int, int], Any]]:
