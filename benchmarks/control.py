@@ -118,8 +118,8 @@ def compare() -> None:
                     sensor_noise=noise,
                     seed=1,
                 )
-                m = tracking_metrics(res)
-                hold = tracking_metrics(res, t0=dur - 0.2)
+                m = tracking_metrics(res).display()
+                hold = tracking_metrics(res, t0=dur - 0.2).display()
                 pp = float(np.ptp(res["x"][res.t >= dur - 0.2])) * 1e3
                 print(
                     f"{name:<11}{cname:<34}{sensors:<8}{m['max_following_error']:>12.3f}{pp:>12.3f}"
