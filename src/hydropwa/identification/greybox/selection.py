@@ -78,7 +78,7 @@ class Selection:
         Add each run's steady stretch as its means (:func:`~.steady.steady_runs`): the
         information of the samples the selection leaves out, at the cost of one short
         simulation per run. On the virtual rig's friction campaign it took the Coulomb
-        friction from −15.8 % to TODO (paper set) and from −21.4 % to TODO (set B).
+        friction from −15.8 % to −4.0 % (paper set, with the transients left out: see ``transients``) and from −21.4 % to +3.8 % (set B).
     transients : bool or None
         Keep the segments after the events (None: unless the load feedback applies and
         the steady means are there: the measured force then holds c·ẋ, and within the
