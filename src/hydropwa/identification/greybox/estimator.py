@@ -147,7 +147,7 @@ class FitData:
     held: list = dataclasses.field(default_factory=list)
     #: the load's damping [N·s/m] estimated from the runs and put back into the model
     feedback: float = 0.0
-    #: the steady stretches' means as pseudo-runs (a selected campaign, :mod:`.steady`)
+    #: the steady stretches' means as pseudo-runs (a selected campaign, ``greybox.steady``)
     steady: list[RunData] = dataclasses.field(default_factory=list)
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:

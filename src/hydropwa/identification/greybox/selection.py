@@ -75,7 +75,7 @@ class Selection:
         Estimate the load's velocity-proportional force from the runs' steady parts and
         apply it in the model from the simulated velocity (``load_feedback``).
     steady_means : bool
-        Add each run's steady stretch as its means (:func:`~.steady.steady_runs`): the
+        Add each run's steady stretch as its means (:func:`~hydropwa.identification.greybox.steady.steady_runs`): the
         information of the samples the selection leaves out, at the cost of one short
         simulation per run. On the virtual rig's friction campaign, fitted alone (see
         ``transients``), they took the Coulomb friction from −15.8 % to −0.6 % (paper set)

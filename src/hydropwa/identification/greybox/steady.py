@@ -4,7 +4,7 @@ A constant-input run settles: over its steady stretch the rod moves at a constan
 the chamber pressures hold the values at which the valve's flow and the forces balance
 (Eqs. (1)–(11) of the paper at rest in their derivatives). Every sample of that stretch
 repeats the same two numbers, so its information is in their means, known to a standard
-error many times below one sample's noise. A campaign selection (:mod:`.selection`) keeps
+error many times below one sample's noise. A campaign selection (:mod:`hydropwa.identification.greybox.selection`) keeps
 0.1 s of each run and drops the rest; on the virtual rig's friction campaign that left the
 Coulomb friction within ±40 % (95 %) — its share of the force is a few newtons, resolved by
 the means of all runs (a fit of Eq. (11) to them alone: F_c, F_s, σ within 1.5 %), not by
