@@ -92,7 +92,7 @@ class _Segment:
     #: the smoothed measurements y0 was built from (x, v, p_a, p_b, p_s, spool, spool_rate)
     meas: dict[str, float]
     #: per channel, a factor on the segment's noise-scaled residuals, one for all or one per
-    #: residual sample (None: 1); a steady stretch's mean stands for many samples (:mod:`.steady`)
+    #: residual sample (None: 1); a steady stretch's mean stands for many samples (``greybox.steady``)
     weight: dict[str, Any] | None = None
 
 

@@ -147,7 +147,7 @@ class FitData:
     held: list = dataclasses.field(default_factory=list)
     #: the load's damping [N·s/m] estimated from the runs and put back into the model
     feedback: float = 0.0
-    #: the steady stretches' means as pseudo-runs (a selected campaign, :mod:`.steady`)
+    #: the steady stretches' means as pseudo-runs (a selected campaign, ``greybox.steady``)
     steady: list[RunData] = dataclasses.field(default_factory=list)
 
     def restricted(self, pairs: list[tuple[Any, RunData | None]]) -> list[RunData]:
@@ -326,7 +326,8 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
         )  # fmt: skip
     transients = selection.transients
     if transients is None:
-        transients = not (c > 0 and data.steady)
+        friction_only = all(n.startswith("friction.") for n in data.names)
+        transients = not (c > 0 and data.steady and friction_only)
     picked, note = selection.select([rd for _r, rd in again], data.names, v_move, transients)
     data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
     data.notes.append(note)
@@ -334,10 +335,11 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
         data.notes.append(steady_note)
     if not transients:
         data.notes.append(
-            "The segments after the events are left out: the measured load force holds the "
-            "load's damping c·ẋ, and within milliseconds of a motion event the smoothed "
-            "velocity taken out of it misses c·(ẋ − ẋ̂), an input error of tens of newtons; "
-            "the steady segments and means carry the friction curve instead."
+            "The steady means alone are fitted (no segment): the measured load force holds "
+            "the load's damping c·ẋ, and within milliseconds of a motion event the smoothed "
+            "velocity taken out of it misses c·(ẋ − ẋ̂), an input error of tens of newtons, "
+            "while the means pin the friction curve; the smoothness, which acts only around "
+            "standstill, is not determined by them."
         )
     data.selected = {rd.name: spans(rd) for _r, rd in data.pairs}
     data.departures = departures

@@ -75,16 +75,22 @@ class Selection:
         Estimate the load's velocity-proportional force from the runs' steady parts and
         apply it in the model from the simulated velocity (``load_feedback``).
     steady_means : bool
-        Add each run's steady stretch as its means (:func:`~.steady.steady_runs`): the
+        Add each run's steady stretch as its means (:func:`~hydropwa.identification.greybox.steady.steady_runs`): the
         information of the samples the selection leaves out, at the cost of one short
-        simulation per run. On the virtual rig's friction campaign it took the Coulomb
-        friction from −15.8 % to TODO (paper set) and from −21.4 % to TODO (set B).
+        simulation per run. On the virtual rig's friction campaign, fitted alone (see
+        ``transients``), they took the Coulomb friction from −15.8 % to −0.6 % (paper set)
+        and from −21.4 % to +1.3 % (set B).
     transients : bool or None
-        Keep the segments after the events (None: unless the load feedback applies and
-        the steady means are there: the measured force then holds c·ẋ, and within the
-        milliseconds of a motion event the smoothed velocity taken out of it misses
-        c·(ẋ − ẋ̂) of tens of newtons, an input error that biased the Coulomb friction
-        (−22.6 % with them on the paper set, −4.0 % without)).
+        Fit segments of the runs (None: unless only friction parameters are free, the load
+        feedback applies and the steady means are there; then the steady means alone are
+        fitted). The measured force then holds c·ẋ: within the milliseconds of a motion
+        event the smoothed velocity taken out of it misses c·(ẋ − ẋ̂), tens of newtons,
+        and each segment starts from smoothed measurements whose errors the model turns into
+        a drift. On the virtual rig's friction campaign (paper set) F_c came out −22.6 %
+        with the event segments, −4.0 … −26.1 % with steady segments only (by which
+        segment of each run was kept), −0.6 % from the means alone (F_s −0.3 %, σ +0.2 %;
+        set B: +1.3, −4.7, −0.3 %); the smoothness, which acts only around standstill, is
+        then reported as not determined.
     standstill : bool
         Keep the segments that start near standstill (the creeping runs, the breakaway).
         With the load feedback they inform F_s, the Stribeck velocity and the smoothness:
@@ -138,9 +144,8 @@ class Selection:
         Each run offers its segments after the events and ``steady_per_run`` steady ones,
         at most ``per_run``; when that exceeds the budget, runs are kept evenly spaced over
         the campaign's operating points (ordered by their median speed, signed): neighbouring
-        constant-input runs repeat each other. ``transients=False``: the steady segments
-        alone (see :func:`~.estimator.fit_model`'s campaign notes: a measured load force
-        that holds the load's damping makes the transients' input wrong).
+        constant-input runs repeat each other. ``transients=False``: no segment (the steady
+        means alone are fitted, see the attribute ``transients``).
         """
         kinds = self.wanted(names)
         seconds = sum(_duration(rd) for rd in runs)
@@ -162,7 +167,8 @@ class Selection:
             if "motion" in kinds:
                 rd = rd if self.standstill else _moving_starts(rd, v_move)
             keep_e, keep_s = _pick(rd, ev, self.transient, n_steady, n_run)
-            keep_e = keep_e if transients else []
+            if not transients:  # the steady means carry it (see ``transients``)
+                keep_e, keep_s = [], []
             n_event += len(keep_e)
             got_steady += len(keep_s)
             n_all += len(rd.segments)
