@@ -6,7 +6,7 @@
 
 The paper study and its HTML report live in :mod:`hydropwa.studies.paper`; the names
 ``run_paper_study``, ``write_report``, ``StudyResult`` and ``StudyError`` are still found
-here as deprecated aliases (:func:`__getattr__`).
+here as deprecated aliases (a module ``__getattr__``, PEP 562).
 """
 
 import importlib
