@@ -39,7 +39,7 @@ def test_verdicts_follow_the_measured_numbers_and_the_criteria(table):
 
 
 def test_report_section_shows_both_verdicts(table, tmp_path):
-    from hydropwa.evaluation._report_control import closed_loop_verification_html
+    from hydropwa.studies.paper._report_control import closed_loop_verification_html
 
     assert closed_loop_verification_html(tmp_path) == ""  # no table: no section
     (tmp_path / "tables").mkdir()

@@ -24,7 +24,7 @@ def sine_run():
 @pytest.fixture(scope="session")
 def small_study(tmp_path_factory):
     """A small study on the virtual rig (the campaign in small_campaign.toml)."""
-    from hydropwa.evaluation import run_paper_study
+    from hydropwa.studies.paper import run_paper_study
 
     out = tmp_path_factory.mktemp("study") / "report"
     return run_paper_study(out, campaign=SMALL_CAMPAIGN, progress=False)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from hydropwa.evaluation._report import _interval_digits
+from hydropwa.studies.paper._report import _interval_digits
 
 
 def test_interval_digits_tell_the_ends_apart():

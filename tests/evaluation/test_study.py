@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from hydropwa.evaluation import StudyError, run_paper_study
+from hydropwa.studies.paper import StudyError, run_paper_study
 
 SMALL_CAMPAIGN = Path(__file__).parent / "small_campaign.toml"
 

@@ -129,7 +129,7 @@ def test_screening_judges_only_what_each_estimator_reads(small):
 
 def test_identify_and_the_paper_study_use_the_same_runs(tmp_path, small):
     """A run with a spike in x is left out by both entry points, with the same finding."""
-    from hydropwa.evaluation._study import _identify
+    from hydropwa.studies.paper._study import _identify
 
     camp = parse_campaign(
         {"deadzone": {"inputs": {"start": 0.02, "stop": 0.2, "step": 0.02}, "duration": 1.0}}
@@ -352,8 +352,8 @@ def test_sandwich_intervals_hold_where_the_noise_varies_from_point_to_point():
 
 
 def test_paper_report_flags_a_truth_outside_its_interval():
-    from hydropwa.evaluation._study import _estimates_rows
     from hydropwa.identification._common import estimate
+    from hydropwa.studies.paper._study import _estimates_rows
 
     rows = _estimates_rows(
         [("a", "1", estimate(1.0, 0.01, 2.0), 1.5), ("b", "1", estimate(1.0, 0.01, 2.0), 1.0)]
@@ -362,7 +362,7 @@ def test_paper_report_flags_a_truth_outside_its_interval():
 
 
 def test_paper_with_only_sine_runs_keeps_the_rest_and_says_so(tmp_path):
-    from hydropwa.evaluation import run_paper_study
+    from hydropwa.studies.paper import run_paper_study
 
     camp = parse_campaign({"sine": {"frequencies": ["2 Hz"], "amplitudes": ["40 %"], "periods": 2}})
     run_campaign(Rig(), camp, tmp_path / "data")

@@ -131,7 +131,7 @@ def test_a_swallowed_ctrl_c_is_recorded_and_raised_at_the_next_checkpoint(record
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_a_study_stage_does_not_start_after_a_swallowed_ctrl_c(recording, tmp_path):
-    from hydropwa.evaluation._stages import StageRunner
+    from hydropwa.studies.paper._stages import StageRunner
 
     _swallowed_ctrl_c()
     ran = []

@@ -224,7 +224,7 @@ def test_lock_keeps_a_second_run_out_and_a_stale_lock_is_taken_over(tmp_path):
 
 
 def test_paper_refuses_a_folder_another_run_holds(tmp_path):
-    from hydropwa.evaluation import run_paper_study
+    from hydropwa.studies.paper import run_paper_study
 
     with output_lock(tmp_path / "rep"), pytest.raises(OutputLockedError, match="another run"):
         run_paper_study(tmp_path / "rep", progress=False)

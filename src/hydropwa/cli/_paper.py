@@ -1,6 +1,6 @@
 """``hydropwa paper``: the paper's study end to end (rig or measured data → report folder).
 
-A thin wrapper over :func:`hydropwa.evaluation.run_paper_study`; errors
+A thin wrapper over :func:`hydropwa.studies.paper.run_paper_study`; errors
 (:class:`~hydropwa.HydropwaError`) go through the CLI's one error path (one line, exit 2).
 """
 
@@ -68,7 +68,7 @@ def paper_command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper's study: data → identification → PWA → evaluation → report; reruns reuse finished stages."""
-    from hydropwa.evaluation import (
+    from hydropwa.studies.paper import (
         run_paper_study,  # deferred: loaded only when this command runs (a fast --help)
     )
 

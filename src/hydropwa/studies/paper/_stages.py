@@ -10,8 +10,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from .. import _interrupt
-from .._io import atomic_write_text
+from ... import _interrupt
+from ..._io import atomic_write_text
 
 __all__ = ["STAGE_DIR", "file_hash", "text_hash", "tree_files", "StageRunner"]
 

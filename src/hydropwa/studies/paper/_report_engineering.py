@@ -11,10 +11,10 @@ import html
 import math
 from pathlib import Path
 
-from .._io import atomic_path
-from ..control import load_controller
-from ..linearization import load_pwa
-from ._engineering import cell_loops, error_bound_map, small_signal_bode
+from ..._io import atomic_path
+from ...control import load_controller
+from ...evaluation import cell_loops, error_bound_map, small_signal_bode
+from ...linearization import load_pwa
 
 __all__ = ["engineering_section"]
 
@@ -31,7 +31,7 @@ def _embed(png: Path, caption: str) -> str:
 
 
 def _save(fig, out: Path, stem: str) -> Path:
-    from ..plotting import save_figure  # deferred: matplotlib loads only when plotting
+    from ...plotting import save_figure  # deferred: matplotlib loads only when plotting
 
     (out / "figures").mkdir(parents=True, exist_ok=True)
     save_figure(fig, out / "figures" / f"{stem}.svg", overwrite=True)  # the report owns its folder
@@ -136,7 +136,7 @@ def _loops_part(out: Path, pwa) -> str:
 
 
 def _plot(name: str, obj):
-    from .. import plotting  # deferred: matplotlib loads only when plotting
+    from ... import plotting  # deferred: matplotlib loads only when plotting
 
     return getattr(plotting, name)(obj)
 

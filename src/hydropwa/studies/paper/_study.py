@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import _interrupt
-from .._errors import HydropwaError, IdentificationError
-from .._io import (
+from ... import _interrupt
+from ..._errors import HydropwaError, IdentificationError
+from ..._io import (
     LOCK_NAME,
     atomic_path,
     atomic_write_text,
@@ -36,9 +36,10 @@ from .._io import (
     output_lock,
     overwrite_flag,
 )
-from ..control import closed_loop_study, closed_loop_verification, save_controller
-from ..data import Run, read_dataset
-from ..identification import (
+from ...control import closed_loop_study, closed_loop_verification, save_controller
+from ...data import Run, read_dataset
+from ...evaluation import coverage_study, evaluate_run, evaluation_params, sound_runs
+from ...identification import (
     PARTS,
     IdentificationWarning,
     fit_model,
@@ -46,13 +47,11 @@ from ..identification import (
     machine_for,
     recorded_machine,
 )
-from ..linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
-from ..models import FullOrderModel
-from ..params import SystemParams, get_preset, load_params, params_to_toml
-from ..rig import Rig, load_campaign, run_campaign
-from ..simulation import WarmUp
-from ._coverage import coverage_study
-from ._evaluate import evaluate_run, evaluation_params, sound_runs
+from ...linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
+from ...models import FullOrderModel
+from ...params import SystemParams, get_preset, load_params, params_to_toml
+from ...rig import Rig, load_campaign, run_campaign
+from ...simulation import WarmUp
 from ._report import write_report
 from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
 
@@ -427,7 +426,7 @@ def _markdown(df, floatfmt: str = ".4g") -> str:
 
 
 def _save(fig, stem: Path) -> list[Path]:
-    from ..plotting import save_figure  # deferred: matplotlib loads only when plotting
+    from ...plotting import save_figure  # deferred: matplotlib loads only when plotting
 
     # the stage runner owns the folder and decides what may be replaced
     svg = save_figure(fig, stem.with_suffix(".svg"), overwrite=True)
@@ -444,7 +443,7 @@ def _stage_identify(
     def work():
         import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..plotting import (  # deferred: matplotlib loads only when plotting
+        from ...plotting import (  # deferred: matplotlib loads only when plotting
             plot_bode,
             plot_dead_zone,
         )
@@ -498,7 +497,7 @@ def _stage_greybox(
     out = inp.out
 
     def work():
-        from ..plotting import (  # deferred: matplotlib loads only when plotting
+        from ...plotting import (  # deferred: matplotlib loads only when plotting
             plot_greybox_fit,
             plot_greybox_residuals,
         )
@@ -577,11 +576,11 @@ def _stage_linearize(inp: _Inputs, runner: StageRunner, ident, true, key: str, r
     def work():
         import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..linearization._report import (  # deferred: matplotlib loads only when plotting
+        from ...linearization._report import (  # deferred: matplotlib loads only when plotting
             cq_figure,
             cqp_figure,
         )
-        from ..plotting import plot_stribeck  # deferred: matplotlib loads only when plotting
+        from ...plotting import plot_stribeck  # deferred: matplotlib loads only when plotting
 
         ps = _mean_supply(runs, ident)
         pwa = linearize(evaluation_params(ident), supply_pressure=ps)
@@ -669,7 +668,7 @@ def _stage_evaluate(
     def work():
         import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-        from ..plotting import plot_cell_occupancy  # deferred: matplotlib loads only when plotting
+        from ...plotting import plot_cell_occupancy  # deferred: matplotlib loads only when plotting
 
         corners = _corners(runs)
         frames: list[Any] = []
@@ -752,7 +751,7 @@ def _stage_control(
     out = inp.out
 
     def work():
-        from ..plotting import plot_closed_loop  # deferred: matplotlib loads only when plotting
+        from ...plotting import plot_closed_loop  # deferred: matplotlib loads only when plotting
 
         pwa = load_pwa(out / "pwa.json")
         runs, table, design = closed_loop_study(pwa, true)

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from .._io import atomic_write_text
-from ..control import METRIC_UNITS, POSITIONING_TASK
-from ..data import read_dataset
-from ..linearization import reproduce_paper_tables
-from ..params import params_to_toml
+from ... import __version__
+from ..._io import atomic_write_text
+from ...control import METRIC_UNITS, POSITIONING_TASK
+from ...data import read_dataset
+from ...linearization import reproduce_paper_tables
+from ...params import params_to_toml
 from ._report_control import closed_loop_verification_html
 from ._report_coverage import coverage_section
 from ._report_engineering import engineering_section
@@ -102,7 +102,7 @@ def _table(df, caption: str = "") -> str:
 
 def metrics_for_display(metrics):
     """Metrics with RMSE, peak error and drift in engineering units (mm, bar, mm/s)."""
-    from ..plotting import DISPLAY  # deferred: matplotlib loads only when plotting
+    from ...plotting import DISPLAY  # deferred: matplotlib loads only when plotting
 
     df = metrics.copy()
     fac = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[1])
@@ -251,7 +251,7 @@ def _fig9(out: Path, info: dict) -> str:
     """Fig. 9: the supply pressure recorded during the evaluation runs (first sine run)."""
     try:
         # deferred: matplotlib loads only when a figure is drawn
-        from ..plotting import plot_supply_pressure, save_figure
+        from ...plotting import plot_supply_pressure, save_figure
 
         # the study's own data (virtual rig: out/data) or the measured dataset it was given
         folders = [r / "sine" for r in (out / "data", Path(str(info.get("data", ""))))] + [
