@@ -77,11 +77,9 @@ def _lock_saves() -> bool:
     overloads of one function at once (the background warm-up compiles the other models'
     kernels while this process compiles its own; ``_march`` and ``_jacobian`` have one overload
     per model kind) both take ``….1.nbc``; the last index and the last data written can belong
-    to different overloads, and a later process then loads one model's machine code for another
-    (seen in development after compiles beside a warm-up: the full model's 10 s paper run took
-    5116 steps instead of 5121, PWA 7600 instead of 7506, both still "converged" because the
-    W-method tolerates a wrong Jacobian; reproduced in ``tests/performance/test_jit_cache.py``).
-    An exclusive ``flock`` on ``<index>.lock`` around the save orders them.
+    to different overloads, and a later process then loads one overload's machine code for
+    another's signature (numba does not check; ``tests/performance/test_jit_cache.py`` forces the
+    interleaving). An exclusive ``flock`` on ``<index>.lock`` around the save orders them.
     """
     if IndexDataCacheFile is None or fcntl is None:  # pragma: no cover
         return False
