@@ -447,6 +447,17 @@ def _greybox_section(out: Path) -> str:
     )
 
 
+def _true_params_html(true) -> str:
+    """The rig's true parameters as a folded TOML block (virtual-rig data only)."""
+    if true is None:
+        return ""
+    return (
+        "<details><summary>true parameters (TOML)</summary><pre>"
+        + html.escape(params_to_toml(true))
+        + "</pre></details>"
+    )
+
+
 def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     """Write ``out/index.html`` from the study's tables and figures; returns its path."""
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
@@ -456,15 +467,7 @@ def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
     fit_detrended = pd.read_csv(out / "tables" / "position_fit_detrended.csv")
     notes_html = "".join(f"<li>{html.escape(n)}</li>" for n in notes) or "<li>none</li>"
     by_stage: dict = info.get("stage_notes") or {}
-    true_toml = (
-        ""
-        if true is None
-        else (
-            "<details><summary>true parameters (TOML)</summary><pre>"
-            + html.escape(params_to_toml(true))
-            + "</pre></details>"
-        )
-    )
+    true_toml = _true_params_html(true)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>hydropwa paper study</title>
 <style>{_CSS}</style></head><body>
