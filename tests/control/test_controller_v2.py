@@ -297,6 +297,7 @@ def test_dead_zone_hysteresis_keeps_the_side_and_the_orifice_closed_on_the_other
         DeadZoneInverse(offset=off, width=w, hysteresis=-1e-3)
 
 
+@pytest.mark.slow  # a 70-cell design and two 1.5 s noisy full-model runs: 29 s on the shared machine
 def test_dead_zone_hysteresis_quiets_the_paper_rig_hold_under_noise(paper, paper_pwa):
     """Full model, 20 µm / 0.1 bar noise, one sample of delay, 0.6 s hold after the trapezoid:
     the observer's x̂ with h = 0.005 cuts the command sign changes below the issue's 100/s
