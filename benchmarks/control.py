@@ -107,12 +107,12 @@ def compare() -> None:
             f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,
             "--method pi": design_pi(pwa, delay=True).controller,
             # opt-in noise measures (not the default): the position observer and the
-            # dead-zone hysteresis h = 0.005; the heavy axis needs the faster observer
+            # dead-zone hysteresis h = 0.005
             "design + observer + DZ hysteresis": design_state_feedback(
                 pwa,
                 delay=True,
                 position_noise=NOISE["x"],
-                acceleration_noise=0.3 if path is None else 1.0,
+                acceleration_noise=1.0,
                 dead_zone_hysteresis=0.005,
             ).controller,
         }

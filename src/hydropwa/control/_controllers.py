@@ -118,7 +118,7 @@ class DeadZoneInverse:
     hysteresis : float
         Band h [1] of the side of the dead zone (0: none; schema 2): the inverse keeps
         the side of the last command until c crosses the other side's −h, and a command on
-        the other side within the band stays inside the dead zone
+        the other side within the band gives u = 0 (the middle of the dead zone, closed)
         (``dead_zone_hysteresis`` of the compiled law). Sized from the
         command noise, it keeps sensor noise from throwing the spool across the dead zone.
     """

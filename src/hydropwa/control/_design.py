@@ -397,11 +397,11 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         default 0: none). With sensor noise the command at a hold flips its sign every few
         samples, and the inverse throws the spool across the dead zone each time; with h
         it changes side only when c leaves ±h. Measured on the full model, 20 µm / 0.1 bar
-        noise, one sample of delay, 0.6 s after the trapezoid (``benchmarks/control.py``):
-        with ``position_noise=20e-6`` and h = 0.005, the paper rig (``acceleration_noise``
-        0.3) makes 65-90 sign changes/s instead of 700-785 and holds within 0.011 mm, the
-        heavy axis (1 m/s²) 65-90 instead of 570-635 within 0.053 mm; without the observer
-        (paper rig, h = 0.005) 610-630/s, and h ≥ 0.01 makes the holds hunt (0.08-0.15 mm).
+        noise, one sample of delay, 0.6 s after the paper trapezoid, with
+        ``position_noise=20e-6``: h = 0.005 makes 80-95 sign changes/s instead of 625-795 and
+        holds within 0.010 mm; without the observer 610-630/s; h = 0.01 lets the hold hunt
+        (up to 0.08 mm). Not enough at the verification's ±50 % force holds (paper rig
+        184/s), so off by default.
 
     Returns
     -------

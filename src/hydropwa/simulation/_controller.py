@@ -62,8 +62,9 @@ gain row (see :data:`EXT_SLOTS`)::
                  v̂⁻ = v̂ + T_s r̈_{k−1}, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
                  e0+X_KFX, e0+X_KFV; x̂ = x, v̂ = ṙ at k = 0); the law then uses x̂ and v̂
     e0+X_DZH     dead-zone hysteresis h [1] (0: none): the inverse keeps the side s of the
-                 last command until c crosses −s·h (:func:`dead_zone_hysteresis`), so sensor
-                 noise on a small command does not throw the spool across the dead zone
+                 last command until c crosses −s·h, u = 0 on the other side inside the band
+                 (:func:`dead_zone_hysteresis`), so sensor noise on a small command does not
+                 throw the spool across the dead zone
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
 
@@ -217,22 +218,20 @@ def dead_zone_hysteresis(c, offset, width, hyst, side):
     """Dead-zone inverse that changes side only when c leaves the band ±h; returns (u, side).
 
     The side s (±1) becomes sign(c) where |c| ≥ h and is kept inside the band. On the
-    kept side (s·c ≥ 0) u = c + s·offset, the outer-cell inverse of Eq. (2); on the
-    other side u = s·max(offset − |c|, 0): the command stays inside the dead zone on the
-    side s, so the orifice stays (almost) closed instead of opening the other way. u is
-    monotone in c for a fixed s; it crosses the dead zone only when c crosses −s·h.
-    Before the first |c| ≥ h (s = 0) it is :func:`dead_zone_inverse` with the blend.
+    kept side (s·c ≥ 0), and before the first |c| ≥ h (s = 0), u is
+    :func:`dead_zone_inverse` with its blend (the orifice opens by c); on the other side
+    within the band u = 0, the middle of the dead zone (closed). The spool so crosses the
+    dead zone only when c crosses −s·h, and sensor noise on a command near zero leaves
+    it on one side instead of throwing it across every few samples.
     """
     s = side
     if c >= hyst:
         s = 1.0
     elif c <= -hyst:
         s = -1.0
-    if s == 0.0:
+    if s == 0.0 or c * s >= 0.0:
         return dead_zone_inverse(c, offset, width), s
-    if c * s >= 0.0:
-        return c + s * offset, s
-    return s * max(offset - abs(c), 0.0), s
+    return 0.0, s
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)

@@ -25,27 +25,22 @@ static double hp_dead_zone_inverse(double c, double offset, double width)
 }
 
 /* Dead-zone inverse with hysteresis h: keeps the side *side (+-1) of the last command until
- * c leaves the band +-h; on the other side within the band u = side * max(offset - |c|, 0);
- * before the first |c| >= h (side 0) the inverse with the blend. */
+ * c leaves the band +-h; the inverse with the blend on that side (and before the first
+ * |c| >= h, side 0), u = 0 on the other side within the band. */
 static double hp_dead_zone_hysteresis(double c, double offset, double width, double hyst,
                                       double *side)
 {
     double s = *side;
-    double a;
     if (c >= hyst) {
         s = 1.0;
     } else if (c <= -hyst) {
         s = -1.0;
     }
     *side = s;
-    if (s == 0.0) {
+    if (s == 0.0 || c * s >= 0.0) {
         return hp_dead_zone_inverse(c, offset, width);
     }
-    if (c * s >= 0.0) {
-        return c + s * offset;
-    }
-    a = c < 0.0 ? -c : c;
-    return s * (offset - a > 0.0 ? offset - a : 0.0);
+    return 0.0;
 }
 
 /* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
