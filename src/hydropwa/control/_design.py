@@ -399,7 +399,7 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         it changes side only when c leaves ±h. Measured on the full model, 20 µm / 0.1 bar
         noise, one sample of delay, 0.6 s after the paper trapezoid, with
         ``position_noise=20e-6``: h = 0.005 makes 80-95 sign changes/s instead of 625-795 and
-        holds within 0.010 mm; without the observer 610-630/s; h = 0.01 lets the hold hunt
+        holds within 0.010 mm; without the observer 660/s; h = 0.01 lets the hold hunt
         (up to 0.08 mm). Not enough at the verification's ±50 % force holds (paper rig
         184/s), so off by default.
 
