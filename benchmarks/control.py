@@ -12,6 +12,8 @@ a textbook PI with velocity feed-forward (crossover min(ω_h, ω0)/3, lowered un
 on the sampled plant with valve and delay is 6 dB; integral corner at a fifth of it;
 k_ff = 1/K_v), and ``design_pi(delay=True)`` (``--method pi``), side by side: peak following
 error, hold peak to peak over the last 0.2 s, saturation and command sign changes per second.
+A fourth row: the design with the opt-in noise measures (position observer, dead-zone
+hysteresis h = 0.005).
 
 **Verification** (``--verify N``, issue 34): the default design and the textbook PI + FF through
 ``closed_loop_verification`` on each machine (``verify_controller``'s task set on the full model,
@@ -104,6 +106,15 @@ def compare() -> None:
             "design (LQR/cell + feed-forward)": design_state_feedback(pwa, delay=True).controller,
             f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,
             "--method pi": design_pi(pwa, delay=True).controller,
+            # opt-in noise measures (not the default): the position observer and the
+            # dead-zone hysteresis h = 0.005
+            "design + observer + DZ hysteresis": design_state_feedback(
+                pwa,
+                delay=True,
+                position_noise=NOISE["x"],
+                acceleration_noise=1.0,
+                dead_zone_hysteresis=0.005,
+            ).controller,
         }
         for cname, ctrl in ctrls.items():
             for sensors, noise in (("exact", None), ("noisy", NOISE)):

@@ -13,6 +13,7 @@ within 1e-12 relative at every sample, the same gain row.
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 import subprocess
 import sys
@@ -131,7 +132,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         pressure_washout=0.05,
         delay=True,
         load_pressure="mean-area",
-        dead_zone_inverse=dzi,
+        dead_zone_inverse=dataclasses.replace(dzi, hysteresis=0.005),
         feedforward=FlowFeedForward.from_params(paper, sample_time=ts, delay=True),
         velocity_filter=1e-3,
         position_observer=position_observer_gains(ts, 20e-6, 1.0),
@@ -141,7 +142,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     return [
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
-        ("paper pi schema 2 observer", paper, pi_v2),
+        ("paper pi schema 2 observer hysteresis", paper, pi_v2),
         ("paper lqr schema 1", paper, lqr_v1),
         ("paper pi", paper, pi),
         ("paper pi every element", paper, full_pi),
@@ -343,7 +344,7 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
     monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 24 \(C law: 23\)\)"):
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 25 \(C law: 24\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 

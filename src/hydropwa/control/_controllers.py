@@ -115,14 +115,22 @@ class DeadZoneInverse:
     width : float
         Blend width z_w [1]: for |c| < z_w the inverse is the line through zero that
         meets u = c + offset·sign(c) at |c| = z_w (no ±offset switching near zero).
+    hysteresis : float
+        Band h [1] of the side of the dead zone (0: none; schema 2): the inverse keeps
+        the side of the last command until c crosses the other side's −h, and a command on
+        the other side within the band gives u = 0 (the middle of the dead zone, closed)
+        (``dead_zone_hysteresis`` of the compiled law). Sized from the
+        command noise, it keeps sensor noise from throwing the spool across the dead zone.
     """
 
     offset: float = 0.1
     width: float = 0.0
+    hysteresis: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
         _finite(self, "width", "1", ge=0.0)
+        _finite(self, "hysteresis", "1", ge=0.0)
         if self.offset >= 1.0:
             raise ControlError(
                 f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)"
@@ -426,6 +434,7 @@ class _Discrete:
             or self.velocity_filter > 0.0
             or self.position_observer is not None
             or self.spool_model is not None
+            or (self.dead_zone_inverse is not None and self.dead_zone_inverse.hysteresis > 0.0)
         )
 
     def _ext_rows(self) -> np.ndarray:
@@ -478,7 +487,17 @@ class _Discrete:
             ext[C.X_SPOOL] = C.SPOOL_MEASURED if self.spool_model.measured else C.SPOOL_ESTIMATED
             ext[C.X_PHI : C.X_PHI + 4] = self.spool_model.phi
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
+        if self.dead_zone_inverse is not None:
+            ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
         return np.concatenate([v, ext, self._ext_rows().ravel()])
+
+    def _dead_zone_dict(self) -> dict[str, float]:
+        dz = self.dead_zone_inverse
+        assert dz is not None
+        out = {"offset": dz.offset, "width": dz.width}
+        if dz.hysteresis > 0.0:  # schema 2 only; files without it read as 0
+            out["hysteresis"] = dz.hysteresis
+        return out
 
     def _common(self) -> dict[str, Any]:
         return {
@@ -491,9 +510,7 @@ class _Discrete:
             "tracking_gain": self.tracking_gain,
             "pressure_washout": self.pressure_washout,
             "load_pressure": self.load_pressure,
-            "dead_zone_inverse": None
-            if self.dead_zone_inverse is None
-            else {"offset": self.dead_zone_inverse.offset, "width": self.dead_zone_inverse.width},
+            "dead_zone_inverse": None if self.dead_zone_inverse is None else self._dead_zone_dict(),
             "feedforward": None if self.feedforward is None else self.feedforward.describe(),
             "velocity_filter": self.velocity_filter,
             "position_observer": None

@@ -24,6 +24,7 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     [dead_zone_inverse]                # absent: no inverse
     offset = 0.1
     width = 0.004167
+    hysteresis = 0.005                 # side band h (schema 2; absent: 0, none)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }
@@ -194,6 +195,8 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             "offset": ctrl.dead_zone_inverse.offset,
             "width": ctrl.dead_zone_inverse.width,
         }
+        if ctrl.dead_zone_inverse.hysteresis > 0.0:  # schema 2; absent reads as 0
+            d["dead_zone_inverse"]["hysteresis"] = ctrl.dead_zone_inverse.hysteresis
     if ctrl.feedforward is not None:
         ff = ctrl.feedforward.describe()
         d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
@@ -270,6 +273,7 @@ def controller_from_dict(d: dict[str, Any]):
             common["dead_zone_inverse"] = DeadZoneInverse(
                 offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
                 width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
+                hysteresis=_read(dzi.get("hysteresis", 0.0), "", "dead_zone_inverse.hysteresis"),
             )
         if v2:
             common.update(_read_v2(d))

@@ -102,6 +102,7 @@ _LAYOUT = (
     "X_KF",
     "X_KFX",
     "X_KFV",
+    "X_DZH",
     "XR_KNU",
     "XR_KDNU",
     "XR_KUP",
@@ -148,14 +149,14 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 15, "N_EXT": 23, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 16, "N_EXT": 24, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
     "PI with velocity feed-forward k_ff·ṙ, velocity feedback k_v, load-pressure feedback k_pl and its filtered rate k_dpl",
     "state feedback per PWA cell: gain rows with boxes over [P_L, ẋ, x, c_prev], the previous row tried first, then all in order, the nearest (scaled L1) outside all",
     "constant command u_ff per row",
-    "dead-zone inverse with blend width",
+    "dead-zone inverse with blend width, and with hysteresis of its side (schema 2)",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

@@ -61,6 +61,10 @@ gain row (see :data:`EXT_SLOTS`)::
                  reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈_{k−1},
                  v̂⁻ = v̂ + T_s r̈_{k−1}, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
                  e0+X_KFX, e0+X_KFV; x̂ = x, v̂ = ṙ at k = 0); the law then uses x̂ and v̂
+    e0+X_DZH     dead-zone hysteresis h [1] (0: none): the inverse keeps the side s of the
+                 last command until c crosses −s·h, u = 0 on the other side inside the band
+                 (:func:`dead_zone_hysteresis`), so sensor noise on a small command does not
+                 throw the spool across the dead zone
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
 
@@ -143,6 +147,7 @@ EXT_SLOTS = (
     "kf",
     "kf_x",
     "kf_v",
+    "dz_hyst",
 )
 (
     X_FF,
@@ -168,6 +173,7 @@ EXT_SLOTS = (
     X_KF,
     X_KFX,
     X_KFV,
+    X_DZH,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -178,10 +184,11 @@ RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
 N_RCH = 6
 #: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
 #: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
-#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂
+#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂,
+#: the side s of the dead-zone inverse with hysteresis (0 before the first |c| ≥ h)
 S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
-S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF = range(7, 15)
-N_CST = 15
+S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 16)
+N_CST = 16
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
@@ -204,6 +211,27 @@ def dead_zone_inverse(c, offset, width):
     if a >= width:
         return c + offset if c > 0.0 else c - offset
     return c * (width + offset) / width
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def dead_zone_hysteresis(c, offset, width, hyst, side):
+    """Dead-zone inverse that changes side only when c leaves the band ±h; returns (u, side).
+
+    The side s (±1) becomes sign(c) where |c| ≥ h and is kept inside the band. On the
+    kept side (s·c ≥ 0), and before the first |c| ≥ h (s = 0), u is
+    :func:`dead_zone_inverse` with its blend (the orifice opens by c); on the other side
+    within the band u = 0, the middle of the dead zone (closed). The spool so crosses the
+    dead zone only when c crosses −s·h, and sensor noise on a command near zero leaves
+    it on one side instead of throwing it across every few samples.
+    """
+    s = side
+    if c >= hyst:
+        s = 1.0
+    elif c <= -hyst:
+        s = -1.0
+    if s == 0.0 or c * s >= 0.0:
+        return dead_zone_inverse(c, offset, width), s
+    return 0.0, s
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -330,6 +358,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         cst[S_PRBAR] = 0.0
         cst[S_NU] = 0.0
         cst[S_DNU] = 0.0
+        cst[S_DZS] = 0.0
     if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
         if k == 0:
             cst[S_XKF] = x
@@ -395,7 +424,15 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             if ctl[C_DELAY] > 0.5:
                 c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
         c_raw += c_ff
-    u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW]) if ctl[C_DZINV] > 0.5 else c_raw
+    if ctl[C_DZINV] < 0.5:
+        u_raw = c_raw
+    elif ext and ctl[e0 + X_DZH] > 0.0:
+        u_raw, side = dead_zone_hysteresis(
+            c_raw, ctl[C_DZOFF], ctl[C_DZW], ctl[e0 + X_DZH], cst[S_DZS]
+        )
+        cst[S_DZS] = side
+    else:
+        u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW])
     u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
     c_sat = c_raw - (u_raw - u)  # the inverse has slope 1 where the command saturates
     log[L_INT, k] = cst[S_INT]

@@ -82,6 +82,7 @@ typedef struct {
     double v_kf;      /**< position observer: estimated velocity [m/s] */
     double acc_prev;  /**< reference acceleration of the last sample [m/s^2] */
     double c_ff;      /**< diagnostics: schema-2 part of c in the last step [1] */
+    double dz_side;   /**< side (+-1, 0 before the first) of the dead-zone inverse with hysteresis */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */

@@ -24,6 +24,25 @@ static double hp_dead_zone_inverse(double c, double offset, double width)
     return c * (width + offset) / width;
 }
 
+/* Dead-zone inverse with hysteresis h: keeps the side *side (+-1) of the last command until
+ * c leaves the band +-h; the inverse with the blend on that side (and before the first
+ * |c| >= h, side 0), u = 0 on the other side within the band. */
+static double hp_dead_zone_hysteresis(double c, double offset, double width, double hyst,
+                                      double *side)
+{
+    double s = *side;
+    if (c >= hyst) {
+        s = 1.0;
+    } else if (c <= -hyst) {
+        s = -1.0;
+    }
+    *side = s;
+    if (s == 0.0 || c * s >= 0.0) {
+        return hp_dead_zone_inverse(c, offset, width);
+    }
+    return 0.0;
+}
+
 /* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
 static double hp_box_distance(int r, double pl, double v, double x, double c)
 {
@@ -230,6 +249,7 @@ void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
     s->v_kf = 0.0;
     s->acc_prev = 0.0;
     s->c_ff = 0.0;
+    s->dz_side = 0.0;
 }
 
 void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
@@ -257,6 +277,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         s->p_ref_bar = 0.0;
         s->nu = 0.0;
         s->dnu = 0.0;
+        s->dz_side = 0.0;
     }
     if (HP_EXT && X[HP_X_KF] > 0.5) {
         hp_position_observer(s, &x, &v, ref->r_rate);
@@ -277,8 +298,14 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         c_ff = hp_extension(s, b, row, pl, ref);
         c_raw += c_ff;
     }
-    u_raw = T[HP_C_DZINV] > 0.5 ? hp_dead_zone_inverse(c_raw, T[HP_C_DZOFF], T[HP_C_DZW])
-                                : c_raw;
+    if (T[HP_C_DZINV] < 0.5) {
+        u_raw = c_raw;
+    } else if (HP_EXT && X[HP_X_DZH] > 0.0) {
+        u_raw = hp_dead_zone_hysteresis(c_raw, T[HP_C_DZOFF], T[HP_C_DZW], X[HP_X_DZH],
+                                        &s->dz_side);
+    } else {
+        u_raw = hp_dead_zone_inverse(c_raw, T[HP_C_DZOFF], T[HP_C_DZW]);
+    }
     u = u_raw > T[HP_C_UMIN] ? u_raw : T[HP_C_UMIN];
     u = u < T[HP_C_UMAX] ? u : T[HP_C_UMAX];
     c_sat = c_raw - (u_raw - u); /* the inverse has slope 1 where the command saturates */
