@@ -165,14 +165,20 @@ _VALVE_SCALE = np.array([1e5, 1e-3, 1e-3, 1e-2, 1.0, 1e-5, 1e-2])
 _VALVE_MAXIMA = np.array([1.0, 1e3])
 
 
-def _valve_augment(A, B, ts, omega0, zeta, delay):
-    """Discrete cell plant with the servo valve, the integral and the computation delay.
+def valve_series(A, B, omega0: float, zeta: float):
+    """A cell plant with the servo valve of Eq. (1) before it, in continuous time.
 
-    States [P_L, ẋ, x, ν, ν̇, I] (and the pending command c_{k−1} with ``delay``), input
-    the opening command c: the cell's input matrix acts on the spool position ν, which
-    follows c through Eq. (1), ν̈ = ω0²(c − ν) − 2ζω0 ν̇, held over the sample (ZOH);
-    I_{k+1} = I_k + T_s (r − x_k) at r = 0. With the delay the plant receives the command
-    computed one sample earlier.
+    Parameters
+    ----------
+    A, B : ndarray
+        The cell's state matrix (n × n) and its input column (n × 1), input the spool position ν.
+    omega0, zeta : float
+        The valve's natural frequency [rad/s] and damping [1] (Eq. (1)).
+
+    Returns
+    -------
+    Av, Bv : ndarray
+        States [cell states, ν, ν̇], input the opening command c: ν̈ = ω0²(c − ν) − 2ζω0 ν̇.
     """
     n = A.shape[0]
     Av = np.zeros((n + 2, n + 2))
@@ -183,6 +189,20 @@ def _valve_augment(A, B, ts, omega0, zeta, delay):
     Av[n + 1, n + 1] = -2.0 * zeta * omega0
     Bv = np.zeros((n + 2, 1))
     Bv[n + 1, 0] = omega0**2
+    return Av, Bv
+
+
+def _valve_augment(A, B, ts, omega0, zeta, delay):
+    """Discrete cell plant with the servo valve, the integral and the computation delay.
+
+    States [P_L, ẋ, x, ν, ν̇, I] (and the pending command c_{k−1} with ``delay``), input
+    the opening command c: the cell's input matrix acts on the spool position ν, which
+    follows c through Eq. (1), ν̈ = ω0²(c − ν) − 2ζω0 ν̇, held over the sample (ZOH);
+    I_{k+1} = I_k + T_s (r − x_k) at r = 0. With the delay the plant receives the command
+    computed one sample earlier.
+    """
+    n = A.shape[0]
+    Av, Bv = valve_series(A, B, omega0, zeta)
     Ad, Bd = _discrete(Av, Bv, ts)
     m = n + 3 + (1 if delay else 0)
     Aa = np.zeros((m, m))

@@ -28,7 +28,10 @@ import numpy as np
 
 from .._errors import HydropwaError
 from ..control import cell_plant
-from ..control._design import _valve_augment  # the design's own augmentation (one assembly)
+from ..control._design import (  # the design's own augmentation (one assembly)
+    _valve_augment,
+    valve_series,
+)
 from ..linearization import export_pwa
 from ..models import FullOrderModel
 from ..simulation import full_small_signal
@@ -302,18 +305,6 @@ def _cell_keys(pwa, controller) -> list[tuple[str, tuple[int, int, int, int], An
     return list(seen.values())
 
 
-def _valve_series(A, B, omega0: float, zeta: float):
-    """Continuous cell plant with the servo valve of Eq. (1) before it: states [P_L, ẋ, x, ν, ν̇]."""
-    n = A.shape[0]
-    Av = np.zeros((n + 2, n + 2))
-    Av[:n, :n] = A
-    Av[:n, n] = B[:, 0]
-    Av[n, n + 1] = 1.0
-    Av[n + 1, n] = -(omega0**2)
-    Av[n + 1, n + 1] = -2.0 * zeta * omega0
-    return Av
-
-
 def _design_plant(pwa, key, f_l, opening: bool, clip: bool):
     """Continuous (A, B) of a cell as the design saw it, and whether its friction slope was clipped.
 
@@ -465,7 +456,7 @@ def cell_loops(
     recs, ol, cl = [], {}, {}
     for label, key, row in keys:
         A, B, _ = _design_plant(pwa, key, fl, opening, clip=False)
-        poles = np.linalg.eigvals(_valve_series(A, B, prm.valve.omega0, prm.valve.zeta))
+        poles = np.linalg.eigvals(valve_series(A, B, prm.valve.omega0, prm.valve.zeta)[0])
         ol[label] = poles
         rec: dict[str, Any] = {
             "cell": label,
