@@ -157,3 +157,37 @@ def test_cli_simulate_runs_with_the_measured_noise(tmp_path, capsys):
     assert np.ptp(cmd["exact"]) < 1e-9
     kp = load_controller(ctrl).kp
     assert 0.5 * kp * sx < np.std(cmd["noisy"]) < 1.5 * kp * sx
+
+
+def test_cli_dead_zone_hysteresis_is_refused_where_it_means_nothing(tmp_path, capsys):
+    """``--dead-zone-hysteresis`` outside [0, 0.1), or without the dead-zone inverse of a state
+    feedback design, is one line and exit 2 (checked before any design runs)."""
+    from hydropwa.cli import main
+
+    out = ["--no-verify", "--out", str(tmp_path / "c.toml")]
+    cases = [
+        (["--dead-zone-hysteresis", "0.5"], "must be a share of the opening"),
+        (["--dead-zone-hysteresis", "nan"], "must be a share of the opening"),
+        (["--method", "pi", "--dead-zone-hysteresis", "0.005"], "needs the dead-zone inverse"),
+        (
+            ["--no-dead-zone-inverse", "--dead-zone-hysteresis", "0.005"],
+            "needs the dead-zone inverse",
+        ),
+    ]
+    for extra, words in cases:
+        assert main(["control", "design", *extra, *out]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
+    assert not (tmp_path / "c.toml").exists()
+
+
+@pytest.mark.slow  # an LQR design of 70 cells: 10-26 s on the shared 2-core machine
+def test_cli_dead_zone_hysteresis_goes_into_the_file(tmp_path):
+    """The band given at the command line is the one the written law carries (schema 2)."""
+    from hydropwa.cli import main
+    from hydropwa.control import load_controller
+
+    ctrl = tmp_path / "lqr.toml"
+    args = ["control", "design", "--no-verify", "--observer", "--out", str(ctrl)]
+    assert main([*args, "--dead-zone-hysteresis", "0.005"]) == 0
+    assert load_controller(ctrl).dead_zone_inverse.hysteresis == 0.005

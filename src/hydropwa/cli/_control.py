@@ -195,6 +195,37 @@ def _noise_from(path: Path, given: str | None) -> dict[str, float]:
     return noise
 
 
+def _noise_options(kw: dict, method, sensor_noise, noise_from, observer, dead_zone_hysteresis):
+    """The design's sensor noise and the law elements that answer it (observer, hysteresis)."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_SENSOR_NOISE,
+        ControlError,
+    )
+
+    noise = _sensor_noise(sensor_noise)
+    if noise_from is not None:
+        noise = _noise_from(noise_from, sensor_noise)
+    if observer:
+        if method == "pi":
+            raise ControlError("--observer needs --method lqr or place (state feedback)")
+        sx = (noise or DEFAULT_SENSOR_NOISE).get("x", 0.0)
+        if not sx > 0:
+            raise ControlError("--observer needs a position noise x > 0 (--sensor-noise 'x=20 um')")
+        kw["position_noise"] = sx
+    if not 0.0 <= dead_zone_hysteresis < 0.1:
+        raise ControlError(
+            f"--dead-zone-hysteresis {dead_zone_hysteresis} must be a share of the opening in "
+            "[0, 0.1), e.g. 0.005"
+        )
+    if dead_zone_hysteresis > 0.0:
+        if method == "pi" or not kw["dead_zone_inverse"]:
+            raise ControlError(
+                "--dead-zone-hysteresis needs the dead-zone inverse of --method lqr or place"
+            )
+        kw["dead_zone_hysteresis"] = dead_zone_hysteresis
+    return noise
+
+
 @app.command("design")
 def design_command(
     out: Annotated[
@@ -293,11 +324,19 @@ def design_command(
             "(--sensor-noise, --noise-from, or 20 um).",
         ),
     ] = False,
+    dead_zone_hysteresis: Annotated[
+        float,
+        typer.Option(
+            "--dead-zone-hysteresis",
+            metavar="SHARE",
+            help="Band h of the dead-zone inverse's side, a share of the opening, e.g. 0.005 "
+            "(default 0: none); quiets the valve at a hold under sensor noise (with --observer).",
+        ),
+    ] = 0.0,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
-        DEFAULT_SENSOR_NOISE,
         ControlError,
         design_controller,
         save_controller,
@@ -327,16 +366,7 @@ def design_command(
         )
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
-    noise = _sensor_noise(sensor_noise)
-    if noise_from is not None:
-        noise = _noise_from(noise_from, sensor_noise)
-    if observer:
-        if method == "pi":
-            raise ControlError("--observer needs --method lqr or place (state feedback)")
-        sx = (noise or DEFAULT_SENSOR_NOISE).get("x", 0.0)
-        if not sx > 0:
-            raise ControlError("--observer needs a position noise x > 0 (--sensor-noise 'x=20 um')")
-        kw["position_noise"] = sx
+    noise = _noise_options(kw, method, sensor_noise, noise_from, observer, dead_zone_hysteresis)
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,
