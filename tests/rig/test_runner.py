@@ -100,6 +100,7 @@ def test_cli_runs_a_small_campaign(tmp_path, small_campaign_file, capsys):
     files = _files(out)
     assert main([*args, "--seed", "5", "--jobs", "2"]) == 0  # resume: nothing to do
     assert _files(out) == files
+    capsys.readouterr()  # the resumed run's closing note (no --params: the paper rig) read out
     assert main([*args, "--seed", "6"]) == 2
     assert capsys.readouterr().err.startswith("error: ")
     assert main([*args, "--seed", "6", "--force"]) == 0
