@@ -94,9 +94,12 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import Y_FULL, Y_LOAD
+from .._layout import SG_VALUE, Y_FULL, Y_LOAD
 from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
+
+#: the packed valve-command slot of the signal vector (the layout's one table)
+_S_U = SG_VALUE["u"]
 
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
 _NU, _DNU = Y_FULL["spool"], Y_FULL["spool_rate"]
@@ -334,7 +337,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
 
     ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
-    Writes the command applied from t on into the packed valve-command slot sg[16] (a
+    Writes the command applied from t on into the packed valve-command slot sg[_S_U] (a
     constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
     ``cst`` and fills column k of ``log`` (one contiguous row per quantity). ``ref[k]``:
     reference position [m] at t; ``rch[:, k]``: the reference channels and sensor noise
@@ -460,7 +463,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         f = e0 + X_PHI
         cst[S_NU] = ctl[f] * nu + ctl[f + 1] * dnu + ctl[g] * c_apply
         cst[S_DNU] = ctl[f + 2] * nu + ctl[f + 3] * dnu + ctl[g + 1] * c_apply
-    sg[16] = u_apply
+    sg[_S_U] = u_apply
     cst[S_PL] = pl
     cst[S_DPL] = dpl
     cst[S_CPREV] = c_sat
