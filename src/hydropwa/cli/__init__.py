@@ -9,6 +9,8 @@ on stderr with exit code 2; warnings as ``warning: ...`` while a command runs.
 
 from __future__ import annotations
 
+import multiprocessing
+import os
 import sys
 
 import typer
@@ -76,5 +78,28 @@ def main(argv: list[str] | None = None) -> int:
     if code == INTERRUPTED_CODE:  # Ctrl-C, however it arrived: typer (>= 0.20) returns Exit(130)
         print(INTERRUPTED, file=sys.stderr)
     if argv is None:
+        if code == INTERRUPTED_CODE:
+            _leave_now(code)
         sys.exit(code)
     return code
+
+
+def _leave_now(code: int) -> None:
+    """End the process after a Ctrl-C without Python's exit-time joins.
+
+    At a normal exit Python joins the threads of every process pool and every non-daemon
+    child. After a Ctrl-C one of those may never end (a pool worker that the interrupt
+    reached while it was being forked, a queue a dead worker left half written), and the
+    command then hung after printing that it was interrupted. Finished files are already on
+    disk (each written atomically), so nothing is lost by ending here: children are
+    terminated (pool workers also exit on their own once this process is gone, see
+    ``rig._runner``), the streams flushed, and the process ends with ``code``.
+    """
+    for child in multiprocessing.active_children():
+        child.terminate()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more can be said
+            pass
+    os._exit(code)

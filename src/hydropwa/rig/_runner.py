@@ -130,6 +130,7 @@ def _init_worker(parent_pid: int) -> None:
     whose other end they hold themselves. A daemon thread notices the new parent pid instead.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # see _sigint_blocked
 
     def watch() -> None:
         while os.getppid() == parent_pid:
@@ -137,6 +138,25 @@ def _init_worker(parent_pid: int) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, daemon=True, name="hydropwa-parent-watch").start()
+
+
+@contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """Hold back SIGINT in this thread while pool workers are forked.
+
+    A worker forked with SIGINT deliverable could receive a Ctrl-C (sent to the whole process
+    group) before :func:`_init_worker` ignores it, die half started and leave the pool unable
+    to shut down. Forked with SIGINT blocked, it ignores the signal before unblocking it; the
+    parent gets a Ctrl-C that arrived meanwhile as soon as the block is lifted.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
@@ -166,8 +186,10 @@ def _results(
     with cf.ProcessPoolExecutor(
         max_workers=min(jobs, len(specs) - 1), initializer=_init_worker, initargs=(os.getpid(),)
     ) as pool:
+        with _sigint_blocked():  # the workers start here; they inherit the blocked mask
+            runs = pool.map(fn, specs[1:], chunksize=1)
         try:
-            yield itertools.chain([first], pool.map(fn, specs[1:], chunksize=1))
+            yield itertools.chain([first], runs)
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
