@@ -2,7 +2,9 @@
 
 One builder for the controller FMU (:func:`hydropwa.control.export_fmu`) and the axis FMU
 (:func:`hydropwa.simulation.export_axis_fmu`): a model file (variables, ``hp_model_*``
-functions) is inserted into the FMI 2.0 interface ``_c/fmi2_cs.c``, compiled into the platform
+functions) is inserted into the FMI 2.0 interface ``_c/fmi2_cs.c`` (or FMI 3.0 ``fmi3_cs.c``),
+followed by the instance core both interfaces share (``_c/fmi_core.c``: reading, writing and
+stepping the model once for both standards), compiled into the platform
 binary of this machine, and zipped with ``modelDescription.xml`` and the sources (so a user
 rebuilds for another platform, or a tool compiles the source-code FMU itself). The export
 needs a C compiler only: no Python, FMI headers or build system (the FMI 2.0 types and
@@ -121,10 +123,11 @@ def fmi3_source(model_c: str) -> str:
 
 
 def _interface(name: str, model_c: str) -> str:
-    template = (
-        resources.files("hydropwa.simulation").joinpath("_c", name).read_text(encoding="utf-8")
-    )
-    return template.replace("@MODEL@", model_c)
+    """The interface ``name`` with the model file and the shared instance core inserted."""
+    folder = resources.files("hydropwa.simulation").joinpath("_c")
+    template = folder.joinpath(name).read_text(encoding="utf-8")
+    core = folder.joinpath("fmi_core.c").read_text(encoding="utf-8")
+    return template.replace("@MODEL@", model_c).replace("@CORE@", core)
 
 
 def _model_description3(
