@@ -249,11 +249,11 @@ _SIX = [f"value_{k} = compute({k}, scale={k}.5)" for k in range(6)]
 
 
 def test_the_detector_finds_a_planted_six_line_clone_and_ignores_five(tmp_path):
-    # six shared lines, one side with a comment, a blank line, a lone bracket, an import and
+    # six shared lines, one side with a comment, a blank line, lone quotes, an import and
     # other indentation between them: normalised, they are the same six lines
     _write(tmp_path / "a" / "one.py", "x = 1\n" + "\n".join(_SIX) + "\ny = 2\n")
     noisy = ["def f():", "    import os", *("    " + s for s in _SIX[:3])]
-    noisy += ["    # a comment", "", "    (", *("    " + s for s in _SIX[3:]), "    )"]
+    noisy += ["    # a comment", "", '    """', '    """', *("    " + s for s in _SIX[3:])]
     _write(tmp_path / "b" / "two.py", "\n".join(noisy) + "\n")
     # five shared lines only, and a six-line repeat inside one file
     _write(tmp_path / "c.py", "\n".join(_SIX[:5]) + "\nz = 3\n")
