@@ -40,7 +40,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -163,6 +165,36 @@ class FlowCells:
         return np.concatenate(([self.interval[0]], self.pwa.breakpoints, [self.interval[1]]))
 
 
+def _halve_until(
+    error: Callable[[float, float], float],
+    work: list[tuple[float, float]],
+    tolerance: float,
+    max_cells: int,
+    what: str,
+) -> list[tuple[float, float, float]]:
+    """Halve the intervals ``work`` until ``error(a, b)`` ≤ ``tolerance`` on each.
+
+    Returns the cells (a, b, error) in order; more than ``max_cells`` raises a PwaError that
+    names ``what`` cells. The refinement of the flow and the capacitance cells.
+    """
+    work = list(work)
+    done: list[tuple[float, float, float]] = []
+    while work:
+        a, b = work.pop()
+        e = error(a, b)
+        if e <= tolerance:
+            done.append((a, b, e))
+        else:
+            m = 0.5 * (a + b)
+            work += [(a, m), (m, b)]
+        if len(done) + len(work) > max_cells:
+            raise PwaError(
+                f"{what} cells need more than {max_cells} cells for tolerance {tolerance:g}; "
+                "raise the tolerance"
+            )
+    return sorted(done)
+
+
 def flow_cells(
     eps: float, tolerance: float = FLOW_TOLERANCE, interval=DROP_INTERVAL, max_cells: int = 400
 ) -> FlowCells:
@@ -190,22 +222,8 @@ def flow_cells(
     lo, hi = (float(v) for v in interval)
     if not lo < 0.0 < hi:
         raise PwaError(f"drop interval ({lo:g}, {hi:g}) must contain 0")
-    work = [(lo, 0.0), (0.0, hi)]
-    done: list[tuple[float, float, float]] = []
-    while work:
-        a, b = work.pop()
-        e = _chord_error(a, b, eps)
-        if e <= tolerance:
-            done.append((a, b, e))
-        else:
-            m = 0.5 * (a + b)
-            work += [(a, m), (m, b)]
-        if len(done) + len(work) > max_cells:
-            raise PwaError(
-                f"flow cells need more than {max_cells} cells for tolerance {tolerance:g}; "
-                "raise the tolerance"
-            )
-    done.sort()
+    error = partial(_chord_error, eps=eps)
+    done = _halve_until(error, [(lo, 0.0), (0.0, hi)], tolerance, max_cells, "flow")
     k, d = [], []
     for a, b, _e in done:
         fa, fb = _root(a, eps), _root(b, eps)
@@ -265,22 +283,9 @@ def capacitance_cells(
     """
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise PwaError(f"capacitance tolerance {tolerance!r} must be a positive number")
-    work = [(0.0, float(params.cylinder.stroke))]
-    done: list[tuple[float, float, float]] = []
-    while work:
-        a, b = work.pop()
-        e = _capacitance_error(a, b, params)
-        if e <= tolerance:
-            done.append((a, b, e))
-        else:
-            m = 0.5 * (a + b)
-            work += [(a, m), (m, b)]
-        if len(done) + len(work) > max_cells:
-            raise PwaError(
-                f"capacitance cells need more than {max_cells} cells for tolerance {tolerance:g}; "
-                "raise the tolerance"
-            )
-    done.sort()
+    error = partial(_capacitance_error, params=params)
+    stroke = [(0.0, float(params.cylinder.stroke))]
+    done = _halve_until(error, stroke, tolerance, max_cells, "capacitance")
     return CapacitanceCells(
         np.array([a for a, _b, _e in done[1:]]),
         np.array([0.5 * (a + b) for a, b, _e in done]),

@@ -130,6 +130,26 @@ def _interface(name: str, model_c: str) -> str:
     return template.replace("@MODEL@", model_c).replace("@CORE@", core)
 
 
+def _unit_definitions(units: list[str]) -> list[str]:
+    """The ``<UnitDefinitions>`` lines of ``units`` (FMI 2.0 and 3.0 write them alike)."""
+    if not units:
+        return []
+    lines = ["  <UnitDefinitions>"]
+    for u in units:
+        exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
+        lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
+    return lines + ["  </UnitDefinitions>"]
+
+
+def _variable_attributes(reference: int, v: FmuVariable) -> str:
+    """Name, value reference, causality, variability (and a parameter's initial) of ``v``."""
+    attrs = (
+        f'name={quoteattr(v.name)} valueReference="{reference}" causality="{v.causality}"'
+        f' variability="{v.variability}"'
+    )
+    return attrs + (' initial="exact"' if v.causality == "parameter" else "")
+
+
 def _model_description3(
     model_id: str,
     token: str,
@@ -150,12 +170,7 @@ def _model_description3(
         ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
         ' providesIntermediateUpdate="false"/>',
     ]
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
-            lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
-        lines.append("  </UnitDefinitions>")
+    lines += _unit_definitions(units)
     lines.append(f'  <DefaultExperiment startTime="0" stepSize="{step_size!r}"/>')
     lines.append("  <ModelVariables>")
     lines.append(
@@ -163,9 +178,7 @@ def _model_description3(
         ' variability="continuous" description="simulation time" unit="s"/>'
     )
     for i, v in enumerate(variables):
-        attrs = f'name={quoteattr(v.name)} valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
+        attrs = _variable_attributes(i, v)
         attrs += f" description={quoteattr(v.description)}"
         if v.unit:
             attrs += f' unit="{v.unit}"'
@@ -219,18 +232,11 @@ def _model_description(
         "    </SourceFiles>",
         "  </CoSimulation>",
     ]
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
-            lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
-        lines.append("  </UnitDefinitions>")
+    lines += _unit_definitions(units)
     lines.append(f'  <DefaultExperiment startTime="0" stepSize="{step_size!r}"/>')
     lines.append("  <ModelVariables>")
     for i, v in enumerate(variables):
-        attrs = f'name={quoteattr(v.name)} valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
+        attrs = _variable_attributes(i, v)
         real = ""
         if v.unit:
             real += f' unit="{v.unit}"'
