@@ -16,6 +16,11 @@ Each file is reduced to its *normalised* lines, as ``duplicates`` reads them:
 - docstrings are **kept**: a docstring copied into two modules is a copy too (it drifts
   like code), and keeping them makes this test agree with ``duplicates``.
 
+Lines are compared to the letter. Comparing shapes instead (names, numbers and strings
+abstracted, as ``duplicates`` also does) was tried: over ``src`` it gives about 9,000 runs, nearly
+all keyword-argument lists, typer option blocks and ``self.x = x`` constructors, so it is noise
+for a test that must pass or fail.
+
 Every window of :data:`MIN_LINES` consecutive normalised lines is hashed; a window found in
 two different files is a shared run, and overlapping windows of one file pair that follow
 each other are merged into one run (``a.py:10-24 ~ b.py:40-54``, the original line numbers).
