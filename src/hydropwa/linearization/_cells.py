@@ -99,6 +99,26 @@ def dead_zone_cells(dz: DeadZone) -> PiecewiseAffine:
     )
 
 
+def dead_zone_interval(
+    dead_zone: PiecewiseAffine, g: int, s: int, lo: float, hi: float
+) -> tuple[float, float]:
+    """Input interval of dead-zone cell ``g`` within [lo, hi] where sign(z) = ``s`` (±1).
+
+    The cell spans its breakpoints (the outer cells end at ``lo``/``hi``); where z = k_g u + d_g
+    changes sign inside it (the creep cell, Eq. (16)), at u₀ = −d_g/k_g, the half of sign ``s``
+    is kept. One rule for the command cells of :class:`PwaModel` and the spool cells of the
+    chamber-level model.
+    """
+    b = np.concatenate(([lo], dead_zone.breakpoints, [hi]))
+    lo, hi = float(max(b[g], lo)), float(min(b[g + 1], hi))
+    k, d = dead_zone.slopes[g], dead_zone.offsets[g]
+    if k != 0.0:
+        u0 = -d / k  # where z changes sign
+        if lo < u0 < hi:
+            lo, hi = (u0, hi) if s > 0 else (lo, u0)
+    return lo, hi
+
+
 def _check_cells(n, what: str) -> int:
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
         raise PwaError(f"number of {what} cells {n!r} must be a positive integer")

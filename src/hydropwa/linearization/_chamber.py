@@ -40,7 +40,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -51,9 +53,10 @@ from ..components import PiecewiseAffine
 from ..components._physics import dead_zone as _dz
 from ..components._physics import orifice_flows, signed_sqrt, signed_sqrt_slope
 from ..models import FullOrderModel, pack_params
+from ..models._models import SmoothModelStates
 from ..params import SystemParams
 from ..simulation import _kernel as K
-from ._cells import dead_zone_cells, friction_cells
+from ._cells import dead_zone_cells, dead_zone_interval, friction_cells
 from ._fit import PwaFit
 
 __all__ = [
@@ -162,6 +165,36 @@ class FlowCells:
         return np.concatenate(([self.interval[0]], self.pwa.breakpoints, [self.interval[1]]))
 
 
+def _halve_until(
+    error: Callable[[float, float], float],
+    work: list[tuple[float, float]],
+    tolerance: float,
+    max_cells: int,
+    what: str,
+) -> list[tuple[float, float, float]]:
+    """Halve the intervals ``work`` until ``error(a, b)`` ≤ ``tolerance`` on each.
+
+    Returns the cells (a, b, error) in order; more than ``max_cells`` raises a PwaError that
+    names ``what`` cells. The refinement of the flow and the capacitance cells.
+    """
+    work = list(work)
+    done: list[tuple[float, float, float]] = []
+    while work:
+        a, b = work.pop()
+        e = error(a, b)
+        if e <= tolerance:
+            done.append((a, b, e))
+        else:
+            m = 0.5 * (a + b)
+            work += [(a, m), (m, b)]
+        if len(done) + len(work) > max_cells:
+            raise PwaError(
+                f"{what} cells need more than {max_cells} cells for tolerance {tolerance:g}; "
+                "raise the tolerance"
+            )
+    return sorted(done)
+
+
 def flow_cells(
     eps: float, tolerance: float = FLOW_TOLERANCE, interval=DROP_INTERVAL, max_cells: int = 400
 ) -> FlowCells:
@@ -189,22 +222,8 @@ def flow_cells(
     lo, hi = (float(v) for v in interval)
     if not lo < 0.0 < hi:
         raise PwaError(f"drop interval ({lo:g}, {hi:g}) must contain 0")
-    work = [(lo, 0.0), (0.0, hi)]
-    done: list[tuple[float, float, float]] = []
-    while work:
-        a, b = work.pop()
-        e = _chord_error(a, b, eps)
-        if e <= tolerance:
-            done.append((a, b, e))
-        else:
-            m = 0.5 * (a + b)
-            work += [(a, m), (m, b)]
-        if len(done) + len(work) > max_cells:
-            raise PwaError(
-                f"flow cells need more than {max_cells} cells for tolerance {tolerance:g}; "
-                "raise the tolerance"
-            )
-    done.sort()
+    error = partial(_chord_error, eps=eps)
+    done = _halve_until(error, [(lo, 0.0), (0.0, hi)], tolerance, max_cells, "flow")
     k, d = [], []
     for a, b, _e in done:
         fa, fb = _root(a, eps), _root(b, eps)
@@ -264,22 +283,9 @@ def capacitance_cells(
     """
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise PwaError(f"capacitance tolerance {tolerance!r} must be a positive number")
-    work = [(0.0, float(params.cylinder.stroke))]
-    done: list[tuple[float, float, float]] = []
-    while work:
-        a, b = work.pop()
-        e = _capacitance_error(a, b, params)
-        if e <= tolerance:
-            done.append((a, b, e))
-        else:
-            m = 0.5 * (a + b)
-            work += [(a, m), (m, b)]
-        if len(done) + len(work) > max_cells:
-            raise PwaError(
-                f"capacitance cells need more than {max_cells} cells for tolerance {tolerance:g}; "
-                "raise the tolerance"
-            )
-    done.sort()
+    error = partial(_capacitance_error, params=params)
+    stroke = [(0.0, float(params.cylinder.stroke))]
+    done = _halve_until(error, stroke, tolerance, max_cells, "capacitance")
     return CapacitanceCells(
         np.array([a for a, _b, _e in done[1:]]),
         np.array([0.5 * (a + b) for a, b, _e in done]),
@@ -289,7 +295,7 @@ def capacitance_cells(
 
 
 @dataclass(frozen=True, eq=False)
-class ChamberPwaModel:
+class ChamberPwaModel(SmoothModelStates):
     """Chamber-level piecewise-affine model (model name ``pwa-chamber``; module docstring).
 
     Attributes
@@ -353,6 +359,11 @@ class ChamberPwaModel:
         """The full-order model this model linearizes."""
         return FullOrderModel(self.params)
 
+    @property
+    def smooth(self) -> FullOrderModel:
+        """The full-order model: its states, scales and rest (balanced forces)."""
+        return self.full
+
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (kind 3): base block, flags, then the four cell sections.
 
@@ -375,19 +386,6 @@ class ChamberPwaModel:
         head[I_NG - N_BASE : I_NW - N_BASE + 1] = [k.size for _b, k, _d in sets]
         body = [np.concatenate(s) for s in sets]
         return np.concatenate([base, head] + body)
-
-    def state_scale(self) -> np.ndarray:
-        """Typical state magnitudes (those of the full model) used as absolute tolerances."""
-        return self.full.state_scale()
-
-    def initial_state(
-        self,
-        initial_position: float | None = None,
-        supply_pressure: float | None = None,
-        load_force: float = 0.0,
-    ) -> np.ndarray:
-        """Rest at ``initial_position`` [m] with balanced forces (as the full model)."""
-        return self.full.initial_state(initial_position, supply_pressure, load_force)
 
     def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state from measured quantities (SI), as the full model's."""
@@ -494,14 +492,7 @@ class ChamberPwaModel:
 
     def _spool_bounds(self, g: int, s: int) -> tuple[float, float]:
         """Spool interval of dead-zone cell g restricted to sign(z) = s (±1.5 beyond saturation)."""
-        b = np.concatenate(([-1.5], self.dead_zone.breakpoints, [1.5]))
-        lo, hi = float(max(b[g], -1.5)), float(min(b[g + 1], 1.5))
-        k, d = self.dead_zone.slopes[g], self.dead_zone.offsets[g]
-        if k != 0.0:
-            u0 = -d / k
-            if lo < u0 < hi:
-                lo, hi = (u0, hi) if s > 0 else (lo, u0)
-        return lo, hi
+        return dead_zone_interval(self.dead_zone, g, s, -1.5, 1.5)
 
     def state_space(self, point=None, *, cells=None, p_s: float | None = None, f_l=None):
         """Affine dynamics ẏ = A y + B u + f at an operating point (or a cell's working point).

@@ -40,6 +40,7 @@ from .._layout import I_CELLS, N_BASE, PWA_SLOT
 from ..components import PiecewiseAffine
 from ..components import dead_zone as _dz
 from ..models import ReducedModel, pack_params
+from ..models._models import SmoothModelStates
 from ..params import SystemParams
 from ..simulation import _kernel as K
 from ._cells import (
@@ -49,6 +50,7 @@ from ._cells import (
     cq_cells,
     cqp_cells,
     dead_zone_cells,
+    dead_zone_interval,
     friction_cells,
 )
 from ._fit import PwaFit
@@ -179,7 +181,7 @@ class AffineDynamics:
 
 
 @dataclass(frozen=True, eq=False)
-class PwaModel:
+class PwaModel(SmoothModelStates):
     """Piecewise-affine model of Sec. IV, Eqs. (16)–(28).
 
     Attributes
@@ -279,6 +281,11 @@ class PwaModel:
         return ReducedModel(self.params, "asymmetric" if self.form == "asymmetric" else "paper")
 
     @property
+    def smooth(self) -> ReducedModel:
+        """The reduced model: its states [P_L, v, x], scales and rest (A·P_L = F_L)."""
+        return self.reduced
+
+    @property
     def area_ratio(self) -> float:
         """α [1] of the state P_L = P_A − α P_B."""
         return self.reduced.area_ratio
@@ -301,19 +308,6 @@ class PwaModel:
     def pack(self, command_amplitude: float = 0.0) -> np.ndarray:
         """Kernel parameter vector (base layout of ``hydropwa.models.pack_params`` + PWA cells)."""
         return pack_pwa(self)
-
-    def state_scale(self) -> np.ndarray:
-        """Typical state magnitudes [Pa, m/s, m] used as absolute tolerances."""
-        return self.reduced.state_scale()
-
-    def initial_state(
-        self,
-        initial_position: float | None = None,
-        supply_pressure: float | None = None,
-        load_force: float = 0.0,
-    ) -> np.ndarray:
-        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L."""
-        return self.reduced.initial_state(initial_position, supply_pressure, load_force)
 
     def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
         """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
@@ -619,16 +613,7 @@ class PwaModel:
 
     def _input_bounds(self, g: int, s: int) -> tuple[float, float]:
         """Command interval of dead-zone cell g restricted to sign(z) = s (splits the creep cell)."""
-        b = np.concatenate(
-            ([self.input_range[0]], self.dead_zone.breakpoints, [self.input_range[1]])
-        )
-        lo, hi = float(max(b[g], self.input_range[0])), float(min(b[g + 1], self.input_range[1]))
-        k, d = self.dead_zone.slopes[g], self.dead_zone.offsets[g]
-        if k != 0.0:
-            u0 = -d / k  # where z changes sign
-            if lo < u0 < hi:
-                lo, hi = (u0, hi) if s > 0 else (lo, u0)
-        return lo, hi
+        return dead_zone_interval(self.dead_zone, g, s, *self.input_range)
 
     def regions(self, p_s: float | None = None) -> list[tuple[CellIndex, np.ndarray, np.ndarray]]:
         """All non-empty cell combinations as boxes over [P_L, v, x, u].

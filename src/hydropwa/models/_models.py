@@ -130,6 +130,34 @@ class Model(Protocol):
         ...
 
 
+class SmoothModelStates:
+    """The states of a model that approximates a smooth one: its scales and its rest.
+
+    A piecewise-affine model has the states of the smooth model it linearizes
+    (:class:`~hydropwa.linearization.PwaModel` those of the reduced model,
+    ``ChamberPwaModel`` those of the full one), so its tolerances and its rest state are that
+    model's; the subclass names it in :attr:`smooth`.
+    """
+
+    @property
+    def smooth(self) -> Model:
+        """The smooth model whose states this model shares."""
+        raise NotImplementedError
+
+    def state_scale(self) -> np.ndarray:
+        """Typical state magnitudes (the smooth model's) used as absolute tolerances (× rtol)."""
+        return self.smooth.state_scale()
+
+    def initial_state(
+        self,
+        initial_position: float | None = None,
+        supply_pressure: float | None = None,
+        load_force: float = 0.0,
+    ) -> np.ndarray:
+        """Rest at ``initial_position`` [m] (default mid-stroke), the smooth model's rest."""
+        return self.smooth.initial_state(initial_position, supply_pressure, load_force)
+
+
 @dataclass(frozen=True)
 class _ModelBase:
     """Shared fields of the full and reduced models; ``params`` is the one parameter set."""

@@ -2,7 +2,9 @@
 
 One builder for the controller FMU (:func:`hydropwa.control.export_fmu`) and the axis FMU
 (:func:`hydropwa.simulation.export_axis_fmu`): a model file (variables, ``hp_model_*``
-functions) is inserted into the FMI 2.0 interface ``_c/fmi2_cs.c``, compiled into the platform
+functions) is inserted into the FMI 2.0 interface ``_c/fmi2_cs.c`` (or FMI 3.0 ``fmi3_cs.c``),
+followed by the instance core both interfaces share (``_c/fmi_core.c``: reading, writing and
+stepping the model once for both standards), compiled into the platform
 binary of this machine, and zipped with ``modelDescription.xml`` and the sources (so a user
 rebuilds for another platform, or a tool compiles the source-code FMU itself). The export
 needs a C compiler only: no Python, FMI headers or build system (the FMI 2.0 types and
@@ -121,10 +123,31 @@ def fmi3_source(model_c: str) -> str:
 
 
 def _interface(name: str, model_c: str) -> str:
-    template = (
-        resources.files("hydropwa.simulation").joinpath("_c", name).read_text(encoding="utf-8")
+    """The interface ``name`` with the model file and the shared instance core inserted."""
+    folder = resources.files("hydropwa.simulation").joinpath("_c")
+    template = folder.joinpath(name).read_text(encoding="utf-8")
+    core = folder.joinpath("fmi_core.c").read_text(encoding="utf-8")
+    return template.replace("@MODEL@", model_c).replace("@CORE@", core)
+
+
+def _unit_definitions(units: list[str]) -> list[str]:
+    """The ``<UnitDefinitions>`` lines of ``units`` (FMI 2.0 and 3.0 write them alike)."""
+    if not units:
+        return []
+    lines = ["  <UnitDefinitions>"]
+    for u in units:
+        exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
+        lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
+    return lines + ["  </UnitDefinitions>"]
+
+
+def _variable_attributes(reference: int, v: FmuVariable) -> str:
+    """Name, value reference, causality, variability (and a parameter's initial) of ``v``."""
+    attrs = (
+        f'name={quoteattr(v.name)} valueReference="{reference}" causality="{v.causality}"'
+        f' variability="{v.variability}"'
     )
-    return template.replace("@MODEL@", model_c)
+    return attrs + (' initial="exact"' if v.causality == "parameter" else "")
 
 
 def _model_description3(
@@ -147,12 +170,7 @@ def _model_description3(
         ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
         ' providesIntermediateUpdate="false"/>',
     ]
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
-            lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
-        lines.append("  </UnitDefinitions>")
+    lines += _unit_definitions(units)
     lines.append(f'  <DefaultExperiment startTime="0" stepSize="{step_size!r}"/>')
     lines.append("  <ModelVariables>")
     lines.append(
@@ -160,9 +178,7 @@ def _model_description3(
         ' variability="continuous" description="simulation time" unit="s"/>'
     )
     for i, v in enumerate(variables):
-        attrs = f'name={quoteattr(v.name)} valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
+        attrs = _variable_attributes(i, v)
         attrs += f" description={quoteattr(v.description)}"
         if v.unit:
             attrs += f' unit="{v.unit}"'
@@ -216,18 +232,11 @@ def _model_description(
         "    </SourceFiles>",
         "  </CoSimulation>",
     ]
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            exps = " ".join(f'{k}="{e}"' for k, e in _UNITS[u].items())
-            lines.append(f'    <Unit name="{u}"><BaseUnit {exps}/></Unit>')
-        lines.append("  </UnitDefinitions>")
+    lines += _unit_definitions(units)
     lines.append(f'  <DefaultExperiment startTime="0" stepSize="{step_size!r}"/>')
     lines.append("  <ModelVariables>")
     for i, v in enumerate(variables):
-        attrs = f'name={quoteattr(v.name)} valueReference="{i}" causality="{v.causality}" variability="{v.variability}"'
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
+        attrs = _variable_attributes(i, v)
         real = ""
         if v.unit:
             real += f' unit="{v.unit}"'

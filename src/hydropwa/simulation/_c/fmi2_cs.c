@@ -52,37 +52,23 @@ typedef struct {
     const fmi2ComponentEnvironment componentEnvironment;
 } fmi2CallbackFunctions;
 #endif
+typedef fmi2ValueReference hp_vref;
 
-#if defined(_WIN32)
-#define HP_EXPORT __declspec(dllexport)
-#else
-#define HP_EXPORT __attribute__((visibility("default")))
-#endif
-
-/* ---- the model (inserted by the generator) ---- */
+/* ---- the model, then the instance core shared with FMI 3.0 (inserted by the generator) ---- */
 @MODEL@
+@CORE@
 /* ---- FMI functions ---- */
 
 typedef struct {
-    hp_model model;
+    hp_core core;
     fmi2CallbackFunctions cb;
     char name[64]; /* a copy: the master's string is valid during fmi2Instantiate only */
-    double time;
-    int outputs_current;
 } hp_instance;
 
 static void hp_log(hp_instance *inst, fmi2Status status, fmi2String msg)
 {
     if (inst->cb.logger != NULL) {
         inst->cb.logger(inst->cb.componentEnvironment, inst->name, status, "error", "%s", msg);
-    }
-}
-
-static void hp_refresh(hp_instance *inst)
-{
-    if (!inst->outputs_current) {
-        hp_model_outputs(&inst->model);
-        inst->outputs_current = 1;
     }
 }
 
@@ -126,9 +112,7 @@ HP_EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2Stri
     if (name != NULL) {
         strncpy(inst->name, name, sizeof(inst->name) - 1);
     }
-    inst->time = 0.0;
-    hp_model_reset(&inst->model);
-    inst->outputs_current = 0;
+    hp_core_reset(&inst->core);
     return inst;
 }
 
@@ -148,7 +132,7 @@ HP_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_define
     (void)tol;
     (void)stop_defined;
     (void)stop;
-    inst->time = start;
+    inst->core.time = start;
     return fmi2OK;
 }
 
@@ -160,9 +144,7 @@ HP_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 
 HP_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
-    hp_instance *inst = (hp_instance *)c;
-    hp_model_start(&inst->model, inst->time);
-    inst->outputs_current = 0;
+    hp_core_start(&((hp_instance *)c)->core);
     return fmi2OK;
 }
 
@@ -174,10 +156,7 @@ HP_EXPORT fmi2Status fmi2Terminate(fmi2Component c)
 
 HP_EXPORT fmi2Status fmi2Reset(fmi2Component c)
 {
-    hp_instance *inst = (hp_instance *)c;
-    hp_model_reset(&inst->model);
-    inst->time = 0.0;
-    inst->outputs_current = 0;
+    hp_core_reset(&((hp_instance *)c)->core);
     return fmi2OK;
 }
 
@@ -185,14 +164,9 @@ HP_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[],
                                  fmi2Real value[])
 {
     hp_instance *inst = (hp_instance *)c;
-    size_t i;
-    hp_refresh(inst);
-    for (i = 0; i < nvr; ++i) {
-        if (vr[i] >= HP_NVARS) {
-            hp_log(inst, fmi2Error, "unknown value reference");
-            return fmi2Error;
-        }
-        value[i] = inst->model.vars[vr[i]];
+    if (hp_core_get(&inst->core, vr, nvr, value, 0) != 0) {
+        hp_log(inst, fmi2Error, "unknown value reference");
+        return fmi2Error;
     }
     return fmi2OK;
 }
@@ -201,15 +175,10 @@ HP_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[],
                                  const fmi2Real value[])
 {
     hp_instance *inst = (hp_instance *)c;
-    size_t i;
-    for (i = 0; i < nvr; ++i) {
-        if (vr[i] >= HP_NVARS || !hp_model_settable[vr[i]]) {
-            hp_log(inst, fmi2Error, "value reference is not an input or parameter");
-            return fmi2Error;
-        }
-        inst->model.vars[vr[i]] = value[i];
+    if (hp_core_set(&inst->core, vr, nvr, value) != 0) {
+        hp_log(inst, fmi2Error, "value reference is not an input or parameter");
+        return fmi2Error;
     }
-    inst->outputs_current = 0;
     return fmi2OK;
 }
 
@@ -217,12 +186,10 @@ HP_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boo
 {
     hp_instance *inst = (hp_instance *)c;
     (void)no_prior;
-    if (hp_model_do_step(&inst->model, t, h) != 0) {
+    if (hp_core_step(&inst->core, t, h) != 0) {
         hp_log(inst, fmi2Error, "the step failed");
         return fmi2Error;
     }
-    inst->time = t + h;
-    inst->outputs_current = 0;
     return fmi2OK;
 }
 
@@ -344,7 +311,7 @@ HP_EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2Valu
     hp_instance *inst = (hp_instance *)c;
     size_t i;
     for (i = 0; i < n; ++i) {
-        if (hp_model_input_derivative(&inst->model, vr[i], order[i], v[i]) != 0) {
+        if (hp_model_input_derivative(&inst->core.model, vr[i], order[i], v[i]) != 0) {
             hp_log(inst, fmi2Error, "input derivatives: only the first, of inputs");
             return fmi2Error;
         }
@@ -373,7 +340,7 @@ HP_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, 
 {
     hp_instance *inst = (hp_instance *)c;
     if (s == fmi2LastSuccessfulTime) {
-        *v = inst->time;
+        *v = inst->core.time;
         return fmi2OK;
     }
     return fmi2Discard;

@@ -57,23 +57,17 @@ typedef void (*fmi3IntermediateUpdateCallback)(fmi3InstanceEnvironment, fmi3Floa
 typedef void (*fmi3LockPreemptionCallback)(void);
 typedef void (*fmi3UnlockPreemptionCallback)(void);
 #endif
+typedef fmi3ValueReference hp_vref;
 
-#if defined(_WIN32)
-#define HP_EXPORT __declspec(dllexport)
-#else
-#define HP_EXPORT __attribute__((visibility("default")))
-#endif
-
-/* ---- the model (inserted by the generator) ---- */
+/* ---- the model, then the instance core shared with FMI 2.0 (inserted by the generator) ---- */
 @MODEL@
+@CORE@
 /* ---- FMI 3.0 functions ---- */
 
 typedef struct {
-    hp_model model;
+    hp_core core;
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
-    double time;
-    int outputs_current;
 } hp_instance;
 
 static void hp_log(hp_instance *inst, fmi3Status status, fmi3String msg)
@@ -145,7 +139,7 @@ HP_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     }
     inst->env = instanceEnvironment;
     inst->log = logMessage;
-    hp_model_reset(&inst->model);
+    hp_core_reset(&inst->core);
     return inst;
 }
 
@@ -180,15 +174,13 @@ HP_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance instance,
     (void)tolerance;
     (void)stopTimeDefined;
     (void)stopTime;
-    inst->time = startTime;
+    inst->core.time = startTime;
     return fmi3OK;
 }
 
 HP_EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
-    hp_instance *inst = (hp_instance *)instance;
-    hp_model_start(&inst->model, inst->time);
-    inst->outputs_current = 0;
+    hp_core_start(&((hp_instance *)instance)->core);
     return fmi3OK;
 }
 
@@ -206,10 +198,7 @@ HP_EXPORT fmi3Status fmi3Terminate(fmi3Instance instance)
 
 HP_EXPORT fmi3Status fmi3Reset(fmi3Instance instance)
 {
-    hp_instance *inst = (hp_instance *)instance;
-    hp_model_reset(&inst->model);
-    inst->time = 0.0;
-    inst->outputs_current = 0;
+    hp_core_reset(&((hp_instance *)instance)->core);
     return fmi3OK;
 }
 
@@ -217,23 +206,12 @@ HP_EXPORT fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueRefere
                                     size_t nvr, fmi3Float64 values[], size_t nValues)
 {
     hp_instance *inst = (hp_instance *)instance;
-    size_t i;
     if (nValues != nvr) {
         return fmi3Error;
     }
-    if (!inst->outputs_current) {
-        hp_model_outputs(&inst->model);
-        inst->outputs_current = 1;
-    }
-    for (i = 0; i < nvr; ++i) {
-        if (vr[i] == HP_NVARS) {
-            values[i] = inst->time;
-        } else if (vr[i] < HP_NVARS) {
-            values[i] = inst->model.vars[vr[i]];
-        } else {
-            hp_log(inst, fmi3Error, "unknown value reference");
-            return fmi3Error;
-        }
+    if (hp_core_get(&inst->core, vr, nvr, values, 1) != 0) {
+        hp_log(inst, fmi3Error, "unknown value reference");
+        return fmi3Error;
     }
     return fmi3OK;
 }
@@ -242,18 +220,13 @@ HP_EXPORT fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueRefere
                                     size_t nvr, const fmi3Float64 values[], size_t nValues)
 {
     hp_instance *inst = (hp_instance *)instance;
-    size_t i;
     if (nValues != nvr) {
         return fmi3Error;
     }
-    for (i = 0; i < nvr; ++i) {
-        if (vr[i] >= HP_NVARS || !hp_model_settable[vr[i]]) {
-            hp_log(inst, fmi3Error, "value reference is not an input or parameter");
-            return fmi3Error;
-        }
-        inst->model.vars[vr[i]] = values[i];
+    if (hp_core_set(&inst->core, vr, nvr, values) != 0) {
+        hp_log(inst, fmi3Error, "value reference is not an input or parameter");
+        return fmi3Error;
     }
-    inst->outputs_current = 0;
     return fmi3OK;
 }
 
@@ -275,14 +248,12 @@ HP_EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommun
     *eventHandlingNeeded = 0;
     *terminateSimulation = 0;
     *earlyReturn = 0;
-    if (hp_model_do_step(&inst->model, currentCommunicationPoint, communicationStepSize) != 0) {
-        *lastSuccessfulTime = inst->time;
+    if (hp_core_step(&inst->core, currentCommunicationPoint, communicationStepSize) != 0) {
+        *lastSuccessfulTime = inst->core.time;
         hp_log(inst, fmi3Error, "the step failed");
         return fmi3Error;
     }
-    inst->time = currentCommunicationPoint + communicationStepSize;
-    *lastSuccessfulTime = inst->time;
-    inst->outputs_current = 0;
+    *lastSuccessfulTime = inst->core.time;
     return fmi3OK;
 }
 
