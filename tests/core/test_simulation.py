@@ -142,9 +142,9 @@ def test_stiff_dead_volume_failure_explains_cause(paper):
         )
 
 
-def test_bad_duration():
+def test_bad_duration(paper):
     with pytest.raises(SignalError, match="duration must be a positive"):
-        simulate("reduced", 0.1, duration=-1)
+        simulate(ReducedModel(paper), 0.1, duration=-1)
 
 
 def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
