@@ -123,7 +123,7 @@ def test_a_manifests_machine_entry(tmp_path, heavy):
 
 def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
     import tomllib
 
     doc = tomllib.loads(ctrl.read_text())
@@ -218,3 +218,88 @@ def test_export_fmu_without_params_stops_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--params" in err, err
     assert not out.exists()
+
+
+#: Every command that needs a machine and has no data or controller file to take it from:
+#: its arguments without --params, and what it would have written ("{tmp}": a fresh folder).
+_NO_MACHINE = {
+    "simulate": (["simulate", "--duration", "10 ms", "--out", "{tmp}/r.csv"], "r.csv"),
+    "linearize": (["linearize", "--out", "{tmp}/pwa.json"], "pwa.json"),
+    "control design": (["control", "design", "--out", "{tmp}/c.toml"], "c.toml"),
+    "rig run": (["rig", "run", "frf", "--out", "{tmp}/rig", "-q"], "rig"),
+    "export fmu": (["export", "fmu", "--out", "{tmp}/axis.fmu"], "axis.fmu"),
+}
+
+
+@pytest.mark.parametrize("command", sorted(_NO_MACHINE))
+def test_a_command_without_a_machine_stops_with_one_line(command, tmp_path, capsys):
+    """No --params: exit 2, one line naming both ways to give the machine, nothing written
+    (these commands ran on the paper's rig before, issue 37)."""
+    argv, written = _NO_MACHINE[command]
+    code = main([a.format(tmp=tmp_path) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("error: no machine given: pass --params FILE"), err
+    assert "--params paper for the paper's rig" in err
+    assert not (tmp_path / written).exists()
+
+
+def test_a_sweep_file_names_its_machine(tmp_path, capsys):
+    """A sweep file without ``base`` is refused (it swept the paper's rig); ``base = "paper"``
+    names the paper's rig."""
+    from hydropwa.sweep import parse_sweep
+
+    body = '[grid]\n"load.mass" = [1.0, 2.0]\n[input]\nduration = 0.02\nmodel = "reduced"\n'
+    (tmp_path / "s.toml").write_text(body)
+    code = main(["sweep", str(tmp_path / "s.toml"), "-q", "--out", str(tmp_path / "o.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "names no machine" in err, err
+    assert 'base = "paper"' in err and not (tmp_path / "o.csv").exists()
+    spec = parse_sweep({"base": "paper", "grid": {"load.mass": [1.0, 2.0]}})
+    assert spec.params_for(spec.cases()[0]).cylinder == get_preset("paper").cylinder
+
+
+def test_the_python_api_needs_the_machine_too(heavy):
+    """Models, the rig and simulation by name take the machine from the caller; none given
+    raises one line saying how, never the paper's cylinder in silence."""
+    from hydropwa import FullOrderModel, ReducedModel, simulate
+    from hydropwa.models import as_model
+    from hydropwa.rig import Rig
+    from hydropwa.simulation import simulate_batch
+
+    for make in (FullOrderModel, ReducedModel, Rig):
+        with pytest.raises(TypeError, match="params"):
+            make()
+    for call in (
+        lambda: as_model("full"),
+        lambda: simulate("reduced", 0.1, duration=0.01),
+        lambda: simulate_batch(["reduced"], 0.1, duration=0.01),
+    ):
+        with pytest.raises(ParameterError, match=r"needs the machine.*get_preset\('paper'\)"):
+            call()
+    with pytest.raises(ParameterError, match=r"Rig.from_params\('paper'\)"):
+        Rig.from_params(None)
+    with pytest.raises(ParameterError, match="SystemParams"):
+        Rig("paper")  # a name is for from_params
+    # named, each runs on that machine
+    assert as_model("reduced", heavy).params.cylinder.stroke == 0.5
+    assert Rig.from_params("paper").params.cylinder == get_preset("paper").cylinder
+    assert Rig(heavy).params.cylinder == heavy.cylinder
+
+
+def test_a_pwa_document_of_another_machine_is_refused(heavy, tmp_path, capsys):
+    """``control design --pwa F --params P``: P was ignored; now F must be P's machine."""
+    from hydropwa.cli import _control
+    from hydropwa.linearization import linearize, save_pwa
+
+    pwa = tmp_path / "pwa.json"
+    save_pwa(linearize(get_preset("paper")), pwa)
+    save_params(heavy, tmp_path / "heavy.toml")
+    argv = ["control", "design", "--pwa", str(pwa), "--out", str(tmp_path / "c.toml")]
+    assert main([*argv, "--params", str(tmp_path / "heavy.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the PWA document's" in err and "13 cm²" in err, err
+    assert not (tmp_path / "c.toml").exists()
+    # the same machine, or none named: the document's model
+    assert _control._pwa_model("paper", pwa).params.cylinder == get_preset("paper").cylinder
+    assert _control._pwa_model(None, pwa).params.cylinder == get_preset("paper").cylinder

@@ -274,7 +274,7 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     from hydropwa.cli import main
 
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
     run = tmp_path / "run.csv"
     code = main(
         [
@@ -315,7 +315,7 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("error: ") and err.count("\n") == 1
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 2
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 2
     assert "exists; pass --force" in capsys.readouterr().err
 
 
