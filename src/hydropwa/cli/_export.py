@@ -13,7 +13,7 @@ import typer
 
 from .._io import check_output
 from ._app import new_app
-from ._options import MachineParamsOption, resolve_params
+from ._options import ParamsOption, resolve_params
 
 __all__ = ["app", "fmu_command"]
 
@@ -25,7 +25,7 @@ def fmu_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="The FMU file to write (.fmu).")] = Path(
         "axis.fmu"
     ),
-    params: MachineParamsOption = None,
+    params: ParamsOption = None,
     x0: Annotated[
         str | None,
         typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
