@@ -43,10 +43,14 @@ def test_batch_over_inputs_broadcasts_one_model_and_summarizes(paper):
 def test_batch_reports_progress_and_rejects_mismatched_lengths(paper):
     seen = []
     simulate_batch(
-        ["reduced"] * 2, 0.1, duration=0.05, progress=lambda d, n: seen.append((d, n)), jobs=1
+        [ReducedModel(paper)] * 2,
+        0.1,
+        duration=0.05,
+        progress=lambda d, n: seen.append((d, n)),
+        jobs=1,
     )
     assert seen == [(1, 2), (2, 2)]
     from hydropwa._errors import SignalError
 
     with pytest.raises(SignalError, match="cannot pair 2 models with 3 inputs"):
-        simulate_batch(["reduced"] * 2, [0.1, 0.2, 0.3], duration=0.05)
+        simulate_batch([ReducedModel(paper)] * 2, [0.1, 0.2, 0.3], duration=0.05)
