@@ -303,3 +303,27 @@ def test_a_pwa_document_of_another_machine_is_refused(heavy, tmp_path, capsys):
     # the same machine, or none named: the document's model
     assert _control._pwa_model("paper", pwa).params.cylinder == get_preset("paper").cylinder
     assert _control._pwa_model(None, pwa).params.cylinder == get_preset("paper").cylinder
+
+
+def test_a_replayed_run_brings_its_machine(heavy, tmp_path, capsys):
+    """``simulate --input-file``: the run's dataset records the heavy axis (210 bar), so the
+    replay runs on it without --params; the paper's rig (100 bar) given with it is refused;
+    a lone run that records no machine needs --params."""
+    runs = _deadzone_runs()[:1]
+    Dataset.create(tmp_path / "ds", meta={"machine": heavy.to_dict()}).write(runs, format="csv")
+    (run_file,) = (tmp_path / "ds").glob("*.csv")
+    sim = ["simulate", "--input-file", str(run_file), "--model", "reduced", "--duration", "10 ms"]
+    assert main([*sim, "--out", str(tmp_path / "a.csv")]) == 0
+    assert read_run(tmp_path / "a.csv").meta["inputs"]["p_s"]["value"] == heavy.supply.pressure
+    capsys.readouterr()
+    assert main([*sim, "-p", "paper", "--out", str(tmp_path / "b.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the run's machine" in err and "31.17 cm²" in err, err
+    lone = tmp_path / "lone.csv"
+    lone.write_bytes(run_file.read_bytes())
+    sim[2] = str(lone)
+    assert main([*sim, "--out", str(tmp_path / "c.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "lone.csv records no machine: pass --params FILE" in err, err
+    assert main([*sim, "-p", "paper", "--out", str(tmp_path / "c.csv")]) == 0
+    assert read_run(tmp_path / "c.csv").meta["inputs"]["p_s"]["value"] == 100e5

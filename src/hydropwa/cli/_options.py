@@ -48,6 +48,7 @@ __all__ = [
     "PRESET_NAMES",
     "ParamsOption",
     "JOBS_HELP",
+    "MACHINE_FIX",
     "NO_MACHINE",
     "SAMPLE_TIME_METAVAR",
     "params_source",
@@ -61,11 +62,10 @@ SAMPLE_TIME_METAVAR = "PERIOD|RATE"
 #: The help ending of every ``--jobs/-j`` (default ``None``: all cores).
 JOBS_HELP = "(default: all cores)"
 
+#: How to give the machine, as the errors of a command without one say it.
+MACHINE_FIX = "pass --params FILE (your machine's TOML) or --params paper for the paper's rig"
 #: The one line of a command that needs a machine and is given none (exit 2).
-NO_MACHINE = (
-    "no machine given: pass --params FILE (your machine's TOML) "
-    "or --params paper for the paper's rig"
-)
+NO_MACHINE = f"no machine given: {MACHINE_FIX}"
 
 #: The presets, as help texts and errors list them.
 PRESET_NAMES = ", ".join(PRESETS)
