@@ -7,7 +7,7 @@ Prints a Markdown table for the README:
     python benchmarks/cold_start.py              # all cases (several minutes on 2 cores)
     python benchmarks/cold_start.py --no-paper   # without the main job
 
-Cases: ``import hydropwa`` (best of 5), ``hydropwa simulate --duration 1`` (the full model),
+Cases: ``import hydropwa`` (best of 5), ``hydropwa simulate --params paper --duration 1`` (the full model),
 the README's Python example (extracted from README.md), and the main job ``hydropwa paper``.
 Timings on a shared machine vary by tens of per cent; the script reports, it does not assert.
 """
@@ -74,6 +74,8 @@ def main() -> None:
         "first simulate": lambda d: [
             _bin("hydropwa"),
             "simulate",
+            "--params",
+            "paper",
             "--duration",
             "1",
             "--out",

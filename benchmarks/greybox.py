@@ -11,7 +11,7 @@ wall time of each, the speed-up, and the recovery table (not a timed test).
 Campaign scale (issue 36): ``--campaign FOLDER`` fits the six Stribeck parameters to the
 virtual rig's friction campaign (92 constant-counter-force runs, about 244 s at 2 kHz) in
 FOLDER/friction, from 15–50 % off the truth in FOLDER/true_params.toml (made by
-``hydropwa rig run friction --out FOLDER`` when missing, about 2 minutes), with the
+``hydropwa rig run friction --params paper --out FOLDER`` when missing, about 2 minutes), with the
 campaign selection (``Selection``) and 10 % of the runs held out for validation; it prints
 the wall time and the machine's load beside the nine-run case's. ``--case sine``,
 ``campaign`` or ``both`` picks what runs (default: sine, or both with ``--campaign``).
@@ -101,7 +101,18 @@ def campaign_case(folder: Path, jobs: int) -> None:
 
     if not (folder / "friction").is_dir():
         t0 = time.perf_counter()
-        cmd = [sys.executable, "-m", "hydropwa", "rig", "run", "friction", "--out", str(folder)]
+        cmd = [
+            sys.executable,
+            "-m",
+            "hydropwa",
+            "rig",
+            "run",
+            "friction",
+            "-p",
+            "paper",
+            "--out",
+            str(folder),
+        ]
         subprocess.run([*cmd, "--quiet", "--jobs", str(jobs)], check=True)
         print(f"virtual rig: friction campaign in {time.perf_counter() - t0:.1f} s")
     truth = load_params(folder / "true_params.toml")

@@ -210,10 +210,12 @@ import json, time
 t0 = time.perf_counter()
 import hydropwa
 t_import = time.perf_counter() - t0
+from hydropwa.params import get_preset
 from hydropwa.simulation import simulate
-t0 = time.perf_counter(); simulate("full", "sine:amplitude=0.4,frequency=1", duration=10.0, rtol=RTOL)
+P = get_preset("paper")
+t0 = time.perf_counter(); simulate("full", "sine:amplitude=0.4,frequency=1", duration=10.0, rtol=RTOL, params=P)
 t_first = time.perf_counter() - t0
-t0 = time.perf_counter(); simulate("full", "sine:amplitude=0.4,frequency=1", duration=10.0, rtol=RTOL)
+t0 = time.perf_counter(); simulate("full", "sine:amplitude=0.4,frequency=1", duration=10.0, rtol=RTOL, params=P)
 t_warm = time.perf_counter() - t0
 print(json.dumps({"import": t_import, "first": t_first, "warm": t_warm}))
 """

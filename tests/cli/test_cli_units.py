@@ -15,7 +15,17 @@ from hydropwa.data import read_run
 def test_simulate_takes_duration_and_sampling_with_units(tmp_path, duration, sampling, n):
     """--sample-time takes a period or a rate; a plain number is seconds."""
     out = tmp_path / "r.csv"
-    argv = ["simulate", "--model", "reduced", "--duration", duration, "--sample-time", sampling]
+    argv = [
+        "simulate",
+        "-p",
+        "paper",
+        "--model",
+        "reduced",
+        "--duration",
+        duration,
+        "--sample-time",
+        sampling,
+    ]
     assert main([*argv, "--out", str(out)]) == 0
     run = read_run(out)
     assert run.t.size == n and run.t[-1] == pytest.approx(0.05, rel=1e-12)
@@ -24,7 +34,7 @@ def test_simulate_takes_duration_and_sampling_with_units(tmp_path, duration, sam
 def test_old_sampling_names_still_work_and_warn(tmp_path, capsys):
     """--fs (simulate) keeps working, a plain number still in Hz, with one warning line."""
     out = tmp_path / "r.csv"
-    argv = ["simulate", "--model", "reduced", "--duration", "50 ms", "--fs", "1000"]
+    argv = ["simulate", "-p", "paper", "--model", "reduced", "--duration", "50 ms", "--fs", "1000"]
     assert main([*argv, "--out", str(out)]) == 0
     assert read_run(out).t.size == 51
     err = capsys.readouterr().err
@@ -55,7 +65,7 @@ def test_a_bad_sample_time_is_one_message(bad):
 
 @pytest.mark.parametrize("bad", ["2 bar", "x", "nan"])
 def test_a_duration_of_the_wrong_kind_is_one_line(tmp_path, capsys, bad):
-    code = main(["simulate", "--duration", bad, "--out", str(tmp_path / "r.csv")])
+    code = main(["simulate", "-p", "paper", "--duration", bad, "--out", str(tmp_path / "r.csv")])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "--duration" in err, err
 
@@ -64,7 +74,7 @@ def test_cli_messages_name_the_option_not_the_keyword(tmp_path, capsys):
     """'pass --force (force=True)' is the library's message; the CLI shows '--force' only."""
     out = tmp_path / "r.csv"
     out.write_text("keep")
-    assert main(["simulate", "--duration", "10 ms", "--out", str(out)]) == 2
+    assert main(["simulate", "-p", "paper", "--duration", "10 ms", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "--force" in err and "force=True" not in err and "overwrite=True" not in err
     assert out.read_text() == "keep"
@@ -74,5 +84,10 @@ def test_no_machine_word_ranges_in_help(tmp_path, capsys):
     assert main(["rig", "run", "--help"]) == 0
     text = capsys.readouterr().out
     assert "9223372036854775807" not in text and "[x>=0]" in text
-    assert main(["rig", "run", "frf", "--seed", str(2**63), "--out", str(tmp_path / "x")]) == 2
+    assert (
+        main(
+            ["rig", "run", "frf", "-p", "paper", "--seed", str(2**63), "--out", str(tmp_path / "x")]
+        )
+        == 2
+    )
     assert "2**63" in capsys.readouterr().err

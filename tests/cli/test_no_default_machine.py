@@ -3,6 +3,7 @@ or ``--params``; none given is one line saying how (exit 2), never the paper's c
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -123,7 +124,7 @@ def test_a_manifests_machine_entry(tmp_path, heavy):
 
 def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
     import tomllib
 
     doc = tomllib.loads(ctrl.read_text())
@@ -218,3 +219,142 @@ def test_export_fmu_without_params_stops_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--params" in err, err
     assert not out.exists()
+
+
+#: Every command that needs a machine and has no data or controller file to take it from:
+#: its arguments without --params, and what it would have written ("{tmp}": a fresh folder).
+_NO_MACHINE = {
+    "simulate": (["simulate", "--duration", "10 ms", "--out", "{tmp}/r.csv"], "r.csv"),
+    "linearize": (["linearize", "--out", "{tmp}/pwa.json"], "pwa.json"),
+    "control design": (["control", "design", "--out", "{tmp}/c.toml"], "c.toml"),
+    "rig run": (["rig", "run", "frf", "--out", "{tmp}/rig", "-q"], "rig"),
+    "export fmu": (["export", "fmu", "--out", "{tmp}/axis.fmu"], "axis.fmu"),
+}
+
+
+@pytest.mark.parametrize("command", sorted(_NO_MACHINE))
+def test_a_command_without_a_machine_stops_with_one_line(command, tmp_path, capsys):
+    """No --params: exit 2, one line naming both ways to give the machine, nothing written
+    (these commands ran on the paper's rig before, issue 37)."""
+    argv, written = _NO_MACHINE[command]
+    code = main([a.format(tmp=tmp_path) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("error: no machine given: pass --params FILE"), err
+    assert "--params paper for the paper's rig" in err
+    assert not (tmp_path / written).exists()
+
+
+def test_a_sweep_file_names_its_machine(tmp_path, capsys):
+    """A sweep file without ``base`` is refused (it swept the paper's rig); ``base = "paper"``
+    names the paper's rig."""
+    from hydropwa.sweep import parse_sweep
+
+    body = '[grid]\n"load.mass" = [1.0, 2.0]\n[input]\nduration = 0.02\nmodel = "reduced"\n'
+    (tmp_path / "s.toml").write_text(body)
+    code = main(["sweep", str(tmp_path / "s.toml"), "-q", "--out", str(tmp_path / "o.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "names no machine" in err, err
+    assert 'base = "paper"' in err and not (tmp_path / "o.csv").exists()
+    spec = parse_sweep({"base": "paper", "grid": {"load.mass": [1.0, 2.0]}})
+    assert spec.params_for(spec.cases()[0]).cylinder == get_preset("paper").cylinder
+
+
+def test_the_python_api_needs_the_machine_too(heavy):
+    """Models, the rig and simulation by name take the machine from the caller; none given
+    raises one line saying how, never the paper's cylinder in silence."""
+    from hydropwa import FullOrderModel, ReducedModel, simulate
+    from hydropwa.models import as_model
+    from hydropwa.rig import Rig
+    from hydropwa.simulation import simulate_batch
+
+    for make in (FullOrderModel, ReducedModel, Rig):
+        with pytest.raises(TypeError, match="params"):
+            make()
+    for call in (
+        lambda: as_model("full"),
+        lambda: simulate("reduced", 0.1, duration=0.01),
+        lambda: simulate_batch(["reduced"], 0.1, duration=0.01),
+    ):
+        with pytest.raises(ParameterError, match=r"needs the machine.*get_preset\('paper'\)"):
+            call()
+    with pytest.raises(ParameterError, match=r"Rig.from_params\('paper'\)"):
+        Rig.from_params(None)
+    with pytest.raises(ParameterError, match="SystemParams"):
+        Rig("paper")  # a name is for from_params
+    # named, each runs on that machine
+    assert as_model("reduced", heavy).params.cylinder.stroke == 0.5
+    assert Rig.from_params("paper").params.cylinder == get_preset("paper").cylinder
+    assert Rig(heavy).params.cylinder == heavy.cylinder
+
+
+def test_a_pwa_document_of_another_machine_is_refused(heavy, tmp_path, capsys):
+    """``control design --pwa F --params P``: P was ignored; now F must be P's machine."""
+    from hydropwa.cli import _control
+    from hydropwa.linearization import linearize, save_pwa
+
+    pwa = tmp_path / "pwa.json"
+    save_pwa(linearize(get_preset("paper")), pwa)
+    save_params(heavy, tmp_path / "heavy.toml")
+    argv = ["control", "design", "--pwa", str(pwa), "--out", str(tmp_path / "c.toml")]
+    assert main([*argv, "--params", str(tmp_path / "heavy.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the PWA document's" in err and "13 cm²" in err, err
+    assert not (tmp_path / "c.toml").exists()
+    # the same machine, or none named: the document's model
+    assert _control._pwa_model("paper", pwa).params.cylinder == get_preset("paper").cylinder
+    assert _control._pwa_model(None, pwa).params.cylinder == get_preset("paper").cylinder
+
+
+def test_a_replayed_run_brings_its_machine(heavy, tmp_path, capsys):
+    """``simulate --input-file``: the run's dataset records the heavy axis (210 bar), so the
+    replay runs on it without --params; the paper's rig (100 bar) given with it is refused;
+    a lone run that records no machine needs --params."""
+    runs = _deadzone_runs()[:1]
+    Dataset.create(tmp_path / "ds", meta={"machine": heavy.to_dict()}).write(runs, format="csv")
+    (run_file,) = (tmp_path / "ds").glob("*.csv")
+    sim = ["simulate", "--input-file", str(run_file), "--model", "reduced", "--duration", "10 ms"]
+    assert main([*sim, "--out", str(tmp_path / "a.csv")]) == 0
+    assert read_run(tmp_path / "a.csv").meta["inputs"]["p_s"]["value"] == heavy.supply.pressure
+    capsys.readouterr()
+    assert main([*sim, "-p", "paper", "--out", str(tmp_path / "b.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the run's machine" in err and "31.17 cm²" in err, err
+    lone = tmp_path / "lone.csv"
+    lone.write_bytes(run_file.read_bytes())
+    sim[2] = str(lone)
+    assert main([*sim, "--out", str(tmp_path / "c.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "lone.csv records no machine: pass --params FILE" in err, err
+    assert main([*sim, "-p", "paper", "--out", str(tmp_path / "c.csv")]) == 0
+    assert read_run(tmp_path / "c.csv").meta["inputs"]["p_s"]["value"] == 100e5
+
+
+@pytest.mark.parametrize(
+    "section, names",
+    [("cylinder", ("stroke",)), ("cylinder", ("area_a", "area_b")), ("load", ("mass",))],
+)
+def test_a_parameter_file_states_what_makes_the_machine(heavy, tmp_path, capsys, section, names):
+    """A complete file (no ``base``) that leaves out the stroke, an area or the mass took the
+    paper rig's value (200 mm, 13 cm², 1.394 kg) in silence; now one line names the field."""
+    import tomllib
+
+    save_params(heavy, tmp_path / "full.toml")
+    doc = tomllib.loads((tmp_path / "full.toml").read_text())
+    for name in names:
+        del doc[section][name]
+    (tmp_path / "gap.toml").write_text(tomli_w.dumps(doc))
+    with pytest.raises(
+        ParameterError,
+        match=rf"{', '.join(f'{section}.{n}' for n in names)} not given.*base = \"paper\"",
+    ):
+        load_params(tmp_path / "gap.toml")
+    assert main(["params", "show", str(tmp_path / "gap.toml")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    # with base = "paper" the paper rig's value is asked for by name
+    (tmp_path / "based.toml").write_text(tomli_w.dumps({"base": "paper", **doc}))
+    based = getattr(load_params(tmp_path / "based.toml"), section)
+    paper, own = getattr(get_preset("paper"), section), getattr(heavy, section)
+    for f in dataclasses.fields(based):
+        want = paper if f.name in names else own
+        assert getattr(based, f.name) == pytest.approx(getattr(want, f.name), rel=1e-12), f.name

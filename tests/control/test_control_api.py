@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from hydropwa import SignalError
+from hydropwa import ReducedModel, SignalError
 from hydropwa.control import (
     ControlError,
     DeadZoneInverse,
@@ -181,16 +181,17 @@ def test_reference_from_file(tmp_path):
         parse_reference(f"file:{tmp_path / 'r.csv'}#y")
 
 
-def test_simulate_closed_loop_argument_errors():
+def test_simulate_closed_loop_argument_errors(paper):
+    reduced = ReducedModel(paper)
     c = PIController(kp=100.0)
     with pytest.raises(SignalError, match="either a valve command u or a controller"):
-        simulate("reduced", 0.2, duration=0.01, controller=c, reference=0.1)
+        simulate(reduced, 0.2, duration=0.01, controller=c, reference=0.1)
     with pytest.raises(SignalError, match="needs a reference"):
-        simulate("reduced", duration=0.01, controller=c)
+        simulate(reduced, duration=0.01, controller=c)
     with pytest.raises(SignalError, match="pass controller"):
-        simulate("reduced", duration=0.01, reference=0.1)
+        simulate(reduced, duration=0.01, reference=0.1)
     with pytest.raises(ControlError, match="closed-loop result"):
-        tracking_metrics(simulate("reduced", 0.1, duration=0.01))
+        tracking_metrics(simulate(reduced, 0.1, duration=0.01))
 
 
 @pytest.mark.parametrize("model", ["reduced", "full"])
@@ -273,7 +274,7 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     from hydropwa.cli import main
 
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 0
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
     run = tmp_path / "run.csv"
     code = main(
         [
@@ -314,7 +315,7 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("error: ") and err.count("\n") == 1
-    assert main(["control", "design", "--method", "pi", "--out", str(ctrl)]) == 2
+    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 2
     assert "exists; pass --force" in capsys.readouterr().err
 
 

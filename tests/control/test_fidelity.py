@@ -106,13 +106,26 @@ def test_cli_compare_writes_the_table(heavy, tmp_path):
 
 def test_cli_simulates_and_linearizes_the_chamber_model(tmp_path):
     r = CliRunner().invoke(
-        app, ["simulate", "--model", "pwa-chamber", "-d", "0.2", "-o", str(tmp_path / "r.csv")]
+        app,
+        [
+            "simulate",
+            "-p",
+            "paper",
+            "--model",
+            "pwa-chamber",
+            "-d",
+            "0.2",
+            "-o",
+            str(tmp_path / "r.csv"),
+        ],
     )
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(
         app,
         [
             "linearize",
+            "--params",
+            "paper",
             "--form",
             "chamber",
             "-o",
@@ -128,7 +141,17 @@ def test_cli_simulates_and_linearizes_the_chamber_model(tmp_path):
     assert isinstance(load_pwa(tmp_path / "c.json"), ChamberPwaModel)
     r = CliRunner().invoke(
         app,
-        ["linearize", "--form", "chamber", "-o", str(tmp_path / "d.json"), "--refine-tol", "5e6"],
+        [
+            "linearize",
+            "-p",
+            "paper",
+            "--form",
+            "chamber",
+            "-o",
+            str(tmp_path / "d.json"),
+            "--refine-tol",
+            "5e6",
+        ],
     )
     assert r.exit_code == 2 and "chamber form" in r.output and "Traceback" not in r.output
 

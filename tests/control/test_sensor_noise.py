@@ -92,7 +92,18 @@ def test_cli_design_measures_the_verification_noise_from_a_dataset(tmp_path, cap
     write_dataset([_measured()[0]], data)
     expected = sensor_noise_from(_measured()[0])
     ctrl = tmp_path / "pi.toml"
-    args = ["control", "design", "--method", "pi", "--draws", "1", "--out", str(ctrl)]
+    args = [
+        "control",
+        "design",
+        "-p",
+        "paper",
+        "--method",
+        "pi",
+        "--draws",
+        "1",
+        "--out",
+        str(ctrl),
+    ]
     assert main([*args, "--noise-from", str(data)]) == 0
     out = capsys.readouterr().out
     assert "sensor noise measured at standstill" in out and "um" in out
@@ -116,13 +127,23 @@ def test_cli_observer_is_designed_for_the_measured_noise(tmp_path, capsys):
     write_dataset([_measured()[0]], data)
     sx = sensor_noise_from(_measured()[0])["x"]
     ctrl = tmp_path / "lqr.toml"
-    args = ["control", "design", "--no-verify", "--observer", "--out", str(ctrl)]
+    args = ["control", "design", "-p", "paper", "--no-verify", "--observer", "--out", str(ctrl)]
     assert main([*args, "--noise-from", str(data)]) == 0
     got = load_controller(ctrl).position_observer
     assert got == pytest.approx(position_observer_gains(5e-4, sx, 1.0), rel=1e-9)
     code = main([*args, "--force", "--sensor-noise", "x=0 um"])
     assert code == 2 and "position noise x > 0" in capsys.readouterr().err
-    pi = ["control", "design", "--method", "pi", "--observer", "--out", str(tmp_path / "pi.toml")]
+    pi = [
+        "control",
+        "design",
+        "-p",
+        "paper",
+        "--method",
+        "pi",
+        "--observer",
+        "--out",
+        str(tmp_path / "pi.toml"),
+    ]
     assert main(pi) == 2 and "--observer needs --method lqr" in capsys.readouterr().err
 
 
@@ -143,7 +164,22 @@ def test_cli_simulate_runs_with_the_measured_noise(tmp_path, capsys):
     write_dataset([_measured()[0]], data)
     sx = sensor_noise_from(_measured()[0])["x"]
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "--method", "pi", "--no-verify", "--out", str(ctrl)]) == 0
+    assert (
+        main(
+            [
+                "control",
+                "design",
+                "-p",
+                "paper",
+                "--method",
+                "pi",
+                "--no-verify",
+                "--out",
+                str(ctrl),
+            ]
+        )
+        == 0
+    )
     sim = ["control", "simulate", "--model", "reduced", "--controller", str(ctrl), "-p", "paper"]
     sim += ["--reference", "0.1", "--duration", "0.3"]
     for name, extra in (("exact", []), ("noisy", ["--noise-from", str(data)])):
@@ -175,7 +211,7 @@ def test_cli_dead_zone_hysteresis_is_refused_where_it_means_nothing(tmp_path, ca
         ),
     ]
     for extra, words in cases:
-        assert main(["control", "design", *extra, *out]) == 2
+        assert main(["control", "design", "-p", "paper", *extra, *out]) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1, err
     assert not (tmp_path / "c.toml").exists()
@@ -188,6 +224,6 @@ def test_cli_dead_zone_hysteresis_goes_into_the_file(tmp_path):
     from hydropwa.control import load_controller
 
     ctrl = tmp_path / "lqr.toml"
-    args = ["control", "design", "--no-verify", "--observer", "--out", str(ctrl)]
+    args = ["control", "design", "-p", "paper", "--no-verify", "--observer", "--out", str(ctrl)]
     assert main([*args, "--dead-zone-hysteresis", "0.005"]) == 0
     assert load_controller(ctrl).dead_zone_inverse.hysteresis == 0.005

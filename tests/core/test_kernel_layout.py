@@ -75,7 +75,9 @@ def test_solver_stats_order_is_the_layouts():
     assert (K.ST_STEPS, K.ST_REJECTED, K.ST_RHS, K.ST_JAC) == tuple(
         _layout.STAT[n] for n in ("steps", "rejected", "rhs_evaluations", "jacobians")
     )
-    res = simulate("reduced", "step:time=0.01", duration=0.05, fs=1000.0)
+    res = simulate(
+        "reduced", "step:time=0.01", duration=0.05, fs=1000.0, params=get_preset("paper")
+    )
     s = res.stats
     # every accepted or rejected ROS34PW2 step costs at least 3 rhs calls, and the counts land
     # in their own fields (a swapped index would break one of these)

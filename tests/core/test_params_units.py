@@ -121,6 +121,8 @@ def test_cli_bare_supply_pressure_is_rejected_with_the_unit(tmp_path, capsys):
     code = main(
         [
             "simulate",
+            "--params",
+            "paper",
             "--model",
             "reduced",
             "--supply-pressure",

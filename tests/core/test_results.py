@@ -63,16 +63,16 @@ def test_failed_run_without_raising_carries_status_and_message(paper):
 
 def test_input_errors_raise_their_class(paper):
     with pytest.raises(ParameterError, match="unknown solver 'rk45'; choose"):
-        simulate("reduced", 0.1, duration=0.01, solver="rk45")
+        simulate(ReducedModel(paper), 0.1, duration=0.01, solver="rk45")
     with pytest.raises(ParameterError, match="unknown model 'quadratic'"):
         simulate("quadratic", 0.1, duration=0.01)
     with pytest.raises(ParameterError, match=r"linearize\(params\)"):
         as_model("pwa", paper)
     with pytest.raises(SignalError, match="timepts must hold"):
-        simulate("reduced", 0.1, timepts=[0.0])
+        simulate(ReducedModel(paper), 0.1, timepts=[0.0])
     with pytest.raises(SignalError, match="as_reference"):
         simulate(
-            "reduced",
+            ReducedModel(paper),
             duration=0.01,
             controller=PIController(kp=100.0),
             reference="trapezoid:from=50 mm,to=80 mm,v=0.2,a=5",

@@ -142,9 +142,9 @@ def test_stiff_dead_volume_failure_explains_cause(paper):
         )
 
 
-def test_bad_duration():
+def test_bad_duration(paper):
     with pytest.raises(SignalError, match="duration must be a positive"):
-        simulate("reduced", 0.1, duration=-1)
+        simulate(ReducedModel(paper), 0.1, duration=-1)
 
 
 def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
@@ -152,6 +152,8 @@ def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
     code = main(
         [
             "simulate",
+            "--params",
+            "paper",
             "--model",
             "reduced",
             "--input",
@@ -173,10 +175,10 @@ def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["simulate", "--model", "foo"], "--model 'foo' is unknown"),
-        (["simulate", "--input", "sine:amplitud=1"], "no parameter 'amplitud'"),
+        (["simulate", "-p", "paper", "--model", "foo"], "--model 'foo' is unknown"),
+        (["simulate", "-p", "paper", "--input", "sine:amplitud=1"], "no parameter 'amplitud'"),
         (["simulate", "--params", "missing.toml"], "not found"),
-        (["simulate", "--supply-pressure", "95 kg"], "wrong dimension"),
+        (["simulate", "-p", "paper", "--supply-pressure", "95 kg"], "wrong dimension"),
         (["params", "show", "nope.toml"], "not found"),
     ],
 )
@@ -215,7 +217,7 @@ def test_cli_usage_errors_exit_2_without_traceback(capsys, args):
 
 def test_cli_does_not_overwrite_without_force(tmp_path, capsys):
     out = tmp_path / "run.csv"
-    args = ["simulate", "--model", "reduced", "--duration", "0.1", "--out", str(out)]
+    args = ["simulate", "-p", "paper", "--model", "reduced", "--duration", "0.1", "--out", str(out)]
     assert main(args) == 0
     before = out.read_bytes()
     assert main(args) == 2

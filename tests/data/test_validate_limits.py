@@ -46,7 +46,7 @@ def test_the_packages_own_simulated_runs_pass_the_validator(model, u):
 
 
 def test_the_rig_writes_its_converter_limits_with_each_run():
-    rig = Rig()
+    rig = Rig.from_params("paper")
     res = simulate(FullOrderModel(rig.params), 0.0, duration=0.1, fs=rig.fs)
     run = measure(res, rig.sensors, np.random.default_rng(0))
     lo, hi = run.meta["converter_limits"]["x"]
@@ -62,7 +62,7 @@ def test_data_check_accepts_a_campaign_folder(tmp_path, capsys):
             "sine": {"frequencies": [2.0], "amplitudes": [0.2], "periods": 1},
         }
     )
-    run_campaign(Rig(), camp, tmp_path / "c")
+    run_campaign(Rig.from_params("paper"), camp, tmp_path / "c")
     assert main(["data", "check", str(tmp_path / "c")]) == 0
     assert "no issues" in capsys.readouterr().out
 

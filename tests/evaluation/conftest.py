@@ -15,7 +15,7 @@ def sine_run():
     """One virtual-rig sine run (60 % opening, 3 Hz, 4 periods) with true parameters."""
     from hydropwa.rig import Rig, SineExperiment, execute, plan, run_seed
 
-    rig = Rig()
+    rig = Rig.from_params("paper")
     exp = SineExperiment(frequencies=(3.0,), amplitudes=(0.6,), periods=4, start_position=0.1)
     spec = plan(exp, rig)[0]
     return execute(rig, spec, run_seed(1, "sine", spec.name)), rig.params

@@ -365,7 +365,7 @@ def test_paper_with_only_sine_runs_keeps_the_rest_and_says_so(tmp_path):
     from hydropwa.studies.paper import run_paper_study
 
     camp = parse_campaign({"sine": {"frequencies": ["2 Hz"], "amplitudes": ["40 %"], "periods": 2}})
-    run_campaign(Rig(), camp, tmp_path / "data")
+    run_campaign(Rig.from_params("paper"), camp, tmp_path / "data")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = run_paper_study(out=tmp_path / "report", data=tmp_path / "data", progress=False)

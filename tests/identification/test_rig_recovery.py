@@ -55,7 +55,7 @@ CAMPAIGN = {
 @pytest.fixture(scope="module")
 def recovered(tmp_path_factory):
     out = tmp_path_factory.mktemp("rig")
-    the_rig = rig.Rig()
+    the_rig = rig.Rig.from_params("paper")
     rig.run_campaign(the_rig, rig.parse_campaign(CAMPAIGN), out, jobs=4)
     return identify(out, params=get_preset("paper")), the_rig.params
 

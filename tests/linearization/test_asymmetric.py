@@ -372,6 +372,8 @@ def test_cli_pwa_follows_the_supply_pressure(tmp_path):
         app,
         [
             "simulate",
+            "--params",
+            "paper",
             "--model",
             "pwa",
             "--supply-pressure",

@@ -18,6 +18,8 @@ def test_cli_writes_json_figures_tables(tmp_path):
         app,
         [
             "linearize",
+            "--params",
+            "paper",
             "--out",
             str(tmp_path / "pwa.json"),
             "--supply-pressure",
@@ -49,7 +51,7 @@ def test_cli_writes_json_figures_tables(tmp_path):
 )
 def test_bad_input_one_line_error(tmp_path, kwargs, match):
     with pytest.raises(HydropwaError, match=match) as exc:
-        linearize_command(tmp_path / "pwa.json", **kwargs)
+        linearize_command(tmp_path / "pwa.json", params="paper", **kwargs)
     assert "\n" not in str(exc.value)
 
 

@@ -25,9 +25,9 @@ PKG = Path(hydropwa.__file__).parent
 
 PROBE = """
 import json
-from hydropwa import ReducedModel, simulate
+from hydropwa import ReducedModel, get_preset, simulate
 from hydropwa.simulation import _kernel as K
-simulate(ReducedModel(), "sine:amplitude=0.4,frequency=1", duration=0.2)
+simulate(ReducedModel(get_preset("paper")), "sine:amplitude=0.4,frequency=1", duration=0.2)
 s = K._integrate_reduced.stats
 print(json.dumps({"hits": sum(s.cache_hits.values()), "misses": sum(s.cache_misses.values())}))
 """

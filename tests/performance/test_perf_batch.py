@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from hydropwa import ReducedModel
 from hydropwa.simulation import SUMMARY_COLUMNS, simulate, simulate_batch, summarize
 
 
@@ -26,10 +27,12 @@ def test_batch_over_parameters_equals_one_by_one(paper, model):
 
 def test_batch_over_inputs_broadcasts_one_model_and_summarizes(paper):
     inputs = [f"sine:amplitude={a},frequency=2" for a in (0.2, 0.4, 0.8)]
-    rows = simulate_batch("reduced", inputs, duration=1.0, rtol=1e-3, summary=True, jobs=2)
+    rows = simulate_batch(
+        ReducedModel(paper), inputs, duration=1.0, rtol=1e-3, summary=True, jobs=2
+    )
     assert [list(r) for r in rows] == [list(SUMMARY_COLUMNS)] * 3
     for u, row in zip(inputs, rows, strict=True):
-        ref = summarize(simulate("reduced", u, duration=1.0, rtol=1e-3))
+        ref = summarize(simulate(ReducedModel(paper), u, duration=1.0, rtol=1e-3))
         assert {k: v for k, v in row.items() if k != "wall_time"} == {
             k: v for k, v in ref.items() if k != "wall_time"
         }
@@ -40,10 +43,14 @@ def test_batch_over_inputs_broadcasts_one_model_and_summarizes(paper):
 def test_batch_reports_progress_and_rejects_mismatched_lengths(paper):
     seen = []
     simulate_batch(
-        ["reduced"] * 2, 0.1, duration=0.05, progress=lambda d, n: seen.append((d, n)), jobs=1
+        [ReducedModel(paper)] * 2,
+        0.1,
+        duration=0.05,
+        progress=lambda d, n: seen.append((d, n)),
+        jobs=1,
     )
     assert seen == [(1, 2), (2, 2)]
     from hydropwa._errors import SignalError
 
     with pytest.raises(SignalError, match="cannot pair 2 models with 3 inputs"):
-        simulate_batch(["reduced"] * 2, [0.1, 0.2, 0.3], duration=0.05)
+        simulate_batch([ReducedModel(paper)] * 2, [0.1, 0.2, 0.3], duration=0.05)

@@ -7,6 +7,7 @@ from hydropwa._errors import ParameterError
 from hydropwa.sweep import load_sweep, parse_sweep, run_sweep
 
 SPEC = """
+base = "paper"
 [grid]
 "load.mass" = [1.0, 2.0]
 "supply.pressure" = ["80 bar", "100 bar"]
@@ -43,7 +44,7 @@ def test_cases_are_the_grid_times_the_draws_in_si(spec_file):
 
 def test_unknown_field_names_the_groups():
     with pytest.raises(ParameterError, match="unknown parameter 'load.weight'"):
-        parse_sweep({"grid": {"load.weight": [1.0]}})
+        parse_sweep({"base": "paper", "grid": {"load.weight": [1.0]}})
 
 
 def test_cli_writes_summary_and_trajectories(spec_file, tmp_path):

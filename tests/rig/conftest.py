@@ -52,4 +52,4 @@ def small_campaign(small_campaign_file):
 
 @pytest.fixture(scope="session")
 def rig():
-    return Rig()
+    return Rig.from_params("paper")

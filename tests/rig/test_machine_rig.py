@@ -35,7 +35,7 @@ def test_paper_rig_is_unchanged_by_the_sizing_rules():
     p = get_preset("paper")
     assert machine_supply(p) == paper_supply(p.supply.pressure)
     assert machine_sensors(p, paper_supply()) == paper_sensors()
-    assert Rig().sensors == paper_sensors()
+    assert Rig.from_params("paper").sensors == paper_sensors()
 
 
 def test_sensors_and_supply_cover_the_industrial_axis(industrial):

@@ -89,6 +89,8 @@ def test_cli_runs_a_small_campaign(tmp_path, small_campaign_file, capsys):
         "rig",
         "run",
         "all",
+        "--params",
+        "paper",
         "--campaign",
         str(small_campaign_file),
         "--out",
@@ -100,7 +102,7 @@ def test_cli_runs_a_small_campaign(tmp_path, small_campaign_file, capsys):
     files = _files(out)
     assert main([*args, "--seed", "5", "--jobs", "2"]) == 0  # resume: nothing to do
     assert _files(out) == files
-    capsys.readouterr()  # the resumed run's closing note (no --params: the paper rig) read out
+    capsys.readouterr()  # the resumed run's lines read out
     assert main([*args, "--seed", "6"]) == 2
     assert capsys.readouterr().err.startswith("error: ")
     assert main([*args, "--seed", "6", "--force"]) == 0
@@ -132,6 +134,8 @@ def test_cli_single_experiment_and_params(tmp_path, small_campaign_file):
 def test_cli_bad_campaign_is_one_error_line(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text("[sine]\nfrequencies = ['1 Hz']\namplitudes = ['200 %']\n")
-    assert main(["rig", "run", "sine", "-c", str(bad), "-o", str(tmp_path / "o")]) == 2
+    assert (
+        main(["rig", "run", "sine", "-p", "paper", "-c", str(bad), "-o", str(tmp_path / "o")]) == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "amplitudes[0]" in err

@@ -12,7 +12,9 @@ from hydropwa.params import save_params
 
 @pytest.fixture(scope="module")
 def result():
-    return simulate("reduced", "sine:amplitude=0.3,frequency=2", duration=0.05)
+    return simulate(
+        "reduced", "sine:amplitude=0.3,frequency=2", duration=0.05, params=get_preset("paper")
+    )
 
 
 @pytest.mark.parametrize(

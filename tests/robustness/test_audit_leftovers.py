@@ -114,7 +114,7 @@ def test_the_known_format_version_loads(tmp_path):
 def test_a_sweep_with_nothing_to_vary_is_refused(tmp_path, text):
     """It ran one case of the base parameters and exited 0."""
     spec = tmp_path / "s.toml"
-    spec.write_text(text)
+    spec.write_text('base = "paper"\n' + text)
     with pytest.raises(ParameterError, match="nothing to sweep"):
         load_sweep(spec)
     argv = ["sweep", str(spec), "--out", str(tmp_path / "out.csv")]

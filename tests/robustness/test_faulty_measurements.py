@@ -24,7 +24,7 @@ def campaign(tmp_path_factory):
     import hydropwa.rig as rig
 
     out = tmp_path_factory.mktemp("faulty") / "rig"
-    rig.run_campaign(rig.Rig(), rig.load_campaign(CAMPAIGN), out, seed=3, jobs=2)
+    rig.run_campaign(rig.Rig.from_params("paper"), rig.load_campaign(CAMPAIGN), out, seed=3, jobs=2)
     return out
 
 

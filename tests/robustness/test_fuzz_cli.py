@@ -137,8 +137,8 @@ def _build(root: Path) -> None:
         "sweep_ps": '[input]\nsupply_pressure = "-5 bar"\nduration = 0.02\n',
         "sweep_long": "[input]\nduration = 1e9\nfs = 1e6\n",
     }
-    for name, text in sweeps.items():
-        (root / f"{name}.toml").write_text(text)
+    for name, text in sweeps.items():  # each names its machine (no default machine)
+        (root / f"{name}.toml").write_text('base = "paper"\n' + text)
     _protect(root)
 
 
@@ -322,6 +322,12 @@ def _check(target: str, argv: list[str], fault=None) -> int:
 
 
 # ------------------------------------------------------------------- subcommands
+def _with_machine(argv: list[str]) -> list[str]:
+    """The machine, where the drawn options name none (no machine is its own test:
+    tests/cli/test_no_default_machine.py), so the fuzz reaches past that first check."""
+    return argv if "--params" in argv else [*argv, "--params", "paper"]
+
+
 @_CLI
 @given(
     argv=st.one_of(
@@ -359,7 +365,9 @@ def test_fuzz_cli_params(argv, fault):
             ("--plot", ["NEW.png", "NEW.xyz", "keep.csv", "afile/x.png", "adir", "NEW.pdf"]),
         ],
         ["--force"],
-    ).map(lambda a: a if "--duration" in a else a + ["--duration", "0.02"]),
+    )
+    .map(lambda a: a if "--duration" in a else a + ["--duration", "0.02"])
+    .map(_with_machine),
     fault=st.sampled_from(_FAULTS),
 )
 def test_fuzz_cli_simulate(argv, fault):
@@ -398,7 +406,7 @@ def _simulate_one_bad(draw):
     for n in names:
         good, hostile = _SIM_OPTIONS[n]
         argv += [n, draw(st.sampled_from(hostile if n == bad else good))]
-    return argv
+    return _with_machine(argv)
 
 
 @_CLI
@@ -494,7 +502,9 @@ def test_fuzz_cli_sweep(argv, fault):
             ("--tables", _OUT_DIR),
         ],
         ["--force", "--scheduled"],
-    ).map(lambda a: a if "--out" in a else a + ["--out", "NEW.json"]),
+    )
+    .map(lambda a: a if "--out" in a else a + ["--out", "NEW.json"])
+    .map(_with_machine),
     fault=st.sampled_from(_FAULTS),
 )
 def test_fuzz_cli_linearize(argv, fault):
@@ -765,7 +775,8 @@ _SPEC_VALID = {
 def test_fuzz_sweep_spec(lines):
     """Sweep files: load a sweep that passes every check, or raise one documented error."""
     path = _W["root"] / "spec_fuzz.toml"
-    path.write_bytes("\n".join(lines).encode("utf-8", "surrogatepass"))
+    # the machine first (a sweep without base is refused); a second base line is a TOML error
+    path.write_bytes(('base = "paper"\n' + "\n".join(lines)).encode("utf-8", "surrogatepass"))
     spec = load_or_reject("load_sweep", HydropwaError, load_sweep, path)
     bad = [ln for ln in lines if ln in _SPEC_LINES and ln not in _SPEC_VALID]
     if spec is not None and bad:

@@ -61,7 +61,9 @@ def test_cli_reports_kernel_interrupt_as_ctrl_c(monkeypatch, tmp_path, capsys):
     # bypass the wrapper so the SystemError itself reaches the CLI (another compiled call)
     monkeypatch.setattr(K, "_interruptible", _passthrough)
     monkeypatch.setitem(K._ENTRY, K.REDUCED, _kernel_reporting(KeyboardInterrupt()))
-    code = main(["simulate", "-m", "reduced", "-d", "0.1", "-o", str(tmp_path / "r.csv")])
+    code = main(
+        ["simulate", "-m", "reduced", "-p", "paper", "-d", "0.1", "-o", str(tmp_path / "r.csv")]
+    )
     err = capsys.readouterr().err
     assert code == 130
     assert err.strip() == "error: interrupted; finished files are kept, rerun to resume"
@@ -160,7 +162,9 @@ def test_cli_reports_a_swallowed_ctrl_c_even_if_the_command_ran_to_the_end(
         return real(*args)
 
     monkeypatch.setitem(K._ENTRY, K.REDUCED, kernel_during_which_ctrl_c_is_swallowed)
-    code = main(["simulate", "-m", "reduced", "-d", "0.1", "-o", str(tmp_path / "r.csv")])
+    code = main(
+        ["simulate", "-m", "reduced", "-p", "paper", "-d", "0.1", "-o", str(tmp_path / "r.csv")]
+    )
     assert code == 130
     assert (
         capsys.readouterr()

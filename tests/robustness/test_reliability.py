@@ -61,7 +61,7 @@ def cli(tmp_path, *argv):
     return code, out, line
 
 
-SWEEP = '[grid]\n"load.mass" = [1.0, 2.0, 3.0, 4.0]\n[input]\nduration = 0.02\nmodel = "reduced"\nfs = 500\n'
+SWEEP = 'base = "paper"\n[grid]\n"load.mass" = [1.0, 2.0, 3.0, 4.0]\n[input]\nduration = 0.02\nmodel = "reduced"\nfs = 500\n'
 
 
 # ============================================================================ data loss
@@ -108,9 +108,28 @@ def test_atomic_no_clobber_refuses_and_leaves_no_temp(tmp_path):
         (["identify", "frf", "nowhere", "--out", "id.toml", "--summary", "keep.md"], "keep.md"),
         (["identify", "frf", "nowhere", "--out", "keep.toml"], "keep.toml"),
         (["identify", "emps", "keep.mat", "--summary", "keep.md"], "keep.md"),
-        (["linearize", "--out", "new.json", "--figures", "keepdir"], "keepdir/fig01_cq.png"),
-        (["linearize", "--out", "new.json", "--tables", "keepdir"], "keepdir/V_friction.csv"),
-        (["simulate", "--duration", "0.02", "--out", "new.csv", "--plot", "keep.png"], "keep.png"),
+        (
+            ["linearize", "-p", "paper", "--out", "new.json", "--figures", "keepdir"],
+            "keepdir/fig01_cq.png",
+        ),
+        (
+            ["linearize", "-p", "paper", "--out", "new.json", "--tables", "keepdir"],
+            "keepdir/V_friction.csv",
+        ),
+        (
+            [
+                "simulate",
+                "-p",
+                "paper",
+                "--duration",
+                "0.02",
+                "--out",
+                "new.csv",
+                "--plot",
+                "keep.png",
+            ],
+            "keep.png",
+        ),
         (["params", "export", "--out", "keep.toml"], "keep.toml"),
         (
             ["sweep", "spec.toml", "-q", "--out", "new.csv", "--trajectories", "keepdir"],
@@ -139,17 +158,22 @@ def test_a_figures_folder_may_hold_other_files(tmp_path):
     """Only the files a command writes need --force: one folder collects several commands' figures."""
     (tmp_path / "figs").mkdir()
     (tmp_path / "figs" / "fig05_valve_bode.png").write_bytes(b"from identify")
-    code, _, line = cli(tmp_path, "linearize", "--out", "l.json", "--figures", "figs")
+    code, _, line = cli(
+        tmp_path, "linearize", "-p", "paper", "--out", "l.json", "--figures", "figs"
+    )
     assert code == 0, line
     assert (tmp_path / "figs" / "fig05_valve_bode.png").read_bytes() == b"from identify"
     assert (tmp_path / "figs" / "fig01_cq.png").is_file()
-    code, _, line = cli(tmp_path, "linearize", "--out", "l2.json", "--figures", "figs")
+    code, _, line = cli(
+        tmp_path, "linearize", "-p", "paper", "--out", "l2.json", "--figures", "figs"
+    )
     assert code == 2 and "fig01_cq" in line
 
 
 def test_sweep_keeps_finished_cases_and_resumes(tmp_path):
     spec = parse_sweep(
         {
+            "base": "paper",
             "grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
             "input": {"duration": 0.02, "model": "reduced", "fs": 500},
         }
@@ -193,6 +217,7 @@ def test_sweep_cli_resumes_after_interrupt_and_refuses_another_sweeps_journal(tm
     row = run_sweep(
         parse_sweep(
             {
+                "base": "paper",
                 "grid": {"load.mass": [1.0]},
                 "input": {"duration": 0.02, "model": "reduced", "fs": 500},
             }
@@ -306,10 +331,10 @@ def test_a_run_name_cannot_write_outside_the_dataset(tmp_path):
 @pytest.mark.parametrize(
     "argv",
     [
-        ["simulate", "--duration", "0.02", "--out", "o.csv"],
+        ["simulate", "-p", "paper", "--duration", "0.02", "--out", "o.csv"],
         ["params", "export", "--out", "p.toml"],
         ["data", "convert", "a.csv", "b.parquet"],
-        ["linearize", "--out", "l.json"],
+        ["linearize", "-p", "paper", "--out", "l.json"],
     ],
 )
 def test_read_only_and_full_disks_are_one_line_naming_the_file(tmp_path, monkeypatch, argv, code_):
@@ -340,11 +365,11 @@ def test_disk_full_while_writing_names_the_target_not_the_temp_file(tmp_path, mo
 @pytest.mark.parametrize(
     "argv",
     [
-        ["simulate", "--duration", "0.02", "--out", "afile/x.csv"],
+        ["simulate", "-p", "paper", "--duration", "0.02", "--out", "afile/x.csv"],
         ["paper", "--out", "afile", "-q"],
-        ["rig", "run", "frf", "--out", "afile", "-q"],
+        ["rig", "run", "frf", "-p", "paper", "--out", "afile", "-q"],
         ["sweep", "spec.toml", "-q", "--out", "s.csv", "--trajectories", "afile"],
-        ["linearize", "--out", "l.json", "--figures", "afile"],
+        ["linearize", "-p", "paper", "--out", "l.json", "--figures", "afile"],
         ["data", "convert", "ds", "afile"],
     ],
 )
@@ -430,7 +455,7 @@ def test_every_manifest_problem_is_named(tmp_path):
     ],
 )
 def test_sweep_specs_are_validated_up_front(tmp_path, text, expect):
-    (tmp_path / "s.toml").write_text(text)
+    (tmp_path / "s.toml").write_text('base = "paper"\n' + text)
     with pytest.raises(HydropwaError, match=expect):
         load_sweep(tmp_path / "s.toml")
     code, _, line = cli(tmp_path, "sweep", "s.toml", "-q", "--out", "o.csv")
@@ -453,26 +478,29 @@ def test_scheduler_addresses_fail_fast(address, expect):
 @pytest.mark.parametrize(
     "argv, expect",
     [
-        (["rig", "run", "frf", "--out", "x", "--seed", "-1"], "--seed"),
+        (["rig", "run", "frf", "-p", "paper", "--out", "x", "--seed", "-1"], "--seed"),
         (["simulate", "--bogus"], "No such option: --bogus"),
-        (["simulate", "--sample-time", "abc"], "--sample-time"),
+        (["simulate", "-p", "paper", "--sample-time", "abc"], "--sample-time"),
         (["data", "check"], "Missing argument"),
         (["nosuch"], "No such command"),
-        (["simulate", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
-        (["simulate", "--sample-time", "1e-12", "--out", "o.csv"], "samples, about"),
-        (["simulate", "--duration", "1e-6", "--out", "o.csv"], "fewer than two output samples"),
+        (["simulate", "-p", "paper", "--duration", "1e9", "--out", "o.csv"], "samples, about"),
+        (["simulate", "-p", "paper", "--sample-time", "1e-12", "--out", "o.csv"], "samples, about"),
         (
-            ["simulate", "--duration", "1e308", "--out", "o.csv"],
+            ["simulate", "-p", "paper", "--duration", "1e-6", "--out", "o.csv"],
+            "fewer than two output samples",
+        ),
+        (
+            ["simulate", "-p", "paper", "--duration", "1e308", "--out", "o.csv"],
             "more output samples than can be counted",
         ),
         (
-            ["simulate", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"],
+            ["simulate", "-p", "paper", "--duration", "0.02", "--plot", "x.xyz", "--out", "o.csv"],
             "--plot x.xyz must end in",
         ),
         (["sweep", "spec.toml", "--out", "x.txt"], "--out x.txt must end in .csv or .parquet"),
         (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
         (
-            ["rig", "run", "frf", "--campaign", "binary.toml", "--out", "x"],
+            ["rig", "run", "frf", "-p", "paper", "--campaign", "binary.toml", "--out", "x"],
             "binary.toml: byte 0 is not UTF-8",
         ),
         (
@@ -480,7 +508,7 @@ def test_scheduler_addresses_fail_fast(address, expect):
             "channel map .*binary.toml.* not UTF-8",
         ),
         (
-            ["rig", "run", "frf", "--campaign", "deep.toml", "--out", "x"],
+            ["rig", "run", "frf", "-p", "paper", "--campaign", "deep.toml", "--out", "x"],
             "deep.toml: nested too deeply",
         ),
     ],
@@ -507,8 +535,18 @@ def test_bad_arguments_are_one_error_line(tmp_path, argv, expect):
 )
 def test_cli_quantities_get_the_parameter_bounds(tmp_path, value, expect):
     for argv in (
-        ["simulate", "--duration", "0.02", "--out", "o.csv", "--supply-pressure", value],
-        ["linearize", "--out", "l.json", "--supply-pressure", value],
+        [
+            "simulate",
+            "-p",
+            "paper",
+            "--duration",
+            "0.02",
+            "--out",
+            "o.csv",
+            "--supply-pressure",
+            value,
+        ],
+        ["linearize", "-p", "paper", "--out", "l.json", "--supply-pressure", value],
     ):
         if argv[0] == "linearize" and ":" in value:
             continue
@@ -520,13 +558,15 @@ def test_cli_quantities_get_the_parameter_bounds(tmp_path, value, expect):
 @pytest.mark.parametrize("rtol", ["-1", "2", "0"])
 def test_rtol_out_of_range_is_refused(tmp_path, rtol):
     code, _, line = cli(
-        tmp_path, "simulate", "--duration", "0.02", "--out", "o.csv", "--rtol", rtol
+        tmp_path, "simulate", "-p", "paper", "--duration", "0.02", "--out", "o.csv", "--rtol", rtol
     )
     assert code == 2 and "--rtol" in line
 
 
 def test_x0_off_the_stroke_is_refused(tmp_path):
-    code, _, line = cli(tmp_path, "simulate", "--duration", "0.02", "--out", "o.csv", "--x0", "5 m")
+    code, _, line = cli(
+        tmp_path, "simulate", "-p", "paper", "--duration", "0.02", "--out", "o.csv", "--x0", "5 m"
+    )
     assert code == 2 and "off the stroke" in line
 
 
@@ -581,6 +621,8 @@ def test_valid_commands_still_work(tmp_path):
         ["data", "convert", "a.csv", "b.parquet", "--overwrite"],
         [
             "simulate",
+            "--params",
+            "paper",
             "--model",
             "reduced",
             "--duration",
@@ -592,7 +634,7 @@ def test_valid_commands_still_work(tmp_path):
             "--out",
             "s.csv",
         ],
-        ["linearize", "--out", "l.json", "--tables", "empty"],
+        ["linearize", "-p", "paper", "--out", "l.json", "--tables", "empty"],
         ["sweep", "spec.toml", "-q", "--out", "sw.parquet", "--trajectories", "traj"],
     ):
         code, _, line = cli(tmp_path, *argv)
@@ -613,6 +655,7 @@ def test_a_case_lost_on_dask_keeps_the_finished_ones(tmp_path, monkeypatch):
 
     spec = parse_sweep(
         {
+            "base": "paper",
             "grid": {"load.mass": [1.0, 2.0, 3.0, 4.0]},
             "input": {"duration": 0.02, "model": "reduced", "fs": 500},
         }
@@ -655,7 +698,7 @@ def test_sweep_killed_or_interrupted_keeps_finished_cases_and_resumes(tmp_path, 
     import time
 
     (tmp_path / "spec.toml").write_text(
-        '[grid]\n"load.mass" = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]\n"supply.pressure" = ["80 bar", "100 bar"]\n'
+        'base = "paper"\n[grid]\n"load.mass" = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]\n"supply.pressure" = ["80 bar", "100 bar"]\n'
         '[input]\nduration = 0.5\nmodel = "full"\nfs = 200\nrtol = 1e-5\n'
     )
     argv = [
@@ -720,7 +763,7 @@ def test_more_workers_than_four_per_core_are_refused(tmp_path):
     (tmp_path / "spec.toml").write_text(SWEEP)
     for argv in (
         ["sweep", "spec.toml", "-q", "--out", "o.csv", "--jobs", jobs],
-        ["rig", "run", "frf", "--out", "rig", "--jobs", jobs],
+        ["rig", "run", "frf", "-p", "paper", "--out", "rig", "--jobs", jobs],
     ):
         code, _, line = cli(tmp_path, *argv)
         assert code == 2 and "--jobs" in line, line

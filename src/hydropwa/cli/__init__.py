@@ -18,7 +18,6 @@ import typer
 from .. import _interrupt
 from . import _control, _core, _data, _export, _identify, _linearize, _paper, _rig, _sweep
 from ._app import INTERRUPTED, INTERRUPTED_CODE, exit_code, new_app
-from ._options import default_machine_note
 
 __all__ = ["app", "main"]
 
@@ -60,7 +59,6 @@ def main(argv: list[str] | None = None) -> int:
     # a command compiles what it uses; those that use several models warm them up themselves
     set_auto_warmup(False)
     command = typer.main.get_command(app)
-    default_machine_note(reset=True)
     _interrupt.install()  # a Ctrl-C swallowed by a finalizer is still a Ctrl-C (see _interrupt)
     try:
         rv = command.main(args=argv, prog_name="hydropwa", standalone_mode=False)
@@ -70,9 +68,6 @@ def main(argv: list[str] | None = None) -> int:
         code = rv if isinstance(rv, int) else 0
     finally:
         interrupted = _interrupt.uninstall()
-    note = default_machine_note()
-    if code == 0 and note is not None:  # a result on the paper's rig says so (issue 37)
-        print(note, file=sys.stderr)
     if interrupted:  # a Ctrl-C was recorded, even if the command ran on and returned
         code = INTERRUPTED_CODE
     if code == INTERRUPTED_CODE:  # Ctrl-C, however it arrived: typer (>= 0.20) returns Exit(130)

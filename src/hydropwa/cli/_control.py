@@ -41,9 +41,29 @@ def _pwa_model(params_src, pwa_file: Path | None):
     from ..params import SystemParams  # deferred: loaded only when this command runs
 
     if pwa_file is not None:
-        return load_pwa(pwa_file)
+        return _same_machine(load_pwa(pwa_file), params_src, pwa_file)
     prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
     return linearize(prm)
+
+
+def _same_machine(model, params_src, pwa_file: Path):
+    """A ``--pwa`` document's model, refused when the machine given (``--params``, or a
+    controller file's) has other areas or stroke (1 %) than the document's."""
+    from ..identification import (
+        check_same_machine,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from ..params import SystemParams  # deferred: loaded only when this command runs
+
+    if params_src is not None:
+        prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
+        check_same_machine(
+            prm,
+            model.params,
+            f"--pwa {pwa_file}",
+            holder="the PWA document's",
+            fix="give the PWA document of this machine (hydropwa linearize --params FILE)",
+        )
+    return model
 
 
 def _machine_of(controller: Path):
@@ -118,7 +138,7 @@ def _chamber_model(params_src, pwa_file: Path | None):
                 f"--pwa {pwa_file} holds a load-pressure PWA model; --model pwa-chamber needs "
                 "one written by 'hydropwa linearize --form chamber'"
             )
-        return model
+        return _same_machine(model, params_src, pwa_file)
     from ..params import SystemParams  # deferred: loaded only when this command runs
 
     prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)

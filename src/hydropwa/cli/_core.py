@@ -14,6 +14,7 @@ from .._io import check_output
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
 from ._options import (
+    MACHINE_FIX,
     SAMPLE_TIME_METAVAR,
     ParamsOption,
     parse_sample_time,
@@ -203,7 +204,6 @@ def simulate_command(
     check_rtol(rtol)
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
-    prm = resolve_params(params)
     duration_s = None if duration is None else parse_quantity(duration, "s", "--duration")
     sampling = sample_time_source(sample_time, fs, "--fs", "Hz") or "0.5 ms"
     fs_hz = round(1.0 / parse_sample_time(sampling), 9)  # '0.5 ms' → exactly 2000 Hz
@@ -212,6 +212,7 @@ def simulate_command(
         from ..data import read_run  # deferred: loaded only when this command runs (a fast --help)
 
         run = read_run(input_file)
+        prm = _replay_machine(params, input_file, run)  # --params, or the run's, or both agree
         if not run.has("u"):
             raise SignalError(
                 f"{input_file} has no valve command channel 'u'; map one with a channel map"
@@ -220,6 +221,7 @@ def simulate_command(
         if duration_s is None:
             duration_s = float(run.t[-1] - run.t[0])
     else:
+        prm = resolve_params(params)
         u = input if input is not None else "sine:amplitude=0.4,frequency=1"
     duration_f = 5.0 if duration_s is None else duration_s
     check_samples(duration_f, fs_hz)
@@ -264,3 +266,36 @@ def simulate_command(
         save_figure(plot_result(res), plot, dpi=150, overwrite=True)  # checked with --force above
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+def _replay_machine(params: str | None, input_file: Path, run):
+    """The machine of ``simulate --input-file``: ``--params``, else the one the run records.
+
+    A run records its machine in its metadata (``machine`` or ``true_params``) or, in a
+    dataset folder, in the manifest or the campaign's ``true_params.toml`` beside it
+    (:func:`hydropwa.identification.recorded_machine`). Given both, their areas and stroke
+    must agree (1 %); given neither, one line says how to give it (exit 2).
+    """
+    from ..data import MANIFEST  # deferred: loaded only when this command runs (a fast --help)
+    from ..identification import (  # deferred: loaded only when this command runs
+        check_same_machine,
+        recorded_machine,
+    )
+
+    found = recorded_machine([run])
+    if found is None and (input_file.parent / MANIFEST).is_file():
+        found = recorded_machine(input_file.parent)  # a run of a dataset: the dataset's machine
+    if params is None:
+        if found is None:
+            raise ParameterError(f"{input_file} records no machine: {MACHINE_FIX}")
+        return found[0]
+    prm = resolve_params(params)
+    if found is not None:
+        check_same_machine(
+            prm,
+            found[0],
+            found[1],
+            holder="the run's machine",
+            fix="give the parameters of the machine the run was measured on",
+        )
+    return prm

@@ -13,7 +13,7 @@ import typer
 
 from .._io import check_output
 from ._app import new_app
-from ._options import MachineParamsOption, resolve_params
+from ._options import ParamsOption, resolve_params
 
 __all__ = ["app", "fmu_command"]
 
@@ -25,7 +25,7 @@ def fmu_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="The FMU file to write (.fmu).")] = Path(
         "axis.fmu"
     ),
-    params: MachineParamsOption = None,
+    params: ParamsOption = None,
     x0: Annotated[
         str | None,
         typer.Option("--x0", help="Initial rod position ('100 mm'); default mid-stroke."),
@@ -43,15 +43,8 @@ def fmu_command(
         export_axis_fmu,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    if params is None:  # an FMU of the paper's cylinder by default would be a silent wrong axis
-        from .._errors import ParameterError  # deferred: loaded only when this command runs
-
-        raise ParameterError(
-            "export fmu needs the axis: give its parameters with --params PRESET|FILE "
-            "(e.g. --params identified.toml, or --params paper for the paper's rig)"
-        )
+    prm = resolve_params(params)  # an FMU is a machine: none given is one line, exit 2
     check_output(out, force, option="--out")
-    prm = resolve_params(params)
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     export_axis_fmu(prm, out, initial_position=start, rtol=rtol, overwrite=force)
     typer.echo(f"wrote {out} (FMI 2.0 co-simulation, full-order axis)")

@@ -4,6 +4,9 @@
 one, and :func:`resolve_params` is the one function that reads it: a preset name
 (``paper``, ``symmetric``), a parameter TOML file, or a JSON file (a parameter document as
 ``SystemParams.to_dict`` writes it, or a PWA JSON export, whose parameters are used).
+There is no default machine (issue 37): a command that needs one and is given none (no
+``--params``, no machine recorded in its data or controller file) stops with one line saying
+how to give it (:data:`NO_MACHINE`); the paper's rig is ``--params paper``.
 ``--base-params`` is the old name used by ``identify``: hidden, still accepted, with one
 ``warning:`` line (:func:`params_source`).
 
@@ -40,14 +43,14 @@ __all__ = [
     "BaseParamsAlias",
     "MACHINE_PARAMS_HELP",
     "MachineParamsOption",
-    "DEFAULT_PRESET",
     "PARAMS_HELP",
     "PARAMS_METAVAR",
     "PRESET_NAMES",
     "ParamsOption",
     "JOBS_HELP",
+    "MACHINE_FIX",
+    "NO_MACHINE",
     "SAMPLE_TIME_METAVAR",
-    "default_machine_note",
     "params_source",
     "parse_sample_time",
     "resolve_params",
@@ -59,16 +62,18 @@ SAMPLE_TIME_METAVAR = "PERIOD|RATE"
 #: The help ending of every ``--jobs/-j`` (default ``None``: all cores).
 JOBS_HELP = "(default: all cores)"
 
-#: Default when ``--params`` is not given.
-DEFAULT_PRESET = "paper"
+#: How to give the machine, as the errors of a command without one say it.
+MACHINE_FIX = "pass --params FILE (your machine's TOML) or --params paper for the paper's rig"
+#: The one line of a command that needs a machine and is given none (exit 2).
+NO_MACHINE = f"no machine given: {MACHINE_FIX}"
 
 #: The presets, as help texts and errors list them.
 PRESET_NAMES = ", ".join(PRESETS)
 #: How help texts show the value of ``--params``.
 PARAMS_METAVAR = "PRESET|FILE"
 PARAMS_HELP = (
-    f"Parameter set: a preset ({PRESET_NAMES}) or a TOML/JSON parameter file "
-    f"(default: {DEFAULT_PRESET})."
+    f"The machine: a TOML/JSON parameter file or a preset ({PRESET_NAMES}); required, "
+    "there is no default machine (the paper's rig: --params paper)."
 )
 
 
@@ -129,28 +134,6 @@ def _read_json(path: Path) -> SystemParams:
     return params_from_dict(data, source=str(path))
 
 
-#: Whether the running command fell back to :data:`DEFAULT_PRESET` (no ``--params``).
-_fallback = {"used": False}
-
-
-def default_machine_note(reset: bool = False) -> str | None:
-    """The line a command that ran on the default preset ends with (None if it did not).
-
-    A user with a machine of their own who forgets ``--params`` gets a result on the paper's
-    rig; the command still runs (the preset is the documented default), but says so last.
-    ``reset`` clears the record (before a command runs).
-    """
-    if reset:
-        _fallback["used"] = False
-        return None
-    if not _fallback["used"]:
-        return None
-    return (
-        f"note: no --params given, so this ran on the paper's rig (preset '{DEFAULT_PRESET}'); "
-        "give --params FILE for your own machine"
-    )
-
-
 def resolve_params(source: str | os.PathLike | None, option: str = "--params") -> SystemParams:
     """The parameter set a command line names: a preset, a TOML file or a JSON file.
 
@@ -158,18 +141,19 @@ def resolve_params(source: str | os.PathLike | None, option: str = "--params") -
     ----------
     source : str, path or None
         A preset name (:data:`hydropwa.params.PRESETS`), or the path of a parameter TOML or
-        JSON file; ``None`` gives the ``paper`` preset. A file of that name wins over a preset.
+        JSON file. A file of that name wins over a preset. ``None`` (nothing given) is an
+        error: there is no default machine.
     option : str
         The option or argument named in error messages.
 
     Raises
     ------
     ParameterError
-        One line naming ``source`` and the presets, when it is neither; or the file's error.
+        One line naming ``source`` and the presets, when it is neither; or the file's error;
+        :data:`NO_MACHINE` when ``source`` is None.
     """
     if source is None:
-        _fallback["used"] = True
-        return get_preset(DEFAULT_PRESET)
+        raise ParameterError(NO_MACHINE)
     path = Path(source)
     if not path.is_file():
         if str(source) in PRESETS and not path.exists():

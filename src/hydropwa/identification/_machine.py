@@ -137,11 +137,18 @@ def recorded_machine(data: Any) -> tuple[SystemParams, str] | None:
     return _agree(found)
 
 
-def check_same_machine(params: SystemParams, recorded: SystemParams, source: str) -> None:
+def check_same_machine(
+    params: SystemParams,
+    recorded: SystemParams,
+    source: str,
+    holder: str = "the data's machine",
+    fix: str = "give the parameters of the machine the data were measured on",
+) -> None:
     """Refuse ``params`` whose geometry is not the recorded machine's (1 % on areas and stroke).
 
     Values that identification estimates (friction, valve, dead zone) may differ: ``params``
-    is then the starting point; the geometry is what the data were measured on.
+    is then the starting point; the geometry is what the data were measured on. ``holder``
+    and ``fix`` word the error for other records of a machine (a PWA document).
     """
     for name, what, unit, scale in _GEOMETRY:
         comp, field = name.split(".")
@@ -149,9 +156,8 @@ def check_same_machine(params: SystemParams, recorded: SystemParams, source: str
         b = getattr(getattr(recorded, comp), field)
         if abs(a - b) > _GEOMETRY_RTOL * abs(b):
             raise ParameterError(
-                f"the parameters give {what} {a * scale:.4g} {unit}, the data's machine "
-                f"({source}) {b * scale:.4g} {unit}; give the parameters of the machine the "
-                "data were measured on"
+                f"the parameters give {what} {a * scale:.4g} {unit}, {holder} "
+                f"({source}) {b * scale:.4g} {unit}; {fix}"
             )
 
 

@@ -11,7 +11,7 @@ this layer sits below both and imports neither.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
@@ -27,7 +27,7 @@ from .._layout import (
     SLOT,
     state_vector,
 )
-from ..params import SystemParams, get_preset
+from ..params import SystemParams
 
 __all__ = [
     "FullOrderModel",
@@ -162,7 +162,7 @@ class SmoothModelStates:
 class _ModelBase:
     """Shared fields of the full and reduced models; ``params`` is the one parameter set."""
 
-    params: SystemParams = field(default_factory=lambda: get_preset("paper"))
+    params: SystemParams  # the machine: required, there is no default machine (issue 37)
     name: ClassVar[str] = "model"
     state_names: ClassVar[tuple[str, ...]] = ()
 
@@ -297,6 +297,9 @@ _BY_NAME: dict[str, type[FullOrderModel] | type[ReducedModel]] = {
 def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
     """Return a model object from a model object or a name (``full``, ``reduced``).
 
+    A name needs ``params`` (the machine); there is no default machine, so ``None`` with a
+    name raises :class:`~hydropwa.ParameterError` saying how to give it.
+
     The PWA model is built from its parameters by :func:`hydropwa.linearization.linearize`
     (a layer above this one); pass that object, or resolve the name ``pwa`` where it is
     used (the CLI, :mod:`hydropwa.sweep`).
@@ -305,8 +308,12 @@ def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
         return model
     if isinstance(model, str):
         name = model.strip().lower()
-        params = params if params is not None else get_preset("paper")
         if name in _BY_NAME:
+            if params is None:  # no default machine (issue 37)
+                raise ParameterError(
+                    f"model {model!r} needs the machine: pass params=load_params('machine.toml') "
+                    "(your machine) or params=get_preset('paper') (the paper's rig)"
+                )
             return _BY_NAME[name](params)
         if name == "pwa":
             raise ParameterError(

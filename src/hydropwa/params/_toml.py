@@ -351,7 +351,34 @@ def load_params(path: str | os.PathLike) -> SystemParams:
                 f"{p}: missing section(s) {', '.join(f'[{c}]' for c in missing)}; give them, or put "
                 f'base = "paper" (a preset name) at the top to take the rest from it'
             )
+        _check_machine_fields(data, p)
     return params_from_dict(data, source=str(p))
+
+
+#: The fields that make a machine: a file without ``base`` states each (one of the names);
+#: left out, the field's default (the paper rig's value) would be used in silence (issue 37).
+MACHINE_FIELDS = (
+    ("cylinder", ("area_a", "bore")),
+    ("cylinder", ("area_b", "rod")),
+    ("cylinder", ("stroke",)),
+    ("load", ("mass",)),
+    ("supply", ("pressure",)),
+    ("flow", ("K", "rating")),
+)
+
+
+def _check_machine_fields(data: dict[str, Any], path: Path) -> None:
+    """Refuse a file without ``base`` that leaves out a field of :data:`MACHINE_FIELDS`."""
+    left = [
+        f"{comp}.{names[0]}"
+        for comp, names in MACHINE_FIELDS
+        if isinstance(data.get(comp), dict) and not any(n in data[comp] for n in names)
+    ]
+    if left:
+        raise ParameterError(
+            f"{path}: {', '.join(left)} not given (the default would be the paper rig's); "
+            f'give your machine\'s, or put base = "paper" at the top to take the rest from it'
+        )
 
 
 def _fmt(value: Any) -> str:

@@ -5,11 +5,11 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from .._errors import ParameterError
-from ..params import Supply, SystemParams, get_preset, load_params
+from ..params import Supply, SystemParams, load_params
 from ._sensors import SensorModel, machine_sensors
 
 __all__ = ["Rig", "paper_supply", "machine_supply"]
@@ -81,7 +81,8 @@ class Rig:
     Attributes
     ----------
     params : SystemParams
-        True parameters of the cylinder drive. Their ``supply`` is replaced by ``supply``.
+        True parameters of the cylinder drive (required: there is no default machine;
+        ``get_preset("paper")`` is the paper's rig). Their ``supply`` is replaced by ``supply``.
     sensors : dict[str, SensorModel] or None
         Sensor per recorded channel; ``None`` (default) sizes them for the machine
         (:func:`~hydropwa.rig.machine_sensors`: the paper's sensors on the paper's rig).
@@ -101,13 +102,18 @@ class Rig:
     input of the model; the end stops are part of the full-order model.
     """
 
-    params: SystemParams = field(default_factory=lambda: get_preset("paper"))
+    params: SystemParams  # the machine: required, there is no default machine (issue 37)
     sensors: Mapping[str, SensorModel] | None = None
     fs: float = 2000.0
     supply: Supply | None = None
     rtol: float = 1e-5
 
     def __post_init__(self) -> None:
+        if not isinstance(self.params, SystemParams):
+            raise ParameterError(
+                f"the rig needs the machine's SystemParams, got {type(self.params).__name__}; "
+                "use Rig.from_params('machine.toml') or Rig.from_params('paper')"
+            )
         if not (math.isfinite(self.fs) and self.fs > 0):
             raise ParameterError(f"rig fs = {self.fs!r} Hz must be a positive number")
         if not (0 < self.rtol < 1):
@@ -211,10 +217,14 @@ class Rig:
 
     @classmethod
     def from_params(cls, params: SystemParams | str | None = None, **kwargs: Any) -> Rig:
-        """Rig around parameters, a parameter file or a preset name (default ``"paper"``)."""
+        """Rig around parameters, a parameter file or a preset name (``"paper"``: the paper's
+        rig); there is no default machine: ``None`` raises :class:`~hydropwa.ParameterError`."""
         if params is None:
-            params = get_preset("paper")
-        elif not isinstance(params, SystemParams):
+            raise ParameterError(
+                "the rig needs the machine: Rig.from_params('machine.toml') (your parameter "
+                "file) or Rig.from_params('paper') (the paper's rig)"
+            )
+        if not isinstance(params, SystemParams):
             params = load_params(params)
         return cls(params=params, **kwargs)
 

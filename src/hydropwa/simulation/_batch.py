@@ -133,7 +133,8 @@ def simulate_batch(
     Parameters
     ----------
     models_or_params : model, SystemParams, str, or a sequence of them
-        One entry per case (models, parameter sets used with ``model``, or names).
+        One entry per case: models, or parameter sets used with ``model``. A bare name
+        (``"full"``) names no machine and raises :class:`~hydropwa.ParameterError`.
     inputs : valve command or a sequence of them
         One command u per case (anything :func:`simulate` accepts), or a single
         command for all cases. A single model with N inputs, or N models with

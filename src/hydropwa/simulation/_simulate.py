@@ -441,8 +441,9 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     ----------
     model : Model or {"full", "reduced"}
         Any :class:`~hydropwa.models.Model` (``FullOrderModel``, ``ReducedModel``,
-        ``PwaModel``), or ``"full"``/``"reduced"`` with ``params``; the PWA model is built
-        by :func:`~hydropwa.linearization.linearize`.
+        ``PwaModel``), or ``"full"``/``"reduced"`` with ``params`` (required with a name:
+        there is no default machine); the PWA model is built by
+        :func:`~hydropwa.linearization.linearize`.
     u : float, str, Signal or (t, values)
         Valve command [1] (fraction of full opening, ±1 = 100 %).
     duration : float, optional

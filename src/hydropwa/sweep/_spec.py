@@ -2,7 +2,7 @@
 
 Example::
 
-    base = "paper"                       # preset name or parameter TOML file
+    base = "paper"                       # the machine: a preset or parameter TOML (required)
     [grid]                               # full factorial product
     "load.mass" = [1.0, 2.0]
     "supply.pressure" = ["80 bar", "100 bar"]
@@ -223,7 +223,12 @@ def parse_sweep(data: dict, root: str | os.PathLike = ".") -> SweepSpec:
     for key in data:
         if key not in _SECTIONS:
             raise _unknown("section" if isinstance(data[key], dict) else "key", key, _SECTIONS)
-    base_src = data.get("base", "paper")
+    if "base" not in data:  # no default machine (issue 37)
+        raise ParameterError(
+            'the sweep file names no machine: add base = "paper" (the paper\'s rig) or '
+            'base = "machine.toml" (your parameter file) at its top'
+        )
+    base_src = data["base"]
     if not isinstance(base_src, str) or not base_src.strip():
         raise ParameterError(f"base = {base_src!r} must be a preset name or a parameter TOML file")
     base_path = Path(root) / str(base_src)
