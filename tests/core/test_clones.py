@@ -61,8 +61,6 @@ _ENTRY = (
     _KERNEL + ": the solver's argument list (kind, y0, t_out, p, sg, rtol, scale, h0, hmax, "
     "max_steps) spelled out per entry; one tuple type or the entry table's generator"
 )
-_CLI = "cli/* is edited in parallel by the CLI engineers (issues 34/37)"
-_OPTION = _CLI + ": the same typer option block; one Annotated alias in cli/_options.py"
 #: (file, file) → (shared normalised lines at most, why). Each pair has one side in a file
 #: that another engineer edits in parallel; the lead merges them after that stop. The
 #: measured sizes are ceilings.
@@ -72,9 +70,6 @@ ALLOWED: dict[tuple[str, str], tuple[int, str]] = {
         "greybox/* is the issue-36 engineer's: its optimizer status enum repeats the message/"
         "success properties of _result's status enums; derive both from one mixin in _result",
     ),
-    ("cli/_control.py", "cli/_core.py"): (7, _OPTION + " (--duration)"),
-    ("cli/_data.py", "cli/_paper.py"): (6, _OPTION + " (--params)"),
-    ("cli/_rig.py", "cli/_sweep.py"): (8, _OPTION + " (--jobs)"),
     ("control/_fidelity.py", "control/_metrics.py"): (
         8,
         "control/* is the issue-34 engineer's: closed_loop_fidelity and compare_models take the "

@@ -21,6 +21,7 @@ from ._options import (
     SAMPLE_TIME_METAVAR,
     MachineParamsOption,
     ParamsOption,
+    duration_option,
     parse_sample_time,
     resolve_params,
     sample_time_source,
@@ -448,11 +449,8 @@ def simulate_command(
     ] = None,
     duration: Annotated[
         str | None,
-        typer.Option(
-            "--duration",
-            "-d",
-            metavar="TIME",
-            help="Simulated time [s], e.g. '2 s' (default: end of the move + 0.5 s, else 2 s).",
+        duration_option(
+            "Simulated time [s], e.g. '2 s' (default: end of the move + 0.5 s, else 2 s)."
         ),
     ] = None,
     x0: Annotated[

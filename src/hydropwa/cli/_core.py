@@ -17,6 +17,7 @@ from ._options import (
     MACHINE_FIX,
     SAMPLE_TIME_METAVAR,
     ParamsOption,
+    duration_option,
     parse_sample_time,
     resolve_params,
     sample_time_source,
@@ -124,12 +125,8 @@ def simulate_command(
     ] = None,
     duration: Annotated[
         str | None,
-        typer.Option(
-            "--duration",
-            "-d",
-            metavar="TIME",
-            help="Simulated time [s], e.g. '2 s' or '500 ms' (default: 5, or the input file's "
-            "length).",
+        duration_option(
+            "Simulated time [s], e.g. '2 s' or '500 ms' (default: 5, or the input file's length)."
         ),
     ] = None,
     supply_pressure: Annotated[

@@ -13,7 +13,7 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
-from ._options import PARAMS_METAVAR, resolve_params
+from ._options import params_option, resolve_params
 
 __all__ = ["app"]
 
@@ -98,13 +98,10 @@ def convert(
     ] = False,
     params: Annotated[
         str | None,
-        typer.Option(
-            "--params",
-            "-p",
-            metavar=PARAMS_METAVAR,
-            help="The machine the runs were measured on (a TOML/JSON parameter file or a "
+        params_option(
+            "The machine the runs were measured on (a TOML/JSON parameter file or a "
             "preset), recorded in the dataset's manifest as its 'machine' entry: identify and "
-            "paper --data read it (a folder only).",
+            "paper --data read it (a folder only)."
         ),
     ] = None,
 ) -> None:

@@ -16,7 +16,7 @@ from hydropwa._errors import IdentificationError, ParameterError
 from hydropwa._io import check_output
 
 from ._app import new_app
-from ._options import BaseParamsAlias, params_source, resolve_params
+from ._options import BaseParamsAlias, jobs_option, params_source, resolve_params
 from ._options import MachineParamsOption as ParamsOption
 
 __all__ = ["app"]
@@ -327,7 +327,7 @@ def model(
     ] = "linear",
     jobs: Annotated[
         int | None,
-        typer.Option("--jobs", "-j", min=1, max=1024, help="Threads (default: all cores)."),
+        jobs_option("Threads"),
     ] = None,
     sliding: Annotated[
         bool,

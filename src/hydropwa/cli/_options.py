@@ -25,7 +25,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -75,6 +75,21 @@ PARAMS_HELP = (
     f"The machine: a TOML/JSON parameter file or a preset ({PRESET_NAMES}); required, "
     "there is no default machine (the paper's rig: --params paper)."
 )
+
+
+def jobs_option(what: str) -> Any:
+    """``--jobs/-j N`` (1 to 1024, default ``None``: all cores); ``what`` says what runs in parallel."""
+    return typer.Option("--jobs", "-j", min=1, max=1024, help=f"{what} {JOBS_HELP}.")
+
+
+def duration_option(help: str) -> Any:  # noqa: A002 - typer's own word
+    """``--duration/-d TIME`` (a quantity with a time unit, or seconds)."""
+    return typer.Option("--duration", "-d", metavar="TIME", help=help)
+
+
+def params_option(help: str) -> Any:  # noqa: A002 - typer's own word
+    """``--params/-p PRESET|FILE`` with a command's own help text."""
+    return typer.Option("--params", "-p", metavar=PARAMS_METAVAR, help=help)
 
 
 #: ``--params/-p PRESET|FILE``: the parameter set of every command that takes one.

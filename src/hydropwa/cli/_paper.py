@@ -12,7 +12,7 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
-from ._options import PARAMS_METAVAR, PRESET_NAMES, resolve_params
+from ._options import PRESET_NAMES, params_option, resolve_params
 
 __all__ = ["app", "paper_command"]
 
@@ -40,14 +40,11 @@ def paper_command(
     ] = None,
     params: Annotated[
         str | None,
-        typer.Option(
-            "--params",
-            "-p",
-            metavar=PARAMS_METAVAR,
-            help=f"Parameter set: a preset ({PRESET_NAMES}) or a TOML/JSON parameter file; the "
+        params_option(
+            f"Parameter set: a preset ({PRESET_NAMES}) or a TOML/JSON parameter file; the "
             "rig's true parameters, or with --data the base (datasheet) parameters (default: "
             "paper; with --data the machine the data record, their true_params.toml or a manifest's "
-            "'machine' entry; data that record none need --params).",
+            "'machine' entry; data that record none need --params)."
         ),
     ] = None,
     campaign: Annotated[

@@ -15,7 +15,7 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
-from ._options import ParamsOption, resolve_params
+from ._options import ParamsOption, jobs_option, resolve_params
 
 __all__ = ["app"]
 
@@ -53,13 +53,7 @@ def run_command(
     ] = None,
     jobs: Annotated[
         int | None,
-        typer.Option(
-            "--jobs",
-            "-j",
-            min=1,
-            max=1024,
-            help="Worker processes; results do not depend on it (default: all cores).",
-        ),
+        jobs_option("Worker processes; results do not depend on it"),
     ] = None,
     force: Annotated[
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")

@@ -10,6 +10,7 @@ import typer
 
 from .._errors import ParameterError
 from ._app import new_app
+from ._options import jobs_option
 
 __all__ = ["app", "sweep_command"]
 
@@ -45,13 +46,7 @@ def sweep_command(
     ] = None,
     jobs: Annotated[
         int | None,
-        typer.Option(
-            "--jobs",
-            "-j",
-            min=1,
-            max=1024,
-            help="Threads, or LocalCluster workers (default: all cores).",
-        ),
+        jobs_option("Threads, or LocalCluster workers"),
     ] = None,
     scheduler: Annotated[
         str | None,
