@@ -344,7 +344,7 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
     monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 25 \(C law: 24\)\)"):
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 26 \(C law: 25\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 
