@@ -13,7 +13,6 @@ from hydropwa.control import (
     ControlError,
     design_cell_estimator,
     design_state_feedback,
-    export_c,
 )
 from hydropwa.control._estimator import _EST_SCALE, N_EST, cell_estimator
 from hydropwa.linearization import linearize
@@ -90,7 +89,7 @@ def test_compiled_law_runs_the_filter_of_the_row_it_used_last(designed):
         np.testing.assert_allclose(cst[C.S_Z : C.S_Z + 7], z, rtol=1e-9, atol=1e-12)
 
 
-def test_estimator_needs_noise_and_the_c_export_refuses_it(designed, tmp_path):
+def test_estimator_refuses_what_it_cannot_design(designed):
     pwa, d, est = designed
     with pytest.raises(ControlError, match="positive sensor noise"):
         design_cell_estimator(pwa, d, {"x": 0.0, "p_a": 1e4})
@@ -102,8 +101,6 @@ def test_estimator_needs_noise_and_the_c_export_refuses_it(designed, tmp_path):
                                                         affine=est.affine[:1], gain=est.gain[:1],
                                                         init=est.init[:1])
         )  # fmt: skip
-    with pytest.raises(ControlError, match="does not implement estimator"):
-        export_c(dataclasses.replace(d.controller, estimator=est), tmp_path / "c")
     # schema 2 without the filter packs as before the filter existed (X_EST 0)
     ctl = d.controller.pack()
     assert ctl[C.C_ROWS + C.ROW * len(d.controller.rows) + C.X_EST] == 0.0

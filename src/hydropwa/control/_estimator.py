@@ -58,7 +58,7 @@ N_MEAS = 2
 #: moving; at the stop 35-50 µm while the stiction cell is not yet learnt
 DEFAULT_PROCESS_NOISE = {
     "acceleration": 0.3,
-    "force_drift": 0.05,
+    "force_drift": 1.0,
     "pressure_drift": 2e3,
     "pressure": 1e5,
 }
@@ -238,7 +238,7 @@ def _cell_plant_as_designed(model, key, info):
     f = np.asarray(dyn.f, dtype=float).copy()
     if dzi:
         f -= B[:, 0] * float(model.dead_zone.offsets[dyn.cells.g])
-    if info.get("friction_slopes", "clip") == "clip":
+    if info.get("estimator_friction", "exact") == "clip":
         m = model.params.load.mass
         slopes = model.friction.pwa.slopes
         k_w_max = float(max(slopes[0], slopes[-1], 0.0))
