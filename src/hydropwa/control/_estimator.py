@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ._controllers import ControlError
+from ._design import _discrete, cell_plant, valve_series
 
 __all__ = [
     "CellEstimator",
@@ -78,8 +79,6 @@ def load_pressure_noise(noise: Mapping[str, float], area_ratio: float, mean_area
 
 def _cell_model(A, B, omega0: float, zeta: float):
     """Continuous (F, G) of z = [P_L, ẋ, x, ν, ν̇, d_a, d_p], input the opening command c."""
-    from ._design import valve_series
-
     Av, Bv = valve_series(A, B, omega0, zeta)
     F = np.zeros((N_EST, N_EST))
     F[:5, :5] = Av
@@ -111,8 +110,6 @@ def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, pro
     (A[1, 0], A[0, 0], f[1], f[0]), so that at the first sample d_a = −A[1,0] P_L − f[1],
     d_p = −A[0,0] P_L − f[0] make the measured rest an equilibrium of the model.
     """
-    from ._design import _discrete
-
     F, G = _cell_model(A, B, omega0, zeta)
     G2 = np.zeros((N_EST, 2))
     G2[:, 0] = G[:, 0]
@@ -231,8 +228,6 @@ def _cell_plant_as_designed(model, key, info):
     f_c = f − B_c b_g. A clipped friction slope keeps the cell's force at its working point
     (f₁ changes by −ΔA₁₁ v₀).
     """
-    from ._design import cell_plant
-
     dzi = info.get("dead_zone_inverse", True)
     A, B, dyn = cell_plant(model, cells=key, f_l=info.get("load_force"), opening_input=dzi)
     f = np.asarray(dyn.f, dtype=float).copy()
