@@ -13,7 +13,8 @@ on the sampled plant with valve and delay is 6 dB; integral corner at a fifth of
 k_ff = 1/K_v), and ``design_pi(delay=True)`` (``--method pi``), side by side: peak following
 error, hold peak to peak over the last 0.2 s, saturation and command sign changes per second.
 A fourth row: the design with the opt-in noise measures (position observer, dead-zone
-hysteresis h = 0.005).
+hysteresis h = 0.005); a fifth: the design with the opt-in per-cell Kalman filter
+(``design_cell_estimator`` for the noise below).
 
 **Verification** (``--verify N``, issue 34): the default design and the textbook PI + FF through
 ``closed_loop_verification`` on each machine (``verify_controller``'s task set on the full model,
@@ -90,7 +91,15 @@ NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 
 def compare() -> None:
     """The design against the textbook PI and ``--method pi`` on both machines (see the docstring)."""
-    from hydropwa.control import as_reference, design_pi, design_textbook_pi, tracking_metrics
+    import dataclasses
+
+    from hydropwa.control import (
+        as_reference,
+        design_cell_estimator,
+        design_pi,
+        design_textbook_pi,
+        tracking_metrics,
+    )
     from hydropwa.params import load_params
 
     print(
@@ -102,8 +111,9 @@ def compare() -> None:
         pwa = linearize(prm)
         tbd = design_textbook_pi(pwa, sample_time=5e-4, delay=True)
         tb, wc = tbd.controller, 2 * np.pi * float(tbd.table["crossover_hz"].iloc[0])
+        dsf = design_state_feedback(pwa, delay=True)
         ctrls = {
-            "design (LQR/cell + feed-forward)": design_state_feedback(pwa, delay=True).controller,
+            "design (LQR/cell + feed-forward)": dsf.controller,
             f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,
             "--method pi": design_pi(pwa, delay=True).controller,
             # opt-in noise measures (not the default): the position observer and the
@@ -115,6 +125,10 @@ def compare() -> None:
                 acceleration_noise=1.0,
                 dead_zone_hysteresis=0.005,
             ).controller,
+            # opt-in: the per-cell steady-state Kalman filter for the noise below
+            "design + per-cell Kalman filter": dataclasses.replace(
+                dsf.controller, estimator=design_cell_estimator(pwa, dsf, NOISE)
+            ),
         }
         for cname, ctrl in ctrls.items():
             for sensors, noise in (("exact", None), ("noisy", NOISE)):

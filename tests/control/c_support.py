@@ -49,6 +49,9 @@ class State(ctypes.Structure):
         ("v_kf", ctypes.c_double),
         ("acc_prev", ctypes.c_double),
         ("c_ff", ctypes.c_double),
+        ("dz_side", ctypes.c_double),
+        ("z", ctypes.c_double * 7),
+        ("c_in", ctypes.c_double),
     ]
 
 

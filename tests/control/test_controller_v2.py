@@ -30,6 +30,7 @@ from hydropwa.control import (
     controller_from_dict,
     controller_schema,
     controller_to_dict,
+    design_cell_estimator,
     design_pi,
     design_state_feedback,
     load_controller,
@@ -229,6 +230,14 @@ def written(paper, paper_pwa, tmp_path_factory):
             position_noise=20e-6,
             dead_zone_hysteresis=0.005,
         ).controller,
+        "kalman": dataclasses.replace(
+            design_state_feedback(paper_pwa, delay=True).controller,
+            estimator=design_cell_estimator(
+                paper_pwa,
+                design_state_feedback(paper_pwa, delay=True),
+                {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5},
+            ),
+        ),
         "verified": dataclasses.replace(
             design_state_feedback(paper_pwa, delay=True).controller,
             verification={

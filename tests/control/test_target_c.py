@@ -42,6 +42,7 @@ from hydropwa.control import (
     PIController,
     StateFeedbackController,
     StepSequence,
+    design_cell_estimator,
     design_pi,
     design_state_feedback,
     export_c,
@@ -138,10 +139,17 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         position_observer=position_observer_gains(ts, 20e-6, 1.0),
     )
     lqr_no_delay = design_state_feedback(linearize(paper)).controller
+    pwa = linearize(paper)
+    d_kf = design_state_feedback(pwa, delay=True)
+    lqr_kalman = dataclasses.replace(
+        d_kf.controller,
+        estimator=design_cell_estimator(pwa, d_kf, {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}),
+    )
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
+        ("paper lqr kalman", paper, lqr_kalman),
         ("paper pi schema 2 observer hysteresis", paper, pi_v2),
         ("paper lqr schema 1", paper, lqr_v1),
         ("paper pi", paper, pi),
@@ -203,7 +211,9 @@ def _closed_loop_samples(prm, ctrl, ref, x0, duration, rng):
 
 
 def _floor(ctrl) -> float:
-    return FLOOR_OBSERVER if getattr(ctrl, "position_observer", None) is not None else FLOOR
+    # the per-cell Kalman filter's x̂ carries the same FMA rounding as the observer's
+    estimated = getattr(ctrl, "position_observer", None) is not None
+    return FLOOR_OBSERVER if estimated or getattr(ctrl, "estimator", None) is not None else FLOOR
 
 
 def _assert_lockstep(pkg, c, what, floor=FLOOR):
@@ -327,12 +337,12 @@ def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr,
     with pytest.raises(ControlError, match="cannot export a Unknown"):
         export_c(Unknown(), tmp_path / "x")
 
-    class WithEstimator(PIController):
+    class WithMpc(PIController):
         def describe(self):
-            return {**super().describe(), "estimator": {"kind": "luenberger"}}
+            return {**super().describe(), "mpc_horizon": {"samples": 20}}
 
-    with pytest.raises(ControlError, match="does not implement estimator"):
-        export_c(WithEstimator(kp=1.0), tmp_path / "y")
+    with pytest.raises(ControlError, match="does not implement mpc_horizon"):
+        export_c(WithMpc(kp=1.0), tmp_path / "y")
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
@@ -344,7 +354,7 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
     monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 25 \(C law: 24\)\)"):
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 26 \(C law: 25\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 

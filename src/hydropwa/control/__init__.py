@@ -33,6 +33,11 @@ from ._design import (
     design_textbook_pi,
 )
 from ._design_chamber import design_on_chamber
+from ._estimator import (
+    DEFAULT_PROCESS_NOISE,
+    CellEstimator,
+    design_cell_estimator,
+)
 from ._fidelity import FIDELITY_MODELS, closed_loop_fidelity, hold_oscillations
 from ._io import (
     SCHEMA,
@@ -63,6 +68,9 @@ from ._verify import (
 )
 
 __all__ = [
+    "CellEstimator",
+    "DEFAULT_PROCESS_NOISE",
+    "design_cell_estimator",
     "MACHINE_KEYS",
     "ANTI_WINDUP",
     "DEFAULT_SAMPLE_TIME",

@@ -435,7 +435,12 @@ class _Discrete:
             or self.position_observer is not None
             or self.spool_model is not None
             or (self.dead_zone_inverse is not None and self.dead_zone_inverse.hysteresis > 0.0)
+            or self._estimator() is not None
         )
+
+    def _estimator(self):
+        """The per-cell Kalman filter (state feedback only), or None."""
+        return None
 
     def _ext_rows(self) -> np.ndarray:
         """Per-row extension gains [k_nu, k_dnu, k_up] (zero unless the spool is fed back)."""
@@ -489,7 +494,11 @@ class _Discrete:
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
-        return np.concatenate([v, ext, self._ext_rows().ravel()])
+        est = self._estimator()
+        if est is None:
+            return np.concatenate([v, ext, self._ext_rows().ravel()])
+        ext[C.X_EST] = 1.0
+        return np.concatenate([v, ext, self._ext_rows().ravel(), est.packed_rows().ravel()])
 
     def _dead_zone_dict(self) -> dict[str, float]:
         dz = self.dead_zone_inverse
@@ -690,6 +699,7 @@ class StateFeedbackController(_Discrete):
 
     rows: tuple[GainRow, ...] = ()
     design: dict = field(default_factory=dict, compare=False)
+    estimator: Any = None
 
     kind = "state_feedback"
 
@@ -699,6 +709,30 @@ class StateFeedbackController(_Discrete):
         if not rows or not all(isinstance(r, GainRow) for r in rows):
             raise ControlError("StateFeedbackController needs at least one GainRow")
         object.__setattr__(self, "rows", rows)
+        if self.estimator is not None:
+            self._check_estimator(len(rows))
+
+    def _check_estimator(self, n_rows: int) -> None:
+        from ._estimator import CellEstimator  # deferred: it imports this module
+
+        est = self.estimator
+        if not isinstance(est, CellEstimator) or est.rows != n_rows:
+            raise ControlError(
+                f"StateFeedbackController.estimator must be a CellEstimator with one filter per "
+                f"gain row ({n_rows}); see design_cell_estimator"
+            )
+        if (
+            self.spool_model is None
+            or self.position_observer is not None
+            or self.velocity_filter > 0
+        ):
+            raise ControlError(
+                "the per-cell Kalman filter replaces the position observer and the velocity "
+                "filter and needs the spool model (the valve-aware design)"
+            )
+
+    def _estimator(self):
+        return self.estimator
 
     def _rows(self) -> np.ndarray:
         return np.stack(
@@ -730,4 +764,6 @@ class StateFeedbackController(_Discrete):
             for r in self.rows
         ]
         d["design"] = dict(self.design)
+        if self.estimator is not None:  # schema 2 only; files without it load as before
+            d["estimator"] = self.estimator.describe()
         return d

@@ -58,6 +58,7 @@ from ._controllers import (
     SpoolModel,
     StateFeedbackController,
 )
+from ._estimator import CellEstimator
 
 __all__ = [
     "save_controller",
@@ -108,6 +109,19 @@ CONVENTIONS = {
     "load_pressure": "P_L = P_A - area_ratio*P_B (asymmetric; mean-area: (P_A*A_A - P_B*A_B)/((A_A + A_B)/2)), positive pushes +x",
     "velocity": "v = dx/dt [m/s], +x extending; from velocity_filter if > 0, else a velocity sensor",
     "units": "every dimensioned value carries its unit; a bare number is SI",
+}
+#: units of the per-cell Kalman filter's numbers (all SI), written with them into the file
+_EST_UNITS = {
+    "states": "P_L [Pa], v [m/s], x [m], spool [1], spool_rate [1/s], d_acceleration [m/s^2], "
+    "d_pressure_rate [Pa/s]",
+    "phi": "per cell, 7 x 7 row-major, the ratios of the state units",
+    "gamma": "per cell, 7 values, state units per unit opening command",
+    "gain": "per cell, 7 x 2 row-major, columns: innovation of P_L [Pa], of x [m]",
+    "affine": "per cell, 7 values in the state units: the cell's affine term over one sample",
+    "init": "per cell, (a_vp [m/(s^2 Pa)], a_pp [1/s], f_a [m/s^2], f_p [Pa/s]): "
+    "d_acceleration = -a_vp*P_L - f_a, d_pressure_rate = -a_pp*P_L - f_p at the first sample",
+    "noise": "standard deviations: x [m], p_l [Pa], acceleration [m/s^2], force_drift "
+    "[m/s^2 per sample], pressure_drift [Pa/s per sample]",
 }
 _FF = {
     "flow_coefficient": ("m**3/s/Pa**0.5", 1.0, "m**3/s/Pa**0.5"),
@@ -230,6 +244,8 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             cells.append(c)
         d["cells"] = cells
         d["design"] = _plain(ctrl.design)
+        if ctrl.estimator is not None:  # schema 2: the per-cell Kalman filter (SI numbers)
+            d["estimator"] = ctrl.estimator.describe() | {"units": dict(_EST_UNITS)}
     if ctrl.verification:
         d["verification"] = _plain(ctrl.verification)
     return _plain(d)
@@ -312,8 +328,12 @@ def controller_from_dict(d: dict[str, Any]):
                         label=str(c.get("label", "")),
                     )
                 )
+            est = d.get("estimator") if v2 else None
             return StateFeedbackController(
-                rows=tuple(rows), design=dict(d.get("design", {})), **common
+                rows=tuple(rows),
+                design=dict(d.get("design", {})),
+                estimator=None if est is None else CellEstimator.from_dict(est),
+                **common,
             )
     except KeyError as exc:
         raise ControlError(f"controller file ({kind}) lacks {exc}") from None

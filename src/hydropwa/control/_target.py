@@ -103,6 +103,15 @@ _LAYOUT = (
     "X_KFX",
     "X_KFV",
     "X_DZH",
+    "X_EST",
+    # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
+    "NZ",
+    "EROW",
+    "E_PHI",
+    "E_GAM",
+    "E_AFF",
+    "E_L",
+    "E_INIT",
     "XR_KNU",
     "XR_KDNU",
     "XR_KUP",
@@ -141,6 +150,7 @@ _COVERED = frozenset(
         "velocity_filter",
         "position_observer",
         "spool_model",
+        "estimator",
     }
 )
 _CELL_COVERED = frozenset(
@@ -149,7 +159,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 16, "N_EXT": 24, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 25, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -170,6 +180,8 @@ LAW_ELEMENTS = (
     "schema 2: spool estimate by the discrete (ZOH) valve model with per-row spool gains "
     "k_nu, k_dnu and pending-command gain k_up",
     "schema 2: position observer (steady-state Kalman filter of [x, v] driven by r̈)",
+    "schema 2: per-cell steady-state Kalman filter of [P_L, v, x, ν, ν̇, d_a, d_p] "
+    "(the filter of the last sample's row, driven by the opening command the valve held)",
 )
 
 
@@ -217,12 +229,13 @@ def check_expressible(controller) -> np.ndarray:
         )
     ctl = np.asarray(controller.pack(), dtype=float)
     n = int(ctl[C.C_NROWS])
-    sizes = (C.C_ROWS + C.ROW * n, C.C_ROWS + C.ROW * n + C.N_EXT + C.XROW * n)
+    base = C.C_ROWS + C.ROW * n
+    sizes = (base, base + C.N_EXT + C.XROW * n, base + C.N_EXT + (C.XROW + C.EROW) * n)
     if ctl.shape[0] not in sizes:
         raise ControlError(
             f"the packed controller has {ctl.shape[0]} values, the C layout expects "
-            f"{sizes[0]} (schema 1) or {sizes[1]} (schema 2); the C export is older than this "
-            "controller"
+            f"{sizes[0]} (schema 1), {sizes[1]} (schema 2) or {sizes[2]} (schema 2 with the "
+            "Kalman filter); the C export is older than this controller"
         )
     if np.isnan(ctl).any():
         raise ControlError("the packed controller holds NaN; the C export needs finite gains")
@@ -265,6 +278,15 @@ def _table(ctl: np.ndarray) -> str:
                 + ", ".join(_c_float(v) for v in ctl[b : b + C.XROW])
                 + ","
             )
+        eb = e0 + C.N_EXT + C.XROW * n
+        if ctl.shape[0] > eb:
+            for r in range(n):
+                b = eb + C.EROW * r
+                lines.append(
+                    f"    /* row {r}: Kalman filter Phi (7x7), Gamma, phi0, L (7x2), init */ "
+                    + ", ".join(_c_float(v) for v in ctl[b : b + C.EROW])
+                    + ","
+                )
     return "\n".join(lines)
 
 
@@ -278,7 +300,7 @@ def _describe_line(controller) -> str:
     return "PI (one gain row valid everywhere)"
 
 
-def cost_per_step(n_rows: int, extended: bool = False) -> dict[str, int]:
+def cost_per_step(n_rows: int, extended: bool = False, kalman: bool = False) -> dict[str, int]:
     """Worst-case operation counts of one ``hydropwa_ctrl_step`` with ``n_rows`` gain rows.
 
     The row search evaluates at most n_rows + 1 box distances (the previous row, then all):
@@ -287,14 +309,17 @@ def cost_per_step(n_rows: int, extended: bool = False) -> dict[str, int]:
     floating-point operations and 16 comparisons; the schema-2 block (``extended``: position
     observer, velocity filter, flow feed-forward with its two square roots, reference state,
     spool terms and the valve model's update) adds at most 76 operations (6 of them
-    divisions, 2 square roots) and 14 comparisons.
+    divisions, 2 square roots) and 14 comparisons; the per-cell Kalman filter (``kalman``)
+    adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
+    142 operations, no division.
     """
     boxes = n_rows + 1 if n_rows > 1 else 0
     x = 1 if extended else 0
+    kf = 142 if kalman else 0
     return {
         "box_distances": boxes,
         "divisions": 4 * boxes + 4 + 6 * x,
-        "flops": 12 * boxes + 40 + 76 * x,
+        "flops": 12 * boxes + 40 + 76 * x + kf,
         "comparisons": 9 * boxes + 16 + 14 * x,
     }
 
@@ -311,7 +336,7 @@ def c_sources(controller) -> dict[str, str]:
     n = int(ctl[C.C_NROWS])
     e0 = C.C_ROWS + C.ROW * n
     ext = ctl.shape[0] > e0
-    cost = cost_per_step(n, ext)
+    cost = cost_per_step(n, ext, ctl.shape[0] > e0 + C.N_EXT + C.XROW * n)
     subs = {
         "@VERSION@": __version__,
         "@KIND@": _describe_line(controller),
@@ -335,6 +360,7 @@ def c_sources(controller) -> dict[str, str]:
         header = header.replace(k, v)
         readme = readme.replace(k, v)
     layout = "\n".join(f"#define HP_{name} {getattr(C, name)}" for name in _LAYOUT)
+    eb = e0 + C.N_EXT + C.XROW * n
     if ext:
         ext_table = (
             "/* The extension block (schema 2) of the table */\n"
@@ -345,6 +371,10 @@ def c_sources(controller) -> dict[str, str]:
             "/* Schema 1: no extension block; every schema-2 element is off */\n"
             f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW * n}] = {{0.0}};\n"
         )
+    if ctl.shape[0] > eb:
+        ext_table += f"/* The per-cell Kalman filters (EROW values per row) */\nstatic const double *const E = T + {eb};\n"
+    else:
+        ext_table += f"/* No Kalman filter (X[HP_X_EST] is 0) */\nstatic const double E[{C.EROW}] = {{0.0}};\n"
     physics = "\n".join(emit_functions(f, {})[0] for f in _PHYSICS)
     source = (
         f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"

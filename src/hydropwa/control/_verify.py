@@ -57,13 +57,14 @@ class VerificationCriteria:
     saturation : float
         Largest share [1] of the trapezoid's samples with the command at a limit (10 %).
     sign_changes : float
-        Largest number of command sign changes per second [1/s] in the holds (default 150).
+        Largest number of command sign changes per second [1/s] in the holds (default 100, the
+        issue's bound).
     """
 
     hold_peak_to_peak: float = 1e-4
     following_error: float = 5e-3
     saturation: float = 0.10
-    sign_changes: float = 150.0
+    sign_changes: float = 100.0
 
     def __post_init__(self) -> None:
         for name in ("hold_peak_to_peak", "following_error", "saturation", "sign_changes"):

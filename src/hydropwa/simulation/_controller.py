@@ -65,15 +65,21 @@ gain row (see :data:`EXT_SLOTS`)::
                  last command until c crosses −s·h, u = 0 on the other side inside the band
                  (:func:`dead_zone_hysteresis`), so sensor noise on a small command does not
                  throw the spool across the dead zone
+    e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
+                 the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
+                 measured P_L, x, ẋ and of the valve model's spool estimate
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
+    e0+N_EXT+XROW·n+EROW·r   with the Kalman filter: row r's Φ (49, row-major), Γ (7),
+                 φ₀ (7), L (14, row-major 7 × 2) and (a_vp, a_pp, f_a, f_p)
+                 (:mod:`hydropwa.control._estimator`)
 
 Reference channels ``rch`` (shape (N_RCH, samples), one column per sample): ṙ(t_k) [m/s],
 ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], and the sensor noise added to the measured x [m],
 P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors).
 
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
-(with the noise), the position observer, the velocity filter, the Ṗ_L filter, the washout, the
+(with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
 dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
 
@@ -151,6 +157,7 @@ EXT_SLOTS = (
     "kf_x",
     "kf_v",
     "dz_hyst",
+    "est",
 )
 (
     X_FF,
@@ -177,11 +184,18 @@ EXT_SLOTS = (
     X_KFX,
     X_KFV,
     X_DZH,
+    X_EST,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
 XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
 SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
+#: per-cell Kalman filter (e0+X_EST on): after the XROW rows, EROW values per gain row:
+#: Φ (7 × 7, row-major), Γ (7), the affine term φ₀ (7), L (7 × 2, row-major) and the
+#: initial values' coefficients (a_vp, a_pp, f_a, f_p)
+NZ = 7
+EROW = NZ * NZ + 4 * NZ + 4
+E_PHI, E_GAM, E_AFF, E_L, E_INIT = 0, NZ * NZ, NZ * NZ + NZ, NZ * NZ + 2 * NZ, NZ * NZ + 4 * NZ
 #: reference channels (rows of ``rch``)
 RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
 N_RCH = 6
@@ -191,7 +205,10 @@ N_RCH = 6
 #: the side s of the dead-zone inverse with hysteresis (0 before the first |c| ≥ h)
 S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
 S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 16)
-N_CST = 16
+#: the per-cell Kalman filter's state ẑ (NZ values from S_Z), the opening command the valve
+#: received over the last sample (its input) and the prediction ẑ⁻ (scratch, NZ values from S_ZP)
+S_Z, S_CAPP, S_ZP = 16, 23, 24
+N_CST = 31
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
@@ -333,6 +350,41 @@ def select_row(ctl, pl, v, x, c, last):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row):
+    """Per-cell steady-state Kalman filter; returns the estimates (P̂_L, v̂, x̂) at sample k.
+
+    ``eb``: start of the filters' rows in ``ctl``; ``row``: the gain row of the last sample
+    (the cell the plant was in while the valve held cst[S_CAPP]); ``pl`` [Pa], ``x`` [m]: the
+    measured channels. Prediction ẑ⁻ = Φ ẑ + Γ c_apply + φ₀, update
+    ẑ = ẑ⁻ + L ([P_L, x] − [ẑ⁻₀, ẑ⁻₂]). At k = 0 (``row`` is then the row of the measurement)
+    ẑ = [P_L, v0, x, 0, 0, −a_vp P_L − f_a, −a_pp P_L − f_p]: the measured rest is an
+    equilibrium of the cell's model.
+    """
+    b = eb + EROW * row
+    if k == 0:
+        cst[S_Z] = pl
+        cst[S_Z + 1] = v0
+        cst[S_Z + 2] = x
+        cst[S_Z + 3] = 0.0
+        cst[S_Z + 4] = 0.0
+        cst[S_Z + 5] = -ctl[b + E_INIT] * pl - ctl[b + E_INIT + 2]
+        cst[S_Z + 6] = -ctl[b + E_INIT + 1] * pl - ctl[b + E_INIT + 3]
+        cst[S_CAPP] = 0.0
+        return pl, v0, x
+    cin = cst[S_CAPP]
+    for i in range(NZ):
+        acc = ctl[b + E_GAM + i] * cin + ctl[b + E_AFF + i]
+        for j in range(NZ):
+            acc += ctl[b + E_PHI + NZ * i + j] * cst[S_Z + j]
+        cst[S_ZP + i] = acc
+    i_p = pl - cst[S_ZP]
+    i_x = x - cst[S_ZP + 2]
+    for i in range(NZ):
+        cst[S_Z + i] = cst[S_ZP + i] + ctl[b + E_L + 2 * i] * i_p + ctl[b + E_L + 2 * i + 1] * i_x
+    return cst[S_Z], cst[S_Z + 1], cst[S_Z + 2]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # noqa: C901 (compiled control law (numba), one pass per sample, mirrored by the generated C)
     """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
 
@@ -362,6 +414,16 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         cst[S_NU] = 0.0
         cst[S_DNU] = 0.0
         cst[S_DZS] = 0.0
+    kal = ext and ctl[e0 + X_EST] > 0.5
+    if kal:  # per-cell Kalman filter: the law uses the estimates
+        if k == 0:
+            r0 = select_row(ctl, pl, rch[RC_DR, k], x, 0.0, -1)
+        else:
+            r0 = int(cst[S_ROW])
+        pl, v, x = cell_kalman_filter(
+            ctl, cst, e0 + N_EXT + XROW * nrows, k, pl, rch[RC_DR, k], x, r0
+        )
+        e = r - x
     if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
         if k == 0:
             cst[S_XKF] = x
@@ -421,6 +483,8 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback: measured, or the valve model's estimate
             xb = e0 + N_EXT + XROW * row
             nu, dnu = cst[S_NU], cst[S_DNU]
+            if kal:
+                nu, dnu = cst[S_Z + 3], cst[S_Z + 4]
             if ctl[e0 + X_SPOOL] < 1.5 and (kind == 0 or kind == 3):  # models with a spool state
                 nu, dnu = spool_opening(y[_NU], y[_DNU], ctl)
             c_ff -= ctl[xb + XR_KNU] * nu + ctl[xb + XR_KDNU] * dnu
@@ -463,6 +527,8 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         f = e0 + X_PHI
         cst[S_NU] = ctl[f] * nu + ctl[f + 1] * dnu + ctl[g] * c_apply
         cst[S_DNU] = ctl[f + 2] * nu + ctl[f + 3] * dnu + ctl[g + 1] * c_apply
+    if kal:
+        cst[S_CAPP] = c_apply
     sg[_S_U] = u_apply
     cst[S_PL] = pl
     cst[S_DPL] = dpl

@@ -9,7 +9,8 @@
  *     hydropwa_ctrl_init(&s);                      (once; hydropwa_ctrl_reset(&s) to start over)
  *     loop every HYDROPWA_CTRL_SAMPLE_TIME seconds:
  *         m.x = ...; m.v = ...;                     position [m], velocity [m/s] (m.v unused
- *                                                    with the velocity filter or the observer)
+ *                                                    with the velocity filter, the observer
+ *                                                    or the per-cell Kalman filter)
  *         m.p_l = hydropwa_ctrl_load_pressure(p_a, p_b, area_a, area_b);
  *         ref.r = r(t_k);                            reference position [m]
  *         ref.r_rate = r'(t_k);                      its rate [m/s]
@@ -83,6 +84,8 @@ typedef struct {
     double acc_prev;  /**< reference acceleration of the last sample [m/s^2] */
     double c_ff;      /**< diagnostics: schema-2 part of c in the last step [1] */
     double dz_side;   /**< side (+-1, 0 before the first) of the dead-zone inverse with hysteresis */
+    double z[7];      /**< per-cell Kalman filter: [P_L, v, x, nu, nu', d_a, d_p] (SI) */
+    double c_in;      /**< per-cell Kalman filter: opening command the valve held over the last sample [1] */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */

@@ -146,6 +146,45 @@ static void hp_position_observer(hydropwa_ctrl_state *s, double *x, double *v, d
     *v = s->v_kf;
 }
 
+/* Per-cell steady-state Kalman filter (cell_kalman_filter): prediction with the filter of the
+ * row used at the last sample, z- = Phi z + Gamma c_in + phi0, update z = z- + L [P_L - z-_0,
+ * x - z-_2]; at the first step z = [P_L, r_rate, x, 0, 0, -a_vp P_L - f_a, -a_pp P_L - f_p].
+ * Replaces the measured P_L, v and x by the estimates. */
+static void hp_cell_kalman_filter(hydropwa_ctrl_state *s, double *pl, double *v, double *x,
+                                  double v0, int row)
+{
+    const double *b = E + HP_EROW * row;
+    double zp[HP_NZ];
+    double acc, ip, ix;
+    int i, j;
+    if (!s->started) {
+        s->z[0] = *pl;
+        s->z[1] = v0;
+        s->z[2] = *x;
+        s->z[3] = 0.0;
+        s->z[4] = 0.0;
+        s->z[5] = -b[HP_E_INIT] * *pl - b[HP_E_INIT + 2];
+        s->z[6] = -b[HP_E_INIT + 1] * *pl - b[HP_E_INIT + 3];
+        s->c_in = 0.0;
+    } else {
+        for (i = 0; i < HP_NZ; ++i) {
+            acc = b[HP_E_GAM + i] * s->c_in + b[HP_E_AFF + i];
+            for (j = 0; j < HP_NZ; ++j) {
+                acc += b[HP_E_PHI + HP_NZ * i + j] * s->z[j];
+            }
+            zp[i] = acc;
+        }
+        ip = *pl - zp[0];
+        ix = *x - zp[2];
+        for (i = 0; i < HP_NZ; ++i) {
+            s->z[i] = zp[i] + b[HP_E_L + 2 * i] * ip + b[HP_E_L + 2 * i + 1] * ix;
+        }
+    }
+    *pl = s->z[0];
+    *v = s->z[1];
+    *x = s->z[2];
+}
+
 /* Velocity from the position samples: v_hat = a_v v_hat + (1 - a_v)(x_k - x_{k-1})/T_s. */
 static double hp_velocity_filter(hydropwa_ctrl_state *s, double x)
 {
@@ -181,7 +220,11 @@ static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, dou
         }
     }
     if (X[HP_X_SPOOL] > 0.5) { /* spool-state feedback on the valve model's estimate */
-        c_ff -= xb[HP_XR_KNU] * s->nu + xb[HP_XR_KDNU] * s->dnu;
+        if (X[HP_X_EST] > 0.5) { /* or on the Kalman filter's */
+            c_ff -= xb[HP_XR_KNU] * s->z[3] + xb[HP_XR_KDNU] * s->z[4];
+        } else {
+            c_ff -= xb[HP_XR_KNU] * s->nu + xb[HP_XR_KDNU] * s->dnu;
+        }
         if (T[HP_C_DELAY] > 0.5) {
             c_ff -= xb[HP_XR_KUP] * s->c_pending;
         }
@@ -229,6 +272,7 @@ double hydropwa_ctrl_load_pressure(double p_a, double p_b, double area_a, double
 
 void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
 {
+    int i;
     s->integral = 0.0;
     s->p_l_prev = 0.0;
     s->dp_l = 0.0;
@@ -250,6 +294,10 @@ void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
     s->acc_prev = 0.0;
     s->c_ff = 0.0;
     s->dz_side = 0.0;
+    for (i = 0; i < 7; ++i) {
+        s->z[i] = 0.0;
+    }
+    s->c_in = 0.0;
 }
 
 void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
@@ -262,12 +310,12 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
 {
     double x = m->x;
     double v = m->v;
-    const double pl = m->p_l;
+    double pl = m->p_l;
     const double r = ref->r;
     double e = r - x;
     double dpl, pl_fb, ki, c_raw, c_ff, u_raw, u, c_sat, u_apply, c_apply;
     const double *b;
-    int row;
+    int row, kal;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
@@ -278,6 +326,12 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         s->nu = 0.0;
         s->dnu = 0.0;
         s->dz_side = 0.0;
+    }
+    kal = HP_EXT && X[HP_X_EST] > 0.5;
+    if (kal) { /* per-cell Kalman filter: the law uses the estimates */
+        row = s->started ? s->row : hp_select_row(pl, ref->r_rate, x, 0.0, -1);
+        hp_cell_kalman_filter(s, &pl, &v, &x, ref->r_rate, row);
+        e = r - x;
     }
     if (HP_EXT && X[HP_X_KF] > 0.5) {
         hp_position_observer(s, &x, &v, ref->r_rate);
@@ -321,6 +375,9 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     }
     if (HP_EXT && X[HP_X_SPOOL] > 0.5) {
         hp_spool_update(s, c_apply);
+    }
+    if (kal) {
+        s->c_in = c_apply;
     }
     s->p_l_prev = pl;
     s->dp_l = dpl;

@@ -42,6 +42,6 @@ the same task set (steps 5 → 95 → 50 % of the stroke against ±50 % of the m
 their holds, a trapezoid at half the maximum velocity) with sensor noise (20 µm, 0.1 bar on
 each chamber), the computation delay of the design, and the parameter draws stated in the
 controller file. Limits: hold ≤ 0.1 mm peak to peak without a limit cycle, peak following
-error ≤ 0.5 % of the move, saturation ≤ 10 %, ≤ 150 command sign changes per second at the
+error ≤ 0.5 % of the move, saturation ≤ 10 %, ≤ 100 command sign changes per second at the
 holds; the worst value over tasks and draws.</p>
 {_table(df, "verification verdict: the design and the textbook PI + feed-forward baseline")}"""
