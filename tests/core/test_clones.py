@@ -70,11 +70,6 @@ ALLOWED: dict[tuple[str, str], tuple[int, str]] = {
         "greybox/* is the issue-36 engineer's: its optimizer status enum repeats the message/"
         "success properties of _result's status enums; derive both from one mixin in _result",
     ),
-    ("control/_fidelity.py", "control/_metrics.py"): (
-        8,
-        "control/* is the issue-34 engineer's: closed_loop_fidelity and compare_models take the "
-        "same keyword list; one calls the other, or one settings object",
-    ),
     ("simulation/_entries.py", "simulation/_kernel.py"): (10, _ENTRY),
     ("simulation/_entries.py", "simulation/_march.py"): (10, _ENTRY),
     ("simulation/_kernel.py", "simulation/_march.py"): (14, _ENTRY),

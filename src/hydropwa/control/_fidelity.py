@@ -71,25 +71,19 @@ def hold_oscillations(result, settle: float = HOLD_SETTLE) -> list[dict[str, flo
 
 
 def closed_loop_fidelity(
-    controller,
-    reference,
-    *,
-    params=None,
-    pwa=None,
-    duration: float,
-    initial_position: float | None = None,
-    load_force=None,
-    models=FIDELITY_MODELS,
-    rtol: float | None = None,
+    controller, reference, *, models=FIDELITY_MODELS, **case: Any
 ) -> tuple[dict[str, Any], Any]:
     """Run one controller on several model levels; hold oscillations and tracking side by side.
 
     Parameters
     ----------
-    controller, reference, params, pwa, duration, initial_position, load_force, rtol
+    controller, reference
         As :func:`~hydropwa.control.compare_models`.
     models : tuple of str
         Model names (default :data:`FIDELITY_MODELS`).
+    **case
+        The run, as :func:`~hydropwa.control.compare_models` takes it: ``duration``
+        (required), ``params``, ``pwa``, ``initial_position``, ``load_force``, ``rtol``.
 
     Returns
     -------
@@ -102,17 +96,7 @@ def closed_loop_fidelity(
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-    results, _ = compare_models(
-        controller,
-        reference,
-        params=params,
-        pwa=pwa,
-        duration=duration,
-        initial_position=initial_position,
-        load_force=load_force,
-        models=tuple(models),
-        rtol=rtol,
-    )
+    results, _ = compare_models(controller, reference, models=tuple(models), **case)
     holds = {name: hold_oscillations(res) for name, res in results.items()}
     full = holds.get("full")
     rows = {}
