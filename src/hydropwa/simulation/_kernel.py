@@ -73,6 +73,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from numba._dispatcher import compute_fingerprint
 from numba.core.errors import NumbaIRAssumptionWarning
 
 from .._errors import interrupt_cause
@@ -343,6 +344,24 @@ def _cached_on_disk(dispatcher) -> bool:
         return True
 
 
+#: Argument fingerprints each dispatcher was found ready for in this process (see :func:`prepare`).
+_ready: dict[Any, set] = {}
+
+
+def _fingerprint(args):
+    """numba's own C-level type key of each argument (dtype, dimensions, layout, writability), or
+    None where an argument has none.
+
+    ``dispatcher.typeof_pyval`` builds numba type objects in Python (~20 µs per call of
+    :func:`integrate`, and the garbage collector's work on them); the fingerprint is what
+    numba's dispatcher itself computes in C to find a compiled overload.
+    """
+    try:
+        return tuple(compute_fingerprint(a) for a in args)
+    except Exception:  # pragma: no cover - an argument numba cannot fingerprint: type it
+        return None
+
+
 def prepare(dispatcher, args, what="solver"):
     """Load ``dispatcher`` from the cache or compile it for ``args`` before the timed call.
 
@@ -352,8 +371,14 @@ def prepare(dispatcher, args, what="solver"):
     global compile_seconds, _noticed
     if not hasattr(dispatcher, "typeof_pyval"):  # not a numba dispatcher (a test's stand-in)
         return 0.0
+    key = _fingerprint(args)
+    ready = _ready.setdefault(dispatcher, set())
+    if key is not None and key in ready:  # seen ready in this process: no typing needed
+        return 0.0
     sig = tuple(dispatcher.typeof_pyval(a) for a in args)
     if sig in dispatcher.signatures:  # ready for exactly these argument types
+        if key is not None:
+            ready.add(key)
         return 0.0
     # (a read-only or differently laid-out array is a new signature: compile it here too, with
     # the warning filter below, not at the call)
@@ -384,6 +409,8 @@ def prepare(dispatcher, args, what="solver"):
         dispatcher.compile(sig)
     dt = time.perf_counter() - t0
     compile_seconds += dt
+    if key is not None:
+        ready.add(key)
     if _compile_notice is not None and dt > NOTICE_AFTER_S and (cold or warming is not None):
         # each long wait ends with a line, so a user sees the compiler progress, not silence
         _compile_notice(f"  {what} solver ready ({dt:.1f} s)")
