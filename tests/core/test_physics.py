@@ -362,7 +362,7 @@ def test_compiled_friction_elementaries_match_numpy():
 
 
 def test_friction_channel_matches_compiled_friction(paper):
-    """The result's friction channel (NumPy over the row) equals the compiled law per sample (1e-13)."""
+    """The result's friction channel (the compiled output pass) equals the law per sample (1e-13)."""
     res = simulate(ReducedModel(paper), Sine(amplitude=0.3, frequency=2), duration=0.5)
     fr = paper.friction
     args = (fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness)

@@ -216,7 +216,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
             jac_age = 0
             h_fact = -1.0
         if h != h_fact:
-            _factor(kind, J, W, piv, h * gamma)
+            _factor(kind, J, W, piv, h * gamma, p)
             h_fact = h
         n_rhs, u1, ps1, fl1 = _step_for(
             method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg

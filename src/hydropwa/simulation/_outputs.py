@@ -39,6 +39,7 @@ from ._kcommon import (
     Y_PS,
     Y_V,
     Y_X,
+    _friction,
     _inputs,
     _opening,
     n_states,
@@ -81,7 +82,7 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
 # One compiled output pass per model: each holds only its own model's code, and a command
 # compiles only the one it runs. Rows: the layout table's OUTPUT_CHANNELS (11), and for the PWA
 # model the active cells g, o, n, w (PWA_OUTPUT_CHANNELS). The friction row of the full and
-# reduced models is left at zero for :func:`outputs` to fill.
+# reduced models is the Stribeck law at each sample's velocity, computed in the same pass.
 @njit(cache=True, nogil=True, error_model="numpy")
 def _outputs_full(t_out, Y, n_done, p, sg):
     out = np.empty((N_OUT, n_done))
@@ -137,7 +138,7 @@ def _write_outputs(out, k, u, spool, z, pa, pb, pl, ps, fl, x, v, fr, p):
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _fill_full(t_out, Y, n_done, p, sg, out):
-    """Output pass of the full model (allocation-free); friction is filled by :func:`outputs`."""
+    """Output pass of the full model (allocation-free), the Stribeck friction included."""
     for k in range(n_done):
         u, ps, fl = _inputs(t_out[k], sg)
         spool = Y[k, Y_NU]
@@ -157,7 +158,7 @@ def _fill_full(t_out, Y, n_done, p, sg, out):
             fl,
             Y[k, Y_X],
             Y[k, Y_V],
-            0.0,
+            _friction(Y[k, Y_V], p),
             p,
         )
 
@@ -171,7 +172,7 @@ def _fill_reduced(t_out, Y, n_done, p, sg, out):
         z = _opening(u, p)
         al, pt, _a, _cq, _cl, _dcq, _dcl = _reduced_terms(x, p)
         pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
-        _write_outputs(out, k, u, u, z, pa, pb, pl, ps, fl, x, v, 0.0, p)
+        _write_outputs(out, k, u, u, z, pa, pb, pl, ps, fl, x, v, _friction(v, p), p)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)

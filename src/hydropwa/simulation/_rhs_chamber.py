@@ -104,7 +104,7 @@ def _chamber_layout(p):
     return ng, nc, nx, nw, s_g, s_c, s_x, s_x + 3 * nx - 1
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
 def chamber_terms(y, ps_in, p):
     """Everything the chamber PWA model's rhs, Jacobian and ∂f/∂t share, at state y.
 

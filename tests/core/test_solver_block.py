@@ -1,0 +1,70 @@
+"""The LU and the solves of W = I − hγJ on its leading block (``_rosenbrock._n_solve``).
+
+The full and chamber models' trailing states P_S (without the pump model) and P_acc (without
+an accumulator) are constant; their rows and columns of J vanish, so the kernel factorises
+and solves only the leading block. Checked here against a dense solve of the whole W, for
+the three machine variants the block size depends on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import hydropwa as hp
+from hydropwa.models import as_model
+from hydropwa.params import Accumulator
+from hydropwa.simulation import _kernel as K
+from hydropwa.simulation._rosenbrock import _factor, _n_solve, _solve
+
+_PAPER = hp.get_preset("paper")
+#: machine variant -> (parameters, states left to the LU)
+_VARIANTS = {
+    "plain": (_PAPER, 6),
+    "pump": (_PAPER.replace(**{"supply.model": "pump"}), 7),
+    "accumulator": (_PAPER.replace(accumulator=Accumulator(gas_volume=0.5e-3)), 8),
+}
+
+
+@pytest.mark.parametrize("variant", list(_VARIANTS))
+def test_block_size_follows_the_inert_states(variant):
+    params, n_lu = _VARIANTS[variant]
+    p = as_model("full", params).pack(command_amplitude=0.4)
+    assert _n_solve(K.FULL, p) == n_lu
+    assert _n_solve(K.REDUCED, p) == 3  # the load-pressure models have no inert state
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    variant=st.sampled_from(list(_VARIANTS)),
+    seed=st.integers(0, 2**32 - 1),
+    log_hg=st.floats(-9.0, -2.0),
+)
+def test_block_solve_equals_the_dense_solve(variant, seed, log_hg):
+    """x from the kernel's LU of the leading block equals numpy's solve of the whole W.
+
+    J is random with the inert rows and columns zero (as the right-hand side makes them),
+    scaled like the model's (pressure rows ~1e9, others ~1e3); the stage vector b is zero on
+    the inert states (their rates are 0). Relative 1e-9 of |x|: LU with partial pivoting on
+    these well-conditioned W (hγ|J| ≲ 1e3) against LAPACK's.
+    """
+    params, n_lu = _VARIANTS[variant]
+    p = as_model("full", params).pack(command_amplitude=0.4)
+    rng = np.random.default_rng(seed)
+    n = 8
+    J = rng.standard_normal((n, n)) * np.array([1e3, 1e3, 1e9, 1e9, 1e3, 1e3, 1e9, 1e9])[:, None]
+    J[n_lu:, :] = 0.0
+    J[:, n_lu:] = 0.0
+    b = rng.standard_normal(n) * 1e2
+    b[n_lu:] = 0.0
+    hg = 10.0**log_hg
+    W = np.empty((n, n))
+    piv = np.empty(n, dtype=np.int64)
+    _factor(K.FULL, J, W, piv, hg, p)
+    B = b.reshape(1, n).copy()
+    _solve(W, piv, B, 0, n_lu)
+    x = np.linalg.solve(np.eye(n) - hg * J, b)
+    np.testing.assert_allclose(B[0], x, rtol=1e-9, atol=1e-9 * np.max(np.abs(x)))
+    assert np.all(B[0, n_lu:] == 0.0)  # the inert states' stage values stay exactly 0
