@@ -35,6 +35,20 @@ from ..components._physics import (
 )
 from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
 
+#: numba options of the solver's compiled parts: cached on disk, the GIL released, NumPy's
+#: error model, and the fast-math flags that keep NaN/inf semantics (contraction, reciprocal,
+#: no signed zero).
+SOLVER_JIT: dict = {
+    "cache": True,
+    "nogil": True,
+    "error_model": "numpy",
+    "fastmath": {"contract", "arcp", "nsz"},
+}
+#: The same for helpers inlined into the step loop.
+INLINE_JIT: dict = {**SOLVER_JIT, "inline": "always"}
+#: ... that touch only arrays their caller owns (no reference counting, see ``NO_REFCOUNT``).
+INLINE_NRT_JIT: dict = {**INLINE_JIT, **NO_REFCOUNT}
+
 FULL, REDUCED, PWA, CHAMBER = (MODEL_KINDS[k][0] for k in ("full", "reduced", "pwa", "pwa-chamber"))
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
 N_STATES = tuple(len(states) for _kind, states, _what in MODEL_KINDS.values())

@@ -13,10 +13,12 @@ from ._dispatch import _rhs_for
 from ._kcommon import (
     CHAMBER,
     FULL,
+    INLINE_JIT,
     MAX_STEPS,
     N_STATS,
     NON_FINITE,
     OK,
+    SOLVER_JIT,
     ST_JAC,
     ST_REJECTED,
     ST_RHS,
@@ -53,13 +55,7 @@ def _work_arrays(n, n_out, y0):
     )
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    inline="always",
-)
+@njit(**INLINE_JIT)
 def _integrate(
     kind,
     y0,
@@ -135,9 +131,7 @@ def _integrate(
     return Y, k_out, status, t, y, stats
 
 
-@njit(
-    cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"}, **NO_REFCOUNT
-)
+@njit(**SOLVER_JIT, **NO_REFCOUNT)
 def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled step loop)
     """The step loop of :func:`_integrate` on arrays it owns; returns (rows filled, status, t).
 
@@ -280,7 +274,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
     return k_out, status, t
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp", "nsz"})
+@njit(**SOLVER_JIT)
 def _integrate_closed(
     kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
 ):

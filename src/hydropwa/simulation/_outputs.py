@@ -14,6 +14,7 @@ from ._kcommon import (
     FULL,
     I_CLOAD,
     I_PUMP,
+    INLINE_NRT_JIT,
     L_PL,
     L_V,
     L_X,
@@ -49,14 +50,7 @@ from ._rhs_load import _pwa_friction_cell, _reduced_terms, pwa_cells
 from ._signals import NO_REFCOUNT
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    inline="always",
-    **NO_REFCOUNT,
-)
+@njit(**INLINE_NRT_JIT)
 def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
     """Fill output rows with t_out in (t, t + h] by cubic Hermite interpolation; returns the next row.
 
@@ -198,27 +192,9 @@ def _fill_chamber(t_out, Y, n_done, p, sg, out):
     for k in range(n_done):
         u, ps_in, fl = _inputs(t_out[k], sg)
         y = Y[k]
-        (
-            z,
-            _kg,
-            ps,
-            _qa,
-            _qb,
-            _qaz,
-            _qbz,
-            _qapa,
-            _qbpb,
-            _qas,
-            _qbs,
-            _xcap,
-            fk,
-            fd,
-            g,
-            ca,
-            cb,
-            j,
-            w,
-        ) = chamber_terms(y, ps_in, p)
+        terms = chamber_terms(y, ps_in, p)  # positions as chamber_terms returns them
+        z, ps, fk, fd = terms[0], terms[2], terms[12], terms[13]
+        g, ca, cb, j, w = terms[14], terms[15], terms[16], terms[17], terms[18]
         out[N_OUT, k] = g
         out[N_OUT + 1, k] = ca
         out[N_OUT + 2, k] = cb

@@ -13,9 +13,11 @@ from ._dispatch import _exact_derivatives, _literal_kind, _rhs_fd, _rhs_for
 from ._kcommon import (
     CHAMBER,
     FULL,
+    INLINE_NRT_JIT,
     S_KIND_FL,
     S_KIND_PS,
     S_KIND_U,
+    SOLVER_JIT,
     Y_PACC,
     Y_PS,
     _inputs,
@@ -25,14 +27,7 @@ from ._rhs_full import _inert_column
 from ._signals import NO_REFCOUNT
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    inline="always",
-    **NO_REFCOUNT,
-)
+@njit(**INLINE_NRT_JIT)
 def _lu(a, piv, n):
     """In-place LU factorisation with partial pivoting of the leading n×n block of ``a``."""
     for k in range(n):
@@ -60,14 +55,7 @@ def _lu(a, piv, n):
                     a[i, j] -= f * a[k, j]
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    inline="always",
-    **NO_REFCOUNT,
-)
+@njit(**INLINE_NRT_JIT)
 def _solve(a, piv, B, r, n):
     """Solve LU x = B[r] in place (row r of B overwritten with x; no array views in the hot loop)."""
     for k in range(n):
@@ -209,14 +197,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     return nfev
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    inline="always",
-    **NO_REFCOUNT,
-)
+@njit(**INLINE_NRT_JIT)
 def _factor(kind, J, W, piv, hg, p):
     """W = I − hγ J, LU-factorised in place (its leading :func:`_n_solve` block; the rest is I)."""
     n = _n_solve(kind, p)
@@ -227,13 +208,7 @@ def _factor(kind, J, W, piv, hg, p):
     _lu(W, piv, n)
 
 
-@njit(
-    cache=True,
-    nogil=True,
-    error_model="numpy",
-    fastmath={"contract", "arcp", "nsz"},
-    **NO_REFCOUNT,
-)
+@njit(**SOLVER_JIT, **NO_REFCOUNT)
 def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
     """One ROS34PW2 step from (t, y): fills ynew and the error yerr.
 

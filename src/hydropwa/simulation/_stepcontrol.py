@@ -11,13 +11,10 @@ import numpy as np
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from ._kcommon import _CBRT_1E4
-from ._signals import NO_REFCOUNT
-
-_FAST = {"contract", "arcp", "nsz"}
+from ._kcommon import _CBRT_1E4, INLINE_NRT_JIT
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath=_FAST, inline="always", **NO_REFCOUNT)
+@njit(**INLINE_NRT_JIT)
 def _error_norm(n, y, ynew, yerr, atol, rtol):
     """RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|)); and whether ynew is finite."""
     err = 0.0
@@ -30,7 +27,7 @@ def _error_norm(n, y, ynew, yerr, atol, rtol):
     return math.sqrt(err / n), finite
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath=_FAST, inline="always", **NO_REFCOUNT)
+@njit(**INLINE_NRT_JIT)
 def _accepted_factor(err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac):
     """Next-step factor after an accepted step of error ``err`` (≤ 1); returns (factor, cb_acc).
 
@@ -53,7 +50,7 @@ def _accepted_factor(err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac)
     return fac, cb_next
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath=_FAST, inline="always", **NO_REFCOUNT)
+@njit(**INLINE_NRT_JIT)
 def _rejected_factor(err):
     """Step factor after a rejected step of error ``err`` (> 1): 0.9·err^(−1/3), at least 0.2."""
     return max(0.2, 0.9 / np.cbrt(err))
