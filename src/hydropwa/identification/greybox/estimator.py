@@ -328,7 +328,10 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
     if transients is None:
         friction_only = all(n.startswith("friction.") for n in data.names)
         transients = not (c > 0 and data.steady and friction_only)
-    picked, note = selection.select([rd for _r, rd in again], data.names, v_move, transients)
+    groups = [experiment_of(r) for r, _rd in again] if selection.by_experiment else None
+    picked, note = selection.select(
+        [rd for _r, rd in again], data.names, v_move, transients, groups
+    )
     data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
     data.notes.append(note)
     if steady_note:

@@ -28,6 +28,17 @@ __all__ = ["LOSSES", "OutputErrorObjective", "loss_cost", "loss_weights"]
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
 
+def _omega0_table(base: SystemParams, changes: dict[str, float]) -> dict[str, float | tuple]:
+    """``changes`` with a free ω0 carried into the valve's ω0 schedule (Table II) when the
+    base has one: the model reads the schedule, not ``valve.omega0``, so the fit's ω0 scales
+    the whole table by ω0/ω0_base (the FRF fixes its shape, the campaign its level)."""
+    table = base.valve.omega0_table
+    if "valve.omega0" not in changes or not table or not base.valve.omega0 > 0:
+        return changes
+    k = changes["valve.omega0"] / base.valve.omega0
+    return {**changes, "valve.omega0_table": tuple((a, w * k) for a, w in table)}
+
+
 # ----------------------------------------------------------------------------- evaluation
 class OutputErrorObjective:
     """Residuals of all runs for a parameter vector in log coordinates θ = ln(p/ref).
@@ -90,7 +101,7 @@ class OutputErrorObjective:
             and fc > base.friction.static
         ):
             changes["friction.coulomb"] = base.friction.static
-        return base.replace(**changes)
+        return base.replace(**_omega0_table(base, changes))
 
     # simulation ---------------------------------------------------------------------
     def _simulate_segment(
