@@ -84,9 +84,16 @@ class CampaignFit:
 def campaign_options(options: FitOptions | None = None, **settings: Any) -> FitOptions:
     """The joint fit's settings: ``options``/``settings`` as given, with the campaign's
     defaults where they say nothing: the channels of :data:`CAMPAIGN_CHANNELS`, a selection
-    by experiment (always, not only above the threshold)."""
+    by experiment (always, not only above the threshold), and no profiles unless asked for
+    (``profile="weak"``: each costs some 900 simulations; the interval scan still widens
+    every interval where the cost along the parameter's valley rises slower than quadratic)."""
     opts = FitOptions.merged(options, settings)
     changes: dict[str, Any] = {}
+    if options is None and "profile" not in settings:
+        # a profile refits the other twelve parameters at every point: about 900
+        # simulations of the selection each (15 min per parameter on two cores); the
+        # interval scan along each parameter's valley widens the quadratic intervals instead
+        changes["profile"] = "none"
     if opts.channels is None:
         changes["channels"] = CAMPAIGN_CHANNELS
     if opts.selection is None:
