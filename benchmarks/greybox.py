@@ -132,7 +132,9 @@ def joint_case(machine: str, jobs: int, seed: int) -> None:
     )
     for note in fit.data_:
         print("  " + note)
-    print("\n| parameter | true | identify all | joint | error (identify all → joint) | 95 % interval | truth inside |")
+    print(
+        "\n| parameter | true | identify all | joint | error (identify all → joint) | 95 % interval | truth inside |"
+    )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for row in joint.table(truth):
         print(

@@ -93,10 +93,17 @@ def test_the_joint_fit_recovers_the_machine(fitted):
 
 @pytest.mark.slow
 def test_the_held_out_runs_are_reproduced(fitted):
+    """Single shooting over each held-out run: position ≥ 99 % on every run that moves the
+    rod (dead zone, friction, sine); the FRF experiment measures the spool (≥ 98 %): its rod
+    barely moves at 10 % and 20 Hz, and the drift of a whole run in open loop decides x."""
     _truth, got = fitted
     val = got.fit.validation_
     assert val is not None and val.runs
-    assert val.mean["x"] >= 99.0
+    for name, fits in val.runs.items():
+        if name.startswith("frf"):
+            assert fits["spool"] >= 98.0, (name, fits)
+        else:
+            assert fits["x"] >= 99.0, (name, fits)
 
 
 def coverage_share(hits: dict[str, list[bool]]) -> float:

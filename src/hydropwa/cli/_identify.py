@@ -8,7 +8,7 @@ runs are reported as ``warning: ...`` lines (both by the CLI's ``_app``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -433,7 +433,7 @@ def model(
     params = _machine(data_dir, params_source(params_src, base_params))
     begin = _joint_start(start, free, params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
-    settings = dict(
+    settings: dict[str, Any] = dict(
         channels=chans, shooting=Shooting(method=shooting, window=window), starts=starts,
         loss=loss, jobs=jobs, sliding=sliding, validate=validate, scheduler=scheduler,
     )  # fmt: skip

@@ -94,6 +94,12 @@ def campaign_options(options: FitOptions | None = None, **settings: Any) -> FitO
         # simulations of the selection each (15 min per parameter on two cores); the
         # interval scan along each parameter's valley widens the quadratic intervals instead
         changes["profile"] = "none"
+    if options is None and "sliding" not in settings:
+        # the sliding stage refits all but the breakaway parameters on stretches faster than
+        # twice the Stribeck velocity, where the dead zone's creep does nothing (its interval
+        # came out of zero width) and F_c rests on a few reversals (paper rig: −53 %); the
+        # friction runs' steady means pin the sliding friction instead
+        changes["sliding"] = False
     if opts.channels is None:
         changes["channels"] = CAMPAIGN_CHANNELS
     if opts.selection is None:

@@ -34,7 +34,7 @@ def _run_amplitude(rd: RunData) -> float:
     return float(np.max(np.abs(rd.u))) if rd.u.size else 0.0
 
 
-def _omega0_table(base: SystemParams, changes: dict[str, float]) -> dict[str, float | tuple]:
+def _omega0_table(base: SystemParams, changes: dict[str, float]) -> dict[str, Any]:
     """``changes`` with a free ω0 carried into the valve's ω0 schedule (Table II) when the
     base has one: the model reads the schedule, not ``valve.omega0``, so the fit's ω0 scales
     the whole table by ω0/ω0_base (the FRF fixes its shape, the campaign its level)."""
