@@ -369,6 +369,17 @@ def _select(data: FitData, selection: Selection, opts: FitOptions) -> None:
     picked, note = selection.select(
         [rd for _r, rd in again], data.names, v_move, transients, groups
     )
+    if source is not None and data.steady and selection.transients is None:
+        # the damped experiment's runs by their steady means alone (see ``transients``)
+        picked = [
+            dataclasses.replace(rd, segments=[]) if experiment_of(r) == source else rd
+            for (r, _), rd in zip(again, picked, strict=True)
+        ]
+        note += (
+            f" The {source} runs enter by their steady means alone: their measured load force "
+            "holds the counter cylinder's c·ẋ, which the smoothed velocity misses by tens of "
+            "newtons around every motion event."
+        )
     data.pairs = [(r, rd) for (r, _), rd in zip(again, picked, strict=True) if rd.segments]
     data.notes.append(note)
     if steady_note:

@@ -26,7 +26,9 @@ PARAMETER_GROUPS: dict[str, tuple[str, ...]] = {
     ),
     "valve": ("valve.omega0", "valve.zeta"),
     "dead_volumes": ("cylinder.dead_volume_a", "cylinder.dead_volume_b"),
-    "dead_zone": ("dead_zone.beta", "dead_zone.creep_slope"),
+    # the creep slope stays with the dead-zone hinge fit: in a joint fit the blocked chambers'
+    # compressibility drift inside the band passes for creep (heavy axis, no creep: 0.078)
+    "dead_zone": ("dead_zone.beta",),
     "flow": ("flow.K",),
     "bulk_modulus": ("oil.bulk_modulus",),
     "leakage": ("cylinder.leakage",),
