@@ -30,6 +30,11 @@ from hydropwa.rig import Rig, load_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"
 
+# identify all's dead-zone fit on the heavy axis (one command inside its 3 % band per
+# direction) takes 0·inf in the creep slope's standard error (_deadzone.py, k_g's sd: NaN);
+# its value, the start here, is not affected
+pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in matmul:RuntimeWarning")
+
 #: relative tolerances of the per-experiment methods (absolute for β)
 TOLERANCE = {
     "valve.omega0": 0.02,
@@ -114,14 +119,13 @@ def coverage_share(hits: dict[str, list[bool]]) -> float:
 @pytest.mark.study
 @pytest.mark.parametrize("name", ["paper", "industrial"])
 def test_the_intervals_hold_the_truth_over_20_seeds(name, tmp_path):
-    """20 seeds (a budget of 3 s per seed: the selection's share per experiment halves, the
-    intervals widen with it, so coverage is what is tested, not accuracy): the share of
-    (seed, parameter) pairs whose 95 % interval holds the truth lies in 90–98 %. Parameters
-    whose truth is 0 (the heavy axis's leakage and creep) lie outside the fit's log scale and
-    are not counted."""
+    """20 seeds of the recovery test's campaign and settings (no hold-out; 40–100 s per seed
+    on two cores): the share of (seed, parameter) pairs whose 95 % interval holds the truth
+    lies in 90–98 %. Parameters whose truth is 0 (the heavy axis's leakage) lie outside the
+    fit's log scale and are not counted."""
     hits: dict[str, list[bool]] = {}
     for seed in range(1, 21):
-        truth, got = joint_fit(name, tmp_path / f"s{seed}", seed, budget=3.0, validate=0.0)
+        truth, got = joint_fit(name, tmp_path / f"s{seed}", seed, validate=0.0)
         for row in got.table(truth):
             if row["truth"] > 0 and math.isfinite(row["ci_high"]):
                 hits.setdefault(row["parameter"], []).append(row["covered"])
