@@ -348,7 +348,8 @@ def model(
         typer.Option(
             "--sliding/--no-sliding",
             help="With friction.coulomb free: refit all but the breakaway parameters on the "
-            "stretches sliding faster than twice the Stribeck velocity (the sliding stage).",
+            "stretches sliding faster than twice the Stribeck velocity (the sliding stage; not "
+            "in the joint fit of --free all).",
         ),
     ] = True,
     select: Annotated[
@@ -450,6 +451,8 @@ def model(
             )
 
             joint = Selection(method="events", budget=budget, by_experiment=True)
+            if sliding:  # the joint fit's default: no sliding stage (see fit_campaign)
+                settings.pop("sliding")
             fit = fit_campaign(
                 str(data_dir), free, params=params, start=begin, model=model_kind,
                 selection=selection if select != "auto" else joint, progress=progress,

@@ -84,7 +84,8 @@ class CampaignFit:
 def campaign_options(options: FitOptions | None = None, **settings: Any) -> FitOptions:
     """The joint fit's settings: ``options``/``settings`` as given, with the campaign's
     defaults where they say nothing: the channels of :data:`CAMPAIGN_CHANNELS`, a selection
-    by experiment (always, not only above the threshold), and no profiles unless asked for
+    by experiment (always, not only above the threshold), no sliding stage (the friction
+    experiment's steady means pin the sliding friction), and no profiles unless asked for
     (``profile="weak"``: each costs some 900 simulations; the interval scan still widens
     every interval where the cost along the parameter's valley rises slower than quadratic)."""
     opts = FitOptions.merged(options, settings)
