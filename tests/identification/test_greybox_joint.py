@@ -132,3 +132,28 @@ def test_the_intervals_hold_the_truth_over_20_seeds(name, tmp_path):
     share = coverage_share(hits)
     print(name, f"{100 * share:.1f} %", {k: f"{sum(v)}/{len(v)}" for k, v in hits.items()})
     assert 0.90 <= share <= 0.98
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::hydropwa.identification.IdentificationWarning")
+def test_the_cli_joint_fit_starts_from_the_file_identify_all_wrote(tmp_path):
+    """``identify all`` then ``identify model DIR --free all --params identified.toml``: the
+    file carries ``[meta.identification]``, so the joint fit starts from it (the summary
+    says so) instead of running identify all again; K is recovered."""
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+
+    truth = machine("industrial")
+    camp = load_campaign(MACHINES / "joint_campaign.toml")
+    run_campaign(Rig(params=truth), camp, tmp_path / "camp")
+    runner = CliRunner()
+    ident = tmp_path / "identified.toml"
+    got = runner.invoke(app, ["identify", "all", str(tmp_path / "camp"), "--out", str(ident)])
+    assert got.exit_code == 0, got.output
+    out = tmp_path / "fitted.toml"
+    args = ["identify", "model", str(tmp_path / "camp"), "--free", "all", "--params", str(ident)]
+    got = runner.invoke(app, [*args, "--out", str(out), "--jobs", "2", "--quiet"])
+    assert got.exit_code == 0, got.output
+    assert "started from the given start" in out.with_suffix(".md").read_text()
+    assert load_params(out).flow.K == pytest.approx(truth.flow.K, rel=0.02)
