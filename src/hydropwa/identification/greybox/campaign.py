@@ -196,11 +196,7 @@ def fit_campaign(
     first, report, t_start = _start(data, machine, start)
     if progress is not None and start == "identify":
         progress(FitProgress("identify", 0, 0, "end", elapsed=time.perf_counter() - t0))
-    runs = (
-        load_runs(data, params=machine)
-        if isinstance(data, str | bytes) or hasattr(data, "__fspath__")
-        else list(data)
-    )
+    runs = load_runs(data, params=machine)
     fit = fit_model(model, runs, free, params=first, options=opts, progress=progress)
     how = (
         f"identify all on the same data ({t_start:.3g} s)"
