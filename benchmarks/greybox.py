@@ -15,6 +15,14 @@ FOLDER/friction, from 15–50 % off the truth in FOLDER/true_params.toml (made b
 campaign selection (``Selection``) and 10 % of the runs held out for validation; it prints
 the wall time and the machine's load beside the nine-run case's. ``--case sine``,
 ``campaign`` or ``both`` picks what runs (default: sine, or both with ``--campaign``).
+
+Joint fit (issue 36): ``--case joint --machine paper|industrial`` runs the small whole
+campaign of ``tests/machines/joint_campaign.toml`` (FRF, dead zone, friction, sine and load
+runs) on the virtual rig of that machine and fits ``free="all"`` with
+:func:`~hydropwa.identification.fit_campaign`, started from ``identify all`` (K −10 %,
+E +20 % and C_L off for what ``identify all`` does not estimate), 10 % of the runs held out;
+it prints the wall time, the table truth / identify all / joint / interval and the
+validation. ``--case all`` runs the nine-run case, the friction campaign and the joint fit.
 """
 
 from __future__ import annotations
@@ -71,13 +79,78 @@ def main() -> None:
     ap.add_argument("--jobs", default="1,2", help="thread counts to time, comma-separated")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--campaign", type=Path, default=None, help="friction campaign folder")
-    ap.add_argument("--case", choices=("sine", "campaign", "both"), default=None)
+    ap.add_argument("--case", choices=("sine", "campaign", "both", "joint", "all"), default=None)
+    ap.add_argument("--machine", default="paper", help="joint case: paper or industrial")
     args = ap.parse_args()
     case = args.case or ("both" if args.campaign else "sine")
-    if case in ("sine", "both"):
+    if case in ("sine", "both", "all"):
         sine_case(args)
-    if case in ("campaign", "both"):
+    if case in ("campaign", "both", "all"):
         campaign_case(args.campaign or Path("greybox_campaign"), int(args.jobs.split(",")[-1]))
+    if case in ("joint", "all"):
+        joint_case(args.machine, int(args.jobs.split(",")[-1]), args.seed)
+
+
+MACHINES = Path(__file__).parent.parent / "tests" / "machines"
+
+
+def joint_case(machine: str, jobs: int, seed: int) -> None:
+    """The joint fit (``free="all"``) of a small whole campaign, from ``identify all``."""
+    import tempfile
+
+    from hydropwa.identification import fit_campaign
+    from hydropwa.params import load_params
+    from hydropwa.rig import load_campaign, run_campaign
+
+    truth = get_preset("paper") if machine == "paper" else load_params(MACHINES / f"{machine}.toml")
+    campaign = load_campaign(MACHINES / "joint_campaign.toml")
+    nominal = truth.replace(
+        **{
+            "flow.K": 0.9 * truth.flow.K,
+            "oil.bulk_modulus": 1.2 * truth.oil.bulk_modulus,
+            "cylinder.leakage": 0.5 * truth.cylinder.leakage or 1e-13,
+        }
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run_campaign(Rig(params=truth), dataclasses_replace_seed(campaign, seed), Path(tmp))
+        print(f"virtual rig ({machine}): joint campaign in {time.perf_counter() - t0:.1f} s")
+        load0 = os.getloadavg()[0]
+        t0 = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", IdentificationWarning)
+            joint = fit_campaign(
+                tmp, "all", params=nominal, jobs=jobs, validate=0.1,
+                progress=lambda ev: print(f"  {ev}", flush=True) if ev.event == "end" else None,
+            )  # fmt: skip
+        wall = time.perf_counter() - t0
+    fit = joint.fit
+    print(
+        f"joint fit ({machine}): {len(fit.runs_)} runs fitted, jobs={jobs}: {wall:.1f} s, of "
+        f"which identify all {joint.start_time:.1f} s (load average {load0:.1f} → "
+        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores), {fit.message}"
+    )
+    for note in fit.data_:
+        print("  " + note)
+    print(
+        "\n| parameter | true | identify all | joint | error (identify all → joint) | 95 % interval | truth inside |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for row in joint.table(truth):
+        print(
+            f"| {row['parameter']} | {row['truth']:.4g} | {row['start']:.4g} | {row['joint']:.4g} | "
+            f"{100 * row['start_error']:+.2f} % → {100 * row['joint_error']:+.2f} % | "
+            f"[{row['ci_low']:.4g}, {row['ci_high']:.4g}] | {'yes' if row['covered'] else 'no'} |"
+        )
+    if fit.validation_ is not None:
+        print("\n" + fit.validation_.summary())
+
+
+def dataclasses_replace_seed(campaign, seed: int):
+    """The campaign with its noise seed offset by ``seed`` (1: the file's own)."""
+    import dataclasses
+
+    return dataclasses.replace(campaign, seed=campaign.seed + seed - 1)
 
 
 #: the campaign case's start: factors on the truth

@@ -8,7 +8,7 @@ runs are reported as ``warning: ...`` lines (both by the CLI's ``_app``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -289,6 +289,20 @@ def emps(
     typer.echo(text, nl=False)
 
 
+def _joint_start(start: str, free: str, params):
+    """The joint fit's start for ``--start`` (None: the ordinary fit from ``params``):
+    ``auto`` runs identify all first for ``--free all`` unless the parameters came from
+    identify all (their ``[meta.identification]``), then the fit starts from them."""
+    if start not in ("auto", "identify", "params"):
+        raise IdentificationError(f"--start {start!r}: choose auto, identify or params")
+    joint = "all" in [f.strip() for f in free.split(",")]
+    if start == "auto":
+        if not joint:
+            return None
+        return params if "identification" in (params.meta or {}) else "identify"
+    return "identify" if start == "identify" else params
+
+
 @app.command("model")
 def model(
     data_dir: DataDir,
@@ -334,7 +348,8 @@ def model(
         typer.Option(
             "--sliding/--no-sliding",
             help="With friction.coulomb free: refit all but the breakaway parameters on the "
-            "stretches sliding faster than twice the Stribeck velocity (the sliding stage).",
+            "stretches sliding faster than twice the Stribeck velocity (the sliding stage; not "
+            "in the joint fit of --free all).",
         ),
     ] = True,
     select: Annotated[
@@ -365,12 +380,24 @@ def model(
             "local cluster when --jobs > 1 and --starts > 1, else in-process).",
         ),
     ] = None,
+    start: Annotated[
+        str,
+        typer.Option(
+            "--start",
+            help="Where the fit starts: auto (with --free all, run identify all first unless "
+            "--params is a file identify all wrote), identify (run it first) or params.",
+        ),
+    ] = "auto",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
     figures: Figures = None,
     summary: Summary = None,
     force: Force = False,
 ) -> None:
-    """Grey-box fit: simulate the model with each run's measured inputs and fit free parameters."""
+    """Grey-box fit: simulate the model with each run's measured inputs and fit free parameters.
+
+    With --free all (or --start identify) the whole campaign is fitted jointly: every
+    experiment contributes the channels it logs (x, p_a, p_b, spool), started from the
+    per-experiment estimates of identify all."""
     from hydropwa.identification import (  # deferred: loaded only when this command runs (a fast --help)
         Shooting,
         fit_model,
@@ -405,25 +432,32 @@ def model(
     elif (jobs or 1) > 1 and starts > 1:
         scheduler = "local"
     params = _machine(data_dir, params_source(params_src, base_params))
-    runs = load_runs(data_dir, params=params)
+    begin = _joint_start(start, free, params)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
+    settings: dict[str, Any] = dict(
+        channels=chans, shooting=Shooting(method=shooting, window=window), starts=starts,
+        loss=loss, jobs=jobs, sliding=sliding, validate=validate, scheduler=scheduler,
+    )  # fmt: skip
     with fit_progress("grey-box fit", quiet) as progress:
-        fit = fit_model(
-            model_kind,
-            runs,
-            free,
-            params=params,
-            channels=chans,
-            shooting=Shooting(method=shooting, window=window),
-            starts=starts,
-            loss=loss,
-            jobs=jobs,
-            sliding=sliding,
-            selection=selection,
-            validate=validate,
-            scheduler=scheduler,
-            progress=progress,
-        )
+        if begin is None:
+            runs = load_runs(data_dir, params=params)
+            fit = fit_model(
+                model_kind, runs, free, params=params, selection=selection,
+                progress=progress, **settings,
+            )  # fmt: skip
+        else:
+            from hydropwa.identification.greybox import (  # deferred: loaded only when this command runs (a fast --help)
+                fit_campaign,
+            )
+
+            joint = Selection(method="events", budget=budget, by_experiment=True)
+            if sliding:  # the joint fit's default: no sliding stage (see fit_campaign)
+                settings.pop("sliding")
+            fit = fit_campaign(
+                str(data_dir), free, params=params, start=begin, model=model_kind,
+                selection=selection if select != "auto" else joint, progress=progress,
+                **settings,
+            ).fit  # fmt: skip
     fit.save(out, overwrite=force)
     from hydropwa._io import (
         atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)

@@ -81,6 +81,7 @@ from .greybox import (
     Selection,
     Shooting,
     expand_free,
+    fit_campaign,
     fit_model,
 )
 
@@ -141,6 +142,7 @@ __all__ = [
     "FitProgress",
     "FitStatus",
     "expand_free",
+    "fit_campaign",
     "fit_model",
     "OptimizerStatus",
     "RigGeometry",

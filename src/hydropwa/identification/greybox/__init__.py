@@ -13,12 +13,14 @@ The package is cut on the seams of pyPESTO and scipy's ``least_squares``:
 * :mod:`.selection` – which segments of a campaign excite the free parameters;
 * :mod:`.validation` – the fitted model on held-out runs;
 * :mod:`.result`, :mod:`.report` – :class:`GreyBoxFit` and what it reports;
-* :mod:`.estimator` – :func:`fit_model`, the composition of the above.
+* :mod:`.estimator` – :func:`fit_model`, the composition of the above;
+* :mod:`.campaign` – :func:`fit_campaign`, the joint fit of a whole campaign.
 """
 
+from .campaign import CampaignFit, fit_campaign
 from .data import Shooting, noise_level
 from .estimator import FitOptions, fit_model
-from .problem import PARAMETER_GROUPS, GreyBoxProblem, expand_free
+from .problem import JOINT_GROUPS, PARAMETER_GROUPS, GreyBoxProblem, expand_free
 from .result import FitStatus, GreyBoxFit, Identifiability, Profile, RunFit, StageResult
 from .selection import Selection
 from .stages import FitProgress
@@ -26,7 +28,9 @@ from .uncertainty import autocorrelation_time
 from .validation import Validation
 
 __all__ = [
+    "JOINT_GROUPS",
     "PARAMETER_GROUPS",
+    "CampaignFit",
     "FitOptions",
     "FitProgress",
     "FitStatus",
@@ -41,6 +45,7 @@ __all__ = [
     "Validation",
     "autocorrelation_time",
     "expand_free",
+    "fit_campaign",
     "fit_model",
     "noise_level",
 ]

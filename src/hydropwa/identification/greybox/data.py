@@ -118,6 +118,10 @@ class RunData:
     input_noise: dict[str, tuple[float, Any]]
     #: the smoothed measured velocity [m/s] (what the segment selection reads)
     speed: np.ndarray | None = None
+    #: the load damping [N·s/m] the model applies for this run (the ``feedback`` taken out
+    #: of its measured F_L); None: the model's own (a whole campaign: only the friction
+    #: experiment's counter cylinder loads the rod with c·ẋ)
+    damping: float | None = None
 
 
 def noise_level(y: np.ndarray) -> float:
@@ -486,6 +490,7 @@ def prepare_run(
         _measurement_sd(arrays, shooting.velocity_window, dt),
         input_noise,
         states.v_est,
+        feedback if feedback > 0 else None,
     )
 
 

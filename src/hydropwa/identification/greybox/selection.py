@@ -98,6 +98,10 @@ class Selection:
         −7.6 % without, the smoothness +2 % against undetermined; on a set with
         F_c 40 N, F_s 120 N, v_s 10 mm/s F_s +15 % against +115 %. Without them the
         paper set's F_c came out closer (−7.7 % against −15.8 %).
+    by_experiment : bool
+        Share the budget equally between the experiments (``meta["experiment"]``) and
+        spread the runs within each (the joint fit of a whole campaign: otherwise the many
+        runs of one experiment, or the FRF runs' common zero speed, decide which are kept).
     """
 
     method: str = "auto"
@@ -112,6 +116,7 @@ class Selection:
     standstill: bool = True
     steady_means: bool = True
     transients: bool | None = None
+    by_experiment: bool = False
 
     def __post_init__(self) -> None:
         if self.method not in ("auto", "all", "events"):
@@ -137,7 +142,12 @@ class Selection:
         return tuple(kinds)
 
     def select(
-        self, runs: list[RunData], names: Sequence[str], v_move: float, transients: bool = True
+        self,
+        runs: list[RunData],
+        names: Sequence[str],
+        v_move: float,
+        transients: bool = True,
+        groups: Sequence[str | None] | None = None,
     ) -> tuple[list[RunData], str]:
         """The runs with their selected segments, and a sentence saying what was kept.
 
@@ -145,7 +155,10 @@ class Selection:
         at most ``per_run``; when that exceeds the budget, runs are kept evenly spaced over
         the campaign's operating points (ordered by their median speed, signed): neighbouring
         constant-input runs repeat each other. ``transients=False``: no segment (the steady
-        means alone are fitted, see the attribute ``transients``).
+        means alone are fitted, see the attribute ``transients``). ``groups``: each run's
+        experiment; the budget is then shared equally between the experiments (at least two
+        runs each) and the runs are spread within each, so that every experiment of a whole
+        campaign contributes (the joint fit: FRF runs all stand at zero median speed).
         """
         kinds = self.wanted(names)
         seconds = sum(_duration(rd) for rd in runs)
@@ -153,11 +166,7 @@ class Selection:
         n_run = max(2, int(round(self.per_run / per_segment)))
         n_steady = min(n_run - 1, max(1, int(round(self.steady_per_run / per_segment))))
         n_keep = max(1, int(self.budget / (n_run * per_segment)))
-        order = sorted(range(len(runs)), key=lambda k: _median_speed(runs[k]))
-        if n_keep < len(runs):
-            idx = np.unique(np.round(np.linspace(0, len(runs) - 1, n_keep)).astype(int))
-            order = [order[k] for k in idx]
-        kept_runs = set(order)
+        kept_runs = _spread(runs, n_keep, groups)
         out, n_event, got_steady, n_all = [], 0, 0, 0
         for k, rd in enumerate(runs):
             if k not in kept_runs:
@@ -179,12 +188,42 @@ class Selection:
         note = (
             f"Selected {kept:.3g} s of {seconds:.3g} s of data (budget {self.budget:g} s): "
             f"{len(kept_runs)} of {len(runs)} runs, evenly spaced over their speeds "
+            f"{_per_group(kept_runs, groups)}"
             f"(neighbouring operating points repeat each other), and of those {n_event + got_steady}"
             f" of {n_all} segments: {n_event} within {1e3 * self.transient:.0f} ms after {what} "
             f"(they excite {', '.join(names)}) and {got_steady} steady ones "
             f"({n_steady} per run, spread over its steady part: the rest repeats them)."
         )
         return out, note
+
+
+def _spread(runs: list[RunData], n_keep: int, groups: Sequence[str | None] | None) -> set[int]:
+    """Indices of ``n_keep`` runs evenly spaced over their median speeds, within each group
+    (an equal share each, at least two) when ``groups`` is given."""
+    labels = list(groups) if groups is not None else [None] * len(runs)
+    members: dict[str | None, list[int]] = {}
+    for k, g in enumerate(labels):
+        members.setdefault(g, []).append(k)
+    share = max(2, n_keep // len(members)) if groups is not None else n_keep
+    kept: set[int] = set()
+    for idx in members.values():
+        order = sorted(idx, key=lambda k: _median_speed(runs[k]))
+        if share < len(order):
+            pick = np.unique(np.round(np.linspace(0, len(order) - 1, share)).astype(int))
+            order = [order[int(i)] for i in pick]
+        kept.update(order)
+    return kept
+
+
+def _per_group(kept: set[int], groups: Sequence[str | None] | None) -> str:
+    """ "(per experiment: frf 3, …) " for a selection by experiment, else ""."""
+    if groups is None:
+        return ""
+    count: dict[str, int] = {}
+    for k in sorted(kept):
+        g = str(groups[k] or "unlabelled")
+        count[g] = count.get(g, 0) + 1
+    return "(per experiment: " + ", ".join(f"{g} {n}" for g, n in count.items()) + ") "
 
 
 _KIND_WORDS = {

@@ -4,6 +4,7 @@ where the rod slides faster than twice the Stribeck velocity (see :func:`sliding
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -72,7 +73,7 @@ def sliding_runs(
     shooting: Shooting,
     input_cutoff: float | None,
     keep: dict[str, list[tuple[float, float]]] | None = None,
-    feedback: float = 0.0,
+    feedback: float | Callable[[Any], float] = 0.0,
 ) -> tuple[Any, float, list[RunData]] | dict[str, Any]:
     """The sliding stage's data: the model at the full fit's values, v_min = 2 v_s and each
     single-shot run's stretches above it; or a dict with the reason the stage does not apply
@@ -86,8 +87,9 @@ def sliding_runs(
     for r, rd in pairs:
         if rd.method != "single":
             continue
+        fb = feedback(r) if callable(feedback) else feedback
         sl = prepare_again(
-            r, model, channels, shooting, [], input_cutoff, sliding_above=v_min, feedback=feedback
+            r, model, channels, shooting, [], input_cutoff, sliding_above=v_min, feedback=fb
         )
         if sl is not None and keep is not None:  # a campaign's selection: its spans alone
             sl = restrict(sl, keep.get(sl.name, []))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -88,7 +89,7 @@ def validate(
     rtol: float,
     jobs: int | None,
     input_cutoff: float | None,
-    feedback: float = 0.0,
+    feedback: float | Callable[[Any], float] = 0.0,
 ) -> Validation | None:
     """Simulate each held-out run with the parameters ``values`` of ``names`` (``feedback``:
     the load damping the fit took out of the measured force, see ``prepare_run``)."""
@@ -96,8 +97,13 @@ def validate(
     prepared = [
         rd
         for r in held
-        if (rd := prepare_run(r, work_model, channels, whole, [], input_cutoff, feedback=feedback))
-    ]
+        if (
+            rd := prepare_run(
+                r, work_model, channels, whole, [], input_cutoff,
+                feedback=feedback(r) if callable(feedback) else feedback,
+            )
+        )
+    ]  # fmt: skip
     if not prepared:
         return None
     prob = OutputErrorObjective(work_model, prepared, names, channels, rtol, jobs, sigma)
