@@ -30,7 +30,16 @@ from ._display import channel_unit, html_table
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["DerivedResult", "Result", "ResultMixin", "ResultStatus", "Status", "estimate_rows"]
+__all__ = [
+    "DerivedResult",
+    "Result",
+    "ResultMixin",
+    "ResultStatus",
+    "Status",
+    "StatusEnum",
+    "estimate_rows",
+    "status_messages",
+]
 
 
 @runtime_checkable
@@ -50,7 +59,45 @@ class Status(Protocol):
         """What happened and, where it did not succeed, what to change."""
 
 
-class ResultStatus(enum.IntEnum):
+#: Each status enum's messages, by class (:func:`status_messages`).
+_STATUS_MESSAGES: dict[type, dict[Any, str]] = {}
+
+
+class StatusEnum(enum.IntEnum):
+    """Base of the package's status enums (a :class:`Status`): integer codes that say what
+    happened and what to change.
+
+    A subclass lists its members and registers one message per member with
+    :func:`status_messages`; :attr:`success` is true for the member named ``SUCCESS``
+    unless the subclass says otherwise.
+    """
+
+    @property
+    def message(self) -> str:
+        """What happened, and what to change."""
+        return _STATUS_MESSAGES[type(self)][self]
+
+    @property
+    def success(self) -> bool:
+        """True only for ``SUCCESS``."""
+        return self.name == "SUCCESS"
+
+
+def status_messages(cls: type[StatusEnum], messages: dict[Any, str]) -> None:
+    """Register the message of every member of the status enum ``cls``.
+
+    Raises
+    ------
+    TypeError
+        When a member has no message (a status that could not say what happened).
+    """
+    missing = [m.name for m in cls if m not in messages]
+    if missing:
+        raise TypeError(f"{cls.__name__}: no message for {', '.join(missing)}")
+    _STATUS_MESSAGES[cls] = dict(messages)
+
+
+class ResultStatus(StatusEnum):
     """Outcome of a result that has no solver or optimiser status of its own.
 
     Each member's :attr:`message` says what happened and how to fix it (the pattern of
@@ -63,35 +110,28 @@ class ResultStatus(enum.IntEnum):
     CHECK_FAILED = 3
     FAILED = 4
 
-    @property
-    def message(self) -> str:
-        """What happened, and what to change."""
-        return _MESSAGES[self]
 
-    @property
-    def success(self) -> bool:
-        """True only for :attr:`SUCCESS`."""
-        return self is ResultStatus.SUCCESS
-
-
-_MESSAGES = {
-    ResultStatus.SUCCESS: "finished; every part met its tolerance or check",
-    ResultStatus.NOT_CONVERGED: (
-        "the optimiser stopped before meeting a tolerance; give more evaluations or starts, "
-        "better data (wider excitation), or check that the bounds hold the optimum"
-    ),
-    ResultStatus.PARTIAL: (
-        "some parts were not computed (skipped runs or parts; see the result's skipped list "
-        "or notes); add the missing experiments or fix the runs named there"
-    ),
-    ResultStatus.CHECK_FAILED: (
-        "a verification check failed (see summary() for which and by how much); re-tune the "
-        "weights, or relax the criteria only if the target allows it"
-    ),
-    ResultStatus.FAILED: (
-        "a computation inside failed (see the message for which); fix its inputs and run again"
-    ),
-}
+status_messages(
+    ResultStatus,
+    {
+        ResultStatus.SUCCESS: "finished; every part met its tolerance or check",
+        ResultStatus.NOT_CONVERGED: (
+            "the optimiser stopped before meeting a tolerance; give more evaluations or starts, "
+            "better data (wider excitation), or check that the bounds hold the optimum"
+        ),
+        ResultStatus.PARTIAL: (
+            "some parts were not computed (skipped runs or parts; see the result's skipped list "
+            "or notes); add the missing experiments or fix the runs named there"
+        ),
+        ResultStatus.CHECK_FAILED: (
+            "a verification check failed (see summary() for which and by how much); re-tune the "
+            "weights, or relax the criteria only if the target allows it"
+        ),
+        ResultStatus.FAILED: (
+            "a computation inside failed (see the message for which); fix its inputs and run again"
+        ),
+    },
+)
 
 
 @runtime_checkable

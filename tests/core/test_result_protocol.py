@@ -293,3 +293,24 @@ def test_status_enum_messages_are_distinct_and_only_success_succeeds():
     assert len({s.message for s in ResultStatus}) == len(ResultStatus)
     for enum_type in (ResultStatus, SolverStatus, FitStatus):
         assert all(isinstance(s, Status) for s in enum_type)
+
+
+def test_every_status_enum_says_what_happened_for_every_member():
+    """The package's status enums share one base: every member has a message and a verdict."""
+    from hydropwa._result import ResultStatus, StatusEnum, status_messages
+    from hydropwa.identification.greybox.result import FitStatus
+    from hydropwa.simulation import SolverStatus
+
+    for cls in (ResultStatus, SolverStatus, FitStatus):
+        assert issubclass(cls, StatusEnum)
+        for member in cls:
+            assert isinstance(member.message, str) and len(member.message) > 10, member
+    assert [m.success for m in SolverStatus] == [m.name == "SUCCESS" for m in SolverStatus]
+    assert [m.success for m in FitStatus] == [int(m) > 0 for m in FitStatus]  # scipy's rule
+
+    class Half(StatusEnum):
+        SUCCESS = 0
+        BROKEN = 1
+
+    with pytest.raises(TypeError, match="no message for BROKEN"):
+        status_messages(Half, {Half.SUCCESS: "fine"})

@@ -7,17 +7,17 @@ against names rather than integers (an ``IntEnum``, so sweep tables and JSON kee
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
+from .._result import StatusEnum, status_messages
 from . import _kernel as K
 
 __all__ = ["SolverStatus", "SolverStats"]
 
 
-class SolverStatus(enum.IntEnum):
+class SolverStatus(StatusEnum):
     """How an integration ended (the compiled integrator's status codes).
 
     Each member's :attr:`message` says what happened and how to fix it.
@@ -28,31 +28,24 @@ class SolverStatus(enum.IntEnum):
     STEP_TOO_SMALL = K.STEP_COLLAPSE
     NONFINITE = K.NON_FINITE
 
-    @property
-    def message(self) -> str:
-        """What happened, and what to change (diffrax's ``RESULTS`` style)."""
-        return _MESSAGES[self]
 
-    @property
-    def success(self) -> bool:
-        """True only for :attr:`SUCCESS`."""
-        return self is SolverStatus.SUCCESS
-
-
-_MESSAGES = {
-    SolverStatus.SUCCESS: "the integration reached the final time",
-    SolverStatus.MAX_STEPS: (
-        "the step budget (max_steps) was exhausted; raise max_steps or loosen rtol"
-    ),
-    SolverStatus.STEP_TOO_SMALL: (
-        "the step size collapsed below machine precision (the dynamics are too stiff or "
-        "discontinuous here); check the parameters named below, or loosen rtol"
-    ),
-    SolverStatus.NONFINITE: (
-        "the state became non-finite (NaN or inf); check the parameters and inputs named "
-        "below, or tighten rtol / lower hmax"
-    ),
-}
+status_messages(
+    SolverStatus,
+    {
+        SolverStatus.SUCCESS: "the integration reached the final time",
+        SolverStatus.MAX_STEPS: (
+            "the step budget (max_steps) was exhausted; raise max_steps or loosen rtol"
+        ),
+        SolverStatus.STEP_TOO_SMALL: (
+            "the step size collapsed below machine precision (the dynamics are too stiff or "
+            "discontinuous here); check the parameters named below, or loosen rtol"
+        ),
+        SolverStatus.NONFINITE: (
+            "the state became non-finite (NaN or inf); check the parameters and inputs named "
+            "below, or tighten rtol / lower hmax"
+        ),
+    },
+)
 
 
 @dataclass(frozen=True)

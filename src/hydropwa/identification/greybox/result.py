@@ -4,20 +4,19 @@
 from __future__ import annotations
 
 import dataclasses
-import enum
 import os
 from typing import Any
 
 import numpy as np
 
-from ..._result import ResultMixin, estimate_rows
+from ..._result import ResultMixin, StatusEnum, estimate_rows, status_messages
 from ...params import SystemParams, save_params
 from .._common import OptimizerStatus, ParameterEstimate, SkippedRun
 
 __all__ = ["FitStatus", "GreyBoxFit", "Identifiability", "Profile", "RunFit", "StageResult"]
 
 
-class FitStatus(enum.IntEnum):
+class FitStatus(StatusEnum):
     """How a least-squares stage ended (scipy's ``least_squares`` status codes).
 
     Each member's :attr:`message` says what happened and, where it did not converge, what to
@@ -32,11 +31,6 @@ class FitStatus(enum.IntEnum):
     FTOL_XTOL = 4
 
     @property
-    def message(self) -> str:
-        """What happened, and what to change."""
-        return _MESSAGES[self]
-
-    @property
     def success(self) -> bool:
         """True when a tolerance was met (status > 0)."""
         return self > 0
@@ -47,16 +41,19 @@ class FitStatus(enum.IntEnum):
         return cls(int(res.status))
 
 
-_MESSAGES = {
-    FitStatus.IMPROPER_INPUT: "improper input parameters status returned from MINPACK",
-    FitStatus.MAX_EVALUATIONS: (
-        "the maximum number of function evaluations was exceeded; raise max_nfev"
-    ),
-    FitStatus.GTOL: "gtol termination condition is satisfied",
-    FitStatus.FTOL: "ftol termination condition is satisfied",
-    FitStatus.XTOL: "xtol termination condition is satisfied",
-    FitStatus.FTOL_XTOL: "both ftol and xtol termination conditions are satisfied",
-}
+status_messages(
+    FitStatus,
+    {
+        FitStatus.IMPROPER_INPUT: "improper input parameters status returned from MINPACK",
+        FitStatus.MAX_EVALUATIONS: (
+            "the maximum number of function evaluations was exceeded; raise max_nfev"
+        ),
+        FitStatus.GTOL: "gtol termination condition is satisfied",
+        FitStatus.FTOL: "ftol termination condition is satisfied",
+        FitStatus.XTOL: "xtol termination condition is satisfied",
+        FitStatus.FTOL_XTOL: "both ftol and xtol termination conditions are satisfied",
+    },
+)
 
 
 @dataclasses.dataclass(frozen=True)
