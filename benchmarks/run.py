@@ -177,17 +177,18 @@ def bench_batch(n_cases: int, rtol: float) -> list[dict]:
     amps = np.linspace(0.2, 0.6, n_cases)
     inputs = [f"sine:amplitude={a:.4f},frequency=1" for a in amps]
     rows = []
+    paper = get_preset("paper")
     for name in ("full", "reduced"):
-        simulate_batch(name, inputs[:2], duration=1.0, rtol=rtol)
+        simulate_batch(paper, inputs[:2], model=name, duration=1.0, rtol=rtol)
         t1, _ = _best(
             lambda n=name: simulate_batch(
-                n, inputs, duration=DURATION, rtol=rtol, jobs=1, summary=True
+                paper, inputs, model=n, duration=DURATION, rtol=rtol, jobs=1, summary=True
             ),
             3,
         )
         tp, _ = _best(
             lambda n=name: simulate_batch(
-                n, inputs, duration=DURATION, rtol=rtol, jobs=cores, summary=True
+                paper, inputs, model=n, duration=DURATION, rtol=rtol, jobs=cores, summary=True
             ),
             3,
         )

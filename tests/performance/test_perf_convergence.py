@@ -10,6 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from hydropwa.models import as_model
+from hydropwa.params import get_preset
 from hydropwa.simulation import _kernel as K
 from hydropwa.simulation import as_signal, pack_signals, simulate
 from hydropwa.simulation._simulate import _KERNEL_KIND as KIND
@@ -26,7 +27,7 @@ def reference(request):
     (Radau at this tolerance takes minutes through a Python callback; LSODA agrees
     with the kernel's ROS2(3) at rtol 1e-9 to about 1 nm.)
     """
-    model = as_model(request.param)
+    model = as_model(request.param, get_preset("paper"))
     signals = [
         as_signal(U, "", "u"),
         as_signal(model.params.supply.pressure, "Pa", "p_s"),
@@ -59,7 +60,9 @@ def test_position_error_falls_as_the_tolerance_tightens(reference, solver):
     name, x_ref = reference
     errors = []
     for rtol in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
-        res = simulate(name, U, duration=DURATION, rtol=rtol, solver=solver)
+        res = simulate(
+            name, U, params=get_preset("paper"), duration=DURATION, rtol=rtol, solver=solver
+        )
         errors.append(float(np.max(np.abs(res["x"] - x_ref))))
     assert errors[1] < 1e-4  # the benchmark tolerance keeps 0.1 mm
     assert errors[-1] < 1e-7  # 0.1 µm at rtol 1e-7
