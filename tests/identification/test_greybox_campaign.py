@@ -98,15 +98,18 @@ def test_the_start_must_be_the_data_machine():
         _start(None, paper, "best")
 
 
-def test_the_cli_start_rule():
-    """``--start auto``: the ordinary fit unless ``--free all``; then identify all first,
-    unless the parameters are those identify all wrote (their meta.identification)."""
+def test_the_start_rule():
+    """``auto``: the ordinary fit unless ``--free all``; then identify all first, unless the
+    parameters are those identify all wrote (their meta.identification: the library's rule)."""
+    from hydropwa.identification.greybox.campaign import auto_start
+
     p = get_preset("paper")
     identified = dataclasses.replace(p, meta={**p.meta, "identification": {"identified": ["frf"]}})
-    assert _joint_start("auto", "friction", p) is None
-    assert _joint_start("auto", "all", p) == "identify"
-    assert _joint_start("auto", "flow.K, all", identified) is identified
-    assert _joint_start("identify", "flow.K", identified) == "identify"
-    assert _joint_start("params", "flow.K", p) is p
+    assert _joint_start("auto", "friction") is None
+    assert _joint_start("auto", "flow.K, all") == "auto"
+    assert _joint_start("identify", "flow.K") == "identify"
+    assert _joint_start("params", "flow.K") == "params"
+    assert auto_start(p) == "identify"
+    assert auto_start(identified) is identified
     with pytest.raises(IdentificationError, match="choose auto, identify or params"):
-        _joint_start("first", "all", p)
+        _joint_start("first", "all")

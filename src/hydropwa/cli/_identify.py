@@ -289,18 +289,15 @@ def emps(
     typer.echo(text, nl=False)
 
 
-def _joint_start(start: str, free: str, params):
-    """The joint fit's start for ``--start`` (None: the ordinary fit from ``params``):
-    ``auto`` runs identify all first for ``--free all`` unless the parameters came from
-    identify all (their ``[meta.identification]``), then the fit starts from them."""
+def _joint_start(start: str, free: str) -> str | None:
+    """``--start`` for :func:`~hydropwa.identification.greybox.fit_campaign` (None: the
+    ordinary fit): ``auto`` makes ``--free all`` a joint fit (the library then starts from
+    parameters identify all wrote, else runs it first)."""
     if start not in ("auto", "identify", "params"):
         raise IdentificationError(f"--start {start!r}: choose auto, identify or params")
-    joint = "all" in [f.strip() for f in free.split(",")]
-    if start == "auto":
-        if not joint:
-            return None
-        return params if "identification" in (params.meta or {}) else "identify"
-    return "identify" if start == "identify" else params
+    if start == "auto" and "all" not in [f.strip() for f in free.split(",")]:
+        return None
+    return start
 
 
 @app.command("model")
@@ -432,7 +429,7 @@ def model(
     elif (jobs or 1) > 1 and starts > 1:
         scheduler = "local"
     params = _machine(data_dir, params_source(params_src, base_params))
-    begin = _joint_start(start, free, params)
+    begin = _joint_start(start, free)
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
     settings: dict[str, Any] = dict(
         channels=chans, shooting=Shooting(method=shooting, window=window), starts=starts,

@@ -110,6 +110,12 @@ def campaign_options(options: FitOptions | None = None, **settings: Any) -> FitO
     return dataclasses.replace(opts, **changes)
 
 
+def auto_start(params: SystemParams) -> SystemParams | str:
+    """``start="auto"``: ``params`` themselves if ``identify all`` wrote them (their
+    ``meta["identification"]``: they are its estimates already), else ``"identify"``."""
+    return params if "identification" in (params.meta or {}) else "identify"
+
+
 def _start(data: Any, machine: SystemParams, start: Any) -> tuple[SystemParams, Any, float]:
     """The fit's start: ``identify all`` on ``data`` (``start="identify"``), ``machine``
     (``"params"``) or the given parameter set (checked against the machine's geometry)."""
@@ -128,8 +134,8 @@ def _start(data: Any, machine: SystemParams, start: Any) -> tuple[SystemParams, 
         return machine, None, 0.0
     if start != "identify":
         raise IdentificationError(
-            f"start = {start!r}; choose 'identify' (run identify all first), 'params' or give "
-            "a parameter set"
+            f"start = {start!r}; choose 'identify' (run identify all first), 'params', 'auto' "
+            "or give a parameter set"
         )
     t0 = time.perf_counter()
     with warnings.catch_warnings():
@@ -162,11 +168,12 @@ def fit_campaign(
     params : SystemParams, optional
         The machine (geometry, mass, everything not fitted); default the one the data record
         (:func:`~hydropwa.identification.machine_for`).
-    start : "identify", "params" or SystemParams
+    start : "identify", "params", "auto" or SystemParams
         ``"identify"`` (default): run ``identify all`` on the data first (valve FRF, dead
         zone, Stribeck points, Sec. VI) and start from its parameter set; a parameter set
         (e.g. the file ``hydropwa identify all`` wrote): start from it; ``"params"``: start
-        from ``params``. Parameters that ``identify all`` does not estimate (K, E, C_L)
+        from ``params``; ``"auto"``: from ``params`` if ``identify all`` wrote them (their
+        ``meta["identification"]``), else as ``"identify"``. Parameters that ``identify all`` does not estimate (K, E, C_L)
         start from ``params``' values.
     model : "full" or "reduced"
     options, **settings
@@ -190,6 +197,8 @@ def fit_campaign(
 
     opts = campaign_options(options, **settings)
     machine = machine_for(data, params)
+    if start == "auto":
+        start = auto_start(machine)
     t0 = time.perf_counter()
     if progress is not None and start == "identify":
         progress(FitProgress("identify", 0, 0, "begin", elapsed=0.0))
