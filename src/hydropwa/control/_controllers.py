@@ -69,8 +69,6 @@ def position_observer_gains(
     n ~ N(0, ``position_noise``² [m²]). The filter (measurement-update) gain
     L = P Cᵀ (C P Cᵀ + R)⁻¹, P the a-priori covariance of the discrete Riccati equation.
     """
-    from scipy.linalg import solve_discrete_are  # deferred: scipy.linalg costs 0.1-0.5 s
-
     if not (position_noise > 0 and acceleration_noise > 0 and sample_time > 0):
         raise ControlError(
             "position_observer_gains needs a positive sample time [s], position noise [m] and "
@@ -82,9 +80,20 @@ def position_observer_gains(
     Cm = np.array([[1.0, 0.0]])
     Q = G @ G.T * acceleration_noise**2
     R = np.array([[position_noise**2]])
-    P = solve_discrete_are(A.T, Cm.T, Q, R)
-    L = P @ Cm.T @ np.linalg.inv(Cm @ P @ Cm.T + R)
+    L, _ = kalman_gain(A, Cm, Q, R)
     return float(L[0, 0]), float(L[1, 0])
+
+
+def kalman_gain(phi, h, q, r):
+    """Steady-state filter gain L = P Hᵀ(H P Hᵀ + R)⁻¹ and the a-priori covariance P.
+
+    P solves the discrete Riccati equation P = Φ P Φᵀ − Φ P Hᵀ(H P Hᵀ + R)⁻¹ H P Φᵀ + Q.
+    """
+    from scipy.linalg import solve_discrete_are  # deferred: scipy.linalg costs 0.1-0.5 s
+
+    P = solve_discrete_are(phi.T, h.T, q, r)
+    L = P @ h.T @ np.linalg.inv(h @ P @ h.T + r)
+    return L, P
 
 
 def _finite(

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ._controllers import ControlError
+from ._controllers import ControlError, kalman_gain
 from ._design import _discrete, cell_plant, valve_series
 
 __all__ = [
@@ -87,18 +87,6 @@ def _cell_model(A, B, omega0: float, zeta: float):
     G = np.zeros((N_EST, 1))
     G[:5] = Bv
     return F, G
-
-
-def kalman_gain(phi, h, q, r):
-    """Steady-state filter gain L = P Hᵀ(H P Hᵀ + R)⁻¹ and the a-priori covariance P.
-
-    P solves the discrete Riccati equation P = Φ P Φᵀ − Φ P Hᵀ(H P Hᵀ + R)⁻¹ H P Φᵀ + Q.
-    """
-    from scipy.linalg import solve_discrete_are  # deferred: scipy.linalg costs 0.1-0.5 s
-
-    P = solve_discrete_are(phi.T, h.T, q, r)
-    L = P @ h.T @ np.linalg.inv(h @ P @ h.T + r)
-    return L, P
 
 
 def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, process):
