@@ -341,14 +341,14 @@ def model(
         jobs_option("Threads"),
     ] = None,
     sliding: Annotated[
-        bool,
+        bool | None,
         typer.Option(
             "--sliding/--no-sliding",
             help="With friction.coulomb free: refit all but the breakaway parameters on the "
-            "stretches sliding faster than twice the Stribeck velocity (the sliding stage; not "
-            "in the joint fit of --free all).",
+            "stretches sliding faster than twice the Stribeck velocity (the sliding stage; "
+            "default: on, off in the joint fit of --free all).",
         ),
-    ] = True,
+    ] = None,
     select: Annotated[
         str,
         typer.Option(
@@ -433,8 +433,10 @@ def model(
     chans = [c.strip() for c in channels.split(",") if c.strip()] if channels else None
     settings: dict[str, Any] = dict(
         channels=chans, shooting=Shooting(method=shooting, window=window), starts=starts,
-        loss=loss, jobs=jobs, sliding=sliding, validate=validate, scheduler=scheduler,
+        loss=loss, jobs=jobs, validate=validate, scheduler=scheduler,
     )  # fmt: skip
+    if sliding is not None:  # else each fit's own default (fit_model: on; fit_campaign: off)
+        settings["sliding"] = sliding
     with fit_progress("grey-box fit", quiet) as progress:
         if begin is None:
             runs = load_runs(data_dir, params=params)
@@ -448,8 +450,6 @@ def model(
             )
 
             joint = Selection(method="events", budget=budget, by_experiment=True)
-            if sliding:  # the joint fit's default: no sliding stage (see fit_campaign)
-                settings.pop("sliding")
             fit = fit_campaign(
                 str(data_dir), free, params=params, start=begin, model=model_kind,
                 selection=selection if select != "auto" else joint, progress=progress,
