@@ -107,3 +107,30 @@ def test_identifier_on_runs():
     assert abs(ident.dead_zone_.beta - beta) < 0.005
     assert ident.dead_zone_.creep_slope == pytest.approx(0.04, abs=0.005)
     assert len(ident.points_) == LEVELS.size
+
+
+def test_undetermined_creep_is_an_infinite_interval_never_nan():
+    """One command per direction inside the band cannot fix the creep slope and the band edge
+    apart: their std is infinite (the data do not determine them), not NaN from inf − inf."""
+    u = np.array([0.05, 0.12, 0.14, 0.16, 0.18, 0.2])
+    u = np.concatenate([u, -u])
+    rng = np.random.default_rng(1)
+    v = hinge_velocity(u, 0.1, 0.5, 0.02)
+    v = v * (1 + 0.02 * rng.standard_normal(v.size)) + 1e-4 * rng.standard_normal(v.size)
+    fit = fit_dead_zone(u, v)
+    for est in (fit.beta, fit.creep_slope, fit.creep_velocity_slope):
+        assert not np.isnan(est.std) and not np.isnan(est.ci).any()
+    assert fit.creep_slope.std == np.inf
+    assert fit.gain_pos.value == pytest.approx(0.5, rel=0.05)  # the opening's gain still is
+
+
+def test_combination_std_of_a_delta_method_combination():
+    """sqrt(gᵀCg) on the used parameters; an undetermined one makes it inf, an unused one not."""
+    from hydropwa.identification._common import combination_std
+
+    cov = np.array([[4.0, 1.0, np.nan], [1.0, 9.0, np.nan], [np.nan, np.nan, np.inf]])
+    assert combination_std(cov, np.array([0.5, 0.5, 0.0])) == pytest.approx(
+        0.5 * np.sqrt(4 + 9 + 2)
+    )
+    assert combination_std(cov, np.array([1.0, 0.0, 1.0])) == np.inf
+    assert combination_std(np.array([[1.0, -1.0], [-1.0, 1.0]]), np.array([1.0, 1.0])) == 0.0

@@ -390,6 +390,31 @@ def sandwich_covariance(jac: np.ndarray, residuals: np.ndarray) -> np.ndarray:
     return cov
 
 
+def combination_std(cov: np.ndarray, grad: np.ndarray) -> float:
+    """Standard deviation of the linear combination ``grad @ θ`` under covariance ``cov``.
+
+    Parameters
+    ----------
+    cov : ndarray, shape (p, p)
+        Covariance of the estimates; an undetermined parameter has an infinite variance and
+        NaN covariances (:func:`covariance_from_jacobian`).
+    grad : ndarray, shape (p,)
+        Weights of the combination (the gradient of a derived quantity, delta method).
+
+    Returns
+    -------
+    float
+        ``sqrt(gradᵀ·cov·grad)`` over the parameters with a non-zero weight; ``inf`` where one
+        of them is undetermined (never NaN), and never negative from round-off.
+    """
+    g = np.asarray(grad, dtype=float)
+    used = np.flatnonzero(g)
+    sub = np.asarray(cov, dtype=float)[np.ix_(used, used)]
+    if not np.all(np.isfinite(sub)):
+        return float("inf")
+    return float(np.sqrt(max(float(g[used] @ sub @ g[used]), 0.0)))
+
+
 def t_quantile(level: float, dof: int) -> float:
     """Two-sided Student-t quantile for a confidence ``level`` with ``dof`` degrees of freedom."""
     return float(stats.t.ppf(0.5 + 0.5 * level, max(int(dof), 1)))

@@ -31,6 +31,7 @@ from ._common import (
     SkippedRun,
     as_runs,
     channels_of,
+    combination_std,
     estimate,
     not_fitted,
     require_usable,
@@ -448,11 +449,11 @@ def fit_dead_zone(
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     gp, gn, bp, bn, c, dp, dn, cl = best
     beta = 0.5 * (bp + bn)
-    beta_sd = 0.5 * np.sqrt(max(cov[2, 2] + cov[3, 3] + 2 * cov[2, 3], 0.0))
+    beta_sd = combination_std(cov, np.array([0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 0.0, 0.0]))
     gbar = 0.5 * (gp + gn)
     kg = c / gbar
     grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar, 0.0, 0.0, 0.0])
-    kg_sd = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    kg_sd = combination_std(cov, grad)
     return DeadZoneFit(
         beta=estimate(beta, beta_sd, q, "1", level),
         beta_pos=estimate(bp, sd[2], q, "1", level),
