@@ -7,7 +7,9 @@ Usage::
 **Comparison** (issue 34): on the paper rig (trapezoid 50 → 150 mm, 0.2 m/s, 5 m/s²) and the heavy
 axis of ``tests/machines/industrial.toml`` (100 → 400 mm, 0.3 m/s, 3 m/s², 2 kN), full model, one
 sample of delay, sensor noise 20 µm / 0.1 bar / 0.1 bar (seed 1) and exact sensors: the default
-design (``design_state_feedback(delay=True)``: valve-aware LQR per cell with flow feed-forward),
+of ``control design`` (``design_controller(verify=False, delay=True)``: the design below with the
+position observer and the quiet band for the default sensor noise), the design without them
+(``design_state_feedback(delay=True)``: valve-aware LQR per cell with flow feed-forward),
 a textbook PI with velocity feed-forward (crossover min(ω_h, ω0)/3, lowered until the gain margin
 on the sampled plant with valve and delay is 6 dB; integral corner at a fifth of it;
 k_ff = 1/K_v), and ``design_pi(delay=True)`` (``--method pi``), side by side: peak following
@@ -16,7 +18,7 @@ A fourth row: the design with the opt-in noise measures (position observer, dead
 hysteresis h = 0.005); a fifth: the design with the opt-in per-cell Kalman filter
 (``design_cell_estimator`` for the noise below).
 
-**Verification** (``--verify N``, issue 34): the default design and the textbook PI + FF through
+**Verification** (``--verify N``, issue 34): the default of ``control design`` and the textbook PI + FF through
 ``closed_loop_verification`` on each machine (``verify_controller``'s task set on the full model,
 sensor noise 20 µm / 0.1 bar / 0.1 bar, one sample of delay, N parameter draws): the verdict, the
 worst hold peak to peak, trapezoid error, saturation, sign changes per second and limit cycles,
@@ -96,6 +98,7 @@ def compare() -> None:
     from hydropwa.control import (
         as_reference,
         design_cell_estimator,
+        design_controller,
         design_pi,
         design_textbook_pi,
         tracking_metrics,
@@ -113,6 +116,11 @@ def compare() -> None:
         tb, wc = tbd.controller, 2 * np.pi * float(tbd.table["crossover_hz"].iloc[0])
         dsf = design_state_feedback(pwa, delay=True)
         ctrls = {
+            # the default of `control design` (design_controller): the LQR below with the
+            # position observer and the quiet band for the default sensor noise
+            "control design (+ quiet band)": design_controller(
+                pwa, verify=False, delay=True
+            ).controller,
             "design (LQR/cell + feed-forward)": dsf.controller,
             f"textbook PI+FF ({wc / 2 / np.pi:.1f} Hz)": tb,
             "--method pi": design_pi(pwa, delay=True).controller,
@@ -154,7 +162,7 @@ def compare() -> None:
 
 def verify(draws: int) -> None:
     """The verification verdict of the default design beside the textbook PI, both machines."""
-    from hydropwa.control import closed_loop_verification
+    from hydropwa.control import closed_loop_verification, design_controller
     from hydropwa.params import load_params
 
     print(
@@ -164,7 +172,7 @@ def verify(draws: int) -> None:
     for name, (path, *_rest) in MACHINES.items():
         prm = get_preset("paper") if path is None else load_params(path)
         pwa = linearize(prm)
-        ctrl = design_state_feedback(pwa, delay=True).controller
+        ctrl = design_controller(pwa, verify=False, delay=True).controller
         tab = closed_loop_verification(pwa, ctrl, draws=draws)
         for cname, r in tab.iterrows():
             print(

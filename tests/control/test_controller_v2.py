@@ -31,6 +31,7 @@ from hydropwa.control import (
     controller_schema,
     controller_to_dict,
     design_cell_estimator,
+    design_controller,
     design_pi,
     design_state_feedback,
     load_controller,
@@ -230,6 +231,8 @@ def written(paper, paper_pwa, tmp_path_factory):
             position_noise=20e-6,
             dead_zone_hysteresis=0.005,
         ).controller,
+        # the default of `control design`: the observer and the quiet band (schema 2)
+        "quiet": design_controller(paper_pwa, verify=False, delay=True).controller,
         "kalman": dataclasses.replace(
             design_state_feedback(paper_pwa, delay=True).controller,
             estimator=design_cell_estimator(

@@ -43,6 +43,7 @@ from hydropwa.control import (
     StateFeedbackController,
     StepSequence,
     design_cell_estimator,
+    design_controller,
     design_pi,
     design_state_feedback,
     export_c,
@@ -145,8 +146,13 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         d_kf.controller,
         estimator=design_cell_estimator(pwa, d_kf, {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}),
     )
+    # the default of `control design`: the position observer and the quiet band for the
+    # default sensor noise
+    lqr_quiet = design_controller(pwa, verify=False, delay=True).controller
+    assert lqr_quiet.dead_zone_inverse.quiet_band > 0.0
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
+        ("paper lqr quiet band", paper, lqr_quiet),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
         ("paper lqr kalman", paper, lqr_kalman),
@@ -354,7 +360,7 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
     monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 26 \(C law: 25\)\)"):
+    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 27 \(C law: 26\)\)"):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 

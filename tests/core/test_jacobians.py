@@ -194,22 +194,10 @@ def test_exact_and_difference_jacobians_give_the_same_motion(name):
             as_signal(0.0, "N", "f_l"),
         ]
     )
-    Y, n_done, status, *_ = K.integrate(
-        KIND[model.name],
-        model.initial_state(),
-        res.t,
-        p,
-        sg,
-        1e-3,
-        model.state_scale(),
-        1e-5,
-        0.01,
-        1_000_000,
-        K.ROS34PW2,
-        True,
-        True,
-        False,
+    run = K.SolverRun(
+        model.initial_state(), res.t, p, sg, 1e-3, model.state_scale(), 1e-5, 0.01, 1_000_000
     )
+    Y, n_done, status, *_ = K.integrate(KIND[model.name], run, K.ROS34PW2, True, True, False)
     assert status == K.OK and n_done == len(res.t)
     # both within the benchmark's 0.1 mm of the truth, so within 0.2 mm of each other
     assert np.max(np.abs(Y[:, 2] - res["x"])) < 0.2e-3

@@ -354,6 +354,15 @@ def design_command(
             "(default 0: none); quiets the valve at a hold under sensor noise (with --observer).",
         ),
     ] = 0.0,
+    quiet_band: Annotated[
+        bool | None,
+        typer.Option(
+            "--quiet-band/--no-quiet-band",
+            help="Keep the valve closed while the sensor noise alone moves the command: the "
+            "position observer and a quiet band sized from the sensor noise (default: on for "
+            "--method lqr or place with the dead-zone inverse, --model pwa).",
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
@@ -388,6 +397,12 @@ def design_command(
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
     noise = _noise_options(kw, method, sensor_noise, noise_from, observer, dead_zone_hysteresis)
+    if quiet_band and (model_name != "pwa" or method == "pi" or not dzi):
+        raise ControlError(
+            "--quiet-band needs --model pwa, --method lqr or place and the dead-zone inverse"
+        )
+    if model_name == "pwa":
+        kw["quiet"] = quiet_band is not False
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,

@@ -26,11 +26,14 @@ from ._controllers import (
 )
 from ._design import (
     DEFAULT_WEIGHTS,
+    QUIET_FACTOR,
     ControlDesign,
     cell_plant,
+    command_noise,
     design_pi,
     design_state_feedback,
     design_textbook_pi,
+    quiet_band_for,
 )
 from ._design_chamber import design_on_chamber
 from ._estimator import (
@@ -99,6 +102,9 @@ __all__ = [
     "FlowFeedForward",
     "SpoolModel",
     "position_observer_gains",
+    "QUIET_FACTOR",
+    "command_noise",
+    "quiet_band_for",
     "NOISE_CHANNELS",
     "sensor_noise_from",
     "GainRow",

@@ -130,16 +130,24 @@ class DeadZoneInverse:
         the other side within the band gives u = 0 (the middle of the dead zone, closed)
         (``dead_zone_hysteresis`` of the compiled law). Sized from the
         command noise, it keeps sensor noise from throwing the spool across the dead zone.
+    quiet_band : float
+        Quiet band q [1] of the command (0: none; schema 2): the opening asked for is 0 for
+        |c| < q, sign(c)·2(|c| − q) for q ≤ |c| < 2q and c beyond (``quiet_band`` of the
+        compiled law), before the inverse. Sized from the command's noise at a hold
+        (:func:`~hydropwa.control.quiet_band_for`), it keeps the spool in the middle of the
+        dead zone (closed) while the sensor noise alone moves the command.
     """
 
     offset: float = 0.1
     width: float = 0.0
     hysteresis: float = 0.0
+    quiet_band: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
         _finite(self, "width", "1", ge=0.0)
         _finite(self, "hysteresis", "1", ge=0.0)
+        _finite(self, "quiet_band", "1", ge=0.0)
         if self.offset >= 1.0:
             raise ControlError(
                 f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)"
@@ -443,7 +451,13 @@ class _Discrete:
             or self.velocity_filter > 0.0
             or self.position_observer is not None
             or self.spool_model is not None
-            or (self.dead_zone_inverse is not None and self.dead_zone_inverse.hysteresis > 0.0)
+            or (
+                self.dead_zone_inverse is not None
+                and (
+                    self.dead_zone_inverse.hysteresis > 0.0
+                    or self.dead_zone_inverse.quiet_band > 0.0
+                )
+            )
             or self._estimator() is not None
         )
 
@@ -503,6 +517,7 @@ class _Discrete:
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
+            ext[C.X_DZQ] = self.dead_zone_inverse.quiet_band
         est = self._estimator()
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])
@@ -515,6 +530,8 @@ class _Discrete:
         out = {"offset": dz.offset, "width": dz.width}
         if dz.hysteresis > 0.0:  # schema 2 only; files without it read as 0
             out["hysteresis"] = dz.hysteresis
+        if dz.quiet_band > 0.0:  # schema 2 only; files without it read as 0
+            out["quiet_band"] = dz.quiet_band
         return out
 
     def _common(self) -> dict[str, Any]:

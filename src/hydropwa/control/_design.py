@@ -46,6 +46,9 @@ from ._design_result import DesignResult
 __all__ = [
     "ControlDesign",
     "cell_plant",
+    "command_noise",
+    "quiet_band_for",
+    "QUIET_FACTOR",
     "design_pi",
     "design_state_feedback",
     "design_textbook_pi",
@@ -344,6 +347,7 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
     acceleration_noise: float = 1.0,
     spool: str = "estimated",
     dead_zone_hysteresis: float = 0.0,
+    quiet_band: float = 0.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -424,6 +428,10 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         holds within 0.010 mm; without the observer 660/s; h = 0.01 lets the hold hunt
         (up to 0.08 mm). Not enough at the verification's ±50 % force holds (paper rig
         184/s), so off by default.
+    quiet_band : float
+        Quiet band q [1] of the command (:class:`DeadZoneInverse`, schema 2; default 0:
+        none; :func:`quiet_band_for` sizes it from the sensor noise, and
+        :func:`~hydropwa.control.design_controller` does so by default).
 
     Returns
     -------
@@ -579,7 +587,9 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         raise ControlError("no cell could be designed: " + "; ".join(warns))
     dzi = (
         dataclasses.replace(
-            DeadZoneInverse.from_params(prm.dead_zone), hysteresis=float(dead_zone_hysteresis)
+            DeadZoneInverse.from_params(prm.dead_zone),
+            hysteresis=float(dead_zone_hysteresis),
+            quiet_band=float(quiet_band),
         )
         if dead_zone_inverse
         else None
@@ -874,3 +884,60 @@ def design_textbook_pi(
 def _load_pressure_of(model) -> str:
     """The P_L definition of the design model: asymmetric (P_A − α P_B) or the paper's mean-area form."""
     return "asymmetric" if getattr(model, "form", "asymmetric") == "asymmetric" else "mean-area"
+
+
+#: the quiet band in units of the command's noise at a hold (:func:`quiet_band_for`). Measured
+#: on the paper rig (full model, 20 µm / 0.1 bar, one sample of delay, position observer,
+#: hold after the 50 → 150 mm trapezoid): q = 0.004 (1.0σ) 255 sign changes/s, q = 0.006
+#: (1.5σ) 25/s and 0.026 mm peak to peak, q = 0.010 (2.4σ) 5/s but 0.036 mm
+QUIET_FACTOR = 1.5
+
+
+def command_noise(controller, sensor_noise: Mapping[str, float], area_ratio: float) -> np.ndarray:
+    """Standard deviation [1] of each gain row's command c that the sensor noise alone makes at a hold.
+
+    c's noise is k_x ε_x + k_v ε_v + k_pl ε_PL: ε_PL the load-pressure noise of the chamber
+    sensors (P_A − α P_B: σ² = σ_A² + α²σ_B²; the mean-area form scaled by A_A/Ā), and
+    (ε_x, ε_v) the position observer's output noise for white position noise (the
+    discrete Lyapunov equation of its error dynamics ε⁺ = (I − L H) Φ ε + L n), or (n, 0)
+    without the observer (the design's velocity sensor; a velocity filter is not counted).
+    """
+    from scipy.linalg import solve_discrete_lyapunov  # deferred: scipy.linalg at import
+
+    sx = float(sensor_noise.get("x", 0.0))
+    sa, sb = float(sensor_noise.get("p_a", 0.0)), float(sensor_noise.get("p_b", 0.0))
+    spl = math.hypot(sa, area_ratio * sb)
+    if controller.load_pressure == "mean-area":
+        spl *= 2.0 / (1.0 + area_ratio)
+    if controller.position_observer is not None and sx > 0.0:
+        ts = controller.sample_time
+        L = np.array([[controller.position_observer[0]], [controller.position_observer[1]]])
+        A = (np.eye(2) - L @ np.array([[1.0, 0.0]])) @ np.array([[1.0, ts], [0.0, 1.0]])
+        P = solve_discrete_lyapunov(A, L @ L.T * sx**2)
+    else:
+        P = np.diag([sx**2, 0.0])
+    out = []
+    for r in controller.rows:
+        g = np.array([r.k_x, r.k_v])
+        out.append(math.sqrt(float(g @ P @ g) + (r.k_pl * spl) ** 2))
+    return np.array(out)
+
+
+def quiet_band_for(
+    controller, sensor_noise: Mapping[str, float], area_ratio: float, factor: float = QUIET_FACTOR
+) -> float:
+    """Quiet band q [1] for ``controller`` under ``sensor_noise``: ``factor`` times the command noise at a hold.
+
+    The command noise (:func:`command_noise`) is the median over the rows whose box holds
+    a hold (ẋ = 0 and c = 0; all rows if none does). With q the valve stays closed while
+    the noise alone moves the command (:class:`~hydropwa.control.DeadZoneInverse`).
+    """
+    if not (math.isfinite(factor) and factor > 0):
+        raise ControlError(f"quiet band factor {factor!r} must be a positive number")
+    sig = command_noise(controller, sensor_noise, area_ratio)
+    hold = [
+        i
+        for i, r in enumerate(controller.rows)
+        if r.lower[1] <= 0.0 <= r.upper[1] and r.lower[3] <= 0.0 <= r.upper[3]
+    ]
+    return float(factor * np.median(sig[hold] if hold else sig))

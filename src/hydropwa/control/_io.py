@@ -25,6 +25,7 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     offset = 0.1
     width = 0.004167
     hysteresis = 0.005                 # side band h (schema 2; absent: 0, none)
+    quiet_band = 0.0062                # quiet band q (schema 2; absent: 0, none)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }
@@ -205,12 +206,12 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         )
         d["machine"] = {k: _q(m[k], *_MACHINE[k][:2]) for k in _MACHINE if k in m}
     if ctrl.dead_zone_inverse is not None:
-        d["dead_zone_inverse"] = {
-            "offset": ctrl.dead_zone_inverse.offset,
-            "width": ctrl.dead_zone_inverse.width,
-        }
-        if ctrl.dead_zone_inverse.hysteresis > 0.0:  # schema 2; absent reads as 0
-            d["dead_zone_inverse"]["hysteresis"] = ctrl.dead_zone_inverse.hysteresis
+        dz = ctrl.dead_zone_inverse
+        d["dead_zone_inverse"] = {"offset": dz.offset, "width": dz.width}
+        # schema 2 only where set; absent reads as 0
+        d["dead_zone_inverse"].update(
+            {k: getattr(dz, k) for k in ("hysteresis", "quiet_band") if getattr(dz, k) > 0.0}
+        )
     if ctrl.feedforward is not None:
         ff = ctrl.feedforward.describe()
         d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
@@ -290,6 +291,7 @@ def controller_from_dict(d: dict[str, Any]):
                 offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
                 width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
                 hysteresis=_read(dzi.get("hysteresis", 0.0), "", "dead_zone_inverse.hysteresis"),
+                quiet_band=_read(dzi.get("quiet_band", 0.0), "", "dead_zone_inverse.quiet_band"),
             )
         if v2:
             common.update(_read_v2(d))

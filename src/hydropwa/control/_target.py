@@ -104,6 +104,8 @@ _LAYOUT = (
     "X_KFV",
     "X_DZH",
     "X_EST",
+    "X_DZQ",
+    "QUIET_HOLD",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
     "EROW",
@@ -159,7 +161,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 25, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 26, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -167,6 +169,8 @@ LAW_ELEMENTS = (
     "state feedback per PWA cell: gain rows with boxes over [P_L, ẋ, x, c_prev], the previous row tried first, then all in order, the nearest (scaled L1) outside all",
     "constant command u_ff per row",
     "dead-zone inverse with blend width, and with hysteresis of its side (schema 2)",
+    "schema 2: quiet band of the command (closed valve and held integral while the sensor "
+    "noise alone moves the command)",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

@@ -65,6 +65,11 @@ gain row (see :data:`EXT_SLOTS`)::
                  last command until c crosses −s·h, u = 0 on the other side inside the band
                  (:func:`dead_zone_hysteresis`), so sensor noise on a small command does not
                  throw the spool across the dead zone
+    e0+X_DZQ     quiet band q [1] of the command (0: none; :func:`quiet_band`): the opening
+                 asked for is 0 for |c| ≤ q, sign(c)·2(|c| − q) up to |c| = 2q, c beyond; it
+                 goes through the dead-zone inverse, is the c_sat of the saturation memory,
+                 the spool model and the delay, and the integral holds while the opening is
+                 0 and |k_x e| < QUIET_HOLD·q
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -81,7 +86,7 @@ P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensor
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
+quiet band, the dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
@@ -158,6 +163,7 @@ EXT_SLOTS = (
     "kf_v",
     "dz_hyst",
     "est",
+    "dz_quiet",
 )
 (
     X_FF,
@@ -185,11 +191,14 @@ EXT_SLOTS = (
     X_KFV,
     X_DZH,
     X_EST,
+    X_DZQ,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
 XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
 SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
+#: inside the quiet band (e0+X_DZQ) the integral holds while |k_x e| < QUIET_HOLD·q
+QUIET_HOLD = 4.0
 #: per-cell Kalman filter (e0+X_EST on): after the XROW rows, EROW values per gain row:
 #: Φ (7 × 7, row-major), Γ (7), the affine term φ₀ (7), L (7 × 2, row-major) and the
 #: initial values' coefficients (a_vp, a_pp, f_a, f_p)
@@ -252,6 +261,26 @@ def dead_zone_hysteresis(c, offset, width, hyst, side):
     if s == 0.0 or c * s >= 0.0:
         return dead_zone_inverse(c, offset, width), s
     return 0.0, s
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def quiet_band(c, band, ex):
+    """Opening [1] asked for by the command c [1] through the quiet band q = ``band`` [1]; (opening, hold).
+
+    Inside |c| ≤ q the opening is 0 (the spool stays in the middle of the dead zone: no
+    flow, so the command's sensor noise moves nothing); for q < |c| < 2q it rises
+    linearly, sign(c)·2(|c| − q), to meet the opening c at |c| = 2q; beyond 2q it is c.
+    Continuous, so no command jumps the flow. ``hold`` is true where the opening is 0
+    and the position error's share of the command |ex| = |k_x e| is below
+    ``QUIET_HOLD``·q: the integral then holds its value (an integral that kept running
+    inside the band would wind until the valve opens and hunt about the target).
+    """
+    a = abs(c)
+    if a >= 2.0 * band:
+        return c, False
+    if a <= band:
+        return 0.0, abs(ex) < QUIET_HOLD * band
+    return (2.0 * (c - band) if c > 0.0 else 2.0 * (c + band)), False
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -491,26 +520,30 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             if ctl[C_DELAY] > 0.5:
                 c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
         c_raw += c_ff
+    c_open, held = c_raw, False  # the opening asked for (with the quiet band, schema 2)
     if ctl[C_DZINV] < 0.5:
         u_raw = c_raw
-    elif ext and ctl[e0 + X_DZH] > 0.0:
-        u_raw, side = dead_zone_hysteresis(
-            c_raw, ctl[C_DZOFF], ctl[C_DZW], ctl[e0 + X_DZH], cst[S_DZS]
-        )
-        cst[S_DZS] = side
     else:
-        u_raw = dead_zone_inverse(c_raw, ctl[C_DZOFF], ctl[C_DZW])
+        if ext and ctl[e0 + X_DZQ] > 0.0:
+            c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
+        if ext and ctl[e0 + X_DZH] > 0.0:
+            u_raw, side = dead_zone_hysteresis(
+                c_open, ctl[C_DZOFF], ctl[C_DZW], ctl[e0 + X_DZH], cst[S_DZS]
+            )
+            cst[S_DZS] = side
+        else:
+            u_raw = dead_zone_inverse(c_open, ctl[C_DZOFF], ctl[C_DZW])
     u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
-    c_sat = c_raw - (u_raw - u)  # the inverse has slope 1 where the command saturates
+    c_sat = c_open - (u_raw - u)  # the inverse has slope 1 where the command saturates
     log[L_INT, k] = cst[S_INT]
-    if ki != 0.0:
+    if ki != 0.0 and not held:
         aw = int(ctl[C_AW])
         if aw == AW_CLAMP:
             # integrate unless saturated and the error would drive further into the limit
             if u == u_raw or (u_raw > u and e * ki < 0.0) or (u_raw < u and e * ki > 0.0):
                 cst[S_INT] += ts * e
         elif aw == AW_BACK:
-            cst[S_INT] += ts * (e + ctl[C_KT] * (c_sat - c_raw) / ki)
+            cst[S_INT] += ts * (e + ctl[C_KT] * (c_sat - c_open) / ki)
         else:
             cst[S_INT] += ts * e
     if ctl[C_DELAY] > 0.5:

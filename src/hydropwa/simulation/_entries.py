@@ -9,10 +9,15 @@ machine code holds only its own model's right-hand side, Jacobian and stepper (s
 ``_integrate_<model>[_ros23]`` and ``_closed_<model>[_ros23]`` (its on-disk cache file is keyed by
 that name, numba's index by the closure constants).
 
-The argument builders give the entries exactly the types they are compiled for.
+The solver's arguments after the model kind are one :class:`SolverRun` (a named tuple, which numba
+passes into the compiled code as one typed argument), so the argument list is written once: in
+that class. The argument builders give the entries exactly the types they are compiled for.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, NamedTuple, get_type_hints
 
 import numpy as np
 from numba import njit
@@ -38,23 +43,8 @@ def _compiled(fn, name):
 def _open_entry(kind, method):
     """The open-loop entry of model ``kind`` and ``method`` (:func:`~._march._integrate`)."""
 
-    def entry(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac):
-        return _integrate(
-            kind,
-            y0,
-            t_out,
-            p,
-            sg,
-            rtol,
-            scale,
-            h0,
-            hmax,
-            max_steps,
-            method,
-            jac_reuse,
-            gustafsson,
-            exact_jac,
-        )
+    def entry(run, jac_reuse, gustafsson, exact_jac):
+        return _integrate(kind, run, method, jac_reuse, gustafsson, exact_jac)
 
     return _compiled(entry, f"_integrate_{KERNEL_IDS[kind]}{_METHOD_SUFFIX[method]}")
 
@@ -62,10 +52,8 @@ def _open_entry(kind, method):
 def _closed_entry(kind, method):
     """The closed-loop entry of model ``kind`` and ``method`` (:func:`~._march._integrate_closed`)."""
 
-    def entry(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref):
-        return _integrate_closed(
-            kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
-        )
+    def entry(run, ctl, ref, dref):
+        return _integrate_closed(kind, run, method, ctl, ref, dref)
 
     return _compiled(entry, f"_closed_{KERNEL_IDS[kind]}{_METHOD_SUFFIX[method]}")
 
@@ -93,42 +81,62 @@ def _owned(a):
     return a if a.flags.writeable else a.copy()
 
 
-def _open_args(
-    y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
-):
+class SolverRun(NamedTuple):
+    """One integration's problem and tolerances: the solver's arguments after the model kind.
+
+    The one place the solver's argument list is written: :func:`~._kernel.integrate`,
+    :func:`~._kernel.integrate_closed_loop`, the generated entries and
+    :func:`~._march._integrate` pass it on whole, and the compiled code reads its fields by
+    name (numba types a named tuple field by field).
+
+    Attributes
+    ----------
+    y0 : ndarray
+        Initial state.
+    t_out : ndarray
+        Increasing output times [s]; integration runs from t_out[0] to t_out[-1].
+    p : ndarray
+        Packed parameters.
+    sg : ndarray
+        Packed input signals (kinds, parameters, sample times, values, offsets).
+    rtol : float
+        Relative tolerance; the absolute tolerance of state i is rtol·scale[i].
+    scale : ndarray
+        Typical magnitude of each state (SI).
+    h0, hmax : float
+        Initial and largest step [s].
+    max_steps : int
+        Step budget (accepted and rejected steps).
+    """
+
+    y0: np.ndarray
+    t_out: np.ndarray
+    p: np.ndarray
+    sg: np.ndarray
+    rtol: float
+    scale: np.ndarray
+    h0: float
+    hmax: float
+    max_steps: int
+
+    def typed(self) -> SolverRun:
+        """This run with exactly the field types the entries are compiled for (see :func:`_owned`)."""
+        return SolverRun(*(_AS_TYPE[f](v) for f, v in zip(self._fields, self, strict=True)))
+
+
+#: Each :class:`SolverRun` field's conversion to its compiled type, from the class's annotations.
+_CONVERSIONS: dict[Any, Callable[[Any], Any]] = {np.ndarray: _owned, float: float, int: int}
+_AS_TYPE = {f: _CONVERSIONS[hint] for f, hint in get_type_hints(SolverRun).items()}
+
+
+def _open_args(run, jac_reuse, gustafsson, exact_jac):
     """The open-loop entry points' arguments, of exactly the types they are compiled for."""
-    return (
-        _owned(y0),
-        _owned(t_out),
-        _owned(p),
-        _owned(sg),
-        float(rtol),
-        _owned(scale),
-        float(h0),
-        float(hmax),
-        int(max_steps),
-        bool(jac_reuse),
-        bool(gustafsson),
-        bool(exact_jac),
-    )
+    return (SolverRun(*run).typed(), bool(jac_reuse), bool(gustafsson), bool(exact_jac))
 
 
-def _closed_args(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref):
+def _closed_args(run, ctl, ref, dref):
     """The closed-loop entry points' arguments, of exactly the types they are compiled for."""
-    return (
-        _owned(y0),
-        _owned(t_out),
-        _owned(p),
-        _owned(sg),
-        float(rtol),
-        _owned(scale),
-        float(h0),
-        float(hmax),
-        int(max_steps),
-        _owned(ctl),
-        _owned(ref),
-        _owned(dref),
-    )
+    return (SolverRun(*run).typed(), _owned(ctl), _owned(ref), _owned(dref))
 
 
 def _output_args(t_out, Y, n_done, p, sg):

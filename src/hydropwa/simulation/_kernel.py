@@ -97,6 +97,7 @@ from ._entries import (
     _CLOSED_ROS23,
     _ENTRY,
     _ENTRY_ROS23,
+    SolverRun,
     _closed_args,
     _open_args,
     _output_args,
@@ -169,21 +170,26 @@ def point_derivatives(kind, y, u, ps, fl, p):
     return f, J, np.ascontiguousarray(G)
 
 
-def integrate_closed_loop(
-    kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
-):
+def _check_run(kind, run) -> None:
+    """One line if ``run``'s state or scale does not fit model ``kind``."""
+    n = N_STATES[int(kind)]
+    if len(run.y0) != n or len(run.scale) != n:
+        raise ValueError(
+            f"model kind {kind} has {n} states; got y0 of {len(run.y0)}, scale of {len(run.scale)}"
+        )
+
+
+def integrate_closed_loop(kind, run, method, ctl, ref, dref):
     """Closed-loop :func:`integrate`: the compiled controller ``ctl`` sets the valve command.
 
-    Returns (Y, rows filled, status, t, y, stats, log); see :func:`_integrate_closed`.
+    ``run``: the :class:`~._entries.SolverRun`. Returns (Y, rows filled, status, t, y, stats,
+    log); see :func:`_integrate_closed`.
     """
-    if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
-        raise ValueError(
-            f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}"
-        )
-    if sg[S_KIND_U] != 0.0:
+    _check_run(kind, run)
+    if run.sg[S_KIND_U] != 0.0:
         raise ValueError("closed loop: the valve command must be packed as a constant signal")
     entry = (_CLOSED if int(method) == ROS34PW2 else _CLOSED_ROS23)[int(kind)]
-    args = _closed_args(y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, ctl, ref, dref)
+    args = _closed_args(run, ctl, ref, dref)
     # compile (or load) apart from the timed call, with numba's pedantic IR warning silenced as
     # for the open loop (pytest turns a stray compiler warning into a failure)
     prepare(entry, args, f"closed-loop {_KIND_NAMES[int(kind)]} model")
@@ -208,36 +214,17 @@ def _interruptible():
         raise cause.with_traceback(None) from None
 
 
-def integrate(
-    kind,
-    y0,
-    t_out,
-    p,
-    sg,
-    rtol,
-    scale,
-    h0,
-    hmax,
-    max_steps,
-    method=ROS34PW2,
-    jac_reuse=True,
-    gustafsson=True,
-    exact_jac=True,
-):
+def integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exact_jac=True):
     """Integrate model ``kind``: :func:`_integrate` compiled for that model alone.
 
-    Each model has its own entry point in which ``kind`` is a compile-time
-    constant, so its machine code holds only its own right-hand side (compiled on
+    ``run``: the problem and its tolerances, a :class:`~._entries.SolverRun` (y0, t_out, p, sg,
+    rtol, scale, h0, hmax, max_steps). Each model has its own entry point in which ``kind`` is a
+    compile-time constant, so its machine code holds only its own right-hand side (compiled on
     first use, cached on disk). Releases the GIL.
     """
-    if len(y0) != N_STATES[int(kind)] or len(scale) != len(y0):
-        raise ValueError(
-            f"model kind {kind} has {N_STATES[int(kind)]} states; got y0 of {len(y0)}, scale of {len(scale)}"
-        )
+    _check_run(kind, run)
     entry = (_ENTRY if int(method) == ROS34PW2 else _ENTRY_ROS23)[int(kind)]
-    args = _open_args(
-        y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac
-    )
+    args = _open_args(run, jac_reuse, gustafsson, exact_jac)
     prepare(entry, args, f"{_KIND_NAMES[int(kind)]} model")
     with _interruptible():
         return entry(*args)
@@ -285,13 +272,14 @@ def warmup_calls(name):
     if model not in kinds:
         raise ValueError(f"unknown kernel {name!r}; choose from {', '.join(WARMUP_NAMES)}")
     kind = kinds[model]
+    run = SolverRun(z, z, z, z, 0.0, z, 0.0, 0.0, 0)
     if name.startswith("closed-"):
-        args = _closed_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, z, z, zz)
+        args = _closed_args(run, z, z, zz)
         return [(_CLOSED[kind], args, f"closed-loop {_KIND_NAMES[kind]} model")]
     output = (OUTPUTS[kind], _output_args(z, zz, 0, z, z), "output")
     if name.startswith("output-"):
         return [output]
-    args = _open_args(z, z, z, z, 0.0, z, 0.0, 0.0, 0, True, True, True)
+    args = _open_args(run, True, True, True)
     return [(_ENTRY[kind], args, f"{_KIND_NAMES[kind]} model"), output]
 
 

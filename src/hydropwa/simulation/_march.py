@@ -56,44 +56,33 @@ def _work_arrays(n, n_out, y0):
 
 
 @njit(**INLINE_JIT)
-def _integrate(
-    kind,
-    y0,
-    t_out,
-    p,
-    sg,
-    rtol,
-    scale,
-    h0,
-    hmax,
-    max_steps,
-    method=ROS34PW2,
-    jac_reuse=True,
-    gustafsson=True,
-    exact_jac=True,
-):
+def _tolerances(run, jac_reuse, gustafsson, exact_jac):
+    """The step loop's tolerance tuple (:func:`_march`) from a :class:`~._entries.SolverRun`."""
+    rtol = run.rtol
+    return (
+        rtol,
+        run.scale,
+        rtol * run.scale,
+        run.h0,
+        run.hmax,
+        run.max_steps,
+        jac_reuse,
+        gustafsson,
+        exact_jac,
+    )
+
+
+@njit(**INLINE_JIT)
+def _integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exact_jac=True):
     """Integrate model ``kind`` from t_out[0] with a Rosenbrock method, dense output at ``t_out``.
 
     Parameters
     ----------
     kind : int
-        FULL, REDUCED or PWA.
-    y0 : ndarray
-        Initial state.
-    t_out : ndarray
-        Increasing output times [s]; integration runs from t_out[0] to t_out[-1].
-    p : ndarray
-        Packed parameters.
-    sg : ndarray
-        Packed input signals (kinds, parameters, sample times, values, offsets).
-    rtol : float
-        Relative tolerance; the absolute tolerance of state i is rtol·scale[i].
-    scale : ndarray
-        Typical magnitude of each state (SI).
-    h0, hmax : float
-        Initial and largest step [s].
-    max_steps : int
-        Step budget.
+        FULL, REDUCED, PWA or CHAMBER.
+    run : SolverRun
+        The problem and its tolerances: y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps
+        (:class:`~._entries.SolverRun`).
     method : int
         ROS34PW2 (default) or ROS23.
     jac_reuse : bool
@@ -124,9 +113,10 @@ def _integrate(
     The error of a step is the RMS over states of e_i / (atol_i + rtol·max(|y_i|, |y_new,i|));
     the step factor is 0.9·err^(−1/3) (a cube root, cheaper than pow), clipped to [0.2, 5] (no growth right after a rejection).
     """
-    work = _work_arrays(n_states(kind), t_out.shape[0], y0)
-    tol = (rtol, scale, rtol * scale, h0, hmax, max_steps, jac_reuse, gustafsson, exact_jac)
-    k_out, status, t = _march(kind, method, t_out, p, sg, tol, work, (None, None, None, None, None))
+    work = _work_arrays(n_states(kind), run.t_out.shape[0], run.y0)
+    tol = _tolerances(run, jac_reuse, gustafsson, exact_jac)
+    loop = (None, None, None, None, None)
+    k_out, status, t = _march(kind, method, run.t_out, run.p, run.sg, tol, work, loop)
     Y, y, stats = work[0], work[1], work[13]
     return Y, k_out, status, t, y, stats
 
@@ -275,9 +265,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
 
 
 @njit(**SOLVER_JIT)
-def _integrate_closed(
-    kind, y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps, method, ctl, ref, dref
-):
+def _integrate_closed(kind, run, method, ctl, ref, dref):
     """:func:`_integrate` with the discrete controller ``ctl`` in the loop (see :mod:`._controller`).
 
     ``sg`` must hold the valve command as a constant signal; its value slot is the
@@ -285,10 +273,10 @@ def _integrate_closed(
     sample instants t_0 + k·ctl[0], k < len(ref). Returns :func:`_integrate`'s tuple and
     the per-sample log, shape (N_LOG, len(ref)) (rows in :mod:`._controller`).
     """
-    work = _work_arrays(n_states(kind), t_out.shape[0], y0)
-    tol = (rtol, scale, rtol * scale, h0, hmax, max_steps, True, True, True)
+    work = _work_arrays(n_states(kind), run.t_out.shape[0], run.y0)
+    tol = _tolerances(run, True, True, True)
     log = np.full((N_LOG, ref.shape[0]), np.nan)
     loop = (ctl, np.zeros(N_CST), ref, dref, log)
-    k_out, status, t = _march(kind, method, t_out, p, sg, tol, work, loop)
+    k_out, status, t = _march(kind, method, run.t_out, run.p, run.sg, tol, work, loop)
     Y, y, stats = work[0], work[1], work[13]
     return Y, k_out, status, t, y, stats, log

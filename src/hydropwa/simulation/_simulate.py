@@ -27,6 +27,7 @@ from ..params import SystemParams
 from . import _controller as C
 from . import _kernel as K
 from ._controller import eval_rates
+from ._entries import SolverRun
 from ._signals import Constant, Sampled, Signal, as_signal, check_supply_signal, pack_signals
 from ._status import SolverStats, SolverStatus
 
@@ -290,27 +291,13 @@ def _diagnose(params: SystemParams, state: dict[str, float]) -> str:
     )
 
 
-#: The solver arguments :func:`_solver_args` returns (kind … method), for the type checker.
-_SolverArgs = tuple[
-    int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, float, float, int, int
-]
-
-
-def _solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver) -> _SolverArgs:
-    """The arguments :func:`~._kernel.integrate` and its closed-loop twin share, in order."""
-    return (
-        kind,
-        y0,
-        t_out,
-        p,
-        sg,
-        float(rtol),
-        mdl.state_scale(),
-        1e-5,
-        float(hmax),
-        int(max_steps),
-        K.SOLVERS[solver],
-    )
+def _solver_args(
+    kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver
+) -> tuple[int, SolverRun, int]:
+    """The arguments :func:`~._kernel.integrate` and its closed-loop twin share, in order:
+    the model kind, the :class:`~._entries.SolverRun` and the method."""
+    run = SolverRun(y0, t_out, p, sg, float(rtol), mdl.state_scale(), 1e-5, float(hmax), max_steps)
+    return kind, run, K.SOLVERS[solver]
 
 
 def _output_channels(kind, t_out, Y, n_done, p, sg) -> dict[str, np.ndarray]:

@@ -43,6 +43,24 @@ static double hp_dead_zone_hysteresis(double c, double offset, double width, dou
     return 0.0;
 }
 
+/* Quiet band q: the opening asked for is 0 for |c| <= q, sign(c)*2(|c| - q) up to |c| = 2q and c
+ * beyond; *hold is set where the opening is 0 and |ex| = |k_x e| < HP_QUIET_HOLD*q (the integral
+ * then holds its value). */
+static double hp_quiet_band(double c, double band, double ex, int *hold)
+{
+    const double a = c < 0.0 ? -c : c;
+    const double aex = ex < 0.0 ? -ex : ex;
+    *hold = 0;
+    if (a >= 2.0 * band) {
+        return c;
+    }
+    if (a <= band) {
+        *hold = aex < HP_QUIET_HOLD * band;
+        return 0.0;
+    }
+    return c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
+}
+
 /* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
 static double hp_box_distance(int r, double pl, double v, double x, double c)
 {
@@ -245,11 +263,11 @@ static void hp_spool_update(hydropwa_ctrl_state *s, double c_apply)
 
 /* Integral update with the anti-windup of the table (none, clamping, back-calculation). */
 static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
-                         double c_raw, double c_sat)
+                         double c_raw, double c_sat, int held)
 {
     const double ts = T[HP_C_TS];
     const int aw = (int)T[HP_C_AW];
-    if (ki == 0.0) {
+    if (ki == 0.0 || held) {
         return;
     }
     if (aw == HP_AW_CLAMP) {
@@ -313,9 +331,9 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double pl = m->p_l;
     const double r = ref->r;
     double e = r - x;
-    double dpl, pl_fb, ki, c_raw, c_ff, u_raw, u, c_sat, u_apply, c_apply;
+    double dpl, pl_fb, ki, c_raw, c_ff, c_open, u_raw, u, c_sat, u_apply, c_apply;
     const double *b;
-    int row, kal;
+    int row, kal, held;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
@@ -352,18 +370,25 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         c_ff = hp_extension(s, b, row, pl, ref);
         c_raw += c_ff;
     }
+    c_open = c_raw; /* the opening asked for (with the quiet band, schema 2) */
+    held = 0;
     if (T[HP_C_DZINV] < 0.5) {
         u_raw = c_raw;
-    } else if (HP_EXT && X[HP_X_DZH] > 0.0) {
-        u_raw = hp_dead_zone_hysteresis(c_raw, T[HP_C_DZOFF], T[HP_C_DZW], X[HP_X_DZH],
-                                        &s->dz_side);
     } else {
-        u_raw = hp_dead_zone_inverse(c_raw, T[HP_C_DZOFF], T[HP_C_DZW]);
+        if (HP_EXT && X[HP_X_DZQ] > 0.0) {
+            c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
+        }
+        if (HP_EXT && X[HP_X_DZH] > 0.0) {
+            u_raw = hp_dead_zone_hysteresis(c_open, T[HP_C_DZOFF], T[HP_C_DZW], X[HP_X_DZH],
+                                            &s->dz_side);
+        } else {
+            u_raw = hp_dead_zone_inverse(c_open, T[HP_C_DZOFF], T[HP_C_DZW]);
+        }
     }
     u = u_raw > T[HP_C_UMIN] ? u_raw : T[HP_C_UMIN];
     u = u < T[HP_C_UMAX] ? u : T[HP_C_UMAX];
-    c_sat = c_raw - (u_raw - u); /* the inverse has slope 1 where the command saturates */
-    hp_integrate(s, e, ki, u_raw, u, c_raw, c_sat);
+    c_sat = c_open - (u_raw - u); /* the inverse has slope 1 where the command saturates */
+    hp_integrate(s, e, ki, u_raw, u, c_open, c_sat, held);
     if (T[HP_C_DELAY] > 0.5) {
         u_apply = s->pending;
         s->pending = u;

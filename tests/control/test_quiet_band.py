@@ -1,0 +1,172 @@
+"""The quiet band of the command (schema 2, ``DeadZoneInverse.quiet_band``): the default answer of
+``control design`` to sensor noise (issue 34)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hydropwa.control import (
+    QUIET_FACTOR,
+    as_reference,
+    command_noise,
+    design_controller,
+    design_state_feedback,
+    load_controller,
+    quiet_band_for,
+    save_controller,
+    tracking_metrics,
+)
+from hydropwa.linearization import linearize
+from hydropwa.simulation import simulate
+from hydropwa.simulation import _controller as C
+
+NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
+TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
+
+
+@pytest.fixture(scope="module")
+def paper_pwa(paper):
+    return linearize(paper)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    c=st.floats(-1.0, 1.0),
+    d=st.floats(-0.05, 0.05),
+    q=st.floats(1e-4, 0.05),
+    ex=st.floats(-0.5, 0.5),
+)
+def test_quiet_band_is_the_stated_continuous_odd_map(c, d, q, ex):
+    """Opening 0 inside ±q, c beyond ±2q, the line 2(|c| − q) between; odd, Lipschitz 2 (no
+    jump of the flow), and the integral held only inside the band with |k_x e| < 4q."""
+    o, held = C.quiet_band(c, q, ex)
+    if abs(c) <= q:
+        assert o == 0.0
+        assert held == (abs(ex) < C.QUIET_HOLD * q)
+    else:
+        assert not held
+        assert math.copysign(1.0, o) == math.copysign(1.0, c)
+        assert o == (c if abs(c) >= 2 * q else pytest.approx(2 * (c - math.copysign(q, c))))
+    assert C.quiet_band(-c, q, ex)[0] == -o
+    assert abs(C.quiet_band(c + d, q, ex)[0] - o) <= 2.0 * abs(d) + 1e-15
+
+
+def test_command_noise_is_the_observers_output_noise_through_the_gains(paper_pwa):
+    """The closed form (discrete Lyapunov equation of the observer's error) against a Monte
+    Carlo run of the observer equations of docs/controller_target.md on white position and
+    pressure noise, x at rest: 400 000 samples, so the sample std is within 0.5 % (1/√(2N)
+    is 0.11 %, and the samples are correlated over about 1/L_x ≈ 7 samples); bound 2 %."""
+    ctrl = design_state_feedback(paper_pwa, delay=True, position_noise=NOISE["x"]).controller
+    alpha = paper_pwa.params.cylinder.area_b / paper_pwa.params.cylinder.area_a
+    sig = command_noise(ctrl, NOISE, alpha)
+    rng = np.random.default_rng(3)
+    n, ts = 400_000, ctrl.sample_time
+    lx, lv = ctrl.position_observer
+    xm = rng.normal(0.0, NOISE["x"], n)
+    pl = rng.normal(0.0, NOISE["p_a"], n) - alpha * rng.normal(0.0, NOISE["p_b"], n)
+    xh, vh = np.empty(n), np.empty(n)
+    xk, vk = xm[0], 0.0
+    for k in range(n):  # x̂⁻ = x̂ + T v̂, v̂⁻ = v̂ (r̈ = 0); update with the innovation
+        xp = xk + ts * vk
+        inn = xm[k] - xp
+        xk, vk = xp + lx * inn, vk + lv * inn
+        xh[k], vh[k] = xk, vk
+    for i in (0, len(ctrl.rows) // 2, len(ctrl.rows) - 1):
+        r = ctrl.rows[i]
+        c = r.k_x * xh[1000:] + r.k_v * vh[1000:] + r.k_pl * pl[1000:]
+        assert float(np.std(c)) == pytest.approx(sig[i], rel=0.02), r.label
+    # without the observer: the raw position through k_x
+    plain = design_state_feedback(paper_pwa, delay=True).controller
+    r = plain.rows[0]
+    assert command_noise(plain, NOISE, alpha)[0] == pytest.approx(
+        math.hypot(r.k_x * NOISE["x"], r.k_pl * math.hypot(NOISE["p_a"], alpha * NOISE["p_b"]))
+    )
+
+
+def test_default_design_sizes_the_band_from_the_noise_and_writes_it(paper_pwa, tmp_path):
+    """``design_controller`` adds the observer and q = 1.5 σ_c (0.0062 on the paper rig); exact
+    sensors or ``quiet=False`` add neither; the file keeps q and the law packs it."""
+    d = design_controller(paper_pwa, verify=False, delay=True)
+    q = d.controller.dead_zone_inverse.quiet_band
+    alpha = paper_pwa.params.cylinder.area_b / paper_pwa.params.cylinder.area_a
+    assert q == pytest.approx(quiet_band_for(d.controller, NOISE, alpha))
+    assert q == pytest.approx(QUIET_FACTOR * 0.00416, rel=0.05)
+    assert d.controller.position_observer is not None and d.info["quiet_band"] == q
+    for kw in ({"quiet": False}, {"sensor_noise": {}}):
+        other = design_controller(paper_pwa, verify=False, delay=True, **kw).controller
+        assert other.dead_zone_inverse.quiet_band == 0.0 and other.position_observer is None
+    p = tmp_path / "c.toml"
+    save_controller(d.controller, p)
+    back = load_controller(p)
+    assert back.dead_zone_inverse.quiet_band == q
+    ctl = back.pack()
+    e0 = C.C_ROWS + C.ROW * len(back.rows)
+    assert ctl[e0 + C.X_DZQ] == q
+    # the gains go through "<value> <unit>" strings of 10 digits
+    np.testing.assert_allclose(ctl, d.controller.pack(), rtol=1e-9, atol=0)
+
+
+def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper_pwa):
+    """Issue 34's paper-rig numbers, full model, 20 µm / 0.1 bar, one sample of delay, hold over
+    the last 0.2 s of 0.9 s after the 50 → 150 mm trapezoid (seed 1; benchmarks/control.py):
+    measured 25 sign changes/s (960 without the band), hold 0.027 mm (0.062), peak error
+    0.060 mm (0.064). Bounds: the issue's 100/s and 0.03 mm; 0.062 mm for the error (the
+    exact-sensor error grows 0.058 → 0.064 mm with the band: the tolerance stated in
+    docs/control.md)."""
+    out = {}
+    for name, quiet in (("plain", False), ("quiet", True)):
+        ctrl = design_controller(paper_pwa, verify=False, delay=True, quiet=quiet).controller
+        res = simulate(
+            "full",
+            params=paper,
+            duration=0.9,
+            controller=ctrl,
+            reference=as_reference(TRAPEZOID),
+            initial_position=0.05,
+            sensor_noise=NOISE,
+            seed=1,
+        )
+        hold = tracking_metrics(res, t0=0.7).display()
+        pp = float(np.ptp(res["x"][res.t >= 0.7])) * 1e3
+        out[name] = (hold["chattering"], pp, tracking_metrics(res).display()["max_following_error"])
+    assert out["plain"][0] > 500.0, out  # the noise problem is there without the band
+    assert out["quiet"][0] <= 100.0, out
+    assert out["quiet"][1] <= 0.03, out
+    assert out["quiet"][2] <= 0.062, out
+
+
+def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper_pwa):
+    """In closed loop (full model, noise, one sample of delay) every command c inside ±q is
+    applied one sample later as u = 0, and q = 0 in the file gives back the plain law."""
+    d = design_controller(paper_pwa, verify=False, delay=True)
+    q = d.controller.dead_zone_inverse.quiet_band
+    off = dataclasses.replace(
+        d.controller,
+        dead_zone_inverse=dataclasses.replace(d.controller.dead_zone_inverse, quiet_band=0.0),
+    )
+    runs = {}
+    for name, ctrl in (("off", off), ("on", d.controller)):
+        runs[name] = simulate(
+            "full",
+            params=paper,
+            duration=0.9,
+            controller=ctrl,
+            reference=as_reference(TRAPEZOID),
+            initial_position=0.05,
+            sensor_noise=NOISE,
+            seed=1,
+        ).control
+    on = runs["on"]
+    inside = np.flatnonzero(np.abs(on["command"][:-1]) <= q)
+    assert inside.size > 100  # the hold after the move
+    assert np.all(on["u"][inside + 1] == 0.0)
+    off_in = np.flatnonzero(np.abs(runs["off"]["command"][:-1]) <= q)
+    assert np.count_nonzero(runs["off"]["u"][off_in + 1]) > 0.9 * off_in.size
+    e0 = C.C_ROWS + C.ROW * len(off.rows)
+    assert off.pack()[e0 + C.X_DZQ] == 0.0
