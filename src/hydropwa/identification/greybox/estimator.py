@@ -525,8 +525,9 @@ def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estima
     tlo, thi = problem.theta_bounds
     for i, n in enumerate(problem.names):
         v, sd = float(est.values[i]), est.sd[i]
+        half = min(z * sd, 700.0)  # beyond e^700: an interval to 0 or infinity, no overflow
         est.estimates[n] = ParameterEstimate(
-            v, float(v * sd), (float(v * np.exp(-z * sd)), float(v * np.exp(z * sd))),
+            v, float(v * sd), (float(v * np.exp(-half)), float(v * np.exp(half))),
             problem.unit(n), opts.level,
         )  # fmt: skip
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
