@@ -13,7 +13,8 @@ virtual rig's friction campaign (92 constant-counter-force runs, about 244 s at 
 FOLDER/friction, from 15–50 % off the truth in FOLDER/true_params.toml (made by
 ``hydropwa rig run friction --params paper --out FOLDER`` when missing, about 2 minutes), with the
 campaign selection (``Selection``) and 10 % of the runs held out for validation; it prints
-the wall time and the machine's load beside the nine-run case's. ``--case sine``,
+the wall time, the CPU time and the machine's load beside the nine-run case's, and whether
+the issue's target (F_c, F_s, σ within 10 % in at most 3 minutes on two cores) is met. ``--case sine``,
 ``campaign`` or ``both`` picks what runs (default: sine, or both with ``--campaign``).
 
 Joint fit (issue 36): ``--case joint --machine paper|industrial`` runs the small whole
