@@ -133,3 +133,35 @@ def test_points_on_another_valley_widen_a_parameter_they_fall_inside_for(c, rho)
     reach = 2 * Z * abs(rho) * sd[1] if 4 * c <= 1 else 0.0
     want = max(Z * sd[1], reach)
     assert lo[1] == pytest.approx(want, rel=1e-9) and hi[1] == pytest.approx(want, rel=1e-9)
+
+
+def test_an_optimum_at_a_bound_is_reported_as_not_determined():
+    """Issue 36 item 3: a leakage fitted to its lower bound (a tight cylinder) has an
+    interval that reaches that bound and an infinite standard error, and the side the data
+    do bound is kept; a parameter inside its bounds keeps its interval."""
+    import types
+
+    from hydropwa.identification._common import ParameterEstimate
+    from hydropwa.identification.greybox.estimator import _bounded
+    from hydropwa.identification.greybox.problem import GreyBoxProblem
+    from hydropwa.params import get_preset
+
+    names = ("cylinder.leakage", "flow.K")
+    problem = GreyBoxProblem.build(names, get_preset("paper"))
+    tlo, _thi = problem.theta_bounds
+    theta = np.array([tlo[0], 0.0])  # the leakage at its lower bound, K at its start
+    values = problem.ref * np.exp(theta)
+    est = types.SimpleNamespace(
+        problem=problem, theta=theta, at_bound=["cylinder.leakage"],
+        estimates={
+            n: ParameterEstimate(float(v), 0.01 * float(v), (0.99 * v, 1.01 * v))
+            for n, v in zip(names, values, strict=True)
+        },
+    )  # fmt: skip
+    assert _bounded(est, []) == ["cylinder.leakage"]
+    leak = est.estimates["cylinder.leakage"]
+    assert math.isinf(leak.std)
+    assert leak.ci == (pytest.approx(problem.lower[0]), pytest.approx(1.01 * values[0]))
+    assert est.estimates["flow.K"].ci == (0.99 * values[1], 1.01 * values[1])
+    # already undetermined (bounds as its interval): left alone
+    assert _bounded(est, ["cylinder.leakage"]) == []

@@ -81,36 +81,31 @@ def fitted(request, tmp_path_factory):
     return joint_fit(request.param, tmp_path_factory.mktemp(request.param))
 
 
-#: Known open problem (issue 36): on the paper rig the joint fit's friction moves by 10-60 %
-#: with seeds and with changes at the solver-tolerance level (F_c +9.5 % on one build,
-#: -15.6 % on the next; 20-seed interval coverage 64 % against 93 % on the heavy axis), so its
-#: friction is checked as an expected failure there; every other parameter is asserted.
-UNSETTLED = {"paper": ("friction.coulomb", "friction.static", "friction.viscous")}
-
-
 @pytest.mark.slow
 def test_the_joint_fit_recovers_the_machine(fitted, request):
+    """Every parameter within the per-experiment methods' tolerance on both machines. On the
+    paper rig the friction runs' steady means reject the joint friction (``check_friction``):
+    F_c, F_s, σ are identify all's there, with intervals spanning both fits, and the curve's
+    shape is reported as not determined; on the heavy axis they agree and the joint
+    friction stays."""
     truth, got = fitted
     name = request.node.callspec.params["fitted"]
     est = got.fit.estimates_
-    misses = []
     for n, tol in TOLERANCE.items():
         comp, fld = n.split(".")
         want = getattr(getattr(truth, comp), fld)
-        if n in UNSETTLED.get(name, ()):
-            if est[n].value != pytest.approx(want, rel=tol):
-                misses.append(f"{n} {est[n].value / want - 1:+.1%}")
-            continue
         assert est[n].value == pytest.approx(want, rel=tol), n
     assert abs(est["dead_zone.beta"].value - truth.dead_zone.beta) < 0.005
     # it started from identify all (the start's ζ is the FRF's pooled ζ) and K from −10 %
     rows = {row["parameter"]: row for row in got.table(truth)}
     assert rows["valve.zeta"]["start"] == pytest.approx(got.identified.params.valve.zeta)
     assert rows["flow.K"]["start_error"] == pytest.approx(-0.1)
-    if misses:
-        pytest.xfail(
-            f"joint friction on the {name} rig not settled (issue 36): {', '.join(misses)}"
-        )
+    deferred = any("disagree with the joint friction" in note for note in got.fit.data_)
+    assert deferred == (name == "paper")
+    if deferred:
+        ident = got.identified.params.meta["uncertainty"]["friction"]
+        assert est["friction.coulomb"].value == pytest.approx(ident["coulomb"]["value"])
+        assert "friction.smoothness" in got.fit.identifiability_.undetermined
 
 
 @pytest.mark.slow

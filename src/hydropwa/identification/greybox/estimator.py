@@ -525,8 +525,9 @@ def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estima
     tlo, thi = problem.theta_bounds
     for i, n in enumerate(problem.names):
         v, sd = float(est.values[i]), est.sd[i]
+        half = min(z * sd, 700.0)  # beyond e^700: an interval to 0 or infinity, no overflow
         est.estimates[n] = ParameterEstimate(
-            v, float(v * sd), (float(v * np.exp(-z * sd)), float(v * np.exp(z * sd))),
+            v, float(v * sd), (float(v * np.exp(-half)), float(v * np.exp(half))),
             problem.unit(n), opts.level,
         )  # fmt: skip
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
@@ -831,6 +832,7 @@ def fit_model(
         _warn_unconverged(est)
         names = problem.names
         undetermined = _undetermined(est)
+        undetermined += _bounded(est, undetermined)
         weak = _weak(est, undetermined)
         ident = identifiability(
             names, est.cv.H, est.s2, est.inflation, est.corr, weak, est.unconverged
@@ -967,6 +969,26 @@ def _undetermined(est: _Estimate) -> list[str]:
                 e, std=math.inf, ci=(float(est.problem.lower[i]), float(est.problem.upper[i]))
             )
             out.append(n)
+    return out
+
+
+def _bounded(est: _Estimate, undetermined: list[str]) -> list[str]:
+    """Parameters whose optimum lies at a bound (a leakage of nothing at its lower one): the
+    data only say that they lie beyond the rest of their interval, so it reaches the bound
+    on that side and the standard error is infinite (issue 36: never a number with a tiny
+    interval). Returns them."""
+    tlo = est.problem.theta_bounds[0]
+    out = []
+    for i, n in enumerate(est.problem.names):
+        if n not in est.at_bound or n in undetermined:
+            continue
+        e = est.estimates[n]
+        if est.theta[i] - tlo[i] < 1e-3:
+            ci = (float(est.problem.lower[i]), max(e.ci[1], e.value))
+        else:
+            ci = (min(e.ci[0], e.value), float(est.problem.upper[i]))
+        est.estimates[n] = dataclasses.replace(e, std=math.inf, ci=ci)
+        out.append(n)
     return out
 
 

@@ -188,9 +188,11 @@ def estimate(
     """``e`` at ``value`` [SI] with standard error ``sd`` and interval half-widths
     ``half_lo``/``half_hi`` below and above, all in ln p (the fit's coordinates)."""
     v = float(value)
+    # a half-width beyond e^700 (an optimiser stopped far from its optimum adds its whole
+    # remaining step) is an interval to 0 or infinity, not an overflow
     return dataclasses.replace(
         e,
         value=v,
         std=v * float(sd),
-        ci=(v * math.exp(-float(half_lo)), v * math.exp(float(half_hi))),
+        ci=(v * math.exp(-min(float(half_lo), 700.0)), v * math.exp(min(float(half_hi), 700.0))),
     )

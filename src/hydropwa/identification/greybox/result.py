@@ -182,8 +182,9 @@ class Identifiability:
         optimiser stopped short (its step tolerance, in a narrow valley) and their
         intervals describe the local curvature, not the distance to the optimum.
     undetermined : list of str
-        Parameters the data do not determine (the cost does not change with them): reported
-        with an infinite standard error and their bounds as the interval.
+        Parameters the data do not determine (the cost does not change with them, or their
+        optimum lies at a bound): reported with an infinite standard error and an interval
+        that reaches their bounds (at a bound: that one).
     """
 
     condition: float
@@ -376,8 +377,10 @@ class GreyBoxFit(ResultMixin):
             lines += ["", "To separate them: " + "; ".join(idf.advice) + "."]
         if idf.undetermined:
             lines.append(
-                "Not determined by these data (the cost does not change with them; the "
-                "interval is the bounds): " + ", ".join(idf.undetermined) + "."
+                "Not determined by these data (the cost does not change with them, or "
+                "their optimum lies at a bound; the interval reaches the bounds): "
+                + ", ".join(idf.undetermined)
+                + "."
             )
         sl = self.sliding_
         if sl.get("parameters"):
