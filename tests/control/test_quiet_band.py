@@ -23,8 +23,8 @@ from hydropwa.control import (
     tracking_metrics,
 )
 from hydropwa.linearization import linearize
-from hydropwa.simulation import simulate
 from hydropwa.simulation import _controller as C
+from hydropwa.simulation import simulate
 
 NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
@@ -44,7 +44,7 @@ def paper_pwa(paper):
 )
 def test_quiet_band_is_the_stated_continuous_odd_map(c, d, q, ex):
     """Opening 0 inside ±q, c beyond ±2q, the line 2(|c| − q) between; odd, Lipschitz 2 (no
-    jump of the flow), and the integral held only inside the band with |k_x e| < 4q."""
+    jump of the flow), and the integral held only inside the band with |k_x e| < 8q."""
     o, held = C.quiet_band(c, q, ex)
     if abs(c) <= q:
         assert o == 0.0
