@@ -324,7 +324,7 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
         text = header.read_text(encoding="utf-8")
     else:
         text = header
-    types = {"double": ctypes.c_double, "int": ctypes.c_int}
+    types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}
     out: dict[str, type] = {}
     for body, name in re.findall(r"typedef struct \{(.*?)\}\s*(\w+);", text, flags=re.S):
         body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
