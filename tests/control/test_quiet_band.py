@@ -194,3 +194,23 @@ def test_the_observer_is_made_faster_where_it_limit_cycles_the_corner_plant(indu
         d.controller, corner_parameters(industrial), draws=1, tasks=tasks, sensor_noise={}
     )
     assert v.metrics["limit_cycles"] == 0 and v.metrics["hold_peak_to_peak_mm"] <= 0.1, v.metrics
+
+
+def test_cli_quiet_band_is_on_by_default_and_can_be_turned_off(tmp_path, capsys):
+    """`control design` writes the quiet band and the observer; --no-quiet-band neither; asking
+    for it where it cannot act is one line, exit 2, nothing written."""
+    from hydropwa.cli import main
+
+    on, off, pi = tmp_path / "on.toml", tmp_path / "off.toml", tmp_path / "pi.toml"
+    base = ["control", "design", "-p", "paper", "--no-verify", "--out"]
+    assert main([*base, str(on)]) == 0
+    assert main([*base, str(off), "--no-quiet-band"]) == 0
+    a, b = load_controller(on), load_controller(off)
+    assert a.dead_zone_inverse.quiet_band == pytest.approx(0.00625, rel=0.05)
+    assert a.position_observer is not None
+    assert b.dead_zone_inverse.quiet_band == 0.0 and b.position_observer is None
+    capsys.readouterr()
+    assert main([*base, str(pi), "--method", "pi", "--quiet-band"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --quiet-band needs") and err.count("\n") == 1
+    assert not pi.exists()
