@@ -490,12 +490,13 @@ def design_controller(
     quiet : bool
         State feedback with the dead-zone inverse (default): answer the sensor noise
         (``sensor_noise``, default :data:`DEFAULT_SENSOR_NOISE`) with the position observer
-        (:func:`~hydropwa.control.position_observer_gains` for its position noise and
-        ``acceleration_noise``, default 1 m/s², unless ``position_noise`` is given) and the
+        (:func:`~hydropwa.control.position_observer_gains` for its position noise, unless
+        ``position_noise`` is given; ``acceleration_noise`` 1 m/s², or 10 / 100 m/s² where the
+        slower observer limit-cycles on :func:`corner_parameters`, unless given) and the
         quiet band :func:`~hydropwa.control.quiet_band_for` (the valve stays closed and the
         integral holds while the noise alone moves the command). Measured on the full model,
         20 µm / 0.1 bar, one sample of delay: paper rig hold after the trapezoid 960 → 25
-        command sign changes/s, heavy axis 620 → 5/s (``benchmarks/control.py``). No
+        command sign changes/s, heavy axis 620 → 0/s (``benchmarks/control.py``). No
         effect on exact sensors (``sensor_noise={}``) or without the inverse.
     **design_kwargs
         Passed to the design function (``sample_time``, ``delay``, ``load_force``...).
