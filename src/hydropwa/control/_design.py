@@ -347,7 +347,6 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
     acceleration_noise: float = 1.0,
     spool: str = "estimated",
     dead_zone_hysteresis: float = 0.0,
-    quiet_band: float = 0.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -428,10 +427,6 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         holds within 0.010 mm; without the observer 660/s; h = 0.01 lets the hold hunt
         (up to 0.08 mm). Not enough at the verification's ±50 % force holds (paper rig
         184/s), so off by default.
-    quiet_band : float
-        Quiet band q [1] of the command (:class:`DeadZoneInverse`, schema 2; default 0:
-        none; :func:`quiet_band_for` sizes it from the sensor noise, and
-        :func:`~hydropwa.control.design_controller` does so by default).
 
     Returns
     -------
@@ -587,9 +582,7 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         raise ControlError("no cell could be designed: " + "; ".join(warns))
     dzi = (
         dataclasses.replace(
-            DeadZoneInverse.from_params(prm.dead_zone),
-            hysteresis=float(dead_zone_hysteresis),
-            quiet_band=float(quiet_band),
+            DeadZoneInverse.from_params(prm.dead_zone), hysteresis=float(dead_zone_hysteresis)
         )
         if dead_zone_inverse
         else None

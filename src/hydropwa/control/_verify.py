@@ -511,12 +511,7 @@ def design_controller(
         raise ControlError(f"method {method!r} must be lqr, place or pi")
 
     noise = dict(DEFAULT_SENSOR_NOISE if sensor_noise is None else sensor_noise)
-    quiet = quiet and method != "pi" and bool(design_kwargs.get("dead_zone_inverse", True))
-    auto_observer = (
-        quiet and noise.get("x", 0.0) > 0.0 and design_kwargs.get("position_noise") is None
-    )
-    if auto_observer:
-        design_kwargs["position_noise"] = float(noise["x"])
+    quiet, auto_observer = _quiet_setup(quiet, method, noise, design_kwargs)
 
     def design(w):
         if method == "pi":
@@ -551,6 +546,12 @@ def design_controller(
         d = design({"u": u_max})
         v = verify_controller(d.controller, prm, **kw)
         tried.append((_stability_failures(v), d, v, u_max))
+    return _with_verdict(tried, weights)
+
+
+def _with_verdict(tried, weights):
+    """The first design of ``tried`` that passed (else the one with the fewest stability
+    failures), with the verdict and the re-tuning history in its controller and info."""
     best = next((t for t in tried if t[2].passed), min(tried, key=lambda t: t[0]))
     _n, d, v, u_used = best
     ver = v.to_dict()
@@ -563,6 +564,16 @@ def design_controller(
     d.verification = v
     d.info["verification"] = ver["verdict"]
     return d
+
+
+def _quiet_setup(quiet: bool, method: str, noise: Mapping[str, float], design_kwargs: dict):
+    """(quiet band on, observer chosen here): on for state feedback with the inverse; the
+    observer for the position noise unless ``position_noise`` is given (set in ``design_kwargs``)."""
+    quiet = quiet and method != "pi" and bool(design_kwargs.get("dead_zone_inverse", True))
+    auto = quiet and noise.get("x", 0.0) > 0.0 and design_kwargs.get("position_noise") is None
+    if auto:
+        design_kwargs["position_noise"] = float(noise["x"])
+    return quiet, auto
 
 
 #: the corner of :data:`DRAWS` with the softest, heaviest, least damped plant, and the loads of the
