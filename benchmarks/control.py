@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/control.py [--repeat 5] [--duration 10] [--no-cost] [--no-compare] [--verify N]
+        [--holds N]
 
 **Comparison** (issue 34): on the paper rig (trapezoid 50 → 150 mm, 0.2 m/s, 5 m/s²) and the heavy
 axis of ``tests/machines/industrial.toml`` (100 → 400 mm, 0.3 m/s, 3 m/s², 2 kN), full model, one
@@ -23,6 +24,10 @@ hysteresis h = 0.005); a fifth: the design with the opt-in per-cell Kalman filte
 sensor noise 20 µm / 0.1 bar / 0.1 bar, one sample of delay, N parameter draws): the verdict, the
 worst hold peak to peak, trapezoid error, saturation, sign changes per second and limit cycles,
 and the first failed check.
+
+**Holds** (``--holds N``, issue 34): the heavy axis's holds after the task set's steps at ±5 kN
+over N parameter draws, the default of ``control design`` against the design without the quiet
+band: worst peak to peak, holds above 0.1 mm, limit cycles, sign changes.
 
 Case: the paper rig (preset ``paper``), the LQR designed on its PWA model
 (``design_state_feedback``, 70 cells, 2 kHz), tracking a 50 mm, 0.5 Hz sine about
@@ -182,6 +187,32 @@ def verify(draws: int) -> None:
             )
 
 
+def holds(draws: int) -> None:
+    """Issue 34's heavy-axis check: the holds of the task set's steps at ±5 kN over ``draws``
+    parameter sets (nominal + draws − 1), the default of ``control design`` against the design
+    without the quiet band, exact and noisy sensors (20 µm / 0.1 bar), one sample of delay."""
+    from hydropwa.control import design_controller, task_set, verify_controller
+    from hydropwa.params import load_params
+
+    path = MACHINES["heavy axis"][0]
+    prm = load_params(path)
+    pwa = linearize(prm)
+    f_max = prm.supply.pressure * prm.cylinder.area_a
+    tasks = [t for t in task_set(prm, load_fraction=5000.0 / f_max) if t.name.startswith("steps")]
+    print(f"heavy axis, steps at +-5 kN, {draws} draws x {len(tasks)} tasks, holds peak to peak")
+    for cname, quiet in (("control design (+ quiet band)", True), ("design without", False)):
+        ctrl = design_controller(pwa, verify=False, delay=True, quiet=quiet).controller
+        for sensors, noise in (("exact", {}), ("noisy", NOISE)):
+            v = verify_controller(ctrl, prm, draws=draws, tasks=tasks, sensor_noise=noise)
+            pps = [r["hold_pp"] * 1e3 for r in v.runs if "hold_pp" in r]
+            print(
+                f"  {cname:<31}{sensors:<7} worst {max(pps):.3f} mm, above 0.1 mm "
+                f"{sum(p > 0.1 for p in pps)} of {len(pps)}, limit cycles "
+                f"{v.metrics['limit_cycles']:.0f}, sign changes <= "
+                f"{v.metrics['sign_changes_per_s']:.0f}/s"
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -191,7 +222,12 @@ def main() -> None:
     ap.add_argument(
         "--verify", type=int, default=0, metavar="N", help="verification verdicts with N draws"
     )
+    ap.add_argument(
+        "--holds", type=int, default=0, metavar="N", help="heavy-axis +-5 kN holds over N draws"
+    )
     args = ap.parse_args()
+    if args.holds > 0:
+        holds(args.holds)
     if args.verify > 0:
         verify(args.verify)
     if not args.no_compare:

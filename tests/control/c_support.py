@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from hydropwa._layout import Y_FULL, Y_LOAD
+from hydropwa.control import c_structs
 from hydropwa.simulation import _controller as C
 
 #: the flags the issue requires the generated C to compile cleanly with
@@ -23,45 +24,11 @@ STRICT = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-c
 GCC = shutil.which("gcc")
 
 
-class Meas(ctypes.Structure):
-    _fields_ = [("x", ctypes.c_double), ("v", ctypes.c_double), ("p_l", ctypes.c_double)]
-
-
-class State(ctypes.Structure):
-    _fields_ = [
-        ("integral", ctypes.c_double),
-        ("p_l_prev", ctypes.c_double),
-        ("dp_l", ctypes.c_double),
-        ("pending", ctypes.c_double),
-        ("c_prev", ctypes.c_double),
-        ("p_l_bar", ctypes.c_double),
-        ("row", ctypes.c_int),
-        ("started", ctypes.c_int),
-        ("c_raw", ctypes.c_double),
-        ("u_new", ctypes.c_double),
-        ("x_prev", ctypes.c_double),
-        ("v_hat", ctypes.c_double),
-        ("p_ref_bar", ctypes.c_double),
-        ("nu", ctypes.c_double),
-        ("dnu", ctypes.c_double),
-        ("c_pending", ctypes.c_double),
-        ("x_kf", ctypes.c_double),
-        ("v_kf", ctypes.c_double),
-        ("acc_prev", ctypes.c_double),
-        ("c_ff", ctypes.c_double),
-        ("dz_side", ctypes.c_double),
-        ("z", ctypes.c_double * 7),
-        ("c_in", ctypes.c_double),
-    ]
-
-
-class Ref(ctypes.Structure):
-    _fields_ = [
-        ("r", ctypes.c_double),
-        ("r_rate", ctypes.c_double),
-        ("r_rate_ff", ctypes.c_double),
-        ("r_acc", ctypes.c_double),
-    ]
+#: ctypes mirrors of the C structs, read from the shipped header (``c_structs``)
+_STRUCTS = c_structs()
+Meas = _STRUCTS["hydropwa_ctrl_meas"]
+State = _STRUCTS["hydropwa_ctrl_state"]
+Ref = _STRUCTS["hydropwa_ctrl_ref"]
 
 
 def compile_shared(src: Path, out: Path, extra: tuple[str, ...] = ()) -> ctypes.CDLL:

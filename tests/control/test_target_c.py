@@ -512,3 +512,25 @@ def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'mpc'" in err[0], err
     assert not (tmp_path / "d").exists()
+
+
+def test_c_structs_mirror_the_header_field_by_field():
+    """The ctypes structs come from the header (the lockstep tests and tutorial 04 use them):
+    every field in order with its type and array length; a type it cannot mirror is one line."""
+    import ctypes
+
+    from hydropwa.control import c_structs
+
+    s = c_structs()
+    state = dict(s["hydropwa_ctrl_state"]._fields_)
+    names = [n for n, _t in s["hydropwa_ctrl_state"]._fields_]
+    assert names[:2] == ["integral", "p_l_prev"] and names[-2:] == ["z", "c_in"]
+    assert state["row"] is ctypes.c_int and state["z"]._length_ == 7
+    assert [n for n, _t in s["hydropwa_ctrl_ref"]._fields_] == [
+        "r",
+        "r_rate",
+        "r_rate_ff",
+        "r_acc",
+    ]
+    with pytest.raises(ControlError, match=r"cannot mirror 'float y' of struct odd"):
+        c_structs("typedef struct {\n    double x; /* m */\n    float y;\n} odd;")

@@ -58,7 +58,7 @@ _SIGNALS = (
 EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
     ("control/_design.py", "design_state_feedback"): (198, 18, _OWNED + "; " + _API),
     ("control/_design.py", "design_pi"): (98, 14, _OWNED + "; " + _API),
-    ("control/_verify.py", "design_controller"): (43, 12, _OWNED + "; " + _API),
+    ("control/_verify.py", "design_controller"): (43, 13, _OWNED + "; " + _API),
     ("control/_metrics.py", "compare_models"): (41, 11, _OWNED + "; " + _API),
     ("identification/greybox/profile.py", "profile"): (32, 12, _OWNED + "; " + _API),
     ("identification/greybox/intervals.py", "interval_scan"): (25, 11, _OWNED),

@@ -55,7 +55,7 @@ from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_me
 from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
-from ._target import export_c, export_fmu
+from ._target import c_structs, export_c, export_fmu
 from ._verify import (
     DEFAULT_SENSOR_NOISE,
     Verification,
@@ -125,6 +125,7 @@ __all__ = [
     "design_pi",
     "design_state_feedback",
     "export_c",
+    "c_structs",
     "export_fmu",
     "hold_oscillations",
     "load_controller",

@@ -25,7 +25,7 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     offset = 0.1
     width = 0.004167
     hysteresis = 0.005                 # side band h (schema 2; absent: 0, none)
-    quiet_band = 0.0062                # quiet band q (schema 2; absent: 0, none)
+    quiet_band = 0.0083                # quiet band q (schema 2; absent: 0, none)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }

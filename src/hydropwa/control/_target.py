@@ -45,7 +45,7 @@ from ..simulation._emit_c import emit_functions
 from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
-__all__ = ["export_c", "export_fmu", "c_sources", "check_expressible", "C_FILES"]
+__all__ = ["export_c", "export_fmu", "c_sources", "c_structs", "check_expressible", "C_FILES"]
 
 #: files written by :func:`export_c`
 C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
@@ -296,6 +296,47 @@ def _table(ctl: np.ndarray) -> str:
 
 def _read_template(name: str) -> str:
     return resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+
+
+def c_structs(header: str | Path | None = None) -> dict[str, type]:
+    """ctypes mirrors of the C controller's structs, read from its header (one source, no drift).
+
+    Parameters
+    ----------
+    header : str or Path, optional
+        The text of ``hydropwa_ctrl.h`` or its path (an exported folder's); default the
+        header shipped in the package, the one :func:`export_c` writes.
+
+    Returns
+    -------
+    dict
+        ``{"hydropwa_ctrl_meas": ..., "hydropwa_ctrl_ref": ..., "hydropwa_ctrl_state": ...}``:
+        :class:`ctypes.Structure` subclasses with the header's fields in its order
+        (``double`` → c_double, ``int`` → c_int, ``double z[7]`` → c_double × 7), to call
+        the compiled controller from Python (``hydropwa_ctrl_step(&state, &meas, &ref)``).
+    """
+    import ctypes  # deferred: only a caller of the compiled C needs it
+    import re
+
+    if header is None:
+        text = _read_template("hydropwa_ctrl.h")
+    elif isinstance(header, Path):
+        text = header.read_text(encoding="utf-8")
+    else:
+        text = header
+    types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}
+    out: dict[str, type] = {}
+    for body, name in re.findall(r"typedef struct \{(.*?)\}\s*(\w+);", text, flags=re.S):
+        body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
+        fields: list[tuple[str, Any]] = []
+        for decl in filter(None, (d.strip() for d in body.split(";"))):
+            m = re.fullmatch(r"(\w+)\s+(\w+)(?:\[(\d+)\])?", decl)
+            if m is None or m.group(1) not in types:
+                raise ControlError(f"c_structs: cannot mirror '{decl}' of struct {name}")
+            ct = types[m.group(1)]
+            fields.append((m.group(2), ct * int(m.group(3)) if m.group(3) else ct))
+        out[name] = type(name, (ctypes.Structure,), {"_fields_": fields})
+    return out
 
 
 def _describe_line(controller) -> str:
