@@ -99,11 +99,11 @@ def _solve6(a, piv, B, r):
 def _lu_block(kind, a, piv, n):
     """:func:`_lu` of the leading n×n block; for the full model's n = 6 with a constant size.
 
-    The same arithmetic in the same order (the full model's results are bit for bit those of
-    the runtime size); with a constant size LLVM unrolls the loops and keeps the block in
-    registers, where a runtime size leaves loops of 1–7 iterations: the full model's kernel
-    −11 % (docs/architecture_performance.md). The chamber model keeps the runtime size: its
-    trajectory moved at the tolerance level with the unrolled code (+6 % steps).
+    The same arithmetic in the same order (on the benchmark cases the full model's results are
+    bit for bit those of the runtime size); with a constant size LLVM unrolls the loops and
+    keeps the block in registers, where a runtime size leaves loops of 1–7 iterations: the full
+    model's kernel −6 … −9 % (docs/architecture_performance.md). The chamber model keeps the
+    runtime size: its trajectory moved at the tolerance level with the unrolled code.
     """
     if kind == FULL and n == _FULL_BLOCK:
         _lu6(a, piv)
