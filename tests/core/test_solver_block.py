@@ -94,8 +94,8 @@ def _factor_and_solve_block(W, piv, B, n):
 @given(seed=st.integers(0, 2**32 - 1), log_hg=st.floats(-9.0, -2.0))
 def test_the_full_models_6x6_path_equals_the_runtime_size_loops(seed, log_hg):
     """The full model's 6×6 LU and solve (``_lu_block`` → ``_lu6``, ``_solve_block`` →
-    ``_solve6``) are the loops of ``_lu``/``_solve`` at a constant size: the same pivots, and
-    factors and solution within a few ulp (relative 1e-12 of the largest entry). Not bit for bit
+    ``_solve6``) are the loops of ``_lu``/``_solve`` at a constant size: the same pivots, the
+    factors within 1e-12 of their largest entry and the solution within 1e-9. Not bit for bit
     here: LLVM contracts multiply-adds per compiled function, so a loop compiled in this test
     may round differently; the kernel's results are bit for bit those of the runtime size on
     the benchmark cases (docs/architecture_performance.md)."""
@@ -112,4 +112,6 @@ def test_the_full_models_6x6_path_equals_the_runtime_size_loops(seed, log_hg):
     (w0, piv0, x0), (w1, piv1, x1) = runs
     assert np.array_equal(piv0, piv1)
     np.testing.assert_allclose(w1, w0, rtol=0, atol=1e-12 * np.max(np.abs(w0)))
-    np.testing.assert_allclose(x1, x0, rtol=0, atol=1e-12 * np.max(np.abs(x0)))
+    # the factors' last-bit differences reach x amplified by W's condition number (up to ~1e7
+    # at hγ = 1e-2 with these J), hence the dense-solve test's 1e-9 of |x|
+    np.testing.assert_allclose(x1, x0, rtol=0, atol=1e-9 * np.max(np.abs(x0)))
