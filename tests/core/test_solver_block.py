@@ -12,12 +12,20 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 import hydropwa as hp
 from hydropwa.models import as_model
 from hydropwa.params import Accumulator
 from hydropwa.simulation import _kernel as K
-from hydropwa.simulation._rosenbrock import _factor, _n_solve, _solve
+from hydropwa.simulation._rosenbrock import (
+    _factor,
+    _lu,
+    _lu_block,
+    _n_solve,
+    _solve,
+    _solve_block,
+)
 
 _PAPER = hp.get_preset("paper")
 #: machine variant -> (parameters, states left to the LU)
@@ -68,3 +76,42 @@ def test_block_solve_equals_the_dense_solve(variant, seed, log_hg):
     x = np.linalg.solve(np.eye(n) - hg * J, b)
     np.testing.assert_allclose(B[0], x, rtol=1e-9, atol=1e-9 * np.max(np.abs(x)))
     assert np.all(B[0, n_lu:] == 0.0)  # the inert states' stage values stay exactly 0
+
+
+@njit(cache=False)
+def _factor_and_solve_runtime(W, piv, B, n):
+    _lu(W, piv, n)  # the block size as a runtime value
+    _solve(W, piv, B, 0, n)
+
+
+@njit(cache=False)
+def _factor_and_solve_block(W, piv, B, n):
+    _lu_block(K.FULL, W, piv, n)  # the full model's path: size 6 as a compile-time constant
+    _solve_block(K.FULL, W, piv, B, 0, n)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), log_hg=st.floats(-9.0, -2.0))
+def test_the_full_models_6x6_path_equals_the_runtime_size_loops(seed, log_hg):
+    """The full model's 6×6 LU and solve (``_lu_block`` → ``_lu6``, ``_solve_block`` →
+    ``_solve6``) are the loops of ``_lu``/``_solve`` at a constant size: the same pivots, the
+    factors within 1e-12 of their largest entry and the solution within 1e-9. Not bit for bit
+    here: LLVM contracts multiply-adds per compiled function, so a loop compiled in this test
+    may round differently; the kernel's results are bit for bit those of the runtime size on
+    the benchmark cases (docs/architecture_performance.md)."""
+    rng = np.random.default_rng(seed)
+    n = 8
+    J = rng.standard_normal((n, n)) * np.array([1e3, 1e3, 1e9, 1e9, 1e3, 1e3, 0, 0])[:, None]
+    W = np.eye(n) - 10.0**log_hg * J
+    b = rng.standard_normal((1, n)) * 1e2
+    runs = []
+    for solve in (_factor_and_solve_runtime, _factor_and_solve_block):
+        w, piv, B = W.copy(), np.zeros(n, dtype=np.int64), b.copy()
+        solve(w, piv, B, 6)
+        runs.append((w, piv, B))
+    (w0, piv0, x0), (w1, piv1, x1) = runs
+    assert np.array_equal(piv0, piv1)
+    np.testing.assert_allclose(w1, w0, rtol=0, atol=1e-12 * np.max(np.abs(w0)))
+    # the factors' last-bit differences reach x amplified by W's condition number (up to ~1e7
+    # at hγ = 1e-2 with these J), hence the dense-solve test's 1e-9 of |x|
+    np.testing.assert_allclose(x1, x0, rtol=0, atol=1e-9 * np.max(np.abs(x0)))

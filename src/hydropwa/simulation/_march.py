@@ -192,8 +192,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
             h = t_stop - t  # closed loop: also no sliver of a step left before the sample
             if h < hmin:
                 h = hmin
-        if need_jac:
-            u, ps, fl = _inputs(t, sg)
+        if need_jac:  # u, ps, fl hold the inputs at t (from the last step's end or a sample)
             nfev += _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact_jac)
             n_jac += 1
             need_jac = False
@@ -228,6 +227,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
         if err <= 1.0:
             k_out = _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew)
             t = t + h
+            u, ps, fl = u1, ps1, fl1  # the stepper's inputs at t + h, bit for bit _inputs(t, sg)
             for i in range(n):
                 y[i] = ynew[i]
                 f0[i] = fnew[i]

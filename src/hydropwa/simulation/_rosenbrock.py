@@ -77,6 +77,49 @@ def _solve(a, piv, B, r, n):
         B[r, i] = s * a[i, i]
 
 
+#: The full model's block size without pump model and accumulator (the common case), which its
+#: LU and solves get as a compile-time constant (see :func:`_lu_block`).
+_FULL_BLOCK = 6
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _lu6(a, piv):
+    """:func:`_lu` of the leading 6×6 block, compiled once (called, not inlined at each use:
+    inlined, the unrolled code added ~4 CPU-s to the full model's first compilation)."""
+    _lu(a, piv, _FULL_BLOCK)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def _solve6(a, piv, B, r):
+    """:func:`_solve` on the leading 6×6 block, compiled once (as :func:`_lu6`)."""
+    _solve(a, piv, B, r, _FULL_BLOCK)
+
+
+@njit(**INLINE_NRT_JIT)
+def _lu_block(kind, a, piv, n):
+    """:func:`_lu` of the leading n×n block; for the full model's n = 6 with a constant size.
+
+    The same arithmetic in the same order (on the benchmark cases the full model's results are
+    bit for bit those of the runtime size); with a constant size LLVM unrolls the loops and
+    keeps the block in registers, where a runtime size leaves loops of 1–7 iterations: the full
+    model's kernel −6 … −9 % (docs/architecture_performance.md). The chamber model keeps the
+    runtime size: its trajectory moved at the tolerance level with the unrolled code.
+    """
+    if kind == FULL and n == _FULL_BLOCK:
+        _lu6(a, piv)
+    else:
+        _lu(a, piv, n)
+
+
+@njit(**INLINE_NRT_JIT)
+def _solve_block(kind, a, piv, B, r, n):
+    """:func:`_solve` on the leading n×n block, for the full model's n = 6 with a constant size (as :func:`_lu_block`)."""
+    if kind == FULL and n == _FULL_BLOCK:
+        _solve6(a, piv, B, r)
+    else:
+        _solve(a, piv, B, r, n)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
 def _n_solve(kind, p):
     """Size of the leading block of W = I − hγJ that the LU and the solves work on.
@@ -207,7 +250,7 @@ def _factor(kind, J, W, piv, hg, p):
         for j in range(n):
             W[i, j] = -hg * J[i, j]
         W[i, i] += 1.0
-    _lu(W, piv, n)
+    _lu_block(kind, W, piv, n)
 
 
 @njit(**SOLVER_JIT, **NO_REFCOUNT)
@@ -240,7 +283,7 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
             for j in range(i):
                 s += PW2_C[4 * i + j] / h * U[j, k]
             U[i, k] = hg * s
-        _solve(W, piv, U, i, n_lu)
+        _solve_block(kind, W, piv, U, i, n_lu)
     for k in range(n):
         s = y[k]
         e = 0.0
@@ -264,14 +307,14 @@ def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p,
     hd = h * _D23
     for i in range(n):
         U[0, i] = f0[i] + hd * dfdt[i]
-    _solve(W, piv, U, 0, n_lu)
+    _solve_block(kind, W, piv, U, 0, n_lu)
     for i in range(n):
         yt[i] = y[i] + 0.5 * h * U[0, i]
     u, ps, fl = _inputs(t + 0.5 * h, sg)
     _rhs_for(kind, yt, u, ps, fl, p, ft)
     for i in range(n):
         U[1, i] = ft[i] - U[0, i]
-    _solve(W, piv, U, 1, n_lu)
+    _solve_block(kind, W, piv, U, 1, n_lu)
     for i in range(n):
         U[1, i] += U[0, i]
         ynew[i] = y[i] + h * U[1, i]
@@ -279,7 +322,7 @@ def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p,
     _rhs_for(kind, ynew, u, ps, fl, p, fnew)
     for i in range(n):
         U[2, i] = fnew[i] - _E32 * (U[1, i] - ft[i]) - 2.0 * (U[0, i] - f0[i]) + hd * dfdt[i]
-    _solve(W, piv, U, 2, n_lu)
+    _solve_block(kind, W, piv, U, 2, n_lu)
     for i in range(n):
         yerr[i] = h / 6.0 * (U[0, i] - 2.0 * U[1, i] + U[2, i])
     return 2, u, ps, fl
