@@ -30,11 +30,6 @@ from hydropwa.rig import Rig, load_campaign, run_campaign
 
 MACHINES = Path(__file__).parent.parent / "machines"
 
-# identify all's dead-zone fit on the heavy axis (one command inside its 3 % band per
-# direction) takes 0·inf in the creep slope's standard error (_deadzone.py, k_g's sd: NaN);
-# its value, the start here, is not affected
-pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in matmul:RuntimeWarning")
-
 #: relative tolerances of the per-experiment methods (absolute for β)
 TOLERANCE = {
     "valve.omega0": 0.02,
