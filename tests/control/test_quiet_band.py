@@ -119,6 +119,20 @@ def test_default_design_sizes_the_band_from_the_noise_and_writes_it(paper_pwa, t
     np.testing.assert_allclose(ctl, d.controller.pack(), rtol=1e-9, atol=0)
 
 
+def _noisy_trapezoid(paper, ctrl):
+    """The 50 → 150 mm trapezoid and its hold, full model, sensor noise seed 1 (0.9 s)."""
+    return simulate(
+        "full",
+        params=paper,
+        duration=0.9,
+        controller=ctrl,
+        reference=as_reference(TRAPEZOID),
+        initial_position=0.05,
+        sensor_noise=NOISE,
+        seed=1,
+    )
+
+
 def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper_pwa):
     """Issue 34's paper-rig numbers, full model, 20 µm / 0.1 bar, one sample of delay, hold over
     the last 0.2 s of 0.9 s after the 50 → 150 mm trapezoid (seed 1; benchmarks/control.py):
@@ -129,16 +143,7 @@ def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper
     out = {}
     for name, quiet in (("plain", False), ("quiet", True)):
         ctrl = design_controller(paper_pwa, verify=False, delay=True, quiet=quiet).controller
-        res = simulate(
-            "full",
-            params=paper,
-            duration=0.9,
-            controller=ctrl,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-            sensor_noise=NOISE,
-            seed=1,
-        )
+        res = _noisy_trapezoid(paper, ctrl)
         hold = tracking_metrics(res, t0=0.7).display()
         pp = float(np.ptp(res["x"][res.t >= 0.7])) * 1e3
         out[name] = (hold["chattering"], pp, tracking_metrics(res).display()["max_following_error"])
@@ -159,16 +164,7 @@ def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper
     )
     runs = {}
     for name, ctrl in (("off", off), ("on", d.controller)):
-        runs[name] = simulate(
-            "full",
-            params=paper,
-            duration=0.9,
-            controller=ctrl,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-            sensor_noise=NOISE,
-            seed=1,
-        ).control
+        runs[name] = _noisy_trapezoid(paper, ctrl).control
     on = runs["on"]
     inside = np.flatnonzero(np.abs(on["command"][:-1]) <= q)
     assert inside.size > 100  # the hold after the move
