@@ -534,3 +534,16 @@ def test_c_structs_mirror_the_header_field_by_field():
     ]
     with pytest.raises(ControlError, match=r"cannot mirror 'float y' of struct odd"):
         c_structs("typedef struct {\n    double x; /* m */\n    float y;\n} odd;")
+
+
+def test_c_structs_read_an_exported_header_by_path(tmp_path):
+    """The header an export wrote, given as a Path or as a str path, gives the same structs."""
+    from hydropwa.control import c_structs
+    from hydropwa.control._target import _read_template
+
+    h = tmp_path / "hydropwa_ctrl.h"
+    h.write_text(_read_template("hydropwa_ctrl.h"), encoding="utf-8")
+    want = [(n, t) for n, t in c_structs()["hydropwa_ctrl_state"]._fields_]
+    for given in (h, str(h)):
+        got = c_structs(given)["hydropwa_ctrl_state"]._fields_
+        assert [n for n, _ in got] == [n for n, _ in want]

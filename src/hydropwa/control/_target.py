@@ -304,7 +304,8 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
     Parameters
     ----------
     header : str or Path, optional
-        The text of ``hydropwa_ctrl.h`` or its path (an exported folder's); default the
+        The text of ``hydropwa_ctrl.h`` (a string holding ``typedef``) or its path (an
+        exported folder's); default the
         header shipped in the package, the one :func:`export_c` writes.
 
     Returns
@@ -320,8 +321,8 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
 
     if header is None:
         text = _read_template("hydropwa_ctrl.h")
-    elif isinstance(header, Path):
-        text = header.read_text(encoding="utf-8")
+    elif isinstance(header, Path) or "typedef" not in header:  # a path, as Path or str
+        text = Path(header).read_text(encoding="utf-8")
     else:
         text = header
     types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}
