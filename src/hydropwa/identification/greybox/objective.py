@@ -22,6 +22,7 @@ from ...params import SystemParams
 from ...simulation import Sampled
 from ...simulation._simulate import PackedInputs, simulate_packed
 from .data import RunData, _Segment
+from .problem import VALID_UPPER
 
 __all__ = ["LOSSES", "OutputErrorObjective", "loss_cost", "loss_weights"]
 
@@ -96,7 +97,12 @@ class OutputErrorObjective:
 
     # parameters ----------------------------------------------------------------
     def params_at(self, values: np.ndarray) -> SystemParams:
-        changes = {n: float(v) for n, v in zip(self.free, values, strict=True)}
+        # the optimiser stays inside the bounds (never past VALID_UPPER), but a difference
+        # point a step beyond one lying at the limit is evaluated at the limit
+        changes = {
+            n: min(float(v), VALID_UPPER.get(n, np.inf))
+            for n, v in zip(self.free, values, strict=True)
+        }
         base = self.base_model.params
         fc = changes.get("friction.coulomb", base.friction.coulomb)
         if "friction.static" in changes and changes["friction.static"] < fc:
