@@ -26,7 +26,7 @@ from .._common import (
     experiment_of,
 )
 from .data import RunData, Shooting, prepare_again, prepare_run
-from .intervals import estimate, scan_widen
+from .intervals import estimate, log_interval, scan_widen
 from .jacobian import DIFFERENCES
 from .objective import LOSSES, OutputErrorObjective
 from .optimize import LeastSquares
@@ -525,11 +525,9 @@ def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estima
     tlo, thi = problem.theta_bounds
     for i, n in enumerate(problem.names):
         v, sd = float(est.values[i]), est.sd[i]
-        half = min(z * sd, 700.0)  # beyond e^700: an interval to 0 or infinity, no overflow
         est.estimates[n] = ParameterEstimate(
-            v, float(v * sd), (float(v * np.exp(-half)), float(v * np.exp(half))),
-            problem.unit(n), opts.level,
-        )  # fmt: skip
+            v, float(v * sd), log_interval(v, z * sd, z * sd), problem.unit(n), opts.level
+        )
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
             est.at_bound.append(n)
     # the Gauss–Newton step still left at the end, in standard errors: an optimiser that

@@ -188,11 +188,15 @@ def estimate(
     """``e`` at ``value`` [SI] with standard error ``sd`` and interval half-widths
     ``half_lo``/``half_hi`` below and above, all in ln p (the fit's coordinates)."""
     v = float(value)
-    # a half-width beyond e^700 (an optimiser stopped far from its optimum adds its whole
-    # remaining step) is an interval to 0 or infinity, not an overflow
-    return dataclasses.replace(
-        e,
-        value=v,
-        std=v * float(sd),
-        ci=(v * math.exp(-min(float(half_lo), 700.0)), v * math.exp(min(float(half_hi), 700.0))),
-    )
+    return dataclasses.replace(e, value=v, std=v * float(sd), ci=log_interval(v, half_lo, half_hi))
+
+
+def log_interval(value: float, half_lo: float, half_hi: float) -> tuple[float, float]:
+    """The interval (value·e^−half_lo, value·e^half_hi) of half-widths in ln p.
+
+    A half-width beyond 700 (an optimiser stopped far from its optimum adds its whole
+    remaining step; an infinite standard error) is clipped there: the side reaches
+    value·e^∓700 (about 1e∓304 times the value) instead of overflowing.
+    """
+    v = float(value)
+    return (v * math.exp(-min(float(half_lo), 700.0)), v * math.exp(min(float(half_hi), 700.0)))
