@@ -267,7 +267,9 @@ class Sensors:
     @classmethod
     def of(cls, prm, noise: dict | None = NOISE) -> Sensors:
         """The paper rig's sensors (stroke ≤ 250 mm) or the heavy axis's (0–500 mm, 0–400 bar)."""
-        x_range = 0.25 if prm.cylinder.stroke <= 0.25 else 0.5 * math.ceil(prm.cylinder.stroke / 0.5)
+        x_range = (
+            0.25 if prm.cylinder.stroke <= 0.25 else 0.5 * math.ceil(prm.cylinder.stroke / 0.5)
+        )
         p_range = 250e5 if prm.supply.pressure <= 200e5 else 400e5
         return cls(x_range, p_range, dict(noise or {}))
 
@@ -466,3 +468,154 @@ def plant_measures(run, controller, task: Task) -> dict[str, float]:
     return measures(
         run["t"], run["x"], run["r"], run["t"], run["u"], limits, task.duration - task.hold
     )
+
+
+# --------------------------------------------------------------------------------------------
+# The machines, the comparison and the open-loop check
+# --------------------------------------------------------------------------------------------
+def machines() -> dict:
+    """Name → (parameters, tasks) of the paper rig and the heavy axis (see the docstring)."""
+    from hydropwa.params import get_preset, load_params
+
+    paper, heavy = get_preset("paper"), load_params(INDUSTRIAL)
+    f_half = 0.5 * paper.supply.pressure * paper.cylinder.area_a
+    return {
+        "paper rig": (
+            paper,
+            [
+                Task(
+                    "trapezoid",
+                    "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1",
+                    0.9,
+                    0.05,
+                    float(paper.load.force),
+                    0.2,
+                ),
+                *(
+                    Task(
+                        f"step hold {s * f_half / 1e3:+.1f} kN",
+                        "steps:0 s=100 mm,0.05 s=120 mm",
+                        0.6,
+                        0.1,
+                        s * f_half,
+                        0.25,
+                    )
+                    for s in (1.0, -1.0)
+                ),
+            ],
+        ),
+        "heavy axis": (
+            heavy,
+            [
+                Task(
+                    "trapezoid",
+                    "trapezoid:from=100 mm,to=400 mm,v=0.3,a=3,start=0.1",
+                    1.6,
+                    0.1,
+                    2000.0,
+                    0.2,
+                ),
+                *(
+                    Task(
+                        f"step hold {s * 5:+.1f} kN",
+                        "steps:0 s=250 mm,0.05 s=300 mm",
+                        0.8,
+                        0.25,
+                        s * 5000.0,
+                        0.25,
+                    )
+                    for s in (1.0, -1.0)
+                ),
+            ],
+        ),
+    }
+
+
+def controllers(prm, pi: bool = True) -> dict:
+    """The default of ``control design`` and (``pi``) the textbook PI + FF, designed on ``prm``."""
+    from hydropwa.control import design_controller, design_textbook_pi
+    from hydropwa.linearization import linearize
+
+    pwa = linearize(prm)
+    out = {"control design (default)": design_controller(pwa, verify=False, delay=True).controller}
+    if pi:
+        out["textbook PI + FF"] = design_textbook_pi(pwa, sample_time=5e-4, delay=True).controller
+    return out
+
+
+def open_loop_agreement(prm, spec: str = "sine:amplitude=0.4,frequency=2", duration: float = 1.0):
+    """Largest |x| [m], |P_A|, |P_B| [Pa] differences of this plant and ``simulate(full)`` (rtol
+    1e-8 both) from rest at mid-stroke under the command ``spec`` and the machine's load."""
+    from hydropwa.simulation import as_signal, simulate
+
+    x0 = 0.5 * prm.cylinder.stroke
+    res = simulate("full", spec, params=prm, duration=duration, initial_position=x0, rtol=1e-8)
+    u = as_signal(spec, "", "u")
+    peak = float(np.max(np.abs(u(res.t))))
+    plant = IndependentPlant.from_params(prm, prm.valve.omega0_at(peak))  # D3, open loop
+    f = float(prm.load.force)
+    y = open_loop(plant, lambda t: float(u(t)), f, plant.rest(x0, f), res.t)
+    return {
+        "x": float(np.max(np.abs(y[4] - res["x"]))),
+        "p_a": float(np.max(np.abs(y[2] - res["p_a"]))),
+        "p_b": float(np.max(np.abs(y[3] - res["p_b"]))),
+        "x_span": float(np.ptp(res["x"])),
+        "p_span": float(max(np.ptp(res["p_a"]), np.ptp(res["p_b"]))),
+    }
+
+
+def compare(names, seeds, pi: bool, holds: bool) -> None:
+    """The table: package full model against the independent plant, per machine, controller, task."""
+    print(
+        f"{'machine':<11}{'controller':<26}{'task':<20}{'plant':<13}{'peak err mm':>12}"
+        f"{'hold p-p mm':>12}{'sign ch./s':>11}{'sat %':>7}"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, (prm, tasks) in machines().items():
+            if name not in names:
+                continue
+            for cname, ctrl in controllers(prm, pi).items():
+                cc = CompiledController(ctrl, Path(tmp) / f"{name}-{cname}".replace(" ", "_"))
+                for task in tasks if holds else tasks[:1]:
+                    for seed in seeds:
+                        rows = {
+                            "package full": package_measures(
+                                package_run(prm, ctrl, task, NOISE, seed), ctrl, task
+                            ),
+                            "independent": plant_measures(
+                                closed_loop(prm, cc, task, Sensors.of(prm), seed), ctrl, task
+                            ),
+                        }
+                        for plant, m in rows.items():
+                            label = task.name if len(seeds) == 1 else f"{task.name} s{seed}"
+                            print(
+                                f"{name:<11}{cname:<26}{label:<20}{plant:<13}{m['peak_mm']:>12.3f}"
+                                f"{m['hold_mm']:>12.3f}{m['sign_per_s']:>11.0f}{m['sat_pct']:>7.1f}"
+                            )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", type=int, default=1, help="noise seeds 1..N (default 1)")
+    ap.add_argument("--machine", choices=("paper", "heavy", "both"), default="both")
+    ap.add_argument("--no-pi", action="store_true", help="skip the textbook PI + FF")
+    ap.add_argument("--no-holds", action="store_true", help="only the trapezoids")
+    args = ap.parse_args()
+    names = {"paper": ["paper rig"], "heavy": ["heavy axis"]}.get(
+        args.machine, ["paper rig", "heavy axis"]
+    )
+    t0 = time.perf_counter()
+    for name, (prm, _tasks) in machines().items():
+        if name in names:
+            a = open_loop_agreement(prm)
+            print(
+                f"{name}: open loop (40 % 2 Hz sine, 1 s), independent plant vs simulate(full), "
+                f"max |dx| {a['x'] * 1e6:.3g} um of {a['x_span'] * 1e3:.1f} mm, max |dP_A| "
+                f"{a['p_a']:.3g} Pa, |dP_B| {a['p_b']:.3g} Pa of {a['p_span'] / 1e5:.1f} bar"
+            )
+    compare(names, list(range(1, args.seeds + 1)), not args.no_pi, not args.no_holds)
+    print(f"({time.perf_counter() - t0:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
