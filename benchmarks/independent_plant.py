@@ -41,7 +41,9 @@ of the stroke from mid-stroke against ±50 % of P_S·A_A (paper rig) or ±5 kN (
 for 0.6 s. Measured as ``benchmarks/control.py`` measures: peak following error |r − x| over
 the run, hold peak to peak of the true position over the last 0.2 s (0.25 s for the step holds),
 command sign changes per second over that window (beyond ±1 % of the command range) and the
-share of samples with the command at a limit.
+share of samples with the command at a limit. A third row per case, ``indep. w0(|u|)``: the
+same plant with the valve's ω0 following Table II at the held command's amplitude over each
+sample (the package's closed loop takes the nominal ω0 throughout, docs/errata.md D3).
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 # run as a script, this file's folder comes first on sys.path and benchmarks/control.py would
@@ -367,11 +369,20 @@ class Task:
     hold: float
 
 
-def closed_loop(prm, cc: CompiledController, task: Task, sensors: Sensors, seed: int | None):
+def closed_loop(
+    prm,
+    cc: CompiledController,
+    task: Task,
+    sensors: Sensors,
+    seed: int | None,
+    scheduled: bool = False,
+):
     """The compiled controller on the independent plant: true x and r at every sample, and u.
 
     At each sample instant t_k the sensors read the plant (noise, then the converters), the C
-    law gives u, and the plant integrates to t_(k+1) with u held.
+    law gives u, and the plant integrates to t_(k+1) with u held. ``scheduled``: the valve's
+    ω0 follows Table II at the held command's |u| over each sample (a real valve's amplitude
+    dependence, which the package's closed loop replaces by the nominal ω0, D3).
     """
     from hydropwa.control import as_reference
 
@@ -404,8 +415,9 @@ def closed_loop(prm, cc: CompiledController, task: Task, sensors: Sensors, seed:
             u, pending = pending, u
         us[k] = u
         if k + 1 < n:
+            now = replace(plant, omega0=prm.valve.omega0_at(u)) if scheduled else plant
             sol = solve_ivp(
-                lambda _t, yy, u=u: plant.rhs(yy, u, task.load),
+                lambda _t, yy, u=u, now=now: now.rhs(yy, u, task.load),
                 (tk[k], tk[k + 1]),
                 y,
                 method="LSODA",
@@ -564,34 +576,45 @@ def open_loop_agreement(prm, spec: str = "sine:amplitude=0.4,frequency=2", durat
     }
 
 
+def _row(name, cname, label, plant, m, step: bool) -> None:
+    peak = "-" if step else f"{m['peak_mm']:.3f}"  # a step's error is the step
+    print(
+        f"{name:<11}{cname:<26}{label:<20}{plant:<16}{peak:>12}"
+        f"{m['hold_mm']:>12.3f}{m['sign_per_s']:>11.0f}{m['sat_pct']:>7.1f}"
+    )
+
+
 def compare(names, seeds, pi: bool, holds: bool) -> None:
     """The table: package full model against the independent plant, per machine, controller, task."""
     print(
-        f"{'machine':<11}{'controller':<26}{'task':<20}{'plant':<13}{'peak err mm':>12}"
+        f"{'machine':<11}{'controller':<26}{'task':<20}{'plant':<16}{'peak err mm':>12}"
         f"{'hold p-p mm':>12}{'sign ch./s':>11}{'sat %':>7}"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name, (prm, tasks) in machines().items():
             if name not in names:
                 continue
+            sensors = Sensors.of(prm)
             for cname, ctrl in controllers(prm, pi).items():
                 cc = CompiledController(ctrl, Path(tmp) / f"{name}-{cname}".replace(" ", "_"))
                 for task in tasks if holds else tasks[:1]:
                     for seed in seeds:
+                        res = package_run(prm, ctrl, task, NOISE, seed)
                         rows = {
-                            "package full": package_measures(
-                                package_run(prm, ctrl, task, NOISE, seed), ctrl, task
-                            ),
+                            "package full": package_measures(res, ctrl, task),
                             "independent": plant_measures(
-                                closed_loop(prm, cc, task, Sensors.of(prm), seed), ctrl, task
+                                closed_loop(prm, cc, task, sensors, seed), ctrl, task
+                            ),
+                            "indep. w0(|u|)": plant_measures(
+                                closed_loop(prm, cc, task, sensors, seed, scheduled=True),
+                                ctrl,
+                                task,
                             ),
                         }
+                        label = task.name if len(seeds) == 1 else f"{task.name} s{seed}"
+                        step = task.reference.startswith("steps")
                         for plant, m in rows.items():
-                            label = task.name if len(seeds) == 1 else f"{task.name} s{seed}"
-                            print(
-                                f"{name:<11}{cname:<26}{label:<20}{plant:<13}{m['peak_mm']:>12.3f}"
-                                f"{m['hold_mm']:>12.3f}{m['sign_per_s']:>11.0f}{m['sat_pct']:>7.1f}"
-                            )
+                            _row(name, cname, label, plant, m, step)
 
 
 def main() -> None:
