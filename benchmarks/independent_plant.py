@@ -340,10 +340,14 @@ class CompiledController:
         values["p_l"] = self.lib.hydropwa_ctrl_load_pressure(
             channels["p_a"], channels["p_b"], channels["area_a"], channels["area_b"]
         )
-        for name, _ct in m._fields_:
-            setattr(m, name, float(values[name]))
-        for name, _ct in rf._fields_:
-            setattr(rf, name, float(reference[name]))
+        for struct, given in ((m, values), (rf, reference)):
+            for name, _ct in struct._fields_:
+                if name not in given:
+                    raise RuntimeError(
+                        f"the controller's C reads {type(struct).__name__}.{name}, which this "
+                        "harness does not supply; add it to closed_loop's channels"
+                    )
+                setattr(struct, name, float(given[name]))
         return float(self.lib.hydropwa_ctrl_step(ctypes.byref(self.state), m, rf))
 
 
@@ -629,10 +633,15 @@ def main() -> None:
     )
     t0 = time.perf_counter()
     for name, (prm, _tasks) in machines().items():
-        if name in names:
-            a = open_loop_agreement(prm)
+        if name not in names:
+            continue
+        for spec, dur in (
+            ("sine:amplitude=0.4,frequency=2", 1.0),
+            ("sine:amplitude=1.2,frequency=1", 2.0),  # saturated, into the end stop
+        ):
+            a = open_loop_agreement(prm, spec, dur)
             print(
-                f"{name}: open loop (40 % 2 Hz sine, 1 s), independent plant vs simulate(full), "
+                f"{name}: open loop ({spec}, {dur:g} s), independent plant vs simulate(full): "
                 f"max |dx| {a['x'] * 1e6:.3g} um of {a['x_span'] * 1e3:.1f} mm, max |dP_A| "
                 f"{a['p_a']:.3g} Pa, |dP_B| {a['p_b']:.3g} Pa of {a['p_span'] / 1e5:.1f} bar"
             )
