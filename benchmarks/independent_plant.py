@@ -44,6 +44,9 @@ command sign changes per second over that window (beyond ±1 % of the command ra
 share of samples with the command at a limit. A third row per case, ``indep. w0(|u|)``: the
 same plant with the valve's ω0 following Table II at the held command's amplitude over each
 sample (the package's closed loop takes the nominal ω0 throughout, docs/errata.md D3).
+
+**Draws** (``--draws N``): the default design's step holds over the verification's parameter
+draws (``draw_parameters``), both plants, worst hold and holds above 0.1 mm.
 """
 
 from __future__ import annotations
@@ -621,12 +624,45 @@ def compare(names, seeds, pi: bool, holds: bool) -> None:
                             _row(name, cname, label, plant, m, step)
 
 
+def holds_over_draws(names, draws: int) -> None:
+    """The default design's step holds over parameter draws (``draw_parameters``: the nominal
+    set and draws − 1 of E ±20 %, friction ±30 %, ω0 ±10 %, mass +0…50 %, P_S −0…10 %), on the
+    package's full model and on the independent plant, noise seed = draw number + 1: the worst
+    hold peak to peak, the holds above 0.1 mm and the most sign changes per second."""
+    from hydropwa.control import draw_parameters
+
+    print(f"step holds over {draws} parameter draws (default design, both loads)")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, (prm, tasks) in machines().items():
+            if name not in names:
+                continue
+            ctrl = controllers(prm, pi=False)["control design (default)"]
+            cc = CompiledController(ctrl, Path(tmp) / name.replace(" ", "_"))
+            out: dict[str, list] = {"package full": [], "independent": []}
+            for i, drawn in enumerate(draw_parameters(prm, draws)):
+                for task in tasks[1:]:
+                    res = package_run(drawn, ctrl, task, NOISE, i + 1)
+                    out["package full"].append(package_measures(res, ctrl, task))
+                    run = closed_loop(drawn, cc, task, Sensors.of(drawn), i + 1)
+                    out["independent"].append(plant_measures(run, ctrl, task))
+            for plant, ms in out.items():
+                pps = [m["hold_mm"] for m in ms]
+                print(
+                    f"  {name:<11}{plant:<14} worst hold {max(pps):.3f} mm, above 0.1 mm "
+                    f"{sum(p > 0.1 for p in pps)} of {len(pps)}, sign changes <= "
+                    f"{max(m['sign_per_s'] for m in ms):.0f}/s"
+                )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=1, help="noise seeds 1..N (default 1)")
     ap.add_argument("--machine", choices=("paper", "heavy", "both"), default="both")
     ap.add_argument("--no-pi", action="store_true", help="skip the textbook PI + FF")
     ap.add_argument("--no-holds", action="store_true", help="only the trapezoids")
+    ap.add_argument(
+        "--draws", type=int, default=0, metavar="N", help="step holds over N parameter draws"
+    )
     args = ap.parse_args()
     names = {"paper": ["paper rig"], "heavy": ["heavy axis"]}.get(
         args.machine, ["paper rig", "heavy axis"]
@@ -646,6 +682,8 @@ def main() -> None:
                 f"{a['p_a']:.3g} Pa, |dP_B| {a['p_b']:.3g} Pa of {a['p_span'] / 1e5:.1f} bar"
             )
     compare(names, list(range(1, args.seeds + 1)), not args.no_pi, not args.no_holds)
+    if args.draws > 0:
+        holds_over_draws(names, args.draws)
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 
