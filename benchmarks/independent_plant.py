@@ -2,7 +2,8 @@
 
 Usage::
 
-    python benchmarks/independent_plant.py [--seed 1] [--no-holds] [--no-pi] [--machine paper]
+    python benchmarks/independent_plant.py [--seeds N] [--no-holds] [--no-pi] [--machine paper]
+        [--draws N]
 
 **The plant** (:class:`IndependentPlant`): the full-order single-rod axis written again from the
 paper's Eqs. (1)–(11) in plain Python floats, with the package's documented decisions on the
@@ -38,7 +39,9 @@ designed by the package on the machine's own parameters, on the package's full m
 (0.2 m/s, 5 m/s²) for 0.9 s, heavy axis (``tests/machines/industrial.toml``) 100 → 400 mm
 (0.3 m/s, 3 m/s², 2 kN) for 1.6 s, as ``benchmarks/control.py``; and step holds: a step of 10 %
 of the stroke from mid-stroke against ±50 % of P_S·A_A (paper rig) or ±5 kN (heavy axis), held
-for 0.6 s. Measured as ``benchmarks/control.py`` measures: peak following error |r − x| over
+for 0.6 s (paper rig) or 0.8 s (heavy axis). The reference r(t_k), ṙ(t_k), ṙ(t_k + lead) and
+r̈(t_k) is the task's motion profile or step sequence (``as_reference``), the lead read from the
+exported header. Measured as ``benchmarks/control.py`` measures: peak following error |r − x| over
 the run, hold peak to peak of the true position over the last 0.2 s (0.25 s for the step holds),
 command sign changes per second over that window (beyond ±1 % of the command range) and the
 share of samples with the command at a limit. A third row per case, ``indep. w0(|u|)``: the
@@ -638,12 +641,13 @@ def holds_over_draws(names, draws: int) -> None:
                 continue
             ctrl = controllers(prm, pi=False)["control design (default)"]
             cc = CompiledController(ctrl, Path(tmp) / name.replace(" ", "_"))
+            sensors = Sensors.of(prm)  # the machine's sensors, whatever the draw
             out: dict[str, list] = {"package full": [], "independent": []}
             for i, drawn in enumerate(draw_parameters(prm, draws)):
                 for task in tasks[1:]:
                     res = package_run(drawn, ctrl, task, NOISE, i + 1)
                     out["package full"].append(package_measures(res, ctrl, task))
-                    run = closed_loop(drawn, cc, task, Sensors.of(drawn), i + 1)
+                    run = closed_loop(drawn, cc, task, sensors, i + 1)
                     out["independent"].append(plant_measures(run, ctrl, task))
             for plant, ms in out.items():
                 pps = [m["hold_mm"] for m in ms]
