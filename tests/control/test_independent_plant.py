@@ -42,8 +42,8 @@ _SPEC.loader.exec_module(ip)
 def test_open_loop_agrees_with_the_packages_full_model(machine, spec, duration):
     """From rest at mid-stroke under the machine's load, both integrations at rtol 1e-8. The
     40 % 2 Hz sine drives both flow directions and crosses the dead zone 4 times; the 120 %
-    1 Hz sine saturates the opening and runs the piston into the end stop (the paper rig reaches
-    x = 200.13 mm of its 200 mm stroke). Measured: |Δx| 0.001–0.004 µm of 28–250 mm motions,
+    1 Hz sine saturates the opening and runs the piston into the end stop (x reaches 200.13 mm
+    of the paper rig's 200 mm stroke, 500.20 mm of the heavy axis's 500 mm). Measured: |Δx| 0.001–0.004 µm of 28–250 mm motions,
     |ΔP| 1.2–9.8 Pa. Bound: 1e-5 of the motion's span and of P_S (0.29 µm and 100 Pa for the
     paper rig's first case): 100× the integration error of rtol 1e-8, while a modelling choice
     shows far above it (the next test)."""
