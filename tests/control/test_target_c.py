@@ -359,8 +359,11 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
-    monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 27 \(C law: 26\)\)"):
+    n = C.N_EXT
+    monkeypatch.setattr(C, "N_EXT", n + 1)
+    with pytest.raises(
+        ControlError, match=rf"packed layout changed \(N_EXT {n + 1} \(C law: {n}\)\)"
+    ):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 

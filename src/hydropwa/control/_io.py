@@ -26,6 +26,8 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     width = 0.004167
     hysteresis = 0.005                 # side band h (schema 2; absent: 0, none)
     quiet_band = 0.0083                # quiet band q (schema 2; absent: 0, none)
+    integral_leak = "20 ms"            # integral leak where the band parks the valve (schema 2)
+    integral_band = "0.085 mm"         # the integral runs only while |r - x| <= this (schema 2)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }
@@ -171,6 +173,25 @@ def _read(value: Any, si_unit: str, where: str) -> float:
         raise ControlError(f"controller file: {exc}") from None
 
 
+#: schema-2 elements of ``[dead_zone_inverse]`` (written only where set; absent reads as 0):
+#: name -> (unit, factor from SI) of the file, "" for a plain number
+_DZ_V2 = {
+    "hysteresis": ("", 1.0),
+    "quiet_band": ("", 1.0),
+    "integral_leak": ("ms", 1e3),
+    "integral_band": ("mm", 1e3),
+}
+
+
+def _dead_zone_to_dict(dz: DeadZoneInverse) -> dict[str, Any]:
+    out: dict[str, Any] = {"offset": dz.offset, "width": dz.width}
+    for k, (unit, f) in _DZ_V2.items():
+        v = getattr(dz, k)
+        if v > 0.0:
+            out[k] = _q(v, unit, f) if unit else v
+    return out
+
+
 def controller_to_dict(ctrl) -> dict[str, Any]:
     """The controller as a TOML/JSON-ready dict with units, schema ``hydropwa.controller/2``.
 
@@ -206,12 +227,7 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         )
         d["machine"] = {k: _q(m[k], *_MACHINE[k][:2]) for k in _MACHINE if k in m}
     if ctrl.dead_zone_inverse is not None:
-        dz = ctrl.dead_zone_inverse
-        d["dead_zone_inverse"] = {"offset": dz.offset, "width": dz.width}
-        # schema 2 only where set; absent reads as 0
-        d["dead_zone_inverse"].update(
-            {k: getattr(dz, k) for k in ("hysteresis", "quiet_band") if getattr(dz, k) > 0.0}
-        )
+        d["dead_zone_inverse"] = _dead_zone_to_dict(ctrl.dead_zone_inverse)
     if ctrl.feedforward is not None:
         ff = ctrl.feedforward.describe()
         d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
@@ -292,6 +308,12 @@ def controller_from_dict(d: dict[str, Any]):
                 width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
                 hysteresis=_read(dzi.get("hysteresis", 0.0), "", "dead_zone_inverse.hysteresis"),
                 quiet_band=_read(dzi.get("quiet_band", 0.0), "", "dead_zone_inverse.quiet_band"),
+                integral_leak=_read(
+                    dzi.get("integral_leak", 0.0), "s", "dead_zone_inverse.integral_leak"
+                ),
+                integral_band=_read(
+                    dzi.get("integral_band", 0.0), "m", "dead_zone_inverse.integral_band"
+                ),
             )
         if v2:
             common.update(_read_v2(d))
