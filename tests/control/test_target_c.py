@@ -150,6 +150,9 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     # default sensor noise
     lqr_quiet = design_controller(pwa, verify=False, delay=True).controller
     assert lqr_quiet.dead_zone_inverse.quiet_band > 0.0
+    # and the integral's band and leak (the steps leave the band; the holds park the valve)
+    assert lqr_quiet.dead_zone_inverse.integral_band > 0.0
+    assert lqr_quiet.dead_zone_inverse.integral_leak > 0.0
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
