@@ -560,10 +560,11 @@ def design_controller(
         (:func:`~hydropwa.control.position_observer_gains` for its position noise, unless
         ``position_noise`` is given; ``acceleration_noise`` 1 m/s², or 10 / 100 m/s² where the
         slower observer limit-cycles on :func:`corner_parameters`, unless given) and the
-        quiet band :func:`~hydropwa.control.quiet_band_for` (the valve stays closed and the
-        integral holds while the noise alone moves the command). Measured on the full model,
-        20 µm / 0.1 bar, one sample of delay: paper rig hold after the trapezoid 960 → 25
-        command sign changes/s (0.062 → 0.032 mm), heavy axis 620 → 0/s (0.054 → 0.007 mm)
+        quiet band :func:`~hydropwa.control.quiet_band_for` (the valve stays closed while the noise
+        alone moves the command; the integral decays while the band parks the valve and runs
+        only within the integral band :func:`~hydropwa.control.integral_band_for`). Measured on the full model,
+        20 µm / 0.1 bar, one sample of delay: paper rig hold after the trapezoid 960 → 35
+        command sign changes/s (0.062 → 0.026 mm), heavy axis 620 → 0/s (0.054 → 0.005 mm)
         (``benchmarks/control.py``). No
         effect on exact sensors (``sensor_noise={}``) or without the inverse.
     **design_kwargs
