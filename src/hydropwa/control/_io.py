@@ -174,22 +174,34 @@ def _read(value: Any, si_unit: str, where: str) -> float:
 
 
 #: schema-2 elements of ``[dead_zone_inverse]`` (written only where set; absent reads as 0):
-#: name -> (unit, factor from SI) of the file, "" for a plain number
+#: name -> (unit, factor from SI, SI unit) of the file, "" for a plain number
 _DZ_V2 = {
-    "hysteresis": ("", 1.0),
-    "quiet_band": ("", 1.0),
-    "integral_leak": ("ms", 1e3),
-    "integral_band": ("mm", 1e3),
+    "hysteresis": ("", 1.0, ""),
+    "quiet_band": ("", 1.0, ""),
+    "integral_leak": ("ms", 1e3, "s"),
+    "integral_band": ("mm", 1e3, "m"),
 }
 
 
 def _dead_zone_to_dict(dz: DeadZoneInverse) -> dict[str, Any]:
     out: dict[str, Any] = {"offset": dz.offset, "width": dz.width}
-    for k, (unit, f) in _DZ_V2.items():
+    for k, (unit, f, _si) in _DZ_V2.items():
         v = getattr(dz, k)
         if v > 0.0:
             out[k] = _q(v, unit, f) if unit else v
     return out
+
+
+def _dead_zone_from_dict(dzi: dict[str, Any]) -> DeadZoneInverse:
+    """``[dead_zone_inverse]`` read back (schema-2 elements absent: 0)."""
+    return DeadZoneInverse(
+        offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
+        width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
+        **{
+            k: _read(dzi.get(k, 0.0), si, f"dead_zone_inverse.{k}")
+            for k, (_u, _f, si) in _DZ_V2.items()
+        },
+    )
 
 
 def controller_to_dict(ctrl) -> dict[str, Any]:
@@ -303,18 +315,7 @@ def controller_from_dict(d: dict[str, Any]):
         }
         dzi = d.get("dead_zone_inverse")
         if dzi is not None:
-            common["dead_zone_inverse"] = DeadZoneInverse(
-                offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
-                width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
-                hysteresis=_read(dzi.get("hysteresis", 0.0), "", "dead_zone_inverse.hysteresis"),
-                quiet_band=_read(dzi.get("quiet_band", 0.0), "", "dead_zone_inverse.quiet_band"),
-                integral_leak=_read(
-                    dzi.get("integral_leak", 0.0), "s", "dead_zone_inverse.integral_leak"
-                ),
-                integral_band=_read(
-                    dzi.get("integral_band", 0.0), "m", "dead_zone_inverse.integral_band"
-                ),
-            )
+            common["dead_zone_inverse"] = _dead_zone_from_dict(dzi)
         if v2:
             common.update(_read_v2(d))
         if kind == "pi":
