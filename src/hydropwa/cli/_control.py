@@ -359,7 +359,8 @@ def design_command(
         typer.Option(
             "--quiet-band/--no-quiet-band",
             help="Keep the valve closed while the sensor noise alone moves the command: the "
-            "position observer and a quiet band sized from the sensor noise (default: on for "
+            "position observer and a quiet band sized from the sensor noise, with the "
+            "integral's band and leak (default: on for "
             "--method lqr or place with the dead-zone inverse, --model pwa).",
         ),
     ] = None,
