@@ -168,7 +168,7 @@ def _quiet_noise(quiet: bool, verify_kwargs, design_kwargs: dict):
 
 
 def _with_quiet_band(d, noise, prm):
-    from ._verify import _with_quiet_band as with_band  # deferred, as above
+    from ._verify import _with_quiet_band as with_band  # deferred: as in _quiet_noise
 
     return with_band(d, noise, prm)
 
