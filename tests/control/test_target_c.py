@@ -150,6 +150,9 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     # default sensor noise
     lqr_quiet = design_controller(pwa, verify=False, delay=True).controller
     assert lqr_quiet.dead_zone_inverse.quiet_band > 0.0
+    # and the integral's band and leak (the steps leave the band; the holds park the valve)
+    assert lqr_quiet.dead_zone_inverse.integral_band > 0.0
+    assert lqr_quiet.dead_zone_inverse.integral_leak > 0.0
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
@@ -359,8 +362,11 @@ def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
     monkeypatch.undo()
-    monkeypatch.setattr(C, "N_EXT", C.N_EXT + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(N_EXT 27 \(C law: 26\)\)"):
+    n = C.N_EXT
+    monkeypatch.setattr(C, "N_EXT", n + 1)
+    with pytest.raises(
+        ControlError, match=rf"packed layout changed \(N_EXT {n + 1} \(C law: {n}\)\)"
+    ):
         export_c(PIController(kp=1.0), tmp_path / "c")
     assert not (tmp_path / "c").exists()
 

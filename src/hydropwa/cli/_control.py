@@ -359,8 +359,10 @@ def design_command(
         typer.Option(
             "--quiet-band/--no-quiet-band",
             help="Keep the valve closed while the sensor noise alone moves the command: the "
-            "position observer and a quiet band sized from the sensor noise (default: on for "
-            "--method lqr or place with the dead-zone inverse, --model pwa).",
+            "position observer and a quiet band sized from the sensor noise, with the "
+            "integral's band and leak (default: on for "
+            "--method lqr or place with the dead-zone inverse, --model pwa; opt-in for "
+            "--model pwa-chamber).",
         ),
     ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
@@ -397,12 +399,10 @@ def design_command(
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
     noise = _noise_options(kw, method, sensor_noise, noise_from, observer, dead_zone_hysteresis)
-    if quiet_band and (model_name != "pwa" or method == "pi" or not dzi):
-        raise ControlError(
-            "--quiet-band needs --model pwa, --method lqr or place and the dead-zone inverse"
-        )
-    if model_name == "pwa":
-        kw["quiet"] = quiet_band is not False
+    if quiet_band and (method == "pi" or not dzi):
+        raise ControlError("--quiet-band needs --method lqr or place and the dead-zone inverse")
+    # on by default for --model pwa; opt-in for pwa-chamber
+    kw["quiet"] = quiet_band is not False if model_name == "pwa" else bool(quiet_band)
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,

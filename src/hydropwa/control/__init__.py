@@ -26,6 +26,8 @@ from ._controllers import (
 )
 from ._design import (
     DEFAULT_WEIGHTS,
+    INTEGRAL_BAND_FACTOR,
+    INTEGRAL_LEAK,
     QUIET_FACTOR,
     ControlDesign,
     cell_plant,
@@ -33,6 +35,7 @@ from ._design import (
     design_pi,
     design_state_feedback,
     design_textbook_pi,
+    integral_band_for,
     quiet_band_for,
 )
 from ._design_chamber import design_on_chamber
@@ -65,6 +68,7 @@ from ._verify import (
     closed_loop_warnings,
     design_controller,
     draw_parameters,
+    loaded_velocity,
     maximum_velocity,
     task_set,
     verify_controller,
@@ -103,6 +107,10 @@ __all__ = [
     "SpoolModel",
     "position_observer_gains",
     "QUIET_FACTOR",
+    "INTEGRAL_BAND_FACTOR",
+    "INTEGRAL_LEAK",
+    "integral_band_for",
+    "loaded_velocity",
     "command_noise",
     "quiet_band_for",
     "NOISE_CHANNELS",

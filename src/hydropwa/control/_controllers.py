@@ -136,18 +136,30 @@ class DeadZoneInverse:
         compiled law), before the inverse. Sized from the command's noise at a hold
         (:func:`~hydropwa.control.quiet_band_for`), it keeps the spool in the middle of the
         dead zone (closed) while the sensor noise alone moves the command.
+    integral_leak : float
+        Time constant T_l [s] of the integral's leak (0: none; schema 2): wherever the quiet
+        band parks the valve (opening 0) the integral decays, I ← exp(−T_s/T_l)·I, instead of
+        holding, so a hold ends with the valve parked and no standing offset k_i·I/k_x.
+    integral_band : float
+        Position-error band e_I [m] of the integral (0: none; schema 2): the integral runs only
+        while |r − x| ≤ e_I, so the approach to a step's target (errors of millimetres) does
+        not wind it into an undershoot that Stribeck friction then holds.
     """
 
     offset: float = 0.1
     width: float = 0.0
     hysteresis: float = 0.0
     quiet_band: float = 0.0
+    integral_leak: float = 0.0
+    integral_band: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
         _finite(self, "width", "1", ge=0.0)
         _finite(self, "hysteresis", "1", ge=0.0)
         _finite(self, "quiet_band", "1", ge=0.0)
+        _finite(self, "integral_leak", "s", ge=0.0)
+        _finite(self, "integral_band", "m", ge=0.0)
         if self.offset >= 1.0:
             raise ControlError(
                 f"DeadZoneInverse.offset = {self.offset:g} must be below 1 (a fraction of the stroke)"
@@ -456,6 +468,8 @@ class _Discrete:
                 and (
                     self.dead_zone_inverse.hysteresis > 0.0
                     or self.dead_zone_inverse.quiet_band > 0.0
+                    or self.dead_zone_inverse.integral_leak > 0.0
+                    or self.dead_zone_inverse.integral_band > 0.0
                 )
             )
             or self._estimator() is not None
@@ -518,6 +532,9 @@ class _Discrete:
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
             ext[C.X_DZQ] = self.dead_zone_inverse.quiet_band
+            tl = self.dead_zone_inverse.integral_leak
+            ext[C.X_ILEAK] = math.exp(-self.sample_time / tl) if tl > 0.0 else 0.0
+            ext[C.X_IBAND] = self.dead_zone_inverse.integral_band
         est = self._estimator()
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])
@@ -530,8 +547,9 @@ class _Discrete:
         out = {"offset": dz.offset, "width": dz.width}
         if dz.hysteresis > 0.0:  # schema 2 only; files without it read as 0
             out["hysteresis"] = dz.hysteresis
-        if dz.quiet_band > 0.0:  # schema 2 only; files without it read as 0
-            out["quiet_band"] = dz.quiet_band
+        for key in ("quiet_band", "integral_leak", "integral_band"):
+            if getattr(dz, key) > 0.0:  # schema 2 only; files without them read as 0
+                out[key] = getattr(dz, key)
         return out
 
     def _common(self) -> dict[str, Any]:

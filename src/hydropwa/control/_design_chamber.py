@@ -83,6 +83,7 @@ def design_on_chamber(
     weights: dict[str, float] | None = None,
     verify: bool = True,
     verify_kwargs: dict[str, Any] | None = None,
+    quiet: bool = False,
     **design_kwargs,
 ):
     """Design the valve-aware LQR with its tuning chosen and checked on the chamber-level model.
@@ -103,6 +104,13 @@ def design_on_chamber(
         Verify the kept design on the full model (:func:`verify_controller`).
     verify_kwargs : dict, optional
         Passed to :func:`verify_controller` (``draws``, ``seed``, ``sensor_noise``, ``scheduler``).
+    quiet : bool
+        Answer the sensor noise as the default of :func:`~hydropwa.control.design_controller`
+        does: each candidate gets the position observer for the position noise (unless
+        ``position_noise`` is given; 1 m/s²) and the quiet band with the integral's band and
+        leak for ``verify_kwargs["sensor_noise"]`` (default
+        :data:`~hydropwa.control.DEFAULT_SENSOR_NOISE`). Off by default (opt-in:
+        ``control design --model pwa-chamber --quiet-band``).
     **design_kwargs
         Passed to :func:`design_state_feedback` (``sample_time``, ``delay``, ``load_force``...).
 
@@ -125,10 +133,13 @@ def design_on_chamber(
     ref, duration, x0 = chamber_step_task(prm)
     task = {"params": prm, "pwa": pwa, "duration": duration, "initial_position": x0}
     tried: list[tuple[float, float, Any]] = []
+    noise = _quiet_noise(quiet, verify_kwargs, design_kwargs)
     for w_int in integral_candidates:
         d = design_state_feedback(
             pwa, weights={**(weights or {}), "integral": w_int}, **design_kwargs
         )
+        if noise is not None:
+            d = _with_quiet_band(d, noise, prm)
         _, table = closed_loop_fidelity(d.controller, ref, models=("pwa-chamber",), **task)
         worst = max(_holds(table, "pwa-chamber"), default=float("inf"))
         tried.append((w_int, worst, d))
@@ -140,6 +151,26 @@ def design_on_chamber(
     )
     kept = (w_int, tried, hold_limit)
     return _check(d, prm, ref, kept, task, verify_kwargs if verify else None)
+
+
+def _quiet_noise(quiet: bool, verify_kwargs, design_kwargs: dict):
+    """The sensor noise the quiet band is sized for (None: no band); sets the observer's
+    position noise in ``design_kwargs`` unless given."""
+    from ._verify import DEFAULT_SENSOR_NOISE  # deferred: the verification loads the batch runner
+
+    if not quiet or not design_kwargs.get("dead_zone_inverse", True):
+        return None
+    given = (verify_kwargs or {}).get("sensor_noise")
+    noise = dict(DEFAULT_SENSOR_NOISE if given is None else given)
+    if noise.get("x", 0.0) > 0.0:
+        design_kwargs.setdefault("position_noise", float(noise["x"]))
+    return noise
+
+
+def _with_quiet_band(d, noise, prm):
+    from ._verify import _with_quiet_band as with_band  # deferred: as in _quiet_noise
+
+    return with_band(d, noise, prm)
 
 
 def _check(d, prm, ref, kept, task, verify_kwargs):

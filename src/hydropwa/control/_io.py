@@ -26,6 +26,8 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     width = 0.004167
     hysteresis = 0.005                 # side band h (schema 2; absent: 0, none)
     quiet_band = 0.0083                # quiet band q (schema 2; absent: 0, none)
+    integral_leak = "20 ms"            # integral leak where the band parks the valve (schema 2)
+    integral_band = "0.085 mm"         # the integral runs only while |r - x| <= this (schema 2)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }
@@ -171,6 +173,37 @@ def _read(value: Any, si_unit: str, where: str) -> float:
         raise ControlError(f"controller file: {exc}") from None
 
 
+#: schema-2 elements of ``[dead_zone_inverse]`` (written only where set; absent reads as 0):
+#: name -> (unit, factor from SI, SI unit) of the file, "" for a plain number
+_DZ_V2 = {
+    "hysteresis": ("", 1.0, ""),
+    "quiet_band": ("", 1.0, ""),
+    "integral_leak": ("ms", 1e3, "s"),
+    "integral_band": ("mm", 1e3, "m"),
+}
+
+
+def _dead_zone_to_dict(dz: DeadZoneInverse) -> dict[str, Any]:
+    out: dict[str, Any] = {"offset": dz.offset, "width": dz.width}
+    for k, (unit, f, _si) in _DZ_V2.items():
+        v = getattr(dz, k)
+        if v > 0.0:
+            out[k] = _q(v, unit, f) if unit else v
+    return out
+
+
+def _dead_zone_from_dict(dzi: dict[str, Any]) -> DeadZoneInverse:
+    """``[dead_zone_inverse]`` read back (schema-2 elements absent: 0)."""
+    return DeadZoneInverse(
+        offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
+        width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
+        **{
+            k: _read(dzi.get(k, 0.0), si, f"dead_zone_inverse.{k}")
+            for k, (_u, _f, si) in _DZ_V2.items()
+        },
+    )
+
+
 def controller_to_dict(ctrl) -> dict[str, Any]:
     """The controller as a TOML/JSON-ready dict with units, schema ``hydropwa.controller/2``.
 
@@ -206,12 +239,7 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         )
         d["machine"] = {k: _q(m[k], *_MACHINE[k][:2]) for k in _MACHINE if k in m}
     if ctrl.dead_zone_inverse is not None:
-        dz = ctrl.dead_zone_inverse
-        d["dead_zone_inverse"] = {"offset": dz.offset, "width": dz.width}
-        # schema 2 only where set; absent reads as 0
-        d["dead_zone_inverse"].update(
-            {k: getattr(dz, k) for k in ("hysteresis", "quiet_band") if getattr(dz, k) > 0.0}
-        )
+        d["dead_zone_inverse"] = _dead_zone_to_dict(ctrl.dead_zone_inverse)
     if ctrl.feedforward is not None:
         ff = ctrl.feedforward.describe()
         d["feedforward"] = {k: _q(ff[k], *_FF[k][:2]) for k in _FF}
@@ -287,12 +315,7 @@ def controller_from_dict(d: dict[str, Any]):
         }
         dzi = d.get("dead_zone_inverse")
         if dzi is not None:
-            common["dead_zone_inverse"] = DeadZoneInverse(
-                offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
-                width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
-                hysteresis=_read(dzi.get("hysteresis", 0.0), "", "dead_zone_inverse.hysteresis"),
-                quiet_band=_read(dzi.get("quiet_band", 0.0), "", "dead_zone_inverse.quiet_band"),
-            )
+            common["dead_zone_inverse"] = _dead_zone_from_dict(dzi)
         if v2:
             common.update(_read_v2(d))
         if kind == "pi":

@@ -109,6 +109,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
 #: Columns of :func:`closed_loop_verification` (the worst values of :class:`Verification`).
 VERIFICATION_COLUMNS = (
     "hold_peak_to_peak_mm",
+    "hold_mean_error_mm",
     "following_error_mm",
     "saturation_percent",
     "sign_changes_per_s",

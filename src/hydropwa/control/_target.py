@@ -105,6 +105,8 @@ _LAYOUT = (
     "X_DZH",
     "X_EST",
     "X_DZQ",
+    "X_ILEAK",
+    "X_IBAND",
     "QUIET_HOLD",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
@@ -161,7 +163,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 26, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 28, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -170,7 +172,8 @@ LAW_ELEMENTS = (
     "constant command u_ff per row",
     "dead-zone inverse with blend width, and with hysteresis of its side (schema 2)",
     "schema 2: quiet band of the command (closed valve and held integral while the sensor "
-    "noise alone moves the command)",
+    "noise alone moves the command), with the integral's leak where the valve is parked and "
+    "its band |e| <= e_I",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

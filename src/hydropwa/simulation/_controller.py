@@ -70,6 +70,11 @@ gain row (see :data:`EXT_SLOTS`)::
                  goes through the dead-zone inverse, is the c_sat of the saturation memory,
                  the spool model and the delay, and the integral holds while the opening is
                  0 and |k_x e| < QUIET_HOLD·q
+    e0+X_ILEAK   integral leak a_l = exp(−T_s/T_l) (0: none): wherever the quiet band parks
+                 the valve (opening 0) the integral decays, I = a_l I, instead of holding or
+                 running, so a hold ends with I → 0 and no standing offset k_i I/k_x
+    e0+X_IBAND   integral band e_I [m] (0: none): the integral runs only while |e| ≤ e_I, so
+                 the approach to a step's target does not wind it (held, or leaking, beyond)
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -86,7 +91,8 @@ P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensor
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band, the dead-zone inverse and saturation, the integral, the delay, the spool estimate update.
+quiet band, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
+spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
@@ -164,6 +170,8 @@ EXT_SLOTS = (
     "dz_hyst",
     "est",
     "dz_quiet",
+    "int_leak",
+    "int_band",
 )
 (
     X_FF,
@@ -192,6 +200,8 @@ EXT_SLOTS = (
     X_DZH,
     X_EST,
     X_DZQ,
+    X_ILEAK,
+    X_IBAND,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -540,7 +550,11 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
     c_sat = c_open - (u_raw - u)  # the inverse has slope 1 where the command saturates
     log[L_INT, k] = cst[S_INT]
-    if ki != 0.0 and not held:
+    far = ext and ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
+    parked = ext and ctl[e0 + X_DZQ] > 0.0 and c_open == 0.0 and ctl[C_DZINV] > 0.5
+    if parked and ctl[e0 + X_ILEAK] > 0.0:  # the valve parked: the integral decays toward 0
+        cst[S_INT] *= ctl[e0 + X_ILEAK]
+    elif ki != 0.0 and not held and not far:
         aw = int(ctl[C_AW])
         if aw == AW_CLAMP:
             # integrate unless saturated and the error would drive further into the limit

@@ -261,13 +261,22 @@ static void hp_spool_update(hydropwa_ctrl_state *s, double c_apply)
     s->dnu = f[2] * nu + f[3] * dnu + g[1] * c_apply;
 }
 
-/* Integral update with the anti-windup of the table (none, clamping, back-calculation). */
+/* Integral update with the anti-windup of the table (none, clamping, back-calculation); schema 2:
+ * where the quiet band parks the valve (c_open = 0) it decays by the leak a_l if one is set,
+ * and beyond the integral band |e| > e_I it does not run. */
 static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
                          double c_raw, double c_sat, int held)
 {
     const double ts = T[HP_C_TS];
     const int aw = (int)T[HP_C_AW];
-    if (ki == 0.0 || held) {
+    const double ae = e < 0.0 ? -e : e;
+    const int far = HP_EXT && X[HP_X_IBAND] > 0.0 && ae > X[HP_X_IBAND];
+    const int parked = HP_EXT && X[HP_X_DZQ] > 0.0 && c_raw == 0.0 && T[HP_C_DZINV] > 0.5;
+    if (parked && X[HP_X_ILEAK] > 0.0) { /* the valve parked: the integral decays toward 0 */
+        s->integral *= X[HP_X_ILEAK];
+        return;
+    }
+    if (ki == 0.0 || held || far) {
         return;
     }
     if (aw == HP_AW_CLAMP) {

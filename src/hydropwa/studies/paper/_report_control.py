@@ -14,6 +14,7 @@ __all__ = ["closed_loop_verification_html"]
 
 _COLUMNS = {
     "hold_peak_to_peak_mm": "hold p-p [mm]",
+    "hold_mean_error_mm": "mean hold error [mm]",
     "following_error_mm": "trapezoid peak error [mm]",
     "saturation_percent": "saturation [%]",
     "sign_changes_per_s": "sign changes at holds [1/s]",
