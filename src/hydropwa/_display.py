@@ -8,7 +8,7 @@ Values are shown in engineering units (bar, mm, L, kN) where SI would be unreada
 from __future__ import annotations
 
 import html
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -58,7 +58,7 @@ def html_table(
 
 
 def channel_rows(
-    channels: dict[str, np.ndarray], units: dict[str, str]
+    channels: Mapping[str, np.ndarray], units: dict[str, str]
 ) -> list[tuple[str, str, str, str]]:
     """(channel, unit, min, max) rows in engineering units, time excluded."""
     rows = []

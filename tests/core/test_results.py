@@ -102,3 +102,39 @@ def test_timepts_and_initial_position_and_their_deprecated_aliases(paper):
         np.testing.assert_array_equal(old["x"], new["x"])
     with pytest.raises(SignalError, match="not both"), pytest.warns(DeprecationWarning):
         simulate(ReducedModel(paper), 0.1, timepts=tp, t=tp)
+
+
+def test_channels_are_computed_on_first_read_and_equal_the_eager_pass(paper, monkeypatch):
+    """``simulate``'s derived channels wait for the first read (a caller of ``states`` alone
+    pays no output pass); then they are the compiled pass on the kernel's states, bit for
+    bit, and survive a caller's later change of its ``timepts`` and a pickle round trip."""
+    import pickle
+
+    from hydropwa.simulation import _simulate
+
+    calls = []
+    outputs = K.outputs
+    monkeypatch.setattr(K, "outputs", lambda *a: calls.append(1) or outputs(*a))
+    t_out = np.linspace(0.0, 0.2, 401)
+    res = simulate(FullOrderModel(paper), "sine:amplitude=0.4,frequency=5", timepts=t_out)
+    assert isinstance(res.channels, _simulate.Channels)
+    assert res.states.shape == (401, len(res.state_names)) and not calls
+    t_out[:] = 0.0  # the caller's array: its later change must not reach the channels
+    x = res["x"]
+    assert len(calls) == 1
+    np.testing.assert_array_equal(x, res.states[:, res.state_names.index("x")])
+    assert res.t[-1] == 0.2 and list(res.channels)[0] == "t"
+    # the eager pass: simulate_packed computes the same channels at once
+    t2 = np.linspace(0.0, 0.2, 401)
+    u = "sine:amplitude=0.4,frequency=5"
+    inputs = _simulate.PackedInputs.from_signals(u, paper.supply.pressure, 0.0, t2)
+    ch, n_done, status = _simulate.simulate_packed(FullOrderModel(paper), inputs, t2, res.states[0])
+    assert status == 0 and n_done == 401 and len(calls) == 2
+    for name, values in ch.items():
+        np.testing.assert_array_equal(values, res[name], err_msg=name)
+    res.channels["p_l"] = res["p_a"] - res["p_b"]  # a writer (evaluation) sees a plain mapping
+    back = pickle.loads(pickle.dumps(res))
+    assert type(back.channels) is dict and list(back.channels) == list(res.channels)
+    for name, values in res.channels.items():
+        np.testing.assert_array_equal(back.channels[name], values, err_msg=name)
+    assert len(calls) == 2

@@ -18,6 +18,8 @@ def test_batch_over_parameters_equals_one_by_one(paper, model):
     params = [_params(paper, m) for m in (1.0, 1.394, 3.0)]
     u = "sine:amplitude=0.4,frequency=2"
     batch = simulate_batch(params, u, model=model, duration=0.6, rtol=1e-3, jobs=3)
+    # the output pass ran on the pool's threads, not on the caller's first read
+    assert all(res.channels._pending is None for res in batch)
     for prm, res in zip(params, batch, strict=True):
         one = simulate(model, u, params=prm, duration=0.6, rtol=1e-3)
         assert res.params == prm

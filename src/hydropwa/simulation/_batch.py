@@ -176,7 +176,10 @@ def simulate_batch(
 
     def one(pair):
         res = simulate(pair[0], pair[1], **kwargs)
-        return summarize(res) if summary else res
+        if summary:
+            return summarize(res)
+        len(res.channels)  # the output pass (else run on first read) here, on the pool's threads
+        return res
 
     workers = max(1, min(jobs or os.cpu_count() or 1, n))
     if workers == 1:

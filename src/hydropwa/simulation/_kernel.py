@@ -394,6 +394,15 @@ def prepare(dispatcher, args, what="solver"):
     return dt
 
 
+def prepare_outputs(kind, t_out, Y, n_done, p, sg):
+    """Load or compile :func:`outputs`' compiled pass for these arguments without running it.
+
+    :func:`~hydropwa.simulation.simulate` calls it at once, so a first call's compilation is
+    counted in its ``compile_time`` even though the pass runs on the first channel read.
+    """
+    prepare(OUTPUTS[kind], _output_args(t_out, Y, n_done, p, sg), "output")
+
+
 def outputs(kind, t_out, Y, n_done, p, sg):
     """Derived channels per output sample (see :mod:`._outputs`), in one compiled pass.
 

@@ -80,30 +80,91 @@ def _solve(a, piv, B, r, n):
 #: The full model's block size without pump model and accumulator (the common case), which its
 #: LU and solves get as a compile-time constant (see :func:`_lu_block`).
 _FULL_BLOCK = 6
+#: ... of which the leading two states (spool position and rate) form a closed block: the servo
+#: valve (3) is linear in ν, ν̇ and u alone, so their rows of J are zero in every other column.
+_SPOOL = 2
+
+
+@njit(**INLINE_NRT_JIT)
+def _lu_rows(a, piv, lo, hi):
+    """:func:`_lu` of the diagonal block a[lo:hi, lo:hi]; a pivot swaps whole rows (0 … hi − 1)."""
+    for k in range(lo, hi):
+        m = k
+        big = abs(a[k, k])
+        for i in range(k + 1, hi):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                m = i
+        piv[k] = m
+        if m != k:
+            for j in range(hi):
+                tmp = a[k, j]
+                a[k, j] = a[m, j]
+                a[m, j] = tmp
+        if a[k, k] == 0.0:
+            a[k, k] = 1e-300
+        inv = 1.0 / a[k, k]
+        a[k, k] = inv
+        for i in range(k + 1, hi):
+            a[i, k] *= inv
+            f = a[i, k]
+            if f != 0.0:
+                for j in range(k + 1, hi):
+                    a[i, j] -= f * a[k, j]
+
+
+@njit(**INLINE_NRT_JIT)
+def _solve_rows(a, piv, B, r, lo, hi):
+    """Solve the factors of :func:`_lu_rows` for B[r, lo:hi] in place (its pivots applied first)."""
+    for k in range(lo, hi):
+        m = piv[k]
+        if m != k:
+            tmp = B[r, k]
+            B[r, k] = B[r, m]
+            B[r, m] = tmp
+    for i in range(lo, hi):
+        s = B[r, i]
+        for j in range(i):  # the columns before lo: the coupling block, already solved
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s
+    for i in range(hi - 1, lo - 1, -1):
+        s = B[r, i]
+        for j in range(i + 1, hi):
+            s -= a[i, j] * B[r, j]
+        B[r, i] = s * a[i, i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _lu6(a, piv):
-    """:func:`_lu` of the leading 6×6 block, compiled once (called, not inlined at each use:
-    inlined, the unrolled code added ~4 CPU-s to the full model's first compilation)."""
-    _lu(a, piv, _FULL_BLOCK)
+    """Block LU of the full model's leading 6×6 block of W = I − hγJ, compiled once (called, not
+    inlined at each use: inlined, the unrolled code added ~4 CPU-s to the first compilation).
+
+    The spool's rows of J vanish outside the spool columns (:data:`_SPOOL`), so W is block
+    lower triangular, [[A, 0], [C, D]]: A (2×2) and D (4×4: P_A, P_B, x, ẋ) are factorised
+    apart, each with partial pivoting inside its block (D's row swaps carry C's rows along),
+    and C is kept as it is. The same solution as the dense 6×6 LU (up to rounding) at about
+    a third of its operations: pivoting over all six rows only moved the spool columns'
+    pivots onto the chambers' rows.
+    """
+    _lu_rows(a, piv, 0, _SPOOL)
+    _lu_rows(a, piv, _SPOOL, _FULL_BLOCK)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _solve6(a, piv, B, r):
-    """:func:`_solve` on the leading 6×6 block, compiled once (as :func:`_lu6`)."""
-    _solve(a, piv, B, r, _FULL_BLOCK)
+    """Solve :func:`_lu6`'s block factors for row r of B: the spool block, then D with C's part."""
+    _solve_rows(a, piv, B, r, 0, _SPOOL)
+    _solve_rows(a, piv, B, r, _SPOOL, _FULL_BLOCK)
 
 
 @njit(**INLINE_NRT_JIT)
 def _lu_block(kind, a, piv, n):
-    """:func:`_lu` of the leading n×n block; for the full model's n = 6 with a constant size.
+    """:func:`_lu` of the leading n×n block; for the full model's n = 6 the block LU :func:`_lu6`.
 
-    The same arithmetic in the same order (on the benchmark cases the full model's results are
-    bit for bit those of the runtime size); with a constant size LLVM unrolls the loops and
-    keeps the block in registers, where a runtime size leaves loops of 1–7 iterations: the full
-    model's kernel −6 … −9 % (docs/architecture_performance.md). The chamber model keeps the
-    runtime size: its trajectory moved at the tolerance level with the unrolled code.
+    With a constant size LLVM unrolls the loops and keeps the block in registers, where a
+    runtime size leaves loops of 1–7 iterations; the block form skips the zero block of the
+    spool's rows (docs/architecture_performance.md). The chamber model keeps the runtime size:
+    its trajectory moved at the tolerance level with the unrolled code.
     """
     if kind == FULL and n == _FULL_BLOCK:
         _lu6(a, piv)
@@ -113,7 +174,7 @@ def _lu_block(kind, a, piv, n):
 
 @njit(**INLINE_NRT_JIT)
 def _solve_block(kind, a, piv, B, r, n):
-    """:func:`_solve` on the leading n×n block, for the full model's n = 6 with a constant size (as :func:`_lu_block`)."""
+    """:func:`_solve` on the leading n×n block, for the full model's n = 6 :func:`_solve6` (as :func:`_lu_block`)."""
     if kind == FULL and n == _FULL_BLOCK:
         _solve6(a, piv, B, r)
     else:
