@@ -154,8 +154,10 @@ def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper
 
 
 def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper_pwa):
-    """In closed loop (full model, noise, one sample of delay) every command c inside ±q is
-    applied one sample later as u = 0, and q = 0 in the file gives back the plain law."""
+    """In closed loop (full model, noise, one sample of delay) every command c inside ±q at
+    rest (after the trapezoid's end at 0.64 s and its 3 ms look-ahead; the default's
+    ``quiet_at_rest``) is applied one sample later as u = 0, while the reference moves the
+    band does not act (u ≠ 0 for c ≠ 0), and q = 0 in the file gives back the plain law."""
     d = design_controller(paper_pwa, verify=False, delay=True)
     q = d.controller.dead_zone_inverse.quiet_band
     off = dataclasses.replace(
@@ -166,9 +168,13 @@ def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper
     for name, ctrl in (("off", off), ("on", d.controller)):
         runs[name] = _noisy_trapezoid(paper, ctrl).control
     on = runs["on"]
-    inside = np.flatnonzero(np.abs(on["command"][:-1]) <= q)
+    assert d.controller.dead_zone_inverse.quiet_at_rest == 1.0
+    c, t = on["command"][:-1], on["t"][:-1]
+    inside = np.flatnonzero((np.abs(c) <= q) & (t > 0.641))
     assert inside.size > 100  # the hold after the move
     assert np.all(on["u"][inside + 1] == 0.0)
+    moving = np.flatnonzero((np.abs(c) > 0.0) & (t > 0.1) & (t < 0.6))
+    assert moving.size > 900 and np.all(on["u"][moving + 1] != 0.0)
     off_in = np.flatnonzero(np.abs(runs["off"]["command"][:-1]) <= q)
     assert np.count_nonzero(runs["off"]["u"][off_in + 1]) > 0.9 * off_in.size
     e0 = C.C_ROWS + C.ROW * len(off.rows)
