@@ -174,7 +174,7 @@ LAW_ELEMENTS = (
     "dead-zone inverse with blend width, and with hysteresis of its side (schema 2)",
     "schema 2: quiet band of the command (closed valve and held integral while the sensor "
     "noise alone moves the command), with the integral's leak where the valve is parked and "
-    "its band |e| <= e_I",
+    "its band |e| <= e_I; optionally the band only while the reference is at rest",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",
