@@ -136,10 +136,10 @@ def _noisy_trapezoid(paper, ctrl):
 def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper_pwa):
     """Issue 34's paper-rig numbers, full model, 20 µm / 0.1 bar, one sample of delay, hold over
     the last 0.2 s of 0.9 s after the 50 → 150 mm trapezoid (seed 1; benchmarks/control.py):
-    measured 35 sign changes/s (960 without the band), hold 0.026 mm (0.062), peak error
-    0.060 mm (0.064). Bounds: the issue's 100/s; 0.035 mm for the hold (the issue's 0.03 is met
+    measured 35 sign changes/s (960 without the band), hold 0.027 mm (0.062), peak error
+    0.060 mm (0.064) with the band at rest (the default; everywhere: 35/s, 0.026, 0.060 mm). Bounds: the issue's 100/s; 0.035 mm for the hold (the issue's 0.03 is met
     on this seed, not on all: 0.010-0.051 mm over seeds 1-5, see docs/control.md); 0.062 mm
-    for the error (exact sensors: 0.058 → 0.068 mm with the band, the stated price)."""
+    for the error (exact sensors: 0.058 without the band, 0.068 mm with it everywhere, 0.059 at rest)."""
     out = {}
     for name, quiet in (("plain", False), ("quiet", True)):
         ctrl = design_controller(paper_pwa, verify=False, delay=True, quiet=quiet).controller
@@ -154,8 +154,10 @@ def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper
 
 
 def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper_pwa):
-    """In closed loop (full model, noise, one sample of delay) every command c inside ±q is
-    applied one sample later as u = 0, and q = 0 in the file gives back the plain law."""
+    """In closed loop (full model, noise, one sample of delay) every command c inside ±q at
+    rest (after the trapezoid's end at 0.64 s and its 3 ms look-ahead; the default's
+    ``quiet_at_rest``) is applied one sample later as u = 0, while the reference moves the
+    band does not act (u ≠ 0 for c ≠ 0), and q = 0 in the file gives back the plain law."""
     d = design_controller(paper_pwa, verify=False, delay=True)
     q = d.controller.dead_zone_inverse.quiet_band
     off = dataclasses.replace(
@@ -166,9 +168,13 @@ def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper
     for name, ctrl in (("off", off), ("on", d.controller)):
         runs[name] = _noisy_trapezoid(paper, ctrl).control
     on = runs["on"]
-    inside = np.flatnonzero(np.abs(on["command"][:-1]) <= q)
+    assert d.controller.dead_zone_inverse.quiet_at_rest == 1.0
+    c, t = on["command"][:-1], on["t"][:-1]
+    inside = np.flatnonzero((np.abs(c) <= q) & (t > 0.641))
     assert inside.size > 100  # the hold after the move
     assert np.all(on["u"][inside + 1] == 0.0)
+    moving = np.flatnonzero((np.abs(c) > 0.0) & (t > 0.1) & (t < 0.6))
+    assert moving.size > 900 and np.all(on["u"][moving + 1] != 0.0)
     off_in = np.flatnonzero(np.abs(runs["off"]["command"][:-1]) <= q)
     assert np.count_nonzero(runs["off"]["u"][off_in + 1]) > 0.9 * off_in.size
     e0 = C.C_ROWS + C.ROW * len(off.rows)
@@ -210,3 +216,52 @@ def test_cli_quiet_band_is_on_by_default_and_can_be_turned_off(tmp_path, capsys)
     err = capsys.readouterr().err
     assert err.startswith("error: --quiet-band needs") and err.count("\n") == 1
     assert not pi.exists()
+
+
+def test_quiet_at_rest_round_trips_and_packs(paper_pwa, tmp_path):
+    """``quiet_at_rest`` (schema 2): the default writes ``quiet_at_rest = 1`` and reads it back,
+    packs 1 at X_DZQR; a file without it reads 0 (the band everywhere, as before); any value but
+    0 or 1 is refused with one line."""
+    ctrl = design_controller(paper_pwa, verify=False, delay=True).controller
+    p = tmp_path / "c.toml"
+    save_controller(ctrl, p)
+    text = p.read_text()
+    assert "quiet_at_rest = 1" in text
+    assert load_controller(p).dead_zone_inverse.quiet_at_rest == 1.0
+    e0 = C.C_ROWS + C.ROW * len(ctrl.rows)
+    assert ctrl.pack()[e0 + C.X_DZQR] == 1.0
+    old = tmp_path / "old.toml"
+    old.write_text("\n".join(ln for ln in text.splitlines() if "quiet_at_rest" not in ln) + "\n")
+    back = load_controller(old)
+    assert back.dead_zone_inverse.quiet_at_rest == 0.0
+    assert back.pack()[e0 + C.X_DZQR] == 0.0
+    with pytest.raises(Exception, match="quiet_at_rest = 0.5 must be 0 or 1"):
+        dataclasses.replace(ctrl.dead_zone_inverse, quiet_at_rest=0.5)
+
+
+def test_the_band_at_rest_frees_the_trapezoids_start_from_static_friction(paper, paper_pwa):
+    """The paper trapezoid's peak error is at the start corner (5.5 ms in: the rod sticks in static
+    friction, F_s = 175 N, while the reference accelerates). With exact sensors, full model, one
+    sample of delay, measured: band everywhere 0.068 mm at t = 0.1055 s, band only at rest (the
+    default) 0.059 mm at the same corner (docs/control.md). Bounds: the issue's 0.06 mm for the
+    default, and at least 0.005 mm better than the band everywhere (the measured gap is 0.009)."""
+    ctrl = design_controller(paper_pwa, verify=False, delay=True).controller
+    always = dataclasses.replace(
+        ctrl, dead_zone_inverse=dataclasses.replace(ctrl.dead_zone_inverse, quiet_at_rest=0.0)
+    )
+    peak = {}
+    for name, c in (("rest", ctrl), ("always", always)):
+        res = simulate(
+            "full",
+            params=paper,
+            duration=0.3,
+            controller=c,
+            reference=as_reference(TRAPEZOID),
+            initial_position=0.05,
+        )
+        e = np.abs(res["reference"] - res["x"])
+        i = int(np.argmax(e))
+        peak[name] = (float(e[i]) * 1e3, float(res.t[i]))
+    assert 0.1 < peak["always"][1] < 0.11 and 0.1 < peak["rest"][1] < 0.11, peak
+    assert peak["rest"][0] <= 0.060, peak
+    assert peak["always"][0] - peak["rest"][0] >= 0.005, peak

@@ -153,9 +153,16 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     # and the integral's band and leak (the steps leave the band; the holds park the valve)
     assert lqr_quiet.dead_zone_inverse.integral_band > 0.0
     assert lqr_quiet.dead_zone_inverse.integral_leak > 0.0
+    # the band only at rest (the default), and everywhere (files before quiet_at_rest)
+    assert lqr_quiet.dead_zone_inverse.quiet_at_rest == 1.0
+    lqr_quiet_always = dataclasses.replace(
+        lqr_quiet,
+        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, quiet_at_rest=0.0),
+    )
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
+        ("paper lqr quiet band always", paper, lqr_quiet_always),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
         ("paper lqr kalman", paper, lqr_kalman),

@@ -107,6 +107,7 @@ _LAYOUT = (
     "X_DZQ",
     "X_ILEAK",
     "X_IBAND",
+    "X_DZQR",
     "QUIET_HOLD",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
@@ -163,7 +164,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 28, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 29, "XROW": 3, "N_RCH": 6}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -173,7 +174,7 @@ LAW_ELEMENTS = (
     "dead-zone inverse with blend width, and with hysteresis of its side (schema 2)",
     "schema 2: quiet band of the command (closed valve and held integral while the sensor "
     "noise alone moves the command), with the integral's leak where the valve is parked and "
-    "its band |e| <= e_I",
+    "its band |e| <= e_I; optionally the band only while the reference is at rest",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

@@ -700,7 +700,11 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
     d.controller = dataclasses.replace(
         d.controller,
         dead_zone_inverse=dataclasses.replace(
-            dzi, quiet_band=q, integral_leak=INTEGRAL_LEAK, integral_band=band
+            dzi,
+            quiet_band=q,
+            integral_leak=INTEGRAL_LEAK,
+            integral_band=band,
+            quiet_at_rest=1.0,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )

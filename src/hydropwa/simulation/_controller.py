@@ -70,6 +70,8 @@ gain row (see :data:`EXT_SLOTS`)::
                  goes through the dead-zone inverse, is the c_sat of the saturation memory,
                  the spool model and the delay, and the integral holds while the opening is
                  0 and |k_x e| < QUIET_HOLD·q
+    e0+X_DZQR    quiet band only at rest (1; 0: always): the band acts only while the
+                 reference is at rest, ṙ(t_k) = ṙ_ff = r̈(t_k) = 0 (:func:`quiet_acts`)
     e0+X_ILEAK   integral leak a_l = exp(−T_s/T_l) (0: none): wherever the quiet band parks
                  the valve (opening 0) the integral decays, I = a_l I, instead of holding or
                  running, so a hold ends with I → 0 and no standing offset k_i I/k_x
@@ -172,6 +174,7 @@ EXT_SLOTS = (
     "dz_quiet",
     "int_leak",
     "int_band",
+    "dz_quiet_rest",
 )
 (
     X_FF,
@@ -202,6 +205,7 @@ EXT_SLOTS = (
     X_DZQ,
     X_ILEAK,
     X_IBAND,
+    X_DZQR,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -275,6 +279,20 @@ def dead_zone_hysteresis(c, offset, width, hyst, side):
     if s == 0.0 or c * s >= 0.0:
         return dead_zone_inverse(c, offset, width), s
     return 0.0, s
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def quiet_acts(ctl, e0, rch, k):
+    """Whether the quiet band (e0+X_DZQ > 0) acts at sample k: always, or with
+    e0+X_DZQR = 1 only while the reference is at rest (ṙ(t_k) = ṙ_ff = r̈(t_k) = 0).
+
+    While the reference moves the command is far above the sensor noise's share, and a
+    band there only delays the breakaway out of static friction at a profile's start
+    (measured on the paper rig's trapezoid, docs/control.md).
+    """
+    if ctl[e0 + X_DZQR] < 0.5:
+        return True
+    return rch[RC_DR, k] == 0.0 and rch[RC_DRFF, k] == 0.0 and rch[RC_DDR, k] == 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -538,7 +556,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     if ctl[C_DZINV] < 0.5:
         u_raw = c_raw
     else:
-        if ext and ctl[e0 + X_DZQ] > 0.0:
+        if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
             c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
         if ext and ctl[e0 + X_DZH] > 0.0:
             u_raw, side = dead_zone_hysteresis(

@@ -384,7 +384,10 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     if (T[HP_C_DZINV] < 0.5) {
         u_raw = c_raw;
     } else {
-        if (HP_EXT && X[HP_X_DZQ] > 0.0) {
+        /* with X_DZQR = 1 the band acts only while the reference is at rest */
+        if (HP_EXT && X[HP_X_DZQ] > 0.0
+            && (X[HP_X_DZQR] < 0.5
+                || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
             c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
         }
         if (HP_EXT && X[HP_X_DZH] > 0.0) {
