@@ -137,9 +137,11 @@ def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper
     """Issue 34's paper-rig numbers, full model, 20 µm / 0.1 bar, one sample of delay, hold over
     the last 0.2 s of 0.9 s after the 50 → 150 mm trapezoid (seed 1; benchmarks/control.py):
     measured 35 sign changes/s (960 without the band), hold 0.027 mm (0.062), peak error
-    0.060 mm (0.064) with the band at rest (the default; everywhere: 35/s, 0.026, 0.060 mm). Bounds: the issue's 100/s; 0.035 mm for the hold (the issue's 0.03 is met
-    on this seed, not on all: 0.010-0.051 mm over seeds 1-5, see docs/control.md); 0.062 mm
-    for the error (exact sensors: 0.058 without the band, 0.068 mm with it everywhere, 0.059 at rest)."""
+    0.060 mm (0.064) with the band at rest (everywhere: 35/s, 0.026, 0.060 mm); with the
+    pre-opening (the default now) 10/s, 0.011 mm, 0.044 mm. Bounds: the issue's 100/s; 0.035 mm
+    for the hold (the issue's 0.03 is met on this seed, not on all: 0.011-0.035 mm over seeds
+    1-10, see docs/control.md); 0.062 mm for the error (exact sensors: 0.058 without the band,
+    0.068 mm with it everywhere, 0.059 at rest, 0.042 with the pre-opening)."""
     out = {}
     for name, quiet in (("plain", False), ("quiet", True)):
         ctrl = design_controller(paper_pwa, verify=False, delay=True, quiet=quiet).controller
