@@ -213,6 +213,9 @@ def test_cli_quiet_band_is_on_by_default_and_can_be_turned_off(tmp_path, capsys)
     assert a.dead_zone_inverse.quiet_band == pytest.approx(2.0 * 0.00416, rel=0.05)
     assert a.position_observer is not None
     assert b.dead_zone_inverse.quiet_band == 0.0 and b.position_observer is None
+    # the pre-opening comes with the band: 2 x the 3 ms look-ahead on the paper rig
+    assert a.dead_zone_inverse.pre_open == pytest.approx(2.0 * a.feedforward.lead)
+    assert b.dead_zone_inverse.pre_open == 0.0
     capsys.readouterr()
     assert main([*base, str(pi), "--method", "pi", "--quiet-band"]) == 2
     err = capsys.readouterr().err
