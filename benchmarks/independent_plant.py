@@ -40,7 +40,7 @@ designed by the package on the machine's own parameters, on the package's full m
 (0.3 m/s, 3 m/s², 2 kN) for 1.6 s, as ``benchmarks/control.py``; and step holds: a step of 10 %
 of the stroke from mid-stroke against ±50 % of P_S·A_A (paper rig) or ±5 kN (heavy axis), held
 for 0.6 s (paper rig) or 0.8 s (heavy axis). The reference r(t_k), ṙ(t_k), ṙ(t_k + lead) and
-r̈(t_k) is the task's motion profile or step sequence (``as_reference``), the lead read from the
+r̈(t_k) (and ṙ(t_k + pre-open look-ahead)) is the task's motion profile or step sequence (``as_reference``), the lead read from the
 exported header. Measured as ``benchmarks/control.py`` measures: peak following error |r − x| over
 the run, hold peak to peak of the true position over the last 0.2 s (0.25 s for the step holds),
 command sign changes per second over that window (beyond ±1 % of the command range) and the
@@ -331,6 +331,7 @@ class CompiledController:
         self.lib = lib
         self.sample_time = float(_define(header, "HYDROPWA_CTRL_SAMPLE_TIME"))
         self.lead = float(_define(header, "HYDROPWA_CTRL_LEAD"))
+        self.pre_open = float(_define(header, "HYDROPWA_CTRL_PRE_OPEN"))
         #: a controller designed without the delay gets it here, as on any target
         self.extra_delay = not bool(getattr(controller, "delay", True))
         self.state = self.State()
@@ -403,6 +404,7 @@ def closed_loop(
     tk = ts * np.arange(n)
     r, dr, ddr = ref(tk), ref.rate(tk), ref.acceleration(tk)
     dr_ff = ref.rate(tk + cc.lead) if cc.lead > 0.0 else dr
+    dr_po = ref.rate(tk + cc.pre_open) if cc.pre_open > 0.0 else np.zeros(n)
     noise = sensors.draws(n, seed)
     y = plant.rest(task.x0, task.load)
     atol = plant.atol()
@@ -420,6 +422,7 @@ def closed_loop(
             "area_b": plant.area_b,
         }
         rf = {"r": r[k], "r_rate": dr[k], "r_rate_ff": dr_ff[k], "r_acc": ddr[k]}
+        rf["r_rate_pre"] = dr_po[k]
         u = cc.step(ch, rf)
         if cc.extra_delay:
             u, pending = pending, u

@@ -77,6 +77,7 @@ int main(int argc, char **argv)
                 ref.r_rate = in[7 * k + 4];
                 ref.r_rate_ff = in[7 * k + 5];
                 ref.r_acc = in[7 * k + 6];
+                ref.r_rate_pre = 0.0; /* the pre-opening's test only (a compare) */
                 sink += hydropwa_ctrl_step(&s, &m, &ref);
             }
         }

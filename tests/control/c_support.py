@@ -74,6 +74,7 @@ def replay_c(lib: ctypes.CDLL, x, v, pl, r, rch) -> dict[str, np.ndarray]:
         m.x, m.v, m.p_l = float(x[k]), float(v[k]), float(pl[k])
         rf.r, rf.r_rate = float(r[k]), float(rch[C.RC_DR, k])
         rf.r_rate_ff, rf.r_acc = float(rch[C.RC_DRFF, k]), float(rch[C.RC_DDR, k])
+        rf.r_rate_pre = float(rch[C.RC_DRPO, k])
         u[k] = lib.hydropwa_ctrl_step(ctypes.byref(s), ctypes.byref(m), ctypes.byref(rf))
         c[k], row[k] = s.c_raw, s.row
     return {"u": u, "c": c, "row": row}
@@ -94,6 +95,7 @@ def replay_package(ctl: np.ndarray, x, v, pl, r, rch, a_a, a_b) -> dict[str, np.
     r = np.ascontiguousarray(r, dtype=float)
     ch = np.zeros((C.N_RCH, n))
     ch[: C.RC_NX] = np.asarray(rch, dtype=float)[: C.RC_NX]
+    ch[C.RC_DRPO] = np.asarray(rch, dtype=float)[C.RC_DRPO]
     for k in range(n):
         y[Y_LOAD["x"]], y[Y_LOAD["v"]], y[Y_LOAD["p_l"]] = x[k], v[k], pl[k]
         C.controller_sample(1, k, k * ts, y, a_a, a_b, ctl, cst, r, ch, sg, log)
@@ -111,7 +113,7 @@ def package_load_pressure(ctl, p_a, p_b, a_a, a_b) -> np.ndarray:
 
 
 #: a stand-alone program for the sanitizer run: reads n and the areas, then
-#: n × (x, v, p_a, p_b, r, ṙ, ṙ(t + τ), r̈) from stdin (binary doubles), writes n × (u, c, row) to stdout
+#: n × (x, v, p_a, p_b, r, ṙ, ṙ(t + τ), r̈, ṙ(t + τ_o)) from stdin (binary doubles), writes n × (u, c, row) to stdout
 DRIVER = r"""
 #include <stdio.h>
 #include <stdlib.h>
@@ -127,9 +129,9 @@ int main(void)
     n = (long)head[0];
     hydropwa_ctrl_init(&s);
     for (k = 0; k < n; ++k) {
-        double in[8], out[3];
+        double in[9], out[3];
         hydropwa_ctrl_meas m;
-        if (fread(in, sizeof(double), 8, stdin) != 8) return 3;
+        if (fread(in, sizeof(double), 9, stdin) != 9) return 3;
         m.x = in[0];
         m.v = in[1];
         m.p_l = hydropwa_ctrl_load_pressure(in[2], in[3], head[1], head[2]);
@@ -137,6 +139,7 @@ int main(void)
         ref.r_rate = in[5];
         ref.r_rate_ff = in[6];
         ref.r_acc = in[7];
+        ref.r_rate_pre = in[8];
         out[0] = hydropwa_ctrl_step(&s, &m, &ref);
         out[1] = s.c_raw;
         out[2] = (double)s.row;

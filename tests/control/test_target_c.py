@@ -155,13 +155,22 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     assert lqr_quiet.dead_zone_inverse.integral_leak > 0.0
     # the band only at rest (the default), and everywhere (files before quiet_at_rest)
     assert lqr_quiet.dead_zone_inverse.quiet_at_rest == 1.0
+    # the pre-opening (the default; 2 x the feed-forward's look-ahead) and without it
+    assert lqr_quiet.dead_zone_inverse.pre_open > 0.0
+    lqr_quiet_no_pre = dataclasses.replace(
+        lqr_quiet,
+        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pre_open=0.0),
+    )
     lqr_quiet_always = dataclasses.replace(
         lqr_quiet,
-        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, quiet_at_rest=0.0),
+        dead_zone_inverse=dataclasses.replace(
+            lqr_quiet_no_pre.dead_zone_inverse, quiet_at_rest=0.0
+        ),
     )
     assert not lqr_v1.extended and not sf_delay.extended and lqr_no_delay.extended
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
+        ("paper lqr quiet band, no pre-opening", paper, lqr_quiet_no_pre),
         ("paper lqr quiet band always", paper, lqr_quiet_always),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
@@ -323,7 +332,8 @@ def test_c_controller_is_clean_under_address_and_undefined_sanitizers(
         a_a, a_b = prm.cylinder.area_a, prm.cylinder.area_b
         n = len(r)
         rows = np.column_stack(
-            [seq["x"], seq["v"], seq["p_a"], seq["p_b"], r, *rch[[C.RC_DR, C.RC_DRFF, C.RC_DDR]]]
+            [seq["x"], seq["v"], seq["p_a"], seq["p_b"], r]
+            + list(rch[[C.RC_DR, C.RC_DRFF, C.RC_DDR, C.RC_DRPO]])
         )
         data = struct.pack("3d", n, a_a, a_b) + rows.astype("<f8").tobytes()
         run = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
@@ -424,7 +434,7 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
     md = fmpy.read_model_description(str(fmu))
     assert md.fmiVersion == version
     names = {v.name for v in md.modelVariables} - {"time"}
-    assert names == {"x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "u"}
+    assert names == {"x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "r_rate_pre", "u"}
     with pytest.raises(OutputExistsError):
         export_fmu(paper_lqr, fmu, fmi_version=version)
     # the sources inside rebuild the FMU elsewhere: they compile under the strict flags
@@ -470,11 +480,12 @@ def test_controller_fmu_validates_and_reproduces_the_commands_in_fmpy(
     pkg = replay_package(ctl, seq["x"], seq["v"], pl, r, rch, a_a, a_b)
     ts = paper_lqr.sample_time
     tk = ts * np.arange(len(r))
-    names = ("time", "x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc")
+    names = ("time", "x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "r_rate_pre")
     signals = np.zeros(len(r), dtype=[(n, np.float64) for n in names])
     signals["time"], signals["x"], signals["v"] = tk, seq["x"], seq["v"]
     signals["p_l"], signals["r"], signals["r_rate"] = pl, r, rch[C.RC_DR]
     signals["r_rate_ff"], signals["r_acc"] = rch[C.RC_DRFF], rch[C.RC_DDR]
+    signals["r_rate_pre"] = rch[C.RC_DRPO]
     out = fmpy.simulate_fmu(
         str(fmu),
         start_time=0.0,
@@ -544,6 +555,7 @@ def test_c_structs_mirror_the_header_field_by_field():
         "r_rate",
         "r_rate_ff",
         "r_acc",
+        "r_rate_pre",
     ]
     with pytest.raises(ControlError, match=r"cannot mirror 'float y' of struct odd"):
         c_structs("typedef struct {\n    double x; /* m */\n    float y;\n} odd;")

@@ -360,7 +360,8 @@ def design_command(
             "--quiet-band/--no-quiet-band",
             help="Keep the valve closed while the sensor noise alone moves the command: the "
             "position observer and a quiet band sized from the sensor noise, with the "
-            "integral's band and leak (default: on for "
+            "integral's band and leak, and the valve pre-opened to the dead zone's edge before "
+            "a profile starts (default: on for "
             "--method lqr or place with the dead-zone inverse, --model pwa; opt-in for "
             "--model pwa-chamber).",
         ),

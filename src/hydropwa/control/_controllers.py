@@ -149,6 +149,11 @@ class DeadZoneInverse:
         and r̈ all 0); 0 (schema 1 and earlier schema-2 files): always (schema 2). While the
         reference moves, a band only delays the breakaway from static friction at a
         profile's start (paper rig trapezoid: peak error 0.071 → 0.062 mm, docs/control.md).
+    pre_open : float
+        Look-ahead τ_o [s] of the pre-opening (0: none; schema 2): while the reference is at
+        rest now (ṙ(t_k) = 0) but moves τ_o ahead (ṙ(t_k + τ_o) ≠ 0), the opening asked for
+        is at least z_w toward the coming move (``pre_open`` of the compiled law), so the
+        spool has crossed the dead zone (no flow yet) when the reference starts.
     """
 
     offset: float = 0.1
@@ -158,6 +163,7 @@ class DeadZoneInverse:
     integral_leak: float = 0.0
     integral_band: float = 0.0
     quiet_at_rest: float = 0.0
+    pre_open: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
@@ -166,6 +172,7 @@ class DeadZoneInverse:
         _finite(self, "quiet_band", "1", ge=0.0)
         _finite(self, "integral_leak", "s", ge=0.0)
         _finite(self, "integral_band", "m", ge=0.0)
+        _finite(self, "pre_open", "s", ge=0.0)
         if self.quiet_at_rest not in (0.0, 1.0):
             raise ControlError(
                 f"DeadZoneInverse.quiet_at_rest = {self.quiet_at_rest:g} must be 0 or 1 "
@@ -482,6 +489,7 @@ class _Discrete:
                     or self.dead_zone_inverse.integral_leak > 0.0
                     or self.dead_zone_inverse.integral_band > 0.0
                     or self.dead_zone_inverse.quiet_at_rest > 0.0
+                    or self.dead_zone_inverse.pre_open > 0.0
                 )
             )
             or self._estimator() is not None
@@ -548,6 +556,7 @@ class _Discrete:
             ext[C.X_ILEAK] = math.exp(-self.sample_time / tl) if tl > 0.0 else 0.0
             ext[C.X_IBAND] = self.dead_zone_inverse.integral_band
             ext[C.X_DZQR] = self.dead_zone_inverse.quiet_at_rest
+            ext[C.X_DZPO] = self.dead_zone_inverse.pre_open
         est = self._estimator()
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])
@@ -560,7 +569,7 @@ class _Discrete:
         out = {"offset": dz.offset, "width": dz.width}
         if dz.hysteresis > 0.0:  # schema 2 only; files without it read as 0
             out["hysteresis"] = dz.hysteresis
-        for key in ("quiet_band", "integral_leak", "integral_band", "quiet_at_rest"):
+        for key in ("quiet_band", "integral_leak", "integral_band", "quiet_at_rest", "pre_open"):
             if getattr(dz, key) > 0.0:  # schema 2 only; files without them read as 0
                 out[key] = getattr(dz, key)
         return out

@@ -52,6 +52,7 @@ __all__ = [
     "integral_band_for",
     "INTEGRAL_BAND_FACTOR",
     "INTEGRAL_LEAK",
+    "PRE_OPEN_FACTOR",
     "design_pi",
     "design_state_feedback",
     "design_textbook_pi",
@@ -955,6 +956,11 @@ def _hold_rows(controller) -> list[int]:
 #: 0.075 / 0.052 mm, mean 0.023 / 0.021 mm; no leak: mean 0.079 / 0.054 mm (factor 6)
 INTEGRAL_BAND_FACTOR = 5.0
 INTEGRAL_LEAK = 0.02
+#: the pre-opening's look-ahead τ_o in units of the feed-forward's look-ahead τ (the valve's
+#: lag, 1.5 T_s + 2ζ/ω0): the spool needs about another τ to cross the dead zone. Measured on
+#: the paper rig's trapezoid (τ = 3 ms; peak error, exact and seeds 1, 2, 5, 6, 7): τ_o = 3 ms
+#: 0.059-0.067 mm, 4 ms 0.049-0.056 mm, 6 ms 0.037-0.044 mm (docs/control.md)
+PRE_OPEN_FACTOR = 2.0
 
 
 def integral_band_for(controller, quiet_band: float, factor: float = INTEGRAL_BAND_FACTOR) -> float:

@@ -108,6 +108,7 @@ _LAYOUT = (
     "X_ILEAK",
     "X_IBAND",
     "X_DZQR",
+    "X_DZPO",
     "QUIET_HOLD",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
@@ -164,7 +165,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 29, "XROW": 3, "N_RCH": 6}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 30, "XROW": 3, "N_RCH": 7}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -175,6 +176,8 @@ LAW_ELEMENTS = (
     "schema 2: quiet band of the command (closed valve and held integral while the sensor "
     "noise alone moves the command), with the integral's leak where the valve is parked and "
     "its band |e| <= e_I; optionally the band only while the reference is at rest",
+    "schema 2: pre-opening: while r'(t_k) = 0 and r'(t_k + τ_o) != 0 an opening of at least "
+    "the blend width z_w toward the coming move",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",
@@ -394,6 +397,7 @@ def c_sources(controller) -> dict[str, str]:
         "@N_TABLE@": str(ctl.shape[0]),
         "@SAMPLE_TIME@": _c_float(controller.sample_time),
         "@LEAD@": _c_float(float(ctl[e0 + C.X_LEAD]) if ext else 0.0),
+        "@PRE_OPEN@": _c_float(float(ctl[e0 + C.X_DZPO]) if ext else 0.0),
         "@LOAD_PRESSURE@": controller.load_pressure,
         "@BOXES@": str(cost["box_distances"]),
         "@DIVS@": str(cost["divisions"]),
@@ -499,6 +503,14 @@ FMU_VARIABLES = [
     ),
     FmuVariable("r_acc", "input", "continuous", 0.0, "m/s2", "reference acceleration"),
     FmuVariable(
+        "r_rate_pre",
+        "input",
+        "continuous",
+        0.0,
+        "m/s",
+        "reference velocity at t + pre-open look-ahead (0 without)",
+    ),
+    FmuVariable(
         "u", "output", "discrete", None, "", "valve command [1] of the last sample (+-1 full)"
     ),
 ]
@@ -538,7 +550,8 @@ def export_fmu(
     Notes
     -----
     Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s], r_rate_ff [m/s] (the rate at
-    t + the feed-forward's look-ahead), r_acc [m/s²]; output u [1]. ``doStep(t, h)``
+    t + the feed-forward's look-ahead), r_acc [m/s²], r_rate_pre [m/s] (the rate at t + the
+    pre-opening's look-ahead; 0 without it); output u [1]. ``doStep(t, h)``
     evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
     at t, and u is the command of the last of them from then on (no direct feedthrough):
     a master that sets the inputs at t_k, steps the controller, then reads u and passes it to

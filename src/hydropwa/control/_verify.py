@@ -29,6 +29,7 @@ from ._controllers import ControlError
 from ._design import (
     DEFAULT_WEIGHTS,
     INTEGRAL_LEAK,
+    PRE_OPEN_FACTOR,
     design_pi,
     design_state_feedback,
     integral_band_for,
@@ -697,6 +698,8 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
     if q <= 0.0 or dzi is None:
         return d
     band = integral_band_for(d.controller, q)
+    ff = d.controller.feedforward
+    pre = PRE_OPEN_FACTOR * ff.lead if ff is not None else 0.0
     d.controller = dataclasses.replace(
         d.controller,
         dead_zone_inverse=dataclasses.replace(
@@ -705,6 +708,7 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
             integral_leak=INTEGRAL_LEAK,
             integral_band=band,
             quiet_at_rest=1.0,
+            pre_open=pre,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )

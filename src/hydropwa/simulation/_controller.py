@@ -72,6 +72,10 @@ gain row (see :data:`EXT_SLOTS`)::
                  0 and |k_x e| < QUIET_HOLD·q
     e0+X_DZQR    quiet band only at rest (1; 0: always): the band acts only while the
                  reference is at rest, ṙ(t_k) = ṙ_ff = r̈(t_k) = 0 (:func:`quiet_acts`)
+    e0+X_DZPO    pre-opening look-ahead τ_o [s] (0: none; :func:`pre_open`): while ṙ(t_k) = 0
+                 and ṙ_o = ṙ(t_k + τ_o) ≠ 0 (reference channel ``RC_DRPO``, sampled where the
+                 reference is) the opening asked for is at least z_w (ctl[8]) toward sign ṙ_o,
+                 so the spool waits at the dead zone's edge when the reference starts
     e0+X_ILEAK   integral leak a_l = exp(−T_s/T_l) (0: none): wherever the quiet band parks
                  the valve (opening 0) the integral decays, I = a_l I, instead of holding or
                  running, so a hold ends with I → 0 and no standing offset k_i I/k_x
@@ -87,13 +91,14 @@ gain row (see :data:`EXT_SLOTS`)::
                  (:mod:`hydropwa.control._estimator`)
 
 Reference channels ``rch`` (shape (N_RCH, samples), one column per sample): ṙ(t_k) [m/s],
-ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], and the sensor noise added to the measured x [m],
-P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors).
+ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], the sensor noise added to the measured x [m],
+P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors), and
+ṙ_o = ṙ(t_k + τ_o) [m/s] of the pre-opening (zeros without it).
 
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
+quiet band, the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
 spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
@@ -175,6 +180,7 @@ EXT_SLOTS = (
     "int_leak",
     "int_band",
     "dz_quiet_rest",
+    "dz_pre_open",
 )
 (
     X_FF,
@@ -206,6 +212,7 @@ EXT_SLOTS = (
     X_ILEAK,
     X_IBAND,
     X_DZQR,
+    X_DZPO,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -224,8 +231,8 @@ NZ = 7
 EROW = NZ * NZ + 4 * NZ + 4
 E_PHI, E_GAM, E_AFF, E_L, E_INIT = 0, NZ * NZ, NZ * NZ + NZ, NZ * NZ + 2 * NZ, NZ * NZ + 4 * NZ
 #: reference channels (rows of ``rch``)
-RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB = range(6)
-N_RCH = 6
+RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO = range(7)
+N_RCH = 7
 #: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
 #: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
 #: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂,
@@ -293,6 +300,23 @@ def quiet_acts(ctl, e0, rch, k):
     if ctl[e0 + X_DZQR] < 0.5:
         return True
     return rch[RC_DR, k] == 0.0 and rch[RC_DRFF, k] == 0.0 and rch[RC_DDR, k] == 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def pre_open(c, width, rate_now, rate_ahead):
+    """Opening [1] asked for with the pre-opening: at least z_w = ``width`` toward the coming move.
+
+    While the reference is at rest now (``rate_now`` = ṙ(t_k) = 0) but moves τ_o ahead
+    (``rate_ahead`` = ṙ(t_k + τ_o) ≠ 0), the opening c becomes max(c, z_w) for a coming
+    extension (min(c, −z_w) for a retraction): the dead-zone inverse then sends the spool
+    to the dead zone's edge, where no flow opens yet, and the valve's lag of crossing the
+    dead zone (~4 ms on the paper rig) is spent before the reference starts. Elsewhere c.
+    """
+    if rate_now != 0.0 or rate_ahead == 0.0:
+        return c
+    if rate_ahead > 0.0:
+        return max(c, width)
+    return min(c, -width)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -558,6 +582,8 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     else:
         if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
             c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
+        if ext and ctl[e0 + X_DZPO] > 0.0:
+            c_open = pre_open(c_open, ctl[C_DZW], rch[RC_DR, k], rch[RC_DRPO, k])
         if ext and ctl[e0 + X_DZH] > 0.0:
             u_raw, side = dead_zone_hysteresis(
                 c_open, ctl[C_DZOFF], ctl[C_DZW], ctl[e0 + X_DZH], cst[S_DZS]

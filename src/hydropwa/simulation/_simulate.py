@@ -794,6 +794,9 @@ def _closed_loop_setup(
     rch = np.zeros((C.N_RCH, n_smp))
     rch[C.RC_DR] = rate(tk)
     rch[C.RC_DRFF] = rate(tk + lead) if lead > 0.0 else rch[C.RC_DR]
+    pre = float(ctl[e0 + C.X_DZPO]) if ctl.size >= e0 + C.N_EXT else 0.0
+    if pre > 0.0:  # the pre-opening's look-ahead of the direction
+        rch[C.RC_DRPO] = rate(tk + pre)
     if hasattr(ref_sig, "acceleration"):
         rch[C.RC_DDR] = np.asarray(ref_sig.acceleration(tk), dtype=float)
     else:

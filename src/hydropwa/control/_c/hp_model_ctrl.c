@@ -1,10 +1,11 @@
 #include "hydropwa_ctrl.h"
 
 /* Variables (value references): inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s],
- * r_rate_ff [m/s] (the rate at t + HYDROPWA_CTRL_LEAD), r_acc [m/s^2]; output u [1]. */
-#define HP_NVARS 8
-enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_RRATEFF, VR_RACC, VR_U };
-static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 1, 1, 0};
+ * r_rate_ff [m/s] (the rate at t + HYDROPWA_CTRL_LEAD), r_acc [m/s^2], r_rate_pre [m/s] (the
+ * rate at t + HYDROPWA_CTRL_PRE_OPEN); output u [1]. */
+#define HP_NVARS 9
+enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_RRATEFF, VR_RACC, VR_RRATEPRE, VR_U };
+static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 1, 1, 1, 0};
 
 typedef struct {
     double vars[HP_NVARS];
@@ -52,6 +53,7 @@ static double hp_sample(hp_model *m, hydropwa_ctrl_state *s)
     ref.r_rate = m->vars[VR_RRATE];
     ref.r_rate_ff = m->vars[VR_RRATEFF];
     ref.r_acc = m->vars[VR_RACC];
+    ref.r_rate_pre = m->vars[VR_RRATEPRE];
     return hydropwa_ctrl_step(s, &meas, &ref);
 }
 

@@ -16,6 +16,7 @@
  *         ref.r_rate = r'(t_k);                      its rate [m/s]
  *         ref.r_rate_ff = r'(t_k + HYDROPWA_CTRL_LEAD);  look-ahead rate [m/s]
  *         ref.r_acc = r''(t_k);                      its acceleration [m/s^2]
+ *         ref.r_rate_pre = r'(t_k + HYDROPWA_CTRL_PRE_OPEN);  pre-opening look-ahead rate [m/s]
  *         u = hydropwa_ctrl_step(&s, &m, &ref);
  *         apply u to the valve and hold it until the next sample
  *
@@ -43,6 +44,9 @@ extern "C" {
 /** Look-ahead tau [s] of the flow feed-forward's reference rate r_rate_ff = r'(t_k + tau)
  *  (0: r_rate_ff = r_rate). */
 #define HYDROPWA_CTRL_LEAD @LEAD@
+/** Look-ahead tau_o [s] of the dead-zone pre-opening's reference rate
+ *  r_rate_pre = r'(t_k + tau_o) (0: no pre-opening, r_rate_pre unused). */
+#define HYDROPWA_CTRL_PRE_OPEN @PRE_OPEN@
 
 /** Measurements at one sample instant. */
 typedef struct {
@@ -59,6 +63,7 @@ typedef struct {
     double r_rate;    /**< its rate r'(t_k) [m/s] */
     double r_rate_ff; /**< look-ahead rate r'(t_k + HYDROPWA_CTRL_LEAD) [m/s] */
     double r_acc;     /**< its acceleration r''(t_k) [m/s^2] */
+    double r_rate_pre; /**< look-ahead rate r'(t_k + HYDROPWA_CTRL_PRE_OPEN) [m/s] (0 without) */
 } hydropwa_ctrl_ref;
 
 /** Memory of the controller; owned by the caller, set up by hydropwa_ctrl_init. */

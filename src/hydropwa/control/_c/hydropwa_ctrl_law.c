@@ -46,6 +46,19 @@ static double hp_dead_zone_hysteresis(double c, double offset, double width, dou
 /* Quiet band q: the opening asked for is 0 for |c| <= q, sign(c)*2(|c| - q) up to |c| = 2q and c
  * beyond; *hold is set where the opening is 0 and |ex| = |k_x e| < HP_QUIET_HOLD*q (the integral
  * then holds its value). */
+/* Pre-opening: while r'(t_k) = 0 and r'(t_k + tau_o) != 0 the opening is at least the blend
+ * width toward the coming move (the spool waits at the dead zone's edge, no flow yet). */
+static double hp_pre_open(double c, double width, double rate_now, double rate_ahead)
+{
+    if (rate_now != 0.0 || rate_ahead == 0.0) {
+        return c;
+    }
+    if (rate_ahead > 0.0) {
+        return c > width ? c : width;
+    }
+    return c < -width ? c : -width;
+}
+
 static double hp_quiet_band(double c, double band, double ex, int *hold)
 {
     const double a = c < 0.0 ? -c : c;
@@ -389,6 +402,9 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
             && (X[HP_X_DZQR] < 0.5
                 || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
             c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
+        }
+        if (HP_EXT && X[HP_X_DZPO] > 0.0) {
+            c_open = hp_pre_open(c_open, T[HP_C_DZW], ref->r_rate, ref->r_rate_pre);
         }
         if (HP_EXT && X[HP_X_DZH] > 0.0) {
             u_raw = hp_dead_zone_hysteresis(c_open, T[HP_C_DZOFF], T[HP_C_DZW], X[HP_X_DZH],
