@@ -362,7 +362,10 @@ def cost_per_step(n_rows: int, extended: bool = False, kalman: bool = False) -> 
     floating-point operations and 16 comparisons; the schema-2 block (``extended``: position
     observer, velocity filter, flow feed-forward with its two square roots, reference state,
     spool terms and the valve model's update) adds at most 76 operations (6 of them
-    divisions, 2 square roots) and 14 comparisons; the per-cell Kalman filter (``kalman``)
+    divisions, 2 square roots) and 14 comparisons, and its dead-zone rules (the quiet band
+    with its at-rest test, the pre-opening, the hysteresis, the integral's band and leak;
+    counted on their longest paths in ``hydropwa_ctrl_law.c``) at most 11 operations and 28
+    comparisons; the per-cell Kalman filter (``kalman``)
     adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
     142 operations, no division.
     """
@@ -372,8 +375,8 @@ def cost_per_step(n_rows: int, extended: bool = False, kalman: bool = False) -> 
     return {
         "box_distances": boxes,
         "divisions": 4 * boxes + 4 + 6 * x,
-        "flops": 12 * boxes + 40 + 76 * x + kf,
-        "comparisons": 9 * boxes + 16 + 14 * x,
+        "flops": 12 * boxes + 40 + (76 + 11) * x + kf,
+        "comparisons": 9 * boxes + 16 + (14 + 28) * x,
     }
 
 

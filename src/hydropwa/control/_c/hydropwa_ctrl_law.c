@@ -43,9 +43,6 @@ static double hp_dead_zone_hysteresis(double c, double offset, double width, dou
     return 0.0;
 }
 
-/* Quiet band q: the opening asked for is 0 for |c| <= q, sign(c)*2(|c| - q) up to |c| = 2q and c
- * beyond; *hold is set where the opening is 0 and |ex| = |k_x e| < HP_QUIET_HOLD*q (the integral
- * then holds its value). */
 /* Pre-opening: while r'(t_k) = 0 and r'(t_k + tau_o) != 0 the opening is at least the blend
  * width toward the coming move (the spool waits at the dead zone's edge, no flow yet). */
 static double hp_pre_open(double c, double width, double rate_now, double rate_ahead)
@@ -59,6 +56,9 @@ static double hp_pre_open(double c, double width, double rate_now, double rate_a
     return c < -width ? c : -width;
 }
 
+/* Quiet band q: the opening asked for is 0 for |c| <= q, sign(c)*2(|c| - q) up to |c| = 2q and c
+ * beyond; *hold is set where the opening is 0 and |ex| = |k_x e| < HP_QUIET_HOLD*q (the integral
+ * then holds its value). */
 static double hp_quiet_band(double c, double band, double ex, int *hold)
 {
     const double a = c < 0.0 ? -c : c;
