@@ -113,6 +113,18 @@ def _finite(
     return v
 
 
+#: the schema-2 elements of :class:`DeadZoneInverse` (fields beyond offset and width): written
+#: to a file only where set, read as 0 where absent (the law without them)
+DEAD_ZONE_V2 = (
+    "hysteresis",
+    "quiet_band",
+    "integral_leak",
+    "integral_band",
+    "quiet_at_rest",
+    "pre_open",
+)
+
+
 @dataclass(frozen=True)
 class DeadZoneInverse:
     """Inverse of the valve dead zone, Eq. (2) / Table IV, placed after the controller.
@@ -567,9 +579,7 @@ class _Discrete:
         dz = self.dead_zone_inverse
         assert dz is not None
         out = {"offset": dz.offset, "width": dz.width}
-        if dz.hysteresis > 0.0:  # schema 2 only; files without it read as 0
-            out["hysteresis"] = dz.hysteresis
-        for key in ("quiet_band", "integral_leak", "integral_band", "quiet_at_rest", "pre_open"):
+        for key in DEAD_ZONE_V2:
             if getattr(dz, key) > 0.0:  # schema 2 only; files without them read as 0
                 out[key] = getattr(dz, key)
         return out

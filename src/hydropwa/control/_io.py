@@ -55,6 +55,7 @@ from .._errors import HydropwaError
 from .._io import atomic_write_text, check_output, overwrite_flag
 from ..params import parse_quantity
 from ._controllers import (
+    DEAD_ZONE_V2,
     ControlError,
     DeadZoneInverse,
     FlowFeedForward,
@@ -175,21 +176,20 @@ def _read(value: Any, si_unit: str, where: str) -> float:
         raise ControlError(f"controller file: {exc}") from None
 
 
-#: schema-2 elements of ``[dead_zone_inverse]`` (written only where set; absent reads as 0):
-#: name -> (unit, factor from SI, SI unit) of the file, "" for a plain number
-_DZ_V2 = {
-    "hysteresis": ("", 1.0, ""),
-    "quiet_band": ("", 1.0, ""),
+#: the file units of the schema-2 elements of ``[dead_zone_inverse]`` (``DEAD_ZONE_V2``):
+#: name -> (unit, factor from SI, SI unit); the others are plain numbers
+_DZ_UNITS = {
     "integral_leak": ("ms", 1e3, "s"),
     "integral_band": ("mm", 1e3, "m"),
-    "quiet_at_rest": ("", 1.0, ""),
     "pre_open": ("ms", 1e3, "s"),
 }
+_PLAIN = ("", 1.0, "")
 
 
 def _dead_zone_to_dict(dz: DeadZoneInverse) -> dict[str, Any]:
     out: dict[str, Any] = {"offset": dz.offset, "width": dz.width}
-    for k, (unit, f, _si) in _DZ_V2.items():
+    for k in DEAD_ZONE_V2:
+        unit, f, _si = _DZ_UNITS.get(k, _PLAIN)
         v = getattr(dz, k)
         if v > 0.0:
             out[k] = _q(v, unit, f) if unit else v
@@ -202,8 +202,8 @@ def _dead_zone_from_dict(dzi: dict[str, Any]) -> DeadZoneInverse:
         offset=_read(dzi["offset"], "", "dead_zone_inverse.offset"),
         width=_read(dzi.get("width", 0.0), "", "dead_zone_inverse.width"),
         **{
-            k: _read(dzi.get(k, 0.0), si, f"dead_zone_inverse.{k}")
-            for k, (_u, _f, si) in _DZ_V2.items()
+            k: _read(dzi.get(k, 0.0), _DZ_UNITS.get(k, _PLAIN)[2], f"dead_zone_inverse.{k}")
+            for k in DEAD_ZONE_V2
         },
     )
 
