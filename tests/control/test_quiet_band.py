@@ -119,18 +119,22 @@ def test_default_design_sizes_the_band_from_the_noise_and_writes_it(paper_pwa, t
     np.testing.assert_allclose(ctl, d.controller.pack(), rtol=1e-9, atol=0)
 
 
-def _noisy_trapezoid(paper, ctrl):
-    """The 50 → 150 mm trapezoid and its hold, full model, sensor noise seed 1 (0.9 s)."""
+def _trapezoid(paper, ctrl, duration=0.9, **noise):
+    """The 50 → 150 mm trapezoid (starting at 0.1 s) and its hold on the full model."""
     return simulate(
         "full",
         params=paper,
-        duration=0.9,
+        duration=duration,
         controller=ctrl,
         reference=as_reference(TRAPEZOID),
         initial_position=0.05,
-        sensor_noise=NOISE,
-        seed=1,
+        **noise,
     )
+
+
+def _noisy_trapezoid(paper, ctrl):
+    """:func:`_trapezoid` with the sensor noise, seed 1 (0.9 s)."""
+    return _trapezoid(paper, ctrl, sensor_noise=NOISE, seed=1)
 
 
 def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper_pwa):
@@ -257,14 +261,7 @@ def test_the_band_at_rest_frees_the_trapezoids_start_from_static_friction(paper,
     )
     peak = {}
     for name, c in (("rest", ctrl), ("always", always)):
-        res = simulate(
-            "full",
-            params=paper,
-            duration=0.3,
-            controller=c,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-        )
+        res = _trapezoid(paper, c, 0.3)
         e = np.abs(res["reference"] - res["x"])
         i = int(np.argmax(e))
         peak[name] = (float(e[i]) * 1e3, float(res.t[i]))
@@ -345,14 +342,7 @@ def test_pre_open_spends_the_dead_zone_crossing_before_the_trapezoid_starts(pape
     ctrl = design_controller(paper_pwa, verify=False, delay=True).controller
     peak, runs = {}, {}
     for name, c in (("pre", ctrl), ("none", _without_pre_open(ctrl))):
-        res = simulate(
-            "full",
-            params=paper,
-            duration=0.2,
-            controller=c,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-        )
+        res = _trapezoid(paper, c, 0.2)
         e = np.abs(res["reference"] - res["x"])
         corner = (res.t >= 0.1) & (res.t <= 0.14)  # the acceleration phase (40 ms)
         peak[name] = float(np.max(e[corner])) * 1e3
