@@ -23,6 +23,8 @@ from ._controllers import (
     SpoolModel,
     StateFeedbackController,
     position_observer_gains,
+    spool_filter_gain,
+    SPOOL_COMMAND_NOISE,
 )
 from ._design import (
     DEFAULT_WEIGHTS,
@@ -62,6 +64,7 @@ from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verificatio
 from ._target import c_structs, export_c, export_fmu
 from ._verify import (
     DEFAULT_SENSOR_NOISE,
+    DEFAULT_SPOOL_NOISE,
     Verification,
     VerificationCriteria,
     VerificationTask,
@@ -92,6 +95,7 @@ __all__ = [
     "ControlError",
     "DeadZoneInverse",
     "DEFAULT_SENSOR_NOISE",
+    "DEFAULT_SPOOL_NOISE",
     "Verification",
     "VerificationCriteria",
     "VerificationTask",
@@ -107,6 +111,8 @@ __all__ = [
     "FlowFeedForward",
     "SpoolModel",
     "position_observer_gains",
+    "spool_filter_gain",
+    "SPOOL_COMMAND_NOISE",
     "QUIET_FACTOR",
     "INTEGRAL_BAND_FACTOR",
     "INTEGRAL_LEAK",

@@ -260,6 +260,9 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             "input": "the saturated opening command c the valve holds over the sample",
             "measured": ctrl.spool_model.measured,
         }
+        if ctrl.spool_model.filtered:  # schema 2: the measured spool through a Kalman gain
+            d["spool_model"]["gain"] = list(ctrl.spool_model.gain)
+            d["spool_model"]["noise"] = dict(ctrl.spool_model.noise)
     if isinstance(ctrl, PIController):
         d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
     else:
@@ -397,7 +400,11 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
     sm = d.get("spool_model")
     if sm is not None:
         out["spool_model"] = SpoolModel(
-            tuple(sm["phi"]), tuple(sm["gamma"]), measured=bool(sm.get("measured", False))
+            tuple(sm["phi"]),
+            tuple(sm["gamma"]),
+            measured=bool(sm.get("measured", False)),
+            gain=tuple(sm.get("gain", (0.0, 0.0))),
+            noise=dict(sm.get("noise", {})),
         )
     ver = d.get("verification")
     if ver:

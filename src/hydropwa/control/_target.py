@@ -109,6 +109,9 @@ _LAYOUT = (
     "X_IBAND",
     "X_DZQR",
     "X_DZPO",
+    "X_SPLN",
+    "X_SPLD",
+    "X_ESTNU",
     "QUIET_HOLD",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
@@ -165,7 +168,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 30, "XROW": 3, "N_RCH": 7}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 33, "XROW": 3, "N_RCH": 8}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -190,6 +193,8 @@ LAW_ELEMENTS = (
     "schema 2: velocity from the position samples (first-order filter of the backward difference)",
     "schema 2: spool estimate by the discrete (ZOH) valve model with per-row spool gains "
     "k_nu, k_dnu and pending-command gain k_up",
+    "schema 2: the measured spool position as the spool estimate's measurement (steady-state "
+    "Kalman gain [L_nu, L_dnu] on the model's prediction)",
     "schema 2: position observer (steady-state Kalman filter of [x, v] driven by r̈)",
     "schema 2: per-cell steady-state Kalman filter of [P_L, v, x, ν, ν̇, d_a, d_p] "
     "(the filter of the last sample's row, driven by the opening command the valve held)",

@@ -39,6 +39,7 @@ from ._reference import MotionProfile, StepSequence
 
 __all__ = [
     "DEFAULT_SENSOR_NOISE",
+    "DEFAULT_SPOOL_NOISE",
     "Verification",
     "VerificationCriteria",
     "VerificationTask",
@@ -51,6 +52,9 @@ __all__ = [
 
 #: Sensor noise of the verification (standard deviations, SI): 20 µm position, 0.1 bar pressures.
 DEFAULT_SENSOR_NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
+#: Noise [1] of a measured spool position where none is given (``spool="measured"`` with the
+#: default sensor noise): 0.1 % of the full opening, the paper rig's valve (rig/_sensors.py)
+DEFAULT_SPOOL_NOISE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -581,6 +585,11 @@ def design_controller(
         raise ControlError(f"method {method!r} must be lqr, place or pi")
 
     noise = dict(DEFAULT_SENSOR_NOISE if sensor_noise is None else sensor_noise)
+    if design_kwargs.get("spool") == "measured":  # the spool sensor's noise: given, or the default
+        if sensor_noise is None:
+            noise["spool"] = DEFAULT_SPOOL_NOISE
+        design_kwargs.setdefault("spool_noise", float(noise.get("spool", 0.0)))
+        sensor_noise = noise
     quiet, auto_observer = _quiet_setup(quiet, method, noise, design_kwargs)
 
     def design(w):

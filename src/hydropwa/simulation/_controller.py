@@ -56,7 +56,8 @@ gain row (see :data:`EXT_SLOTS`)::
                  [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_apply (Φ row-major at e0+X_PHI, Γ at e0+X_GAM;
                  ν̂ = ν̂̇ = 0 at k = 0), c_apply the saturated command before the
                  dead-zone inverse that the valve holds from t_k on (with the delay the
-                 previous sample's, kept in cst[S_CPEND])
+                 previous sample's, kept in cst[S_CPEND]); with 1 the measured spool has
+                 the sensor noise of ``RC_NNU`` (:func:`spool_feedback`)
     e0+X_KF      position observer on (1): steady-state Kalman filter of [x, v] with the
                  reference acceleration as its input, x̂⁻ = x̂ + T_s v̂ + T_s²/2 r̈_{k−1},
                  v̂⁻ = v̂ + T_s r̈_{k−1}, x̂ = x̂⁻ + L_x (x − x̂⁻), v̂ = v̂⁻ + L_v (x − x̂⁻) (gains at
@@ -84,16 +85,24 @@ gain row (see :data:`EXT_SLOTS`)::
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
+    e0+X_SPLN    spool filter gains L_ν [1], L_ν̇ [1/s] at e0+X_SPLN, e0+X_SPLD (0: none): with
+                 the spool measured (e0+X_SPOOL = 1) the valve model's prediction is corrected by
+                 the measured spool, a steady-state Kalman filter
+                 (:func:`~hydropwa.control.spool_filter_gain`); 0 feeds the raw spool back
+    e0+X_ESTNU   the per-cell Kalman filter measures the spool too (1): y = [P_L, x, ν_m], its
+                 spool gain columns (NZ values per row) after the filters' rows
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
                  (c −= k_up · pending command, with the one-sample delay)
     e0+N_EXT+XROW·n+EROW·r   with the Kalman filter: row r's Φ (49, row-major), Γ (7),
                  φ₀ (7), L (14, row-major 7 × 2) and (a_vp, a_pp, f_a, f_p)
-                 (:mod:`hydropwa.control._estimator`)
+                 (:mod:`hydropwa.control._estimator`); with e0+X_ESTNU then NZ values per
+                 row, the column L_ν of the spool's innovation
 
 Reference channels ``rch`` (shape (N_RCH, samples), one column per sample): ṙ(t_k) [m/s],
 ṙ_ff = ṙ(t_k + τ) [m/s], r̈(t_k) [m/s²], the sensor noise added to the measured x [m],
-P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors), and
-ṙ_o = ṙ(t_k + τ_o) [m/s] of the pre-opening (zeros without it).
+P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensors),
+ṙ_o = ṙ(t_k + τ_o) [m/s] of the pre-opening (zeros without it), and the sensor noise added to
+the measured spool position [1] (read only where the controller measures the spool).
 
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
@@ -181,6 +190,9 @@ EXT_SLOTS = (
     "int_band",
     "dz_quiet_rest",
     "dz_pre_open",
+    "spool_l_nu",
+    "spool_l_dnu",
+    "est_spool",
 )
 (
     X_FF,
@@ -213,6 +225,9 @@ EXT_SLOTS = (
     X_IBAND,
     X_DZQR,
     X_DZPO,
+    X_SPLN,
+    X_SPLD,
+    X_ESTNU,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -231,8 +246,8 @@ NZ = 7
 EROW = NZ * NZ + 4 * NZ + 4
 E_PHI, E_GAM, E_AFF, E_L, E_INIT = 0, NZ * NZ, NZ * NZ + NZ, NZ * NZ + 2 * NZ, NZ * NZ + 4 * NZ
 #: reference channels (rows of ``rch``)
-RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO = range(7)
-N_RCH = 7
+RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO, RC_NNU = range(8)
+N_RCH = 8
 #: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
 #: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
 #: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂,
@@ -435,7 +450,7 @@ def select_row(ctl, pl, v, x, c, last):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row):
+def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row, sb=-1, nu_m=0.0):
     """Per-cell steady-state Kalman filter; returns the estimates (P̂_L, v̂, x̂) at sample k.
 
     ``eb``: start of the filters' rows in ``ctl``; ``row``: the gain row of the last sample
@@ -443,14 +458,16 @@ def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row):
     measured channels. Prediction ẑ⁻ = Φ ẑ + Γ c_apply + φ₀, update
     ẑ = ẑ⁻ + L ([P_L, x] − [ẑ⁻₀, ẑ⁻₂]). At k = 0 (``row`` is then the row of the measurement)
     ẑ = [P_L, v0, x, 0, 0, −a_vp P_L − f_a, −a_pp P_L − f_p]: the measured rest is an
-    equilibrium of the cell's model.
+    equilibrium of the cell's model. With the spool measured (``sb`` ≥ 0, the start of the
+    per-row spool gain columns L_ν, NZ values a row): y = [P_L, x, ν_m], ``nu_m`` the measured
+    spool mapped to the opening, the update adds L_ν (ν_m − ẑ⁻₃), and ẑ₃ = ν_m at k = 0.
     """
     b = eb + EROW * row
     if k == 0:
         cst[S_Z] = pl
         cst[S_Z + 1] = v0
         cst[S_Z + 2] = x
-        cst[S_Z + 3] = 0.0
+        cst[S_Z + 3] = nu_m if sb >= 0 else 0.0
         cst[S_Z + 4] = 0.0
         cst[S_Z + 5] = -ctl[b + E_INIT] * pl - ctl[b + E_INIT + 2]
         cst[S_Z + 6] = -ctl[b + E_INIT + 1] * pl - ctl[b + E_INIT + 3]
@@ -466,7 +483,42 @@ def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row):
     i_x = x - cst[S_ZP + 2]
     for i in range(NZ):
         cst[S_Z + i] = cst[S_ZP + i] + ctl[b + E_L + 2 * i] * i_p + ctl[b + E_L + 2 * i + 1] * i_x
+    if sb >= 0:  # the measured spool's innovation
+        i_n = nu_m - cst[S_ZP + 3]
+        for i in range(NZ):
+            cst[S_Z + i] += ctl[sb + NZ * row + i] * i_n
     return cst[S_Z], cst[S_Z + 1], cst[S_Z + 2]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def spool_feedback(kind, y, ctl, e0, cst, noise, kal):
+    """Spool position [1] and rate [1/s] (in units of the opening) that the spool terms feed back.
+
+    e0+X_SPOOL = 2 (or a model without a spool state): the valve model's estimate ν̂, ν̂̇ (the
+    per-cell Kalman filter's ẑ₃, ẑ₄ with ``kal``). e0+X_SPOOL = 1, the spool measured: ν_m the
+    full model's spool state plus the sensor noise ``noise`` [1], mapped to the opening by
+    :func:`spool_opening`. Without a filter gain (e0+X_SPLN = 0, an exact sensor) ν_m and the
+    spool state's rate are fed back raw; with it (:func:`~hydropwa.control.spool_filter_gain`)
+    the valve model's prediction ν̂⁻ is corrected, ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻),
+    ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻), in cst[S_NU], cst[S_DNU] (the model's update at the end of the
+    sample then predicts the next). With ``kal`` and e0+X_ESTNU = 1 the per-cell filter has
+    measured the spool itself.
+    """
+    nu, dnu = cst[S_NU], cst[S_DNU]
+    if kal:
+        nu, dnu = cst[S_Z + 3], cst[S_Z + 4]
+    if ctl[e0 + X_SPOOL] > 1.5 or not (kind == 0 or kind == 3):
+        return nu, dnu
+    if kal and ctl[e0 + X_ESTNU] > 0.5:
+        return nu, dnu
+    nu_m, dnu_m = spool_opening(y[_NU] + noise, y[_DNU], ctl)
+    ln = ctl[e0 + X_SPLN]
+    if ln <= 0.0 or kal:
+        return nu_m, dnu_m
+    inn = nu_m - nu
+    cst[S_NU] = nu + ln * inn
+    cst[S_DNU] = dnu + ctl[e0 + X_SPLD] * inn
+    return cst[S_NU], cst[S_DNU]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -505,9 +557,12 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             r0 = select_row(ctl, pl, rch[RC_DR, k], x, 0.0, -1)
         else:
             r0 = int(cst[S_ROW])
-        pl, v, x = cell_kalman_filter(
-            ctl, cst, e0 + N_EXT + XROW * nrows, k, pl, rch[RC_DR, k], x, r0
-        )
+        eb = e0 + N_EXT + XROW * nrows
+        sb, nu_m = -1, 0.0
+        if ctl[e0 + X_ESTNU] > 0.5 and (kind == 0 or kind == 3):  # y = [P_L, x, ν_m]
+            sb = eb + EROW * nrows
+            nu_m = spool_opening(y[_NU] + rch[RC_NNU, k], 0.0, ctl)[0]
+        pl, v, x = cell_kalman_filter(ctl, cst, eb, k, pl, rch[RC_DR, k], x, r0, sb, nu_m)
         e = r - x
     if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
         if k == 0:
@@ -567,11 +622,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
                 c_ff += (ctl[xb + XR_KNU] + kup) * c_fl
         if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback: measured, or the valve model's estimate
             xb = e0 + N_EXT + XROW * row
-            nu, dnu = cst[S_NU], cst[S_DNU]
-            if kal:
-                nu, dnu = cst[S_Z + 3], cst[S_Z + 4]
-            if ctl[e0 + X_SPOOL] < 1.5 and (kind == 0 or kind == 3):  # models with a spool state
-                nu, dnu = spool_opening(y[_NU], y[_DNU], ctl)
+            nu, dnu = spool_feedback(kind, y, ctl, e0, cst, rch[RC_NNU, k], kal)
             c_ff -= ctl[xb + XR_KNU] * nu + ctl[xb + XR_KDNU] * dnu
             if ctl[C_DELAY] > 0.5:
                 c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]

@@ -554,7 +554,9 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     sensor_noise : mapping, optional
         Closed loop: standard deviations of white Gaussian noise on the controller's
         measurements at its sample instants, ``{"x": m, "p_a": Pa, "p_b": Pa}`` (the
-        load-state models take ``p_a`` as the noise on P_L); default exact sensors.
+        load-state models take ``p_a`` as the noise on P_L), and ``"spool": 1`` on the spool
+        position a controller that measures the spool reads (the full and chamber models);
+        default exact sensors.
     seed : int, optional
         Seed of the sensor noise (``numpy.random.default_rng``).
 
@@ -805,7 +807,13 @@ def _closed_loop_setup(
         raise SignalError("reference is not finite at every sample instant")
     if sensor_noise:
         rng = np.random.default_rng(seed)
-        for key, row in (("x", C.RC_NX), ("p_a", C.RC_NPA), ("p_b", C.RC_NPB)):
+        # drawn in this order (the spool last), so adding a spool noise leaves the others' draws
+        for key, row in (
+            ("x", C.RC_NX),
+            ("p_a", C.RC_NPA),
+            ("p_b", C.RC_NPB),
+            ("spool", C.RC_NNU),
+        ):
             sd = sensor_noise.get(key, 0.0)
             if not (isinstance(sd, int | float) and math.isfinite(sd) and sd >= 0.0):
                 raise SignalError(
@@ -813,10 +821,10 @@ def _closed_loop_setup(
                 )
             if sd > 0.0:
                 rch[row] = rng.normal(0.0, float(sd), n_smp)
-        unknown = set(sensor_noise) - {"x", "p_a", "p_b"}
+        unknown = set(sensor_noise) - {"x", "p_a", "p_b", "spool"}
         if unknown:
             raise SignalError(
-                f"sensor_noise has unknown channels {sorted(unknown)}; use x, p_a, p_b"
+                f"sensor_noise has unknown channels {sorted(unknown)}; use x, p_a, p_b, spool"
             )
     return ctl, ref_sig, ref, rch
 

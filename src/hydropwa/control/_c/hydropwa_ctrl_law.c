@@ -225,10 +225,33 @@ static double hp_velocity_filter(hydropwa_ctrl_state *s, double x)
     return s->v_hat;
 }
 
+/* Spool filter (spool_feedback): the measured spool mapped to the opening by the inverse of
+ * the dead-zone inverse (spool_opening), then the valve model's prediction corrected by the
+ * steady-state Kalman gain [L_nu, L_dnu]. */
+static void hp_spool_filter(hydropwa_ctrl_state *s, double spool)
+{
+    const double off = T[HP_C_DZOFF];
+    const double w = T[HP_C_DZW];
+    const double a = spool < 0.0 ? -spool : spool;
+    double nu_m, inn;
+    if (T[HP_C_DZINV] < 0.5) {
+        nu_m = spool;
+    } else if (a >= w + off) {
+        nu_m = spool > 0.0 ? spool - off : spool + off;
+    } else if (w <= 0.0) {
+        nu_m = 0.0;
+    } else {
+        nu_m = spool * (w / (w + off));
+    }
+    inn = nu_m - s->nu;
+    s->nu = s->nu + X[HP_X_SPLN] * inn;
+    s->dnu = s->dnu + X[HP_X_SPLD] * inn;
+}
+
 /* Schema-2 terms added to c: the flow feed-forward, the reference state [P_ref, r'] of the
  * row's k_v and k_pl, and the spool-state feedback on the valve model's estimate. */
 static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, double pl,
-                           const hydropwa_ctrl_ref *ref)
+                           double spool, const hydropwa_ctrl_ref *ref)
 {
     const double *xb = X + HP_N_EXT + HP_XROW * row;
     const double aw = T[HP_C_WASH];
@@ -254,6 +277,9 @@ static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, dou
         if (X[HP_X_EST] > 0.5) { /* or on the Kalman filter's */
             c_ff -= xb[HP_XR_KNU] * s->z[3] + xb[HP_XR_KDNU] * s->z[4];
         } else {
+            if (X[HP_X_SPOOL] < 1.5 && X[HP_X_SPLN] > 0.0) { /* corrected by the measured spool */
+                hp_spool_filter(s, spool);
+            }
             c_ff -= xb[HP_XR_KNU] * s->nu + xb[HP_XR_KDNU] * s->dnu;
         }
         if (T[HP_C_DELAY] > 0.5) {
@@ -389,7 +415,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
             - b[HP_R_KV] * v - b[HP_R_KPL] * pl_fb - b[HP_R_KDPL] * dpl;
     c_ff = 0.0;
     if (HP_EXT) {
-        c_ff = hp_extension(s, b, row, pl, ref);
+        c_ff = hp_extension(s, b, row, pl, m->spool, ref);
         c_raw += c_ff;
     }
     c_open = c_raw; /* the opening asked for (with the quiet band, schema 2) */
