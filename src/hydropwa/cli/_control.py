@@ -169,7 +169,7 @@ def _weights(text: str | None) -> dict[str, float]:
 
 
 def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str, float] | None:
-    """``"x=20 um,p_a=0.1 bar,p_b=0.1 bar"`` → standard deviations in SI (None: not given)."""
+    """``"x=20 um,p_a=0.1 bar,p_b=0.1 bar,spool=0.2 %"`` → standard deviations in SI (None: not given)."""
     from ..control import (
         ControlError,  # deferred: loaded only when this command runs (a fast --help)
     )
@@ -179,14 +179,15 @@ def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str,
 
     if text is None:
         return None
-    units = {"x": "m", "p_a": "Pa", "p_b": "Pa"}
+    units = {"x": "m", "p_a": "Pa", "p_b": "Pa", "spool": ""}
     out: dict[str, float] = {}
     for part in (p for p in text.split(",") if p.strip()):
         key, eq, val = part.partition("=")
         key = key.strip()
         if not eq or key not in units:
             raise ControlError(
-                f"{option} {text!r}: write key=value with key one of x, p_a, p_b (e.g. 'x=20 um,p_a=0.1 bar')"
+                f"{option} {text!r}: write key=value with key one of x, p_a, p_b, spool "
+                "(e.g. 'x=20 um,p_a=0.1 bar,spool=0.2 %')"
             )
         v = parse_quantity(val.strip(), units[key], f"{option} {key}")
         if not v >= 0:
@@ -210,7 +211,7 @@ def _noise_from(path: Path, given: str | None) -> dict[str, float]:
     if given is not None:
         raise ControlError("give either --sensor-noise or --noise-from, not both")
     noise = sensor_noise_from(read_dataset(path))
-    units = {"x": (1e6, "um"), "p_a": (1e-5, "bar"), "p_b": (1e-5, "bar")}
+    units = {"x": (1e6, "um"), "p_a": (1e-5, "bar"), "p_b": (1e-5, "bar"), "spool": (1e2, "%")}
     shown = ", ".join(f"{c} {v * units[c][0]:.3g} {units[c][1]}" for c, v in noise.items())
     typer.echo(f"sensor noise measured at standstill in {path}: {shown}")
     return noise

@@ -15,6 +15,7 @@ from ._controllers import (
     ANTI_WINDUP,
     DEFAULT_SAMPLE_TIME,
     MACHINE_KEYS,
+    SPOOL_COMMAND_NOISE,
     ControlError,
     DeadZoneInverse,
     FlowFeedForward,
@@ -24,7 +25,6 @@ from ._controllers import (
     StateFeedbackController,
     position_observer_gains,
     spool_filter_gain,
-    SPOOL_COMMAND_NOISE,
 )
 from ._design import (
     DEFAULT_WEIGHTS,

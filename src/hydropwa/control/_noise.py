@@ -1,7 +1,7 @@
 """Sensor noise levels measured from the standstill stretches of measured or simulated runs.
 
 :func:`sensor_noise_from` gives the standard deviation of each measured channel (x, P_A,
-P_B) that a controller's estimator and verification are designed for: the runs are cut
+P_B, and the spool position where the valve reports it) that a controller's estimator and verification are designed for: the runs are cut
 into windows, the windows where the rod stands still are kept, and in each the channel's
 scatter about its straight-line fit is its noise (sensor noise plus the converter's
 quantization, step²/12). The median over the windows is robust against the few windows
@@ -20,8 +20,9 @@ from ._controllers import ControlError
 
 __all__ = ["NOISE_CHANNELS", "sensor_noise_from"]
 
-#: Measured channels of a controller whose noise is estimated (SI: m, Pa, Pa).
-NOISE_CHANNELS = ("x", "p_a", "p_b")
+#: Measured channels of a controller whose noise is estimated (SI: m, Pa, Pa; the spool position
+#: the valve reports [1], where a run records it).
+NOISE_CHANNELS = ("x", "p_a", "p_b", "spool")
 
 
 def _runs(data: Any) -> list:
@@ -56,12 +57,13 @@ def _standstill_windows(t: np.ndarray, x: np.ndarray, n: int, max_velocity: floa
 def sensor_noise_from(
     data: Any, *, window: float = 0.1, max_velocity: float = 1e-3, min_windows: int = 3
 ) -> dict[str, float]:
-    """Standard deviation of the noise on x [m], P_A and P_B [Pa] from the standstill stretches of ``data``.
+    """Standard deviation of the noise on x [m], P_A, P_B [Pa] and the spool [1] from the standstill stretches of ``data``.
 
     Parameters
     ----------
     data : Run, Dataset or iterable of Run
-        Measured (or simulated) runs with ``t`` and ``x``; ``p_a``, ``p_b`` where recorded.
+        Measured (or simulated) runs with ``t`` and ``x``; ``p_a``, ``p_b`` and ``spool`` (the
+        spool position the valve reports, in units of the valve signal) where recorded.
     window : float
         Window length [s] (default 0.1 s, at least 10 samples).
     max_velocity : float
