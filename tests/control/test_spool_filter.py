@@ -272,3 +272,32 @@ def test_spool_noise_is_measured_at_a_simulated_standstill(paper):
         "x": pytest.approx(20e-6),
         "spool": pytest.approx(2e-3),
     }
+
+
+def test_cli_design_spool_measured_writes_the_filter(paper, tmp_path, capsys):
+    """``control design --spool measured`` writes the filter for the spool noise given (and 0.1 %,
+    the rig valve's, with the default noise); the default stays the estimate; a wrong value or
+    the measured spool without the valve-aware LQR is one line, exit 2, nothing written."""
+    from hydropwa.cli import main
+
+    base = ["control", "design", "-p", "paper", "--no-verify", "--no-quiet-band", "--out"]
+    noise = "x=20 um,p_a=0.1 bar,p_b=0.1 bar,spool=0.2 %"
+    meas, dflt, est = tmp_path / "m.toml", tmp_path / "d.toml", tmp_path / "e.toml"
+    assert main([*base, str(meas), "--spool", "measured", "--sensor-noise", noise]) == 0
+    assert main([*base, str(dflt), "--spool", "measured"]) == 0
+    assert main([*base, str(est)]) == 0
+    sm = SpoolModel.from_valve(paper.valve.omega0, paper.valve.zeta, 5e-4)
+    got = load_controller(meas).spool_model
+    assert got.measured and got.gain == pytest.approx(spool_filter_gain(sm.phi, sm.gamma, 2e-3))
+    assert load_controller(dflt).spool_model.gain == pytest.approx(
+        spool_filter_gain(sm.phi, sm.gamma, 1e-3)
+    )
+    e = load_controller(est).spool_model
+    assert not e.measured and e.gain == (0.0, 0.0)
+    capsys.readouterr()
+    bad = tmp_path / "bad.toml"
+    for args in (["--spool", "sometimes"], ["--spool", "measured", "--method", "pi"]):
+        assert main([*base, str(bad), *args]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: --spool") and err.count("\n") == 1
+        assert not bad.exists()

@@ -248,6 +248,20 @@ def _noise_options(kw: dict, method, sensor_noise, noise_from, observer, dead_zo
     return noise
 
 
+def _spool_option(kw: dict, spool: str, method: str, model_name: str) -> None:
+    """``--spool measured|estimated``: the valve-aware LQR's spool terms (``spool=`` of the design)."""
+    from ..control import ControlError  # deferred: a fast --help
+
+    if spool not in ("estimated", "measured"):
+        raise ControlError(f"--spool {spool!r} must be estimated or measured")
+    if spool == "measured":
+        if method != "lqr" or model_name != "pwa":
+            raise ControlError(
+                "--spool measured needs the valve-aware design of --method lqr on --model pwa"
+            )
+        kw["spool"] = "measured"
+
+
 @app.command("design")
 def design_command(
     out: Annotated[
@@ -367,6 +381,15 @@ def design_command(
             "--model pwa-chamber).",
         ),
     ] = None,
+    spool: Annotated[
+        str,
+        typer.Option(
+            "--spool",
+            help="The spool position: estimated by the valve model (default), or measured (the "
+            "valve reports it): the valve model corrected by the measured spool through a Kalman "
+            "gain for its noise (--sensor-noise 'spool=0.2 %'; default 0.1 %).",
+        ),
+    ] = "estimated",
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
@@ -401,6 +424,7 @@ def design_command(
     if draws < 1:
         raise ControlError(f"--draws {draws} must be at least 1")
     noise = _noise_options(kw, method, sensor_noise, noise_from, observer, dead_zone_hysteresis)
+    _spool_option(kw, spool, method, model_name)
     if quiet_band and (method == "pi" or not dzi):
         raise ControlError("--quiet-band needs --method lqr or place and the dead-zone inverse")
     # on by default for --model pwa; opt-in for pwa-chamber
