@@ -30,6 +30,7 @@ from hydropwa.control import (
     SpoolModel,
     as_reference,
     controller_schema,
+    design_cell_estimator,
     design_state_feedback,
     export_c,
     load_controller,
@@ -45,6 +46,7 @@ from hydropwa.simulation import _controller as C
 from hydropwa.simulation import simulate
 
 SIGMA = 2e-3  # 0.2 % of the full opening
+NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
@@ -196,53 +198,108 @@ def test_the_filter_round_trips_through_the_file_and_its_schema(filtered, tmp_pa
         load_controller(tmp_path / "bad.json")
 
 
+@pytest.fixture(scope="module")
+def cell_filtered(pwa):
+    """The valve-aware design with the per-cell Kalman filter measuring the spool (y = [P_L, x, ν])."""
+    d = design_state_feedback(pwa, delay=True, spool="measured", spool_noise=SIGMA)
+    est = design_cell_estimator(pwa, d, NOISE | {"spool": SIGMA})
+    return dataclasses.replace(d.controller, estimator=est)
+
+
 @pytest.mark.skipif(GCC is None, reason="gcc is not installed")
-def test_the_c_runs_the_spool_filter_in_lockstep(paper, filtered, tmp_path):
-    """The full model's samples of a closed-loop trapezoid (x, v, P_A, P_B and the spool with
-    0.2 % noise) stepped through the package's law and the generated C (``m.spool``): the same
-    command within 1e-12 relative (floor 1e-2, as the other lockstep cases) at every sample,
-    the same rows."""
-    ts = filtered.sample_time
+@pytest.mark.parametrize("which", ["spool filter", "per-cell Kalman filter"])
+def test_the_c_runs_the_measured_spool_in_lockstep(paper, filtered, cell_filtered, which, tmp_path):
+    """The full model's samples of a closed-loop trapezoid (x with 20 µm, P_A, P_B with 0.1 bar and
+    the spool with 0.2 % noise) stepped through the package's law and the generated C
+    (``m.spool``): the same command within 1e-12 relative at every sample (floor 1e-2 of the
+    other lockstep cases; 1 with the per-cell filter, whose x̂ carries numba's fused multiply-adds,
+    test_target_c.FLOOR_OBSERVER), the same rows."""
+    ctrl, floor = (filtered, 1e-2) if which == "spool filter" else (cell_filtered, 1.0)
+    ts = ctrl.sample_time
     n = int(0.9 / ts) + 1
     tk = ts * np.arange(n)
     res = simulate(
         "full",
         timepts=tk,
         params=paper,
-        controller=filtered,
+        controller=ctrl,
         reference=as_reference(TRAPEZOID),
         initial_position=0.05,
         rtol=1e-6,
     )
     assert res.success
-    r, rch = reference_channels(filtered, as_reference(TRAPEZOID), tk)
+    r, rch = reference_channels(ctrl, as_reference(TRAPEZOID), tk)
     rng = np.random.default_rng(34)
-    spool = np.asarray(res["spool"], dtype=float) + rng.normal(0.0, SIGMA, n)
-    ctl = filtered.pack()
+    meas = {k: np.asarray(res[k], dtype=float) for k in ("x", "v", "p_a", "p_b", "spool")}
+    for k, sd in (NOISE | {"spool": SIGMA}).items():
+        meas[k] = meas[k] + rng.normal(0.0, sd, n)
+    ctl = ctrl.pack()
     a_a, a_b = paper.cylinder.area_a, paper.cylinder.area_b
-    out = export_c(filtered, tmp_path / "c")
-    lib = compile_shared(out, tmp_path / "libctrl.so")
+    lib = compile_shared(export_c(ctrl, tmp_path / "c"), tmp_path / "libctrl.so")
     s, m, rf = State(), Meas(), Ref()
     lib.hydropwa_ctrl_init(ctypes.byref(s))
     cst, log = np.zeros(C.N_CST), np.zeros((C.N_LOG, n))
     sg, y = np.zeros(32), np.zeros(len(Y_FULL))
     u_c, rows_c = np.empty(n), np.empty(n, dtype=int)
     for k in range(n):
-        for key in ("x", "v", "p_a", "p_b"):  # the filter reads no spool rate
-            y[Y_FULL[key]] = res[key][k]
-        y[Y_FULL["spool"]] = spool[k]
+        for key in ("x", "v", "p_a", "p_b", "spool"):  # the filters read no spool rate
+            y[Y_FULL[key]] = meas[key][k]
         C.controller_sample(0, k, k * ts, y, a_a, a_b, ctl, cst, r, rch, sg, log)
-        m.x, m.v, m.spool = y[Y_FULL["x"]], y[Y_FULL["v"]], spool[k]
-        m.p_l = lib.hydropwa_ctrl_load_pressure(y[Y_FULL["p_a"]], y[Y_FULL["p_b"]], a_a, a_b)
+        m.x, m.v, m.spool = meas["x"][k], meas["v"][k], meas["spool"][k]
+        m.p_l = lib.hydropwa_ctrl_load_pressure(meas["p_a"][k], meas["p_b"][k], a_a, a_b)
         rf.r, rf.r_rate, rf.r_rate_ff = r[k], rch[C.RC_DR, k], rch[C.RC_DRFF, k]
         rf.r_acc, rf.r_rate_pre = rch[C.RC_DDR, k], rch[C.RC_DRPO, k]
         u_c[k] = lib.hydropwa_ctrl_step(ctypes.byref(s), ctypes.byref(m), ctypes.byref(rf))
         rows_c[k] = s.row
     u_p = log[C.L_U]
-    err = np.abs(u_c - u_p) / np.maximum(np.abs(u_p), 1e-2)
-    assert np.max(err) <= 1e-12
+    err = np.abs(u_c - u_p) / np.maximum(np.abs(u_p), floor)
+    assert np.max(err) <= 1e-12, (which, float(np.max(err)))
     np.testing.assert_array_equal(rows_c, log[C.L_ROW].astype(int))
-    assert len(set(rows_c.tolist())) > 3 and np.ptp(spool) > 0.1  # the run moves the valve
+    assert len(set(rows_c.tolist())) > 3 and np.ptp(meas["spool"]) > 0.1  # the valve moves
+
+
+def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path):
+    """y = [P_L, x, ν]: L (7 × 3) against ``control.dlqe`` with R = diag(σ_PL², σ_x², σ_ν²)
+    (python-control's predictor gain Φ L, 1e-7 as the 2-channel filter's test); packed with the
+    spool column after the filters' rows (e0+X_ESTNU = 1); written with ``measured`` naming the
+    three columns, validated by the JSON Schema, read back to the same law (1e-9)."""
+    from hydropwa.control._estimator import _EST_SCALE, N_EST, cell_estimator
+
+    dyn = pwa.state_space(cells=(3, 1, 0, 6))
+    proc = {"acceleration": 0.3, "force_drift": 1.0, "pressure_drift": 2e3, "pressure": 1e5}
+    ts, spl, sx = 5e-4, 1.2e4, 20e-6
+    phi, _gam, _aff, L, _init = cell_estimator(
+        dyn.A.copy(), dyn.B.copy(), dyn.f.copy(), sample_time=ts, omega0=paper.valve.omega0,
+        zeta=paper.valve.zeta, sigma_pl=spl, sigma_x=sx, process=proc, sigma_nu=SIGMA,
+    )  # fmt: skip
+    assert L.shape == (N_EST, 3)
+    T, Ti = np.diag(_EST_SCALE), np.diag(1.0 / _EST_SCALE)
+    H = np.zeros((3, N_EST))
+    H[0, 0], H[1, 2], H[2, 3] = 1.0, 1.0, 1.0
+    W = np.zeros((N_EST, 4))
+    W[1, 0], W[5, 1], W[6, 2], W[0, 3] = ts * 0.3, 1.0, 2e3, 1e5
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        Lp, _P, _E = control.dlqe(
+            Ti @ phi @ T, Ti @ W, H @ T, np.eye(4), np.diag([spl**2, sx**2, SIGMA**2])
+        )
+    np.testing.assert_allclose(T @ np.asarray(Lp), phi @ L, rtol=1e-7, atol=1e-12)
+    est = cell_filtered.estimator
+    assert est.measured == ("p_l", "x", "spool") and est.noise["spool"] == SIGMA
+    ctl = cell_filtered.pack()
+    n = len(cell_filtered.rows)
+    e0 = C.C_ROWS + C.ROW * n
+    sb = e0 + C.N_EXT + (C.XROW + C.EROW) * n
+    assert ctl[e0 + C.X_ESTNU] == 1.0 and ctl.shape[0] == sb + C.NZ * n
+    g = np.asarray(est.gain).reshape(n, N_EST, 3)
+    np.testing.assert_array_equal(ctl[sb:].reshape(n, N_EST), g[:, :, 2])
+    p = tmp_path / "k.json"
+    save_controller(cell_filtered, p)
+    doc = json.loads(p.read_text())
+    jsonschema.Draft202012Validator(controller_schema()).validate(doc)
+    assert doc["estimator"]["measured"] == ["p_l", "x", "spool"]
+    b = load_controller(p).pack()
+    np.testing.assert_allclose(b[np.isfinite(ctl)], ctl[np.isfinite(ctl)], rtol=1e-9, atol=0)
 
 
 def test_spool_noise_is_measured_at_a_simulated_standstill(paper):

@@ -645,7 +645,9 @@ class _Discrete:
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])
         ext[C.X_EST] = 1.0
-        return np.concatenate([v, ext, self._ext_rows().ravel(), est.packed_rows().ravel()])
+        ext[C.X_ESTNU] = 1.0 if est.measures_spool else 0.0
+        parts = [v, ext, self._ext_rows().ravel(), est.packed_rows().ravel()]
+        return np.concatenate([*parts, est.spool_columns().ravel()])
 
     def _dead_zone_dict(self) -> dict[str, float]:
         dz = self.dead_zone_inverse

@@ -48,9 +48,12 @@ __all__ = [
     "load_pressure_noise",
 ]
 
-#: estimator states [P_L, ẋ, x, ν, ν̇, d_a, d_p] and measured channels [P_L, x]
+#: estimator states [P_L, ẋ, x, ν, ν̇, d_a, d_p] and measured channels [P_L, x] (and the spool
+#: where it is measured: 3)
 N_EST = 7
 N_MEAS = 2
+MEASURED = ("p_l", "x")
+MEASURED_SPOOL = ("p_l", "x", "spool")
 #: process noise, the design knob (standard deviations per sample): "acceleration" [m/s²] a
 #: white acceleration held over one sample (on ẋ), "force_drift" the random-walk step of d_a
 #: [m/s²], "pressure_drift" that of d_p [Pa/s], "pressure" [Pa] white on P_L (the flow model
@@ -89,11 +92,12 @@ def _cell_model(A, B, omega0: float, zeta: float):
     return F, G
 
 
-def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, process):
+def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, process, sigma_nu=0.0):
     """Φ (7 × 7), Γ (7), φ₀ (7), L (7 × 2) and the initial values' coefficients of one cell.
 
     ``A``, ``B``, ``f``: the cell's continuous affine plant ẏ = A y + B c + f, y = [P_L, ẋ, x],
-    c the opening (the cell's own friction slope); ``process``:
+    c the opening (the cell's own friction slope); ``sigma_nu`` > 0: the spool is measured too
+    (y = [P_L, x, ν], L is 7 × 3, R = diag(σ_PL², σ_x², σ_ν²)); ``process``:
     :data:`DEFAULT_PROCESS_NOISE`'s keys. Returns (phi, gamma, affine, gain, init): ``init`` =
     (A[1, 0], A[0, 0], f[1], f[0]), so that at the first sample d_a = −A[1,0] P_L − f[1],
     d_p = −A[0,0] P_L − f[0] make the measured rest an equilibrium of the model.
@@ -110,9 +114,12 @@ def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, pro
     W[0, 3] = process["pressure"]
     W[5, 1] = process["force_drift"]
     W[6, 2] = process["pressure_drift"]
-    H = np.zeros((N_MEAS, N_EST))
+    m = N_MEAS + (1 if sigma_nu > 0.0 else 0)
+    H = np.zeros((m, N_EST))
     H[0, 0], H[1, 2] = 1.0, 1.0
-    R = np.diag([sigma_pl**2, sigma_x**2])
+    R = np.diag([sigma_pl**2, sigma_x**2, sigma_nu**2][:m])
+    if m > N_MEAS:
+        H[2, 3] = 1.0
     Ls, _P = kalman_gain(Ti @ phi @ T, H @ T, Ti @ W @ W.T @ Ti, R)
     L = T @ Ls
     return phi, gam[:, 0], aff, L, (float(A[1, 0]), float(A[0, 0]), float(f[1]), float(f[0]))
@@ -131,12 +138,15 @@ class CellEstimator:
     affine : tuple of tuples
         Per row, φ₀ (7 values) [state units]: the cell's affine term over one sample.
     gain : tuple of tuples
-        Per row, L row-major (7 × 2: columns P_L [1/Pa scaled], x) (14 values).
+        Per row, L row-major (7 × m: one column per entry of ``measured``) (14 or 21 values).
     init : tuple of tuples
         Per row, (a_vp [m/(s²·Pa)], a_pp [1/s], f_a [m/s²], f_p [Pa/s]):
         d_a = −a_vp P_L − f_a, d_p = −a_pp P_L − f_p at k = 0.
     noise : dict
-        The design: sensor noise {"x": m, "p_l": Pa} and process noise (SI).
+        The design: sensor noise {"x": m, "p_l": Pa (, "spool": 1)} and process noise (SI).
+    measured : tuple of str
+        The measured channels, the columns of L: ("p_l", "x"), or ("p_l", "x", "spool") where
+        the valve reports the spool (y = [P_L, x, ν_m], ν_m mapped to the opening).
     """
 
     phi: tuple[tuple[float, ...], ...]
@@ -145,13 +155,20 @@ class CellEstimator:
     gain: tuple[tuple[float, ...], ...]
     init: tuple[tuple[float, ...], ...]
     noise: dict = field(default_factory=dict, compare=False)
+    measured: tuple[str, ...] = MEASURED
 
     def __post_init__(self) -> None:
+        meas = tuple(self.measured)
+        if meas not in (MEASURED, MEASURED_SPOOL):
+            raise ControlError(
+                f"CellEstimator.measured {list(meas)} must be {list(MEASURED)} or {list(MEASURED_SPOOL)}"
+            )
+        object.__setattr__(self, "measured", meas)
         shapes = (
             ("phi", N_EST * N_EST),
             ("gamma", N_EST),
             ("affine", N_EST),
-            ("gain", N_EST * N_MEAS),
+            ("gain", N_EST * len(meas)),
             ("init", 4),
         )
         n = None
@@ -175,16 +192,32 @@ class CellEstimator:
         """Number of gain rows the filters are for."""
         return len(self.phi)
 
+    @property
+    def measures_spool(self) -> bool:
+        """Whether the filter measures the spool too (y = [P_L, x, ν_m])."""
+        return len(self.measured) > N_MEAS
+
     def packed_rows(self) -> np.ndarray:
-        """Per row [Φ (49), Γ (7), φ₀ (7), L (14), init (4)]: the compiled law's layout (``EROW``)."""
-        parts = (self.phi, self.gamma, self.affine, self.gain, self.init)
+        """Per row [Φ (49), Γ (7), φ₀ (7), L (14), init (4)]: the compiled law's layout (``EROW``);
+        with the spool measured, L's P_L and x columns here and :meth:`spool_columns` after."""
+        m = len(self.measured)
+        gain = (
+            np.asarray(self.gain).reshape(-1, N_EST, m)[:, :, :N_MEAS].reshape(-1, N_EST * N_MEAS)
+        )
+        parts = (self.phi, self.gamma, self.affine, gain, self.init)
         return np.hstack([np.asarray(p) for p in parts])
+
+    def spool_columns(self) -> np.ndarray:
+        """Per row the spool column of L (7 values; rows × 0 without the spool measured)."""
+        m = len(self.measured)
+        cols = np.asarray(self.gain).reshape(-1, N_EST, m)[:, :, N_MEAS:]
+        return cols.transpose(0, 2, 1).reshape(len(self.gain), N_EST * (m - N_MEAS))
 
     def describe(self) -> dict[str, Any]:
         """Plain dict (SI) as written to controller files."""
         return {
             "states": ["p_l", "v", "x", "spool", "spool_rate", "d_acceleration", "d_pressure_rate"],
-            "measured": ["p_l", "x"],
+            "measured": list(self.measured),
             "noise": dict(self.noise),
             "phi": [list(r) for r in self.phi],
             "gamma": [list(r) for r in self.gamma],
@@ -204,6 +237,7 @@ class CellEstimator:
                 gain=d["gain"],
                 init=d["init"],
                 noise=dict(d.get("noise", {})),
+                measured=tuple(d.get("measured", MEASURED)),
             )
         except KeyError as exc:
             raise ControlError(f"controller file: estimator lacks {exc.args[0]!r}") from None
@@ -241,7 +275,9 @@ def design_cell_estimator(
         A valve-aware :func:`~hydropwa.control.design_state_feedback` result (its table's
         g, s, o, w columns name each row's cell).
     sensor_noise : mapping
-        Standard deviations {"x": m, "p_a": Pa, "p_b": Pa} of the measured channels.
+        Standard deviations {"x": m, "p_a": Pa, "p_b": Pa} of the measured channels; with the
+        design's spool measured (``spool="measured"``) and ``"spool"`` [1] > 0 the filter
+        measures the spool too (y = [P_L, x, ν_m], L 7 × 3).
     process_noise : mapping, optional
         :data:`DEFAULT_PROCESS_NOISE` overrides (the design knob).
 
@@ -270,6 +306,7 @@ def design_cell_estimator(
             "the per-cell Kalman filter needs positive sensor noise on x and on p_a or p_b "
             "(e.g. --sensor-noise 'x=20 um,p_a=0.1 bar,p_b=0.1 bar')"
         )
+    snu = float(sensor_noise.get("spool", 0.0)) if ctrl.spool_model.measured else 0.0
     info = dict(design.info) | {"dead_zone_inverse": ctrl.dead_zone_inverse is not None}
     parts: list[list[Any]] = [[], [], [], [], []]
     for rec in design.table.itertuples():
@@ -284,9 +321,13 @@ def design_cell_estimator(
             sigma_pl=spl,
             sigma_x=sx,
             process=proc,
+            sigma_nu=snu,
         )
         for lst, val in zip(parts, (phi.ravel(), gam, aff, L.ravel(), init), strict=True):
             lst.append(tuple(val))
-    noise = {"x": sx, "p_l": spl} | proc
+    noise = {"x": sx, "p_l": spl} | ({"spool": snu} if snu > 0.0 else {}) | proc
     phis, gams, affs, gains, inits = (tuple(p) for p in parts)
-    return CellEstimator(phi=phis, gamma=gams, affine=affs, gain=gains, init=inits, noise=noise)
+    meas = MEASURED_SPOOL if snu > 0.0 else MEASURED
+    return CellEstimator(
+        phi=phis, gamma=gams, affine=affs, gain=gains, init=inits, noise=noise, measured=meas
+    )

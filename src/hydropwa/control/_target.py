@@ -246,12 +246,18 @@ def check_expressible(controller) -> np.ndarray:
     ctl = np.asarray(controller.pack(), dtype=float)
     n = int(ctl[C.C_NROWS])
     base = C.C_ROWS + C.ROW * n
-    sizes = (base, base + C.N_EXT + C.XROW * n, base + C.N_EXT + (C.XROW + C.EROW) * n)
+    sizes = (
+        base,
+        base + C.N_EXT + C.XROW * n,
+        base + C.N_EXT + (C.XROW + C.EROW) * n,
+        base + C.N_EXT + (C.XROW + C.EROW + C.NZ) * n,
+    )
     if ctl.shape[0] not in sizes:
         raise ControlError(
             f"the packed controller has {ctl.shape[0]} values, the C layout expects "
-            f"{sizes[0]} (schema 1), {sizes[1]} (schema 2) or {sizes[2]} (schema 2 with the "
-            "Kalman filter); the C export is older than this controller"
+            f"{sizes[0]} (schema 1), {sizes[1]} (schema 2) or {sizes[2]} / {sizes[3]} (schema 2 "
+            "with the Kalman filter, without / with the spool measured); the C export is older "
+            "than this controller"
         )
     if np.isnan(ctl).any():
         raise ControlError("the packed controller holds NaN; the C export needs finite gains")
@@ -301,6 +307,15 @@ def _table(ctl: np.ndarray) -> str:
                 lines.append(
                     f"    /* row {r}: Kalman filter Phi (7x7), Gamma, phi0, L (7x2), init */ "
                     + ", ".join(_c_float(v) for v in ctl[b : b + C.EROW])
+                    + ","
+                )
+        sb = eb + C.EROW * n
+        if ctl.shape[0] > sb:  # the measured spool's gain columns (e0+X_ESTNU)
+            for r in range(n):
+                b = sb + C.NZ * r
+                lines.append(
+                    f"    /* row {r}: Kalman filter L, spool column */ "
+                    + ", ".join(_c_float(v) for v in ctl[b : b + C.NZ])
                     + ","
                 )
     return "\n".join(lines)
@@ -358,7 +373,9 @@ def _describe_line(controller) -> str:
     return "PI (one gain row valid everywhere)"
 
 
-def cost_per_step(n_rows: int, extended: bool = False, kalman: bool = False) -> dict[str, int]:
+def cost_per_step(
+    n_rows: int, extended: bool = False, kalman: bool = False, kalman_spool: bool = False
+) -> dict[str, int]:
     """Worst-case operation counts of one ``hydropwa_ctrl_step`` with ``n_rows`` gain rows.
 
     The row search evaluates at most n_rows + 1 box distances (the previous row, then all):
@@ -372,16 +389,21 @@ def cost_per_step(n_rows: int, extended: bool = False, kalman: bool = False) -> 
     counted on their longest paths in ``hydropwa_ctrl_law.c``) at most 11 operations and 28
     comparisons; the per-cell Kalman filter (``kalman``)
     adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
-    142 operations, no division.
+    142 operations, no division. The measured spool's filter (``hp_spool_filter``: the inverse
+    of the dead-zone inverse, the innovation and two multiply-adds) adds at most 9 operations
+    (1 division) and 6 comparisons to the schema-2 block; in the per-cell Kalman filter
+    (``kalman_spool``) the spool's column adds 4 + 1 + 7 × 2 = 19 operations (1 division) and
+    5 comparisons.
     """
     boxes = n_rows + 1 if n_rows > 1 else 0
     x = 1 if extended else 0
-    kf = 142 if kalman else 0
+    ks = 1 if kalman_spool else 0
+    kf = (142 if kalman else 0) + 19 * ks
     return {
         "box_distances": boxes,
-        "divisions": 4 * boxes + 4 + 6 * x,
-        "flops": 12 * boxes + 40 + (76 + 11) * x + kf,
-        "comparisons": 9 * boxes + 16 + (14 + 28) * x,
+        "divisions": 4 * boxes + 4 + (6 + 1) * x + ks,
+        "flops": 12 * boxes + 40 + (76 + 11 + 9) * x + kf,
+        "comparisons": 9 * boxes + 16 + (14 + 28 + 6) * x + 5 * ks,
     }
 
 
@@ -397,7 +419,8 @@ def c_sources(controller) -> dict[str, str]:
     n = int(ctl[C.C_NROWS])
     e0 = C.C_ROWS + C.ROW * n
     ext = ctl.shape[0] > e0
-    cost = cost_per_step(n, ext, ctl.shape[0] > e0 + C.N_EXT + C.XROW * n)
+    eb = e0 + C.N_EXT + C.XROW * n
+    cost = cost_per_step(n, ext, ctl.shape[0] > eb, ctl.shape[0] > eb + C.EROW * n)
     subs = {
         "@VERSION@": __version__,
         "@KIND@": _describe_line(controller),
@@ -437,6 +460,11 @@ def c_sources(controller) -> dict[str, str]:
         ext_table += f"/* The per-cell Kalman filters (EROW values per row) */\nstatic const double *const E = T + {eb};\n"
     else:
         ext_table += f"/* No Kalman filter (X[HP_X_EST] is 0) */\nstatic const double E[{C.EROW}] = {{0.0}};\n"
+    sb = eb + C.EROW * n
+    if ctl.shape[0] > sb:
+        ext_table += f"/* The Kalman filters' spool columns (NZ values per row) */\nstatic const double *const EN = T + {sb};\n"
+    else:
+        ext_table += f"/* The spool is not measured by the Kalman filter (X[HP_X_ESTNU] is 0) */\nstatic const double EN[{C.NZ}] = {{0.0}};\n"
     physics = "\n".join(emit_functions(f, {})[0] for f in _PHYSICS)
     source = (
         f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"
@@ -565,6 +593,13 @@ def export_fmu(
     a master that sets the inputs at t_k, steps the controller, then reads u and passes it to
     the plant's step from t_k reproduces the package's loop.
     """
+    sm = getattr(controller, "spool_model", None)
+    est = getattr(controller, "estimator", None)
+    if (sm is not None and sm.filtered) or (est is not None and est.measures_spool):
+        raise ControlError(
+            "the controller FMU has no spool input: export this controller (its filter reads the "
+            "measured spool) as C with --c, or design it with --spool estimated"
+        )
     sources = c_sources(controller)
     model = _read_template("hp_model_ctrl.c")
     if fmi_version == "3.0":

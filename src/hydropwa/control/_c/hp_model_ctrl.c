@@ -49,6 +49,7 @@ static double hp_sample(hp_model *m, hydropwa_ctrl_state *s)
     meas.x = m->vars[VR_X];
     meas.v = m->vars[VR_V];
     meas.p_l = m->vars[VR_PL];
+    meas.spool = 0.0; /* no spool input: export_fmu refuses a controller that reads it */
     ref.r = m->vars[VR_R];
     ref.r_rate = m->vars[VR_RRATE];
     ref.r_rate_ff = m->vars[VR_RRATEFF];

@@ -177,22 +177,43 @@ static void hp_position_observer(hydropwa_ctrl_state *s, double *x, double *v, d
     *v = s->v_kf;
 }
 
+/* The reported spool position mapped to the opening by the inverse of the dead-zone inverse
+ * (spool_opening): nu - offset*sign(nu) outside the blend, nu*w/(w + offset) inside. */
+static double hp_spool_opening(double spool)
+{
+    const double off = T[HP_C_DZOFF];
+    const double w = T[HP_C_DZW];
+    const double a = spool < 0.0 ? -spool : spool;
+    if (T[HP_C_DZINV] < 0.5) {
+        return spool;
+    }
+    if (a >= w + off) {
+        return spool > 0.0 ? spool - off : spool + off;
+    }
+    if (w <= 0.0) {
+        return 0.0;
+    }
+    return spool * (w / (w + off));
+}
+
 /* Per-cell steady-state Kalman filter (cell_kalman_filter): prediction with the filter of the
  * row used at the last sample, z- = Phi z + Gamma c_in + phi0, update z = z- + L [P_L - z-_0,
  * x - z-_2]; at the first step z = [P_L, r_rate, x, 0, 0, -a_vp P_L - f_a, -a_pp P_L - f_p].
  * Replaces the measured P_L, v and x by the estimates. */
 static void hp_cell_kalman_filter(hydropwa_ctrl_state *s, double *pl, double *v, double *x,
-                                  double v0, int row)
+                                  double v0, int row, double spool)
 {
     const double *b = E + HP_EROW * row;
+    const int msp = HP_EXT && X[HP_X_ESTNU] > 0.5; /* the spool measured: y = [P_L, x, nu_m] */
+    const double nu_m = msp ? hp_spool_opening(spool) : 0.0;
     double zp[HP_NZ];
-    double acc, ip, ix;
+    double acc, ip, ix, in;
     int i, j;
     if (!s->started) {
         s->z[0] = *pl;
         s->z[1] = v0;
         s->z[2] = *x;
-        s->z[3] = 0.0;
+        s->z[3] = nu_m;
         s->z[4] = 0.0;
         s->z[5] = -b[HP_E_INIT] * *pl - b[HP_E_INIT + 2];
         s->z[6] = -b[HP_E_INIT + 1] * *pl - b[HP_E_INIT + 3];
@@ -209,6 +230,12 @@ static void hp_cell_kalman_filter(hydropwa_ctrl_state *s, double *pl, double *v,
         ix = *x - zp[2];
         for (i = 0; i < HP_NZ; ++i) {
             s->z[i] = zp[i] + b[HP_E_L + 2 * i] * ip + b[HP_E_L + 2 * i + 1] * ix;
+        }
+        if (msp) { /* the measured spool's innovation */
+            in = nu_m - zp[3];
+            for (i = 0; i < HP_NZ; ++i) {
+                s->z[i] += EN[HP_NZ * row + i] * in;
+            }
         }
     }
     *pl = s->z[0];
@@ -230,19 +257,8 @@ static double hp_velocity_filter(hydropwa_ctrl_state *s, double x)
  * steady-state Kalman gain [L_nu, L_dnu]. */
 static void hp_spool_filter(hydropwa_ctrl_state *s, double spool)
 {
-    const double off = T[HP_C_DZOFF];
-    const double w = T[HP_C_DZW];
-    const double a = spool < 0.0 ? -spool : spool;
-    double nu_m, inn;
-    if (T[HP_C_DZINV] < 0.5) {
-        nu_m = spool;
-    } else if (a >= w + off) {
-        nu_m = spool > 0.0 ? spool - off : spool + off;
-    } else if (w <= 0.0) {
-        nu_m = 0.0;
-    } else {
-        nu_m = spool * (w / (w + off));
-    }
+    const double nu_m = hp_spool_opening(spool);
+    double inn;
     inn = nu_m - s->nu;
     s->nu = s->nu + X[HP_X_SPLN] * inn;
     s->dnu = s->dnu + X[HP_X_SPLD] * inn;
@@ -396,7 +412,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     kal = HP_EXT && X[HP_X_EST] > 0.5;
     if (kal) { /* per-cell Kalman filter: the law uses the estimates */
         row = s->started ? s->row : hp_select_row(pl, ref->r_rate, x, 0.0, -1);
-        hp_cell_kalman_filter(s, &pl, &v, &x, ref->r_rate, row);
+        hp_cell_kalman_filter(s, &pl, &v, &x, ref->r_rate, row, m->spool);
         e = r - x;
     }
     if (HP_EXT && X[HP_X_KF] > 0.5) {
