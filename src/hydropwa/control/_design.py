@@ -351,7 +351,6 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
     acceleration_noise: float = 1.0,
     spool: str = "estimated",
     dead_zone_hysteresis: float = 0.0,
-    spool_noise: float = 0.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
 
@@ -420,14 +419,8 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         observer's process noise (default 1 m/s²).
     spool : {"estimated", "measured"}
         With ``valve``: feed back the spool estimate of the discrete valve model (default),
-        or the spool position the valve reports (the paper's valve class does; the full
-        model's spool state), corrected into the valve model's estimate by a steady-state
-        Kalman filter for ``spool_noise`` (:meth:`SpoolModel.with_filter`).
-    spool_noise : float
-        Standard deviation [1] of the measured spool position's noise (``spool="measured"``).
-        0 (default): an exact sensor, the raw spool and its rate are fed back; > 0: the
-        discrete valve model corrected by the measured spool through the Kalman gain of
-        :func:`~hydropwa.control.spool_filter_gain`.
+        or the spool position the valve reports, raw (the full model's spool state; for a noisy
+        sensor :meth:`SpoolModel.with_filter`, which ``design_controller`` applies).
     dead_zone_hysteresis : float
         Band h [1] of the dead-zone inverse's side (:class:`DeadZoneInverse`, schema 2;
         default 0: none). With sensor noise the command at a hold flips its sign every few
@@ -475,10 +468,6 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         zp = np.exp(np.array(poles) * ts)
     if spool not in ("estimated", "measured"):
         raise ControlError(f"spool {spool!r} must be 'estimated' or 'measured'")
-    if not (isinstance(spool_noise, int | float) and 0.0 <= spool_noise < 1.0):
-        raise ControlError(f"spool_noise {spool_noise!r} must be a standard deviation in [0, 1)")
-    if spool_noise > 0.0 and spool != "measured":
-        raise ControlError("spool_noise is the noise of a measured spool: pass spool='measured'")
     if valve is None:
         valve = method == "lqr"
     if valve and method != "lqr":
@@ -620,8 +609,6 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True))
         | {"u": u_max},
     }
-    if spool == "measured":
-        info["spool_noise"] = float(spool_noise)
     if method == "place":
         info["poles"] = [[p.real, p.imag] for p in poles]  # type: ignore[union-attr]
     ctrl = StateFeedbackController(
@@ -636,19 +623,18 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         pressure_washout=float(pressure_washout),
         load_pressure=_load_pressure_of(model),
         feedforward=_feedforward(model, ts, delay) if feedforward else None,
-        spool_model=_spool_model(prm.valve, ts, spool, spool_noise) if valve else None,
+        spool_model=dataclasses.replace(
+            SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts),
+            measured=spool == "measured",
+        )
+        if valve
+        else None,
         position_observer=None
         if position_noise is None
         else position_observer_gains(ts, float(position_noise), float(acceleration_noise)),
         machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
-
-
-def _spool_model(valve, ts: float, spool: str, spool_noise: float) -> SpoolModel:
-    """The discrete valve model of the spool terms: estimated, or corrected by the measured spool."""
-    sm = SpoolModel.from_valve(valve.omega0, valve.zeta, ts)
-    return sm.with_filter(float(spool_noise)) if spool == "measured" else sm
 
 
 def _finite_or_none(v) -> float | None:

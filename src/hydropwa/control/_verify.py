@@ -573,7 +573,11 @@ def design_controller(
         (``benchmarks/control.py``). No
         effect on exact sensors (``sensor_noise={}``) or without the inverse.
     **design_kwargs
-        Passed to the design function (``sample_time``, ``delay``, ``load_force``...).
+        Passed to the design function (``sample_time``, ``delay``, ``load_force``...). With
+        ``spool="measured"`` the spool estimate is corrected by the measured spool through the
+        Kalman gain for ``sensor_noise["spool"]`` [1] (:meth:`SpoolModel.with_filter`; default
+        :data:`DEFAULT_SPOOL_NOISE` with the default noise, 0 — the raw spool — where a noise
+        without ``"spool"`` is given), and the verification puts that noise on the spool.
 
     Returns
     -------
@@ -585,10 +589,9 @@ def design_controller(
         raise ControlError(f"method {method!r} must be lqr, place or pi")
 
     noise = dict(DEFAULT_SENSOR_NOISE if sensor_noise is None else sensor_noise)
-    if design_kwargs.get("spool") == "measured":  # the spool sensor's noise: given, or the default
-        if sensor_noise is None:
-            noise["spool"] = DEFAULT_SPOOL_NOISE
-        design_kwargs.setdefault("spool_noise", float(noise.get("spool", 0.0)))
+    measured = design_kwargs.get("spool") == "measured"
+    if measured:  # the spool sensor's noise: given, or the default
+        noise.setdefault("spool", DEFAULT_SPOOL_NOISE if sensor_noise is None else 0.0)
         sensor_noise = noise
     quiet, auto_observer = _quiet_setup(quiet, method, noise, design_kwargs)
 
@@ -596,6 +599,7 @@ def design_controller(
         if method == "pi":
             return design_pi(model, **design_kwargs)
         d = design_state_feedback(model, method=method, weights=w, **design_kwargs)
+        d = _with_spool_filter(d, noise["spool"]) if measured else d
         return _with_quiet_band(d, noise, model.params) if quiet else d
 
     d = design(weights)
@@ -626,6 +630,19 @@ def design_controller(
         v = verify_controller(d.controller, prm, **kw)
         tried.append((_stability_failures(v), d, v, u_max))
     return _with_verdict(tried, weights)
+
+
+def _with_spool_filter(d, spool_noise: float):
+    """The design with its measured spool corrected by the spool filter for ``spool_noise`` [1]
+    (:meth:`~hydropwa.control.SpoolModel.with_filter`; 0: the raw spool, an exact sensor)."""
+    sm = d.controller.spool_model
+    if sm is None:
+        raise ControlError(
+            "spool='measured' needs the valve-aware design (valve=True, method='lqr')"
+        )
+    d.controller = dataclasses.replace(d.controller, spool_model=sm.with_filter(float(spool_noise)))
+    d.info["spool_noise"] = float(spool_noise)
+    return d
 
 
 def _with_verdict(tried, weights):
