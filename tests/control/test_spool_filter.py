@@ -366,3 +366,14 @@ def test_cli_design_spool_measured_writes_the_filter(paper, tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.startswith("error: --spool") and err.count("\n") == 1
         assert not bad.exists()
+
+
+def test_the_fmu_refuses_a_controller_that_reads_the_spool(filtered, cell_filtered, tmp_path):
+    """The controller FMU has no spool input: a controller whose filter reads the measured spool is
+    refused with one line that says what to do, before anything is built or written."""
+    from hydropwa.control import export_fmu
+
+    for ctrl in (filtered, cell_filtered):
+        with pytest.raises(ControlError, match="no spool input.*--c"):
+            export_fmu(ctrl, tmp_path / "c.fmu")
+        assert not (tmp_path / "c.fmu").exists()
