@@ -418,6 +418,7 @@ def closed_loop(
             "v": y[5],
             "p_a": sensors.convert(y[2] + noise[1, k], sensors.p_range),
             "p_b": sensors.convert(y[3] + noise[2, k], sensors.p_range),
+            "spool": y[0],  # the valve's spool output, exact (read only with the spool filter)
             "area_a": plant.area_a,
             "area_b": plant.area_b,
         }
