@@ -26,6 +26,7 @@ from hypothesis import strategies as st
 
 from hydropwa._layout import Y_FULL
 from hydropwa.control import (
+    SPOOL_COMMAND_NOISE,
     ControlError,
     SpoolModel,
     as_reference,
@@ -267,8 +268,9 @@ def test_the_c_runs_the_measured_spool_in_lockstep(paper, filtered, cell_filtere
 
 
 def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path):
-    """y = [P_L, x, ν]: L (7 × 3) against ``control.dlqe`` with R = diag(σ_PL², σ_x², σ_ν²)
-    (python-control's predictor gain Φ L, 1e-7 as the 2-channel filter's test); packed with the
+    """y = [P_L, x, ν]: L (7 × 3) against ``control.dlqe`` with R = diag(σ_PL², σ_x², σ_ν²) and
+    the command noise Γ w (python-control's predictor gain Φ L, 1e-7 as the 2-channel filter's
+    test), the spool column not negligible (|L_νν| > 0.1); packed with the
     spool column after the filters' rows (e0+X_ESTNU = 1); written with ``measured`` naming the
     three columns, validated by the JSON Schema, read back to the same law (1e-9)."""
     from hydropwa.control._estimator import _EST_SCALE, N_EST, cell_estimator
@@ -276,7 +278,7 @@ def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path)
     dyn = pwa.state_space(cells=(3, 1, 0, 6))
     proc = {"acceleration": 0.3, "force_drift": 1.0, "pressure_drift": 2e3, "pressure": 1e5}
     ts, spl, sx = 5e-4, 1.2e4, 20e-6
-    phi, _gam, _aff, L, _init = cell_estimator(
+    phi, gam, _aff, L, _init = cell_estimator(
         dyn.A.copy(), dyn.B.copy(), dyn.f.copy(), sample_time=ts, omega0=paper.valve.omega0,
         zeta=paper.valve.zeta, sigma_pl=spl, sigma_x=sx, process=proc, sigma_nu=SIGMA,
     )  # fmt: skip
@@ -284,14 +286,16 @@ def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path)
     T, Ti = np.diag(_EST_SCALE), np.diag(1.0 / _EST_SCALE)
     H = np.zeros((3, N_EST))
     H[0, 0], H[1, 2], H[2, 3] = 1.0, 1.0, 1.0
-    W = np.zeros((N_EST, 4))
+    W = np.zeros((N_EST, 5))
     W[1, 0], W[5, 1], W[6, 2], W[0, 3] = ts * 0.3, 1.0, 2e3, 1e5
+    W[:, 4] = gam * SPOOL_COMMAND_NOISE  # white noise on the opening the valve holds
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         Lp, _P, _E = control.dlqe(
-            Ti @ phi @ T, Ti @ W, H @ T, np.eye(4), np.diag([spl**2, sx**2, SIGMA**2])
+            Ti @ phi @ T, Ti @ W, H @ T, np.eye(5), np.diag([spl**2, sx**2, SIGMA**2])
         )
     np.testing.assert_allclose(T @ np.asarray(Lp), phi @ L, rtol=1e-7, atol=1e-12)
+    assert abs(L[3, 2]) > 0.1  # the measured spool corrects ν̂
     est = cell_filtered.estimator
     assert est.measured == ("p_l", "x", "spool") and est.noise["spool"] == SIGMA
     ctl = cell_filtered.pack()

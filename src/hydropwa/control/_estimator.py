@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ._controllers import ControlError, kalman_gain
+from ._controllers import SPOOL_COMMAND_NOISE, ControlError, kalman_gain
 from ._design import _discrete, cell_plant, valve_series
 
 __all__ = [
@@ -97,7 +97,10 @@ def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, pro
 
     ``A``, ``B``, ``f``: the cell's continuous affine plant ẏ = A y + B c + f, y = [P_L, ẋ, x],
     c the opening (the cell's own friction slope); ``sigma_nu`` > 0: the spool is measured too
-    (y = [P_L, x, ν], L is 7 × 3, R = diag(σ_PL², σ_x², σ_ν²)); ``process``:
+    (y = [P_L, x, ν], L is 7 × 3, R = diag(σ_PL², σ_x², σ_ν²)), and white noise of
+    :data:`~hydropwa.control.SPOOL_COMMAND_NOISE` on the opening the valve holds (Γ w) is added
+    to the process noise, as in the spool filter (without it the valve states are exact in the
+    model and the measured spool would get no gain); ``process``:
     :data:`DEFAULT_PROCESS_NOISE`'s keys. Returns (phi, gamma, affine, gain, init): ``init`` =
     (A[1, 0], A[0, 0], f[1], f[0]), so that at the first sample d_a = −A[1,0] P_L − f[1],
     d_p = −A[0,0] P_L − f[0] make the measured rest an equilibrium of the model.
@@ -109,12 +112,14 @@ def cell_estimator(A, B, f, *, sample_time, omega0, zeta, sigma_pl, sigma_x, pro
     phi, gam2 = _discrete(F, G2, sample_time)
     gam, aff = gam2[:, :1], gam2[:, 1]
     T, Ti = np.diag(_EST_SCALE), np.diag(1.0 / _EST_SCALE)
-    W = np.zeros((N_EST, 4))
+    m = N_MEAS + (1 if sigma_nu > 0.0 else 0)
+    W = np.zeros((N_EST, 4 + m - N_MEAS))
     W[1, 0] = sample_time * process["acceleration"]
     W[0, 3] = process["pressure"]
     W[5, 1] = process["force_drift"]
     W[6, 2] = process["pressure_drift"]
-    m = N_MEAS + (1 if sigma_nu > 0.0 else 0)
+    if m > N_MEAS:  # the valve states get noise to measure: white noise on the opening held
+        W[:, 4] = gam[:, 0] * SPOOL_COMMAND_NOISE
     H = np.zeros((m, N_EST))
     H[0, 0], H[1, 2] = 1.0, 1.0
     R = np.diag([sigma_pl**2, sigma_x**2, sigma_nu**2][:m])
@@ -325,7 +330,8 @@ def design_cell_estimator(
         )
         for lst, val in zip(parts, (phi.ravel(), gam, aff, L.ravel(), init), strict=True):
             lst.append(tuple(val))
-    noise = {"x": sx, "p_l": spl} | ({"spool": snu} if snu > 0.0 else {}) | proc
+    spool = {"spool": snu, "command": SPOOL_COMMAND_NOISE} if snu > 0.0 else {}
+    noise = {"x": sx, "p_l": spl} | spool | proc
     phis, gams, affs, gains, inits = (tuple(p) for p in parts)
     meas = MEASURED_SPOOL if snu > 0.0 else MEASURED
     return CellEstimator(
