@@ -348,8 +348,10 @@ class FlowFeedForward:
 
 #: process noise of the spool filter [1]: white noise on the opening the valve holds over a
 #: sample, standing for what the linear valve model leaves out (ω0 that varies with the
-#: amplitude and ±10 % between valves, the dead zone's blend). Measured on the full model,
-#: paper trapezoid, 0.2 % spool noise (docs/control.md)
+#: amplitude and ±10 % between valves, the dead zone's blend). Paper rig, 0.2 % spool noise:
+#: L = [0.25, 72/s] at 0.005, [0.61, 571/s] at 0.02, [0.91, 2007/s] at 0.1; on the full model's
+#: trapezoid (20 µm / 0.1 bar, seeds 1-3) peak error 0.042-0.045 mm with each, hold p-p
+#: 0.019-0.031 / 0.019-0.037 / 0.027-0.040 mm: a weak optimum, the middle kept
 SPOOL_COMMAND_NOISE = 0.02
 
 

@@ -1,10 +1,10 @@
 """Sensor noise levels measured from the standstill stretches of measured or simulated runs.
 
 :func:`sensor_noise_from` gives the standard deviation of each measured channel (x, P_A,
-P_B, and the spool position where the valve reports it) that a controller's estimator and verification are designed for: the runs are cut
-into windows, the windows where the rod stands still are kept, and in each the channel's
-scatter about its straight-line fit is its noise (sensor noise plus the converter's
-quantization, step²/12). The median over the windows is robust against the few windows
+P_B, and the spool position where the valve reports it) that a controller's estimator and
+verification are designed for: the runs are cut into windows, the windows where the rod
+stands still are kept, and in each the channel's scatter about its straight-line fit is its
+noise (sensor noise plus the converter's quantization, step²/12). The median over the windows is robust against the few windows
 that hold a pressure transient.
 """
 
