@@ -122,12 +122,11 @@ def test_every_compiled_module_carries_the_package_stamp():
 
 def test_entry_points_are_generated_for_every_model_and_method():
     kinds = {kind for kind, _s, _w in _layout.MODEL_KINDS.values()}
-    for table in (K._ENTRY, K._ENTRY_ROS23, K._CLOSED, K._CLOSED_ROS23):
+    assert set(K.ENTRIES) == set(K.SOLVERS.values())
+    tables = [t for pair in K.ENTRIES.values() for t in pair]
+    for table in tables:
         assert set(table) == kinds
-    names = {
-        d.__name__
-        for t in (K._ENTRY, K._ENTRY_ROS23, K._CLOSED, K._CLOSED_ROS23)
-        for d in t.values()
-    }
-    assert len(names) == 4 * len(kinds)  # one cache file each
+    names = {d.__name__ for t in tables for d in t.values()}
+    assert len(names) == 2 * len(K.SOLVERS) * len(kinds)  # one cache file each
     assert K._ENTRY[K.FULL] is K._integrate_full and K._CLOSED_ROS23[K.PWA] is K._closed_pwa_ros23
+    assert K.ENTRIES[K.ROS4LS][0][K.FULL] is K._integrate_full_ros4ls

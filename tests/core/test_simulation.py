@@ -110,6 +110,25 @@ def test_amplitude_schedule_of_omega0(paper):
     assert r90.stats["omega0"] == pytest.approx(220.0)
 
 
+def test_ros4ls_closed_loop_constant_command_equals_the_open_loop(paper):
+    """The third solver (ROS4LS) through the closed loop's sampled steps: a controller that
+    only outputs u_ff = 0.3 gives ROS34PW2's open-loop run with u = 0.3 to the integration
+    tolerance (rtol 1e-7; measured 3.5e-9 m and 3.0e-7·P_S)."""
+    from hydropwa.control import GainRow, StateFeedbackController
+
+    prm = paper.replace(**{"valve.omega0_table": ()})
+    inf = float("inf")
+    ctl = StateFeedbackController(rows=(GainRow((-inf,) * 4, (inf,) * 4, 0.0, 0.0, 0.0, 0.0, 0.3),))
+    kw = dict(params=prm, duration=0.1, rtol=1e-7, initial_position=0.05)
+    closed = simulate("full", controller=ctl, reference=0.05, solver="ros4ls", **kw)
+    opened = simulate("full", 0.3, **kw)
+    assert closed.stats["solver"] == "ros4ls" and closed.stats["steps"] >= 200
+    # ROS4LS takes a Jacobian at every accepted step (it is not a W-method)
+    assert closed.stats["jacobians"] >= closed.stats["steps"]
+    np.testing.assert_allclose(closed["x"], opened["x"], atol=1e-7)
+    np.testing.assert_allclose(closed["p_a"], opened["p_a"], atol=1e-5 * prm.supply.pressure)
+
+
 def test_failed_integration_names_time_state_and_keeps_partial_result(paper):
     with pytest.raises(
         SimulationError, match=r"failed at t = .* s: the step budget.*State: spool="

@@ -25,13 +25,13 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import MODEL_KINDS
 from ._march import _integrate, _integrate_closed
-from ._rosenbrock import ROS23, ROS34PW2
+from ._rosenbrock import ROS4LS, ROS23, ROS34PW2
 
 #: Identifier of each model kind in the entry points' names (``pwa-chamber`` → ``chamber``).
 KERNEL_IDS: dict[int, str] = {
     kind: name.split("-")[-1] for name, (kind, _s, _w) in MODEL_KINDS.items()
 }
-_METHOD_SUFFIX = {ROS34PW2: "", ROS23: "_ros23"}
+_METHOD_SUFFIX = {ROS34PW2: "", ROS23: "_ros23", ROS4LS: "_ros4ls"}
 
 
 def _compiled(fn, name):
@@ -58,16 +58,22 @@ def _closed_entry(kind, method):
     return _compiled(entry, f"_closed_{KERNEL_IDS[kind]}{_METHOD_SUFFIX[method]}")
 
 
-#: Open-loop entry points: ``_ENTRY[kind]`` (ROS34PW2) and ``_ENTRY_ROS23[kind]``.
+#: Open-loop entry points: ``_ENTRY[kind]`` (ROS34PW2), ``_ENTRY_ROS23[kind]``, ``_ENTRY_ROS4LS[kind]``.
 _ENTRY = {kind: _open_entry(kind, ROS34PW2) for kind in KERNEL_IDS}
 _ENTRY_ROS23 = {kind: _open_entry(kind, ROS23) for kind in KERNEL_IDS}
+_ENTRY_ROS4LS = {kind: _open_entry(kind, ROS4LS) for kind in KERNEL_IDS}
 #: Closed-loop entry points, likewise.
 _CLOSED = {kind: _closed_entry(kind, ROS34PW2) for kind in KERNEL_IDS}
 _CLOSED_ROS23 = {kind: _closed_entry(kind, ROS23) for kind in KERNEL_IDS}
+_CLOSED_ROS4LS = {kind: _closed_entry(kind, ROS4LS) for kind in KERNEL_IDS}
+#: The entry tables by method: open loop, closed loop.
+ENTRIES = {
+    ROS34PW2: (_ENTRY, _CLOSED),
+    ROS23: (_ENTRY_ROS23, _CLOSED_ROS23),
+    ROS4LS: (_ENTRY_ROS4LS, _CLOSED_ROS4LS),
+}
 # every entry under its name in this module (``_integrate_full``, ``_closed_pwa_ros23``, …)
-globals().update(
-    {d.__name__: d for t in (_ENTRY, _ENTRY_ROS23, _CLOSED, _CLOSED_ROS23) for d in t.values()}
-)
+globals().update({d.__name__: d for pair in ENTRIES.values() for t in pair for d in t.values()})
 
 
 def _owned(a):

@@ -9,7 +9,7 @@ terms, solvers, step-size controllers and outputs), one job per module:
 ``_rhs_load``          the reduced (12)–(15) and PWA (16)–(23) load-pressure models, PWA cells
 ``_rhs_chamber``       the chamber-level PWA model (``pwa-chamber``)
 ``_dispatch``          the model table: each kind's rhs and derivatives, chosen while typing
-``_rosenbrock``        LU, ROS34PW2 / ROS2(3) tableaus and steps, Jacobian refresh
+``_rosenbrock``        LU, ROS34PW2 / ROS4LS / ROS2(3) tableaus and steps, Jacobian refresh
 ``_stepcontrol``       error norm and step-size factors (Gustafsson's predictive controller)
 ``_outputs``           Hermite dense output and the per-model output passes
 ``_sampling``          controller sampling in the step loop (no code in open loop)
@@ -45,7 +45,8 @@ Integrator
 ----------
 Linearly implicit Rosenbrock methods with error control: ROS34PW2 (default), an
 L-stable, stiffly accurate Rosenbrock-W method of order 3(2) that may reuse its
-Jacobian, and Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Exact Jacobians
+Jacobian, the L-stable ROS4LS of order 4(3) (a fresh Jacobian every step), and
+Shampine & Reichelt's ROS2(3) (MATLAB's ``ode23s``). Exact Jacobians
 and time derivatives for every model (:func:`jac_full`, :func:`jac_reduced`,
 :func:`jac_pwa`; :func:`dfdt_full`, …), finite differences only for a full model with a
 gas accumulator; Hermite dense output at the requested sample times.
@@ -94,9 +95,8 @@ from . import (
 from ._dispatch import _POINT, _point_pwa, _point_reduced, pwa_load_flow_at
 from ._entries import (
     _CLOSED,
-    _CLOSED_ROS23,
     _ENTRY,
-    _ENTRY_ROS23,
+    ENTRIES,
     SolverRun,
     _closed_args,
     _open_args,
@@ -188,7 +188,7 @@ def integrate_closed_loop(kind, run, method, ctl, ref, dref):
     _check_run(kind, run)
     if run.sg[S_KIND_U] != 0.0:
         raise ValueError("closed loop: the valve command must be packed as a constant signal")
-    entry = (_CLOSED if int(method) == ROS34PW2 else _CLOSED_ROS23)[int(kind)]
+    entry = ENTRIES[int(method)][1][int(kind)]
     args = _closed_args(run, ctl, ref, dref)
     # compile (or load) apart from the timed call, with numba's pedantic IR warning silenced as
     # for the open loop (pytest turns a stray compiler warning into a failure)
@@ -223,7 +223,7 @@ def integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exact
     first use, cached on disk). Releases the GIL.
     """
     _check_run(kind, run)
-    entry = (_ENTRY if int(method) == ROS34PW2 else _ENTRY_ROS23)[int(kind)]
+    entry = ENTRIES[int(method)][0][int(kind)]
     args = _open_args(run, jac_reuse, gustafsson, exact_jac)
     prepare(entry, args, f"{_KIND_NAMES[int(kind)]} model")
     with _interruptible():

@@ -28,7 +28,17 @@ from ._kcommon import (
     n_states,
 )
 from ._outputs import _dense_output
-from ._rosenbrock import _D23, PW2_GAMMA, ROS34PW2, _factor, _jacobian, _step_for
+from ._rosenbrock import (
+    _D23,
+    PW2_GAMMA,
+    R4_GAMMA,
+    ROS4LS,
+    ROS23,
+    ROS34PW2,
+    _factor,
+    _jacobian,
+    _step_for,
+)
 from ._sampling import _closed, _n_samples, _sample, _sample_time
 from ._signals import NO_REFCOUNT
 from ._stepcontrol import _accepted_factor, _error_norm, _rejected_factor
@@ -84,7 +94,7 @@ def _integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exac
         The problem and its tolerances: y0, t_out, p, sg, rtol, scale, h0, hmax, max_steps
         (:class:`~._entries.SolverRun`).
     method : int
-        ROS34PW2 (default) or ROS23.
+        ROS34PW2 (default), ROS4LS or ROS23.
     jac_reuse : bool
         ROS34PW2 only: keep the Jacobian of the last evaluation after an accepted
         step whose error was small (below 0.2 of the tolerance with exact Jacobians,
@@ -147,8 +157,10 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
     closed = _closed(ctl)
     n_smp = _n_samples(log)
     dt_smp = _sample_time(ctl)
-    gamma = PW2_GAMMA if method == ROS34PW2 else _D23
+    gamma = PW2_GAMMA if method == ROS34PW2 else (R4_GAMMA if method == ROS4LS else _D23)
+    # only the W-method keeps its order with an old Jacobian: ROS4LS takes one at every step
     reuse = jac_reuse and method == ROS34PW2
+    fourth = method == ROS4LS  # its error estimate is of order 3: step factor err^(-1/4)
     # after an accepted step whose error exceeds this fraction of the tolerance the Jacobian
     # is refreshed: exact ones (reduced, PWA: no rhs call) at 0.2, differences at 0.5.
     # Measured on the paper rig: 0.2 saves the reduced model 8 % of its steps for 40 % more
@@ -206,12 +218,13 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
         )
         nfev += n_rhs
         err, finite = _error_norm(n, y, ynew, yerr, atol, rtol)
-        # ROS34PW2: f(t + h, ynew) (next step's first stage, dense output) only if accepted
-        fresh = method == ROS34PW2 and finite and err <= 1.0
+        # ROS34PW2, ROS4LS: f(t + h, ynew) (next step's first stage, dense output) only if
+        # accepted (ROS2(3)'s error estimate needs it, so its stepper has filled it)
+        fresh = method != ROS23 and finite and err <= 1.0
         if fresh:
             _rhs_for(kind, ynew, u1, ps1, fl1, p, fnew)
             nfev += 1
-        if fresh or method != ROS34PW2:
+        if fresh or method == ROS23:
             for i in range(n):
                 if not math.isfinite(fnew[i]):
                     finite = False
@@ -245,7 +258,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
                 if kind != FULL and kind != CHAMBER:  # reduced, PWA: their ∂f/∂y depends on u
                     need_jac = True
             fac, cb_acc = _accepted_factor(
-                err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac
+                err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac, fourth
             )
             h_acc = h
             h *= fac
@@ -254,7 +267,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
             last_rejected = False
         else:
             n_rej += 1
-            h *= _rejected_factor(err)
+            h *= _rejected_factor(err, fourth)
             need_jac = reuse and jac_age > 0
             last_rejected = True
     stats[ST_STEPS] = n_acc

@@ -211,8 +211,11 @@ if not (Y_PACC == N_STATES[FULL] - 1 and Y_PS == N_STATES[FULL] - 2):  # pragma:
 # ROS34PW2 is the L-stable, stiffly accurate Rosenbrock-W method of order 3 with
 # an embedded order-2 estimate (Rang & Angermann 2005). Being a W-method it keeps
 # its order with an approximate Jacobian, which is why a Jacobian may be reused.
-ROS23, ROS34PW2 = 0, 1
-SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2}
+# ROS4LS is the L-stable member of the ROS4 family of order 4 with an embedded order-3
+# estimate (Hairer & Wanner): 4 stages, 3 right-hand sides (a_4j = a_3j); not a W-method, so
+# it takes a fresh Jacobian at every step.
+ROS23, ROS34PW2, ROS4LS = 0, 1, 2
+SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2, "ros4ls": ROS4LS}
 
 
 def _transformed_tableau(alpha, gamma, b, b_hat):
@@ -257,6 +260,37 @@ _PW2 = _transformed_tableau(
 )
 PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E = (np.array(v) for v in _PW2)
 PW2_GAMMA = _G
+
+# ROS4LS: the L-stable coefficient set of the ROS4 family of order 4(3) (E. Hairer, G. Wanner,
+# Solving Ordinary Differential Equations II, 2nd ed., Springer 1996, Sect. IV.7, and their
+# code ROS4; the family is Kaps & Rentrop's, Numer. Math. 33 (1979) 55-68), in the transformed
+# form above: stage arguments y + Σ A_ij U_j (row 4 = row 3, so stage 4 reuses stage 3's
+# right-hand side), U_i from (I − hγJ) U_i = hγ (f_i + Σ C_ij U_j / h + d_i h f_t),
+# y_new = y + Σ m_i U_i, error Σ e_i U_i (order 3: the step factor is err^(−1/4)).
+# tests/performance/test_perf_convergence.py checks its order 4.
+R4_GAMMA = 0.57282
+R4_A = np.array(
+    [
+        0.0, 0.0, 0.0, 0.0,
+        2.0, 0.0, 0.0, 0.0,
+        1.867943637803922, 0.2344449711399156, 0.0, 0.0,
+        1.867943637803922, 0.2344449711399156, 0.0, 0.0,
+    ]
+)  # fmt: skip
+R4_C = np.array(
+    [
+        0.0, 0.0, 0.0, 0.0,
+        -7.137615036412310, 0.0, 0.0, 0.0,
+        2.580708087951457, 0.6515950076447975, 0.0, 0.0,
+        -2.137148994382534, -0.3214669691237626, -0.6949742501781779, 0.0,
+    ]
+)  # fmt: skip
+R4_ALPHA = np.array([0.0, 1.14564, 0.65521686381559, 0.65521686381559])
+R4_GSUM = np.array([0.57282, -1.769193891319233, 0.7592633437920482, -0.1049021087100450])
+R4_M = np.array([2.255570073418735, 0.2870493262186792, 0.4353179431840180, 1.093502252409163])
+R4_E = np.array(
+    [-0.2815431932141155, -0.07276199124938920, -0.1082196201495311, -1.093502252409163]
+)
 _D23 = 1.0 / (2.0 + math.sqrt(2.0))
 _E32 = 6.0 + math.sqrt(2.0)
 
@@ -356,6 +390,47 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
     return 3, u, ps, fl
 
 
+@njit(**SOLVER_JIT, **NO_REFCOUNT)
+def _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One ROS4LS step from (t, y) (W must hold I − h·R4_GAMMA·J with the exact J at (t, y)).
+
+    Like :func:`_step_ros34pw2`: fills ynew and yerr, returns (rhs calls, u, P_S, F_L at t + h);
+    f(t + h, ynew) is left to the caller. Stage 4 reuses stage 3's right-hand side.
+    """
+    n = n_states(kind)
+    n_lu = _n_solve(kind, p)
+    hg = h * R4_GAMMA
+    u = ps = fl = 0.0  # (defined before the loop, as in _step_ros34pw2)
+    for i in range(4):
+        if i == 0:
+            for k in range(n):
+                ft[k] = f0[k]
+        elif i < 3:
+            for k in range(n):
+                s = y[k]
+                for j in range(i):
+                    s += R4_A[4 * i + j] * U[j, k]
+                yt[k] = s
+            u, ps, fl = _inputs(t + R4_ALPHA[i] * h, sg)
+            _rhs_for(kind, yt, u, ps, fl, p, ft)
+        for k in range(n):
+            s = ft[k] + R4_GSUM[i] * h * dfdt[k]
+            for j in range(i):
+                s += R4_C[4 * i + j] / h * U[j, k]
+            U[i, k] = hg * s
+        _solve_block(kind, W, piv, U, i, n_lu)
+    for k in range(n):
+        s = y[k]
+        e = 0.0
+        for j in range(4):
+            s += R4_M[j] * U[j, k]
+            e += R4_E[j] * U[j, k]
+        ynew[k] = s
+        yerr[k] = e
+    u, ps, fl = _inputs(t + h, sg)
+    return 2, u, ps, fl
+
+
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
     """One ROS2(3) step (ode23s) from (t, y); W must hold I − h d J with d = 1/(2 + √2).
@@ -390,10 +465,10 @@ def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p,
 
 
 def _step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    """One step of ``method`` (:func:`_step_ros34pw2` or :func:`_step_ros23`), chosen while typing.
+    """One step of ``method`` (:func:`_step_ros34pw2`, :func:`_step_ros4ls` or :func:`_step_ros23`), chosen while typing.
 
     Compiled code only. With a literal ``method`` (one entry point per model and method)
-    the kernel holds only the stepper it uses; otherwise both, chosen at run time.
+    the kernel holds only the stepper it uses; otherwise all three, chosen at run time.
     """
 
 
@@ -407,9 +482,15 @@ def _step_with_ros23(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, f
     return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
 
 
+def _step_with_ros4ls(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    return _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+
+
 def _step_with_either(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
     if method == ROS34PW2:
         return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+    if method == ROS4LS:
+        return _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
     return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
 
 
@@ -420,4 +501,6 @@ def _ol_step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew,
         return _step_with_ros34pw2
     if m == ROS23:
         return _step_with_ros23
+    if m == ROS4LS:
+        return _step_with_ros4ls
     return _step_with_either

@@ -533,9 +533,11 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     raise_on_failure : bool
         If False, a failed integration returns the partial result (``success`` False,
         ``status`` and ``message`` set) instead of raising.
-    solver : {"ros34pw2", "ros23"}
+    solver : {"ros34pw2", "ros4ls", "ros23"}
         Rosenbrock method: the third-order W-method ROS34PW2 (default, reuses
-        its Jacobian across steps) or the second-order ROS2(3) of ``ode23s``.
+        its Jacobian across steps), the L-stable fourth-order ROS4LS (a fresh Jacobian
+        every step, three right-hand sides per step instead of four) or the
+        second-order ROS2(3) of ``ode23s``.
     controller : hydropwa.control controller, optional
         Close the loop: a discrete controller (anything with ``pack()`` returning the
         vector of :mod:`hydropwa.simulation._controller`, e.g.

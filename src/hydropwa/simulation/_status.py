@@ -63,7 +63,7 @@ class SolverStats(Mapping[str, Any]):
     jacobians : int
         Jacobian evaluations.
     solver : str
-        Rosenbrock method (``"ros34pw2"`` or ``"ros23"``).
+        Rosenbrock method (``"ros34pw2"``, ``"ros4ls"`` or ``"ros23"``).
     wall_time : float
         Time of the integration alone [s].
     compile_time : float
