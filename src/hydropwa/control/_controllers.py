@@ -439,10 +439,10 @@ class SpoolModel:
     @property
     def packed_gain(self) -> tuple[float, float]:
         """The gain the law runs: :attr:`gain`, or :attr:`exact_gain` for a measured spool
-        without one (the raw measured mode); (0, 0) for the estimate."""
+        without one (an exact sensor); (0, 0) for the estimate."""
         if self.measured and self.gain[0] <= 0.0:
             return self.exact_gain
-        return self.gain
+        return self.gain[0], self.gain[1]
 
     @property
     def filtered(self) -> bool:
