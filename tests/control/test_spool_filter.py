@@ -290,19 +290,37 @@ def _package_law(paper, ctrl, meas, r, rch):
     return log[C.L_U], log[C.L_ROW].astype(int)
 
 
+@pytest.fixture(scope="module")
+def cell_exact(pwa):
+    """The per-cell Kalman filter for x, P_L only, on a design whose spool is measured by an exact
+    sensor: the spool terms use the filter's ẑ₃, ẑ₄ (the spool is not read)."""
+    d = design_state_feedback(pwa, delay=True, spool="measured")
+    return dataclasses.replace(d.controller, estimator=design_cell_estimator(pwa, d, NOISE))
+
+
+LOCKSTEP = ["spool filter", "exact spool sensor", "per-cell Kalman filter", "per-cell, exact spool"]
+
+
+def _lockstep_controller(request, which):
+    name = {
+        "spool filter": "filtered",
+        "exact spool sensor": "exact_spool",
+        "per-cell Kalman filter": "cell_filtered",
+        "per-cell, exact spool": "cell_exact",
+    }[which]
+    return request.getfixturevalue(name), (1.0 if which.startswith("per-cell") else 1e-2)
+
+
 @pytest.mark.skipif(GCC is None, reason="gcc is not installed")
-@pytest.mark.parametrize("which", ["spool filter", "exact spool sensor", "per-cell Kalman filter"])
-def test_the_c_runs_the_measured_spool_in_lockstep(
-    paper, filtered, exact_spool, cell_filtered, which, tmp_path
-):
+@pytest.mark.parametrize("which", LOCKSTEP)
+def test_the_c_runs_the_measured_spool_in_lockstep(paper, request, which, tmp_path):
     """The full model's samples of a closed-loop trapezoid (x with 20 µm, P_A, P_B with 0.1 bar and
     the spool with 0.2 % noise) stepped through the package's law and the generated C
     (``m.spool``): the same command within 1e-12 relative at every sample (floor 1e-2 of the
     other lockstep cases; 1 with the per-cell filter, whose x̂ carries numba's fused multiply-adds,
     test_target_c.FLOOR_OBSERVER), the same rows. The exact-sensor mode too: the package reads
     only the measured position (the spool state's rate is NaN here), as the C does."""
-    ctrl = {"spool filter": filtered, "exact spool sensor": exact_spool}.get(which, cell_filtered)
-    floor = 1.0 if which == "per-cell Kalman filter" else 1e-2
+    ctrl, floor = _lockstep_controller(request, which)
     ts = ctrl.sample_time
     n = int(0.9 / ts) + 1
     meas, r, rch = _lockstep_samples(paper, ctrl, ts * np.arange(n))
@@ -326,25 +344,29 @@ def test_the_c_runs_the_measured_spool_in_lockstep(
 
 
 @pytest.mark.skipif(GCC is None, reason="gcc is not installed")
-@pytest.mark.parametrize("which", ["spool filter", "per-cell Kalman filter"])
-def test_the_controller_fmu_reads_the_measured_spool(
-    paper, filtered, cell_filtered, which, tmp_path
-):
+@pytest.mark.parametrize(
+    ("which", "version"),
+    [("spool filter", "2.0"), ("exact spool sensor", "3.0"), ("per-cell Kalman filter", "2.0")],
+)
+def test_the_controller_fmu_reads_the_measured_spool(paper, request, which, version, tmp_path):
     """The controller FMU of a controller that measures the spool: the input ``spool`` appended as
     value reference 9 (x … r_rate_pre 0–7 and u 8 as before); built with the C compiler, no
     FMPy validation problem, and simulated in FMPy on the lockstep samples (noisy spool) it gives
     the compiled law's commands within 1e-12 (floors as the C lockstep; its output after
-    doStep(t_k) is the command of t_k); with the spool input held at 0 the commands differ."""
+    doStep(t_k) is the command of t_k); with the spool input held at 0 the commands differ.
+    FMI 2.0 and 3.0 (the same model code)."""
     fmpy = pytest.importorskip("fmpy")
     from fmpy.validation import validate_fmu
 
     from hydropwa.control import export_fmu
 
-    ctrl, floor = (filtered, 1e-2) if which == "spool filter" else (cell_filtered, 1.0)
-    fmu = export_fmu(ctrl, tmp_path / "c.fmu")
+    ctrl, floor = _lockstep_controller(request, which)
+    fmu = export_fmu(ctrl, tmp_path / "c.fmu", fmi_version=version)
     assert validate_fmu(str(fmu)) == []
     md = fmpy.read_model_description(str(fmu))
     vr = {v.name: (v.valueReference, v.causality) for v in md.modelVariables}
+    if version == "3.0":  # FMI 3's independent variable takes the reference after the others
+        assert vr.pop("time") == (10, "independent")
     names = ("x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "r_rate_pre")
     assert vr == {n: (i, "input") for i, n in enumerate(names)} | {
         "u": (8, "output"),
