@@ -287,10 +287,11 @@ class Sensors:
         return min(max(round(value / lsb), 0), 2**self.bits - 1) * lsb
 
     def draws(self, n: int, seed: int | None) -> np.ndarray:
-        """Noise rows x, p_a, p_b over ``n`` samples: the package loop's draws for the seed."""
+        """Noise rows x, p_a, p_b, spool over ``n`` samples: the package loop's draws for the seed
+        (the spool last, so a spool noise leaves the others' draws)."""
         rng = np.random.default_rng(seed)
-        out = np.zeros((3, n))
-        for i, key in enumerate(("x", "p_a", "p_b")):
+        out = np.zeros((4, n))
+        for i, key in enumerate(("x", "p_a", "p_b", "spool")):
             sd = float(self.noise.get(key, 0.0))
             if sd > 0.0:
                 out[i] = rng.normal(0.0, sd, n)
@@ -418,7 +419,7 @@ def closed_loop(
             "v": y[5],
             "p_a": sensors.convert(y[2] + noise[1, k], sensors.p_range),
             "p_b": sensors.convert(y[3] + noise[2, k], sensors.p_range),
-            "spool": y[0],  # the valve's spool output, exact (read only with the spool filter)
+            "spool": y[0] + noise[3, k],  # the valve's spool output [1] (no converter)
             "area_a": plant.area_a,
             "area_b": plant.area_b,
         }

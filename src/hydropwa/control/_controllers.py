@@ -376,7 +376,8 @@ class SpoolModel:
         With ``measured``: the steady-state Kalman gain (L_ν [1], L_ν̇ [1/s]) that corrects
         the model's prediction by the measured spool, ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻) and
         ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻) (:func:`spool_filter_gain`, schema 2). (0, 0), the
-        default: the raw measured spool and its rate are fed back (an exact sensor).
+        default, with ``measured``: an exact sensor, packed as that filter's limit σ_ν → 0,
+        :attr:`exact_gain` = (1, Γ₂/Γ₁) (ν̂ = ν_m; ν̂̇ from the model, corrected).
     noise : dict
         The filter's design: ``{"spool": σ_ν [1], "command": σ_c [1]}`` (provenance).
     """
@@ -424,13 +425,34 @@ class SpoolModel:
         return cls(tuple(E[:2, :2].ravel()), tuple(E[:2, 2]))
 
     @property
+    def exact_gain(self) -> tuple[float, float]:
+        """The spool filter's gain for an exact sensor, the limit σ_ν → 0 of
+        :func:`spool_filter_gain`: (1, Γ₂/Γ₁) [1, 1/s].
+
+        With L_ν = 1 the error dynamics (I − L H) Φ have the eigenvalues 0 and
+        Φ₂₂ − L_ν̇ Φ₁₂, and the cheap-sensor Kalman filter puts the second at the zero of the
+        valve model's transfer H (zI − Φ)⁻¹ Γ, z₀ = Φ₂₂ − Φ₁₂ Γ₂/Γ₁ (tested against the
+        Riccati solution): L_ν̇ = Γ₂/Γ₁. A target computes it from ``gamma`` in the file.
+        """
+        return 1.0, self.gamma[1] / self.gamma[0]
+
+    @property
+    def packed_gain(self) -> tuple[float, float]:
+        """The gain the law runs: :attr:`gain`, or :attr:`exact_gain` for a measured spool
+        without one (an exact sensor); (0, 0) for the estimate."""
+        if self.measured and self.gain[0] <= 0.0:
+            return self.exact_gain
+        return self.gain[0], self.gain[1]
+
+    @property
     def filtered(self) -> bool:
         """Whether the measured spool corrects the model through a filter gain (schema 2)."""
         return self.gain[0] > 0.0
 
     def with_filter(self, spool_noise: float, command_noise: float = SPOOL_COMMAND_NOISE):
-        """This model fed by the measured spool: the raw spool for ``spool_noise`` 0, else the
-        steady-state Kalman filter of :func:`spool_filter_gain`."""
+        """This model fed by the measured spool: the steady-state Kalman filter of
+        :func:`spool_filter_gain`; for ``spool_noise`` 0 (an exact sensor) no gain, which packs
+        as its limit :attr:`exact_gain`."""
         if not (spool_noise >= 0.0 and math.isfinite(spool_noise)):
             raise ControlError(f"spool noise {spool_noise!r} must be a standard deviation >= 0")
         if spool_noise == 0.0:
@@ -634,7 +656,7 @@ class _Discrete:
             ext[C.X_SPOOL] = C.SPOOL_MEASURED if self.spool_model.measured else C.SPOOL_ESTIMATED
             ext[C.X_PHI : C.X_PHI + 4] = self.spool_model.phi
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
-            ext[C.X_SPLN], ext[C.X_SPLD] = self.spool_model.gain
+            ext[C.X_SPLN], ext[C.X_SPLD] = self.spool_model.packed_gain
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
             ext[C.X_DZQ] = self.dead_zone_inverse.quiet_band

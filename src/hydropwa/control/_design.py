@@ -419,8 +419,9 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         observer's process noise (default 1 m/s²).
     spool : {"estimated", "measured"}
         With ``valve``: feed back the spool estimate of the discrete valve model (default),
-        or the spool position the valve reports, raw (the full model's spool state; for a noisy
-        sensor :meth:`SpoolModel.with_filter`, which ``design_controller`` applies).
+        or the spool position the valve reports (the full model's spool state) as an exact
+        sensor, the spool filter's limit :attr:`SpoolModel.exact_gain` (for a noisy sensor
+        :meth:`SpoolModel.with_filter`, which ``design_controller`` applies).
     dead_zone_hysteresis : float
         Band h [1] of the dead-zone inverse's side (:class:`DeadZoneInverse`, schema 2;
         default 0: none). With sensor noise the command at a hold flips its sign every few

@@ -549,6 +549,14 @@ FMU_VARIABLES = [
     FmuVariable(
         "u", "output", "discrete", None, "", "valve command [1] of the last sample (+-1 full)"
     ),
+    FmuVariable(
+        "spool",
+        "input",
+        "continuous",
+        0.0,
+        "",
+        "reported spool position [1] (sign of u; read only with the spool measured)",
+    ),
 ]
 
 
@@ -587,19 +595,15 @@ def export_fmu(
     -----
     Inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s], r_rate_ff [m/s] (the rate at
     t + the feed-forward's look-ahead), r_acc [m/s²], r_rate_pre [m/s] (the rate at t + the
-    pre-opening's look-ahead; 0 without it); output u [1]. ``doStep(t, h)``
+    pre-opening's look-ahead; 0 without it), spool [1] (the spool position the valve reports,
+    in units of the opening with the sign of u, read only by a controller designed with
+    ``spool="measured"``; value reference 9, after u, so that the earlier ones stay); output
+    u [1]. ``doStep(t, h)``
     evaluates the law at every sample instant t_0 + k·T_s in [t, t + h) with the inputs set
     at t, and u is the command of the last of them from then on (no direct feedthrough):
     a master that sets the inputs at t_k, steps the controller, then reads u and passes it to
     the plant's step from t_k reproduces the package's loop.
     """
-    sm = getattr(controller, "spool_model", None)
-    est = getattr(controller, "estimator", None)
-    if (sm is not None and sm.filtered) or (est is not None and est.measures_spool):
-        raise ControlError(
-            "the controller FMU has no spool input: export this controller (its filter reads the "
-            "measured spool) as C with --c, or design it with --spool estimated"
-        )
     sources = c_sources(controller)
     model = _read_template("hp_model_ctrl.c")
     if fmi_version == "3.0":

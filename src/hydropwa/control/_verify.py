@@ -576,7 +576,8 @@ def design_controller(
         Passed to the design function (``sample_time``, ``delay``, ``load_force``...). With
         ``spool="measured"`` the spool estimate is corrected by the measured spool through the
         Kalman gain for ``sensor_noise["spool"]`` [1] (:meth:`SpoolModel.with_filter`; default
-        :data:`DEFAULT_SPOOL_NOISE` with the default noise, 0 — the raw spool — where a noise
+        :data:`DEFAULT_SPOOL_NOISE` with the default noise, 0 — an exact sensor, the filter's limit
+        :attr:`SpoolModel.exact_gain` — where a noise
         without ``"spool"`` is given), and the verification puts that noise on the spool.
 
     Returns
@@ -634,7 +635,7 @@ def design_controller(
 
 def _with_spool_filter(d, spool_noise: float):
     """The design with its measured spool corrected by the spool filter for ``spool_noise`` [1]
-    (:meth:`~hydropwa.control.SpoolModel.with_filter`; 0: the raw spool, an exact sensor)."""
+    (:meth:`~hydropwa.control.SpoolModel.with_filter`; 0: an exact sensor, the filter's limit)."""
     sm = d.controller.spool_model
     if sm is None:
         raise ControlError(

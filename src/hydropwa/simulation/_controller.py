@@ -85,10 +85,11 @@ gain row (see :data:`EXT_SLOTS`)::
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
-    e0+X_SPLN    spool filter gains L_ν [1], L_ν̇ [1/s] at e0+X_SPLN, e0+X_SPLD (0: none): with
+    e0+X_SPLN    spool filter gains L_ν [1], L_ν̇ [1/s] at e0+X_SPLN, e0+X_SPLD: with
                  the spool measured (e0+X_SPOOL = 1) the valve model's prediction is corrected by
                  the measured spool, a steady-state Kalman filter
-                 (:func:`~hydropwa.control.spool_filter_gain`); 0 feeds the raw spool back
+                 (:func:`~hydropwa.control.spool_filter_gain`); an exact sensor packs its limit
+                 (1, Γ₂/Γ₁) (:attr:`~hydropwa.control.SpoolModel.exact_gain`)
     e0+X_ESTNU   the per-cell Kalman filter measures the spool too (1): y = [P_L, x, ν_m], its
                  spool gain columns (NZ values per row) after the filters' rows
     e0+N_EXT+XROW·r   row r's k_nu [1], k_dnu [s] (c −= k_nu ν̂ + k_dnu ν̂̇) and k_up [1]
@@ -135,7 +136,7 @@ from ._signals import NO_REFCOUNT, eval_signal_rate
 _S_U = SG_VALUE["u"]
 
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
-_NU, _DNU = Y_FULL["spool"], Y_FULL["spool_rate"]
+_NU = Y_FULL["spool"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 
 (
@@ -497,24 +498,20 @@ def spool_feedback(kind, y, ctl, e0, cst, noise, kal):
     e0+X_SPOOL = 2 (or a model without a spool state): the valve model's estimate ν̂, ν̂̇ (the
     per-cell Kalman filter's ẑ₃, ẑ₄ with ``kal``). e0+X_SPOOL = 1, the spool measured: ν_m the
     full model's spool state plus the sensor noise ``noise`` [1], mapped to the opening by
-    :func:`spool_opening`. Without a filter gain (e0+X_SPLN = 0, an exact sensor) ν_m and the
-    spool state's rate are fed back raw; with it (:func:`~hydropwa.control.spool_filter_gain`)
-    the valve model's prediction ν̂⁻ is corrected, ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻),
-    ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻), in cst[S_NU], cst[S_DNU] (the model's update at the end of the
-    sample then predicts the next). With ``kal`` and e0+X_ESTNU = 1 the per-cell filter has
-    measured the spool itself.
+    :func:`spool_opening`, corrects the valve model's prediction ν̂⁻ with the filter gain
+    (:func:`~hydropwa.control.spool_filter_gain`; (1, Γ₂/Γ₁) for an exact sensor, so ν̂ = ν_m),
+    ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻), ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻), in cst[S_NU], cst[S_DNU] (the
+    model's update at the end of the sample then predicts the next): only the measured
+    position is read, as on a target. With ``kal`` the per-cell filter's ẑ₃, ẑ₄ (it has
+    measured the spool itself where e0+X_ESTNU = 1).
     """
-    nu, dnu = cst[S_NU], cst[S_DNU]
     if kal:
-        nu, dnu = cst[S_Z + 3], cst[S_Z + 4]
+        return cst[S_Z + 3], cst[S_Z + 4]
+    nu, dnu = cst[S_NU], cst[S_DNU]
     if ctl[e0 + X_SPOOL] > 1.5 or not (kind == 0 or kind == 3):
         return nu, dnu
-    if kal and ctl[e0 + X_ESTNU] > 0.5:
-        return nu, dnu
-    nu_m, dnu_m = spool_opening(y[_NU] + noise, y[_DNU], ctl)
+    nu_m = spool_opening(y[_NU] + noise, 0.0, ctl)[0]
     ln = ctl[e0 + X_SPLN]
-    if ln <= 0.0 or kal:
-        return nu_m, dnu_m
     inn = nu_m - nu
     cst[S_NU] = nu + ln * inn
     cst[S_DNU] = dnu + ctl[e0 + X_SPLD] * inn

@@ -2,10 +2,11 @@
 
 /* Variables (value references): inputs x [m], v [m/s], p_l [Pa], r [m], r_rate [m/s],
  * r_rate_ff [m/s] (the rate at t + HYDROPWA_CTRL_LEAD), r_acc [m/s^2], r_rate_pre [m/s] (the
- * rate at t + HYDROPWA_CTRL_PRE_OPEN); output u [1]. */
-#define HP_NVARS 9
-enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_RRATEFF, VR_RACC, VR_RRATEPRE, VR_U };
-static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 1, 1, 1, 0};
+ * rate at t + HYDROPWA_CTRL_PRE_OPEN); output u [1]; input spool [1] (the reported spool
+ * position, appended after u so that the earlier value references stay). */
+#define HP_NVARS 10
+enum { VR_X, VR_V, VR_PL, VR_R, VR_RRATE, VR_RRATEFF, VR_RACC, VR_RRATEPRE, VR_U, VR_SPOOL };
+static const int hp_model_settable[HP_NVARS] = {1, 1, 1, 1, 1, 1, 1, 1, 0, 1};
 
 typedef struct {
     double vars[HP_NVARS];
@@ -49,7 +50,7 @@ static double hp_sample(hp_model *m, hydropwa_ctrl_state *s)
     meas.x = m->vars[VR_X];
     meas.v = m->vars[VR_V];
     meas.p_l = m->vars[VR_PL];
-    meas.spool = 0.0; /* no spool input: export_fmu refuses a controller that reads it */
+    meas.spool = m->vars[VR_SPOOL]; /* read only by a controller that measures the spool */
     ref.r = m->vars[VR_R];
     ref.r_rate = m->vars[VR_RRATE];
     ref.r_rate_ff = m->vars[VR_RRATEFF];

@@ -13,7 +13,7 @@
  *                                                    or the per-cell Kalman filter)
  *         m.p_l = hydropwa_ctrl_load_pressure(p_a, p_b, area_a, area_b);
  *         m.spool = ...;                             reported spool position [1] (only with
- *                                                    the spool filter; else unused)
+ *                                                    the spool measured; else unused)
  *         ref.r = r(t_k);                            reference position [m]
  *         ref.r_rate = r'(t_k);                      its rate [m/s]
  *         ref.r_rate_ff = r'(t_k + HYDROPWA_CTRL_LEAD);  look-ahead rate [m/s]
@@ -56,7 +56,7 @@ typedef struct {
     double v;   /**< piston velocity [m/s] */
     double p_l; /**< load pressure [Pa] (hydropwa_ctrl_load_pressure) */
     double spool; /**< spool position the valve reports [1] (valve-signal units; read only by a
-                   *   controller whose spool_model has a filter gain) */
+                   *   controller whose spool_model is measured) */
 } hydropwa_ctrl_meas;
 
 /** Reference at one sample instant t_k (a motion profile's exact values; a step through a
