@@ -109,7 +109,9 @@ _LAYOUT = (
     "X_IBAND",
     "X_DZQR",
     "X_DZPO",
+    "X_DZPS",
     "QUIET_HOLD",
+    "QUIET_VENT",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
     "EROW",
@@ -165,7 +167,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 31, "N_EXT": 30, "XROW": 3, "N_RCH": 7}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 32, "N_EXT": 31, "XROW": 3, "N_RCH": 7}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -178,6 +180,9 @@ LAW_ELEMENTS = (
     "its band |e| <= e_I; optionally the band only while the reference is at rest",
     "schema 2: pre-opening: while r'(t_k) = 0 and r'(t_k + τ_o) != 0 an opening of at least "
     "the blend width z_w toward the coming move",
+    "schema 2: pressure share at rest: the quiet band on the command without its load-pressure "
+    "share, the share low-passed and opening the valve beyond half the band, the integral "
+    "leaking wherever the share-free command is within twice the band",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

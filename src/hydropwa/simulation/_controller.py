@@ -82,12 +82,12 @@ gain row (see :data:`EXT_SLOTS`)::
     e0+X_IBAND   integral band e_I [m] (0: none): the integral runs only while |e| ≤ e_I, so
                  the approach to a step's target does not wind it (held, or leaking, beyond)
     e0+X_DZPS    pressure share at rest a_p = exp(−T_s/T_p) (0: none; :func:`pressure_share`):
-                 where the quiet band acts, the band takes the command without its pressure
+                 where the quiet band acts, the band reads the command without its pressure
                  share, c_b = c + k_pl p_dev (p_dev = (P_L − P̄_L) − (P_ref − P̄_ref), the
-                 deviation the gains k_pl act on); the opening asked for is quiet_band(c_b)
-                 plus the low-passed share −k_pl p̃ beyond QUIET_VENT·q (:func:`quiet_vent`),
-                 p̃ = a_p p̃ + (1 − a_p) p_dev every sample (p̃ = p_dev at k = 0); the integral
-                 leaks (e0+X_ILEAK) wherever |c_b| < 2q
+                 deviation the gains k_pl act on); inside it the opening asked for is the
+                 low-passed share −k_pl p̃ beyond QUIET_VENT·q (:func:`quiet_vent`), blended
+                 into c over the ramp q < |c_b| < 2q, p̃ = a_p p̃ + (1 − a_p) p_dev every sample
+                 (p̃ = p_dev at k = 0); the integral leaks (e0+X_ILEAK) wherever |c_b| < 2q
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -385,16 +385,25 @@ def pressure_lowpass(ctl, e0, cst, k, p_dev):
 def pressure_share(c_raw, band, kpl, p_dev, p_low, ex):
     """The quiet band q = ``band`` with the pressure share (e0+X_DZPS > 0); returns (opening, hold, leak).
 
-    The band acts on c_b = c_raw + k_pl p_dev, the command without its pressure share
-    (``kpl`` the row's k_pl [1/Pa], ``p_dev`` [Pa] the deviation it acts on), and
-    :func:`quiet_vent` of the low-passed share −k_pl p̃ (``p_low`` = p̃ [Pa]) is added.
+    The band reads c_b = c_raw + k_pl p_dev, the command without its pressure share
+    s = −k_pl p_dev (``kpl`` the row's k_pl [1/Pa], ``p_dev`` [Pa] the deviation it acts on).
+    For |c_b| ≤ q the opening is v = :func:`quiet_vent` of the low-passed share −k_pl p̃
+    (``p_low`` = p̃ [Pa]); for q < |c_b| < 2q it is sign(c_b)·2(|c_b| − q) + λ s + (1 − λ) v,
+    λ = (|c_b| − q)/q; from 2q on c_raw (continuous at both edges, so beyond the band the
+    pressure feedback acts in full). ``hold`` as in :func:`quiet_band` (``ex`` = k_x e);
     ``leak``: |c_b| < 2q, where the integral leaks instead of running (the band's ramp
     included, so a slow correction out of the band does not wind it into an overshoot).
-    ``ex`` = k_x e as in :func:`quiet_band`.
     """
     cb = c_raw + kpl * p_dev
-    c_open, held = quiet_band(cb, band, ex)
-    return c_open + quiet_vent(-kpl * p_low, band), held, abs(cb) < 2.0 * band
+    a = abs(cb)
+    if a >= 2.0 * band:
+        return c_raw, False, False
+    vent = quiet_vent(-kpl * p_low, band)
+    if a <= band:
+        return vent, abs(ex) < QUIET_HOLD * band, True
+    lam = (a - band) / band
+    ramp = 2.0 * (cb - band) if cb > 0.0 else 2.0 * (cb + band)
+    return ramp - lam * kpl * p_dev + (1.0 - lam) * vent, False, True
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
