@@ -161,11 +161,11 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         lqr_quiet,
         dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pre_open=0.0),
     )
-    # the pressure share at rest (the default) and without it (files before pressure_share)
-    assert lqr_quiet.dead_zone_inverse.pressure_share > 0.0
-    lqr_quiet_no_share = dataclasses.replace(
+    # the pressure vent at rest (the default) and without it (files before pressure_vent)
+    assert lqr_quiet.dead_zone_inverse.pressure_vent > 0.0
+    lqr_quiet_no_vent = dataclasses.replace(
         lqr_quiet,
-        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pressure_share=0.0),
+        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pressure_vent=0.0),
     )
     lqr_quiet_always = dataclasses.replace(
         lqr_quiet,
@@ -177,7 +177,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
         ("paper lqr quiet band, no pre-opening", paper, lqr_quiet_no_pre),
-        ("paper lqr quiet band, no pressure share", paper, lqr_quiet_no_share),
+        ("paper lqr quiet band, no pressure vent", paper, lqr_quiet_no_vent),
         ("paper lqr quiet band always", paper, lqr_quiet_always),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),

@@ -109,7 +109,7 @@ _LAYOUT = (
     "X_IBAND",
     "X_DZQR",
     "X_DZPO",
-    "X_DZPS",
+    "X_DZPV",
     "QUIET_HOLD",
     "QUIET_VENT",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
@@ -180,9 +180,9 @@ LAW_ELEMENTS = (
     "its band |e| <= e_I; optionally the band only while the reference is at rest",
     "schema 2: pre-opening: while r'(t_k) = 0 and r'(t_k + τ_o) != 0 an opening of at least "
     "the blend width z_w toward the coming move",
-    "schema 2: pressure share at rest: the quiet band on the command without its load-pressure "
-    "share, the share low-passed and opening the valve beyond half the band, the integral "
-    "leaking wherever the share-free command is within twice the band",
+    "schema 2: pressure vent at rest: inside the quiet band the low-passed load-pressure share "
+    "of the command opens the valve beyond 0.6 of the band, blended out over the band's ramp; "
+    "the integral leaks wherever the command is within twice the band",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

@@ -30,7 +30,7 @@ from ._design import (
     DEFAULT_WEIGHTS,
     INTEGRAL_LEAK,
     PRE_OPEN_FACTOR,
-    PRESSURE_SHARE_SAMPLES,
+    PRESSURE_VENT_SAMPLES,
     design_pi,
     design_state_feedback,
     integral_band_for,
@@ -692,8 +692,8 @@ def _robust_observer(d, design, weights, design_kwargs, params, jobs):
 def _with_quiet_band(d, noise: Mapping[str, float], params):
     """The design ``d`` with the quiet band sized for ``noise`` (:func:`quiet_band_for`), the
     integral band for it (:func:`integral_band_for`), the integral leak
-    (:data:`~hydropwa.control.INTEGRAL_LEAK`) and the pressure share at rest
-    (:data:`~hydropwa.control.PRESSURE_SHARE_SAMPLES` samples)."""
+    (:data:`~hydropwa.control.INTEGRAL_LEAK`) and the pressure vent at rest
+    (:data:`~hydropwa.control.PRESSURE_VENT_SAMPLES` samples)."""
     cyl = params.cylinder
     q = quiet_band_for(d.controller, noise, float(cyl.area_b / cyl.area_a))
     dzi = d.controller.dead_zone_inverse
@@ -711,7 +711,7 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
             integral_band=band,
             quiet_at_rest=1.0,
             pre_open=pre,
-            pressure_share=PRESSURE_SHARE_SAMPLES * d.controller.sample_time,
+            pressure_vent=PRESSURE_VENT_SAMPLES * d.controller.sample_time,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )

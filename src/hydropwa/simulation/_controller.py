@@ -81,13 +81,12 @@ gain row (see :data:`EXT_SLOTS`)::
                  running, so a hold ends with I → 0 and no standing offset k_i I/k_x
     e0+X_IBAND   integral band e_I [m] (0: none): the integral runs only while |e| ≤ e_I, so
                  the approach to a step's target does not wind it (held, or leaking, beyond)
-    e0+X_DZPS    pressure share at rest a_p = exp(−T_s/T_p) (0: none; :func:`pressure_share`):
-                 where the quiet band acts, the band reads the command without its pressure
-                 share, c_b = c + k_pl p_dev (p_dev = (P_L − P̄_L) − (P_ref − P̄_ref), the
-                 deviation the gains k_pl act on); inside it the opening asked for is the
-                 low-passed share −k_pl p̃ beyond QUIET_VENT·q (:func:`quiet_vent`), blended
-                 into c over the ramp q < |c_b| < 2q, p̃ = a_p p̃ + (1 − a_p) p_dev every sample
-                 (p̃ = p_dev at k = 0); the integral leaks (e0+X_ILEAK) wherever |c_b| < 2q
+    e0+X_DZPV    pressure vent at rest a_p = exp(−T_s/T_p) (0: none; :func:`pressure_vent`):
+                 p̃ = a_p p̃ + (1 − a_p) p_dev every sample (p̃ = p_dev at k = 0), p_dev =
+                 (P_L − P̄_L) − (P_ref − P̄_ref) the deviation the gains k_pl act on; where the
+                 quiet band acts, the opening asked for inside it (|c| ≤ q) is the vent
+                 v = :func:`quiet_vent` of −k_pl p̃ (0 within QUIET_VENT·q), blended out over
+                 the ramp q < |c| < 2q; the integral leaks (e0+X_ILEAK) wherever |c| < 2q
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -105,7 +104,7 @@ P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensor
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band (with the pressure share and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
+quiet band (with the pressure vent and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
 spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
@@ -188,7 +187,7 @@ EXT_SLOTS = (
     "int_band",
     "dz_quiet_rest",
     "dz_pre_open",
-    "dz_press",
+    "dz_vent",
 )
 (
     X_FF,
@@ -221,7 +220,7 @@ EXT_SLOTS = (
     X_IBAND,
     X_DZQR,
     X_DZPO,
-    X_DZPS,
+    X_DZPV,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -251,14 +250,14 @@ S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 1
 #: the per-cell Kalman filter's state ẑ (NZ values from S_Z), the opening command the valve
 #: received over the last sample (its input) and the prediction ẑ⁻ (scratch, NZ values from S_ZP)
 S_Z, S_CAPP, S_ZP = 16, 23, 24
-#: the low-passed load-pressure deviation p̃ of the pressure share at rest (e0+X_DZPS)
+#: the low-passed load-pressure deviation p̃ of the pressure vent at rest (e0+X_DZPV)
 S_PDEV = 31
 N_CST = 32
-#: pressure share at rest (e0+X_DZPS): the low-passed share −k_pl p̃ opens the valve only beyond
-#: QUIET_VENT·q, and by at most q. Measured on the paper rig's trapezoid hold (exact and noise
-#: seeds 1-10, T_p = 20 T_s): 0.25 → up to 215 sign changes/s; 0.5 → ≤ 65/s, hold ≤ 0.023 mm;
-#: 1.0 → 0.033 mm (docs/control.md)
-QUIET_VENT = 0.5
+#: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
+#: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig's
+#: trapezoid hold (exact and noise seeds 1-10, T_p = 40 T_s): 0.5 → up to 125 sign changes/s;
+#: 0.6 → hold ≤ 0.029 mm, ≤ 85/s; 0.7 → 0.031 mm (docs/control.md)
+QUIET_VENT = 0.6
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
@@ -360,10 +359,10 @@ def quiet_vent(share, band):
     """Opening [1] of the low-passed pressure share ``share`` = −k_pl p̃ [1] inside the quiet band q = ``band``.
 
     sign(s)·(|s| − QUIET_VENT·q) beyond the dead band QUIET_VENT·q, 0 inside, limited to ±q.
-    With the share the pressure feedback keeps venting the load pressure that a stop left in
-    the closed chambers (it would otherwise relax through the friction law's creep, tens of
-    µm on the paper rig), while its sensor noise, low-passed and inside the dead band, leaves
-    the valve parked.
+    With it the pressure feedback keeps venting the load pressure that a stop left in the
+    closed chambers (it would otherwise relax through the friction law's creep, tens of µm on
+    the paper rig), while its sensor noise, low-passed and inside the dead band, leaves the
+    valve parked.
     """
     w = QUIET_VENT * band
     if share > w:
@@ -375,35 +374,31 @@ def quiet_vent(share, band):
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def pressure_lowpass(ctl, e0, cst, k, p_dev):
-    """Update and return the pressure share's low-pass p̃ [Pa] (cst[S_PDEV]; p̃ = p_dev at k = 0)."""
-    ap = ctl[e0 + X_DZPS]
+    """Update and return the pressure vent's low-pass p̃ [Pa] (cst[S_PDEV]; p̃ = p_dev at k = 0)."""
+    ap = ctl[e0 + X_DZPV]
     cst[S_PDEV] = p_dev if k == 0 else ap * cst[S_PDEV] + (1.0 - ap) * p_dev
     return cst[S_PDEV]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def pressure_share(c_raw, band, kpl, p_dev, p_low, ex):
-    """The quiet band q = ``band`` with the pressure share (e0+X_DZPS > 0); returns (opening, hold, leak).
+def pressure_vent(c, band, share, ex):
+    """The quiet band q = ``band`` with the pressure vent (e0+X_DZPV > 0); returns (opening, hold, leak).
 
-    The band reads c_b = c_raw + k_pl p_dev, the command without its pressure share
-    s = −k_pl p_dev (``kpl`` the row's k_pl [1/Pa], ``p_dev`` [Pa] the deviation it acts on).
-    For |c_b| ≤ q the opening is v = :func:`quiet_vent` of the low-passed share −k_pl p̃
-    (``p_low`` = p̃ [Pa]); for q < |c_b| < 2q it is sign(c_b)·2(|c_b| − q) + λ s + (1 − λ) v,
-    λ = (|c_b| − q)/q; from 2q on c_raw (continuous at both edges, so beyond the band the
-    pressure feedback acts in full). ``hold`` as in :func:`quiet_band` (``ex`` = k_x e);
-    ``leak``: |c_b| < 2q, where the integral leaks instead of running (the band's ramp
-    included, so a slow correction out of the band does not wind it into an overshoot).
+    ``share`` = −k_pl p̃ [1], the low-passed pressure share of the command c. For |c| ≤ q the
+    opening is v = :func:`quiet_vent` (share, q) instead of 0; for q < |c| < 2q it is
+    sign(c)·2(|c| − q) + (2 − |c|/q) v; from 2q on c (continuous at both edges). ``hold`` as
+    in :func:`quiet_band` (``ex`` = k_x e); ``leak``: |c| < 2q, where the integral leaks
+    instead of running (the band's ramp included, so a slow correction out of the band does
+    not wind it into an overshoot).
     """
-    cb = c_raw + kpl * p_dev
-    a = abs(cb)
+    a = abs(c)
     if a >= 2.0 * band:
-        return c_raw, False, False
-    vent = quiet_vent(-kpl * p_low, band)
+        return c, False, False
+    vent = quiet_vent(share, band)
     if a <= band:
         return vent, abs(ex) < QUIET_HOLD * band, True
-    lam = (a - band) / band
-    ramp = 2.0 * (cb - band) if cb > 0.0 else 2.0 * (cb + band)
-    return ramp - lam * kpl * p_dev + (1.0 - lam) * vent, False, True
+    ramp = 2.0 * (c - band) if c > 0.0 else 2.0 * (c + band)
+    return ramp + (2.0 - a / band) * vent, False, True
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -603,7 +598,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         pl_fb = pl - cst[S_PLBAR]
     else:
         pl_fb = pl
-    p_dev = pl_fb  # the load-pressure deviation the gains k_pl act on (pressure share at rest)
+    p_dev = pl_fb  # the load-pressure deviation the gains k_pl act on (pressure vent at rest)
     row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
     b = C_ROWS + ROW * row
     ki = ctl[b + R_KI]
@@ -649,12 +644,12 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     if ctl[C_DZINV] < 0.5:
         u_raw = c_raw
     else:
-        share = ext and ctl[e0 + X_DZQ] > 0.0 and ctl[e0 + X_DZPS] > 0.0
-        p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if share else 0.0
+        vented = ext and ctl[e0 + X_DZQ] > 0.0 and ctl[e0 + X_DZPV] > 0.0
+        p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if vented else 0.0
         if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
-            if share:
-                c_open, held, leak = pressure_share(
-                    c_raw, ctl[e0 + X_DZQ], ctl[b + R_KPL], p_dev, p_low, ctl[b + R_KP] * e
+            if vented:
+                c_open, held, leak = pressure_vent(
+                    c_raw, ctl[e0 + X_DZQ], -ctl[b + R_KPL] * p_low, ctl[b + R_KP] * e
                 )
             else:
                 c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)

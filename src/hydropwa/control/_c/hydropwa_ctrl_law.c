@@ -88,31 +88,29 @@ static double hp_quiet_vent(double share, double band)
     return 0.0;
 }
 
-/* The quiet band q with the pressure share: the band reads c_b = c + k_pl*p_dev, the command
- * without its share s = -k_pl*p_dev; for |c_b| <= q the opening is v = hp_quiet_vent of the
- * low-passed share -k_pl*p_low, for q < |c_b| < 2q sign(c_b)*2(|c_b| - q) + l*s + (1 - l)*v with
- * l = (|c_b| - q)/q, from 2q on c. *hold as in hp_quiet_band; *leak where |c_b| < 2q. */
-static double hp_pressure_share(double c, double band, double kpl, double p_dev, double p_low,
-                                double ex, int *hold, int *leak)
+/* The quiet band q with the pressure vent, share = -k_pl*p_low the low-passed pressure share:
+ * for |c| <= q the opening is v = hp_quiet_vent(share, q), for q < |c| < 2q
+ * sign(c)*2(|c| - q) + (2 - |c|/q)*v, from 2q on c. *hold as in hp_quiet_band; *leak where
+ * |c| < 2q. */
+static double hp_pressure_vent(double c, double band, double share, double ex, int *hold,
+                               int *leak)
 {
-    const double cb = c + kpl * p_dev;
-    const double a = cb < 0.0 ? -cb : cb;
+    const double a = c < 0.0 ? -c : c;
     const double aex = ex < 0.0 ? -ex : ex;
-    double vent, lam, ramp;
+    double vent, ramp;
     *hold = 0;
     *leak = 0;
     if (a >= 2.0 * band) {
         return c;
     }
     *leak = 1;
-    vent = hp_quiet_vent(-kpl * p_low, band);
+    vent = hp_quiet_vent(share, band);
     if (a <= band) {
         *hold = aex < HP_QUIET_HOLD * band;
         return vent;
     }
-    lam = (a - band) / band;
-    ramp = cb > 0.0 ? 2.0 * (cb - band) : 2.0 * (cb + band);
-    return ramp - lam * kpl * p_dev + (1.0 - lam) * vent;
+    ramp = c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
+    return ramp + (2.0 - a / band) * vent;
 }
 
 /* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
@@ -318,8 +316,8 @@ static void hp_spool_update(hydropwa_ctrl_state *s, double c_apply)
 }
 
 /* Integral update with the anti-windup of the table (none, clamping, back-calculation); schema 2:
- * where the quiet band parks the valve (c_open = 0), or with the pressure share wherever
- * |c_b| < 2q (leak), it decays by the leak a_l if one is set, and beyond the integral band
+ * where the quiet band parks the valve (c_open = 0), or with the pressure vent wherever
+ * |c| < 2q (leak), it decays by the leak a_l if one is set, and beyond the integral band
  * |e| > e_I it does not run. */
 static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
                          double c_raw, double c_sat, int held, int leak)
@@ -402,7 +400,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double e = r - x;
     double dpl, pl_fb, ki, c_raw, c_ff, c_open, u_raw, u, c_sat, u_apply, c_apply, p_dev;
     const double *b;
-    int row, kal, held, leak, share;
+    int row, kal, held, leak, vented;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
@@ -447,17 +445,17 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     if (T[HP_C_DZINV] < 0.5) {
         u_raw = c_raw;
     } else {
-        share = HP_EXT && X[HP_X_DZQ] > 0.0 && X[HP_X_DZPS] > 0.0;
-        if (share) { /* the pressure share's low-pass runs every sample */
-            s->p_low = s->started ? X[HP_X_DZPS] * s->p_low + (1.0 - X[HP_X_DZPS]) * p_dev : p_dev;
+        vented = HP_EXT && X[HP_X_DZQ] > 0.0 && X[HP_X_DZPV] > 0.0;
+        if (vented) { /* the pressure vent's low-pass runs every sample */
+            s->p_low = s->started ? X[HP_X_DZPV] * s->p_low + (1.0 - X[HP_X_DZPV]) * p_dev : p_dev;
         }
         /* with X_DZQR = 1 the band acts only while the reference is at rest */
         if (HP_EXT && X[HP_X_DZQ] > 0.0
             && (X[HP_X_DZQR] < 0.5
                 || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
-            if (share) { /* the band on c without its pressure share, the low-passed share inside */
-                c_open = hp_pressure_share(c_raw, X[HP_X_DZQ], b[HP_R_KPL], p_dev, s->p_low,
-                                           b[HP_R_KP] * e, &held, &leak);
+            if (vented) { /* inside the band the low-passed pressure share vents */
+                c_open = hp_pressure_vent(c_raw, X[HP_X_DZQ], -b[HP_R_KPL] * s->p_low,
+                                          b[HP_R_KP] * e, &held, &leak);
             } else {
                 c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
             }
