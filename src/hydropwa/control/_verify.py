@@ -689,10 +689,10 @@ def _robust_observer(d, design, weights, design_kwargs, params, jobs):
     return d
 
 
-def _with_quiet_band(d, noise: Mapping[str, float], params):
+def _with_quiet_band(d, noise: Mapping[str, float], params, vent: bool = True):
     """The design ``d`` with the quiet band sized for ``noise`` (:func:`quiet_band_for`), the
     integral band for it (:func:`integral_band_for`), the integral leak
-    (:data:`~hydropwa.control.INTEGRAL_LEAK`) and the pressure vent at rest
+    (:data:`~hydropwa.control.INTEGRAL_LEAK`) and, with ``vent``, the pressure vent at rest
     (:data:`~hydropwa.control.PRESSURE_VENT_SAMPLES` samples)."""
     cyl = params.cylinder
     q = quiet_band_for(d.controller, noise, float(cyl.area_b / cyl.area_a))
@@ -711,7 +711,7 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
             integral_band=band,
             quiet_at_rest=1.0,
             pre_open=pre,
-            pressure_vent=PRESSURE_VENT_SAMPLES * d.controller.sample_time,
+            pressure_vent=PRESSURE_VENT_SAMPLES * d.controller.sample_time if vent else 0.0,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )
