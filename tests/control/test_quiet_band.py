@@ -165,7 +165,7 @@ def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper
     ``quiet_at_rest``) is applied one sample later as u = 0, while the reference moves the
     band does not act (u ≠ 0 for c ≠ 0), and q = 0 in the file gives back the plain law. (The
     default's pressure vent, off here, opens the valve inside the band where the low-passed
-    pressure share is beyond 0.6 q: tests/control/test_pressure_vent.py.)"""
+    pressure share is beyond 0.8 q: tests/control/test_pressure_vent.py.)"""
     d = design_controller(paper_pwa, verify=False, delay=True)
     q = d.controller.dead_zone_inverse.quiet_band
     band = dataclasses.replace(

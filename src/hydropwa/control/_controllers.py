@@ -170,7 +170,7 @@ class DeadZoneInverse:
     pressure_vent : float
         Time constant T_p [s] of the pressure vent at rest (0: none; schema 2): where the
         quiet band parks the valve, the command's load-pressure share −k_pl·p_dev, low-passed
-        with T_p, still opens it beyond 0.6 q (``pressure_vent`` of the compiled law), and the
+        with T_p, still opens it beyond 0.8 q (``pressure_vent`` of the compiled law), and the
         integral leaks wherever |c| < 2q. The pressure feedback so vents the load pressure a
         stop leaves in the closed chambers, which would otherwise relax through the friction
         law's creep and move the rod tens of µm (paper rig).

@@ -181,7 +181,7 @@ LAW_ELEMENTS = (
     "schema 2: pre-opening: while r'(t_k) = 0 and r'(t_k + τ_o) != 0 an opening of at least "
     "the blend width z_w toward the coming move",
     "schema 2: pressure vent at rest: inside the quiet band the low-passed load-pressure share "
-    "of the command opens the valve beyond 0.6 of the band, blended out over the band's ramp; "
+    "of the command opens the valve beyond 0.8 of the band, blended out over the band's ramp; "
     "the integral leaks wherever the command is within twice the band",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",

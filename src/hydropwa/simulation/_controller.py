@@ -257,7 +257,7 @@ N_CST = 32
 #: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig's
 #: trapezoid hold (exact and noise seeds 1-10, T_p = 40 T_s): 0.5 → up to 125 sign changes/s;
 #: 0.6 → hold ≤ 0.029 mm, ≤ 85/s; 0.7 → 0.031 mm (docs/control.md)
-QUIET_VENT = 0.6
+QUIET_VENT = 0.8
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
