@@ -964,10 +964,10 @@ INTEGRAL_LEAK = 0.02
 PRE_OPEN_FACTOR = 2.0
 #: the pressure vent's low-pass T_p in samples (T_p = 40 T_s: 20 ms at 2 kHz): the pressure share's
 #: sensor noise averaged over 2 T_p/T_s = 80 samples is about √80 ≈ 9 times smaller, well inside the
-#: vent's dead band 0.6 q (``QUIET_VENT`` of the compiled law), while T_p stays below the creep's
+#: vent's dead band 0.8 q (``QUIET_VENT`` of the compiled law), while T_p stays below the creep's
 #: time constant (~0.1 s) it is to cut short. Measured on the paper rig's trapezoid hold (exact and
 #: noise seeds 1-10, dead band 0.6 q): 30 / 40 / 50 samples: hold ≤ 0.030 / 0.029 / 0.029 mm,
-#: ≤ 95 / 85 / 95 sign changes/s (docs/control.md)
+#: ≤ 95 / 85 / 95 sign changes/s; 80 samples with 0.7 q: 0.032 mm (docs/control.md)
 PRESSURE_VENT_SAMPLES = 40.0
 
 

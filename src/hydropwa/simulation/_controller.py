@@ -254,9 +254,10 @@ S_Z, S_CAPP, S_ZP = 16, 23, 24
 S_PDEV = 31
 N_CST = 32
 #: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
-#: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig's
-#: trapezoid hold (exact and noise seeds 1-10, T_p = 40 T_s): 0.5 → up to 125 sign changes/s;
-#: 0.6 → hold ≤ 0.029 mm, ≤ 85/s; 0.7 → 0.031 mm (docs/control.md)
+#: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig
+#: (noise seeds 1-10, T_p = 40 T_s), trapezoid hold / the +6.5 kN step hold's sign changes:
+#: 0.5 → up to 125/s on the trapezoid; 0.6 → ≤ 0.029 mm / up to 200/s; 0.7 → 0.031 mm / 132/s;
+#: 0.8 → 0.032 mm / ≤ 40/s (8/s without the vent) (docs/control.md)
 QUIET_VENT = 0.8
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
