@@ -163,15 +163,21 @@ def test_inside_the_band_the_valve_gets_the_middle_of_its_dead_zone(paper, paper
     """In closed loop (full model, noise, one sample of delay) every command c inside ±q at
     rest (after the trapezoid's end at 0.64 s and its 3 ms look-ahead; the default's
     ``quiet_at_rest``) is applied one sample later as u = 0, while the reference moves the
-    band does not act (u ≠ 0 for c ≠ 0), and q = 0 in the file gives back the plain law."""
+    band does not act (u ≠ 0 for c ≠ 0), and q = 0 in the file gives back the plain law. (The
+    default's pressure vent, off here, opens the valve inside the band where the low-passed
+    pressure share is beyond 0.8 q: tests/control/test_pressure_vent.py.)"""
     d = design_controller(paper_pwa, verify=False, delay=True)
     q = d.controller.dead_zone_inverse.quiet_band
+    band = dataclasses.replace(
+        d.controller,
+        dead_zone_inverse=dataclasses.replace(d.controller.dead_zone_inverse, pressure_vent=0.0),
+    )
     off = dataclasses.replace(
         d.controller,
-        dead_zone_inverse=dataclasses.replace(d.controller.dead_zone_inverse, quiet_band=0.0),
+        dead_zone_inverse=dataclasses.replace(band.dead_zone_inverse, quiet_band=0.0),
     )
     runs = {}
-    for name, ctrl in (("off", off), ("on", d.controller)):
+    for name, ctrl in (("off", off), ("on", band)):
         runs[name] = _noisy_trapezoid(paper, ctrl).control
     on = runs["on"]
     assert d.controller.dead_zone_inverse.quiet_at_rest == 1.0

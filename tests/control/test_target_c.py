@@ -161,6 +161,12 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         lqr_quiet,
         dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pre_open=0.0),
     )
+    # the pressure vent at rest (the default) and without it (files before pressure_vent)
+    assert lqr_quiet.dead_zone_inverse.pressure_vent > 0.0
+    lqr_quiet_no_vent = dataclasses.replace(
+        lqr_quiet,
+        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pressure_vent=0.0),
+    )
     lqr_quiet_always = dataclasses.replace(
         lqr_quiet,
         dead_zone_inverse=dataclasses.replace(
@@ -171,6 +177,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
     return [
         ("paper lqr quiet band", paper, lqr_quiet),
         ("paper lqr quiet band, no pre-opening", paper, lqr_quiet_no_pre),
+        ("paper lqr quiet band, no pressure vent", paper, lqr_quiet_no_vent),
         ("paper lqr quiet band always", paper, lqr_quiet_always),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
@@ -550,7 +557,8 @@ def test_c_structs_mirror_the_header_field_by_field():
     s = c_structs()
     state = dict(s["hydropwa_ctrl_state"]._fields_)
     names = [n for n, _t in s["hydropwa_ctrl_state"]._fields_]
-    assert names[:2] == ["integral", "p_l_prev"] and names[-2:] == ["z", "c_in"]
+    assert names[:2] == ["integral", "p_l_prev"]
+    assert names[-4:] == ["z", "c_in", "p_ref_w", "p_low"]
     assert state["row"] is ctypes.c_int and state["z"]._length_ == 7
     assert [n for n, _t in s["hydropwa_ctrl_ref"]._fields_] == [
         "r",

@@ -125,6 +125,7 @@ DEAD_ZONE_V2 = (
     "integral_band",
     "quiet_at_rest",
     "pre_open",
+    "pressure_vent",
 )
 
 
@@ -169,6 +170,13 @@ class DeadZoneInverse:
         rest now (ṙ(t_k) = 0) but moves τ_o ahead (ṙ(t_k + τ_o) ≠ 0), the opening asked for
         is at least z_w toward the coming move (``pre_open`` of the compiled law), so the
         spool has crossed the dead zone (no flow yet) when the reference starts.
+    pressure_vent : float
+        Time constant T_p [s] of the pressure vent at rest (0: none; schema 2): where the
+        quiet band parks the valve, the command's load-pressure share −k_pl·p_dev, low-passed
+        with T_p, still opens it beyond 0.8 q (``pressure_vent`` of the compiled law), and the
+        integral leaks wherever |c| < 2q. The pressure feedback so vents the load pressure a
+        stop leaves in the closed chambers, which would otherwise relax through the friction
+        law's creep and move the rod tens of µm (paper rig).
     """
 
     offset: float = 0.1
@@ -179,6 +187,7 @@ class DeadZoneInverse:
     integral_band: float = 0.0
     quiet_at_rest: float = 0.0
     pre_open: float = 0.0
+    pressure_vent: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
@@ -188,6 +197,7 @@ class DeadZoneInverse:
         _finite(self, "integral_leak", "s", ge=0.0)
         _finite(self, "integral_band", "m", ge=0.0)
         _finite(self, "pre_open", "s", ge=0.0)
+        _finite(self, "pressure_vent", "s", ge=0.0)
         if self.quiet_at_rest not in (0.0, 1.0):
             raise ControlError(
                 f"DeadZoneInverse.quiet_at_rest = {self.quiet_at_rest:g} must be 0 or 1 "
@@ -597,6 +607,7 @@ class _Discrete:
                     or self.dead_zone_inverse.integral_band > 0.0
                     or self.dead_zone_inverse.quiet_at_rest > 0.0
                     or self.dead_zone_inverse.pre_open > 0.0
+                    or self.dead_zone_inverse.pressure_vent > 0.0
                 )
             )
             or self._estimator() is not None
@@ -665,6 +676,8 @@ class _Discrete:
             ext[C.X_IBAND] = self.dead_zone_inverse.integral_band
             ext[C.X_DZQR] = self.dead_zone_inverse.quiet_at_rest
             ext[C.X_DZPO] = self.dead_zone_inverse.pre_open
+            tp = self.dead_zone_inverse.pressure_vent
+            ext[C.X_DZPV] = math.exp(-self.sample_time / tp) if tp > 0.0 else 0.0
         est = self._estimator()
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])

@@ -170,7 +170,9 @@ def _quiet_noise(quiet: bool, verify_kwargs, design_kwargs: dict):
 def _with_quiet_band(d, noise, prm):
     from ._verify import _with_quiet_band as with_band  # deferred: as in _quiet_noise
 
-    return with_band(d, noise, prm)
+    # no pressure vent: measured on the PWA-cell design only; on this design (heavy axis, noisy
+    # verification, 2 draws) it raised the holds' sign changes to 144/s, above the 100/s limit
+    return with_band(d, noise, prm, vent=False)
 
 
 def _check(d, prm, ref, kept, task, verify_kwargs):

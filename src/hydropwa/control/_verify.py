@@ -30,6 +30,7 @@ from ._design import (
     DEFAULT_WEIGHTS,
     INTEGRAL_LEAK,
     PRE_OPEN_FACTOR,
+    PRESSURE_VENT_SAMPLES,
     design_pi,
     design_state_feedback,
     integral_band_for,
@@ -715,10 +716,11 @@ def _robust_observer(d, design, weights, design_kwargs, params, jobs):
     return d
 
 
-def _with_quiet_band(d, noise: Mapping[str, float], params):
+def _with_quiet_band(d, noise: Mapping[str, float], params, vent: bool = True):
     """The design ``d`` with the quiet band sized for ``noise`` (:func:`quiet_band_for`), the
-    integral band for it (:func:`integral_band_for`) and the integral leak
-    (:data:`~hydropwa.control.INTEGRAL_LEAK`)."""
+    integral band for it (:func:`integral_band_for`), the integral leak
+    (:data:`~hydropwa.control.INTEGRAL_LEAK`) and, with ``vent``, the pressure vent at rest
+    (:data:`~hydropwa.control.PRESSURE_VENT_SAMPLES` samples)."""
     cyl = params.cylinder
     q = quiet_band_for(d.controller, noise, float(cyl.area_b / cyl.area_a))
     dzi = d.controller.dead_zone_inverse
@@ -736,6 +738,7 @@ def _with_quiet_band(d, noise: Mapping[str, float], params):
             integral_band=band,
             quiet_at_rest=1.0,
             pre_open=pre,
+            pressure_vent=PRESSURE_VENT_SAMPLES * d.controller.sample_time if vent else 0.0,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )

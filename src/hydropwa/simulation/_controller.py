@@ -82,6 +82,12 @@ gain row (see :data:`EXT_SLOTS`)::
                  running, so a hold ends with I → 0 and no standing offset k_i I/k_x
     e0+X_IBAND   integral band e_I [m] (0: none): the integral runs only while |e| ≤ e_I, so
                  the approach to a step's target does not wind it (held, or leaking, beyond)
+    e0+X_DZPV    pressure vent at rest a_p = exp(−T_s/T_p) (0: none; :func:`pressure_vent`):
+                 p̃ = a_p p̃ + (1 − a_p) p_dev every sample (p̃ = p_dev at k = 0), p_dev =
+                 (P_L − P̄_L) − (P_ref − P̄_ref) the deviation the gains k_pl act on; where the
+                 quiet band acts, the opening asked for inside it (|c| ≤ q) is the vent
+                 v = :func:`quiet_vent` of −k_pl p̃ (0 within QUIET_VENT·q), blended out over
+                 the ramp q < |c| < 2q; the integral leaks (e0+X_ILEAK) wherever |c| < 2q
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -108,7 +114,7 @@ the measured spool position [1] (read only where the controller measures the spo
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band, the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
+quiet band (with the pressure vent and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
 spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
@@ -194,6 +200,7 @@ EXT_SLOTS = (
     "spool_l_nu",
     "spool_l_dnu",
     "est_spool",
+    "dz_vent",
 )
 (
     X_FF,
@@ -229,6 +236,7 @@ EXT_SLOTS = (
     X_SPLN,
     X_SPLD,
     X_ESTNU,
+    X_DZPV,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -258,7 +266,15 @@ S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 1
 #: the per-cell Kalman filter's state ẑ (NZ values from S_Z), the opening command the valve
 #: received over the last sample (its input) and the prediction ẑ⁻ (scratch, NZ values from S_ZP)
 S_Z, S_CAPP, S_ZP = 16, 23, 24
-N_CST = 31
+#: the low-passed load-pressure deviation p̃ of the pressure vent at rest (e0+X_DZPV)
+S_PDEV = 31
+N_CST = 32
+#: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
+#: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig
+#: (noise seeds 1-10, T_p = 40 T_s), trapezoid hold / the +6.5 kN step hold's sign changes:
+#: 0.5 → up to 125/s on the trapezoid; 0.6 → ≤ 0.029 mm / up to 200/s; 0.7 → 0.031 mm / 132/s;
+#: 0.8 → 0.032 mm / ≤ 40/s (8/s without the vent) (docs/control.md)
+QUIET_VENT = 0.8
 #: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
 L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
 N_LOG = 9
@@ -353,6 +369,53 @@ def quiet_band(c, band, ex):
     if a <= band:
         return 0.0, abs(ex) < QUIET_HOLD * band
     return (2.0 * (c - band) if c > 0.0 else 2.0 * (c + band)), False
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def quiet_vent(share, band):
+    """Opening [1] of the low-passed pressure share ``share`` = −k_pl p̃ [1] inside the quiet band q = ``band``.
+
+    sign(s)·(|s| − QUIET_VENT·q) beyond the dead band QUIET_VENT·q, 0 inside, limited to ±q.
+    With it the pressure feedback keeps venting the load pressure that a stop left in the
+    closed chambers (it would otherwise relax through the friction law's creep, tens of µm on
+    the paper rig), while its sensor noise, low-passed and inside the dead band, leaves the
+    valve parked.
+    """
+    w = QUIET_VENT * band
+    if share > w:
+        return min(share - w, band)
+    if share < -w:
+        return max(share + w, -band)
+    return 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def pressure_lowpass(ctl, e0, cst, k, p_dev):
+    """Update and return the pressure vent's low-pass p̃ [Pa] (cst[S_PDEV]; p̃ = p_dev at k = 0)."""
+    ap = ctl[e0 + X_DZPV]
+    cst[S_PDEV] = p_dev if k == 0 else ap * cst[S_PDEV] + (1.0 - ap) * p_dev
+    return cst[S_PDEV]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def pressure_vent(c, band, share, ex):
+    """The quiet band q = ``band`` with the pressure vent (e0+X_DZPV > 0); returns (opening, hold, leak).
+
+    ``share`` = −k_pl p̃ [1], the low-passed pressure share of the command c. For |c| ≤ q the
+    opening is v = :func:`quiet_vent` (share, q) instead of 0; for q < |c| < 2q it is
+    sign(c)·2(|c| − q) + (2 − |c|/q) v; from 2q on c (continuous at both edges). ``hold`` as
+    in :func:`quiet_band` (``ex`` = k_x e); ``leak``: |c| < 2q, where the integral leaks
+    instead of running (the band's ramp included, so a slow correction out of the band does
+    not wind it into an overshoot).
+    """
+    a = abs(c)
+    if a >= 2.0 * band:
+        return c, False, False
+    vent = quiet_vent(share, band)
+    if a <= band:
+        return vent, abs(ex) < QUIET_HOLD * band, True
+    ramp = 2.0 * (c - band) if c > 0.0 else 2.0 * (c + band)
+    return ramp + (2.0 - a / band) * vent, False, True
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -588,6 +651,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         pl_fb = pl - cst[S_PLBAR]
     else:
         pl_fb = pl
+    p_dev = pl_fb  # the load-pressure deviation the gains k_pl act on (pressure vent at rest)
     row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
     b = C_ROWS + ROW * row
     ki = ctl[b + R_KI]
@@ -612,6 +676,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             if aw_ > 0.0:
                 cst[S_PRBAR] = aw_ * cst[S_PRBAR] + (1.0 - aw_) * p_ref
                 p_ref -= cst[S_PRBAR]
+            p_dev = pl_fb - p_ref
             c_ff += ctl[b + R_KV] * dr + ctl[b + R_KPL] * p_ref
             if ctl[e0 + X_SPOOL] > 0.5:  # the spool and the pending command follow c_fl
                 xb = e0 + N_EXT + XROW * row
@@ -624,12 +689,19 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             if ctl[C_DELAY] > 0.5:
                 c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
         c_raw += c_ff
-    c_open, held = c_raw, False  # the opening asked for (with the quiet band, schema 2)
+    c_open, held, leak = c_raw, False, False  # the opening asked for (quiet band, schema 2)
     if ctl[C_DZINV] < 0.5:
         u_raw = c_raw
     else:
+        vented = ext and ctl[e0 + X_DZQ] > 0.0 and ctl[e0 + X_DZPV] > 0.0
+        p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if vented else 0.0
         if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
-            c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
+            if vented:
+                c_open, held, leak = pressure_vent(
+                    c_raw, ctl[e0 + X_DZQ], -ctl[b + R_KPL] * p_low, ctl[b + R_KP] * e
+                )
+            else:
+                c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
         if ext and ctl[e0 + X_DZPO] > 0.0:
             c_open = pre_open(c_open, ctl[C_DZW], rch[RC_DR, k], rch[RC_DRPO, k])
         if ext and ctl[e0 + X_DZH] > 0.0:
@@ -643,7 +715,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
     c_sat = c_open - (u_raw - u)  # the inverse has slope 1 where the command saturates
     log[L_INT, k] = cst[S_INT]
     far = ext and ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
-    parked = ext and ctl[e0 + X_DZQ] > 0.0 and c_open == 0.0 and ctl[C_DZINV] > 0.5
+    parked = leak or (ext and ctl[e0 + X_DZQ] > 0.0 and c_open == 0.0 and ctl[C_DZINV] > 0.5)
     if parked and ctl[e0 + X_ILEAK] > 0.0:  # the valve parked: the integral decays toward 0
         cst[S_INT] *= ctl[e0 + X_ILEAK]
     elif ki != 0.0 and not held and not far:

@@ -95,6 +95,8 @@ typedef struct {
     double dz_side;   /**< side (+-1, 0 before the first) of the dead-zone inverse with hysteresis */
     double z[7];      /**< per-cell Kalman filter: [P_L, v, x, nu, nu', d_a, d_p] (SI) */
     double c_in;      /**< per-cell Kalman filter: opening command the valve held over the last sample [1] */
+    double p_ref_w;   /**< washed-out reference pressure P_ref - low-pass of the last step (0 without) [Pa] */
+    double p_low;     /**< pressure vent at rest: low-pass of the load-pressure deviation [Pa] */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */

@@ -74,6 +74,45 @@ static double hp_quiet_band(double c, double band, double ex, int *hold)
     return c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
 }
 
+/* Opening of the low-passed pressure share s = -k_pl*p_low inside the quiet band q:
+ * sign(s)*(|s| - HP_QUIET_VENT*q) beyond the dead band HP_QUIET_VENT*q, 0 inside, at most q. */
+static double hp_quiet_vent(double share, double band)
+{
+    const double w = HP_QUIET_VENT * band;
+    if (share > w) {
+        return share - w < band ? share - w : band;
+    }
+    if (share < -w) {
+        return share + w > -band ? share + w : -band;
+    }
+    return 0.0;
+}
+
+/* The quiet band q with the pressure vent, share = -k_pl*p_low the low-passed pressure share:
+ * for |c| <= q the opening is v = hp_quiet_vent(share, q), for q < |c| < 2q
+ * sign(c)*2(|c| - q) + (2 - |c|/q)*v, from 2q on c. *hold as in hp_quiet_band; *leak where
+ * |c| < 2q. */
+static double hp_pressure_vent(double c, double band, double share, double ex, int *hold,
+                               int *leak)
+{
+    const double a = c < 0.0 ? -c : c;
+    const double aex = ex < 0.0 ? -ex : ex;
+    double vent, ramp;
+    *hold = 0;
+    *leak = 0;
+    if (a >= 2.0 * band) {
+        return c;
+    }
+    *leak = 1;
+    vent = hp_quiet_vent(share, band);
+    if (a <= band) {
+        *hold = aex < HP_QUIET_HOLD * band;
+        return vent;
+    }
+    ramp = c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
+    return ramp + (2.0 - a / band) * vent;
+}
+
 /* Scaled L1 distance of [P_L, v, x, c] from the box of gain row r (0 inside; boxes closed). */
 static double hp_box_distance(int r, double pl, double v, double x, double c)
 {
@@ -272,6 +311,7 @@ static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, dou
     const double *xb = X + HP_N_EXT + HP_XROW * row;
     const double aw = T[HP_C_WASH];
     double c_fl = 0.0, c_ff, dr, p_ref, kup;
+    s->p_ref_w = 0.0;
     if (X[HP_X_FF] > 0.5) {
         c_fl = hp_flow_feedforward(ref->r_rate_ff, pl);
     }
@@ -283,6 +323,7 @@ static double hp_extension(hydropwa_ctrl_state *s, const double *b, int row, dou
             s->p_ref_bar = aw * s->p_ref_bar + (1.0 - aw) * p_ref;
             p_ref -= s->p_ref_bar;
         }
+        s->p_ref_w = p_ref;
         c_ff += b[HP_R_KV] * dr + b[HP_R_KPL] * p_ref;
         if (X[HP_X_SPOOL] > 0.5) { /* the spool and the pending command follow c_fl */
             kup = T[HP_C_DELAY] > 0.5 ? xb[HP_XR_KUP] : 0.0;
@@ -317,16 +358,18 @@ static void hp_spool_update(hydropwa_ctrl_state *s, double c_apply)
 }
 
 /* Integral update with the anti-windup of the table (none, clamping, back-calculation); schema 2:
- * where the quiet band parks the valve (c_open = 0) it decays by the leak a_l if one is set,
- * and beyond the integral band |e| > e_I it does not run. */
+ * where the quiet band parks the valve (c_open = 0), or with the pressure vent wherever
+ * |c| < 2q (leak), it decays by the leak a_l if one is set, and beyond the integral band
+ * |e| > e_I it does not run. */
 static void hp_integrate(hydropwa_ctrl_state *s, double e, double ki, double u_raw, double u,
-                         double c_raw, double c_sat, int held)
+                         double c_raw, double c_sat, int held, int leak)
 {
     const double ts = T[HP_C_TS];
     const int aw = (int)T[HP_C_AW];
     const double ae = e < 0.0 ? -e : e;
     const int far = HP_EXT && X[HP_X_IBAND] > 0.0 && ae > X[HP_X_IBAND];
-    const int parked = HP_EXT && X[HP_X_DZQ] > 0.0 && c_raw == 0.0 && T[HP_C_DZINV] > 0.5;
+    const int parked
+        = leak || (HP_EXT && X[HP_X_DZQ] > 0.0 && c_raw == 0.0 && T[HP_C_DZINV] > 0.5);
     if (parked && X[HP_X_ILEAK] > 0.0) { /* the valve parked: the integral decays toward 0 */
         s->integral *= X[HP_X_ILEAK];
         return;
@@ -380,6 +423,8 @@ void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
         s->z[i] = 0.0;
     }
     s->c_in = 0.0;
+    s->p_ref_w = 0.0;
+    s->p_low = 0.0;
 }
 
 void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
@@ -395,9 +440,9 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double pl = m->p_l;
     const double r = ref->r;
     double e = r - x;
-    double dpl, pl_fb, ki, c_raw, c_ff, c_open, u_raw, u, c_sat, u_apply, c_apply;
+    double dpl, pl_fb, ki, c_raw, c_ff, c_open, u_raw, u, c_sat, u_apply, c_apply, p_dev;
     const double *b;
-    int row, kal, held;
+    int row, kal, held, leak, vented;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
@@ -430,20 +475,32 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     c_raw = b[HP_R_UFF] + b[HP_R_KP] * e + ki * s->integral + b[HP_R_KFF] * ref->r_rate
             - b[HP_R_KV] * v - b[HP_R_KPL] * pl_fb - b[HP_R_KDPL] * dpl;
     c_ff = 0.0;
+    p_dev = pl_fb; /* the load-pressure deviation the gains k_pl act on */
     if (HP_EXT) {
         c_ff = hp_extension(s, b, row, pl, m->spool, ref);
         c_raw += c_ff;
+        p_dev = pl_fb - s->p_ref_w;
     }
     c_open = c_raw; /* the opening asked for (with the quiet band, schema 2) */
     held = 0;
+    leak = 0;
     if (T[HP_C_DZINV] < 0.5) {
         u_raw = c_raw;
     } else {
+        vented = HP_EXT && X[HP_X_DZQ] > 0.0 && X[HP_X_DZPV] > 0.0;
+        if (vented) { /* the pressure vent's low-pass runs every sample */
+            s->p_low = s->started ? X[HP_X_DZPV] * s->p_low + (1.0 - X[HP_X_DZPV]) * p_dev : p_dev;
+        }
         /* with X_DZQR = 1 the band acts only while the reference is at rest */
         if (HP_EXT && X[HP_X_DZQ] > 0.0
             && (X[HP_X_DZQR] < 0.5
                 || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
-            c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
+            if (vented) { /* inside the band the low-passed pressure share vents */
+                c_open = hp_pressure_vent(c_raw, X[HP_X_DZQ], -b[HP_R_KPL] * s->p_low,
+                                          b[HP_R_KP] * e, &held, &leak);
+            } else {
+                c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
+            }
         }
         if (HP_EXT && X[HP_X_DZPO] > 0.0) {
             c_open = hp_pre_open(c_open, T[HP_C_DZW], ref->r_rate, ref->r_rate_pre);
@@ -458,7 +515,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     u = u_raw > T[HP_C_UMIN] ? u_raw : T[HP_C_UMIN];
     u = u < T[HP_C_UMAX] ? u : T[HP_C_UMAX];
     c_sat = c_open - (u_raw - u); /* the inverse has slope 1 where the command saturates */
-    hp_integrate(s, e, ki, u_raw, u, c_open, c_sat, held);
+    hp_integrate(s, e, ki, u_raw, u, c_open, c_sat, held, leak);
     if (T[HP_C_DELAY] > 0.5) {
         u_apply = s->pending;
         s->pending = u;
