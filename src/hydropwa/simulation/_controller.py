@@ -134,7 +134,7 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import SG_VALUE, Y_FULL, Y_LOAD
+from .._layout import FULL_STATES, MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
 from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
@@ -144,6 +144,8 @@ _S_U = SG_VALUE["u"]
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
 _NU = Y_FULL["spool"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
+#: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
+_SPOOL_A, _SPOOL_B = (k for k, states, _d in MODEL_KINDS.values() if states is FULL_STATES)
 
 (
     C_TS,
@@ -429,7 +431,7 @@ def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
     a state feedback would read as a load. ``nx`` [m], ``npa``, ``npb`` [Pa]: sensor noise
     added to x, P_A and P_B (the load-state models: ``npa`` onto P_L).
     """
-    if kind == 0 or kind == 3:  # full and chamber PWA models (hydropwa._layout.FULL_STATES)
+    if kind == _SPOOL_A or kind == _SPOOL_B:  # full and chamber PWA models (FULL_STATES)
         area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
         return y[_X] + nx, y[_V], ((y[_PA] + npa) * a_a - (y[_PB] + npb) * a_b) / area
     return y[_LX] + nx, y[_LV], y[_LPL] + npa  # reduced, PWA (LOAD_STATES)
@@ -571,7 +573,7 @@ def spool_feedback(kind, y, ctl, e0, cst, noise, kal):
     if kal:
         return cst[S_Z + 3], cst[S_Z + 4]
     nu, dnu = cst[S_NU], cst[S_DNU]
-    if ctl[e0 + X_SPOOL] > 1.5 or not (kind == 0 or kind == 3):
+    if ctl[e0 + X_SPOOL] > 1.5 or not (kind == _SPOOL_A or kind == _SPOOL_B):
         return nu, dnu
     nu_m = spool_opening(y[_NU] + noise, 0.0, ctl)[0]
     ln = ctl[e0 + X_SPLN]
@@ -619,7 +621,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
             r0 = int(cst[S_ROW])
         eb = e0 + N_EXT + XROW * nrows
         sb, nu_m = -1, 0.0
-        if ctl[e0 + X_ESTNU] > 0.5 and (kind == 0 or kind == 3):  # y = [P_L, x, ν_m]
+        if ctl[e0 + X_ESTNU] > 0.5 and (kind == _SPOOL_A or kind == _SPOOL_B):  # y = [P_L, x, ν_m]
             sb = eb + EROW * nrows
             nu_m = spool_opening(y[_NU] + rch[RC_NNU, k], 0.0, ctl)[0]
         pl, v, x = cell_kalman_filter(ctl, cst, eb, k, pl, rch[RC_DR, k], x, r0, sb, nu_m)
