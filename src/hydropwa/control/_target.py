@@ -277,6 +277,16 @@ def _c_float(v: float) -> str:
     return s if ("." in s or "e" in s or "n" in s) else s + ".0"
 
 
+def _c_rows(ctl: np.ndarray, start: int, n: int, width: int, label: str) -> list[str]:
+    """Initialiser lines of ``n`` rows of ``width`` values from ``ctl[start]``, one per line."""
+    return [
+        f"    /* row {r}{label} */ "
+        + ", ".join(_c_float(v) for v in ctl[start + width * r : start + width * (r + 1)])
+        + ","
+        for r in range(n)
+    ]
+
+
 def _table(ctl: np.ndarray) -> str:
     """The packed vector as C initialiser lines, rows of the gain table one per line."""
     lines = [
@@ -285,11 +295,7 @@ def _table(ctl: np.ndarray) -> str:
         "    " + ", ".join(_c_float(v) for v in ctl[: C.C_ROWS]) + ",",
     ]
     n = int(ctl[C.C_NROWS])
-    for r in range(n):
-        b = C.C_ROWS + C.ROW * r
-        lines.append(
-            f"    /* row {r} */ " + ", ".join(_c_float(v) for v in ctl[b : b + C.ROW]) + ","
-        )
+    lines += _c_rows(ctl, C.C_ROWS, n, C.ROW, "")
     e0 = C.C_ROWS + C.ROW * n
     if ctl.shape[0] > e0:
         lines.append(
@@ -298,31 +304,14 @@ def _table(ctl: np.ndarray) -> str:
             " observer, L_x, L_v */"
         )
         lines.append("    " + ", ".join(_c_float(v) for v in ctl[e0 : e0 + C.N_EXT]) + ",")
-        for r in range(n):
-            b = e0 + C.N_EXT + C.XROW * r
-            lines.append(
-                f"    /* row {r}: k_nu, k_dnu, k_up */ "
-                + ", ".join(_c_float(v) for v in ctl[b : b + C.XROW])
-                + ","
-            )
+        lines += _c_rows(ctl, e0 + C.N_EXT, n, C.XROW, ": k_nu, k_dnu, k_up")
         eb = e0 + C.N_EXT + C.XROW * n
         if ctl.shape[0] > eb:
-            for r in range(n):
-                b = eb + C.EROW * r
-                lines.append(
-                    f"    /* row {r}: Kalman filter Phi (7x7), Gamma, phi0, L (7x2), init */ "
-                    + ", ".join(_c_float(v) for v in ctl[b : b + C.EROW])
-                    + ","
-                )
+            label = ": Kalman filter Phi (7x7), Gamma, phi0, L (7x2), init"
+            lines += _c_rows(ctl, eb, n, C.EROW, label)
         sb = eb + C.EROW * n
         if ctl.shape[0] > sb:  # the measured spool's gain columns (e0+X_ESTNU)
-            for r in range(n):
-                b = sb + C.NZ * r
-                lines.append(
-                    f"    /* row {r}: Kalman filter L, spool column */ "
-                    + ", ".join(_c_float(v) for v in ctl[b : b + C.NZ])
-                    + ","
-                )
+            lines += _c_rows(ctl, sb, n, C.NZ, ": Kalman filter L, spool column")
     return "\n".join(lines)
 
 
