@@ -2,6 +2,8 @@
 
 import pytest
 
+from hydropwa.linearization import linearize
+
 
 @pytest.fixture(scope="module")
 def linear_valve(paper):
@@ -15,3 +17,9 @@ def linear_valve(paper):
             "friction.viscous": 1000.0,
         }
     )
+
+
+@pytest.fixture(scope="module")
+def paper_pwa(paper):
+    """The paper rig's PWA model (the default linearization), once per test module."""
+    return linearize(paper)

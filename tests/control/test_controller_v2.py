@@ -49,11 +49,6 @@ INDUSTRIAL = Path(__file__).parents[1] / "machines" / "industrial.toml"
 
 
 @pytest.fixture(scope="module")
-def paper_pwa(paper):
-    return linearize(paper)
-
-
-@pytest.fixture(scope="module")
 def heavy():
     prm = load_params(INDUSTRIAL)
     # the heavy axis: 63/36 mm x 500 mm, 250 kg, 210 bar

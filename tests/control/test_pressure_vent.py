@@ -19,16 +19,10 @@ from hydropwa.control import (
     load_controller,
     save_controller,
 )
-from hydropwa.linearization import linearize
 from hydropwa.simulation import _controller as C
 from hydropwa.simulation import simulate
 
 TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
-
-
-@pytest.fixture(scope="module")
-def paper_pwa(paper):
-    return linearize(paper)
 
 
 @pytest.fixture(scope="module")

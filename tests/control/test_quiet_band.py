@@ -33,11 +33,6 @@ TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
 @pytest.fixture(scope="module")
-def paper_pwa(paper):
-    return linearize(paper)
-
-
-@pytest.fixture(scope="module")
 def industrial():
     return load_params(Path(__file__).resolve().parents[1] / "machines" / "industrial.toml")
 

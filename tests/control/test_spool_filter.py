@@ -52,7 +52,6 @@ from hydropwa.control import (
     tracking_metrics,
 )
 from hydropwa.data import Run
-from hydropwa.linearization import linearize
 from hydropwa.rig import SensorModel
 from hydropwa.simulation import _controller as C
 from hydropwa.simulation import simulate
@@ -63,17 +62,12 @@ TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
 @pytest.fixture(scope="module")
-def pwa(paper):
-    return linearize(paper)
-
-
-@pytest.fixture(scope="module")
-def filtered(pwa):
+def filtered(paper_pwa):
     """``control design --spool measured`` for 0.2 % spool noise (without the quiet band, whose
     position observer would loosen the C lockstep's bound)."""
     noise = NOISE | {"spool": SIGMA}
     d = design_controller(
-        pwa, verify=False, delay=True, quiet=False, spool="measured", sensor_noise=noise
+        paper_pwa, verify=False, delay=True, quiet=False, spool="measured", sensor_noise=noise
     )
     return d.controller
 
@@ -170,14 +164,14 @@ def _trapezoid(prm, ctrl, noise, seed=1):
     )
 
 
-def test_an_exact_spool_sensor_reduces_to_the_raw_feedback(paper, pwa, filtered):
+def test_an_exact_spool_sensor_reduces_to_the_raw_feedback(paper, paper_pwa, filtered):
     """σ_ν = 0: no filter gain in the model (nor the file), packed as the filter's exact-sensor
     limit (1, Γ₂/Γ₁) — the same law as a bare measured ``SpoolModel``; a filter for a nearly
     exact sensor (σ_ν = 1e-7) packs within 1e-6 of it and tracks the paper trapezoid (exact x,
     P_A, P_B) like it: peak error within 1 µm (the end of the move, in static friction, is not
     compared)."""
-    raw = design_state_feedback(pwa, delay=True, spool="measured").controller
-    estimated = design_state_feedback(pwa, delay=True).controller
+    raw = design_state_feedback(paper_pwa, delay=True, spool="measured").controller
+    estimated = design_state_feedback(paper_pwa, delay=True).controller
     assert raw.spool_model.gain == (0.0, 0.0) and not raw.spool_model.filtered
     bare = dataclasses.replace(
         raw,
@@ -236,20 +230,20 @@ def test_the_filter_round_trips_through_the_file_and_its_schema(filtered, tmp_pa
 
 
 @pytest.fixture(scope="module")
-def exact_spool(pwa):
+def exact_spool(paper_pwa):
     """``control design --spool measured`` for an exact spool sensor (σ_ν = 0: the filter's limit)."""
     d = design_controller(
-        pwa, verify=False, delay=True, quiet=False, spool="measured", sensor_noise=NOISE
+        paper_pwa, verify=False, delay=True, quiet=False, spool="measured", sensor_noise=NOISE
     )
     assert d.controller.spool_model.measured and not d.controller.spool_model.filtered
     return d.controller
 
 
 @pytest.fixture(scope="module")
-def cell_filtered(pwa):
+def cell_filtered(paper_pwa):
     """The valve-aware design with the per-cell Kalman filter measuring the spool (y = [P_L, x, ν])."""
-    d = design_state_feedback(pwa, delay=True, spool="measured")
-    est = design_cell_estimator(pwa, d, NOISE | {"spool": SIGMA})
+    d = design_state_feedback(paper_pwa, delay=True, spool="measured")
+    est = design_cell_estimator(paper_pwa, d, NOISE | {"spool": SIGMA})
     sm = d.controller.spool_model.with_filter(SIGMA)
     return dataclasses.replace(d.controller, spool_model=sm, estimator=est)
 
@@ -291,11 +285,11 @@ def _package_law(paper, ctrl, meas, r, rch):
 
 
 @pytest.fixture(scope="module")
-def cell_exact(pwa):
+def cell_exact(paper_pwa):
     """The per-cell Kalman filter for x, P_L only, on a design whose spool is measured by an exact
     sensor: the spool terms use the filter's ẑ₃, ẑ₄ (the spool is not read)."""
-    d = design_state_feedback(pwa, delay=True, spool="measured")
-    return dataclasses.replace(d.controller, estimator=design_cell_estimator(pwa, d, NOISE))
+    d = design_state_feedback(paper_pwa, delay=True, spool="measured")
+    return dataclasses.replace(d.controller, estimator=design_cell_estimator(paper_pwa, d, NOISE))
 
 
 LOCKSTEP = ["spool filter", "exact spool sensor", "per-cell Kalman filter", "per-cell, exact spool"]
@@ -394,7 +388,7 @@ def test_the_controller_fmu_reads_the_measured_spool(paper, request, which, vers
     assert np.max(np.abs(off["u"] - out["u"])) > 0.01
 
 
-def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path):
+def test_the_cell_filter_measures_the_spool(paper, paper_pwa, cell_filtered, tmp_path):
     """y = [P_L, x, ν]: L (7 × 3) against ``control.dlqe`` with R = diag(σ_PL², σ_x², σ_ν²) and
     the command noise Γ w (python-control's predictor gain Φ L, 1e-7 as the 2-channel filter's
     test), the spool column not negligible (|L_νν| > 0.1); packed with the
@@ -402,7 +396,7 @@ def test_the_cell_filter_measures_the_spool(paper, pwa, cell_filtered, tmp_path)
     three columns, validated by the JSON Schema, read back to the same law (1e-9)."""
     from hydropwa.control._estimator import _EST_SCALE, N_EST, cell_estimator
 
-    dyn = pwa.state_space(cells=(3, 1, 0, 6))
+    dyn = paper_pwa.state_space(cells=(3, 1, 0, 6))
     proc = {"acceleration": 0.3, "force_drift": 1.0, "pressure_drift": 2e3, "pressure": 1e5}
     ts, spl, sx = 5e-4, 1.2e4, 20e-6
     phi, gam, _aff, L, _init = cell_estimator(
