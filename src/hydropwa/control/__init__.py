@@ -32,6 +32,7 @@ from ._design import (
     INTEGRAL_LEAK,
     PRE_OPEN_FACTOR,
     PRESSURE_VENT_SAMPLES,
+    QUIET_OPEN_CORRELATION,
     QUIET_FACTOR,
     ControlDesign,
     cell_plant,
@@ -41,6 +42,7 @@ from ._design import (
     design_textbook_pi,
     integral_band_for,
     quiet_band_for,
+    quiet_open_for,
 )
 from ._design_chamber import design_on_chamber
 from ._estimator import (
@@ -119,10 +121,12 @@ __all__ = [
     "INTEGRAL_LEAK",
     "PRE_OPEN_FACTOR",
     "PRESSURE_VENT_SAMPLES",
+    "QUIET_OPEN_CORRELATION",
     "integral_band_for",
     "loaded_velocity",
     "command_noise",
     "quiet_band_for",
+    "quiet_open_for",
     "NOISE_CHANNELS",
     "sensor_noise_from",
     "GainRow",

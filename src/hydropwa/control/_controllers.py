@@ -126,6 +126,7 @@ DEAD_ZONE_V2 = (
     "quiet_at_rest",
     "pre_open",
     "pressure_vent",
+    "quiet_open",
 )
 
 
@@ -177,6 +178,13 @@ class DeadZoneInverse:
         integral leaks wherever |c| < 2q. The pressure feedback so vents the load pressure a
         stop leaves in the closed chambers, which would otherwise relax through the friction
         law's creep and move the rod tens of µm (paper rig).
+    quiet_open : float
+        Opening delay n [samples] of the quiet band (0: none; schema 2; a whole number): where
+        the band acts it opens the valve only on the n-th consecutive sample with |c| > q, and
+        reads c limited to ±q before (``quiet_open`` of the compiled law); n ≤ 1 is the band
+        without it. Sized from the command noise's correlation
+        (:func:`~hydropwa.control.quiet_open_for`), it keeps the observer's correlated noise
+        from opening the valve at a hold while a real position error still opens it.
     """
 
     offset: float = 0.1
@@ -188,6 +196,7 @@ class DeadZoneInverse:
     quiet_at_rest: float = 0.0
     pre_open: float = 0.0
     pressure_vent: float = 0.0
+    quiet_open: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self, "offset", "1", ge=0.0)
@@ -198,6 +207,11 @@ class DeadZoneInverse:
         _finite(self, "integral_band", "m", ge=0.0)
         _finite(self, "pre_open", "s", ge=0.0)
         _finite(self, "pressure_vent", "s", ge=0.0)
+        _finite(self, "quiet_open", "samples", ge=0.0)
+        if self.quiet_open != math.floor(self.quiet_open):
+            raise ControlError(
+                f"DeadZoneInverse.quiet_open = {self.quiet_open:g} samples must be a whole number"
+            )
         if self.quiet_at_rest not in (0.0, 1.0):
             raise ControlError(
                 f"DeadZoneInverse.quiet_at_rest = {self.quiet_at_rest:g} must be 0 or 1 "
@@ -608,6 +622,7 @@ class _Discrete:
                     or self.dead_zone_inverse.quiet_at_rest > 0.0
                     or self.dead_zone_inverse.pre_open > 0.0
                     or self.dead_zone_inverse.pressure_vent > 0.0
+                    or self.dead_zone_inverse.quiet_open > 0.0
                 )
             )
             or self._estimator() is not None
@@ -678,6 +693,7 @@ class _Discrete:
             ext[C.X_DZPO] = self.dead_zone_inverse.pre_open
             tp = self.dead_zone_inverse.pressure_vent
             ext[C.X_DZPV] = math.exp(-self.sample_time / tp) if tp > 0.0 else 0.0
+            ext[C.X_DZQO] = self.dead_zone_inverse.quiet_open
         est = self._estimator()
         if est is None:
             return np.concatenate([v, ext, self._ext_rows().ravel()])

@@ -54,6 +54,8 @@ __all__ = [
     "INTEGRAL_LEAK",
     "PRE_OPEN_FACTOR",
     "PRESSURE_VENT_SAMPLES",
+    "quiet_open_for",
+    "QUIET_OPEN_CORRELATION",
     "design_pi",
     "design_state_feedback",
     "design_textbook_pi",
@@ -894,6 +896,20 @@ def _load_pressure_of(model) -> str:
 QUIET_FACTOR = 2.0
 
 
+def _observer_error(controller, sx: float):
+    """(A, P) of the position observer's error for white position noise ``sx`` [m]: its dynamics
+    ε⁺ = A ε − L n, A = (I − L H) Φ, and the steady covariance P (discrete Lyapunov); None
+    without the observer or the noise."""
+    from scipy.linalg import solve_discrete_lyapunov  # deferred: scipy.linalg at import
+
+    if controller.position_observer is None or sx <= 0.0:
+        return None
+    ts = controller.sample_time
+    L = np.array([[controller.position_observer[0]], [controller.position_observer[1]]])
+    A = (np.eye(2) - L @ np.array([[1.0, 0.0]])) @ np.array([[1.0, ts], [0.0, 1.0]])
+    return A, solve_discrete_lyapunov(A, L @ L.T * sx**2)
+
+
 def command_noise(controller, sensor_noise: Mapping[str, float], area_ratio: float) -> np.ndarray:
     """Standard deviation [1] of each gain row's command c that the sensor noise alone makes at a hold.
 
@@ -903,25 +919,63 @@ def command_noise(controller, sensor_noise: Mapping[str, float], area_ratio: flo
     discrete Lyapunov equation of its error dynamics ε⁺ = (I − L H) Φ ε + L n), or (n, 0)
     without the observer (the design's velocity sensor; a velocity filter is not counted).
     """
-    from scipy.linalg import solve_discrete_lyapunov  # deferred: scipy.linalg at import
-
     sx = float(sensor_noise.get("x", 0.0))
     sa, sb = float(sensor_noise.get("p_a", 0.0)), float(sensor_noise.get("p_b", 0.0))
     spl = math.hypot(sa, area_ratio * sb)
     if controller.load_pressure == "mean-area":
         spl *= 2.0 / (1.0 + area_ratio)
-    if controller.position_observer is not None and sx > 0.0:
-        ts = controller.sample_time
-        L = np.array([[controller.position_observer[0]], [controller.position_observer[1]]])
-        A = (np.eye(2) - L @ np.array([[1.0, 0.0]])) @ np.array([[1.0, ts], [0.0, 1.0]])
-        P = solve_discrete_lyapunov(A, L @ L.T * sx**2)
-    else:
-        P = np.diag([sx**2, 0.0])
+    obs = _observer_error(controller, sx)
+    P = np.diag([sx**2, 0.0]) if obs is None else obs[1]
     out = []
     for r in controller.rows:
         g = np.array([r.k_x, r.k_v])
         out.append(math.sqrt(float(g @ P @ g) + (r.k_pl * spl) ** 2))
     return np.array(out)
+
+
+#: the quiet band's opening delay n (:func:`quiet_open_for`) is the first lag at which the command
+#: noise's autocorrelation at a hold falls below this. Measured on the paper rig's trapezoid hold
+#: (full model, 20 µm / 0.1 bar, one sample of delay; noise seeds 1-40; the rule sized here gives
+#: n = 12 there and n = 4 on the heavy axis), hold peak to peak over seeds 1-10 / 11-20 / 21-30 /
+#: 31-40 and the most sign changes/s: n = 1 (none) ≤ 0.032 / 0.046 / 0.029 / 0.038 mm, 135/s;
+#: n = 4 ≤ 0.025 / 0.032 mm, 35/s (seeds 1-20); n = 8 ≤ 0.017 / 0.017 / 0.026 / 0.016 mm, 35/s;
+#: n = 12 ≤ 0.020 / 0.020 / 0.022 / 0.019 mm, 15/s. n = 12 on the heavy axis: a limit cycle in
+#: the four-draw verification (+50 % force, 0.92 mm); its n = 4 passes (docs/control.md)
+QUIET_OPEN_CORRELATION = 0.1
+
+
+def quiet_open_for(
+    controller,
+    sensor_noise: Mapping[str, float],
+    area_ratio: float,
+    correlation: float = QUIET_OPEN_CORRELATION,
+) -> int:
+    """Opening delay n [samples] of the quiet band: the first lag at which the command noise's autocorrelation falls below ``correlation``.
+
+    The command noise at a hold (:func:`command_noise`) is the position observer's output
+    error through k_x, k_v, correlated over its error dynamics A = (I − L H) Φ, plus the
+    white load-pressure noise through k_pl. Its autocorrelation at lag k ≥ 1 is
+    ρ(k) = g Aᵏ P gᵀ / (g P gᵀ + k_pl² σ_PL²) (g = [k_x, k_v], P the observer's error
+    covariance), the median over the hold rows; n is the first k with ρ(k) < ``correlation``
+    (at most 100). Without the observer the noise is white: n = 1, the band without a delay.
+    """
+    if not (math.isfinite(correlation) and 0.0 < correlation < 1.0):
+        raise ControlError(f"quiet-open correlation {correlation!r} must be between 0 and 1")
+    obs = _observer_error(controller, float(sensor_noise.get("x", 0.0)))
+    if obs is None:
+        return 1
+    A, P = obs
+    sig = command_noise(controller, sensor_noise, area_ratio)
+    hold = _hold_rows(controller) or list(range(len(controller.rows)))
+    g = np.array([[controller.rows[i].k_x, controller.rows[i].k_v] for i in hold])
+    var = sig[hold] ** 2
+    AkP = P
+    for k in range(1, 101):
+        AkP = A @ AkP
+        rho = np.einsum("ij,jk,ik->i", g, AkP, g) / var
+        if float(np.median(rho)) < correlation:
+            return k
+    return 100
 
 
 def quiet_band_for(

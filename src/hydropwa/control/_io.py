@@ -31,6 +31,7 @@ Unbounded box sides are written ``"inf"`` / ``"-inf"``. Layout::
     quiet_at_rest = 1                  # 1: the quiet band only while r is at rest (schema 2)
     pre_open = "6 ms"                  # pre-opening look-ahead tau_o (schema 2; absent: 0, none)
     pressure_vent = "20 ms"            # low-pass T_p of the pressure vent at rest (schema 2)
+    quiet_open = 12                    # the band opens after n samples beyond q (schema 2)
     [[cells]]                          # one per PWA cell; the first box holding
     label = "s=+1 o=0 w=5"             # [P_L, v, x, c_prev] selects the row
     lower = { p_l = "-100 bar", v = "14.56 mm/s", x = "-inf", c = 0.0 }

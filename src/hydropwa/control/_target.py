@@ -113,6 +113,7 @@ _LAYOUT = (
     "X_SPLD",
     "X_ESTNU",
     "X_DZPV",
+    "X_DZQO",
     "QUIET_HOLD",
     "QUIET_VENT",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
@@ -170,7 +171,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 32, "N_EXT": 34, "XROW": 3, "N_RCH": 8}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 33, "N_EXT": 35, "XROW": 3, "N_RCH": 8}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
@@ -186,6 +187,8 @@ LAW_ELEMENTS = (
     "schema 2: pressure vent at rest: inside the quiet band the low-passed load-pressure share "
     "of the command opens the valve beyond 0.8 of the band, blended out over the band's ramp; "
     "the integral leaks wherever the command is within twice the band",
+    "schema 2: the quiet band's opening delay: at rest the band opens the valve only on the n-th "
+    "consecutive sample with the command beyond the band (before, the command limited to the band)",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",

@@ -35,6 +35,7 @@ from ._design import (
     design_state_feedback,
     integral_band_for,
     quiet_band_for,
+    quiet_open_for,
 )
 from ._reference import MotionProfile, StepSequence
 
@@ -720,13 +721,16 @@ def _with_quiet_band(d, noise: Mapping[str, float], params, vent: bool = True):
     """The design ``d`` with the quiet band sized for ``noise`` (:func:`quiet_band_for`), the
     integral band for it (:func:`integral_band_for`), the integral leak
     (:data:`~hydropwa.control.INTEGRAL_LEAK`) and, with ``vent``, the pressure vent at rest
-    (:data:`~hydropwa.control.PRESSURE_VENT_SAMPLES` samples)."""
+    (:data:`~hydropwa.control.PRESSURE_VENT_SAMPLES` samples) and the band's opening delay
+    (:func:`quiet_open_for`)."""
     cyl = params.cylinder
-    q = quiet_band_for(d.controller, noise, float(cyl.area_b / cyl.area_a))
+    ratio = float(cyl.area_b / cyl.area_a)
+    q = quiet_band_for(d.controller, noise, ratio)
     dzi = d.controller.dead_zone_inverse
     if q <= 0.0 or dzi is None:
         return d
     band = integral_band_for(d.controller, q)
+    n_open = quiet_open_for(d.controller, noise, ratio) if vent else 0
     ff = d.controller.feedforward
     pre = PRE_OPEN_FACTOR * ff.lead if ff is not None else 0.0
     d.controller = dataclasses.replace(
@@ -739,11 +743,13 @@ def _with_quiet_band(d, noise: Mapping[str, float], params, vent: bool = True):
             quiet_at_rest=1.0,
             pre_open=pre,
             pressure_vent=PRESSURE_VENT_SAMPLES * d.controller.sample_time if vent else 0.0,
+            quiet_open=float(n_open) if n_open > 1 else 0.0,
         ),
         design={**d.controller.design, "quiet_band": q, "integral_band": band},
     )
     d.info["quiet_band"] = q
     d.info["integral_band"] = band
+    d.info["quiet_open"] = n_open
     return d
 
 

@@ -88,6 +88,10 @@ gain row (see :data:`EXT_SLOTS`)::
                  quiet band acts, the opening asked for inside it (|c| ≤ q) is the vent
                  v = :func:`quiet_vent` of −k_pl p̃ (0 within QUIET_VENT·q), blended out over
                  the ramp q < |c| < 2q; the integral leaks (e0+X_ILEAK) wherever |c| < 2q
+    e0+X_DZQO    the quiet band's opening delay n [samples] (0: none; :func:`quiet_open`): where
+                 the band acts it opens the valve only on the n-th consecutive sample with
+                 |c| > q; before, it reads c limited to ±q (parked, or the pressure vent's
+                 opening); the count restarts at 0 whenever |c| ≤ q or the band does not act
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -114,7 +118,7 @@ the measured spool position [1] (read only where the controller measures the spo
 The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
 (with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
 row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band (with the pressure vent and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
+quiet band (with its opening delay, the pressure vent and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
 spool estimate update.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
@@ -203,6 +207,7 @@ EXT_SLOTS = (
     "spool_l_dnu",
     "est_spool",
     "dz_vent",
+    "dz_quiet_open",
 )
 (
     X_FF,
@@ -239,6 +244,7 @@ EXT_SLOTS = (
     X_SPLD,
     X_ESTNU,
     X_DZPV,
+    X_DZQO,
 ) = range(len(EXT_SLOTS))
 N_EXT = len(EXT_SLOTS)
 XROW = 3
@@ -270,7 +276,9 @@ S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 1
 S_Z, S_CAPP, S_ZP = 16, 23, 24
 #: the low-passed load-pressure deviation p̃ of the pressure vent at rest (e0+X_DZPV)
 S_PDEV = 31
-N_CST = 32
+#: the consecutive samples at rest with |c| > q so far (the quiet band's opening delay, e0+X_DZQO)
+S_DZQN = 32
+N_CST = 33
 #: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
 #: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig
 #: (noise seeds 1-10, T_p = 40 T_s), trapezoid hold / the +6.5 kN step hold's sign changes:
@@ -371,6 +379,24 @@ def quiet_band(c, band, ex):
     if a <= band:
         return 0.0, abs(ex) < QUIET_HOLD * band
     return (2.0 * (c - band) if c > 0.0 else 2.0 * (c + band)), False
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def quiet_open(c, band, count, samples):
+    """Command [1] the quiet band q = ``band`` reads with its opening delay n = ``samples``; (c, count).
+
+    ``count``: the consecutive samples before this one with |c| > q. The band opens the valve
+    only on the n-th consecutive sample with |c| > q: before, it reads c limited to ±q, the
+    band's edge (the valve stays parked, or opens by the pressure vent's share alone); from
+    the n-th on c itself, until |c| ≤ q again restarts the count. n ≤ 1 leaves c unchanged
+    (the band as without the delay). The command's sensor noise, correlated over a few samples
+    by the position observer, so stays beyond q on n samples in a row far more rarely than
+    on one, while a position error beyond the band still opens the valve n − 1 samples later.
+    """
+    count = count + 1.0 if abs(c) > band else 0.0
+    if count < samples:
+        return min(max(c, -band), band), count
+    return c, count
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -613,6 +639,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         cst[S_NU] = 0.0
         cst[S_DNU] = 0.0
         cst[S_DZS] = 0.0
+        cst[S_DZQN] = 0.0
     kal = ext and ctl[e0 + X_EST] > 0.5
     if kal:  # per-cell Kalman filter: the law uses the estimates
         if k == 0:
@@ -698,12 +725,19 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         vented = ext and ctl[e0 + X_DZQ] > 0.0 and ctl[e0 + X_DZPV] > 0.0
         p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if vented else 0.0
         if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
+            c_band = c_raw
+            if ctl[e0 + X_DZQO] > 0.0:  # the band opens only after n samples beyond q
+                c_band, cst[S_DZQN] = quiet_open(
+                    c_raw, ctl[e0 + X_DZQ], cst[S_DZQN], ctl[e0 + X_DZQO]
+                )
             if vented:
                 c_open, held, leak = pressure_vent(
-                    c_raw, ctl[e0 + X_DZQ], -ctl[b + R_KPL] * p_low, ctl[b + R_KP] * e
+                    c_band, ctl[e0 + X_DZQ], -ctl[b + R_KPL] * p_low, ctl[b + R_KP] * e
                 )
             else:
-                c_open, held = quiet_band(c_raw, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
+                c_open, held = quiet_band(c_band, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
+        elif ext:
+            cst[S_DZQN] = 0.0
         if ext and ctl[e0 + X_DZPO] > 0.0:
             c_open = pre_open(c_open, ctl[C_DZW], rch[RC_DR, k], rch[RC_DRPO, k])
         if ext and ctl[e0 + X_DZH] > 0.0:

@@ -97,6 +97,7 @@ typedef struct {
     double c_in;      /**< per-cell Kalman filter: opening command the valve held over the last sample [1] */
     double p_ref_w;   /**< washed-out reference pressure P_ref - low-pass of the last step (0 without) [Pa] */
     double p_low;     /**< pressure vent at rest: low-pass of the load-pressure deviation [Pa] */
+    double dz_open;   /**< quiet band's opening delay: consecutive samples at rest with |c| > q */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */

@@ -74,6 +74,19 @@ static double hp_quiet_band(double c, double band, double ex, int *hold)
     return c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
 }
 
+/* Opening delay n = samples of the quiet band q: *count, the consecutive samples with |c| > q,
+ * counts this one too (restarts at 0 where |c| <= q); until it reaches n the band reads c limited
+ * to [-q, q] (parked, or the pressure vent's opening), from the n-th on c itself. */
+static double hp_quiet_open(double c, double band, double *count, double samples)
+{
+    const double a = c < 0.0 ? -c : c;
+    *count = a > band ? *count + 1.0 : 0.0;
+    if (*count < samples) {
+        return c > band ? band : (c < -band ? -band : c);
+    }
+    return c;
+}
+
 /* Opening of the low-passed pressure share s = -k_pl*p_low inside the quiet band q:
  * sign(s)*(|s| - HP_QUIET_VENT*q) beyond the dead band HP_QUIET_VENT*q, 0 inside, at most q. */
 static double hp_quiet_vent(double share, double band)
@@ -425,6 +438,7 @@ void hydropwa_ctrl_reset(hydropwa_ctrl_state *s)
     s->c_in = 0.0;
     s->p_ref_w = 0.0;
     s->p_low = 0.0;
+    s->dz_open = 0.0;
 }
 
 void hydropwa_ctrl_init(hydropwa_ctrl_state *s)
@@ -440,7 +454,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double pl = m->p_l;
     const double r = ref->r;
     double e = r - x;
-    double dpl, pl_fb, ki, c_raw, c_ff, c_open, u_raw, u, c_sat, u_apply, c_apply, p_dev;
+    double dpl, pl_fb, ki, c_raw, c_ff, c_open, c_band, u_raw, u, c_sat, u_apply, c_apply, p_dev;
     const double *b;
     int row, kal, held, leak, vented;
     if (!s->started) {
@@ -453,6 +467,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         s->nu = 0.0;
         s->dnu = 0.0;
         s->dz_side = 0.0;
+        s->dz_open = 0.0;
     }
     kal = HP_EXT && X[HP_X_EST] > 0.5;
     if (kal) { /* per-cell Kalman filter: the law uses the estimates */
@@ -495,12 +510,18 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         if (HP_EXT && X[HP_X_DZQ] > 0.0
             && (X[HP_X_DZQR] < 0.5
                 || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
+            c_band = c_raw;
+            if (X[HP_X_DZQO] > 0.0) { /* the band opens only after n samples beyond q */
+                c_band = hp_quiet_open(c_raw, X[HP_X_DZQ], &s->dz_open, X[HP_X_DZQO]);
+            }
             if (vented) { /* inside the band the low-passed pressure share vents */
-                c_open = hp_pressure_vent(c_raw, X[HP_X_DZQ], -b[HP_R_KPL] * s->p_low,
+                c_open = hp_pressure_vent(c_band, X[HP_X_DZQ], -b[HP_R_KPL] * s->p_low,
                                           b[HP_R_KP] * e, &held, &leak);
             } else {
-                c_open = hp_quiet_band(c_raw, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
+                c_open = hp_quiet_band(c_band, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
             }
+        } else if (HP_EXT) {
+            s->dz_open = 0.0;
         }
         if (HP_EXT && X[HP_X_DZPO] > 0.0) {
             c_open = hp_pre_open(c_open, T[HP_C_DZW], ref->r_rate, ref->r_rate_pre);
