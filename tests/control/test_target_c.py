@@ -167,6 +167,12 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         lqr_quiet,
         dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, pressure_vent=0.0),
     )
+    # the band's opening delay (the default) and without it (files before quiet_open)
+    assert lqr_quiet.dead_zone_inverse.quiet_open > 1.0
+    lqr_quiet_no_open = dataclasses.replace(
+        lqr_quiet,
+        dead_zone_inverse=dataclasses.replace(lqr_quiet.dead_zone_inverse, quiet_open=0.0),
+    )
     lqr_quiet_always = dataclasses.replace(
         lqr_quiet,
         dead_zone_inverse=dataclasses.replace(
@@ -178,6 +184,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         ("paper lqr quiet band", paper, lqr_quiet),
         ("paper lqr quiet band, no pre-opening", paper, lqr_quiet_no_pre),
         ("paper lqr quiet band, no pressure vent", paper, lqr_quiet_no_vent),
+        ("paper lqr quiet band, no opening delay", paper, lqr_quiet_no_open),
         ("paper lqr quiet band always", paper, lqr_quiet_always),
         ("paper lqr", paper, paper_lqr),
         ("paper lqr no delay", paper, lqr_no_delay),
@@ -558,7 +565,7 @@ def test_c_structs_mirror_the_header_field_by_field():
     state = dict(s["hydropwa_ctrl_state"]._fields_)
     names = [n for n, _t in s["hydropwa_ctrl_state"]._fields_]
     assert names[:2] == ["integral", "p_l_prev"]
-    assert names[-4:] == ["z", "c_in", "p_ref_w", "p_low"]
+    assert names[-5:] == ["z", "c_in", "p_ref_w", "p_low", "dz_open"]
     assert state["row"] is ctypes.c_int and state["z"]._length_ == 7
     assert [n for n, _t in s["hydropwa_ctrl_ref"]._fields_] == [
         "r",

@@ -55,6 +55,7 @@ __all__ = [
     "PRE_OPEN_FACTOR",
     "PRESSURE_VENT_SAMPLES",
     "quiet_open_for",
+    "command_noise_correlation",
     "QUIET_OPEN_CORRELATION",
     "design_pi",
     "design_state_feedback",
@@ -944,6 +945,31 @@ def command_noise(controller, sensor_noise: Mapping[str, float], area_ratio: flo
 QUIET_OPEN_CORRELATION = 0.1
 
 
+def command_noise_correlation(
+    controller, sensor_noise: Mapping[str, float], area_ratio: float, lags: int
+) -> np.ndarray:
+    """Autocorrelation ρ(k) [1] of each gain row's command noise at a hold, lags k = 1 … ``lags``.
+
+    The command noise (:func:`command_noise`) is the position observer's output error through
+    g = [k_x, k_v], correlated by its error dynamics A = (I − L H) Φ, plus the white
+    load-pressure noise through k_pl: ρ(k) = g Aᵏ P gᵀ / (g P gᵀ + k_pl² σ_PL²), P the
+    observer's error covariance. Without the observer (or position noise) the noise is white:
+    ρ = 0. Shape (rows, lags).
+    """
+    out = np.zeros((len(controller.rows), int(lags)))
+    obs = _observer_error(controller, float(sensor_noise.get("x", 0.0)))
+    if obs is None:
+        return out
+    A, P = obs
+    var = command_noise(controller, sensor_noise, area_ratio) ** 2
+    g = np.array([[r.k_x, r.k_v] for r in controller.rows])
+    AkP = P
+    for k in range(int(lags)):
+        AkP = A @ AkP
+        out[:, k] = np.einsum("ij,jk,ik->i", g, AkP, g) / var
+    return out
+
+
 def quiet_open_for(
     controller,
     sensor_noise: Mapping[str, float],
@@ -952,30 +978,19 @@ def quiet_open_for(
 ) -> int:
     """Opening delay n [samples] of the quiet band: the first lag at which the command noise's autocorrelation falls below ``correlation``.
 
-    The command noise at a hold (:func:`command_noise`) is the position observer's output
-    error through k_x, k_v, correlated over its error dynamics A = (I − L H) Φ, plus the
-    white load-pressure noise through k_pl. Its autocorrelation at lag k ≥ 1 is
-    ρ(k) = g Aᵏ P gᵀ / (g P gᵀ + k_pl² σ_PL²) (g = [k_x, k_v], P the observer's error
-    covariance), the median over the hold rows; n is the first k with ρ(k) < ``correlation``
-    (at most 100). Without the observer the noise is white: n = 1, the band without a delay.
+    The autocorrelation is :func:`command_noise_correlation`'s, the median over the rows whose
+    box holds a hold (all rows if none does); n is at most 100. Beyond n samples the noise
+    has all but forgotten where it was, so n consecutive samples beyond the quiet band are
+    about as unlikely as n independent ones, while a position error beyond the band still
+    opens the valve after n samples. Without the position observer the noise is white: n = 1,
+    the band without a delay.
     """
     if not (math.isfinite(correlation) and 0.0 < correlation < 1.0):
         raise ControlError(f"quiet-open correlation {correlation!r} must be between 0 and 1")
-    obs = _observer_error(controller, float(sensor_noise.get("x", 0.0)))
-    if obs is None:
-        return 1
-    A, P = obs
-    sig = command_noise(controller, sensor_noise, area_ratio)
+    rho = command_noise_correlation(controller, sensor_noise, area_ratio, 100)
     hold = _hold_rows(controller) or list(range(len(controller.rows)))
-    g = np.array([[controller.rows[i].k_x, controller.rows[i].k_v] for i in hold])
-    var = sig[hold] ** 2
-    AkP = P
-    for k in range(1, 101):
-        AkP = A @ AkP
-        rho = np.einsum("ij,jk,ik->i", g, AkP, g) / var
-        if float(np.median(rho)) < correlation:
-            return k
-    return 100
+    below = np.nonzero(np.median(rho[hold], axis=0) < correlation)[0]
+    return int(below[0]) + 1 if below.size else 100
 
 
 def quiet_band_for(
