@@ -1,6 +1,7 @@
 """The quiet band's opening delay (schema 2, ``DeadZoneInverse.quiet_open``): at rest the band
-opens the valve only on the n-th consecutive sample with |c| > q, n sized from the command
-noise's correlation (issue 34, the paper rig's hold within 0.03 mm on every noise seed)."""
+opens the valve only on the n-th consecutive sample beyond q on one side, n sized from the
+command noise's correlation, and the pressure vent no longer pushes the rod away from the target
+beyond the band (issue 34, the paper rig's hold within 0.03 mm on every noise seed)."""
 
 from __future__ import annotations
 
@@ -40,21 +41,39 @@ def default(paper_pwa):
     q=st.floats(1e-4, 0.03),
     n=st.integers(0, 8),
 )
-def test_quiet_open_passes_c_only_after_n_samples_beyond_the_band(cs, q, n):
-    """Over any sequence of commands: the count is the run length of |c| > q up to this sample;
-    c passes unchanged exactly where that run has reached n, and is limited to ±q before (the
-    band's edge: parked or the vent's opening); n ≤ 1 never changes c (the band as before)."""
-    count, run = 0.0, 0
+def test_quiet_open_passes_c_only_after_a_run_of_n_samples_on_one_side(cs, q, n):
+    """Over any sequence of commands: the count is the signed run of samples beyond q on this
+    sample's side (0 within ±q); c passes unchanged exactly where that run has reached n, and
+    is limited to ±q before (the band's edge: parked or the vent's opening); n ≤ 1 never
+    changes c (the band as before); a command alternating in sign beyond q never opens with
+    n ≥ 2; odd in c."""
+    count, run, side = 0.0, 0, 0
     for c in cs:
+        prev = count
         out, count = C.quiet_open(c, q, count, float(n))
-        run = run + 1 if abs(c) > q else 0
-        assert count == run
+        s = 1 if c > q else (-1 if c < -q else 0)
+        run = run + 1 if (s != 0 and s == side) else (1 if s != 0 else 0)
+        side = s
+        assert count == s * run
         if run >= n or n <= 1:
             assert out == c
         else:
             assert out == min(max(c, -q), q) and abs(out) <= q
-        # odd in c, given the same count
-        assert C.quiet_open(-c, q, count - (1.0 if abs(c) > q else 0.0), float(n))[0] == -out
+        assert C.quiet_open(-c, q, -prev, float(n)) == (-out, -count)
+    if n >= 2:
+        count = 0.0
+        for i in range(20):
+            out, count = C.quiet_open((-1) ** i * 3.0 * q, q, count, float(n))
+            assert abs(out) == q
+
+
+@settings(max_examples=200, deadline=None)
+@given(share=st.floats(-0.05, 0.05), ex=st.floats(-0.1, 0.1), q=st.floats(1e-4, 0.03))
+def test_the_vent_does_not_push_away_from_the_target_beyond_the_band(share, ex, q):
+    """With the delay the vent's share is 0 exactly where it points away from the target
+    (share·k_x e < 0) while |k_x e| > q; elsewhere it is unchanged."""
+    out = C.vent_toward_target(share, q, ex)
+    assert out == (0.0 if share * ex < 0.0 and abs(ex) > q else share)
 
 
 def test_correlation_is_the_observer_error_recursion(default):

@@ -89,9 +89,11 @@ gain row (see :data:`EXT_SLOTS`)::
                  v = :func:`quiet_vent` of −k_pl p̃ (0 within QUIET_VENT·q), blended out over
                  the ramp q < |c| < 2q; the integral leaks (e0+X_ILEAK) wherever |c| < 2q
     e0+X_DZQO    the quiet band's opening delay n [samples] (0: none; :func:`quiet_open`): where
-                 the band acts it opens the valve only on the n-th consecutive sample with
-                 |c| > q; before, it reads c limited to ±q (parked, or the pressure vent's
-                 opening); the count restarts at 0 whenever |c| ≤ q or the band does not act
+                 the band acts it opens the valve only on the n-th consecutive sample beyond q
+                 on one side; before, it reads c limited to ±q (parked, or the pressure vent's
+                 opening); the run restarts whenever c is within ±q or changes side, and is 0
+                 while the band does not act; with it the vent's share is 0 where it points
+                 away from the target while |k_x e| > q (:func:`vent_toward_target`)
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -385,18 +387,40 @@ def quiet_band(c, band, ex):
 def quiet_open(c, band, count, samples):
     """Command [1] the quiet band q = ``band`` reads with its opening delay n = ``samples``; (c, count).
 
-    ``count``: the consecutive samples before this one with |c| > q. The band opens the valve
-    only on the n-th consecutive sample with |c| > q: before, it reads c limited to ±q, the
-    band's edge (the valve stays parked, or opens by the pressure vent's share alone); from
-    the n-th on c itself, until |c| ≤ q again restarts the count. n ≤ 1 leaves c unchanged
-    (the band as without the delay). The command's sensor noise, correlated over a few samples
-    by the position observer, so stays beyond q on n samples in a row far more rarely than
-    on one, while a position error beyond the band still opens the valve n − 1 samples later.
+    ``count``: the signed run of samples before this one beyond the band on one side (+k: the
+    last k had c > q, −k: c < −q, 0: the last was within ±q); this sample extends the run on
+    its side or starts one. The band opens the valve only on the n-th sample of a run: before,
+    it reads c limited to ±q, the band's edge (parked, or the pressure vent's opening); from
+    the n-th on c itself, until c returns within ±q or crosses to the other side. n ≤ 1 leaves
+    c unchanged (the band as without the delay). The command's sensor noise, correlated over a
+    few samples by the position observer, stays beyond q on n samples in a row far more rarely
+    than on one, and the valve-aware terms' sign-alternating swings at the dead zone's edge
+    never make a run, while a position error beyond the band still opens the valve n − 1
+    samples later.
     """
-    count = count + 1.0 if abs(c) > band else 0.0
-    if count < samples:
+    if c > band:
+        count = count + 1.0 if count > 0.0 else 1.0
+    elif c < -band:
+        count = count - 1.0 if count < 0.0 else -1.0
+    else:
+        count = 0.0
+    if abs(count) < samples:
         return min(max(c, -band), band), count
     return c, count
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def vent_toward_target(share, band, ex):
+    """The pressure vent's share [1] with the opening delay: 0 where it would push the rod away
+    from the target while the position share |ex| = |k_x e| is beyond the band q = ``band``.
+
+    Such a share (a washout residue after a stick-slip jump past the target) would hold the rod
+    outside the band against the correction the delayed band is about to open, and alternate
+    with it in sign. Elsewhere ``share`` unchanged.
+    """
+    if share * ex < 0.0 and abs(ex) > band:
+        return 0.0
+    return share
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -731,8 +755,11 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
                     c_raw, ctl[e0 + X_DZQ], cst[S_DZQN], ctl[e0 + X_DZQO]
                 )
             if vented:
+                share = -ctl[b + R_KPL] * p_low
+                if ctl[e0 + X_DZQO] > 0.0:  # with the delay the vent does not push outward
+                    share = vent_toward_target(share, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
                 c_open, held, leak = pressure_vent(
-                    c_band, ctl[e0 + X_DZQ], -ctl[b + R_KPL] * p_low, ctl[b + R_KP] * e
+                    c_band, ctl[e0 + X_DZQ], share, ctl[b + R_KP] * e
                 )
             else:
                 c_open, held = quiet_band(c_band, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)

@@ -74,17 +74,36 @@ static double hp_quiet_band(double c, double band, double ex, int *hold)
     return c > 0.0 ? 2.0 * (c - band) : 2.0 * (c + band);
 }
 
-/* Opening delay n = samples of the quiet band q: *count, the consecutive samples with |c| > q,
- * counts this one too (restarts at 0 where |c| <= q); until it reaches n the band reads c limited
- * to [-q, q] (parked, or the pressure vent's opening), from the n-th on c itself. */
+/* Opening delay n = samples of the quiet band q: *count, the signed run of samples beyond the
+ * band on one side (+k: c > q, -k: c < -q, 0 within), extended or restarted by this one; while
+ * |*count| < n the band reads c limited to [-q, q] (parked, or the pressure vent's opening), from
+ * the n-th sample of a run on c itself. */
 static double hp_quiet_open(double c, double band, double *count, double samples)
 {
-    const double a = c < 0.0 ? -c : c;
-    *count = a > band ? *count + 1.0 : 0.0;
-    if (*count < samples) {
+    double k;
+    if (c > band) {
+        *count = *count > 0.0 ? *count + 1.0 : 1.0;
+    } else if (c < -band) {
+        *count = *count < 0.0 ? *count - 1.0 : -1.0;
+    } else {
+        *count = 0.0;
+    }
+    k = *count < 0.0 ? -*count : *count;
+    if (k < samples) {
         return c > band ? band : (c < -band ? -band : c);
     }
     return c;
+}
+
+/* The pressure vent's share with the opening delay: 0 where it would push the rod away from the
+ * target while the position share |ex| = |k_x e| is beyond the band q; else the share. */
+static double hp_vent_toward_target(double share, double band, double ex)
+{
+    const double a = ex < 0.0 ? -ex : ex;
+    if (share * ex < 0.0 && a > band) {
+        return 0.0;
+    }
+    return share;
 }
 
 /* Opening of the low-passed pressure share s = -k_pl*p_low inside the quiet band q:
@@ -454,7 +473,8 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double pl = m->p_l;
     const double r = ref->r;
     double e = r - x;
-    double dpl, pl_fb, ki, c_raw, c_ff, c_open, c_band, u_raw, u, c_sat, u_apply, c_apply, p_dev;
+    double dpl, pl_fb, ki, c_raw, c_ff, c_open, c_band, share, u_raw, u, c_sat, u_apply, c_apply;
+    double p_dev;
     const double *b;
     int row, kal, held, leak, vented;
     if (!s->started) {
@@ -515,8 +535,12 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
                 c_band = hp_quiet_open(c_raw, X[HP_X_DZQ], &s->dz_open, X[HP_X_DZQO]);
             }
             if (vented) { /* inside the band the low-passed pressure share vents */
-                c_open = hp_pressure_vent(c_band, X[HP_X_DZQ], -b[HP_R_KPL] * s->p_low,
-                                          b[HP_R_KP] * e, &held, &leak);
+                share = -b[HP_R_KPL] * s->p_low;
+                if (X[HP_X_DZQO] > 0.0) { /* with the delay the vent does not push outward */
+                    share = hp_vent_toward_target(share, X[HP_X_DZQ], b[HP_R_KP] * e);
+                }
+                c_open = hp_pressure_vent(c_band, X[HP_X_DZQ], share, b[HP_R_KP] * e, &held,
+                                          &leak);
             } else {
                 c_open = hp_quiet_band(c_band, X[HP_X_DZQ], b[HP_R_KP] * e, &held);
             }
