@@ -40,30 +40,32 @@ def default(paper_pwa):
     cs=st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=40),
     q=st.floats(1e-4, 0.03),
     n=st.integers(0, 8),
+    fars=st.lists(st.booleans(), min_size=40, max_size=40),
 )
-def test_quiet_open_passes_c_only_after_a_run_of_n_samples_on_one_side(cs, q, n):
+def test_quiet_open_passes_c_only_after_a_run_of_n_samples_on_one_side(cs, q, n, fars):
     """Over any sequence of commands: the count is the signed run of samples beyond q on this
-    sample's side (0 within ±q); c passes unchanged exactly where that run has reached n, and
-    is limited to ±q before (the band's edge: parked or the vent's opening); n ≤ 1 never
-    changes c (the band as before); a command alternating in sign beyond q never opens with
-    n ≥ 2; odd in c."""
+    sample's side (0 within ±q), whether or not the error is beyond the integral band; c passes
+    unchanged exactly where that run has reached n or the error is beyond the integral band
+    (``far``), and is limited to ±q elsewhere (the band's edge: parked or the vent's opening);
+    n ≤ 1 never changes c (the band as before); a command alternating in sign beyond q never
+    opens with n ≥ 2; odd in c."""
     count, run, side = 0.0, 0, 0
-    for c in cs:
+    for c, far in zip(cs, fars, strict=False):
         prev = count
-        out, count = C.quiet_open(c, q, count, float(n))
+        out, count = C.quiet_open(c, q, count, float(n), far)
         s = 1 if c > q else (-1 if c < -q else 0)
         run = run + 1 if (s != 0 and s == side) else (1 if s != 0 else 0)
         side = s
         assert count == s * run
-        if run >= n or n <= 1:
+        if run >= n or n <= 1 or far:
             assert out == c
         else:
             assert out == min(max(c, -q), q) and abs(out) <= q
-        assert C.quiet_open(-c, q, -prev, float(n)) == (-out, -count)
+        assert C.quiet_open(-c, q, -prev, float(n), far) == (-out, -count)
     if n >= 2:
         count = 0.0
         for i in range(20):
-            out, count = C.quiet_open((-1) ** i * 3.0 * q, q, count, float(n))
+            out, count = C.quiet_open((-1) ** i * 3.0 * q, q, count, float(n), False)
             assert abs(out) == q
 
 

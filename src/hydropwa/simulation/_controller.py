@@ -90,10 +90,11 @@ gain row (see :data:`EXT_SLOTS`)::
                  the ramp q < |c| < 2q; the integral leaks (e0+X_ILEAK) wherever |c| < 2q
     e0+X_DZQO    the quiet band's opening delay n [samples] (0: none; :func:`quiet_open`): where
                  the band acts it opens the valve only on the n-th consecutive sample beyond q
-                 on one side; before, it reads c limited to ±q (parked, or the pressure vent's
-                 opening); the run restarts whenever c is within ±q or changes side, and is 0
-                 while the band does not act; with it the vent's share is 0 where it points
-                 away from the target while |k_x e| > q (:func:`vent_toward_target`)
+                 on one side (at once where |e| > e_I, e0+X_IBAND); before, it reads c limited
+                 to ±q (parked, or the pressure vent's opening); the run restarts whenever c is
+                 within ±q or changes side, and is 0 while the band does not act; with it the
+                 vent's share is 0 where it points away from the target while |k_x e| > q
+                 (:func:`vent_toward_target`)
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -384,7 +385,7 @@ def quiet_band(c, band, ex):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def quiet_open(c, band, count, samples):
+def quiet_open(c, band, count, samples, far):
     """Command [1] the quiet band q = ``band`` reads with its opening delay n = ``samples``; (c, count).
 
     ``count``: the signed run of samples before this one beyond the band on one side (+k: the
@@ -396,7 +397,9 @@ def quiet_open(c, band, count, samples):
     few samples by the position observer, stays beyond q on n samples in a row far more rarely
     than on one, and the valve-aware terms' sign-alternating swings at the dead zone's edge
     never make a run, while a position error beyond the band still opens the valve n − 1
-    samples later.
+    samples later. ``far``: the position error is beyond the integral band e_I (a step's
+    approach or a disturbance, not noise): c unchanged, the run counted all the same (so an
+    approach that enters e_I with the valve open keeps it open).
     """
     if c > band:
         count = count + 1.0 if count > 0.0 else 1.0
@@ -404,7 +407,7 @@ def quiet_open(c, band, count, samples):
         count = count - 1.0 if count < 0.0 else -1.0
     else:
         count = 0.0
-    if abs(count) < samples:
+    if abs(count) < samples and not far:
         return min(max(c, -band), band), count
     return c, count
 
@@ -751,8 +754,9 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # 
         if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
             c_band = c_raw
             if ctl[e0 + X_DZQO] > 0.0:  # the band opens only after n samples beyond q
+                far_ = ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
                 c_band, cst[S_DZQN] = quiet_open(
-                    c_raw, ctl[e0 + X_DZQ], cst[S_DZQN], ctl[e0 + X_DZQO]
+                    c_raw, ctl[e0 + X_DZQ], cst[S_DZQN], ctl[e0 + X_DZQO], far_
                 )
             if vented:
                 share = -ctl[b + R_KPL] * p_low

@@ -77,8 +77,8 @@ static double hp_quiet_band(double c, double band, double ex, int *hold)
 /* Opening delay n = samples of the quiet band q: *count, the signed run of samples beyond the
  * band on one side (+k: c > q, -k: c < -q, 0 within), extended or restarted by this one; while
  * |*count| < n the band reads c limited to [-q, q] (parked, or the pressure vent's opening), from
- * the n-th sample of a run on c itself. */
-static double hp_quiet_open(double c, double band, double *count, double samples)
+ * the n-th sample of a run on c itself; far (|e| > e_I): c, the run counted all the same. */
+static double hp_quiet_open(double c, double band, double *count, double samples, int far)
 {
     double k;
     if (c > band) {
@@ -89,7 +89,7 @@ static double hp_quiet_open(double c, double band, double *count, double samples
         *count = 0.0;
     }
     k = *count < 0.0 ? -*count : *count;
-    if (k < samples) {
+    if (k < samples && !far) {
         return c > band ? band : (c < -band ? -band : c);
     }
     return c;
@@ -476,7 +476,7 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
     double dpl, pl_fb, ki, c_raw, c_ff, c_open, c_band, share, u_raw, u, c_sat, u_apply, c_apply;
     double p_dev;
     const double *b;
-    int row, kal, held, leak, vented;
+    int row, kal, held, leak, vented, far;
     if (!s->started) {
         s->p_l_prev = pl;
         s->dp_l = 0.0;
@@ -532,7 +532,8 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
                 || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
             c_band = c_raw;
             if (X[HP_X_DZQO] > 0.0) { /* the band opens only after n samples beyond q */
-                c_band = hp_quiet_open(c_raw, X[HP_X_DZQ], &s->dz_open, X[HP_X_DZQO]);
+                far = X[HP_X_IBAND] > 0.0 && (e < 0.0 ? -e : e) > X[HP_X_IBAND];
+                c_band = hp_quiet_open(c_raw, X[HP_X_DZQ], &s->dz_open, X[HP_X_DZQO], far);
             }
             if (vented) { /* inside the band the low-passed pressure share vents */
                 share = -b[HP_R_KPL] * s->p_low;
