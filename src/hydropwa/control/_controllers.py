@@ -180,11 +180,14 @@ class DeadZoneInverse:
         law's creep and move the rod tens of µm (paper rig).
     quiet_open : float
         Opening delay n [samples] of the quiet band (0: none; schema 2; a whole number): where
-        the band acts it opens the valve only on the n-th consecutive sample with |c| > q, and
-        reads c limited to ±q before (``quiet_open`` of the compiled law); n ≤ 1 is the band
-        without it. Sized from the command noise's correlation
+        the band acts it opens the valve only on the n-th consecutive sample beyond q on one
+        side, or at once where |e| > ``integral_band``, and reads c limited to ±q before
+        (``quiet_open`` of the compiled law); with the pressure vent, the vent's share is 0
+        where it points away from the target while |k_x e| > q (``vent_toward_target``);
+        n ≤ 1 is the band without it. Sized from the command noise's correlation
         (:func:`~hydropwa.control.quiet_open_for`), it keeps the observer's correlated noise
-        from opening the valve at a hold while a real position error still opens it.
+        and the spool terms' alternating swings from opening the valve at a hold, while a
+        real position error still opens it n − 1 samples later.
     """
 
     offset: float = 0.1

@@ -188,7 +188,9 @@ LAW_ELEMENTS = (
     "of the command opens the valve beyond 0.8 of the band, blended out over the band's ramp; "
     "the integral leaks wherever the command is within twice the band",
     "schema 2: the quiet band's opening delay: at rest the band opens the valve only on the n-th "
-    "consecutive sample with the command beyond the band (before, the command limited to the band)",
+    "consecutive sample with the command beyond the band on one side (before, the command limited "
+    "to the band; at once beyond the integral band), and the pressure vent does not push the rod "
+    "away from the target while the position share is beyond the band",
     "saturation [u_min, u_max] with anti-windup none / clamping / back-calculation",
     "pressure washout (P_L − low-pass of P_L) for k_pl",
     "first-order filter of the backward difference Ṗ_L",
