@@ -937,11 +937,11 @@ def command_noise(controller, sensor_noise: Mapping[str, float], area_ratio: flo
 #: the quiet band's opening delay n (:func:`quiet_open_for`) is the first lag at which the command
 #: noise's autocorrelation at a hold falls below this. Measured on the paper rig's trapezoid hold
 #: (full model, 20 µm / 0.1 bar, one sample of delay; noise seeds 1-40; the rule sized here gives
-#: n = 12 there and n = 4 on the heavy axis), hold peak to peak over seeds 1-10 / 11-20 / 21-30 /
+#: n = 12 there and n = 3 on the heavy axis), hold peak to peak over seeds 1-10 / 11-20 / 21-30 /
 #: 31-40 and the most sign changes/s: n = 1 (none) ≤ 0.032 / 0.046 / 0.029 / 0.038 mm, 135/s;
 #: n = 4 ≤ 0.025 / 0.032 mm, 35/s (seeds 1-20); n = 8 ≤ 0.017 / 0.017 / 0.026 / 0.016 mm, 35/s;
 #: n = 12 ≤ 0.020 / 0.020 / 0.022 / 0.019 mm, 15/s. n = 12 on the heavy axis: a limit cycle in
-#: the four-draw verification (+50 % force, 0.92 mm); its n = 4 passes (docs/control.md)
+#: the four-draw verification (+50 % force, 0.92 mm); its n = 3 passes (docs/control.md)
 QUIET_OPEN_CORRELATION = 0.1
 
 
