@@ -8,6 +8,7 @@ import warnings
 import control
 import numpy as np
 import pytest
+from paper_cases import NOISE
 
 from hydropwa.control import (
     ControlError,
@@ -17,8 +18,6 @@ from hydropwa.control import (
 from hydropwa.control._estimator import _EST_SCALE, N_EST, cell_estimator
 from hydropwa.linearization import linearize
 from hydropwa.simulation import _controller as C
-
-NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 
 
 @pytest.fixture(scope="module")

@@ -11,18 +11,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from paper_cases import paper_trapezoid
 
 from hydropwa.control import (
     PRESSURE_VENT_SAMPLES,
-    as_reference,
     design_controller,
     load_controller,
     save_controller,
 )
 from hydropwa.simulation import _controller as C
-from hydropwa.simulation import simulate
-
-TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
 @pytest.fixture(scope="module")
@@ -100,14 +97,7 @@ def test_the_vent_keeps_the_paper_rigs_hold_after_the_trapezoid(paper, default):
             default,
             dead_zone_inverse=dataclasses.replace(default.dead_zone_inverse, pressure_vent=vent),
         )
-        res = simulate(
-            "full",
-            params=paper,
-            duration=0.9,
-            controller=ctrl,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-        )
+        res = paper_trapezoid(paper, ctrl)
         pp[name] = float(np.ptp(res["x"][res.t >= 0.7]))
     assert pp["with"] <= 12e-6, pp
     assert pp["without"] - pp["with"] >= 15e-6, pp

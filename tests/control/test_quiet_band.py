@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from paper_cases import NOISE, TRAPEZOID, paper_trapezoid
 
 from hydropwa.control import (
     QUIET_FACTOR,
@@ -26,10 +27,6 @@ from hydropwa.control import (
 from hydropwa.linearization import linearize
 from hydropwa.params import load_params
 from hydropwa.simulation import _controller as C
-from hydropwa.simulation import simulate
-
-NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
-TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
 @pytest.fixture(scope="module")
@@ -114,22 +111,9 @@ def test_default_design_sizes_the_band_from_the_noise_and_writes_it(paper_pwa, t
     np.testing.assert_allclose(ctl, d.controller.pack(), rtol=1e-9, atol=0)
 
 
-def _trapezoid(paper, ctrl, duration=0.9, **noise):
-    """The 50 → 150 mm trapezoid (starting at 0.1 s) and its hold on the full model."""
-    return simulate(
-        "full",
-        params=paper,
-        duration=duration,
-        controller=ctrl,
-        reference=as_reference(TRAPEZOID),
-        initial_position=0.05,
-        **noise,
-    )
-
-
 def _noisy_trapezoid(paper, ctrl):
-    """:func:`_trapezoid` with the sensor noise, seed 1 (0.9 s)."""
-    return _trapezoid(paper, ctrl, sensor_noise=NOISE, seed=1)
+    """:func:`paper_trapezoid` with the sensor noise, seed 1 (0.9 s)."""
+    return paper_trapezoid(paper, ctrl, sensor_noise=NOISE, seed=1)
 
 
 def test_default_design_is_quiet_at_the_paper_rigs_hold_under_noise(paper, paper_pwa):
@@ -262,7 +246,7 @@ def test_the_band_at_rest_frees_the_trapezoids_start_from_static_friction(paper,
     )
     peak = {}
     for name, c in (("rest", ctrl), ("always", always)):
-        res = _trapezoid(paper, c, 0.3)
+        res = paper_trapezoid(paper, c, 0.3)
         e = np.abs(res["reference"] - res["x"])
         i = int(np.argmax(e))
         peak[name] = (float(e[i]) * 1e3, float(res.t[i]))
@@ -343,7 +327,7 @@ def test_pre_open_spends_the_dead_zone_crossing_before_the_trapezoid_starts(pape
     ctrl = design_controller(paper_pwa, verify=False, delay=True).controller
     peak, runs = {}, {}
     for name, c in (("pre", ctrl), ("none", _without_pre_open(ctrl))):
-        res = _trapezoid(paper, c, 0.2)
+        res = paper_trapezoid(paper, c, 0.2)
         e = np.abs(res["reference"] - res["x"])
         corner = (res.t >= 0.1) & (res.t <= 0.14)  # the acceleration phase (40 ms)
         peak[name] = float(np.max(e[corner])) * 1e3

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from paper_cases import NOISE, paper_trapezoid
 
 from hydropwa.control import (
     QUIET_OPEN_CORRELATION,
     ControlError,
-    as_reference,
     command_noise,
     command_noise_correlation,
     design_controller,
@@ -24,10 +24,6 @@ from hydropwa.control import (
     save_controller,
 )
 from hydropwa.simulation import _controller as C
-from hydropwa.simulation import simulate
-
-TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
-NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
 
 
 @pytest.fixture(scope="module")
@@ -155,17 +151,8 @@ def test_the_delay_keeps_the_worst_noise_seeds_hold_within_the_issue(paper, defa
     for the tolerance-level spread of the compiled kernels, which moves a seed's hold by up to
     ~0.003 mm) and 20 sign changes/s (|u| > 1 % of the limit, as the benchmark counts them)."""
     for seed in (6, 17, 19):
-        res = simulate(
-            "full",
-            params=paper,
-            duration=0.9,
-            controller=default,
-            reference=as_reference(TRAPEZOID),
-            initial_position=0.05,
-            sensor_noise=NOISE,
-            seed=seed,
-            rtol=1e-6,
-            fs=1.0 / default.sample_time,
+        res = paper_trapezoid(
+            paper, default, sensor_noise=NOISE, seed=seed, rtol=1e-6, fs=1.0 / default.sample_time
         )
         hold = float(np.ptp(res["x"][res.t >= 0.7 - 1e-12]))
         assert hold <= 30e-6, (seed, hold)

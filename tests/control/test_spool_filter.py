@@ -33,6 +33,7 @@ from c_support import (
 )
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from paper_cases import NOISE, TRAPEZOID, paper_trapezoid
 
 from hydropwa._layout import Y_FULL
 from hydropwa.control import (
@@ -57,8 +58,6 @@ from hydropwa.simulation import _controller as C
 from hydropwa.simulation import simulate
 
 SIGMA = 2e-3  # 0.2 % of the full opening
-NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
-TRAPEZOID = "trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.1"
 
 
 @pytest.fixture(scope="module")
@@ -151,19 +150,6 @@ def test_the_law_corrects_the_prediction_by_the_measured_spool(nu, noise, prior,
     assert (cst[C.S_NU], cst[C.S_DNU]) == (prior, dprior)
 
 
-def _trapezoid(prm, ctrl, noise, seed=1):
-    return simulate(
-        "full",
-        params=prm,
-        duration=0.9,
-        controller=ctrl,
-        reference=as_reference(TRAPEZOID),
-        initial_position=0.05,
-        sensor_noise=noise,
-        seed=seed,
-    )
-
-
 def test_an_exact_spool_sensor_reduces_to_the_raw_feedback(paper, paper_pwa, filtered):
     """σ_ν = 0: no filter gain in the model (nor the file), packed as the filter's exact-sensor
     limit (1, Γ₂/Γ₁) — the same law as a bare measured ``SpoolModel``; a filter for a nearly
@@ -187,7 +173,9 @@ def test_an_exact_spool_sensor_reduces_to_the_raw_feedback(paper, paper_pwa, fil
     tiny = dataclasses.replace(raw, spool_model=raw.spool_model.with_filter(1e-7))
     np.testing.assert_allclose(tiny.spool_model.gain, raw.spool_model.exact_gain, rtol=1e-6)
     peak = {
-        name: tracking_metrics(_trapezoid(paper, c, {})).display()["max_following_error"]
+        name: tracking_metrics(paper_trapezoid(paper, c, sensor_noise={}, seed=1)).display()[
+            "max_following_error"
+        ]
         for name, c in (("raw", raw), ("tiny", tiny), ("estimated", estimated))
     }
     assert peak["tiny"] == pytest.approx(peak["raw"], abs=1e-3)  # mm
