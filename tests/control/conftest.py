@@ -2,6 +2,7 @@
 
 import pytest
 
+from hydropwa.control import design_controller
 from hydropwa.linearization import linearize
 
 
@@ -23,3 +24,9 @@ def linear_valve(paper):
 def paper_pwa(paper):
     """The paper rig's PWA model (the default linearization), once per test module."""
     return linearize(paper)
+
+
+@pytest.fixture(scope="module")
+def default(paper_pwa):
+    """The paper rig's default `control design` controller (one sample of delay, no verification)."""
+    return design_controller(paper_pwa, verify=False, delay=True).controller

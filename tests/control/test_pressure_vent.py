@@ -15,16 +15,10 @@ from paper_cases import paper_trapezoid
 
 from hydropwa.control import (
     PRESSURE_VENT_SAMPLES,
-    design_controller,
     load_controller,
     save_controller,
 )
 from hydropwa.simulation import _controller as C
-
-
-@pytest.fixture(scope="module")
-def default(paper_pwa):
-    return design_controller(paper_pwa, verify=False, delay=True).controller
 
 
 @settings(max_examples=300, deadline=None)

@@ -18,17 +18,11 @@ from hydropwa.control import (
     ControlError,
     command_noise,
     command_noise_correlation,
-    design_controller,
     load_controller,
     quiet_open_for,
     save_controller,
 )
 from hydropwa.simulation import _controller as C
-
-
-@pytest.fixture(scope="module")
-def default(paper_pwa):
-    return design_controller(paper_pwa, verify=False, delay=True).controller
 
 
 @settings(max_examples=200, deadline=None)
