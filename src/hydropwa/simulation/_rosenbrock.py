@@ -348,16 +348,21 @@ def _factor(kind, J, W, piv, hg, p):
     _lu_block(kind, W, piv, n)
 
 
-@njit(**SOLVER_JIT, **NO_REFCOUNT)
-def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    """One ROS34PW2 step from (t, y): fills ynew and the error yerr.
+@njit(**INLINE_NRT_JIT)
+def _four_stages(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, tab, gamma, fresh):
+    """The four stages of a Rosenbrock method in the transformed form (Hairer & Wanner IV.7)
+    and its solution and error combinations: fills U, ynew and yerr.
 
-    Returns (rhs calls, u, P_S, F_L at t + h). f(t + h, ynew) is left to the caller, which
-    evaluates it only for an accepted step (``fnew`` is untouched here).
+    ``tab`` = (A, C, α, γ_i sums, m, e), the flattened 4 × 4 tableau of
+    :func:`_transformed_tableau`; stages 1 … ``fresh`` − 1 evaluate the right-hand side at
+    t + α_i h (a later stage reuses the last one's, as ROS4LS's a_4j = a_3j allows). Inlined
+    into each stepper with its tableau as constants. Returns (u, P_S, F_L) of the last
+    right-hand side's inputs.
     """
+    A, C, ALPHA, GSUM, M, E = tab
     n = n_states(kind)
     n_lu = _n_solve(kind, p)
-    hg = h * PW2_GAMMA
+    hg = h * gamma
     # defined before the loop: a variable numba sees as possibly undefined cannot be
     # inlined through an overload (_step_for)
     u = ps = fl = 0.0
@@ -365,28 +370,46 @@ def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr,
         if i == 0:
             for k in range(n):
                 ft[k] = f0[k]
-        else:
+        elif i < fresh:
             for k in range(n):
                 s = y[k]
                 for j in range(i):
-                    s += PW2_A[4 * i + j] * U[j, k]
+                    s += A[4 * i + j] * U[j, k]
                 yt[k] = s
-            u, ps, fl = _inputs(t + PW2_ALPHA[i] * h, sg)  # α_4 = 1: reused for f(t + h)
+            u, ps, fl = _inputs(t + ALPHA[i] * h, sg)
             _rhs_for(kind, yt, u, ps, fl, p, ft)
         for k in range(n):
-            s = ft[k] + PW2_GSUM[i] * h * dfdt[k]
+            s = ft[k] + GSUM[i] * h * dfdt[k]
             for j in range(i):
-                s += PW2_C[4 * i + j] / h * U[j, k]
+                s += C[4 * i + j] / h * U[j, k]
             U[i, k] = hg * s
         _solve_block(kind, W, piv, U, i, n_lu)
     for k in range(n):
         s = y[k]
         e = 0.0
         for j in range(4):
-            s += PW2_M[j] * U[j, k]
-            e += PW2_E[j] * U[j, k]
+            s += M[j] * U[j, k]
+            e += E[j] * U[j, k]
         ynew[k] = s
         yerr[k] = e
+    return u, ps, fl
+
+
+_PW2_TAB = (PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E)
+_R4_TAB = (R4_A, R4_C, R4_ALPHA, R4_GSUM, R4_M, R4_E)
+
+
+@njit(**SOLVER_JIT, **NO_REFCOUNT)
+def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One ROS34PW2 step from (t, y): fills ynew and the error yerr (:func:`_four_stages`).
+
+    Returns (rhs calls, u, P_S, F_L at t + h): α_4 = 1, so the last stage's inputs are those
+    at t + h. f(t + h, ynew) is left to the caller, which evaluates it only for an accepted
+    step (``fnew`` is untouched here).
+    """
+    u, ps, fl = _four_stages(
+        kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, _PW2_TAB, PW2_GAMMA, 4
+    )
     return 3, u, ps, fl
 
 
@@ -397,36 +420,9 @@ def _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p
     Like :func:`_step_ros34pw2`: fills ynew and yerr, returns (rhs calls, u, P_S, F_L at t + h);
     f(t + h, ynew) is left to the caller. Stage 4 reuses stage 3's right-hand side.
     """
-    n = n_states(kind)
-    n_lu = _n_solve(kind, p)
-    hg = h * R4_GAMMA
-    u = ps = fl = 0.0  # (defined before the loop, as in _step_ros34pw2)
-    for i in range(4):
-        if i == 0:
-            for k in range(n):
-                ft[k] = f0[k]
-        elif i < 3:
-            for k in range(n):
-                s = y[k]
-                for j in range(i):
-                    s += R4_A[4 * i + j] * U[j, k]
-                yt[k] = s
-            u, ps, fl = _inputs(t + R4_ALPHA[i] * h, sg)
-            _rhs_for(kind, yt, u, ps, fl, p, ft)
-        for k in range(n):
-            s = ft[k] + R4_GSUM[i] * h * dfdt[k]
-            for j in range(i):
-                s += R4_C[4 * i + j] / h * U[j, k]
-            U[i, k] = hg * s
-        _solve_block(kind, W, piv, U, i, n_lu)
-    for k in range(n):
-        s = y[k]
-        e = 0.0
-        for j in range(4):
-            s += R4_M[j] * U[j, k]
-            e += R4_E[j] * U[j, k]
-        ynew[k] = s
-        yerr[k] = e
+    _four_stages(
+        kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, _R4_TAB, R4_GAMMA, 3
+    )
     u, ps, fl = _inputs(t + h, sg)
     return 2, u, ps, fl
 
