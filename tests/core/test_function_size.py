@@ -61,7 +61,6 @@ EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
     ("control/_verify.py", "design_controller"): (43, 13, _OWNED + "; " + _API),
     ("control/_metrics.py", "compare_models"): (41, 11, _OWNED + "; " + _API),
     ("identification/greybox/profile.py", "profile"): (32, 12, _OWNED + "; " + _API),
-    ("identification/greybox/intervals.py", "interval_scan"): (25, 11, _OWNED),
     ("simulation/_simulate.py", "simulate"): (
         167,
         21,

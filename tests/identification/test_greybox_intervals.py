@@ -52,7 +52,15 @@ def _scan(A, H, sd, bounds=50.0, **kw):
     kappa = sd**2 / np.diag(Hinv)
     prob = _Quadratic(A)
     lo, hi, scan = _interval_scan(
-        prob, np.zeros(p), Hinv, sd, kappa, Z, np.full(p, -bounds), np.full(p, bounds), _cost, **kw
+        prob,
+        np.zeros(p),
+        Hinv,
+        sd,
+        kappa,
+        Z,
+        (np.full(p, -bounds), np.full(p, bounds)),
+        _cost,
+        **kw,
     )
     return prob, lo, hi, scan
 
@@ -90,7 +98,7 @@ def test_flat_side_ends_beyond_the_scan_and_sides_are_separate():
         prob = Kinked(np.eye(1))
         prob.a = a
         lo, hi, scan = _interval_scan(
-            prob, np.zeros(1), np.linalg.inv(H), sd, np.ones(1), Z, -np.ones(1), np.ones(1), _cost
+            prob, np.zeros(1), np.linalg.inv(H), sd, np.ones(1), Z, (-np.ones(1), np.ones(1)), _cost
         )
         assert scan[0][0] == pytest.approx(a * 4 * Z**2)
         assert lo[0] == pytest.approx(want_lo * sd[0], rel=1e-9)

@@ -29,8 +29,7 @@ def interval_scan(
     sd: np.ndarray,
     kappa: np.ndarray,
     z: float,
-    tlo: np.ndarray,
-    thi: np.ndarray,
+    bounds: tuple[np.ndarray, np.ndarray],
     cost: Callable[[np.ndarray], float],
     min_half_width: float = 0.002,
     only: Iterable[int] | None = None,
@@ -73,6 +72,7 @@ def interval_scan(
     chosen = set(range(p) if only is None else only)
     lo = z * sd.copy()
     hi = z * sd.copy()
+    tlo, thi = bounds
     sets, where = _scan_points(theta, Hinv, sd, kappa, z, tlo, thi, chosen, min_half_width)
     scan: dict[int, tuple[float, float]] = {}
     if not where:
@@ -172,7 +172,7 @@ def scan_widen(
     """
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     half_lo, half_hi, scan_i = interval_scan(
-        prob, theta, Hinv, sd, _kappa(cov, Hinv), z, tlo, thi, cost, only=only
+        prob, theta, Hinv, sd, _kappa(cov, Hinv), z, (tlo, thi), cost, only=only
     )
     wider = np.maximum(sd, (half_lo + half_hi) / (2.0 * z))
     with np.errstate(invalid="ignore", divide="ignore"):
