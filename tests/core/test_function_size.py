@@ -56,8 +56,8 @@ _SIGNALS = (
 )
 #: (file, function) → (lines of code, parameters, why): the measured sizes are ceilings.
 EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
-    ("control/_design.py", "design_state_feedback"): (198, 18, _OWNED + "; " + _API),
-    ("control/_design.py", "design_pi"): (98, 14, _OWNED + "; " + _API),
+    ("control/_design.py", "design_state_feedback"): (46, 18, _API),
+    ("control/_design.py", "design_pi"): (65, 14, _API),
     ("control/_verify.py", "design_controller"): (43, 13, _OWNED + "; " + _API),
     ("control/_metrics.py", "compare_models"): (41, 11, _OWNED + "; " + _API),
     ("identification/greybox/profile.py", "profile"): (32, 12, _OWNED + "; " + _API),

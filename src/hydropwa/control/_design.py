@@ -335,7 +335,7 @@ def _cell_boxes(model, f_l):
     return list(out.values())
 
 
-def design_state_feedback(  # noqa: C901 (to be split, issue 33)
+def design_state_feedback(
     model,
     *,
     method: str = "lqr",
@@ -441,9 +441,86 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
     -------
     ControlDesign
     """
-    import control  # deferred: python-control loads scipy.signal and matplotlib
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
+    ts, maxima, u_max, poles, zp, valve = _checked_feedback_options(
+        method, sample_time, weights, poles, valve, spool, friction_slopes
+    )
+    opt = _FeedbackOptions(
+        method=method,
+        ts=ts,
+        maxima=maxima,
+        u_max=u_max,
+        poles=poles,
+        discrete_poles=zp,
+        valve=valve,
+        delay=delay,
+        load_force=load_force,
+        dead_zone_inverse=dead_zone_inverse,
+        friction_slopes=friction_slopes,
+        pressure_washout=pressure_washout,
+        feedforward=feedforward,
+        position_noise=position_noise,
+        acceleration_noise=acceleration_noise,
+        spool=spool,
+    )
+    rows, recs, warns, notes = _design_cells(model, opt)
+    if not rows:
+        raise ControlError("no cell could be designed: " + "; ".join(warns))
+    dzi = (
+        dataclasses.replace(
+            DeadZoneInverse.from_params(model.params.dead_zone),
+            hysteresis=float(dead_zone_hysteresis),
+        )
+        if dead_zone_inverse
+        else None
+    )
+    info = _feedback_info(model, opt, notes)
+    ctrl = StateFeedbackController(
+        rows=tuple(rows),
+        sample_time=ts,
+        delay=bool(delay),
+        u_min=float(u_limits[0]),
+        u_max=float(u_limits[1]),
+        anti_windup=anti_windup,
+        dead_zone_inverse=dzi,
+        design=info,
+        **_feedback_parts(model, opt),
+    )
+    return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
+
+
+@dataclass(frozen=True, eq=False)
+class _FeedbackOptions:
+    """:func:`design_state_feedback`'s options after their checks, as the cells' design reads them.
+
+    ``maxima`` are the Bryson maxima of [P_L, ẋ, x, ∫e] (SI) and ``u_max`` the command's
+    (:func:`_scaling`); ``discrete_poles`` the placement's poles e^{pT_s} (None for LQR);
+    ``valve`` the resolved valve-aware switch. The other options are kept as passed and
+    converted where they are used, as the one-piece function did.
+    """
+
+    method: str
+    ts: float
+    maxima: np.ndarray
+    u_max: float
+    poles: tuple[complex, ...] | None
+    discrete_poles: np.ndarray | None
+    valve: bool
+    delay: Any
+    load_force: float | None
+    dead_zone_inverse: bool
+    friction_slopes: str
+    pressure_washout: Any
+    feedforward: Any
+    position_noise: float | None
+    acceleration_noise: Any
+    spool: str
+
+
+def _checked_feedback_options(method, sample_time, weights, poles, valve, spool, friction_slopes):
+    """(T_s, Bryson maxima, u_max, poles, discrete poles, valve) of :func:`design_state_feedback`,
+    the options checked in a fixed order (the first bad one raises its ControlError)."""
     if friction_slopes not in ("clip", "exact"):
         raise ControlError(f"friction_slopes {friction_slopes!r} must be 'clip' or 'exact'")
     if method not in ("lqr", "place"):
@@ -456,21 +533,9 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         raise ControlError(f"sample_time {sample_time!r} s must be in (0, 0.1]")
     ts = float(sample_time)
     maxima, u_max = _scaling(weights or {})
+    zp = None
     if method == "place":
-        if poles is None:
-            w = 2 * math.pi * 15.0
-            poles = (
-                complex(-0.8 * w, 0.6 * w),
-                complex(-0.8 * w, -0.6 * w),
-                complex(-2 * w),
-                complex(-3 * w),
-            )
-        poles = tuple(complex(p) for p in poles)
-        if len(poles) != 4 or any(p.real >= 0 for p in poles):
-            raise ControlError(
-                "pole placement needs four continuous-time poles with negative real parts [1/s]"
-            )
-        zp = np.exp(np.array(poles) * ts)
+        poles, zp = _placement_poles(poles, ts)
     if spool not in ("estimated", "measured"):
         raise ControlError(f"spool {spool!r} must be 'estimated' or 'measured'")
     if valve is None:
@@ -479,167 +544,262 @@ def design_state_feedback(  # noqa: C901 (to be split, issue 33)
         raise ControlError(
             "the valve-aware design (valve=True) needs method='lqr'; pass valve=False for 'place'"
         )
-    prm = model.params
-    T = np.diag(_SCALE)
-    Tinv = np.diag(1.0 / _SCALE)
-    q = (_SCALE / maxima) ** 2  # Q in scaled states
-    R = np.array([[1.0 / u_max**2]])
-    rows, recs, warns, notes = [], [], [], []
+    return ts, maxima, u_max, poles, zp, bool(valve)
+
+
+def _placement_poles(poles, ts: float) -> tuple[tuple[complex, ...], np.ndarray]:
+    """The four continuous-time poles [1/s] of ``place`` (default: a 15 Hz, ζ = 0.8 pair and real
+    poles at 2× and 3× that frequency) and their discrete images e^{pT_s}."""
+    if poles is None:
+        w = 2 * math.pi * 15.0
+        poles = (
+            complex(-0.8 * w, 0.6 * w),
+            complex(-0.8 * w, -0.6 * w),
+            complex(-2 * w),
+            complex(-3 * w),
+        )
+    poles = tuple(complex(p) for p in poles)
+    if len(poles) != 4 or any(p.real >= 0 for p in poles):
+        raise ControlError(
+            "pole placement needs four continuous-time poles with negative real parts [1/s]"
+        )
+    return poles, np.exp(np.array(poles) * ts)
+
+
+def _design_cells(model, opt: _FeedbackOptions) -> tuple[list, list, list[str], list[str]]:
+    """Gain rows, table records, warnings and notes over the design cells (:func:`_cell_boxes`)."""
     slopes = model.friction.pwa.slopes
     k_w_max = float(max(slopes[0], slopes[-1], 0.0))
-    for label, key, lo, hi in _cell_boxes(model, load_force):
-        A, B, _dyn = cell_plant(model, cells=key, f_l=load_force, opening_input=dead_zone_inverse)
-        k_w = -A[1, 1] * prm.load.mass
-        clipped = friction_slopes == "clip" and not 0.0 <= k_w <= k_w_max
-        if clipped:
-            growth = float(np.max(np.linalg.eigvals(A).real))
-            notes.append(
-                f"cell {label}: friction slope {k_w:.4g} N·s/m (open-loop eigenvalue real part up to {growth:+.0f} 1/s) "
-                f"clipped to {min(max(k_w, 0.0), k_w_max):.4g} N·s/m for the design"
-            )
-            A[1, 1] = -min(max(k_w, 0.0), k_w_max) / prm.load.mass
-        if valve:  # states [P_L, ẋ, x, ν, ν̇, I (, pending c)]: servo valve, ZOH, delay
-            Aa, Ba = _valve_augment(A, B, ts, prm.valve.omega0, prm.valve.zeta, delay)
-            sc = _VALVE_SCALE[: Aa.shape[0]]
-            mx = np.concatenate([maxima[:3], _VALVE_MAXIMA, maxima[3:], [u_max]])[: Aa.shape[0]]
-            T, Tinv = np.diag(sc), np.diag(1.0 / sc)
-            q = (sc / mx) ** 2
-        else:
-            Ad, Bd = _discrete(A, B, ts)
-            Aa, Ba = _augment(Ad, Bd, ts)
-        As, Bs = Tinv @ Aa @ T, Tinv @ Ba
-        ctrb = _pbh(As, Bs)
-        controllable = bool(ctrb[-1] > 1e-9 * ctrb[0])
-        try:
-            if method == "lqr":
-                Ks, _, _ = control.dlqr(As, Bs, np.diag(q), R)
-            else:
-                Ks = control.place(As, Bs, zp)
-            Ks = np.atleast_2d(np.asarray(Ks, dtype=float))
-        except Exception as exc:  # python-control raises several types for a singular design
-            warns.append(f"cell {label}: design failed ({exc})")
-            continue
-        K = Ks @ Tinv
-        if valve:
-            radius = radius_v = _radius(Aa, Ba, K, False)
-            i_int = 5
-        else:
-            radius = _radius(Aa, Ba, K, delay)
-            radius_v = _valve_loop_radius(A, B, K, ts, prm.valve.omega0, prm.valve.zeta, delay)
-            i_int = 3
-        Acl = Aa - Ba @ K
-        Br = Ba * K[0, 2]
-        Br[i_int, 0] += ts
-        Cx = np.zeros((1, Aa.shape[0]))
-        Cx[0, 2] = 1.0
-        s, zmin, fdom, bw = _pole_stats(Acl, ts, Br, Cx)
-        if not controllable:
-            warns.append(
-                f"cell {label}: not controllable (PBH σ_min/‖[A, B]‖ = {ctrb[-1] / ctrb[0]:.2e})"
-            )
-        if radius >= 1.0:
-            warns.append(
-                f"cell {label}: closed loop unstable on the PWA cell (spectral radius {radius:.4f})"
-            )
-        elif radius_v >= 1.0:
-            warns.append(
-                f"cell {label}: unstable with the servo valve's dynamics (spectral radius {radius_v:.4f})"
-            )
-        if valve:
-            row = GainRow(
-                lo,
-                hi,
-                k_pl=K[0, 0],
-                k_v=K[0, 1],
-                k_x=K[0, 2],
-                k_i=-K[0, 5],
-                label=label,
-                k_nu=K[0, 3],
-                k_dnu=K[0, 4],
-                k_up=K[0, 6] if delay else 0.0,
-            )
-        else:
-            row = GainRow(lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label)
-        rows.append(row)
-        recs.append(
-            {
-                "cell": label,
-                "g": key[0],
-                "s": key[1],
-                "o": key[2],
-                "w": key[3],
-                "p_l_lo_bar": lo[0] / 1e5,
-                "p_l_hi_bar": hi[0] / 1e5,
-                "v_lo_mm_s": lo[1] * 1e3,
-                "v_hi_mm_s": hi[1] * 1e3,
-                "k_pl_per_bar": row.k_pl * 1e5,
-                "k_v_s_per_m": row.k_v,
-                "k_x_per_mm": row.k_x * 1e-3,
-                "k_i_per_mm_s": row.k_i * 1e-3,
-                "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
-                "damping_min": zmin,
-                "natural_freq_hz": fdom,
-                "bandwidth_hz": bw,
-                "radius": radius,
-                "radius_valve": radius_v,
-                "controllable": controllable,
-                "stable": radius < 1.0,
-                "friction_clipped": clipped,
-            }
-        )
-    if not rows:
-        raise ControlError("no cell could be designed: " + "; ".join(warns))
-    dzi = (
-        dataclasses.replace(
-            DeadZoneInverse.from_params(prm.dead_zone), hysteresis=float(dead_zone_hysteresis)
-        )
-        if dead_zone_inverse
-        else None
+    rows, recs, warns, notes = [], [], [], []
+    for cell in _cell_boxes(model, opt.load_force):
+        row, rec, cell_warns, cell_notes = _design_cell(model, cell, opt, k_w_max)
+        notes += cell_notes
+        warns += cell_warns
+        if row is not None:
+            rows.append(row)
+            recs.append(rec)
+    return rows, recs, warns, notes
+
+
+def _design_cell(model, cell, opt: _FeedbackOptions, k_w_max: float):
+    """(gain row, table record, warnings, notes) of one cell; row and record None where the
+    synthesis failed (its warning says why)."""
+    label, key, lo, hi = cell
+    prm = model.params
+    A, B, _dyn = cell_plant(
+        model, cells=key, f_l=opt.load_force, opening_input=opt.dead_zone_inverse
     )
+    A, clipped, notes = _clipped_friction(A, label, k_w_max, prm.load.mass, opt.friction_slopes)
+    Aa, Ba, T, Tinv, q = _design_plant(A, B, opt, prm.valve)
+    As, Bs = Tinv @ Aa @ T, Tinv @ Ba
+    ctrb = _pbh(As, Bs)
+    controllable = bool(ctrb[-1] > 1e-9 * ctrb[0])
+    Ks, failure = _scaled_gain(As, Bs, q, opt)
+    if Ks is None:
+        return None, None, [f"cell {label}: design failed ({failure})"], notes
+    K = Ks @ Tinv
+    loop = _cell_loop(A, B, Aa, Ba, K, opt, prm.valve)
+    warns = []
+    if not controllable:
+        warns.append(
+            f"cell {label}: not controllable (PBH σ_min/‖[A, B]‖ = {ctrb[-1] / ctrb[0]:.2e})"
+        )
+    warns += _stability_warnings(label, loop)
+    row = _gain_row(K, cell, opt)
+    return row, _cell_record(cell, row, loop, controllable, clipped), warns, notes
+
+
+def _clipped_friction(A, label: str, k_w_max: float, mass: float, friction_slopes: str):
+    """(A, clipped, notes): with ``"clip"`` the cell's friction slope k_w = −A[1, 1]·m outside
+    [0, k_w_max] is clipped into it (a copy of A), and a note says so."""
+    k_w = -A[1, 1] * mass
+    clipped = friction_slopes == "clip" and not 0.0 <= k_w <= k_w_max
+    if not clipped:
+        return A, clipped, []
+    growth = float(np.max(np.linalg.eigvals(A).real))
+    note = (
+        f"cell {label}: friction slope {k_w:.4g} N·s/m (open-loop eigenvalue real part up to {growth:+.0f} 1/s) "
+        f"clipped to {min(max(k_w, 0.0), k_w_max):.4g} N·s/m for the design"
+    )
+    A = A.copy()
+    A[1, 1] = -min(max(k_w, 0.0), k_w_max) / mass
+    return A, clipped, [note]
+
+
+def _design_plant(A, B, opt: _FeedbackOptions, valve_prm):
+    """(Aa, Ba, T, T⁻¹, q): the cell's discrete design plant, its state scaling and the LQR
+    state weights q = (scale/maximum)² in the scaled states.
+
+    With ``opt.valve`` the states are [P_L, ẋ, x, ν, ν̇, I (, pending c)]: the servo valve
+    (Eq. (1)), the ZOH and the delay (:func:`_valve_augment`); else [P_L, ẋ, x, I]
+    (:func:`_augment`).
+    """
+    if opt.valve:
+        Aa, Ba = _valve_augment(A, B, opt.ts, valve_prm.omega0, valve_prm.zeta, opt.delay)
+        m = Aa.shape[0]
+        sc = _VALVE_SCALE[:m]
+        mx = np.concatenate([opt.maxima[:3], _VALVE_MAXIMA, opt.maxima[3:], [opt.u_max]])[:m]
+    else:
+        Ad, Bd = _discrete(A, B, opt.ts)
+        Aa, Ba = _augment(Ad, Bd, opt.ts)
+        sc, mx = _SCALE, opt.maxima
+    return Aa, Ba, np.diag(sc), np.diag(1.0 / sc), (sc / mx) ** 2
+
+
+def _scaled_gain(As, Bs, q, opt: _FeedbackOptions):
+    """(K_s, None) of the scaled plant (``control.dlqr`` with Q = diag(q), R = 1/u_max², or
+    ``control.place``), or (None, the error's text) where python-control cannot design it."""
+    import control  # deferred: python-control loads scipy.signal and matplotlib
+
+    R = np.array([[1.0 / opt.u_max**2]])
+    try:
+        if opt.method == "lqr":
+            Ks, _, _ = control.dlqr(As, Bs, np.diag(q), R)
+        else:
+            Ks = control.place(As, Bs, opt.discrete_poles)
+        return np.atleast_2d(np.asarray(Ks, dtype=float)), None
+    except Exception as exc:  # python-control raises several types for a singular design
+        return None, str(exc)
+
+
+@dataclass(frozen=True, eq=False)
+class _CellLoop:
+    """One cell's closed loop: spectral radii on the cell and with the servo valve, the
+    continuous-equivalent poles [1/s], smallest damping, dominant frequency and bandwidth [Hz]."""
+
+    radius: float
+    radius_valve: float
+    poles: np.ndarray
+    damping_min: float
+    natural_freq_hz: float
+    bandwidth_hz: float
+
+
+def _cell_loop(A, B, Aa, Ba, K, opt: _FeedbackOptions, valve_prm) -> _CellLoop:
+    """The closed loop x⁺ = (Aa − Ba K) x of one cell and its response r → x (:func:`_pole_stats`)."""
+    if opt.valve:
+        radius = radius_v = _radius(Aa, Ba, K, False)
+        i_int = 5
+    else:
+        radius = _radius(Aa, Ba, K, opt.delay)
+        radius_v = _valve_loop_radius(A, B, K, opt.ts, valve_prm.omega0, valve_prm.zeta, opt.delay)
+        i_int = 3
+    Acl = Aa - Ba @ K
+    Br = Ba * K[0, 2]
+    Br[i_int, 0] += opt.ts
+    Cx = np.zeros((1, Aa.shape[0]))
+    Cx[0, 2] = 1.0
+    s, zmin, fdom, bw = _pole_stats(Acl, opt.ts, Br, Cx)
+    return _CellLoop(radius, radius_v, s, zmin, fdom, bw)
+
+
+def _stability_warnings(label: str, loop: _CellLoop) -> list[str]:
+    """The warning of a cell whose closed loop is unstable on the PWA cell or with the valve."""
+    if loop.radius >= 1.0:
+        return [
+            f"cell {label}: closed loop unstable on the PWA cell (spectral radius {loop.radius:.4f})"
+        ]
+    if loop.radius_valve >= 1.0:
+        return [
+            f"cell {label}: unstable with the servo valve's dynamics (spectral radius {loop.radius_valve:.4f})"
+        ]
+    return []
+
+
+def _gain_row(K, cell, opt: _FeedbackOptions) -> GainRow:
+    """The cell's gain row from K over [P_L, ẋ, x, (ν, ν̇,) I (, pending c)] in SI units."""
+    label, _key, lo, hi = cell
+    if opt.valve:
+        return GainRow(
+            lo,
+            hi,
+            k_pl=K[0, 0],
+            k_v=K[0, 1],
+            k_x=K[0, 2],
+            k_i=-K[0, 5],
+            label=label,
+            k_nu=K[0, 3],
+            k_dnu=K[0, 4],
+            k_up=K[0, 6] if opt.delay else 0.0,
+        )
+    return GainRow(lo, hi, k_pl=K[0, 0], k_v=K[0, 1], k_x=K[0, 2], k_i=-K[0, 3], label=label)
+
+
+def _cell_record(cell, row: GainRow, loop: _CellLoop, controllable: bool, clipped: bool) -> dict:
+    """The cell's row of the design table (engineering units: bar, mm/s, mm, Hz)."""
+    label, key, lo, hi = cell
+    return {
+        "cell": label,
+        "g": key[0],
+        "s": key[1],
+        "o": key[2],
+        "w": key[3],
+        "p_l_lo_bar": lo[0] / 1e5,
+        "p_l_hi_bar": hi[0] / 1e5,
+        "v_lo_mm_s": lo[1] * 1e3,
+        "v_hi_mm_s": hi[1] * 1e3,
+        "k_pl_per_bar": row.k_pl * 1e5,
+        "k_v_s_per_m": row.k_v,
+        "k_x_per_mm": row.k_x * 1e-3,
+        "k_i_per_mm_s": row.k_i * 1e-3,
+        "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in loop.poles),
+        "damping_min": loop.damping_min,
+        "natural_freq_hz": loop.natural_freq_hz,
+        "bandwidth_hz": loop.bandwidth_hz,
+        "radius": loop.radius,
+        "radius_valve": loop.radius_valve,
+        "controllable": controllable,
+        "stable": loop.radius < 1.0,
+        "friction_clipped": clipped,
+    }
+
+
+def _feedback_info(model, opt: _FeedbackOptions, notes: list[str]) -> dict[str, Any]:
+    """The design's ``info`` (also the controller's ``design``): method, options, notes."""
     info = {
-        "method": method,
-        "sample_time": ts,
-        "delay": bool(delay),
+        "method": opt.method,
+        "sample_time": opt.ts,
+        "delay": bool(opt.delay),
         "model": "pwa",
         "form": model.form,
         "supply_pressure": model.supply_pressure,
-        "friction_slopes": friction_slopes,
-        "valve": bool(valve),
-        "spool": spool,
-        "position_noise": None if position_noise is None else float(position_noise),
-        "feedforward": bool(feedforward),
+        "friction_slopes": opt.friction_slopes,
+        "valve": opt.valve,
+        "spool": opt.spool,
+        "position_noise": None if opt.position_noise is None else float(opt.position_noise),
+        "feedforward": bool(opt.feedforward),
         "notes": notes,
-        "pressure_washout": float(pressure_washout),
-        "load_force": float(prm.load.force if load_force is None else load_force),
-        "weights": dict(zip(("p_l", "v", "x", "integral"), maxima.tolist(), strict=True))
-        | {"u": u_max},
+        "pressure_washout": float(opt.pressure_washout),
+        "load_force": float(model.params.load.force if opt.load_force is None else opt.load_force),
+        "weights": dict(zip(("p_l", "v", "x", "integral"), opt.maxima.tolist(), strict=True))
+        | {"u": opt.u_max},
     }
-    if method == "place":
-        info["poles"] = [[p.real, p.imag] for p in poles]  # type: ignore[union-attr]
-    ctrl = StateFeedbackController(
-        rows=tuple(rows),
-        sample_time=ts,
-        delay=bool(delay),
-        u_min=float(u_limits[0]),
-        u_max=float(u_limits[1]),
-        anti_windup=anti_windup,
-        dead_zone_inverse=dzi,
-        design=info,
-        pressure_washout=float(pressure_washout),
-        load_pressure=_load_pressure_of(model),
-        feedforward=_feedforward(model, ts, delay) if feedforward else None,
-        spool_model=dataclasses.replace(
-            SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, ts),
-            measured=spool == "measured",
+    if opt.method == "place":
+        info["poles"] = [[p.real, p.imag] for p in opt.poles]  # type: ignore[union-attr]
+    return info
+
+
+def _feedback_parts(model, opt: _FeedbackOptions) -> dict[str, Any]:
+    """The controller's parts beside its rows: P_L washout and definition, flow feed-forward,
+    spool model, position observer and machine."""
+    prm = model.params
+    return {
+        "pressure_washout": float(opt.pressure_washout),
+        "load_pressure": _load_pressure_of(model),
+        "feedforward": _feedforward(model, opt.ts, opt.delay) if opt.feedforward else None,
+        "spool_model": dataclasses.replace(
+            SpoolModel.from_valve(prm.valve.omega0, prm.valve.zeta, opt.ts),
+            measured=opt.spool == "measured",
         )
-        if valve
+        if opt.valve
         else None,
-        position_observer=None
-        if position_noise is None
-        else position_observer_gains(ts, float(position_noise), float(acceleration_noise)),
-        machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
-    )
-    return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
+        "position_observer": None
+        if opt.position_noise is None
+        else position_observer_gains(
+            opt.ts, float(opt.position_noise), float(opt.acceleration_noise)
+        ),
+        "machine": machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
+    }
 
 
 def _finite_or_none(v) -> float | None:
@@ -712,7 +872,6 @@ def design_pi(
     ControlDesign
         ``table`` holds the one working point: gains, margins, crossover, poles.
     """
-    import control  # deferred: python-control loads scipy.signal and matplotlib
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     prm = model.params
@@ -724,56 +883,22 @@ def design_pi(
             model.force_area if hasattr(model, "force_area") else prm.cylinder.mean_area
         )
         point = {"p_l": p_l, "v": 0.1, "u": 0.3}  # the outer (viscous) friction cell: rising slope
-    A, B, dyn = cell_plant(model, point=point, opening_input=dead_zone_inverse)
-    # steady velocity per unit input of the [P_L, ẋ] subsystem
-    k_v = float(-(np.linalg.solve(A[:2, :2], B[:2, 0]))[1])
-    if not k_v > 0:
-        raise ControlError(
-            f"velocity gain {k_v:g} m/s at the working point is not positive; choose another point"
-        )
-    plant = control.ss(A, B, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1)))
-    if include_valve:
-        w0, z0 = prm.valve.omega0, prm.valve.zeta
-        plant = control.series(control.tf([w0**2], [1.0, 2 * z0 * w0, w0**2]), plant)
-    pd_ = control.sample_system(plant, ts, method="zoh")
-    if delay:
-        pd_ = control.series(control.tf([1.0], [1.0, 0.0], ts), pd_)
-    best = None
-    w_nyq = math.pi / ts
-    # the plant's frequency response once; the controller's is analytic in kp, ki
-    w = np.geomspace(1e-2, 0.999 * w_nyq, 4000)
-    zz = np.exp(1j * w * ts)
-    P = np.asarray(pd_(zz), dtype=complex).ravel()
-    for wc in np.geomspace(0.5 * w_nyq, 1.0, 240):
-        kp = wc / k_v
-        ki = kp * integral_ratio * wc if integral else 0.0
-        gm_db, pm = _margins((kp + ki * ts * zz / (zz - 1.0)) * P)
-        if gm_db < gain_margin_db or pm < phase_margin:
-            continue
-        cz = (
-            control.tf([kp + ki * ts, -kp], [1.0, -1.0], ts)
-            if integral
-            else control.tf([kp], [1.0], ts)
-        )
-        cl = control.feedback(control.series(cz, pd_), 1)
-        if np.max(np.abs(cl.poles())) < 1.0:
-            best = (wc, kp, ki, gm_db, pm, cl)
-            break
-    if best is None:
-        raise ControlError("no crossover meets the margins; relax phase_margin / gain_margin_db")
-    wc, kp, ki, gm_db, pm, cl = best
-    s = np.log(cl.poles().astype(complex)) / ts
-    wn = np.abs(s)
-    zeta = float(np.min(-s.real / np.where(wn > 0, wn, 1.0)))
-    f = np.logspace(-1, math.log10(0.499 / ts), 400)
-    mag = np.abs(cl(np.exp(2j * math.pi * f * ts)))
-    below = np.flatnonzero(mag < abs(cl(1.0)) / math.sqrt(2.0))
-    bw = float(f[below[0]]) if below.size else float(f[-1])
+    k_v, dyn, plant = _pi_plant(model, point, ts, delay, dead_zone_inverse, include_valve)
+    loop = _pi_crossover(
+        plant,
+        k_v,
+        ts,
+        integral,
+        integral_ratio,
+        phase_margin=phase_margin,
+        gain_margin_db=gain_margin_db,
+    )
+    s, zeta, bw = _pi_loop_stats(loop.cl, ts)
     dzi = DeadZoneInverse.from_params(prm.dead_zone) if dead_zone_inverse else None
     ctrl = PIController(
         load_pressure=_load_pressure_of(model),
-        kp=kp,
-        ki=ki,
+        kp=loop.kp,
+        ki=loop.ki,
         kff=(1.0 / k_v if feedforward and not flow_feedforward else 0.0),
         feedforward=_feedforward(model, ts, delay) if flow_feedforward else None,
         machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
@@ -789,17 +914,17 @@ def design_pi(
         "p_l_bar": point["p_l"] / 1e5,
         "v_mm_s": point["v"] * 1e3,
         "velocity_gain_m_s": k_v,
-        "crossover_hz": wc / (2 * math.pi),
-        "kp_per_mm": kp * 1e-3,
-        "ki_per_mm_s": ki * 1e-3,
+        "crossover_hz": loop.wc / (2 * math.pi),
+        "kp_per_mm": loop.kp * 1e-3,
+        "ki_per_mm_s": loop.ki * 1e-3,
         "kff_s_per_m": ctrl.kff,
-        "gain_margin_db": gm_db,
-        "phase_margin_deg": pm,
+        "gain_margin_db": loop.gain_margin_db,
+        "phase_margin_deg": loop.phase_margin,
         "poles": "; ".join(f"{p.real:.0f}{p.imag:+.0f}j" for p in s),
         "damping_min": zeta,
         "bandwidth_hz": bw,
-        "radius": float(np.max(np.abs(cl.poles()))),
-        "radius_valve": float(np.max(np.abs(cl.poles()))),
+        "radius": float(np.max(np.abs(loop.cl.poles()))),
+        "radius_valve": float(np.max(np.abs(loop.cl.poles()))),
         "controllable": True,
         "stable": True,
     }
@@ -813,6 +938,87 @@ def design_pi(
         "gain_margin_db": gain_margin_db,
     }
     return ControlDesign(ctrl, pd.DataFrame.from_records([rec]), [], info)
+
+
+def _pi_plant(model, point, ts: float, delay, dead_zone_inverse: bool, include_valve: bool):
+    """(K_v [m/s], the cell's dynamics, the sampled plant c → x) of :func:`design_pi` at ``point``.
+
+    K_v is the steady velocity per unit input of the cell's [P_L, ẋ] subsystem; the plant is
+    the cell with the servo valve (Eq. (1)) before it if ``include_valve``, sampled with ZOH,
+    and a sample of delay if ``delay``.
+    """
+    import control  # deferred: python-control loads scipy.signal and matplotlib
+
+    prm = model.params
+    A, B, dyn = cell_plant(model, point=point, opening_input=dead_zone_inverse)
+    k_v = float(-(np.linalg.solve(A[:2, :2], B[:2, 0]))[1])
+    if not k_v > 0:
+        raise ControlError(
+            f"velocity gain {k_v:g} m/s at the working point is not positive; choose another point"
+        )
+    plant = control.ss(A, B, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 1)))
+    if include_valve:
+        w0, z0 = prm.valve.omega0, prm.valve.zeta
+        plant = control.series(control.tf([w0**2], [1.0, 2 * z0 * w0, w0**2]), plant)
+    pd_ = control.sample_system(plant, ts, method="zoh")
+    if delay:
+        pd_ = control.series(control.tf([1.0], [1.0, 0.0], ts), pd_)
+    return k_v, dyn, pd_
+
+
+@dataclass(frozen=True, eq=False)
+class _PiLoop:
+    """The kept crossover of :func:`design_pi`: ω_c [rad/s], k_p [1/m], k_i [1/(m·s)], the
+    margins [dB, deg] and the closed loop r → x (a python-control transfer function)."""
+
+    wc: float
+    kp: float
+    ki: float
+    gain_margin_db: float
+    phase_margin: float
+    cl: Any
+
+
+def _pi_crossover(
+    plant, k_v: float, ts: float, integral, integral_ratio, *, phase_margin, gain_margin_db
+) -> _PiLoop:
+    """The highest crossover ω_c (240 steps from half Nyquist down to 1 rad/s) whose loop
+    k_p K_v = ω_c meets both margins (``phase_margin`` [deg], ``gain_margin_db`` [dB]) and
+    whose closed loop is stable; k_i = k_p·``integral_ratio``·ω_c with ``integral``."""
+    import control  # deferred: python-control loads scipy.signal and matplotlib
+
+    w_nyq = math.pi / ts
+    # the plant's frequency response once; the controller's is analytic in kp, ki
+    w = np.geomspace(1e-2, 0.999 * w_nyq, 4000)
+    zz = np.exp(1j * w * ts)
+    P = np.asarray(plant(zz), dtype=complex).ravel()
+    for wc in np.geomspace(0.5 * w_nyq, 1.0, 240):
+        kp = wc / k_v
+        ki = kp * integral_ratio * wc if integral else 0.0
+        gm_db, pm = _margins((kp + ki * ts * zz / (zz - 1.0)) * P)
+        if gm_db < gain_margin_db or pm < phase_margin:
+            continue
+        cz = (
+            control.tf([kp + ki * ts, -kp], [1.0, -1.0], ts)
+            if integral
+            else control.tf([kp], [1.0], ts)
+        )
+        cl = control.feedback(control.series(cz, plant), 1)
+        if np.max(np.abs(cl.poles())) < 1.0:
+            return _PiLoop(wc, kp, ki, gm_db, pm, cl)
+    raise ControlError("no crossover meets the margins; relax phase_margin / gain_margin_db")
+
+
+def _pi_loop_stats(cl, ts: float) -> tuple[np.ndarray, float, float]:
+    """(continuous-equivalent poles ln(z)/T_s [1/s], smallest damping, bandwidth r → x [Hz])."""
+    s = np.log(cl.poles().astype(complex)) / ts
+    wn = np.abs(s)
+    zeta = float(np.min(-s.real / np.where(wn > 0, wn, 1.0)))
+    f = np.logspace(-1, math.log10(0.499 / ts), 400)
+    mag = np.abs(cl(np.exp(2j * math.pi * f * ts)))
+    below = np.flatnonzero(mag < abs(cl(1.0)) / math.sqrt(2.0))
+    bw = float(f[below[0]]) if below.size else float(f[-1])
+    return s, zeta, bw
 
 
 def design_textbook_pi(
