@@ -7,7 +7,7 @@ User errors raise :class:`~hydropwa.HydropwaError`; the CLI's one error path pri
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -15,6 +15,9 @@ from hydropwa._errors import PwaError
 
 from ._app import new_app
 from ._options import SAMPLE_TIME_METAVAR, ParamsOption, parse_sample_time, resolve_params
+
+if TYPE_CHECKING:
+    from hydropwa.params import SystemParams
 
 __all__ = ["app", "linearize_command", "parse_cells"]
 
@@ -94,7 +97,9 @@ def linearize_command(
     return written + _write_reports(model, figures, tables)
 
 
-def _quantities(params, supply_pressure, sample_time, refine_tol):
+def _quantities(
+    params: str | None, supply_pressure: str | None, sample_time: str | None, refine_tol: str | None
+) -> tuple[SystemParams, float | None, float | None, float | None]:
     """(parameters, P_S [Pa] or None, sample time [s] or None, refine tolerance [Pa/s] or
     None) from the command's options."""
     from hydropwa.params import (
@@ -126,7 +131,16 @@ def _visited_cells(model):
         return model.visited_cells(run)
 
 
-def _export(model, out, mat, dt, tol, units, force, selected) -> tuple[list[Path], dict]:
+def _export(
+    model,
+    out: Path,
+    mat: Path | None,
+    dt: float | None,
+    tol: float | None,
+    units: str,
+    force: bool,
+    selected,
+) -> tuple[list[Path], dict]:
     """Write the JSON document (and the MAT file if asked); the written paths and the
     exported document."""
     from hydropwa.linearization import (  # deferred: loaded only when this command runs (a fast --help)
