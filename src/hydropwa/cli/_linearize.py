@@ -7,7 +7,7 @@ User errors raise :class:`~hydropwa.HydropwaError`; the CLI's one error path pri
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -15,6 +15,9 @@ from hydropwa._errors import PwaError
 
 from ._app import new_app
 from ._options import SAMPLE_TIME_METAVAR, ParamsOption, parse_sample_time, resolve_params
+
+if TYPE_CHECKING:
+    from hydropwa.params import SystemParams
 
 __all__ = ["app", "linearize_command", "parse_cells"]
 
@@ -66,24 +69,11 @@ def linearize_command(
     Parameters mirror the command-line options (``params``: a preset name or a TOML/JSON
     file); quantities are strings with units (``"95 bar"``, ``"1 ms"``) or plain SI numbers.
     """
-    from hydropwa.linearization import (  # deferred: loaded only when this command runs (a fast --help)
-        export_pwa,
-        linearize,
-        save_pwa,
-        save_pwa_mat,
-    )
-    from hydropwa.params import (
-        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    from hydropwa.linearization import (
+        linearize,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    prm = resolve_params(params)
-    ps = (
-        None
-        if supply_pressure is None
-        else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
-    )
-    dt = None if sample_time is None else parse_sample_time(sample_time)
-    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    prm, ps, dt, tol = _quantities(params, supply_pressure, sample_time, refine_tol)
     chamber = form == "chamber"
     if chamber and (tol is not None or figures is not None or tables is not None):
         raise PwaError(
@@ -101,15 +91,66 @@ def linearize_command(
             form=form,
             scheduled=scheduled,
         )
-    selected = None
-    if chamber:  # its cell sets multiply to ~10^5 combinations: export those a run visits
-        from hydropwa.simulation import (
-            simulate,  # deferred: loaded only when this command runs (a fast --help)
-        )
+    selected = _visited_cells(model) if chamber else None
+    written, doc = _export(model, out, mat, dt, tol, units, force, selected)
+    _echo_error_bound(doc, chamber)
+    return written + _write_reports(model, figures, tables)
 
-        with step(f"simulating {CHAMBER_EXPORT_RUN} for the cells it visits"):
-            run = simulate(model, CHAMBER_EXPORT_RUN, duration=CHAMBER_EXPORT_DURATION)
-            selected = model.visited_cells(run)
+
+def _quantities(
+    params: str | None, supply_pressure: str | None, sample_time: str | None, refine_tol: str | None
+) -> tuple[SystemParams, float | None, float | None, float | None]:
+    """(parameters, P_S [Pa] or None, sample time [s] or None, refine tolerance [Pa/s] or
+    None) from the command's options."""
+    from hydropwa.params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    prm = resolve_params(params)
+    ps = (
+        None
+        if supply_pressure is None
+        else parse_quantity(supply_pressure, "Pa", "--supply-pressure")
+    )
+    dt = None if sample_time is None else parse_sample_time(sample_time)
+    tol = None if refine_tol is None else parse_quantity(refine_tol, "Pa/s", "--refine-tol")
+    return prm, ps, dt, tol
+
+
+def _visited_cells(model):
+    """The cell combinations a simulated run of the chamber form visits: its cell sets
+    multiply to ~10^5 combinations, so only those are exported."""
+    from hydropwa.simulation import (
+        simulate,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
+
+    with step(f"simulating {CHAMBER_EXPORT_RUN} for the cells it visits"):
+        run = simulate(model, CHAMBER_EXPORT_RUN, duration=CHAMBER_EXPORT_DURATION)
+        return model.visited_cells(run)
+
+
+def _export(
+    model,
+    out: Path,
+    mat: Path | None,
+    dt: float | None,
+    tol: float | None,
+    units: str,
+    force: bool,
+    selected,
+) -> tuple[list[Path], dict]:
+    """Write the JSON document (and the MAT file if asked); the written paths and the
+    exported document."""
+    from hydropwa.linearization import (  # deferred: loaded only when this command runs (a fast --help)
+        export_pwa,
+        save_pwa,
+        save_pwa_mat,
+    )
+
+    from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
+
     with step("exporting the cells" + (" (ZOH)" if dt is not None else "")):
         written = [
             save_pwa(
@@ -135,6 +176,11 @@ def linearize_command(
                     cells=selected,
                 )
             )
+    return written, doc
+
+
+def _echo_error_bound(doc: dict, chamber: bool) -> None:
+    """Print the number of cells and the largest guaranteed vector-field error of a cell."""
     if chamber:
         unit = doc["state"][2]["unit"]
         typer.echo(
@@ -148,6 +194,13 @@ def linearize_command(
             f"{len(doc['cells'])} cells; largest guaranteed vector-field error of a cell "
             f"{doc['max_error_bound']:.4g} {unit}/s on dP_L/dt (A y + B u + f against the PWA model)"
         )
+
+
+def _write_reports(model, figures: Path | None, tables: Path | None) -> list[Path]:
+    """Write Figs. 1-2 and Tables IV-IX where asked; the written paths."""
+    from ._progress import step  # deferred: loaded only when this command runs (a fast --help)
+
+    written: list[Path] = []
     if figures is not None:
         from hydropwa.linearization._report import (
             write_figures,  # deferred: loaded only when this command runs (a fast --help)

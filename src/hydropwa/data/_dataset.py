@@ -107,7 +107,7 @@ _ENTRY_FIELDS: dict[str, tuple[type, ...]] = {
 }
 
 
-def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:  # noqa: C901 (to be split, issue 33)
+def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:
     """Check a manifest document against the schema; one message per problem (empty: valid).
 
     The schema: an object with ``"format": "hydropwa-dataset"``, an integer
@@ -119,6 +119,20 @@ def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:  # noqa: 
     """
     if not isinstance(doc, dict):
         return [f"the document is a JSON {type(doc).__name__}, expected an object with a runs list"]
+    problems = _head_problems(doc)
+    runs = doc.get("runs")
+    if not isinstance(runs, list):
+        problems.append('"runs" must be a list of run entries')
+        return problems
+    names: dict[str, int] = {}
+    files: dict[str, int] = {}
+    for i, e in enumerate(runs):
+        problems += _entry_problems(i, e, root, names, files)
+    return problems
+
+
+def _head_problems(doc: dict) -> list[str]:
+    """The problems of the manifest's top-level fields (all but ``runs``)."""
     problems = []
     if doc.get("format") != _FORMAT:
         problems.append(f'"format" is {doc.get("format")!r:.40}, expected "{_FORMAT}"')
@@ -131,48 +145,61 @@ def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:  # noqa: 
         )
     if not isinstance(doc.get("meta", {}), dict):
         problems.append('"meta" must be an object')
-    runs = doc.get("runs")
-    if not isinstance(runs, list):
-        problems.append('"runs" must be a list of run entries')
-        return problems
-    names: dict[str, int] = {}
-    files: dict[str, int] = {}
-    for i, e in enumerate(runs):
-        where = f"runs[{i}]"
-        if not isinstance(e, dict):
-            problems.append(f"{where} is a JSON {type(e).__name__}, expected an object")
-            continue
-        name, file = e.get("name"), e.get("file")
-        if not isinstance(name, str) or not name.strip():
-            problems.append(f'{where} needs a "name" (a non-empty string), has {name!r:.40}')
-        else:
-            where = f"runs[{i}] ({name!r:.40})"
-            if name in names:
-                problems.append(f"{where}: the name is also runs[{names[name]}]'s")
-            names.setdefault(name, i)
-        if not isinstance(file, str) or not file.strip():
-            problems.append(f'{where} needs a "file" (a path in the folder), has {file!r:.40}')
-        else:
-            try:
-                contained_path(root, file, what=f"{where} file")
-            except DataError as exc:
-                problems.append(str(exc).partition("; hint: ")[0])
-            if Path(file).suffix.lower() not in FORMATS:
-                problems.append(
-                    f"{where}: file {file!r:.60} has no run-file suffix (.csv, .parquet, .mat)"
-                )
-            if file in files:
-                problems.append(f"{where}: file {file!r:.60} is also runs[{files[file]}]'s")
-            files.setdefault(file, i)
-        for key, types in _ENTRY_FIELDS.items():
-            v = e.get(key)
-            if not isinstance(v, types) or isinstance(v, bool):
-                problems.append(
-                    f"{where}: {key!r} = {v!r:.40} has the wrong type ({type(v).__name__})"
-                )
-        fmt = e.get("format")
-        if isinstance(fmt, str) and fmt.lower() not in ("csv", "parquet", "mat"):
-            problems.append(f"{where}: format {fmt!r:.20} is not csv, parquet or mat")
+    return problems
+
+
+def _entry_problems(
+    i: int, e: Any, root: str | os.PathLike, names: dict[str, int], files: dict[str, int]
+) -> list[str]:
+    """The problems of run entry ``i``; records its name and file in ``names``/``files``
+    (first index of each) for the duplicate checks of the entries after it."""
+    where = f"runs[{i}]"
+    if not isinstance(e, dict):
+        return [f"{where} is a JSON {type(e).__name__}, expected an object"]
+    problems = []
+    name, file = e.get("name"), e.get("file")
+    if not isinstance(name, str) or not name.strip():
+        problems.append(f'{where} needs a "name" (a non-empty string), has {name!r:.40}')
+    else:
+        where = f"runs[{i}] ({name!r:.40})"
+        if name in names:
+            problems.append(f"{where}: the name is also runs[{names[name]}]'s")
+        names.setdefault(name, i)
+    if not isinstance(file, str) or not file.strip():
+        problems.append(f'{where} needs a "file" (a path in the folder), has {file!r:.40}')
+    else:
+        problems += _file_problems(where, i, file, root, files)
+    return problems + _field_problems(where, e)
+
+
+def _file_problems(
+    where: str, i: int, file: str, root: str | os.PathLike, files: dict[str, int]
+) -> list[str]:
+    """The problems of entry ``i``'s ``file`` (a non-empty string): outside the folder, no
+    run-file suffix, another entry's file."""
+    problems = []
+    try:
+        contained_path(root, file, what=f"{where} file")
+    except DataError as exc:
+        problems.append(str(exc).partition("; hint: ")[0])
+    if Path(file).suffix.lower() not in FORMATS:
+        problems.append(f"{where}: file {file!r:.60} has no run-file suffix (.csv, .parquet, .mat)")
+    if file in files:
+        problems.append(f"{where}: file {file!r:.60} is also runs[{files[file]}]'s")
+    files.setdefault(file, i)
+    return problems
+
+
+def _field_problems(where: str, e: dict) -> list[str]:
+    """The problems of an entry's optional fields: JSON types, the format name."""
+    problems = []
+    for key, types in _ENTRY_FIELDS.items():
+        v = e.get(key)
+        if not isinstance(v, types) or isinstance(v, bool):
+            problems.append(f"{where}: {key!r} = {v!r:.40} has the wrong type ({type(v).__name__})")
+    fmt = e.get("format")
+    if isinstance(fmt, str) and fmt.lower() not in ("csv", "parquet", "mat"):
+        problems.append(f"{where}: format {fmt!r:.20} is not csv, parquet or mat")
     return problems
 
 

@@ -399,10 +399,31 @@ def _mat_elements(
     return found
 
 
-def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None:  # noqa: C901 (to be split, issue 33)
+def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None:
     """Check one matrix's parts (flags, dimensions, name, data) against its class."""
     if not parts:
         return  # an empty matrix (an empty struct field or cell)
+    cls, complex_, dims = _mat_header(buf, parts, fmt)
+    count = int(np.prod(dims))
+    rest = parts[3:]
+    if cls in (4, *range(6, 16)):  # char, numeric
+        _mat_numeric(rest, complex_, count, dims)
+    elif cls == 5:  # sparse: row indices, column starts, values (and imaginary values)
+        if len(rest) != 3 + complex_ or any(t == 14 for t, _, _ in rest):
+            raise ValueError("sparse matrix parts malformed")
+    elif cls == 1:  # cell: one matrix per element
+        if len(rest) != count or any(t != 14 for t, _, _ in rest):
+            raise ValueError("cell array parts do not match its dimensions")
+    elif cls in (2, 3):  # struct, object (class name first)
+        _mat_struct(buf, rest[1:] if cls == 3 else rest, count, fmt)
+    elif cls not in (16, 17):  # function handles and opaque (MCOS) objects: left to scipy
+        raise ValueError(f"unknown matrix class {cls}")
+
+
+def _mat_header(
+    buf: bytes, parts: list[tuple[int, int, int]], fmt: str
+) -> tuple[int, bool, tuple[int, ...]]:
+    """A matrix's class, complex flag and dimensions, from its array flags and dimensions."""
     if len(parts) < 3 or parts[0][0] != 6 or parts[0][2] != 8 or parts[1][0] != 5:
         raise ValueError("matrix without array flags, dimensions and name")
     word = struct.unpack_from(fmt[0] + "I", buf, parts[0][1])[0]
@@ -413,33 +434,31 @@ def _mat_matrix(buf: bytes, parts: list[tuple[int, int, int]], fmt: str) -> None
     dims = struct.unpack_from(f"{fmt[0]}{n_dims}i", buf, parts[1][1])
     if min(dims) < 0 or float(np.prod(np.asarray(dims, dtype=float))) > 2**31:
         raise ValueError(f"matrix dimensions {dims} invalid")
-    count = int(np.prod(dims))
-    rest = parts[3:]
-    if cls in (4, *range(6, 16)):  # char, numeric
-        if len(rest) != 1 + complex_ or any(t == 14 for t, _, _ in rest):
-            raise ValueError("numeric matrix parts do not match its complex flag")
-        for t, _, nb in rest:
-            if t != 16 and nb != count * _MAT_ITEMSIZE[t]:
-                raise ValueError(f"matrix data of {nb} bytes for dimensions {dims}")
-    elif cls == 5:  # sparse: row indices, column starts, values (and imaginary values)
-        if len(rest) != 3 + complex_ or any(t == 14 for t, _, _ in rest):
-            raise ValueError("sparse matrix parts malformed")
-    elif cls == 1:  # cell: one matrix per element
-        if len(rest) != count or any(t != 14 for t, _, _ in rest):
-            raise ValueError("cell array parts do not match its dimensions")
-    elif cls in (2, 3):  # struct, object (class name first): field-name length, names
-        if cls == 3:
-            rest = rest[1:]
-        if len(rest) < 2 or rest[0][0] != 5 or rest[0][2] != 4 or rest[1][0] != 1:
-            raise ValueError("struct without field names")
-        fnl = struct.unpack_from(fmt[0] + "i", buf, rest[0][1])[0]
-        if fnl <= 0 or rest[1][2] % fnl:
-            raise ValueError("struct field names malformed")
-        n_fields = rest[1][2] // fnl
-        if len(rest) - 2 != count * n_fields or any(t != 14 for t, _, _ in rest[2:]):
-            raise ValueError("struct parts do not match its dimensions and fields")
-    elif cls not in (16, 17):  # function handles and opaque (MCOS) objects: left to scipy
-        raise ValueError(f"unknown matrix class {cls}")
+    return cls, complex_, dims
+
+
+def _mat_numeric(
+    rest: list[tuple[int, int, int]], complex_: bool, count: int, dims: tuple[int, ...]
+) -> None:
+    """Check a char or numeric matrix's data parts (real, and imaginary if complex)."""
+    if len(rest) != 1 + complex_ or any(t == 14 for t, _, _ in rest):
+        raise ValueError("numeric matrix parts do not match its complex flag")
+    for t, _, nb in rest:
+        if t != 16 and nb != count * _MAT_ITEMSIZE[t]:
+            raise ValueError(f"matrix data of {nb} bytes for dimensions {dims}")
+
+
+def _mat_struct(buf: bytes, rest: list[tuple[int, int, int]], count: int, fmt: str) -> None:
+    """Check a struct's (or, after its class name, an object's) parts: field-name length,
+    names, then one matrix per field of each element."""
+    if len(rest) < 2 or rest[0][0] != 5 or rest[0][2] != 4 or rest[1][0] != 1:
+        raise ValueError("struct without field names")
+    fnl = struct.unpack_from(fmt[0] + "i", buf, rest[0][1])[0]
+    if fnl <= 0 or rest[1][2] % fnl:
+        raise ValueError("struct field names malformed")
+    n_fields = rest[1][2] // fnl
+    if len(rest) - 2 != count * n_fields or any(t != 14 for t, _, _ in rest[2:]):
+        raise ValueError("struct parts do not match its dimensions and fields")
 
 
 def _check_mat_v5(buf: bytes) -> None:

@@ -854,44 +854,11 @@ def linearize(
         params.supply.pressure if supply_pressure is None else supply_pressure, params, form
     )
     n = _parse_cells(cells)
-    if capacitance_position is not None:
-        xc = float(capacitance_position)
-        if not (math.isfinite(xc) and 0.0 <= xc <= params.cylinder.stroke):
-            raise PwaError(
-                f"capacitance position {xc:g} m must lie within the stroke 0 … {params.cylinder.stroke:g} m"
-            )
-    fr_mode = (
-        breakpoints
-        if isinstance(breakpoints, str)
-        else breakpoints.get("friction", "paper")
-        if isinstance(breakpoints, Mapping)
-        else None
-    )
+    _check_capacitance_position(capacitance_position, params)
     if friction_range is None:
-        friction_range = (
-            FRICTION_INTERVAL
-            if fr_mode == "paper"
-            else _widened(machine_velocity_range(params, ps, form))
-        )
+        friction_range = _default_friction_range(breakpoints, params, ps, form)
     wp = dict(working_points or {})
-    cq_int, cqp_int = CQ_INTERVAL, CQP_INTERVAL
-    if load_pressure_range is not None:
-        try:
-            lo, hi = (float(v) for v in load_pressure_range)
-        except (TypeError, ValueError):
-            raise PwaError(
-                f"load pressure range {load_pressure_range!r} must be two numbers in Pa"
-            ) from None
-        if not lo < hi:
-            raise PwaError(f"load pressure range ({lo:g}, {hi:g}) Pa must have lo < hi")
-        m = max(abs(lo), abs(hi))
-        if m > ps:
-            raise PwaError(
-                f"supply pressure {ps / 1e5:g} bar is below the load-pressure range up to {m / 1e5:g} bar; "
-                "raise the supply pressure or narrow the range"
-            )
-        r = m / ps
-        cq_int, cqp_int = (-r, r), (-r, min(r, CQP_INTERVAL[1]))
+    cq_int, cqp_int = _pressure_intervals(load_pressure_range, ps)
     mode, b = _spec(breakpoints, "cq")
     cq = cq_cells(n["cq"], mode, interval=cq_int, breakpoints=b, working_points=wp.get("cq"))
     mode, b = _spec(breakpoints, "cqp")
@@ -905,16 +872,6 @@ def linearize(
         breakpoints=b,
         working_points=wp.get("friction"),
     )
-    label = (
-        breakpoints
-        if isinstance(breakpoints, str)
-        else json.dumps(
-            {
-                k: (v if isinstance(v, str) else np.asarray(v, float).tolist())
-                for k, v in breakpoints.items()
-            }
-        )
-    )
     return PwaModel(
         params,
         dead_zone_cells(params.dead_zone),
@@ -925,8 +882,76 @@ def linearize(
         bool(scheduled),
         ps,
         INPUT_RANGE,
-        label,
+        _breakpoints_label(breakpoints),
         capacitance_position,
+    )
+
+
+def _check_capacitance_position(capacitance_position: float | None, params: SystemParams) -> None:
+    """PwaError unless the position is None or lies within the stroke."""
+    if capacitance_position is not None:
+        xc = float(capacitance_position)
+        if not (math.isfinite(xc) and 0.0 <= xc <= params.cylinder.stroke):
+            raise PwaError(
+                f"capacitance position {xc:g} m must lie within the stroke 0 … {params.cylinder.stroke:g} m"
+            )
+
+
+def _default_friction_range(
+    breakpoints, params: SystemParams, ps: float, form: str
+) -> tuple[float, float]:
+    """The friction fit's velocity range [m/s] when none is given: Table V's ±0.2 m/s for
+    paper friction cells, else the machine's range widened to the 5 % grid."""
+    fr_mode = (
+        breakpoints
+        if isinstance(breakpoints, str)
+        else breakpoints.get("friction", "paper")
+        if isinstance(breakpoints, Mapping)
+        else None
+    )
+    return (
+        FRICTION_INTERVAL
+        if fr_mode == "paper"
+        else _widened(machine_velocity_range(params, ps, form))
+    )
+
+
+def _pressure_intervals(
+    load_pressure_range, ps: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The C_q and C_qp fit intervals in p̃ = P_L/P_S [1] that cover ``load_pressure_range``
+    [Pa] (checked: two numbers, lo < hi, within ±P_S); the defaults when it is None."""
+    if load_pressure_range is None:
+        return CQ_INTERVAL, CQP_INTERVAL
+    try:
+        lo, hi = (float(v) for v in load_pressure_range)
+    except (TypeError, ValueError):
+        raise PwaError(
+            f"load pressure range {load_pressure_range!r} must be two numbers in Pa"
+        ) from None
+    if not lo < hi:
+        raise PwaError(f"load pressure range ({lo:g}, {hi:g}) Pa must have lo < hi")
+    m = max(abs(lo), abs(hi))
+    if m > ps:
+        raise PwaError(
+            f"supply pressure {ps / 1e5:g} bar is below the load-pressure range up to {m / 1e5:g} bar; "
+            "raise the supply pressure or narrow the range"
+        )
+    r = m / ps
+    return (-r, r), (-r, min(r, CQP_INTERVAL[1]))
+
+
+def _breakpoints_label(breakpoints) -> str:
+    """The model's label of its breakpoints: the mode name, or the mapping as JSON."""
+    return (
+        breakpoints
+        if isinstance(breakpoints, str)
+        else json.dumps(
+            {
+                k: (v if isinstance(v, str) else np.asarray(v, float).tolist())
+                for k, v in breakpoints.items()
+            }
+        )
     )
 
 
