@@ -361,3 +361,21 @@ def test_load_force_above_supply_raises(params):
 def test_control_statespace(params):
     sys, f = linearize(params).state_space({"p_l": 0.0, "v": 0.0, "u": 0.5}).to_statespace()
     assert sys.nstates == 3 and sys.ninputs == 1 and f.shape == (3,)
+
+
+@pytest.mark.parametrize("supply_pressure", [1.0, 1e3])
+def test_friction_cells_on_a_range_too_narrow_for_the_stribeck_pattern(params, supply_pressure):
+    """At a supply of a few pascal the machine's velocity range (µm/s) is far below the
+    Stribeck pattern's breakpoints (0.05χ … 3.5χ), which clip onto one another: the cells
+    are then the plain 7-cell minimax fit over that range, a complete model (it packs), and
+    they follow the friction law within the fit's own maximum error (grid of 2001 points;
+    1e-9 N of slack for the roundoff of evaluating two forms of one affine piece)."""
+    from hydropwa.linearization._cells import friction_function
+
+    model = linearize(params, supply_pressure=supply_pressure)
+    fit = model.friction
+    assert fit is not None and fit.n_cells == 7
+    assert model.pack().size > 0
+    v = np.linspace(*fit.interval, 2001)
+    err = np.abs(fit.pwa(v) - friction_function(params.friction)(v))
+    assert err.max() <= fit.max_error + 1e-9

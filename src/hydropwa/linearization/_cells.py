@@ -308,8 +308,9 @@ def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, fl
     Symmetric breakpoints start from Table V's pattern scaled by the machine's Stribeck
     velocity χ (0.05χ, 0.92χ, 3.5χ for 7 cells; a geometric spread from 1/γ to a third of
     the range for other counts) and are then optimised (Nelder–Mead on their logarithms,
-    minimax error of the least-squares-continuous fit over ``interval``). Cached per
-    (friction, n, interval).
+    minimax error of the least-squares-continuous fit over ``interval``). A range too narrow
+    for that pattern (its breakpoints clipped onto one another, e.g. at a supply pressure of
+    a few pascal) gets the plain n-cell minimax fit instead. Cached per (friction, n, interval).
     """
     from scipy.optimize import minimize  # deferred: scipy.optimize is slow to import
 
@@ -335,6 +336,10 @@ def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, fl
             return None
         return fit_pwa(func, interval, breakpoints=np.concatenate((-b[::-1], b)), method="minimax")
 
+    start = fit(np.log(b0))
+    if start is None:  # a range narrower than the pattern (e.g. a low supply): it collapses
+        return _optimized_friction(friction, interval, n, "minimax")
+
     def cost(logb):
         f = fit(logb)
         return np.inf if f is None else f.max_error
@@ -345,8 +350,7 @@ def machine_friction_cells(friction: Friction, n: int, interval: tuple[float, fl
         method="Nelder-Mead",
         options={"maxiter": 20 * k, "xatol": 1e-3, "fatol": 1e-2},
     )
-    best = fit(res.x) if np.isfinite(res.fun) and res.fun <= cost(np.log(b0)) else fit(np.log(b0))
-    return best
+    return fit(res.x) if np.isfinite(res.fun) and res.fun <= start.max_error else start
 
 
 @lru_cache(maxsize=32)
