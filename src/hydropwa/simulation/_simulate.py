@@ -707,7 +707,7 @@ def _packed_params(mdl: Model, command_amplitude: float) -> np.ndarray:
     key = (id(mdl), command_amplitude)
     with _PACKED_LOCK:
         hit = _PACKED.get(key)
-    if hit is None or hit[0] is not mdl:  # an id is reused only after its model is gone
+    if hit is None:  # (the entry holds its model: no other object takes its id meanwhile)
         hit = (mdl, mdl.pack(command_amplitude=command_amplitude))
         with _PACKED_LOCK:
             if len(_PACKED) >= _PACKED_SIZE:
