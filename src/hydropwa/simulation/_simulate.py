@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
+import threading
 import time as _time
 import warnings
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
@@ -468,7 +470,7 @@ def simulate_packed(
     return _output_channels(kind, t_out, Y, n_done, p, inputs.sg), int(n_done), int(status)
 
 
-def simulate(  # noqa: C901 (to be split, issue 33)
+def simulate(
     model: Model | str,
     u: Any = 0.0,
     *,
@@ -578,9 +580,63 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     SignalError
         For malformed times, inputs or initial states.
     """
+    timepts, initial_position = _resolve_aliases(timepts, t, initial_position, x0)
+    _check_method(solver, rtol)
+    mdl, kind = _resolve_model(model, params)
+    t_out, duration = _time_grid(timepts, duration, fs)
+    closed = _check_loop(u, controller, reference, sensor_noise)
+    sigs = _input_signals(mdl, kind, 0.0 if closed else u, supply_pressure, load_force, t_out)
+    inputs = PackedInputs.of(list(sigs), duration)
+    p = _packed_params(mdl, inputs.command_amplitude)
+    if closed:  # the command amplitude is not known beforehand: the valve's nominal ω0
+        p[K.I_OMEGA0] = mdl.params.valve.omega0
+    y0 = _initial_state(mdl, initial_state, initial_position, sigs, t_out[0])
+    hmax = inputs.hmax if hmax is None else hmax
+    loop = _closed_loop_setup(controller, reference, t_out, sensor_noise, seed) if closed else None
+    args = _solver_args(kind, mdl, y0, t_out, p, inputs.sg, rtol, hmax, max_steps, solver)
+    raw = _integrate(args, loop)
+    n_done = raw.n_done
+    Y = raw.Y[:n_done]
+    sg = inputs.sg
+    if loop is not None:  # derived channels see the held command of each sample interval
+        sg = pack_signals([_held_command(raw.log, t_out[0]), sigs[1], sigs[2]])
+    # the times are the caller's array when timepts was given: copy them then, not our own grid
+    t_done = t_out[:n_done] if timepts is None else t_out[:n_done].copy()
+    channels = _result_channels(kind, t_done, Y, n_done, p, sg, eager=closed)
+    compile_time = K.compile_seconds - raw.compiled0
+    control: dict[str, Any] = {}
+    if loop is not None:
+        control = _control_record(controller, loop[0], raw.log)
+        _closed_loop_channels(channels, loop, raw.log, t_out[0])
+    status, message, state = _outcome(mdl, raw)
+    result = SimulationResult(
+        t=t_done,
+        channels=channels,
+        states=Y,
+        state_names=tuple(mdl.state_names),
+        model=mdl.name,
+        params=mdl.params,
+        inputs={"u": sigs[0].describe(), "p_s": sigs[1].describe(), "f_l": sigs[2].describe()},
+        stats=_solver_stats(raw, solver, compile_time, rtol, status, float(p[K.I_OMEGA0])),
+        control=control,
+        message=message,
+    )
+    if not status.success and raise_on_failure:
+        raise SimulationError(message, t=float(raw.t_fail), state=state, partial=result)
+    return result
+
+
+def _resolve_aliases(
+    timepts: np.ndarray | None,
+    t: np.ndarray | None,
+    initial_position: float | None,
+    x0: float | None,
+) -> tuple[np.ndarray | None, float | None]:
+    """``timepts`` and ``initial_position`` from their deprecated aliases ``t`` and ``x0``
+    (each warns; an alias given beside its name is an error)."""
     if t is not None:
         warnings.warn(
-            "simulate(t=...) is deprecated; use timepts=...", DeprecationWarning, stacklevel=2
+            "simulate(t=...) is deprecated; use timepts=...", DeprecationWarning, stacklevel=3
         )
         if timepts is not None:
             raise SignalError("give either timepts or its deprecated alias t, not both")
@@ -590,11 +646,16 @@ def simulate(  # noqa: C901 (to be split, issue 33)
             "simulate(x0=...) is deprecated; the rod position is initial_position=... "
             "(initial_state is the full state vector)",
             DeprecationWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
         if initial_position is not None:
             raise SignalError("give either initial_position or its deprecated alias x0, not both")
         initial_position = x0
+    return timepts, initial_position
+
+
+def _check_method(solver: str, rtol: float) -> None:
+    """The Rosenbrock method is one of the kernel's and ``rtol`` within :data:`RTOL_RANGE`."""
     if solver not in K.SOLVERS:
         raise ParameterError(f"unknown solver {solver!r}; choose {', '.join(K.SOLVERS)}")
     if not (isinstance(rtol, int | float) and RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]):
@@ -603,40 +664,114 @@ def simulate(  # noqa: C901 (to be split, issue 33)
             f"{DEFAULT_RTOL:g} keeps the position within 0.1 mm, 1e-5 gives measurement-grade "
             "pressures"
         )
-    mdl = as_model(model, params)
+
+
+def _resolve_model(model: Model | str, params: SystemParams | None) -> tuple[Model, int]:
+    """The model object and the kernel's right-hand side for it (its kind)."""
+    if not isinstance(model, str) and type(model) in _MODEL_CLASSES:
+        mdl = model  # what as_model returns for it, without its runtime Protocol check
+    else:
+        mdl = as_model(model, params)
+        if mdl is model and _frozen(type(mdl)):
+            _MODEL_CLASSES.add(type(mdl))
     kind = _KERNEL_KIND.get(mdl.name)
     if kind is None:
         raise ParameterError(
             f"model {mdl.name!r} has no compiled right-hand side; choose {', '.join(_KERNEL_KIND)}"
         )
-    prm = mdl.params
+    return mdl, kind
+
+
+#: Model classes that passed :func:`~hydropwa.models.as_model`'s ``isinstance(model, Model)``:
+#: frozen dataclasses, whose instances all hold the same members, so that the runtime
+#: Protocol check (~30 µs, a third of the Python around the kernel) runs once per class.
+_MODEL_CLASSES: set[type] = set()
+#: ``pack`` of the last few frozen models: (id, command amplitude) → (model, vector). A frozen
+#: model's vector is a function of its fields and the amplitude; ~60 µs (PWA ~130 µs) a call.
+_PACKED: dict[tuple[int, float], tuple[Model, np.ndarray]] = {}
+_PACKED_SIZE = 16
+_PACKED_LOCK = threading.Lock()
+
+
+def _frozen(cls: type) -> bool:
+    """Whether instances of ``cls`` are frozen dataclasses (their fields cannot be reassigned)."""
+    params = getattr(cls, "__dataclass_params__", None)
+    return dataclasses.is_dataclass(cls) and bool(getattr(params, "frozen", False))
+
+
+def _packed_params(mdl: Model, command_amplitude: float) -> np.ndarray:
+    """``mdl.pack(command_amplitude=...)``, remembered for the last few frozen models (a fresh
+    copy each call: the closed loop writes ω0 into it)."""
+    if not _frozen(type(mdl)):
+        return mdl.pack(command_amplitude=command_amplitude)
+    key = (id(mdl), command_amplitude)
+    with _PACKED_LOCK:
+        hit = _PACKED.get(key)
+    if hit is None:  # (the entry holds its model: no other object takes its id meanwhile)
+        hit = (mdl, mdl.pack(command_amplitude=command_amplitude))
+        with _PACKED_LOCK:
+            if len(_PACKED) >= _PACKED_SIZE:
+                del _PACKED[next(iter(_PACKED))]  # the oldest
+            _PACKED[key] = hit
+    return hit[1].copy()
+
+
+def _linspace(duration: float, n: int) -> np.ndarray:
+    """``np.linspace(0.0, duration, n)``, bit for bit (the same arange, product and end
+    point), without its generality's ~20 µs."""
+    step = float(duration) / (n - 1) if n > 1 and isinstance(duration, int | float) else 0.0
+    if not step > 0.0:
+        return np.linspace(0.0, duration, n)
+    t = np.arange(0, n, dtype=float)
+    t *= step
+    t[-1] = duration  # linspace adds the start, 0.0, which changes no value here (all >= 0)
+    return t
+
+
+def _time_grid(
+    timepts: np.ndarray | None, duration: float | None, fs: float
+) -> tuple[np.ndarray, float]:
+    """The output times [s] and the simulated span [s]: ``timepts`` checked, or a grid of
+    ``duration`` at ``fs``."""
     if timepts is None:
         if duration is None or not (duration > 0) or not math.isfinite(duration):
             raise SignalError(f"duration must be a positive number of seconds, got {duration!r}")
         if not (fs > 0) or not math.isfinite(fs):
             raise SignalError(f"output rate fs must be a positive number of Hz, got {fs!r}")
         n = int(round(duration * fs)) + 1
-        t_out = np.linspace(0.0, duration, n)
-    else:
-        t_out = np.ascontiguousarray(timepts, dtype=float).ravel()
-        if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
-            raise SignalError(
-                "timepts must hold at least two finite, strictly increasing times [s]"
-            )
-        duration = float(t_out[-1] - t_out[0])
-    closed = controller is not None
-    if closed:
+        return _linspace(duration, n), duration
+    t_out = np.ascontiguousarray(timepts, dtype=float).ravel()
+    if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
+        raise SignalError("timepts must hold at least two finite, strictly increasing times [s]")
+    return t_out, float(t_out[-1] - t_out[0])
+
+
+def _check_loop(
+    u: Any, controller: Any, reference: Any, sensor_noise: Mapping[str, float] | None
+) -> bool:
+    """Whether the loop is closed; the closed loop's arguments only with a controller, and
+    no valve command beside it."""
+    if controller is not None:
         if not (isinstance(u, int | float) and u == 0.0):
             raise SignalError("give either a valve command u or a controller, not both")
         if reference is None:
             raise SignalError("a controller needs a reference position (reference=...)")
-        u = 0.0
-    elif reference is not None:
+        return True
+    if reference is not None:
         raise SignalError("reference is the set point of a controller; pass controller=... as well")
-    elif sensor_noise:
+    if sensor_noise:
         raise SignalError(
             "sensor_noise is the noise of a controller's sensors; pass controller=... as well"
         )
+    return False
+
+
+def _input_signals(
+    mdl: Model, kind: int, u: Any, supply_pressure: Any, load_force: Any, t_out: np.ndarray
+) -> tuple[Signal, Signal, Signal]:
+    """The valve command, P_S and F_L as signals (P_S and F_L default to the parameters'),
+    a given P_S checked against the supply's bounds and the model."""
+    prm = mdl.params
     u_sig = as_signal(u, "", "u")
     ps_sig = as_signal(
         prm.supply.pressure if supply_pressure is None else supply_pressure, "Pa", "supply_pressure"
@@ -644,108 +779,133 @@ def simulate(  # noqa: C901 (to be split, issue 33)
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
     if supply_pressure is not None:  # the parameters' own P_S was validated with them
         check_supply_signal(ps_sig, prm.supply, float(t_out[-1]))
-    if (
-        kind in (K.PWA, K.CHAMBER)
-        and supply_pressure is not None
-        and not getattr(mdl, "scheduled", True)
-    ):
-        fixed = float(getattr(mdl, "supply_pressure", np.nan))
-        if not (
-            isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)
-        ):
-            raise SignalError(
-                f"this PWA model's cells are fixed at P_S = {fixed / 1e5:g} bar and would ignore the "
-                "supply_pressure input; build it with linearize(params, ..., scheduled=True) to follow P_S(t), "
-                "or linearize(params, supply_pressure=...) for another constant P_S"
-            )
-    inputs = PackedInputs.of([u_sig, ps_sig, fl_sig], duration)
-    p = mdl.pack(command_amplitude=inputs.command_amplitude)
-    if closed:  # the command amplitude is not known beforehand: the valve's nominal ω0
-        p[K.I_OMEGA0] = prm.valve.omega0
-    ps0 = ps_sig(t_out[0])
-    fl0 = fl_sig(t_out[0])
-    if initial_state is None:
-        y0 = mdl.initial_state(initial_position, supply_pressure=ps0, load_force=fl0)
-    else:
-        y0 = np.asarray(initial_state, dtype=float).ravel().copy()
-        if y0.size != len(mdl.state_names) or not np.all(np.isfinite(y0)):
-            raise SignalError(
-                f"initial_state needs {len(mdl.state_names)} finite values ({', '.join(mdl.state_names)}), got {y0.size}"
-            )
-    if hmax is None:
-        hmax = inputs.hmax
-    sg = inputs.sg
-    if closed:
-        ctl, ref_sig, ref, dref = _closed_loop_setup(
-            controller, reference, t_out, sensor_noise, seed
+        if kind in (K.PWA, K.CHAMBER) and not getattr(mdl, "scheduled", True):
+            _check_fixed_supply(mdl, ps_sig)
+    return u_sig, ps_sig, fl_sig
+
+
+def _check_fixed_supply(mdl: Model, ps_sig: Signal) -> None:
+    """A PWA model linearized at one P_S takes no other supply pressure."""
+    fixed = float(getattr(mdl, "supply_pressure", np.nan))
+    if not (isinstance(ps_sig, Constant) and math.isclose(float(ps_sig(0.0)), fixed, rel_tol=1e-9)):
+        raise SignalError(
+            f"this PWA model's cells are fixed at P_S = {fixed / 1e5:g} bar and would ignore the "
+            "supply_pressure input; build it with linearize(params, ..., scheduled=True) to follow P_S(t), "
+            "or linearize(params, supply_pressure=...) for another constant P_S"
         )
+
+
+def _initial_state(
+    mdl: Model,
+    initial_state: np.ndarray | None,
+    initial_position: float | None,
+    sigs: tuple[Signal, Signal, Signal],
+    t0: float,
+) -> np.ndarray:
+    """The state at ``t0``: ``initial_state`` checked, or the model's rest at
+    ``initial_position`` under the inputs' P_S and F_L at ``t0``."""
+    ps0 = sigs[1](t0)
+    fl0 = sigs[2](t0)
+    if initial_state is None:
+        return mdl.initial_state(initial_position, supply_pressure=ps0, load_force=fl0)
+    y0 = np.asarray(initial_state, dtype=float).ravel().copy()
+    if y0.size != len(mdl.state_names) or not np.all(np.isfinite(y0)):
+        raise SignalError(
+            f"initial_state needs {len(mdl.state_names)} finite values ({', '.join(mdl.state_names)}), got {y0.size}"
+        )
+    return y0
+
+
+@dataclass(frozen=True)
+class _KernelRun:
+    """What one kernel call of :func:`simulate` returned (``log`` the controller's, closed
+    loop only), its wall time without compilation [s] and the compile clock before it [s]."""
+
+    Y: np.ndarray
+    n_done: int
+    status: int
+    t_fail: float
+    y_fail: np.ndarray
+    stats: np.ndarray
+    log: np.ndarray
+    wall: float
+    compiled0: float
+
+
+def _integrate(
+    args: tuple[int, SolverRun, int],
+    loop: tuple[np.ndarray, Signal, np.ndarray, np.ndarray] | None,
+) -> _KernelRun:
+    """The open- or closed-loop kernel call (``loop`` from :func:`_closed_loop_setup`), timed."""
     compiled0 = K.compile_seconds
     t0 = _time.perf_counter()
-    if closed:
-        Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
-            *_solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver),
-            ctl,
-            ref,
-            dref,
-        )
+    if loop is None:
+        Y, n_done, status, t_fail, y_fail, stats = K.integrate(*args, True, True)
+        log = np.empty((0, 0))
     else:
-        Y, n_done, status, t_fail, y_fail, stats = K.integrate(
-            *_solver_args(kind, mdl, y0, t_out, p, sg, rtol, hmax, max_steps, solver), True, True
+        ctl, _ref_sig, ref, dref = loop
+        Y, n_done, status, t_fail, y_fail, stats, log = K.integrate_closed_loop(
+            *args, ctl, ref, dref
         )
     wall = _time.perf_counter() - t0
     wall -= min(wall, K.compile_seconds - compiled0)  # the kernel's first load or compile
-    Y = Y[:n_done]
-    if closed:  # derived channels see the held command of each sample interval
-        sg = pack_signals([_held_command(log, t_out[0]), ps_sig, fl_sig])
-    # the times are the caller's array when timepts was given: copy them then, not our own grid
-    t_done = t_out[:n_done] if timepts is None else t_out[:n_done].copy()
-    channels = _result_channels(kind, t_done, Y, n_done, p, sg, eager=closed)
-    compile_time = K.compile_seconds - compiled0
-    control: dict[str, Any] = {}
-    if closed:
-        control = _control_record(controller, ctl, log)
-        tt = channels["t"]
-        j = np.clip(np.floor((tt - t_out[0]) / ctl[C.C_TS] + 1e-6).astype(int), 0, log.shape[1] - 1)
-        channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
-        channels["error"] = channels["reference"] - channels["x"]
-        channels["command"] = log[C.L_C, j]
-        channels["cell_ctl"] = log[C.L_ROW, j]
-    solver_status = SolverStatus(int(status))
-    message = solver_status.message
-    state: dict[str, float] = {}
-    if not solver_status.success:
-        state = {name: float(v) for name, v in zip(mdl.state_names, y_fail, strict=True)}
-        state_txt = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
-        message = (
-            f"{mdl.name} model integration failed at t = {t_fail:.6g} s: {message}. "
-            f"State: {state_txt}. Likely cause: {_diagnose(prm, state)}"
-        )
-    result = SimulationResult(
-        t=t_done,
-        channels=channels,
-        states=Y,
-        state_names=tuple(mdl.state_names),
-        model=mdl.name,
-        params=prm,
-        inputs={"u": u_sig.describe(), "p_s": ps_sig.describe(), "f_l": fl_sig.describe()},
-        stats=SolverStats(
-            steps=int(stats[K.ST_STEPS]),
-            rejected=int(stats[K.ST_REJECTED]),
-            rhs_evaluations=int(stats[K.ST_RHS]),
-            jacobians=int(stats[K.ST_JAC]),
-            solver=solver,
-            wall_time=wall,
-            compile_time=compile_time,
-            rtol=float(rtol),
-            status=solver_status,
-            omega0=float(p[K.I_OMEGA0]),
-        ),
-        control=control,
-        message=message,
+    return _KernelRun(Y, n_done, status, t_fail, y_fail, stats, log, wall, compiled0)
+
+
+def _closed_loop_channels(
+    channels: Channels,
+    loop: tuple[np.ndarray, Signal, np.ndarray, np.ndarray],
+    log: np.ndarray,
+    t0: float,
+) -> None:
+    """Add the reference, the tracking error, the controller's command and its gain row
+    (held over each sample interval) to a closed loop's channels."""
+    ctl, ref_sig = loop[0], loop[1]
+    tt = channels["t"]
+    j = np.clip(np.floor((tt - t0) / ctl[C.C_TS] + 1e-6).astype(int), 0, log.shape[1] - 1)
+    channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
+    channels["error"] = channels["reference"] - channels["x"]
+    channels["command"] = log[C.L_C, j]
+    channels["cell_ctl"] = log[C.L_ROW, j]
+
+
+def _outcome(mdl: Model, raw: _KernelRun) -> tuple[SolverStatus, str, dict[str, float]]:
+    """How the run ended: the status, its message (on failure with the time, the state and a
+    likely cause) and the state at the failure (empty on success)."""
+    status = SolverStatus(int(raw.status))
+    if status.success:
+        return status, status.message, {}
+    state = {name: float(v) for name, v in zip(mdl.state_names, raw.y_fail, strict=True)}
+    state_txt = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
+    message = (
+        f"{mdl.name} model integration failed at t = {raw.t_fail:.6g} s: {status.message}. "
+        f"State: {state_txt}. Likely cause: {_diagnose(mdl.params, state)}"
     )
-    if not solver_status.success and raise_on_failure:
-        raise SimulationError(message, t=float(t_fail), state=state, partial=result)
-    return result
+    return status, message, state
+
+
+def _solver_stats(
+    raw: _KernelRun,
+    solver: str,
+    compile_time: float,
+    rtol: float,
+    status: SolverStatus,
+    omega0: float,
+) -> SolverStats:
+    """The result's :class:`SolverStats` from the kernel's statistics array."""
+    stats = raw.stats
+    return SolverStats(
+        steps=int(stats[K.ST_STEPS]),
+        rejected=int(stats[K.ST_REJECTED]),
+        rhs_evaluations=int(stats[K.ST_RHS]),
+        jacobians=int(stats[K.ST_JAC]),
+        solver=solver,
+        wall_time=raw.wall,
+        compile_time=compile_time,
+        rtol=float(rtol),
+        status=status,
+        omega0=omega0,
+    )
 
 
 def _closed_loop_setup(

@@ -1,0 +1,57 @@
+"""The shortcuts of ``simulate``'s Python around the kernel give what the general calls give.
+
+``simulate`` builds its time grid without ``np.linspace``'s generality, packs each frozen
+model's parameters once per command amplitude and checks a model class against the
+``Model`` protocol once; each must be invisible in the numbers (bit for bit).
+"""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hydropwa.models import FullOrderModel, ReducedModel
+from hydropwa.simulation import _simulate as S
+from hydropwa.simulation import simulate
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    duration=st.one_of(st.floats(1e-6, 20.0), st.integers(1, 20)),
+    fs=st.floats(0.5, 5000.0),
+)
+def test_the_time_grid_is_numpys_linspace_bit_for_bit(duration, fs):
+    n = int(round(duration * fs)) + 1
+    ours, numpy = S._linspace(duration, n), np.linspace(0.0, duration, n)
+    assert ours.dtype == numpy.dtype and ours.shape == numpy.shape
+    assert np.array_equal(ours.view(np.int64), numpy.view(np.int64))
+
+
+def test_packed_parameters_are_the_models_own_in_a_fresh_copy(paper):
+    full = FullOrderModel(paper)
+    first = S._packed_params(full, 0.4)
+    assert np.array_equal(first, full.pack(command_amplitude=0.4))
+    first[:] = np.nan  # what a caller does to its copy reaches no later call
+    assert np.array_equal(S._packed_params(full, 0.4), full.pack(command_amplitude=0.4))
+    # ω0 follows the amplitude schedule (Table II): another amplitude is another vector
+    small = S._packed_params(full, 0.05)
+    assert np.array_equal(small, full.pack(command_amplitude=0.05))
+    assert not np.array_equal(small, full.pack(command_amplitude=0.4))
+    # an equal but distinct model with other parameters is packed from its own
+    heavy = FullOrderModel(paper.replace(**{"load.mass": 2.0 * paper.load.mass}))
+    assert np.array_equal(S._packed_params(heavy, 0.4), heavy.pack(command_amplitude=0.4))
+    assert not np.array_equal(S._packed_params(heavy, 0.4), S._packed_params(full, 0.4))
+
+
+def test_a_repeated_simulate_gives_the_first_ones_numbers(paper):
+    """The second call takes the remembered model class and packed vector: the same run."""
+    reduced = ReducedModel(paper)
+    runs = [simulate(reduced, "sine:amplitude=0.4,frequency=1", duration=0.2) for _ in range(2)]
+    assert type(reduced) in S._MODEL_CLASSES
+    assert np.array_equal(runs[0].states, runs[1].states)
+    assert runs[0].stats.omega0 == runs[1].stats.omega0
+    other = simulate(
+        ReducedModel(paper.replace(**{"load.mass": 2.0 * paper.load.mass})),
+        "sine:amplitude=0.4,frequency=1",
+        duration=0.2,
+    )
+    assert not np.array_equal(other.states, runs[0].states)
