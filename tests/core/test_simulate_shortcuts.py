@@ -55,3 +55,20 @@ def test_a_repeated_simulate_gives_the_first_ones_numbers(paper):
         duration=0.2,
     )
     assert not np.array_equal(other.states, runs[0].states)
+
+
+def test_a_model_with_writeable_arrays_is_packed_on_every_call(paper):
+    """A PWA model's cell tables are NumPy arrays a caller can edit in place: its packed
+    vector must follow the edit (no remembered copy), while the full model's is remembered."""
+    import copy
+
+    from hydropwa.linearization import linearize
+
+    pwa = copy.deepcopy(linearize(paper))  # its own tables (linearize shares cached fits)
+    before = S._packed_params(pwa, 0.4)
+    pwa.friction.pwa.offsets[:] += 1.0  # an in-place edit of a frozen model's table
+    after = S._packed_params(pwa, 0.4)
+    assert np.array_equal(after, pwa.pack(command_amplitude=0.4))
+    assert not np.array_equal(after, before)
+    assert all(key[0] != id(pwa) for key in S._PACKED)
+    assert S._writeable_arrays(pwa) and not S._writeable_arrays(FullOrderModel(paper))

@@ -686,8 +686,10 @@ def _resolve_model(model: Model | str, params: SystemParams | None) -> tuple[Mod
 #: frozen dataclasses, whose instances all hold the same members, so that the runtime
 #: Protocol check (~30 µs, a third of the Python around the kernel) runs once per class.
 _MODEL_CLASSES: set[type] = set()
-#: ``pack`` of the last few frozen models: (id, command amplitude) → (model, vector). A frozen
-#: model's vector is a function of its fields and the amplitude; ~60 µs (PWA ~130 µs) a call.
+#: ``pack`` of the last few frozen models without writeable arrays (the full and reduced
+#: models; a PWA model's cell tables are NumPy arrays a caller could edit in place, so it packs
+#: on every call): (id, command amplitude) → (model, vector). Such a model's vector is a
+#: function of its fields and the amplitude; ~60 µs a call.
 _PACKED: dict[tuple[int, float], tuple[Model, np.ndarray]] = {}
 _PACKED_SIZE = 16
 _PACKED_LOCK = threading.Lock()
@@ -699,9 +701,27 @@ def _frozen(cls: type) -> bool:
     return dataclasses.is_dataclass(cls) and bool(getattr(params, "frozen", False))
 
 
+def _writeable_arrays(obj: Any, depth: int = 0) -> bool:
+    """Whether ``obj`` holds a writeable NumPy array in its dataclass fields, tuples, lists or
+    dicts (to a depth of 8; deeper counts as holding one)."""
+    if isinstance(obj, np.ndarray):
+        return bool(obj.flags.writeable)
+    if depth > 8:
+        return True
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        items: Any = (getattr(obj, f.name) for f in dataclasses.fields(obj))
+    elif isinstance(obj, tuple | list):
+        items = obj
+    elif isinstance(obj, dict):
+        items = obj.values()
+    else:
+        return False
+    return any(_writeable_arrays(x, depth + 1) for x in items)
+
+
 def _packed_params(mdl: Model, command_amplitude: float) -> np.ndarray:
-    """``mdl.pack(command_amplitude=...)``, remembered for the last few frozen models (a fresh
-    copy each call: the closed loop writes ω0 into it)."""
+    """``mdl.pack(command_amplitude=...)``, remembered for the last few frozen models that
+    hold no writeable array (a fresh copy each call: the closed loop writes ω0 into it)."""
     if not _frozen(type(mdl)):
         return mdl.pack(command_amplitude=command_amplitude)
     key = (id(mdl), command_amplitude)
@@ -709,6 +729,8 @@ def _packed_params(mdl: Model, command_amplitude: float) -> np.ndarray:
         hit = _PACKED.get(key)
     if hit is None:  # (the entry holds its model: no other object takes its id meanwhile)
         hit = (mdl, mdl.pack(command_amplitude=command_amplitude))
+        if _writeable_arrays(mdl):
+            return hit[1]
         with _PACKED_LOCK:
             if len(_PACKED) >= _PACKED_SIZE:
                 del _PACKED[next(iter(_PACKED))]  # the oldest
