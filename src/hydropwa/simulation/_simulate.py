@@ -706,6 +706,8 @@ def _writeable_arrays(obj: Any, depth: int = 0) -> bool:
     dicts (to a depth of 8; deeper counts as holding one)."""
     if isinstance(obj, np.ndarray):
         return bool(obj.flags.writeable)
+    if isinstance(obj, SystemParams):  # floats and tuples, frozen all the way down
+        return False
     if depth > 8:
         return True
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
