@@ -6,6 +6,7 @@ model's parameters once per command amplitude and checks a model class against t
 """
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -64,7 +65,7 @@ def test_a_model_with_writeable_arrays_is_packed_on_every_call(paper):
 
     from hydropwa.linearization import linearize
 
-    pwa = copy.deepcopy(linearize(paper))  # its own tables (linearize shares cached fits)
+    pwa = copy.deepcopy(linearize(paper))  # a deep copy's arrays are writeable again
     before = S._packed_params(pwa, 0.4)
     pwa.friction.pwa.offsets[:] += 1.0  # an in-place edit of a frozen model's table
     after = S._packed_params(pwa, 0.4)
@@ -72,3 +73,18 @@ def test_a_model_with_writeable_arrays_is_packed_on_every_call(paper):
     assert not np.array_equal(after, before)
     assert all(key[0] != id(pwa) for key in S._PACKED)
     assert S._writeable_arrays(pwa) and not S._writeable_arrays(FullOrderModel(paper))
+
+
+def test_linearized_models_are_read_only_and_remembered(paper):
+    """The cell tables of the models ``linearize`` builds cannot be edited in place (an
+    edit would also reach every model sharing the cached cell fits), so their packed vector
+    is remembered like the full model's."""
+    from hydropwa.linearization import linearize
+
+    for pwa in (linearize(paper), linearize(paper, form="chamber")):
+        assert not S._writeable_arrays(pwa)
+        with pytest.raises(ValueError, match="read-only"):
+            pwa.friction.pwa.offsets[0] = 0.0
+        first = S._packed_params(pwa, 0.4)
+        assert (id(pwa), 0.4) in S._PACKED
+        assert np.array_equal(first, pwa.pack(command_amplitude=0.4))

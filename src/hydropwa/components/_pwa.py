@@ -12,7 +12,16 @@ import numpy as np
 
 from .._errors import PwaError
 
-__all__ = ["PiecewiseAffine"]
+__all__ = ["PiecewiseAffine", "read_only"]
+
+
+def read_only(a) -> np.ndarray:
+    """A float copy of ``a`` (at least 1-D) that cannot be written: the arrays of frozen
+    model objects. An edit in place raises ``ValueError: assignment destination is read-only``
+    instead of changing a model (and the cell fits that models share) behind its back."""
+    out = np.atleast_1d(np.array(a, dtype=float))
+    out.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
@@ -49,9 +58,9 @@ class PiecewiseAffine:
             raise PwaError("breakpoints, slopes and offsets must be finite")
         if np.any(np.diff(b) <= 0):
             raise PwaError(f"breakpoints {b.tolist()} must be strictly increasing")
-        object.__setattr__(self, "breakpoints", b)
-        object.__setattr__(self, "slopes", k)
-        object.__setattr__(self, "offsets", d)
+        object.__setattr__(self, "breakpoints", read_only(b))
+        object.__setattr__(self, "slopes", read_only(k))
+        object.__setattr__(self, "offsets", read_only(d))
 
     @property
     def n_cells(self) -> int:

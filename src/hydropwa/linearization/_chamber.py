@@ -52,6 +52,7 @@ from .._layout import FULL_STATES, I_CELLS, N_BASE, PWA_SLOT
 from ..components import PiecewiseAffine
 from ..components._physics import dead_zone as _dz
 from ..components._physics import orifice_flows, signed_sqrt, signed_sqrt_slope
+from ..components._pwa import read_only
 from ..models import FullOrderModel, pack_params
 from ..models._models import SmoothModelStates
 from ..params import SystemParams
@@ -149,6 +150,9 @@ class FlowCells:
     interval: tuple[float, float]
     eps: float
     tolerance: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "bounds", read_only(self.bounds))
 
     @property
     def n_cells(self) -> int:
@@ -254,6 +258,10 @@ class CapacitanceCells:
     centres: np.ndarray
     bounds: np.ndarray
     tolerance: float
+
+    def __post_init__(self) -> None:
+        for name in ("breakpoints", "centres", "bounds"):
+            object.__setattr__(self, name, read_only(getattr(self, name)))
 
     @property
     def n_cells(self) -> int:

@@ -24,6 +24,7 @@ from scipy.optimize import linprog, minimize
 
 from .._errors import PwaError
 from ..components import PiecewiseAffine
+from ..components._pwa import read_only
 
 __all__ = ["PwaFit", "fit_pwa", "tangent_pwa", "approximation_errors"]
 
@@ -57,6 +58,9 @@ class PwaFit:
     max_error: float
     rms_error: float
     method: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "working_points", read_only(self.working_points))
 
     @property
     def n_cells(self) -> int:

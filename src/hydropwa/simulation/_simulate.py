@@ -686,10 +686,10 @@ def _resolve_model(model: Model | str, params: SystemParams | None) -> tuple[Mod
 #: frozen dataclasses, whose instances all hold the same members, so that the runtime
 #: Protocol check (~30 µs, a third of the Python around the kernel) runs once per class.
 _MODEL_CLASSES: set[type] = set()
-#: ``pack`` of the last few frozen models without writeable arrays (the full and reduced
-#: models; a PWA model's cell tables are NumPy arrays a caller could edit in place, so it packs
-#: on every call): (id, command amplitude) → (model, vector). Such a model's vector is a
-#: function of its fields and the amplitude; ~60 µs a call.
+#: ``pack`` of the last few frozen models without writeable arrays (every model ``linearize``
+#: and ``as_model`` build: the PWA cell tables are read-only; a model holding a writeable
+#: array, e.g. a deep copy, packs on every call): (id, command amplitude) → (model, vector).
+#: Such a model's vector is a function of its fields and the amplitude; ~30–60 µs a call.
 _PACKED: dict[tuple[int, float], tuple[Model, np.ndarray]] = {}
 _PACKED_SIZE = 16
 _PACKED_LOCK = threading.Lock()
