@@ -478,13 +478,8 @@ def design_state_feedback(
     info = _feedback_info(model, opt, notes)
     ctrl = StateFeedbackController(
         rows=tuple(rows),
-        sample_time=ts,
-        delay=bool(delay),
-        u_min=float(u_limits[0]),
-        u_max=float(u_limits[1]),
-        anti_windup=anti_windup,
-        dead_zone_inverse=dzi,
         design=info,
+        **_loop_options(ts, delay, u_limits, anti_windup, dzi),
         **_feedback_parts(model, opt),
     )
     return ControlDesign(ctrl, pd.DataFrame.from_records(recs), warns, info)
@@ -802,6 +797,19 @@ def _feedback_parts(model, opt: _FeedbackOptions) -> dict[str, Any]:
     }
 
 
+def _loop_options(ts: float, delay, u_limits, anti_windup, dzi) -> dict[str, Any]:
+    """The keywords both controllers of this module take alike: sampling, command limits,
+    anti-windup and the dead-zone inverse."""
+    return {
+        "sample_time": ts,
+        "delay": bool(delay),
+        "u_min": float(u_limits[0]),
+        "u_max": float(u_limits[1]),
+        "anti_windup": anti_windup,
+        "dead_zone_inverse": dzi,
+    }
+
+
 def _finite_or_none(v) -> float | None:
     return None if v is None or not math.isfinite(float(v)) else float(v)
 
@@ -902,12 +910,7 @@ def design_pi(
         kff=(1.0 / k_v if feedforward and not flow_feedforward else 0.0),
         feedforward=_feedforward(model, ts, delay) if flow_feedforward else None,
         machine=machine_of(prm, _finite_or_none(getattr(model, "supply_pressure", None))),
-        sample_time=ts,
-        delay=bool(delay),
-        u_min=float(u_limits[0]),
-        u_max=float(u_limits[1]),
-        anti_windup=anti_windup,
-        dead_zone_inverse=dzi,
+        **_loop_options(ts, delay, u_limits, anti_windup, dzi),
     )
     rec = {
         "cell": f"s={dyn.cells.s:+d} o={dyn.cells.o} w={dyn.cells.w}",
