@@ -11,6 +11,19 @@ controller for a real-time target (:func:`export_c`). See
 docs/architecture_control.md.
 """
 
+from ._bands import (
+    INTEGRAL_BAND_FACTOR,
+    INTEGRAL_LEAK,
+    PRE_OPEN_FACTOR,
+    PRESSURE_VENT_SAMPLES,
+    QUIET_FACTOR,
+    QUIET_OPEN_CORRELATION,
+    command_noise,
+    command_noise_correlation,
+    integral_band_for,
+    quiet_band_for,
+    quiet_open_for,
+)
 from ._controllers import (
     ANTI_WINDUP,
     DEFAULT_SAMPLE_TIME,
@@ -28,22 +41,11 @@ from ._controllers import (
 )
 from ._design import (
     DEFAULT_WEIGHTS,
-    INTEGRAL_BAND_FACTOR,
-    INTEGRAL_LEAK,
-    PRE_OPEN_FACTOR,
-    PRESSURE_VENT_SAMPLES,
-    QUIET_FACTOR,
-    QUIET_OPEN_CORRELATION,
     ControlDesign,
     cell_plant,
-    command_noise,
-    command_noise_correlation,
     design_pi,
     design_state_feedback,
     design_textbook_pi,
-    integral_band_for,
-    quiet_band_for,
-    quiet_open_for,
 )
 from ._design_chamber import design_on_chamber
 from ._estimator import (

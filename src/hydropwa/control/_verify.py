@@ -25,18 +25,16 @@ import numpy as np
 from .._dask import dask_client
 from ..components._physics import load_flow_drop
 from ..simulation import simulate_batch
-from ._controllers import ControlError
-from ._design import (
-    DEFAULT_WEIGHTS,
+from ._bands import (
     INTEGRAL_LEAK,
     PRE_OPEN_FACTOR,
     PRESSURE_VENT_SAMPLES,
-    design_pi,
-    design_state_feedback,
     integral_band_for,
     quiet_band_for,
     quiet_open_for,
 )
+from ._controllers import ControlError
+from ._design import DEFAULT_WEIGHTS, design_pi, design_state_feedback
 from ._reference import MotionProfile, StepSequence
 
 __all__ = [
