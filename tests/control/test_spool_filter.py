@@ -239,15 +239,7 @@ def cell_filtered(paper_pwa):
 def _lockstep_samples(paper, ctrl, tk):
     """The full model's closed-loop trapezoid sampled at t_k, with 20 µm / 0.1 bar / 0.2 % spool
     noise added to the samples (seeded), and the reference channels."""
-    res = simulate(
-        "full",
-        timepts=tk,
-        params=paper,
-        controller=ctrl,
-        reference=as_reference(TRAPEZOID),
-        initial_position=0.05,
-        rtol=1e-6,
-    )
+    res = paper_trapezoid(paper, ctrl, timepts=tk, rtol=1e-6)  # (timepts sets the span)
     assert res.success
     r, rch = reference_channels(ctrl, as_reference(TRAPEZOID), tk)
     rng = np.random.default_rng(34)
