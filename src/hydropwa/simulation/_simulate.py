@@ -740,18 +740,6 @@ def _packed_params(mdl: Model, command_amplitude: float) -> np.ndarray:
     return hit[1].copy()
 
 
-def _linspace(duration: float, n: int) -> np.ndarray:
-    """``np.linspace(0.0, duration, n)``, bit for bit (the same arange, product and end
-    point), without its generality's ~20 µs."""
-    step = float(duration) / (n - 1) if n > 1 and isinstance(duration, int | float) else 0.0
-    if not step > 0.0:
-        return np.linspace(0.0, duration, n)
-    t = np.arange(0, n, dtype=float)
-    t *= step
-    t[-1] = duration  # linspace adds the start, 0.0, which changes no value here (all >= 0)
-    return t
-
-
 def _time_grid(
     timepts: np.ndarray | None, duration: float | None, fs: float
 ) -> tuple[np.ndarray, float]:
@@ -763,7 +751,7 @@ def _time_grid(
         if not (fs > 0) or not math.isfinite(fs):
             raise SignalError(f"output rate fs must be a positive number of Hz, got {fs!r}")
         n = int(round(duration * fs)) + 1
-        return _linspace(duration, n), duration
+        return np.linspace(0.0, duration, n), duration
     t_out = np.ascontiguousarray(timepts, dtype=float).ravel()
     if t_out.size < 2 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0):
         raise SignalError("timepts must hold at least two finite, strictly increasing times [s]")
