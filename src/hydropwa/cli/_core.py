@@ -50,14 +50,20 @@ def params_show(
         ),
     ] = "paper",
 ) -> None:
-    """Print a parameter set with SI values and engineering units."""
+    """Print a parameter set with SI values, engineering units and where each value came from.
+
+    The ``from`` column is :attr:`SystemParams.provenance`: ``file``, ``base '<preset>'``
+    (inherited), ``default`` (the class default of a field a complete file left out),
+    ``preset '<name>'``, or a base table the file's own value dropped.
+    """
     from rich.console import Console  # deferred: loaded only when this command runs (a fast --help)
     from rich.table import Table  # deferred: loaded only when this command runs (a fast --help)
 
     params = resolve_params(source, option="parameter set")
     table = Table(title=f"parameters: {source}")
-    for col in ("group", "field", "SI value", "SI unit", "engineering"):
+    for col in ("group", "field", "SI value", "SI unit", "engineering", "from"):
         table.add_column(col)
+    provenance = params.provenance
     for comp, units in FIELD_UNITS.items():
         obj = getattr(params, comp)
         for f in dataclasses.fields(obj):
@@ -74,8 +80,9 @@ def params_show(
                 f"{val:.6g}" if isinstance(val, float) else str(val),
                 unit or "1" if unit is not None else "",
                 eng,
+                provenance[f"{comp}.{f.name}"],
             )
-    Console(width=120).print(table)
+    Console(width=150).print(table)
 
 
 @params_app.command("export")

@@ -12,9 +12,11 @@ from ._paper import (
     table_v_pwa,
 )
 from ._params import *  # noqa: F403  (the component classes, _params.__all__)
-from ._presets import PRESETS, get_preset, paper_params
+from ._presets import PRESET_NOTES, PRESETS, get_preset, paper_params
 from ._toml import (
     FIELD_UNITS,
+    PLAUSIBLE,
+    SUPERSEDES,
     load_params,
     params_from_dict,
     params_to_toml,
@@ -25,7 +27,10 @@ from ._toml import (
 __all__ = [
     *_params.__all__,
     "FIELD_UNITS",
+    "PLAUSIBLE",
+    "PRESET_NOTES",
     "PRESETS",
+    "SUPERSEDES",
     "StribeckRecovery",
     "TABLE_II",
     "TABLE_IV",

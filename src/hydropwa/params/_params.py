@@ -10,7 +10,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, ClassVar
 
 import numpy as np
@@ -640,7 +642,11 @@ class SystemParams:
     accumulator : Accumulator
         Optional gas accumulator on port A (none by default).
     meta : dict
-        Provenance and free-form notes (not used by the physics).
+        Free-form notes (not used by the physics).
+    origin : mapping
+        Where each value was read from, as recorded by the loader: dotted field name
+        (``"valve.omega0"``) → (source, value at loading). Empty for a set built in Python.
+        Read it through :attr:`provenance`, which also notices values changed since.
     """
 
     valve: ServoValve = field(default_factory=ServoValve)
@@ -653,6 +659,9 @@ class SystemParams:
     load: Load = field(default_factory=Load)
     accumulator: Accumulator = field(default_factory=Accumulator)
     meta: dict = field(default_factory=dict, compare=False, hash=False)
+    origin: Mapping[str, tuple[str, Any]] = field(
+        default_factory=dict, compare=False, hash=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         for name, cls in COMPONENT_TYPES.items():
@@ -660,6 +669,47 @@ class SystemParams:
                 raise ParameterError(
                     f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
                 )
+
+    @property
+    def provenance(self) -> Mapping[str, str]:
+        """Where every value came from: dotted field name → source, read-only.
+
+        Sources are those the loader recorded (``"file"``, ``"base 'paper'"``,
+        ``"preset 'paper'"``, ``"default"``, or a base table dropped by a rule of
+        :data:`hydropwa.params.SUPERSEDES`); ``"changed after loading"`` for a value that
+        differs from the one loaded (e.g. after :meth:`replace`), ``"given"`` for one the
+        loader did not record (a set built in Python).
+
+        Examples
+        --------
+        >>> from hydropwa.params import params_from_dict
+        >>> p = params_from_dict({"base": "paper", "load": {"mass": "250 kg"}})
+        >>> p.provenance["load.mass"], p.provenance["oil.bulk_modulus"]
+        ('file', "base 'paper'")
+        """
+        out: dict[str, str] = {}
+        for comp in COMPONENT_TYPES:
+            part = getattr(self, comp)
+            for fld in dataclasses.fields(part):
+                name = f"{comp}.{fld.name}"
+                record = self.origin.get(name)
+                if record is None:
+                    out[name] = "given"
+                else:
+                    out[name] = record[0] if record[1] == getattr(part, fld.name) else CHANGED
+        return MappingProxyType(out)
+
+    def with_origin(self, source: Callable[[str], str]) -> SystemParams:
+        """A copy whose :attr:`origin` records ``source(dotted name)`` for every field."""
+        origin = {
+            f"{comp}.{fld.name}": (
+                source(f"{comp}.{fld.name}"),
+                getattr(getattr(self, comp), fld.name),
+            )
+            for comp in COMPONENT_TYPES
+            for fld in dataclasses.fields(getattr(self, comp))
+        }
+        return dataclasses.replace(self, origin=origin)
 
     def _headline(self) -> list[tuple[str, str]]:
         """Headline quantities in engineering units, for the reprs."""
@@ -688,9 +738,7 @@ class SystemParams:
         """Headline values, then every field of every component (SI) in a collapsible block."""
 
         rows = []
-        for comp in self.__dataclass_fields__:
-            if comp == "meta":
-                continue
+        for comp in COMPONENT_TYPES:
             part = getattr(self, comp)
             units = _field_units().get(comp, {})
             for fld in dataclasses.fields(part):
@@ -734,24 +782,27 @@ class SystemParams:
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Nested plain dict in SI units (component → field → value)."""
         out: dict[str, dict[str, Any]] = {}
-        for f in dataclasses.fields(self):
-            if f.name == "meta":
-                continue
-            comp = getattr(self, f.name)
-            out[f.name] = {}
+        for name in COMPONENT_TYPES:
+            comp = getattr(self, name)
+            out[name] = {}
             for cf in dataclasses.fields(comp):
                 val = getattr(comp, cf.name)
                 if isinstance(val, tuple):
                     val = [list(x) for x in val]
-                out[f.name][cf.name] = val
+                out[name][cf.name] = val
         return out
 
 
 #: Component name in :class:`SystemParams` (and TOML table name) → its parameter class,
 #: derived from the dataclass fields so the two cannot disagree.
 COMPONENT_TYPES: dict[str, Any] = {
-    f.name: f.default_factory for f in dataclasses.fields(SystemParams) if f.name != "meta"
+    f.name: f.default_factory
+    for f in dataclasses.fields(SystemParams)
+    if f.name not in ("meta", "origin")
 }
+
+#: :attr:`SystemParams.provenance` of a value that differs from the one loaded.
+CHANGED = "changed after loading"
 
 
 def _field_units() -> dict:

@@ -30,7 +30,7 @@ from ._params import (
     flow_coefficient_from_rating,
 )
 
-__all__ = ["PRESETS", "get_preset", "paper_params"]
+__all__ = ["PRESET_NOTES", "PRESETS", "get_preset", "paper_params"]
 
 
 def paper_params() -> SystemParams:
@@ -71,6 +71,15 @@ def symmetric_params() -> SystemParams:
     )
 
 
+#: The presets' ``meta`` notes → the dotted fields (a prefix) each is about: a file with
+#: ``base`` that gives such a field does not inherit the note (its K is not "40 L/min at
+#: 70 bar" any more).
+PRESET_NOTES: dict[str, str] = {
+    "friction": "friction.",
+    "dead_volumes": "cylinder.dead_volume_",
+    "K": "flow.K",
+}
+
 PRESETS: dict[str, Callable[[], SystemParams]] = {
     "paper": paper_params,
     "symmetric": symmetric_params,
@@ -80,8 +89,9 @@ PRESETS: dict[str, Callable[[], SystemParams]] = {
 def get_preset(name: str) -> SystemParams:
     """Return a built-in preset by name (``paper``, ``symmetric``)."""
     try:
-        return PRESETS[name]()
+        make = PRESETS[name]
     except KeyError:
         raise ParameterError(
             f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}"
         ) from None
+    return make().with_origin(lambda _: f"preset {name!r}")
