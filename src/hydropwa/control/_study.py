@@ -17,6 +17,9 @@ __all__ = ["POSITIONING_TASK", "closed_loop_study", "closed_loop_verification"]
 POSITIONING_TASK = "50 → 150 mm at 0.05 s and back at 1.05 s, 0.2 m/s, 5 m/s², 2 kHz LQR"
 _MOVE = {"max_velocity": 0.2, "max_acceleration": 5.0}
 _DURATION = 2.0
+#: Metrics of a step response that say nothing about a trapezoid: its 10 → 90 % time is the
+#: reference's own ramp (about 0.4 s here), so the task's table leaves it out (issue 49).
+STEP_ONLY_METRICS = ("rise_time",)
 _X0 = 0.05
 
 
@@ -99,7 +102,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         m["cell_switches"] += back["cell_switches"]
         m["overshoot_back"] = back["overshoot"]
         m["settling_time_back"] = back["settling_time"]
-        rows[name] = m
+        rows[name] = {k: v for k, v in m.items() if k not in STEP_ONLY_METRICS}
     table = pd.DataFrame(rows).T
     table.index.name = "model"
     table.attrs["units"] = {**METRIC_UNITS, "overshoot_back": "%", "settling_time_back": "ms"}
@@ -133,8 +136,13 @@ def closed_loop_verification(pwa, controller, *, draws: int = 1, seed: int = 0, 
         The model the design was made on (its parameters are the verification's machine).
     controller : StateFeedbackController or PIController
         The design.
-    draws, seed, sensor_noise
+    draws : int
+        Parameter draws, see :func:`~hydropwa.control.verify_controller`.
+    seed : int
         See :func:`~hydropwa.control.verify_controller`.
+    sensor_noise : mapping of str to float, optional
+        Noise standard deviations per sensor [m, Pa], see
+        :func:`~hydropwa.control.verify_controller`.
 
     Returns
     -------

@@ -555,7 +555,17 @@ def design_controller(
         Run the verification (default).
     params : SystemParams, optional
         The machine to verify on (default the design model's parameters).
-    draws, seed, sensor_noise, criteria, scheduler, jobs
+    draws : int
+        Parameter draws, see :func:`verify_controller`.
+    seed : int
+        See :func:`verify_controller`.
+    sensor_noise : mapping of str to float, optional
+        Noise standard deviations per sensor [m, Pa], see :func:`verify_controller`.
+    criteria : VerificationCriteria, optional
+        See :func:`verify_controller`.
+    scheduler : str, optional
+        See :func:`verify_controller`.
+    jobs : int, optional
         See :func:`verify_controller`.
     retune : int
         Re-tuning rounds of a default design that fails.

@@ -636,8 +636,8 @@ def convert(
         Destination file (for a file ``src``) or folder.
     channel_map : ChannelMap or path-like, optional
         Map for raw files.
-    format : {"csv", "parquet", "mat"}, optional
-        Output format; default from ``dst``'s suffix for files, ``"parquet"`` for folders.
+    format : str, optional
+        Output format, ``"csv"``, ``"parquet"`` or ``"mat"``; default from ``dst``'s suffix for files, ``"parquet"`` for folders.
     units : dict[str, str], optional
         Units to write per channel (SI otherwise).
     overwrite : bool

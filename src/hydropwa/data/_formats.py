@@ -580,8 +580,8 @@ def write_run(
         The run (SI units).
     path : path-like
         Destination; the format follows the suffix unless ``format`` is given.
-    format : {"csv", "parquet", "mat"}, optional
-        File format.
+    format : str, optional
+        File format: ``"csv"``, ``"parquet"`` or ``"mat"``.
     units : dict[str, str], optional
         Units to write per channel (e.g. ``{"p_a": "bar", "x": "mm"}``); SI otherwise.
     overwrite : bool

@@ -272,8 +272,10 @@ def coverage_study(
         Evaluated runs.
     params : SystemParams
         The machine.
-    bins, bands : int
-        As in :func:`load_pressure_coverage` and :func:`pressure_band_scores`.
+    bins : int
+        Load-pressure bins, as in :func:`load_pressure_coverage`.
+    bands : int
+        Pressure bands, as in :func:`pressure_band_scores`.
 
     Returns
     -------

@@ -168,7 +168,9 @@ def stepped_sine_point(t, u, y, frequency: float, n_periods: int = 4, trend: boo
         Time [s], command [1] and response (spool position [1]).
     frequency : float
         Excitation frequency f [Hz].
-    n_periods, trend
+    n_periods : int
+        See :func:`fit_sinusoid`.
+    trend : bool
         See :func:`fit_sinusoid`.
 
     Returns

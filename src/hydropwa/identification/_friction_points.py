@@ -94,10 +94,14 @@ def steady_window(
         Shortest length [s] of the moving window for velocity and force; longer where
         position noise would otherwise put the window velocity outside the band
         (slow runs), at most a quarter of the run.
-    band, abs_band : float
-        Velocity band: |v_w − median| ≤ max(band·|median|, abs_band) [1], [m/s].
-    force_band, force_abs_band : float
-        Force band, likewise [1], [N].
+    band : float
+        Relative velocity band [1]: |v_w − median| ≤ max(band·|median|, abs_band).
+    abs_band : float
+        Absolute velocity band [m/s].
+    force_band : float
+        Relative force band [1], likewise.
+    force_abs_band : float
+        Absolute force band [N].
     min_duration : float
         Shortest acceptable steady stretch [s].
 
@@ -265,12 +269,16 @@ def friction_samples(
         Piston areas [m²] and moving mass [kg].
     u : array_like, optional
         Command [1]; samples before its last change + ``settle`` are left out.
-    stroke, stop_margin : float, optional
+    stroke : float, optional
+        Stroke [m]; with it, samples near an end stop are left out.
+    stop_margin : float
         Samples within ``stop_margin`` [m] of an end stop are left out.
     settle : float
         Time [s] after the last command change that is left out.
-    cutoff, taps : float, int
-        Pass band [Hz] and length of the zero-phase FIR applied alike to position (with
+    cutoff : float
+        Pass band [Hz] of the zero-phase FIR (see ``taps``).
+    taps : int
+        Length of the zero-phase FIR applied alike to position (with
         its consistent first and second derivative) and to the net force, so all
         channels share one delay-free response.
     min_speed : float
@@ -363,12 +371,16 @@ def breakaway_peaks(
         Piston areas [m²].
     u : array_like, optional
         Command [1]; samples before its last change + ``settle`` are left out.
-    stroke, stop_margin : float, optional
+    stroke : float, optional
+        Stroke [m]; with it, samples near an end stop are left out.
+    stop_margin : float
         Samples within ``stop_margin`` [m] of an end stop are left out.
     settle : float
         Time [s] after the last command change that is left out.
-    cutoff, taps : float, int
-        Zero-phase FIR as in :func:`friction_samples`.
+    cutoff : float
+        Pass band [Hz] of the zero-phase FIR, as in :func:`friction_samples`.
+    taps : int
+        Length of that FIR, as in :func:`friction_samples`.
     min_slip : float
         Smallest slip speed [m/s] (at least 3× the filtered velocity noise).
     min_gap : float

@@ -254,7 +254,7 @@ def friction_cells(
         Stribeck parameters of Eq. (11).
     n : int
         Number of cells (7 in the paper).
-    mode : {"machine", "paper", "optimized", "optimized-rms", "given", "tangent"}
+    mode : {"paper", "machine", "optimized", "optimized-rms", "given", "tangent"}
         ``machine``: :func:`machine_friction_cells` (breakpoints from the machine's own
         Stribeck velocity, optimised over ``interval``);
         ``paper``: least-squares fit on Table V's breakpoints (±0.79, ±14.5, ±54.4 mm/s);

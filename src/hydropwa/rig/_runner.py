@@ -315,8 +315,16 @@ def run_campaign(
         Names to run (default: all of the campaign's, in the order frf, deadzone, friction, sine).
     seed : int, optional
         Overrides the campaign's seed.
-    jobs, progress, overwrite, format, force
+    jobs : int
+        Parallel worker processes, as in :func:`run_experiment`.
+    progress : bool or Progress
         As in :func:`run_experiment`.
+    overwrite : bool
+        As in :func:`run_experiment`.
+    format : str
+        Run file format, as in :func:`run_experiment`.
+    force : bool, optional
+        Former name of ``overwrite`` (deprecated), as in :func:`run_experiment`.
 
     Returns
     -------

@@ -142,7 +142,8 @@ def point_derivatives(kind, y, u, ps, fl, p):
 
     Parameters
     ----------
-    kind : {REDUCED, PWA, CHAMBER}
+    kind : int
+        The kernel kind: ``REDUCED``, ``PWA`` or ``CHAMBER``.
     y : array_like, shape (n,)
         State: [P_L (Pa), v (m/s), x (m)] (reduced, PWA) or the full model's eight states
         (chamber PWA, ``hydropwa._layout.FULL_STATES``).

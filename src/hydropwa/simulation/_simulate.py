@@ -441,8 +441,10 @@ def simulate_packed(
         Output times [s], strictly increasing (not checked).
     initial_state : ndarray
         State at ``t_out[0]`` (copied).
-    rtol, max_steps
-        As in :func:`simulate`.
+    rtol : float
+        Relative tolerance [1], as in :func:`simulate`.
+    max_steps : int
+        Step budget, as in :func:`simulate`.
     packed_params : ndarray, optional
         ``model.pack(command_amplitude=inputs.command_amplitude)``, when the caller has it.
 

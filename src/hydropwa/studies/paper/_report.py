@@ -31,7 +31,7 @@ td:first-child,th:first-child{text-align:left}
 figure{display:inline-block;margin:.4em;vertical-align:top;max-width:48%}
 figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.8em;color:#555}
 .notes li{font-size:.85em}.small{font-size:.85em;color:#555}
-table{display:block;max-width:100%;overflow-x:auto}td,th{white-space:normal;overflow-wrap:anywhere}
+table{display:block;max-width:100%;overflow-x:auto}td,th{white-space:normal;overflow-wrap:normal;word-break:normal;hyphens:manual}
 caption{text-align:left;font-size:.9em;color:#444}
 nav.toc{font-size:.9em;border:1px solid #ddd;padding:.3em 1em;display:inline-block}
 .pass{color:#070;font-weight:bold}.fail{color:#b00;font-weight:bold}
@@ -100,13 +100,19 @@ def _table(df, caption: str = "") -> str:
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
+#: Metric rows of a derived channel → the output channel whose display unit they share
+#: (the detrended position is a position: mm, as the table's note says).
+_MEASURED_AS = {"x_detrended": "x"}
+
+
 def metrics_for_display(metrics):
     """Metrics with RMSE, peak error and drift in engineering units (mm, bar, mm/s)."""
     from ...plotting import DISPLAY  # deferred: matplotlib loads only when plotting
 
     df = metrics.copy()
-    fac = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[1])
-    df["unit"] = df["channel"].map(lambda c: DISPLAY.get(c, (c, 1.0, ""))[2])
+    shown = df["channel"].map(lambda c: DISPLAY.get(_MEASURED_AS.get(c, c), (c, 1.0, "")))
+    fac = shown.map(lambda d: d[1])
+    df["unit"] = shown.map(lambda d: d[2])
     df["rmse"] = df["rmse"] * fac
     df["peak_error"] = df["peak_error"] * fac
     for col in ("drift_measured", "drift_model"):
@@ -234,14 +240,21 @@ def _headline(metrics, fit, fit_detrended, paper_forms: bool = False) -> str:
 
 
 def _paper_tables_section() -> str:
-    """Tables IV–IX as printed (typos corrected, see docs/errata.md E6, E8) and regenerated."""
+    """Tables IV–IX as printed (typos corrected, see docs/errata.md E6, E8) and regenerated:
+    the paper's rig, so the report shows them for that machine only."""
+    head = (
+        "<h2>The paper's Tables IV–IX</h2>\n<p class='small'>Printed values (typos corrected: "
+        "docs/errata.md E6, E8) next to the values this package regenerates from the paper's "
+        "equations.</p>"
+    )
     try:
         tables = reproduce_paper_tables()
     except Exception as exc:  # noqa: BLE001 - the report must still be written
         return (
-            f"<p class='small'>Tables IV–IX could not be regenerated: {html.escape(str(exc))}</p>"
+            head
+            + f"<p class='small'>Tables IV–IX could not be regenerated: {html.escape(str(exc))}</p>"
         )
-    return "".join(
+    return head + "".join(
         f"<details><summary>Table {name}</summary>{_table(df, f'Table {name}: printed vs regenerated')}</details>"
         for name, df in tables.items()
     )
@@ -412,8 +425,9 @@ def _closed_loop_section(out: Path) -> str:
 cell, integral action, dead-zone inverse; controller.toml) is designed on the identified PWA model
 only and verified on the full model; the chamber-level PWA model (pwa-chamber: valve and both
 chambers kept) shows how well a design model predicts the closed loop. Times in ms, errors in mm, IAE in mm·s, saturation in %,
-chattering in sign changes of the command per second; step metrics of the move out, overshoot and
-settling of the move back in the last columns.</p>
+chattering in sign changes of the command per second; overshoot beyond the target and settling
+time from the start of the move out, those of the move back in the last columns. No rise time:
+the reference is a trapezoid, whose 10 → 90 % time is its own ramp's.</p>
 {_table(_with_units(pd.read_csv(f)), "tracking metrics per model")}
 {closed_loop_verification_html(out)}
 {_figures(out, ("closed_loop",))}"""
@@ -435,13 +449,15 @@ def _percent(df):
     return df.rename(columns={c: f"{c} [%]" for c in df.columns if c != "run"})
 
 
-def _greybox_section(out: Path) -> str:
+def _greybox_section(out: Path, status: str = "") -> str:
+    """The grey-box estimates, under the fit's status line (a warning only if it failed)."""
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     f = out / "tables" / "greybox.csv"
     if not f.is_file():
         return "<p>No grey-box fit (see the notes).</p>"
-    return _table(
+    line = f"<p class='small'>{html.escape(status)}</p>" if status else ""
+    return line + _table(
         pd.read_csv(f),
         "grey-box estimates: value, standard error, 95 % interval, variance inflation",
     )
@@ -516,7 +532,7 @@ reference.</p>
 sine runs (<code>hydropwa identify model</code>), starting from the identified parameters; intervals
 corrected for the residuals' autocorrelation. Not written into identified.toml.</p>
 {_warnings(by_stage, "greybox")}
-{_greybox_section(out)}
+{_greybox_section(out, str(info.get("greybox_status", "")))}
 {_figures(out, ("greybox",))}
 
 <h2>Identification (Figs. 5, 6, 8)</h2>
@@ -527,10 +543,7 @@ corrected for the residuals' autocorrelation. Not written into identified.toml.<
 {_figures(out, ("fig01", "fig02", "pwa_cells"))}
 {engineering_section(out)}
 
-<h2>The paper's Tables IV–IX</h2>
-<p class="small">Printed values (typos corrected: docs/errata.md E6, E8) next to the values this
-package regenerates from the paper's equations.</p>
-{_paper_tables_section()}
+{_paper_tables_section() if info.get("paper_machine", True) else ""}
 
 {_closed_loop_section(out)}
 {_warnings(by_stage, "control")}
