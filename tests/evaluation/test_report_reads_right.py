@@ -4,6 +4,9 @@ is drawn over the models; Tables IV-IX and Fig. 9 are in it; intervals keep thei
 from __future__ import annotations
 
 import re
+import shutil
+
+import pytest
 
 from hydropwa.studies.paper._report import _interval_digits
 
@@ -106,3 +109,48 @@ def test_the_engineering_section_shows_written_figures(small_study):
         assert (out / rel).is_file(), rel
     m = re.search(r"differ by at most ([\d.]+) % in magnitude and ([\d.]+)° in phase", sec)
     assert m and float(m.group(1)) < 3.0 and float(m.group(2)) < 3.0
+
+
+def test_detrended_position_rows_are_in_mm_like_the_position():
+    """``x_detrended`` is a position: its RMSE shows in mm under the table's "mm" note."""
+    import pandas as pd
+
+    from hydropwa.studies.paper._report import metrics_for_display
+
+    raw = pd.DataFrame(
+        {
+            "run": ["s1", "s1"],
+            "model": ["full", "full"],
+            "channel": ["x", "x_detrended"],
+            "unit": ["m", "m"],
+            "nrmse_fit": [90.0, 95.0],
+            "rmse": [1.5e-3, 0.5e-3],
+            "peak_error": [3e-3, 1e-3],
+        }
+    )
+    shown = metrics_for_display(raw).set_index("channel")
+    assert shown.loc["x", "unit"] == shown.loc["x_detrended", "unit"] == "mm"
+    assert shown.loc["x_detrended", "rmse"] == pytest.approx(0.5)
+    assert shown.loc["x_detrended", "peak_error"] == pytest.approx(1.0)
+
+
+def test_the_papers_tables_are_shown_for_the_paper_rig_only(small_study, tmp_path):
+    from hydropwa.studies.paper import write_report
+
+    page = (small_study.out / "index.html").read_text()
+    assert "<h2>The paper's Tables IV–IX</h2>" in page  # the study's machine is the paper's
+    other = tmp_path / "other"
+    shutil.copytree(small_study.out, other)
+    info = {"paper_machine": False, "params_source": "axis.toml", "stage_notes": {}}
+    write_report(other, small_study.params, small_study.true_params, [], info)
+    assert "Tables IV–IX" not in (other / "index.html").read_text()
+
+
+def test_a_normal_greybox_termination_is_not_a_warning(small_study):
+    page = (small_study.out / "index.html").read_text()
+    section = page[page.index("<h2>Grey-box fit</h2>") : page.index("<h2>Identification")]
+    boxes = re.findall(r"<div class='warnbox'>.*?</div>", section, re.S)
+    # scipy's words for a converged least-squares fit are its status, never a warning
+    assert not any("termination condition" in b for b in boxes), boxes
+    if "No grey-box fit" not in section:
+        assert re.search(r"<p class='small'>grey-box fit: .*evaluations", section)

@@ -110,7 +110,7 @@ def metrics_for_display(metrics):
     from ...plotting import DISPLAY  # deferred: matplotlib loads only when plotting
 
     df = metrics.copy()
-    shown = df["channel"].map(lambda c: DISPLAY.get(_MEASURED_AS.get(c, c), (c, 1.0, "")))
+    shown = df["channel"].map(lambda c: DISPLAY.get(str(_MEASURED_AS.get(c, c)), (c, 1.0, "")))
     fac = shown.map(lambda d: d[1])
     df["unit"] = shown.map(lambda d: d[2])
     df["rmse"] = df["rmse"] * fac
