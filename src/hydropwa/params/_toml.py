@@ -131,8 +131,8 @@ def bare_is_plausible(comp: str, key: str, value: float) -> bool:
 def _check_bare(comp: str, key: str, value: Any, unit: str, where: str) -> None:
     """Reject a bare number implausible for its field, naming the unit it was likely meant in."""
     number = _bare_number(value)
-    if number is None or bare_is_plausible(comp, key, number):
-        return
+    if number is None or (comp, key) not in PLAUSIBLE or bare_is_plausible(comp, key, number):
+        return  # a row for every field is checked by tests/core/test_params_inheritance.py
     lo, hi, candidates = PLAUSIBLE[(comp, key)]
     shown = _DISPLAY.get(unit, unit) or "1"
     guess = [u for u, f in candidates if lo <= abs(number) * f <= hi]
