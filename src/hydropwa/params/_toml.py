@@ -299,7 +299,7 @@ def _origin_labels(base_params: SystemParams, given: set[str], base: Any) -> Cal
     default, without ``base``), or dropped from the base by a :data:`SUPERSEDES` rule."""
     inherited = f"base {str(base)!r}" if base is not None else "default"
     drops = {t: f for f in sorted(given) for t in SUPERSEDES.get(f, ()) if t not in given}
-    defaults = SystemParams()
+    defaults = _defaults()
 
     def label(name: str) -> str:
         if name in given:
@@ -313,10 +313,16 @@ def _origin_labels(base_params: SystemParams, given: set[str], base: Any) -> Cal
     return label
 
 
+@lru_cache(maxsize=1)
+def _defaults() -> SystemParams:
+    """The class defaults of every field (frozen, so one instance serves)."""
+    return SystemParams()
+
+
 def _superseded(comp: str, kwargs: dict[str, Any]) -> dict[str, Any]:
     """The fields of ``comp`` that the given ``kwargs`` supersede (:data:`SUPERSEDES`), at
     their defaults."""
-    defaults = COMPONENT_TYPES[comp]()
+    defaults = getattr(_defaults(), comp)
     out: dict[str, Any] = {}
     for key in kwargs:
         for target in SUPERSEDES.get(f"{comp}.{key}", ()):
