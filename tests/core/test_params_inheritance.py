@@ -88,6 +88,8 @@ def test_provenance_marks_base_file_and_default(tmp_path):
     assert industrial.provenance["valve.omega0"] == "file"
     assert industrial.provenance["accumulator.gas_volume"] == "default"
     assert set(get_preset("paper").provenance.values()) == {"preset 'paper'"}
+    # the notebook view shows it too
+    assert "<td style='text-align:left'>base &#x27;paper&#x27;</td>" in p._repr_html_()
 
 
 def test_base_notes_about_overridden_fields_are_not_inherited():

@@ -738,6 +738,7 @@ class SystemParams:
         """Headline values, then every field of every component (SI) in a collapsible block."""
 
         rows = []
+        provenance = self.provenance
         for comp in COMPONENT_TYPES:
             part = getattr(self, comp)
             units = _field_units().get(comp, {})
@@ -745,10 +746,11 @@ class SystemParams:
                 unit = units.get(fld.name) or ""
                 value = getattr(part, fld.name)
                 text = f"{value:.6g}" if isinstance(value, float) else str(value)
-                rows.append((comp, fld.name, text, unit.replace("**", "^")))
+                unit_text = unit.replace("**", "^")
+                rows.append((comp, fld.name, text, unit_text, provenance[f"{comp}.{fld.name}"]))
         src = self.meta.get("source", "") if isinstance(self.meta, dict) else ""
         top = html_table(f"SystemParams {src}".strip(), ("quantity", "value"), self._headline())
-        full = html_table("", ("component", "field", "value", "unit (SI)"), rows)
+        full = html_table("", ("component", "field", "value", "unit (SI)", "from"), rows)
         return f"{top}<details><summary>all parameters</summary>{full}</details>"
 
     def replace(self, **changes: Any) -> SystemParams:
