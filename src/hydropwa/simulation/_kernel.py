@@ -254,7 +254,8 @@ def warmup_calls(name):
 
     ``name``: ``"full"``, ``"reduced"``, ``"pwa"`` (the open-loop solver with the default
     method and the model's output pass), ``"closed-<model>"`` (the closed-loop solver) or
-    ``"point"`` (the linearization's point derivatives and the PWA load flow) or
+    ``"point"`` (the linearization's point derivatives and the PWA load flow), ``"point-full"``
+    (the chamber PWA model's point derivatives and the full model's, :mod:`._small_signal`) or
     ``"output-<model>"`` (the output pass alone: a first ``simulate`` compiles the solver
     while the background process compiles the output pass it needs next). The
     arguments are placeholders of exactly the types :func:`integrate`,
@@ -269,6 +270,17 @@ def warmup_calls(name):
             (_point_pwa, args, "linearization"),
             (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
             (_point_reduced, args, "linearization"),
+        ]
+    if name == "point-full":
+        return [
+            (
+                _POINT[kinds["pwa-chamber"]],
+                _point_args(np.zeros(8), 0.0, 0.0, 0.0, z),
+                "linearization",
+            ),
+            (_rhs_full.rhs_full, (z, 0.0, 0.0, 0.0, z, z), "small-signal"),
+            (_rhs_full.jac_full, (z, 0.0, 0.0, 0.0, z, zz), "small-signal"),
+            (_rhs_full.dfdt_full, (z, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, z, z), "small-signal"),
         ]
     model = name.removeprefix("closed-").removeprefix("output-")
     if model not in kinds:
@@ -289,6 +301,7 @@ def warmup_calls(name):
 WARMUP_NAMES = (
     *MODEL_KINDS,
     "point",
+    "point-full",
     *(f"closed-{m}" for m in MODEL_KINDS),
     *(f"output-{m}" for m in MODEL_KINDS),
 )
