@@ -13,6 +13,16 @@ entry of these modules with one hash over all of them, so a change to any one of
 recompiles all. Each compiled module imports this module before its first
 ``@njit(cache=True)``. With a numba whose caching internals differ the locator is not
 installed and numba's own per-file stamps apply (see docs/architecture_performance.md).
+
+**Shipped entries.** The package carries compiled entries for a generic x86-64 CPU in
+``_prebuilt/`` (built by ``python -m hydropwa.simulation._prebuild`` from the current sources;
+``tests/performance/test_prebuilt.py`` fails when they are stale). numba keys an entry on the
+host CPU's name and features, so it would never look at them on the user's machine; where the
+in-tree cache has no entry, :func:`_load_prebuilt` looks one up in ``_prebuilt/`` under the generic
+CPU's key (same signature, same bytecode and closure hashes, same source stamp, same numba and
+Python versions — anything else is a miss). Generic x86-64 machine code runs on every x86-64 CPU;
+on another architecture, Python or numba the key differs and the kernel compiles as before.
+``HYDROPWA_PREBUILT=0`` ignores the shipped entries (every kernel then compiles for this CPU).
 """
 
 from __future__ import annotations
@@ -58,10 +68,24 @@ def source_stamp(root: str | os.PathLike = _ROOT) -> bytes:
 
 _STAMP = source_stamp()
 
+#: The shipped entries' folder (see the module's docstring).
+PREBUILT_DIR = _ROOT / "_prebuilt"
+#: Environment variable set by the build (``hydropwa.simulation._prebuild``): ``1`` writes the
+#: entries compiled in the process to :data:`PREBUILT_DIR` (with ``NUMBA_CPU_NAME=generic``).
+ENV_PREBUILD = "HYDROPWA_PREBUILD"
+#: The CPU name and features of the shipped entries' key (numba's ``NUMBA_CPU_NAME=generic``).
+GENERIC_CPU = ("generic", "")
+
+
+def prebuilt_path(py_file: str | os.PathLike) -> Path:
+    """The folder of the shipped entries of the compiled module ``py_file``."""
+    return PREBUILT_DIR / Path(os.path.realpath(py_file)).parent.relative_to(_ROOT)
+
+
 try:
-    from numba.core.caching import CacheImpl, IndexDataCacheFile, InTreeCacheLocator
+    from numba.core.caching import Cache, CacheImpl, IndexDataCacheFile, InTreeCacheLocator
 except ImportError:  # pragma: no cover - numba without these names: keep its own stamps
-    CacheImpl = IndexDataCacheFile = InTreeCacheLocator = None  # type: ignore[assignment,misc]
+    Cache = CacheImpl = IndexDataCacheFile = InTreeCacheLocator = None  # type: ignore[assignment,misc]
 
 try:
     import fcntl
@@ -115,6 +139,12 @@ if InTreeCacheLocator is not None:
                 return None
             return super().from_function(py_func, py_file)
 
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self.prebuilt_path = str(prebuilt_path(py_file))
+            if os.environ.get(ENV_PREBUILD) == "1":  # the build writes the shipped entries
+                self._cache_path = self.prebuilt_path
+
         def get_source_stamp(self):
             return _STAMP
 
@@ -132,3 +162,70 @@ if InTreeCacheLocator is not None:
 else:  # pragma: no cover
     PackageCacheLocator = None  # type: ignore[assignment,misc]
     INSTALLED = False
+
+
+def _prebuilt_file(cache):
+    """The shipped entries' index of numba ``cache``'s function, or None where it has none."""
+    py_file = getattr(getattr(cache, "_py_func", None), "__code__", None)
+    if py_file is None or IndexDataCacheFile is None:
+        return None
+    py_file = os.path.realpath(py_file.co_filename)
+    if py_file not in _FILES:  # not hydropwa's (or NUMBA_CACHE_DIR's copy of) a kernel
+        return None
+    path = prebuilt_path(py_file)
+    if not path.is_dir():
+        return None
+    return IndexDataCacheFile(
+        cache_path=path, filename_base=cache._impl.filename_base, source_stamp=_STAMP
+    )
+
+
+def _generic_key(cache, sig, codegen):
+    """numba's index key of ``sig`` with the generic CPU in place of the host's."""
+    sig_key, magic, code = cache._index_key(sig, codegen)
+    return (sig_key, (magic[0], *GENERIC_CPU), code)
+
+
+def holds_prebuilt(cache) -> bool:
+    """Whether the shipped entries hold any current entry of numba ``cache``'s function."""
+    if not PREBUILT_LOADS:
+        return False
+    try:
+        index = _prebuilt_file(cache)
+        return index is not None and bool(index._load_index())
+    except Exception:  # pragma: no cover - numba internals differ
+        return False
+
+
+def _load_prebuilt() -> bool:
+    """Make numba's cache fall back to the shipped generic-CPU entries (module docstring)."""
+    if Cache is None:  # pragma: no cover
+        return False
+    load = Cache._load_overload
+    if getattr(load, "_hydropwa_prebuilt", False):
+        return True
+
+    def load_overload(self, sig, target_context):
+        data = load(self, sig, target_context)
+        if data is not None or not self._enabled:
+            return data
+        index = _prebuilt_file(self)
+        if index is None:
+            return None
+        found = index.load(_generic_key(self, sig, target_context.codegen()))
+        return None if found is None else self._impl.rebuild(target_context, found)
+
+    load_overload._hydropwa_prebuilt = True  # type: ignore[attr-defined]
+    Cache._load_overload = load_overload  # type: ignore[method-assign]
+    return True
+
+
+#: Environment variable: ``0`` ignores the shipped entries (every kernel compiles for this CPU).
+ENV_PREBUILT = "HYDROPWA_PREBUILT"
+#: Whether the shipped entries are looked up (a build writes them instead).
+PREBUILT_LOADS = (
+    os.environ.get(ENV_PREBUILD) != "1"
+    and os.environ.get(ENV_PREBUILT, "1").strip() != "0"
+    and INSTALLED
+    and _load_prebuilt()
+)

@@ -62,7 +62,9 @@ def test_stamp_changes_with_any_compiled_module(tmp_path):
 @pytest.mark.skipif(not _jitcache.INSTALLED, reason="this numba's caching internals differ")
 def test_second_process_loads_the_cache_and_a_physics_edit_recompiles(tmp_path):
     root = tmp_path / "site"
-    shutil.copytree(PKG, root / "hydropwa", ignore=shutil.ignore_patterns("__pycache__"))
+    # without the shipped entries (tests/performance/test_prebuilt.py loads those)
+    ignore = shutil.ignore_patterns("__pycache__", "_prebuilt")
+    shutil.copytree(PKG, root / "hydropwa", ignore=ignore)
 
     def probe() -> dict:
         env = {"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin", "NUMBA_CACHE_DIR": ""}

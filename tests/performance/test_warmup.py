@@ -43,7 +43,13 @@ print(json.dumps(out))
 
 
 def _probe(tmp_path, mode: str) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), HYDROPWA_WARMUP="0")
+    # the compile path (without the shipped entries, which would load everything)
+    env = dict(
+        os.environ,
+        NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+        HYDROPWA_WARMUP="0",
+        HYDROPWA_PREBUILT="0",
+    )
     out = subprocess.run(
         [sys.executable, "-c", PROBE, mode], capture_output=True, text=True, env=env, timeout=900
     )
@@ -144,5 +150,5 @@ def test_compile_notice_says_when_compiling_starts_and_each_solver_is_ready(monk
     finally:
         K.set_compile_notice(previous)
     assert len(lines) == 2, lines
-    assert lines[0].startswith("compiling the test solver (once per installation")
+    assert lines[0].startswith("compiling the test solver (") and "once" in lines[0]
     assert lines[1].startswith("  test solver ready (") and lines[1].endswith(" s)")

@@ -66,6 +66,7 @@ multiply instead of divide. See docs/architecture_performance.md.
 
 from __future__ import annotations
 
+import json
 import os
 import time
 import warnings
@@ -77,6 +78,7 @@ import numpy as np
 from numba._dispatcher import compute_fingerprint
 from numba.core.errors import NumbaIRAssumptionWarning
 
+from .. import _jitcache
 from .._errors import interrupt_cause
 from .._layout import MODEL_KINDS
 from . import (
@@ -253,7 +255,8 @@ def warmup_calls(name):
 
     ``name``: ``"full"``, ``"reduced"``, ``"pwa"`` (the open-loop solver with the default
     method and the model's output pass), ``"closed-<model>"`` (the closed-loop solver) or
-    ``"point"`` (the linearization's point derivatives and the PWA load flow) or
+    ``"point"`` (the linearization's point derivatives and the PWA load flow), ``"point-full"``
+    (the chamber PWA model's point derivatives and the full model's, :mod:`._small_signal`) or
     ``"output-<model>"`` (the output pass alone: a first ``simulate`` compiles the solver
     while the background process compiles the output pass it needs next). The
     arguments are placeholders of exactly the types :func:`integrate`,
@@ -268,6 +271,17 @@ def warmup_calls(name):
             (_point_pwa, args, "linearization"),
             (pwa_load_flow_at, (0.0, 0.0, 0.0, z), "linearization"),
             (_point_reduced, args, "linearization"),
+        ]
+    if name == "point-full":
+        return [
+            (
+                _POINT[kinds["pwa-chamber"]],
+                _point_args(np.zeros(8), 0.0, 0.0, 0.0, z),
+                "linearization",
+            ),
+            (_rhs_full.rhs_full, (z, 0.0, 0.0, 0.0, z, z), "small-signal"),
+            (_rhs_full.jac_full, (z, 0.0, 0.0, 0.0, z, zz), "small-signal"),
+            (_rhs_full.dfdt_full, (z, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, z, z), "small-signal"),
         ]
     model = name.removeprefix("closed-").removeprefix("output-")
     if model not in kinds:
@@ -288,6 +302,7 @@ def warmup_calls(name):
 WARMUP_NAMES = (
     *MODEL_KINDS,
     "point",
+    "point-full",
     *(f"closed-{m}" for m in MODEL_KINDS),
     *(f"output-{m}" for m in MODEL_KINDS),
 )
@@ -314,6 +329,8 @@ def set_compile_notice(callback):
 def _cached_on_disk(dispatcher) -> bool:
     """Whether numba's on-disk cache holds ``dispatcher`` compiled from the current sources."""
     try:
+        if _jitcache.holds_prebuilt(dispatcher._cache):  # shipped with the package
+            return True
         cache_file = dispatcher._cache._cache_file
         if not os.path.exists(cache_file._index_path):
             return False
@@ -374,8 +391,8 @@ def prepare(dispatcher, args, what="solver"):
         if _compile_notice is not None and not _noticed:
             _noticed = True
             _compile_notice(
-                f"compiling the {what} solver (once per installation, ~5–10 s per model;"
-                " later runs load it from the cache)"
+                f"compiling the {what} solver ({_expected_compile(dispatcher)}; once, later runs"
+                " load it from the cache)"
             )
         if _cold_hook is not None:
             _cold_hook(dispatcher)
@@ -387,12 +404,51 @@ def prepare(dispatcher, args, what="solver"):
         dispatcher.compile(sig)
     dt = time.perf_counter() - t0
     compile_seconds += dt
+    if cold:
+        _record_compile(dispatcher, dt)
     if key is not None:
         ready.add(key)
     if _compile_notice is not None and dt > NOTICE_AFTER_S and (cold or warming is not None):
         # each long wait ends with a line, so a user sees the compiler progress, not silence
         _compile_notice(f"  {what} solver ready ({dt:.1f} s)")
     return dt
+
+
+#: The file beside a kernel's cache entries that keeps how long it took to compile here [s].
+COMPILE_TIMES = "hydropwa-compile-seconds.json"
+
+
+def _record_compile(dispatcher, seconds: float) -> None:
+    """Keep the wall time ``dispatcher`` took to compile on this machine (for the next notice)."""
+    try:
+        path = os.path.join(dispatcher._cache.cache_path, COMPILE_TIMES)
+        times = json.loads(open(path).read()) if os.path.exists(path) else {}
+        times[dispatcher._cache._impl.filename_base] = round(seconds, 1)
+        with open(path, "w") as fh:
+            fh.write(json.dumps(times))
+    except Exception:  # a read-only cache folder, numba internals differ: nothing to keep
+        pass
+
+
+def _expected_compile(dispatcher) -> str:
+    """How long compiling ``dispatcher`` takes, as the notice says it: measured here, or the build's.
+
+    The last compile on this machine (:func:`_record_compile`) where there was one; otherwise the
+    CPU time it took when the shipped entries were built (``_prebuilt/BUILD.json``), which a busy
+    or slower machine exceeds.
+    """
+    try:
+        base = dispatcher._cache._impl.filename_base
+        here = os.path.join(dispatcher._cache.cache_path, COMPILE_TIMES)
+        if os.path.exists(here):
+            seconds = json.loads(open(here).read()).get(base)
+            if seconds is not None:
+                return f"~{seconds:.0f} s, as it took on this machine last time"
+        build = json.loads((_jitcache.PREBUILT_DIR / "BUILD.json").read_text())
+        cpu = build["compile_cpu_seconds"][base]
+        return f"~{cpu:.0f} s of one idle core; longer while other work runs"
+    except Exception:  # no record of this kernel
+        return "tens of seconds of one core"
 
 
 def prepare_outputs(kind, t_out, Y, n_done, p, sg):

@@ -529,7 +529,7 @@ def check_supply_signal(sig: Signal, supply, duration: float, where: str = "supp
     if isinstance(sig, Constant):
         vals = np.array([float(sig(0.0))])
     else:
-        vals = np.asarray([float(sig(ti)) for ti in np.linspace(0.0, float(duration), 4001)])
+        vals = np.asarray(sig(np.linspace(0.0, float(duration), 4001)), dtype=float)
     if not np.all(np.isfinite(vals)):
         raise ParameterError(f"{where}: P_S is not finite everywhere; give a finite pressure")
     for v in (float(vals.min()), float(vals.max())):
