@@ -45,7 +45,12 @@ def run_command(
     ] = Path("campaign"),
     params: ParamsOption = None,
     campaign: Annotated[
-        str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
+        str,
+        typer.Option(
+            "--campaign",
+            "-c",
+            help="Campaign TOML file or built-in name; 'machine': sized from --params.",
+        ),
     ] = "paper",
     seed: Annotated[
         int | None,
@@ -70,7 +75,7 @@ def run_command(
     )
     from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
         Rig,
-        load_campaign,
+        campaign_for,
         run_campaign,
     )
 
@@ -80,8 +85,9 @@ def run_command(
 
         raise ParameterError(f"--seed {seed} is larger than 2**63 - 1; give a smaller seed")
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
-    camp = load_campaign(campaign)
-    rig = Rig.from_params(resolve_params(params)).with_overrides(camp.sensors, camp.supply)
+    machine = resolve_params(params)
+    camp = campaign_for(campaign, machine)
+    rig = Rig.from_params(machine).with_overrides(camp.sensors, camp.supply)
     if not quiet:
         typer.echo(_describe(rig))
     names = None if experiment is Which.all else [experiment.value]
@@ -133,3 +139,82 @@ def campaigns_command() -> None:
 
     for name in builtin_campaigns():
         typer.echo(name)
+
+
+def _limit(opt: str, help: str) -> typer.models.OptionInfo:  # noqa: A002 - typer's own word
+    return typer.Option(opt, help=help)
+
+
+@app.command("plan")
+def plan_command(
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", help="Plan folder: manifest.json, commands/, plan.html."),
+    ],
+    params: ParamsOption = None,
+    campaign: Annotated[
+        str,
+        typer.Option(
+            "--campaign",
+            "-c",
+            help="Campaign TOML file (its [limits] table is read) or built-in name; "
+            "'machine' (default): sized from --params.",
+        ),
+    ] = "machine",
+    rate: Annotated[
+        float, typer.Option("--rate", help="The rig controller's sample rate [Hz].")
+    ] = 1000.0,
+    stroke_margin: Annotated[
+        str | None, _limit("--stroke-margin", "Distance to each end stop (default 5 mm).")
+    ] = None,
+    min_pressure: Annotated[
+        str | None, _limit("--min-pressure", "Lowest chamber pressure (default 0 bar).")
+    ] = None,
+    max_pressure: Annotated[
+        str | None,
+        _limit("--max-pressure", "Highest chamber pressure (default: the relief pressure)."),
+    ] = None,
+    max_velocity: Annotated[
+        str | None, _limit("--max-velocity", "Highest rod speed (default 1 m/s).")
+    ] = None,
+    max_opening: Annotated[
+        str | None, _limit("--max-opening", "Largest |valve command| [1] (default 1).")
+    ] = None,
+    max_duration: Annotated[
+        str | None, _limit("--max-run-length", "Longest run (default 30 s).")
+    ] = None,
+    strict: Annotated[
+        bool, typer.Option("--strict", help="Refuse a run that breaks a limit; do not adapt it.")
+    ] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing plan folder.")] = False,
+) -> None:
+    """Plan a campaign for a real rig: command files, each run checked on the full model."""
+    from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
+        check_output,
+        output_lock,
+    )
+    from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
+        campaign_for,
+        parse_limits,
+        plan_campaign,
+    )
+    from hydropwa.rig._plan import campaign_limits  # deferred: as above
+
+    check_output(out, force, folder=True, option="--out")
+    machine = resolve_params(params)
+    camp = campaign_for(campaign, machine)
+    given = {
+        "stroke_margin": stroke_margin,
+        "min_pressure": min_pressure,
+        "max_pressure": max_pressure,
+        "max_velocity": max_velocity,
+        "max_opening": max_opening,
+        "max_duration": max_duration,
+    }
+    table = {**campaign_limits(campaign), **{k: v for k, v in given.items() if v is not None}}
+    limits = parse_limits(table, "limits")
+    result = plan_campaign(machine, camp, limits, rate=rate, strict=strict)
+    with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
+        result.write(out, overwrite=force)
+    typer.echo(result.summary())
+    typer.echo(f"wrote {out}/manifest.json, commands/, plan.html")
