@@ -125,7 +125,7 @@ def _logs(folder: Path) -> dict[str, Path]:
         raise DataError(f"{str(folder)!r}: no such folder of logs; hint: check the path")
     found: dict[str, Path] = {}
     for p in sorted(folder.iterdir()):
-        if p.suffix.lower().lstrip(".") in FORMATS and p.is_file():
+        if p.suffix.lower() in FORMATS and p.is_file():
             if p.stem in found:
                 raise DataError(f"logs {found[p.stem].name} and {p.name} are both run {p.stem!r}")
             found[p.stem] = p
@@ -140,9 +140,14 @@ def _columns(path: Path) -> dict[str, np.ndarray]:
 
 
 def _delay(u_log: np.ndarray, u_plan: np.ndarray, max_lag: int) -> int:
-    """Lag d [samples] maximising the correlation of u_log[k + d] with u_plan[k], |d| ≤ max_lag."""
-    a = u_log - u_log.mean()
-    b = u_plan - u_plan.mean()
+    """Lag d [samples] maximising the correlation of u_log[k + d] with u_plan[k], |d| ≤ max_lag.
+
+    The changes of the two commands are correlated, the planned one preceded by the rig's rest
+    at u = 0: a constant command's only features are its start and end, which the levels'
+    correlation (biased by the mean of a log with pre-trigger samples) misplaces.
+    """
+    a = np.diff(u_log, prepend=u_log[0])
+    b = np.diff(u_plan, prepend=0.0)
     n = a.size + b.size - 1
     nfft = 1 << (n - 1).bit_length()
     c = np.fft.irfft(np.fft.rfft(a, nfft) * np.conj(np.fft.rfft(b, nfft)), nfft)
