@@ -53,9 +53,12 @@ def _write_logs(plan, folder, *, rate_factor=1, alter=None):
     folder.mkdir()
     rng = np.random.default_rng(50)
     noise = {"Pos_mm": 2e-3, "Spool": 1e-3, "PA_V": 2e-3, "PB_V": 2e-3, "Load_N": 2.0}
+    n_pre = 30 + DELAY  # 30 ms pre-trigger, then the recording delay
+
+    def pad(a):
+        return np.concatenate([np.full(n_pre, a[0]), a, np.full(40, a[-1])])
+
     for r in plan.runs:
-        n_pre = 30 + DELAY
-        pad = lambda a: np.concatenate([np.full(n_pre, a[0]), a, np.full(40, a[-1])])  # noqa: E731
         u = np.concatenate([np.zeros(n_pre), r.u, np.zeros(40)])
         cols = {
             "Time_s": 12.5 + np.arange(u.size) / 1000.0,
@@ -197,5 +200,7 @@ def test_the_sized_campaign_fits_the_machine():
         for sw in c["frf"].sweeps:  # rod amplitude v/(2πf) ≤ 30 % of the stroke
             v = no_load_velocity(p, sw.opening - beta)
             assert v / (2 * np.pi * min(sw.frequencies)) <= 0.3 * p.cylinder.stroke * 1.01
-        assert max(c["frf"].sweeps[0].frequencies) == pytest.approx(p.valve.omega0 / (2 * np.pi), rel=0.01)
+        assert max(c["frf"].sweeps[0].frequencies) == pytest.approx(
+            p.valve.omega0 / (2 * np.pi), rel=0.01
+        )
         assert c["sine"].frequencies == (1.0, 2.0, 3.0) and c["sine"].load is not None

@@ -125,11 +125,13 @@ def convert(
 
 @app.command("import")
 def import_command(
-    logs: Annotated[Path, typer.Argument(help="Folder of the rig's logs, one <run>.csv/.parquet/.mat per run.")],
+    logs: Annotated[
+        Path, typer.Argument(help="Folder of the rig's logs, one <run>.csv/.parquet/.mat per run.")
+    ],
     plan: Annotated[Path, typer.Option("--plan", help="The plan folder (hydropwa rig plan).")],
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Dataset folder: OUT/<experiment>/ datasets.")
-    ],
+    ] = Path("dataset"),
     channel_map: ChannelMapOption = None,
     format: Annotated[
         str, typer.Option("--format", "-f", help="Format of the runs: csv, parquet or mat.")

@@ -15,7 +15,13 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
-from ._options import ParamsOption, jobs_option, resolve_params
+from ._options import (
+    SAMPLE_TIME_METAVAR,
+    ParamsOption,
+    jobs_option,
+    parse_sample_time,
+    resolve_params,
+)
 
 __all__ = ["app"]
 
@@ -150,7 +156,7 @@ def plan_command(
     out: Annotated[
         Path,
         typer.Option("--out", "-o", help="Plan folder: manifest.json, commands/, plan.html."),
-    ],
+    ] = Path("plan"),
     params: ParamsOption = None,
     campaign: Annotated[
         str,
@@ -161,9 +167,14 @@ def plan_command(
             "'machine' (default): sized from --params.",
         ),
     ] = "machine",
-    rate: Annotated[
-        float, typer.Option("--rate", help="The rig controller's sample rate [Hz].")
-    ] = 1000.0,
+    sample_time: Annotated[
+        str,
+        typer.Option(
+            "--sample-time",
+            metavar=SAMPLE_TIME_METAVAR,
+            help="The rig controller's sampling: a period ('1 ms') or a rate ('1 kHz').",
+        ),
+    ] = "1 kHz",
     stroke_margin: Annotated[
         str | None, _limit("--stroke-margin", "Distance to each end stop (default 5 mm).")
     ] = None,
@@ -186,7 +197,17 @@ def plan_command(
     strict: Annotated[
         bool, typer.Option("--strict", help="Refuse a run that breaks a limit; do not adapt it.")
     ] = False,
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing plan folder.")] = False,
+    controller: Annotated[
+        Path | None,
+        typer.Option(
+            "--controller",
+            help="Position controller file (hydropwa control design) for the positioning "
+            "moves; copied into the plan.",
+        ),
+    ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace an existing plan folder.")
+    ] = False,
 ) -> None:
     """Plan a campaign for a real rig: command files, each run checked on the full model."""
     from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
@@ -202,6 +223,8 @@ def plan_command(
 
     check_output(out, force, folder=True, option="--out")
     machine = resolve_params(params)
+    if controller is not None:
+        _check_controller(controller, machine)
     camp = campaign_for(campaign, machine)
     given = {
         "stroke_margin": stroke_margin,
@@ -213,8 +236,24 @@ def plan_command(
     }
     table = {**campaign_limits(campaign), **{k: v for k, v in given.items() if v is not None}}
     limits = parse_limits(table, "limits")
+    rate = 1.0 / parse_sample_time(sample_time)
     result = plan_campaign(machine, camp, limits, rate=rate, strict=strict)
     with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
-        result.write(out, overwrite=force)
+        result.write(out, overwrite=force, controller=controller)
     typer.echo(result.summary())
     typer.echo(f"wrote {out}/manifest.json, commands/, plan.html")
+
+
+def _check_controller(path: Path, machine) -> None:
+    """The controller file loads, and was designed for this machine's cylinder (if it says)."""
+    from hydropwa.control import (
+        load_controller,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from hydropwa.identification import (
+        check_same_machine,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    from ._control import _machine_of  # deferred: the control CLI, only with --controller
+
+    load_controller(path)  # names a file that is not a controller
+    check_same_machine(machine, _machine_of(path), str(path), "the controller's machine")

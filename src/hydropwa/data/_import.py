@@ -94,7 +94,10 @@ class ImportResult:
 
     def summary(self) -> str:
         """The message and each run's delay."""
-        rows = [f"  {r.name}: delay {1e3 * r.delay:.3g} ms ({r.delay_samples} samples)" for r in self.runs]
+        rows = [
+            f"  {r.name}: delay {1e3 * r.delay:.3g} ms ({r.delay_samples} samples)"
+            for r in self.runs
+        ]
         return "\n".join([self.message, *rows])
 
 
@@ -282,7 +285,9 @@ def import_logs(
         )
     extra = sorted(set(files) - set(names))
     if extra:
-        raise DataError(f"log {files[extra[0]].name} matches no run of the plan; hint: rename or remove it")
+        raise DataError(
+            f"log {files[extra[0]].name} matches no run of the plan; hint: rename or remove it"
+        )
     rate = float(doc["rate"])
     imported: dict[str, list[Run]] = {}
     found: list[ImportedRun] = []

@@ -420,9 +420,8 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
 
 def _refuse_stroke(spec: RunSpec, ch, t, params, lim: PlanLimits) -> RefusedRun:
     t_hit = _first_break(ch, t, params, lim)
-    what = (
-        f"comes within {1e3 * lim.stroke_margin:g} mm of an end stop at {t_hit:.3g} s"
-        + (f", before its {spec.min_duration:g} s minimum" if t_hit < spec.min_duration else "")
+    what = f"comes within {1e3 * lim.stroke_margin:g} mm of an end stop at {t_hit:.3g} s" + (
+        f", before its {spec.min_duration:g} s minimum" if t_hit < spec.min_duration else ""
     )
     return _refuse(spec, "stroke_margin", what, lim)
 
@@ -461,7 +460,9 @@ def _clamped_start(spec: RunSpec, stroke: float, lim: PlanLimits) -> RunSpec:
     x0 = min(max(spec.start_position, lo), hi)
     if x0 == spec.start_position:
         return spec
-    stop_at = None if spec.stop_at is None else max(spec.stop_at - abs(x0 - spec.start_position), 0.0)
+    stop_at = (
+        None if spec.stop_at is None else max(spec.stop_at - abs(x0 - spec.start_position), 0.0)
+    )
     return dataclasses.replace(spec, start_position=x0, stop_at=stop_at)
 
 
@@ -541,18 +542,40 @@ class Plan:
             "refused": [dataclasses.asdict(r) for r in self.refused],
         }
 
-    def write(self, out: str | os.PathLike, *, overwrite: bool = False) -> Path:
-        """Write the plan folder (all files, or none: written to a temporary folder first)."""
+    def write(
+        self,
+        out: str | os.PathLike,
+        *,
+        overwrite: bool = False,
+        controller: str | os.PathLike | None = None,
+    ) -> Path:
+        """Write the plan folder (all files, or none: written to a temporary folder first).
+
+        ``controller``: the position controller file (``hydropwa control design``) that plays
+        the positioning references; copied into the plan as ``controller.toml``/``.json``.
+        """
         from ._plan_files import write_plan_files  # deferred: matplotlib and the MAT writer
 
+        doc = self.to_manifest()
+        if controller is not None:
+            name = f"controller{Path(controller).suffix.lower()}"
+            doc["controller"] = name
+        else:
+            doc["controller"] = None
+            doc["controller_hint"] = (
+                "design the position controller with `hydropwa control design --params "
+                "PLAN/machine.toml --out PLAN/controller.toml` (or give rig plan --controller)"
+            )
         with atomic_folder(out, overwrite=overwrite) as tmp:
+            if controller is not None:
+                (tmp / doc["controller"]).write_bytes(Path(controller).read_bytes())
             write_plan_files(self, tmp)
             (tmp / "machine.toml").write_text(
                 params_to_toml(self.params, "the machine this plan was sized for"),
                 encoding="utf-8",
             )
             (tmp / PLAN_MANIFEST).write_text(
-                json.dumps(_json_safe(self.to_manifest()), indent=1), encoding="utf-8"
+                json.dumps(_json_safe(doc), indent=1), encoding="utf-8"
             )
         return Path(out)
 
@@ -568,7 +591,9 @@ def _worst(runs: list[PlannedRun]) -> str:
 
 
 def _json_safe(obj: Any) -> Any:
-    return json.loads(json.dumps(obj, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+    return json.loads(
+        json.dumps(obj, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+    )
 
 
 def _run_entry(r: PlannedRun, params: SystemParams) -> dict[str, Any]:
@@ -588,8 +613,9 @@ def _run_entry(r: PlannedRun, params: SystemParams) -> dict[str, Any]:
         "start_position": r.start_position,
         "positioning": {
             "to": r.start_position,
-            "how": "closed loop: follow positioning/<run>.csv (t [s], r [m]) with the plan's "
-            "position controller, hold 0.5 s, then switch the valve to the command file",
+            "how": f"closed loop: follow positioning/{r.name}.csv (t [s], r [m]) with the "
+            "plan's position controller (manifest 'controller'), hold 0.5 s, then play the "
+            "command file open loop",
         },
         "counter_force": r.f_l is not None,
         "envelope": r.envelope.to_dict(),

@@ -77,7 +77,9 @@ class SizingRules:
     load_levels : tuple of float
         Load-pressure levels of the load runs [1] (fractions of the direction's range). The
         paper's 0.05 is a load that pulls the rod along: 1.6-1.8 m/s on its 1.4 kg rig, beyond
-        a real cylinder's seals; 0.25 keeps the aiding load moderate.
+        a real cylinder's seals, and its 1 ms step from 0.95 to 0.5 kicks it to 1.7 m/s; these
+        levels keep the aiding load moderate and the step small (0.21 m/s; 0.17 m/s on the
+        50/20 × 700 mm axis).
     """
 
     frf_openings: tuple[float, ...] = (0.10, 0.25, 0.90)
@@ -94,7 +96,7 @@ class SizingRules:
     sine_frequencies: tuple[float, ...] = (1.0, 2.0, 3.0)
     sine_openings: tuple[float, ...] = (0.1, 0.3, 0.5)
     sine_travel: float = 0.25
-    load_levels: tuple[float, ...] = (0.25, 0.95, 0.5, 0.25)
+    load_levels: tuple[float, ...] = (0.2, 0.9, 0.85, 0.3)
 
 
 def no_load_velocity(params: SystemParams, opening: float) -> float:
