@@ -15,6 +15,7 @@ The Stribeck pair is the weak direction of issue 49 (item 4) and is not asserted
 from __future__ import annotations
 
 import shutil
+import warnings
 
 import _fmu_rig as R  # tests/rig is on sys.path (rootdir-relative test modules)
 import numpy as np
@@ -22,7 +23,7 @@ import pytest
 
 from hydropwa import load_params
 from hydropwa.data import import_logs
-from hydropwa.identification import identify
+from hydropwa.identification import IdentificationWarning, identify
 from hydropwa.rig import SizingRules, plan_campaign, size_campaign
 from hydropwa.simulation import export_axis_fmu
 
@@ -89,7 +90,10 @@ def test_dry_run_through_fmpy_recovers_the_fmus_valve_and_dead_zone(tmp_path):
         logs, tmp_path / "plan", tmp_path / "ds", channel_map=tmp_path / "vendor.toml"
     )
     assert {i.name: i.delay_samples for i in res.runs} == delays  # every delay to the sample
-    p = identify(tmp_path / "ds").params
+    with warnings.catch_warnings(record=True) as caught:  # the Stribeck shape: issue 49's
+        warnings.simplefilter("always", IdentificationWarning)
+        p = identify(tmp_path / "ds").params
+    assert not [w for w in caught if not str(w.message).startswith("friction:")]
     # the FRF fit on noisy, quantised spool logs: 0.1 % and 0.4 % measured
     assert p.valve.omega0 == pytest.approx(truth.valve.omega0, rel=0.02)
     assert p.valve.zeta == pytest.approx(truth.valve.zeta, rel=0.03)

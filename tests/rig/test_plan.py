@@ -204,3 +204,41 @@ def test_the_sized_campaign_fits_the_machine():
             p.valve.omega0 / (2 * np.pi), rel=0.01
         )
         assert c["sine"].frequencies == (1.0, 2.0, 3.0) and c["sine"].load is not None
+
+
+def test_cli_plan_reads_the_campaigns_limits_and_import_names_a_missing_run(tmp_path):
+    """`rig plan` with a [limits] table, then `data import` of an empty folder: exit 2, one line."""
+    import tomli_w
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+
+    camp = {
+        "deadzone": {"inputs": [0.15], "directions": ["extend"], "duration": 0.5},
+        "limits": {"stroke_margin": "8 mm", "max_velocity": "0.8 m/s"},
+    }
+    (tmp_path / "c.toml").write_bytes(tomli_w.dumps(camp).encode())
+    runner = CliRunner()
+    args = ["rig", "plan", "--params", "paper", "--campaign", str(tmp_path / "c.toml")]
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "plan"), "--max-opening", "0.9"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "plan" / "manifest.json").read_text())
+    assert doc["limits"]["stroke_margin"] == 0.008 and doc["limits"]["max_velocity"] == 0.8
+    assert doc["limits"]["max_opening"] == 0.9 and doc["runs"][0]["start_position"] == 0.016
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "plan")])
+    assert res.exit_code == 2 and "--force" in res.output  # nothing overwritten without it
+    (tmp_path / "logs").mkdir()
+    res = runner.invoke(
+        app,
+        [
+            "data",
+            "import",
+            str(tmp_path / "logs"),
+            "--plan",
+            str(tmp_path / "plan"),
+            "-o",
+            str(tmp_path / "ds"),
+        ],
+    )
+    assert res.exit_code == 2
+    assert "1 of 1 planned run(s) have no log" in res.output and "deadzone_extend_u15" in res.output

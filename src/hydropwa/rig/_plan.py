@@ -378,12 +378,12 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
     peak = float(np.max(np.abs(u_full)))
     if peak > lim.max_opening:
         if strict:
-            return _refuse(spec, "max_opening", f"commands {100 * peak:.3g} % opening", lim)
+            return _refuse(spec, "max_opening", f"commands {100 * peak:.3g} % opening")
         a.scale = lim.max_opening / peak
         a.notes.append(f"scaled by {a.scale:.3g}: opening {100 * peak:.3g} % above max_opening")
     if duration > lim.max_duration:
         if strict:
-            return _refuse(spec, "max_duration", f"lasts {duration:g} s", lim)
+            return _refuse(spec, "max_duration", f"lasts {duration:g} s")
         a.t_end = lim.max_duration - _RAMP_DOWN - _REST
         a.notes.append(f"shortened to {lim.max_duration:g} s: max_duration")
     f_full = _force_reference(spec, t_full, params)
@@ -401,21 +401,21 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
         f_l = None if f_full is None else np.interp(t, t_full, f_full)
         ch_cut = _simulate(params, spec, t, u, f_l)
         if ch_cut["x"].size < t.size:
-            return _refuse(spec, "solver", "the full model failed on it", lim)
+            return _refuse(spec, "solver", "the full model failed on it")
         env = Envelope.of(ch_cut, params)
         broken = env.breaks(lim)
         if not broken:
             return _planned(spec, t, u, f_l, t_end, env, a, ch_cut)
         limit, what = broken[0]
         if strict:
-            return _refuse(spec, limit, what, lim)
+            return _refuse(spec, limit, what)
         if limit == "stroke_margin":  # the ramp-down overshoots: stop earlier
             a.t_end = t_end - max(0.1 * t_end, 2 * _RAMP_DOWN)
             a.notes.append(f"shortened to {a.t_end:.3g} s: {what}")
         else:
             a.scale *= 0.8
             a.notes.append(f"scaled by 0.8: {what}")
-    return _refuse(spec, limit, what, lim)
+    return _refuse(spec, limit, what)
 
 
 def _refuse_stroke(spec: RunSpec, ch, t, params, lim: PlanLimits) -> RefusedRun:
@@ -423,10 +423,10 @@ def _refuse_stroke(spec: RunSpec, ch, t, params, lim: PlanLimits) -> RefusedRun:
     what = f"comes within {1e3 * lim.stroke_margin:g} mm of an end stop at {t_hit:.3g} s" + (
         f", before its {spec.min_duration:g} s minimum" if t_hit < spec.min_duration else ""
     )
-    return _refuse(spec, "stroke_margin", what, lim)
+    return _refuse(spec, "stroke_margin", what)
 
 
-def _refuse(spec: RunSpec, limit: str, what: str, lim: PlanLimits) -> RefusedRun:
+def _refuse(spec: RunSpec, limit: str, what: str) -> RefusedRun:
     return RefusedRun(spec.name, spec.experiment, limit, what)
 
 

@@ -108,7 +108,6 @@ def _cell(value: float, bad: bool, fmt: str) -> str:
 
 def _row(r: PlannedRun, plan: Plan) -> str:
     e, lim = r.envelope, plan.limits
-    near = min(e.to_retracted, e.to_extended)
     return (
         f"<tr><td>{html.escape(r.name)}</td><td>{r.duration:.3g}</td><td>{_sparkline(r)}</td>"
         + _cell(e.p_max / 1e5, e.p_max > (lim.max_pressure or math.inf), ".1f")
@@ -120,7 +119,6 @@ def _row(r: PlannedRun, plan: Plan) -> str:
         + _cell(e.v_peak, e.v_peak > lim.max_velocity, ".3g")
         + _cell(100 * e.saturation, False, ".0f")
         + f"<td>{html.escape(r.adaptation)}</td></tr>"
-        + ("" if near >= lim.stroke_margin else "")
     )
 
 
