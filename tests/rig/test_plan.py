@@ -126,6 +126,11 @@ def test_a_run_that_breaks_a_limit_is_adapted_or_refused_in_strict_mode():
     assert run.envelope.to_extended >= 0.05
     with pytest.raises(ParameterError, match=r"deadzone_extend_u30.*stroke_margin"):
         plan_campaign(paper, camp, lim, rate=1000.0, strict=True)
+    # an FRF sine above the opening limit is scaled to it, and its setting says so
+    frf = parse_campaign({"frf": {"sweep": [{"opening": 0.9, "frequencies": [20.0]}]}}, "f.toml")
+    (run,) = plan_campaign(paper, frf, PlanLimits(max_opening=0.5), rate=2000.0).runs
+    assert run.adaptation.startswith("scaled by 0.556: opening 90 % above max_opening")
+    assert np.max(np.abs(run.u)) == pytest.approx(0.5) and run.meta["amplitude"] == 0.5
     with pytest.raises(ParameterError, match="max_velocity = 50 m/s is implausible"):
         parse_limits({"max_velocity": "50 m/s"})
 

@@ -357,9 +357,20 @@ def _cut(t: np.ndarray, u: np.ndarray, t_end: float, rate: float) -> tuple[np.nd
 
 @dataclass
 class _Attempt:
+    """The changes made to one run so far: the command's scale, its end, and why."""
+
     scale: float = 1.0
     t_end: float = math.inf
-    notes: list[str] = field(default_factory=list)
+    shortened: str = ""
+    scaled: list[str] = field(default_factory=list)
+
+    def describe(self, t_end: float) -> str:
+        """One phrase per kind of change: ``"shortened to 1.2 s: ...; scaled by 0.64: ..."``."""
+        parts = [f"shortened to {t_end:.3g} s: {self.shortened}"] if self.shortened else []
+        if self.scale != 1.0:
+            reasons = "; ".join(dict.fromkeys(self.scaled))
+            parts.append(f"scaled by {self.scale:.3g}: {reasons}")
+        return "; ".join(parts)
 
 
 def _first_break(ch: Mapping[str, np.ndarray], t: np.ndarray, params, lim: PlanLimits) -> float:
@@ -380,12 +391,12 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
         if strict:
             return _refuse(spec, "max_opening", f"commands {100 * peak:.3g} % opening")
         a.scale = lim.max_opening / peak
-        a.notes.append(f"scaled by {a.scale:.3g}: opening {100 * peak:.3g} % above max_opening")
+        a.scaled.append(f"opening {100 * peak:.3g} % above max_opening")
     if duration > lim.max_duration:
         if strict:
             return _refuse(spec, "max_duration", f"lasts {duration:g} s")
         a.t_end = lim.max_duration - _RAMP_DOWN - _REST
-        a.notes.append(f"shortened to {lim.max_duration:g} s: max_duration")
+        a.shortened = f"lasts {duration:g} s (max_duration)"
     f_full = _force_reference(spec, t_full, params)
     for _ in range(_TRIES):
         ch = _simulate(params, spec, t_full, a.scale * u_full, f_full)
@@ -396,7 +407,9 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
             if strict or t_break < spec.min_duration - 1e-9:
                 return _refuse_stroke(spec, ch, t_full, params, lim)
             t_end = t_break
-            a.notes.append(f"shortened to {t_end:.3g} s: stroke_margin")
+            a.shortened = (
+                f"would come within {1e3 * lim.stroke_margin:g} mm of an end stop (stroke_margin)"
+            )
         t, u = _cut(t_full, a.scale * u_full, t_end, rate)
         f_l = None if f_full is None else np.interp(t, t_full, f_full)
         ch_cut = _simulate(params, spec, t, u, f_l)
@@ -411,10 +424,10 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
             return _refuse(spec, limit, what)
         if limit == "stroke_margin":  # the ramp-down overshoots: stop earlier
             a.t_end = t_end - max(0.1 * t_end, 2 * _RAMP_DOWN)
-            a.notes.append(f"shortened to {a.t_end:.3g} s: {what}")
+            a.shortened = f"{what} while its command ramps down (stroke_margin)"
         else:
             a.scale *= 0.8
-            a.notes.append(f"scaled by 0.8: {what}")
+            a.scaled.append(f"{what} ({limit})")
     return _refuse(spec, limit, what)
 
 
@@ -448,7 +461,7 @@ def _planned(spec, t, u, f_l, t_end, env, a: _Attempt, ch) -> PlannedRun:
         start_position=spec.start_position,
         record_until=float(t_end),
         envelope=env,
-        adaptation="; ".join(a.notes),
+        adaptation=a.describe(t_end),
         meta=meta,
         predicted={k: ch[k] for k in PREDICTED},
     )
