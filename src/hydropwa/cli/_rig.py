@@ -139,12 +139,14 @@ def _describe(rig) -> str:
 @app.command("campaigns")
 def campaigns_command() -> None:
     """List the built-in campaigns."""
-    from hydropwa.rig import (
-        builtin_campaigns,  # deferred: loaded only when this command runs (a fast --help)
+    from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
+        SIZED,
+        builtin_campaigns,
     )
 
     for name in builtin_campaigns():
         typer.echo(name)
+    typer.echo(f"{SIZED}  (the paper's experiments sized from --params: rig run, rig plan)")
 
 
 def _limit(opt: str, help: str) -> typer.models.OptionInfo:  # noqa: A002 - typer's own word

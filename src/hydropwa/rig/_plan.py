@@ -398,14 +398,20 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
         a.t_end = lim.max_duration - _RAMP_DOWN - _REST
         a.shortened = f"lasts {duration:g} s (max_duration)"
     f_full = _force_reference(spec, t_full, params)
+    limit, what = "", ""
     for _ in range(_TRIES):
         ch = _simulate(params, spec, t_full, a.scale * u_full, f_full)
         n = _stop_index(ch["x"], t_full[: ch["x"].size], spec, params.cylinder.stroke)
         t_end = min(a.t_end, float(t_full[min(n, ch["x"].size) - 1]))
         t_break = _first_break(ch, t_full, params, lim) - _RAMP_DOWN
         if t_break < t_end:
-            if strict or t_break < spec.min_duration - 1e-9:
+            if strict:
                 return _refuse_stroke(spec, ch, t_full, params, lim)
+            if t_break < _needed(spec) - 1e-9:  # too short to use: a smaller command drifts less
+                limit, what = "stroke_margin", _stroke_break(spec, ch, t_full, params, lim)
+                a.scale *= 0.8
+                a.scaled.append(f"reaches the stroke margin before {_needed(spec):.3g} s")
+                continue
             t_end = t_break
             a.shortened = (
                 f"would come within {1e3 * lim.stroke_margin:g} mm of an end stop (stroke_margin)"
@@ -431,12 +437,21 @@ def _adapt(spec: RunSpec, params: SystemParams, lim: PlanLimits, rate: float, st
     return _refuse(spec, limit, what)
 
 
-def _refuse_stroke(spec: RunSpec, ch, t, params, lim: PlanLimits) -> RefusedRun:
+def _needed(spec: RunSpec) -> float:
+    """The shortest useful run [s]: its minimum duration, or the end of its fit window (FRF)."""
+    window = spec.meta.get("fit_window") or (0.0, 0.0)
+    return max(spec.min_duration, float(window[1]))
+
+
+def _stroke_break(spec: RunSpec, ch, t, params, lim: PlanLimits) -> str:
     t_hit = _first_break(ch, t, params, lim)
-    what = f"comes within {1e3 * lim.stroke_margin:g} mm of an end stop at {t_hit:.3g} s" + (
-        f", before its {spec.min_duration:g} s minimum" if t_hit < spec.min_duration else ""
+    return f"comes within {1e3 * lim.stroke_margin:g} mm of an end stop at {t_hit:.3g} s" + (
+        f", before {_needed(spec):.3g} s" if t_hit < _needed(spec) else ""
     )
-    return _refuse(spec, "stroke_margin", what)
+
+
+def _refuse_stroke(spec: RunSpec, ch, t, params, lim: PlanLimits) -> RefusedRun:
+    return _refuse(spec, "stroke_margin", _stroke_break(spec, ch, t, params, lim))
 
 
 def _refuse(spec: RunSpec, limit: str, what: str) -> RefusedRun:

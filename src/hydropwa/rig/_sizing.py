@@ -23,6 +23,7 @@ from ..params import SystemParams
 from ._campaign import (
     Campaign,
     DeadZoneExperiment,
+    Experiment,
     FrfExperiment,
     FrfSweep,
     FrictionExperiment,
@@ -207,7 +208,7 @@ def size_campaign(
             f"dead_zone.beta = {params.dead_zone.beta:g} leaves no valve range to size a campaign "
             "in; give a dead band below 50 %"
         )
-    experiments = {
+    experiments: dict[str, Experiment] = {
         "frf": _frf(params, rules),
         "deadzone": _deadzone(params, rules),
         "friction": _friction(params, rules),
@@ -216,7 +217,7 @@ def size_campaign(
     return Campaign(
         name=SIZED,
         seed=seed,
-        experiments=dict(experiments),
+        experiments=experiments,
         description=(
             f"the paper's experiments sized to a {1e3 * params.cylinder.stroke:g} mm axis "
             f"({params.valve.omega0 / (2 * math.pi):.3g} Hz valve, "
