@@ -7,8 +7,9 @@ The plan is made for the nominal 50/20 × 700 mm, 100 kg, 200 bar axis with a 40
 outside it (``_fmu_rig``). Measured (5 FRF frequencies per opening, 8 dead-zone and 6
 friction inputs per direction, 43 runs): every delay found to the sample (51-53 samples:
 the 50-sample pre-trigger plus 1-3); ω0 44.04 Hz, ζ 0.753, β 0.0799, creep 0.0402 (truth
-0.04), σ 1179 N·s/m (truth 1158); F_c 23.3 N (truth 27.5), F_s 266 N (truth 210). A virtual-rig
-campaign of the same machine and campaign gives the same picture (docs/howto_own_machine.md).
+0.04), σ 1179 N·s/m (truth 1158); F_c 23.3 N (truth 27.5), F_s 266 N (truth 210). The same runs on
+the virtual rig (`run_campaign`, its own sensors): 44.03 Hz, 0.750, 0.0799, 0.0403, 1173 N·s/m,
+23.7 N, 360 N.
 The Stribeck pair is the weak direction of issue 49 (item 4) and is not asserted tightly here.
 """
 
