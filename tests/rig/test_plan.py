@@ -114,6 +114,12 @@ def test_the_plan_keeps_its_limits_and_writes_what_the_rig_plays(planned):
     dz = next(r for r in plan.runs if r.name == "deadzone_extend_u15")
     assert dz.start_position == pytest.approx(2 * lim.stroke_margin)
     assert "plan.png" in (out / "plan.html").read_text()
+    # the result protocol: the table holds the envelopes, the figure one axis per quantity
+    df = plan.to_pandas()
+    assert list(df.index) == [r.name for r in plan.runs]
+    assert df["p_max"].tolist() == [r.envelope.p_max for r in plan.runs]
+    assert len(plan.plot().axes) == 4 and plan.status.name == "SUCCESS"
+    assert plan.runs[0].name in plan._repr_html_()
 
 
 def test_a_run_that_breaks_a_limit_is_adapted_or_refused_in_strict_mode():
@@ -140,6 +146,7 @@ def test_import_finds_the_delay_and_gives_identify_its_dataset(planned, tmp_path
     logs = _write_logs(plan, tmp_path / "logs")
     res = import_logs(logs, out, tmp_path / "ds", channel_map=cmap)
     assert {r.delay_samples for r in res.runs} == {30 + DELAY}  # pre-trigger + delay, exactly
+    assert (res.to_pandas()["delay"] == (30 + DELAY) / 1000.0).all() and res.success
     ds = read_dataset(tmp_path / "ds" / "friction")
     assert ds.meta["machine"]["cylinder"]["stroke"] == 0.2
     run = ds["friction_extend_u20"]

@@ -13,23 +13,28 @@ the run; nothing is written then (the output is assembled in a temporary folder)
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hydropwa._errors import DataError
 from hydropwa._io import atomic_folder
+from hydropwa._result import ResultStatus
 
 from ._channel_map import ChannelMap
 from ._dataset import Dataset
 from ._formats import FORMATS, read_run
 from ._run import Run
 from ._validate import check_run
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["ImportedRun", "ImportResult", "import_logs", "read_plan"]
 
@@ -73,14 +78,34 @@ class ImportResult:
     runs: tuple[ImportedRun, ...]
 
     @property
-    def success(self) -> bool:
-        """Always True: a failed import raises instead."""
-        return True
+    def status(self) -> ResultStatus:
+        """``SUCCESS``: an import that fails raises instead of returning."""
+        return ResultStatus.SUCCESS
 
     @property
-    def status(self) -> str:
-        """``"ok"``."""
-        return "ok"
+    def success(self) -> bool:
+        """``status.success``."""
+        return self.status.success
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per run: experiment, source file, delay [s] and in samples, command error [1]."""
+        import pandas as pd  # deferred: pandas, only for the table
+
+        return pd.DataFrame([dataclasses.asdict(r) for r in self.runs]).set_index("name")
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """The delay found for each run [ms]."""
+        from hydropwa.plotting import new_figure  # deferred: matplotlib loads only here
+
+        fig, grid = new_figure(ax=ax, figsize=(7.0, 3.0))
+        axis = grid.ravel()[0]
+        axis.plot([1e3 * r.delay for r in self.runs], "o", ms=3)
+        axis.set_xlabel("run (plan order)")
+        axis.set_ylabel("delay [ms]")
+        return fig
+
+    def _repr_html_(self) -> str:
+        return self.to_pandas().to_html()
 
     @property
     def message(self) -> str:

@@ -25,13 +25,14 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import __version__
 from .._errors import ParameterError
 from .._io import atomic_folder
+from .._result import ResultStatus
 from ..models import FullOrderModel
 from ..params import SystemParams, params_to_toml, parse_quantity
 from ..simulation import Sampled, simulate
@@ -39,6 +40,9 @@ from ._campaign import EXPERIMENTS, Campaign
 from ._experiments import RunSpec, _stop_index, counter_force_signal, plan
 from ._rig import Rig
 from ._sizing import size_campaign
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "LIMIT_FIELDS",
@@ -524,16 +528,42 @@ class Plan:
     strict: bool = False
 
     @property
-    def success(self) -> bool:
-        """True when no run was refused."""
-        return not self.refused
+    def status(self) -> ResultStatus:
+        """``SUCCESS`` (every run planned, adapted ones included) or ``PARTIAL`` (runs refused)."""
+        return ResultStatus.PARTIAL if self.refused else ResultStatus.SUCCESS
 
     @property
-    def status(self) -> str:
-        """``"ok"``, ``"adapted"`` (some runs shortened or scaled) or ``"refused"``."""
-        if self.refused:
-            return "refused"
-        return "adapted" if any(r.adaptation for r in self.runs) else "ok"
+    def success(self) -> bool:
+        """True when no run was refused."""
+        return self.status.success
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per planned run: duration [s], start [m], the envelope (SI), adaptation."""
+        import pandas as pd  # deferred: pandas, only for the table
+
+        rows = [
+            {
+                "run": r.name,
+                "experiment": r.experiment,
+                "duration": r.duration,
+                "start_position": r.start_position,
+                **r.envelope.to_dict(),
+                "adaptation": r.adaptation,
+            }
+            for r in self.runs
+        ]
+        return pd.DataFrame(rows).set_index("run") if rows else pd.DataFrame()
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """Each run's envelope against the limits (pressures, end stops, speed, saturation)."""
+        from ._plan_files import envelope_figure  # deferred: matplotlib loads only here
+
+        return envelope_figure(self, ax=ax)
+
+    def _repr_html_(self) -> str:
+        from ._plan_files import plan_html  # deferred: the page's writer, only here
+
+        return plan_html(self, page=False)
 
     @property
     def message(self) -> str:

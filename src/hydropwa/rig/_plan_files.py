@@ -15,7 +15,7 @@ import numpy as np
 if TYPE_CHECKING:
     from ._plan import Plan, PlannedRun
 
-__all__ = ["positioning_reference", "write_plan_files"]
+__all__ = ["envelope_figure", "plan_html", "positioning_reference", "write_plan_files"]
 
 _HOLD = 0.5  # [s] at the start position before the run's command begins
 
@@ -122,8 +122,12 @@ def _row(r: PlannedRun, plan: Plan) -> str:
     )
 
 
-def _html(plan: Plan) -> str:
-    lim = plan.limits
+def plan_html(plan: Plan, page: bool = True) -> str:
+    """The plan as HTML: limits, refused runs and one row per run (``page``: a whole page)."""
+    return _html(plan) if page else _runs_table(plan)
+
+
+def _runs_table(plan: Plan) -> str:
     head = (
         "<tr><th>run</th><th>s</th><th>command u(t)</th><th>p max [bar]</th>"
         "<th>p min [bar]</th><th>cavitation margin [bar]</th><th>stroke used [mm]</th>"
@@ -131,12 +135,17 @@ def _html(plan: Plan) -> str:
         "<th>saturated [%]</th><th>adapted</th></tr>"
     )
     body = "".join(_row(r, plan) for r in plan.runs)
+    return f"<p>{html.escape(plan.message)}</p><table>{head}{body}</table>"
+
+
+def _html(plan: Plan) -> str:
+    lim = plan.limits
     refused = "".join(f"<li>{html.escape(str(r))}</li>" for r in plan.refused) or "<li>none</li>"
     return (
         "<!doctype html><html><head><meta charset='utf-8'><title>hydropwa plan</title>"
         "<style>body{font-family:sans-serif}td,th{border:1px solid #ccc;padding:2px 6px}"
         "table{border-collapse:collapse}</style></head><body>"
-        f"<h1>Plan: {html.escape(plan.campaign)}</h1><p>{html.escape(plan.message)}</p>"
+        f"<h1>Plan: {html.escape(plan.campaign)}</h1>"
         f"<p>Limits: end stops ≥ {1e3 * lim.stroke_margin:g} mm, chambers "
         f"{lim.min_pressure / 1e5:g} … {(lim.max_pressure or math.nan) / 1e5:g} bar, "
         f"|v| ≤ {lim.max_velocity:g} m/s, |u| ≤ {lim.max_opening:g}, runs ≤ "
@@ -144,17 +153,18 @@ def _html(plan: Plan) -> str:
         "command; a red cell breaks its limit.</p>"
         "<img src='plan.png' alt='envelopes against the limits'>"
         f"<h2>Refused</h2><ul>{refused}</ul>"
-        f"<h2>Runs</h2><table>{head}{body}</table></body></html>"
+        f"<h2>Runs</h2>{_runs_table(plan)}</body></html>"
     )
 
 
-def _figure(plan: Plan, path: Path) -> None:
-    from ..plotting import new_figure, save_figure  # deferred: matplotlib loads only here
+def envelope_figure(plan: Plan, ax=None):
+    """Each run's envelope (plan order) against the limits, on four axes (or the four given)."""
+    from ..plotting import new_figure  # deferred: matplotlib loads only here
 
     e = [r.envelope for r in plan.runs]
     k = np.arange(len(e))
     lim = plan.limits
-    fig, grid = new_figure(4, 1, figsize=(9, 9), sharex=True)
+    fig, grid = new_figure(4, 1, ax=ax, figsize=(9, 9), sharex=True)
     axes = grid.ravel()
     ax = axes[0]
     ax.plot(k, [x.p_max / 1e5 for x in e], "^", label="p max")
@@ -173,12 +183,14 @@ def _figure(plan: Plan, path: Path) -> None:
     axes[3].plot(k, [100 * x.saturation for x in e], "o", ms=3)
     axes[3].set_ylabel("saturated [%]")
     axes[3].set_xlabel("run (plan order)")
-    save_figure(fig, path, overwrite=True)
+    return fig
 
 
 def write_plan_files(plan: Plan, root: Path) -> None:
     """Commands, positioning references, ``plan.html`` and ``plan.png`` into ``root``."""
     _write_commands(plan, root)
     if plan.runs:
-        _figure(plan, root / "plan.png")
+        from ..plotting import save_figure  # deferred: matplotlib loads only here
+
+        save_figure(envelope_figure(plan), root / "plan.png", overwrite=True)
     (root / "plan.html").write_text(_html(plan), encoding="utf-8")
