@@ -28,6 +28,7 @@ from pathlib import Path
 from ._errors import HydropwaError, OutputExistsError, OutputLockedError
 
 __all__ = [
+    "atomic_folder",
     "atomic_path",
     "atomic_write_text",
     "atomic_write_bytes",
@@ -119,6 +120,35 @@ def atomic_path(
     except BaseException:
         with contextlib.suppress(OSError):
             tmp_path.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike, *, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary folder beside ``path``; it becomes ``path`` when the block succeeds.
+
+    A writer that fails half-way leaves nothing at ``path`` (the temporary folder is removed).
+    An existing empty folder is replaced; a non-empty one only with ``overwrite`` (else
+    :class:`~hydropwa.OutputExistsError` before anything is written). The rename is atomic;
+    replacing an existing folder is two renames (the old one is moved aside, then deleted).
+    """
+    import shutil  # deferred: only folder writers need it
+
+    path = Path(path)
+    check_output(path, overwrite, folder=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    try:
+        yield tmp
+        old = None
+        if path.is_dir():
+            old = path.with_name(f"{tmp.name}.old")
+            os.replace(path, old)
+        os.replace(tmp, path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 

@@ -41,6 +41,7 @@ _ARGS = {
     "simulate": ["--out", "{tmp}/run.csv"],
     "linearize": ["--out", "{tmp}/pwa.json"],
     "rig run": ["frf", "--out", "{tmp}/rig"],
+    "rig plan": ["--out", "{tmp}/plan"],
     "paper": ["--out", "{tmp}/report"],
     "control design": ["--out", "{tmp}/ctrl.toml"],
     "control simulate": ["--controller", "{tmp}/c.toml", "--reference", "steps:0=0.1"],
@@ -253,7 +254,7 @@ def test_one_name_and_one_default_for_out_jobs_and_sampling():
                 assert p.metavar == _options.SAMPLE_TIME_METAVAR, path
             if opts & {"--fs", "--rate"}:
                 assert p.hidden and "Deprecated name of --sample-time" in p.help, path
-    assert seen["--out"] >= 14 and seen["--jobs"] == 3 and seen["--sample-time"] == 3, seen
+    assert seen["--out"] >= 14 and seen["--jobs"] == 3 and seen["--sample-time"] == 4, seen
 
 
 def test_params_paper_is_the_papers_rig_and_ends_with_no_note(tmp_path, capsys):

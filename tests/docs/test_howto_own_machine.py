@@ -69,3 +69,25 @@ def test_the_howto_machine_is_the_industrial_axis():
         assert getattr(howto.cylinder, f) == pytest.approx(
             getattr(industrial.cylinder, f), rel=2e-4
         )
+
+
+def test_the_pages_campaign_ships_with_the_package_and_fits_its_machine():
+    """Issue 49 item 6: no file of the source tree; the sized campaign has sine runs (step 5's
+    `paper --data`) and no friction input inside the machine's dead band (none skipped)."""
+    import tomllib
+
+    from hydropwa.rig import SIZED, Rig, campaign_for, no_load_velocity, plan
+
+    text = PAGE.read_text()
+    assert "tests/" not in "".join(re.findall(r"```bash\n(.*?)```", text, re.S))
+    assert f"--campaign {SIZED}" in text
+    (toml,) = re.findall(r"```toml\n(.*?)```", text, re.S)
+    p = params_from_dict(tomllib.loads(toml), source="howto")
+    c = campaign_for(SIZED, p)
+    rig = Rig.from_params(p)
+    sine = plan(c["sine"], rig)
+    assert len(sine) == 9 + 2  # 3 frequencies x 3 amplitudes, and the two load runs
+    assert min(c["friction"].inputs) > p.dead_zone.beta
+    # the largest sine's rod amplitude v(z)/(2πf) at 1 Hz stays within a quarter of the stroke
+    z = max(c["sine"].amplitudes) - p.dead_zone.beta
+    assert no_load_velocity(p, z) / (2 * math.pi) <= 0.25 * p.cylinder.stroke * 1.01

@@ -121,3 +121,27 @@ def convert(
         meta=meta,
     )
     typer.echo(f"wrote {out}")
+
+
+@app.command("import")
+def import_command(
+    logs: Annotated[
+        Path, typer.Argument(help="Folder of the rig's logs, one <run>.csv/.parquet/.mat per run.")
+    ],
+    plan: Annotated[Path, typer.Option("--plan", help="The plan folder (hydropwa rig plan).")],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Dataset folder: OUT/<experiment>/ datasets.")
+    ] = Path("dataset"),
+    channel_map: ChannelMapOption = None,
+    format: Annotated[
+        str, typer.Option("--format", "-f", help="Format of the runs: csv, parquet or mat.")
+    ] = "parquet",
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing output.")] = False,
+) -> None:
+    """Import a real rig's logs of a plan: aligned, checked, ready for identify all."""
+    from hydropwa.data import (
+        import_logs,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    result = import_logs(logs, plan, out, channel_map=channel_map, format=format, overwrite=force)
+    typer.echo(result.summary())

@@ -15,7 +15,13 @@ from typing import Annotated
 import typer
 
 from ._app import new_app
-from ._options import ParamsOption, jobs_option, resolve_params
+from ._options import (
+    SAMPLE_TIME_METAVAR,
+    ParamsOption,
+    jobs_option,
+    parse_sample_time,
+    resolve_params,
+)
 
 __all__ = ["app"]
 
@@ -45,7 +51,12 @@ def run_command(
     ] = Path("campaign"),
     params: ParamsOption = None,
     campaign: Annotated[
-        str, typer.Option("--campaign", "-c", help="Campaign TOML file or built-in name.")
+        str,
+        typer.Option(
+            "--campaign",
+            "-c",
+            help="Campaign TOML file or built-in name; 'machine': sized from --params.",
+        ),
     ] = "paper",
     seed: Annotated[
         int | None,
@@ -70,7 +81,7 @@ def run_command(
     )
     from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
         Rig,
-        load_campaign,
+        campaign_for,
         run_campaign,
     )
 
@@ -80,8 +91,9 @@ def run_command(
 
         raise ParameterError(f"--seed {seed} is larger than 2**63 - 1; give a smaller seed")
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
-    camp = load_campaign(campaign)
-    rig = Rig.from_params(resolve_params(params)).with_overrides(camp.sensors, camp.supply)
+    machine = resolve_params(params)
+    camp = campaign_for(campaign, machine)
+    rig = Rig.from_params(machine).with_overrides(camp.sensors, camp.supply)
     if not quiet:
         typer.echo(_describe(rig))
     names = None if experiment is Which.all else [experiment.value]
@@ -127,9 +139,123 @@ def _describe(rig) -> str:
 @app.command("campaigns")
 def campaigns_command() -> None:
     """List the built-in campaigns."""
-    from hydropwa.rig import (
-        builtin_campaigns,  # deferred: loaded only when this command runs (a fast --help)
+    from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
+        SIZED,
+        builtin_campaigns,
     )
 
     for name in builtin_campaigns():
         typer.echo(name)
+    typer.echo(f"{SIZED}  (the paper's experiments sized from --params: rig run, rig plan)")
+
+
+def _limit(opt: str, help: str) -> typer.models.OptionInfo:  # noqa: A002 - typer's own word
+    return typer.Option(opt, help=help)
+
+
+@app.command("plan")
+def plan_command(
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", help="Plan folder: manifest.json, commands/, plan.html."),
+    ] = Path("plan"),
+    params: ParamsOption = None,
+    campaign: Annotated[
+        str,
+        typer.Option(
+            "--campaign",
+            "-c",
+            help="Campaign TOML file (its [limits] table is read) or built-in name; "
+            "'machine' (default): sized from --params.",
+        ),
+    ] = "machine",
+    sample_time: Annotated[
+        str,
+        typer.Option(
+            "--sample-time",
+            metavar=SAMPLE_TIME_METAVAR,
+            help="The rig controller's sampling: a period ('1 ms') or a rate ('1 kHz').",
+        ),
+    ] = "1 kHz",
+    stroke_margin: Annotated[
+        str | None, _limit("--stroke-margin", "Distance to each end stop (default 5 mm).")
+    ] = None,
+    min_pressure: Annotated[
+        str | None, _limit("--min-pressure", "Lowest chamber pressure (default 0 bar).")
+    ] = None,
+    max_pressure: Annotated[
+        str | None,
+        _limit("--max-pressure", "Highest chamber pressure (default: the relief pressure)."),
+    ] = None,
+    max_velocity: Annotated[
+        str | None, _limit("--max-velocity", "Highest rod speed (default 1 m/s).")
+    ] = None,
+    max_opening: Annotated[
+        str | None, _limit("--max-opening", "Largest |valve command| [1] (default 1).")
+    ] = None,
+    max_duration: Annotated[
+        str | None, _limit("--max-run-length", "Longest run (default 30 s).")
+    ] = None,
+    strict: Annotated[
+        bool, typer.Option("--strict", help="Refuse a run that breaks a limit; do not adapt it.")
+    ] = False,
+    controller: Annotated[
+        Path | None,
+        typer.Option(
+            "--controller",
+            help="Position controller file (hydropwa control design) for the positioning "
+            "moves; copied into the plan.",
+        ),
+    ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace an existing plan folder.")
+    ] = False,
+) -> None:
+    """Plan a campaign for a real rig: command files, each run checked on the full model."""
+    from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
+        check_output,
+        output_lock,
+    )
+    from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
+        campaign_for,
+        parse_limits,
+        plan_campaign,
+    )
+    from hydropwa.rig._plan import campaign_limits  # deferred: as above
+
+    check_output(out, force, folder=True, option="--out")
+    machine = resolve_params(params)
+    if controller is not None:
+        _check_controller(controller, machine)
+    camp = campaign_for(campaign, machine)
+    given = {
+        "stroke_margin": stroke_margin,
+        "min_pressure": min_pressure,
+        "max_pressure": max_pressure,
+        "max_velocity": max_velocity,
+        "max_opening": max_opening,
+        "max_duration": max_duration,
+    }
+    table = {**campaign_limits(campaign), **{k: v for k, v in given.items() if v is not None}}
+    limits = parse_limits(table, "limits")
+    rate = 1.0 / parse_sample_time(sample_time)
+    result = plan_campaign(machine, camp, limits, rate=rate, strict=strict)
+    with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
+        result.write(out, overwrite=force, controller=controller)
+    typer.echo(result.summary())
+    typer.echo(f"wrote {out}/manifest.json, commands/, plan.html")
+
+
+def _check_controller(path: Path, machine) -> None:
+    """The controller file loads, and was designed for this machine's cylinder (if it says)."""
+    from hydropwa.control import (
+        load_controller,  # deferred: loaded only when this command runs (a fast --help)
+    )
+    from hydropwa.identification import (
+        check_same_machine,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    from ._control import _machine_of  # deferred: the control CLI, only with --controller
+
+    load_controller(path)  # names a file that is not a controller
+    check_same_machine(machine, _machine_of(path), str(path), "the controller's machine")

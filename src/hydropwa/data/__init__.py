@@ -17,6 +17,7 @@ from ._dataset import (
 )
 from ._emps import load_emps
 from ._formats import FORMATS, read_run, write_run
+from ._import import ImportedRun, ImportResult, import_logs, read_plan
 from ._run import Run
 from ._units import CANONICAL_UNITS, convert_units, to_si
 from ._validate import (
@@ -39,6 +40,10 @@ __all__ = [
     "Dataset",
     "ChannelSpec",
     "Issue",
+    "ImportedRun",
+    "ImportResult",
+    "import_logs",
+    "read_plan",
     "Plausible",
     "Run",
     "ValidationReport",

@@ -30,12 +30,38 @@ from ._experiments import (
     plan,
     run_seed,
 )
+from ._plan import (
+    LOG_COLUMNS,
+    PLAN_MANIFEST,
+    Envelope,
+    Plan,
+    PlanLimits,
+    PlannedRun,
+    RefusedRun,
+    parse_limits,
+    plan_campaign,
+)
 from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
 from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
+from ._sizing import SIZED, SizingRules, campaign_for, no_load_velocity, size_campaign
 
 __all__ = [
     "EXPERIMENTS",
+    "LOG_COLUMNS",
+    "PLAN_MANIFEST",
+    "SIZED",
+    "Envelope",
+    "Plan",
+    "PlanLimits",
+    "PlannedRun",
+    "RefusedRun",
+    "SizingRules",
+    "campaign_for",
+    "no_load_velocity",
+    "parse_limits",
+    "plan_campaign",
+    "size_campaign",
     "MEASURED_CHANNELS",
     "TRUE_PARAMS",
     "BroadbandSweep",

@@ -634,10 +634,10 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
             t.finish()
     sensors = _sensors(_Table(top.raw("sensors", {}), f"{source}: [sensors]"))
     supply = _supply(_Table(top.raw("supply", {}), f"{source}: [supply]"))
-    extra = sorted(set(data) - top.used - set(EXPERIMENTS))
+    extra = sorted(set(data) - top.used - set(EXPERIMENTS) - {"limits"})  # [limits]: rig plan's
     if extra:
         raise ParameterError(
-            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, "
+            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, limits, "
             f"{', '.join(EXPERIMENTS)}"
         )
     if not experiments:
