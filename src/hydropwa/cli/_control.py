@@ -16,7 +16,7 @@ import typer
 
 from .._errors import PwaError
 from .._io import check_output
-from ._app import new_app
+from ._app import error_line, new_app
 from ._options import (
     SAMPLE_TIME_METAVAR,
     MachineParamsOption,
@@ -272,8 +272,9 @@ def design_command(
         Path | None, typer.Option("--pwa", help="Design on this PWA JSON document instead.")
     ] = None,
     method: Annotated[
-        str, typer.Option("--method", help="lqr (per cell), place (per cell) or pi.")
-    ] = "lqr",
+        str | None,
+        typer.Option("--method", help="lqr (per cell), place (per cell) or pi (default: lqr)."),
+    ] = None,
     sample_time: Annotated[
         str | None,
         typer.Option(
@@ -287,12 +288,12 @@ def design_command(
         typer.Option("--rate", hidden=True, help="Deprecated name of --sample-time."),
     ] = None,
     delay: Annotated[
-        bool,
+        bool | None,
         typer.Option(
             "--delay/--no-delay",
             help="One sample of computation delay (default: on, as on any target).",
         ),
-    ] = True,
+    ] = None,
     weights: Annotated[
         str | None,
         typer.Option(
@@ -326,12 +327,15 @@ def design_command(
         ),
     ] = True,
     draws: Annotated[
-        int,
-        typer.Option("--draws", help="Parameter draws of the verification (nominal + draws-1)."),
-    ] = 4,
+        int | None,
+        typer.Option(
+            "--draws", help="Parameter draws of the verification (nominal + draws-1; default 4)."
+        ),
+    ] = None,
     seed: Annotated[
-        int, typer.Option("--seed", help="Seed of the draws and the sensor noise.")
-    ] = 0,
+        int | None,
+        typer.Option("--seed", help="Seed of the draws and the sensor noise (default 0)."),
+    ] = None,
     sensor_noise: Annotated[
         str | None,
         typer.Option(
@@ -390,10 +394,19 @@ def design_command(
             "gain for its noise (--sensor-noise 'spool=0.2 %'; default 0.1 %).",
         ),
     ] = "estimated",
+    write_unverified: Annotated[
+        bool,
+        typer.Option(
+            "--write-unverified",
+            help="Write the controller even when it fails its verification (the file records "
+            "the failed verdict; without this option a failed design exits 1 and writes nothing).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_DESIGN,
         ControlError,
         design_controller,
         save_controller,
@@ -402,6 +415,11 @@ def design_command(
         parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    # the defaults of the one default design (the Python API's, the paper study's)
+    method = DEFAULT_DESIGN.method if method is None else method
+    delay = DEFAULT_DESIGN.delay if delay is None else delay
+    draws = DEFAULT_DESIGN.draws if draws is None else draws
+    seed = DEFAULT_DESIGN.seed if seed is None else seed
     check_output(out, force, option="--out")
     if table is not None:
         check_output(table, force, option="--table")
@@ -428,7 +446,11 @@ def design_command(
     if quiet_band and (method == "pi" or not dzi):
         raise ControlError("--quiet-band needs --method lqr or place and the dead-zone inverse")
     # on by default for --model pwa; opt-in for pwa-chamber
-    kw["quiet"] = quiet_band is not False if model_name == "pwa" else bool(quiet_band)
+    kw["quiet"] = (
+        (DEFAULT_DESIGN.quiet if quiet_band is None else quiet_band)
+        if model_name == "pwa"
+        else bool(quiet_band)
+    )
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,
@@ -442,17 +464,25 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
-    # the machine goes with the controller: `control simulate` needs no --params to run it
-    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
-    if d.verification is not None and not d.verification.passed:
+    failed = d.verification is not None and not d.verification.passed
+    if failed and not write_unverified:
+        error_line(
+            f"the controller failed its verification on the full model "
+            f"({len(d.verification.failures)} failed checks above); {out} not written (give "
+            "--write-unverified to write it with its failed verdict)"
+        )
+        raise typer.Exit(code=1)
+    if failed:
         print(
-            "warning: the controller failed its verification on the full model; the file records "
-            "the failed checks ([verification])",
+            "warning: the controller failed its verification on the full model; written with "
+            "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     written = [str(out)]
     if table is not None:
         from .._io import (
@@ -649,6 +679,14 @@ def export_command(
     fmi_version: Annotated[
         str, typer.Option("--fmi-version", help="FMI version of the FMU: 2.0 or 3.0.")
     ] = "2.0",
+    write_unverified: Annotated[
+        bool,
+        typer.Option(
+            "--write-unverified",
+            help="Export a controller that failed its verification or was never verified (the "
+            "C, its README and the FMU state the verdict).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Export a controller file as dependency-free C99 code and/or an FMU for a real-time target."""
@@ -673,6 +711,12 @@ def export_command(
         check_output(fmu, force, option="--fmu")
         find_compiler()  # before anything is written: no C folder without its FMU
     ctrl = load_controller(controller)
+    if ctrl.verdict != "pass" and not write_unverified:
+        why = "failed its verification" if ctrl.verdict == "fail" else "records no verification"
+        raise ControlError(
+            f"{controller} {why} on the full model; design one that passes (hydropwa control "
+            "design), or give --write-unverified to export it with that verdict stated"
+        )
     written = []
     if c_dir is not None:
         export_c(ctrl, c_dir, overwrite=force)
@@ -680,7 +724,7 @@ def export_command(
     if fmu is not None:
         export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
-    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")
+    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
 
 
 def _compare(

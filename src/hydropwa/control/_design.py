@@ -41,6 +41,7 @@ from ._controllers import (
     machine_of,
     position_observer_gains,
 )
+from ._defaults import DEFAULT_DESIGN
 from ._design_result import DesignResult
 
 __all__ = [
@@ -331,7 +332,7 @@ def design_state_feedback(
     sample_time: float = DEFAULT_SAMPLE_TIME,
     weights: Mapping[str, float] | None = None,
     poles: tuple[complex, ...] | None = None,
-    delay: bool = False,
+    delay: bool = DEFAULT_DESIGN.delay,
     load_force: float | None = None,
     dead_zone_inverse: bool = True,
     u_limits: tuple[float, float] = (-1.0, 1.0),
@@ -346,6 +347,14 @@ def design_state_feedback(
     dead_zone_hysteresis: float = 0.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
+
+    The gain step of the default design, not the default design itself: it adds no position
+    observer and no quiet band (their sizes come from the sensor noise) and does not verify,
+    so its controller is ``unverified`` and ``hydropwa control export`` refuses it without
+    ``--write-unverified``. The default design, the one the CLI, the paper study and the
+    tutorials use, is :func:`~hydropwa.control.design_controller`
+    (:data:`~hydropwa.control.DEFAULT_DESIGN`); its sample time and delay are this function's
+    defaults.
 
     Parameters
     ----------
@@ -363,8 +372,9 @@ def design_state_feedback(
         ``place``: four continuous-time closed-loop poles [1/s] (mapped to e^{pT_s});
         default a 15 Hz, ζ = 0.8 pair and real poles at 2× and 3× that frequency.
     delay : bool
-        Whether the controller runs with a one-sample computation delay (the table's
-        radius then includes it; the gains are designed without).
+        Whether the controller runs with a one-sample computation delay (default
+        :data:`~hydropwa.control.DEFAULT_DESIGN`'s, True: any target computes for a while; the
+        valve-aware LQR designs with it, the table's radius includes it).
     load_force : float, optional
         Load force [N] at which the cells are linearized (default params.load.force).
     dead_zone_inverse : bool

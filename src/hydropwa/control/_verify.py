@@ -34,6 +34,7 @@ from ._bands import (
     quiet_open_for,
 )
 from ._controllers import ControlError
+from ._defaults import DEFAULT_DESIGN
 from ._design import DEFAULT_WEIGHTS, design_pi, design_state_feedback
 from ._reference import MotionProfile, StepSequence
 
@@ -50,8 +51,9 @@ __all__ = [
     "verify_controller",
 ]
 
-#: Sensor noise of the verification (standard deviations, SI): 20 µm position, 0.1 bar pressures.
-DEFAULT_SENSOR_NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
+#: Sensor noise of the verification (standard deviations, SI): 20 µm position, 0.1 bar
+#: pressures; the default design's (:data:`~hydropwa.control.DEFAULT_DESIGN`).
+DEFAULT_SENSOR_NOISE = dict(DEFAULT_DESIGN.sensor_noise)
 #: Noise [1] of a measured spool position where none is given (``spool="measured"`` with the
 #: default sensor noise): 0.1 % of the full opening, the paper rig's valve (rig/_sensors.py)
 DEFAULT_SPOOL_NOISE = 1e-3
@@ -520,21 +522,25 @@ def _run_dask(cases, scheduler: str, jobs):
 def design_controller(
     model,
     *,
-    method: str = "lqr",
+    method: str = DEFAULT_DESIGN.method,
     weights: Mapping[str, float] | None = None,
-    verify: bool = True,
+    verify: bool = DEFAULT_DESIGN.verify,
     params=None,
-    draws: int = 4,
-    seed: int = 0,
+    draws: int = DEFAULT_DESIGN.draws,
+    seed: int = DEFAULT_DESIGN.seed,
     sensor_noise: Mapping[str, float] | None = None,
     criteria: VerificationCriteria | None = None,
     scheduler: str | None = None,
     jobs: int | None = None,
-    retune: int = 3,
-    quiet: bool = True,
+    retune: int = DEFAULT_DESIGN.retune,
+    quiet: bool = DEFAULT_DESIGN.quiet,
     **design_kwargs,
 ):
     """Design a controller on the PWA model and verify it on the full model before it is used.
+
+    This is the default design of every entry point (``hydropwa control design``, the paper
+    study and its report, the tutorials): its defaults, and the ``sample_time`` and ``delay``
+    it passes to the design function unless given, are :data:`~hydropwa.control.DEFAULT_DESIGN`.
 
     The design is :func:`~hydropwa.control.design_state_feedback` (``"lqr"``, ``"place"``)
     or :func:`~hydropwa.control.design_pi` (``"pi"``); :func:`verify_controller` then runs
@@ -590,6 +596,8 @@ def design_controller(
         raise ControlError(f"method {method!r} must be lqr, place or pi")
 
     noise = dict(DEFAULT_SENSOR_NOISE if sensor_noise is None else sensor_noise)
+    for key, value in DEFAULT_DESIGN.design_kwargs().items():
+        design_kwargs.setdefault(key, value)
     measured = design_kwargs.get("spool") == "measured"
     if measured:  # the spool sensor's noise: given, or the default
         noise.setdefault("spool", DEFAULT_SPOOL_NOISE if sensor_noise is None else 0.0)

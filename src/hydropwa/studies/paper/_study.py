@@ -747,7 +747,7 @@ def _stage_evaluate(
 def _stage_control(
     inp: _Inputs, runner: StageRunner, true, key: str, notes: list[str] | None = None
 ) -> str:
-    """Closed loop: an LQR designed on the identified PWA model, verified on the full model."""
+    """Closed loop: the default design on the identified PWA model, verified on the full model."""
     out = inp.out
 
     def work():
@@ -757,7 +757,8 @@ def _stage_control(
         runs, table, design = closed_loop_study(pwa, true)
         files = [save_controller(design.controller, out / "controller.toml", overwrite=True)]
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
-        ver = closed_loop_verification(pwa, design.controller)  # the verdict beside the PI
+        # the design's own verdict beside the PI's (same task set, draws, seed and noise)
+        ver = closed_loop_verification(pwa, design.controller, verification=design.verification)
         files += _write_table(ver.reset_index(), out / "tables" / "closed_loop_verification")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
         shown = {k: v for k, v in runs.items() if k in ("full", "reduced", "pwa", "pwa-chamber")}
