@@ -116,6 +116,8 @@ _LAYOUT = (
     "X_DZQO",
     "QUIET_HOLD",
     "QUIET_VENT",
+    "REST_RATE",
+    "REST_ACCELERATION",
     # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
     "NZ",
     "EROW",

@@ -49,10 +49,14 @@ extern "C" {
 /** Sample time T_s [s]. */
 #define HYDROPWA_CTRL_SAMPLE_TIME @SAMPLE_TIME@
 /** Look-ahead tau [s] of the flow feed-forward's reference rate r_rate_ff = r'(t_k + tau)
- *  (0: r_rate_ff = r_rate). */
+ *  (0: r_rate_ff = r_rate). Where it is > 0 r_rate_ff is a REQUIRED input: the design and its
+ *  verification assume it (r_rate in its place: 2-4x the following error on a trapezoid). */
 #define HYDROPWA_CTRL_LEAD @LEAD@
 /** Look-ahead tau_o [s] of the dead-zone pre-opening's reference rate
- *  r_rate_pre = r'(t_k + tau_o) (0: no pre-opening, r_rate_pre unused). */
+ *  r_rate_pre = r'(t_k + tau_o) (0: no pre-opening, r_rate_pre unused). Where it is > 0
+ *  r_rate_pre is a REQUIRED input (0 there: no pre-opening, the valve crosses its dead zone
+ *  after the move has started). The reference is "at rest" where |r_rate|, |r_rate_ff| <=
+ *  HP_REST_RATE (1e-6 m/s) and |r_acc| <= HP_REST_ACCELERATION (1e-3 m/s^2), not exactly 0. */
 #define HYDROPWA_CTRL_PRE_OPEN @PRE_OPEN@
 
 /** Measurements at one sample instant. */
