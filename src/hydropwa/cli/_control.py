@@ -511,8 +511,9 @@ def simulate_command(
         ),
     ],
     model: Annotated[
-        str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
-    ] = "full",
+        str | None,
+        typer.Option("--model", "-m", help="full (default), reduced, pwa or pwa-chamber."),
+    ] = None,
     params: MachineParamsOption = None,
     pwa: Annotated[
         Path | None,
@@ -594,6 +595,11 @@ def simulate_command(
         simulate,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    if compare and model is not None:
+        raise ControlError(
+            f"--compare runs every model side by side; drop --model {model} (or drop --compare)"
+        )
+    model = "full" if model is None else model
     if model not in MODEL_NAMES:
         raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):
@@ -613,7 +619,8 @@ def simulate_command(
     else:
         t_end = parse_quantity(duration, "s", "--duration")
     if compare:
-        _compare(ctrl, ref, prm, prm, pwa, t_end, x0, load_force, supply_pressure, rtol, out, plot)
+        case = {"x0": x0, "load_force": load_force, "supply_pressure": supply_pressure}
+        _compare(ctrl, ref, prm, pwa, t_end, case, rtol, out, plot, noise, seed)
         return
     mdl = (
         _pwa_model(prm, pwa)
@@ -641,6 +648,10 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)
+    from ..control import valve_warning  # deferred: loaded only when this command runs
+
+    if valve_warning(prm, model):
+        print(f"warning: {valve_warning(prm, model)}", file=sys.stderr)
     if ctrl.verification.get("verdict") == "fail":
         print(
             f"warning: {controller} failed its verification on the full model "
@@ -727,10 +738,10 @@ def export_command(
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
 
 
-def _compare(
-    ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
-):
-    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written."""
+def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
+    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written;
+    every option of ``control simulate`` reaches every model (the sensor noise with the same
+    draws), ``--model`` and ``--supply-pressure`` are refused; the model warnings printed."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         ControlError,
         closed_loop_fidelity,
@@ -739,11 +750,12 @@ def _compare(
         parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    if supply_pressure is not None:
+    if case["supply_pressure"] is not None:
         raise ControlError(
             "--compare runs every model at the parameters' P_S; drop --supply-pressure"
         )
-    pwa_model = _pwa_model(params, pwa) if pwa is not None else None
+    pwa_model = _pwa_model(prm, pwa) if pwa is not None else None
+    x0 = case["x0"]
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     results, table = closed_loop_fidelity(
         ctrl,
@@ -752,8 +764,10 @@ def _compare(
         pwa=pwa_model,
         duration=duration,
         initial_position=start,
-        load_force=load_force,
+        load_force=case["load_force"],
         rtol=rtol,
+        sensor_noise=noise,
+        seed=seed,
     )
     units = table.attrs["units"]
     typer.echo(
@@ -761,6 +775,8 @@ def _compare(
             float_format=lambda v: f"{v:.4g}"
         )
     )
+    for w in table.attrs.get("warnings", []):
+        print(f"warning: {w}", file=sys.stderr)
     if out.suffix.lower() == ".csv":
         table.to_csv(out)
     else:

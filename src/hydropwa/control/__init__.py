@@ -54,7 +54,15 @@ from ._estimator import (
     CellEstimator,
     design_cell_estimator,
 )
-from ._fidelity import FIDELITY_MODELS, closed_loop_fidelity, hold_oscillations
+from ._fidelity import (
+    FIDELITY_MODELS,
+    VALVE_FACTOR,
+    closed_loop_fidelity,
+    hold_oscillations,
+    hydraulic_frequency,
+    model_warnings,
+    valve_warning,
+)
 from ._io import (
     SCHEMA,
     SCHEMAS,
@@ -158,6 +166,10 @@ __all__ = [
     "c_structs",
     "export_fmu",
     "hold_oscillations",
+    "hydraulic_frequency",
+    "model_warnings",
+    "valve_warning",
+    "VALVE_FACTOR",
     "load_controller",
     "parse_reference",
     "save_controller",

@@ -96,6 +96,9 @@ class ControlDesign(DesignResult):
                 f"..{t['bandwidth_hz'].max():.1f} Hz, spectral radius <= {t['radius'].max():.4f} "
                 f"(with valve dynamics {t['radius_valve'].max():.4f})"
             )
+            light = _light_damping_line(t)
+            if light:
+                lines.append(light)
         if self.verification is not None:
             lines.append(self.verification.summary())
         lines += [f"warning: {w}" for w in self.warnings]
@@ -269,6 +272,40 @@ def _radius(Aa, Ba, K, delay: bool) -> float:
     M[:n, n] = Ba[:, 0]
     M[n, :n] = -K[0]
     return float(np.max(np.abs(np.linalg.eigvals(M))))
+
+
+#: Closed-loop damping [1] below which the design summary comments on a cell's pole pair: a
+#: pair with ζ < 0.1 overshoots a step by exp(−πζ/√(1 − ζ²)) > 73 % and needs 1/(2πζ) > 1.6
+#: periods to decay by 1/e; where it sits far above the loop's bandwidth (the hydraulic mode a
+#: state feedback leaves as the plant has it) it does not shape the tracking but rings after
+#: every disturbance near its frequency.
+DAMPING_NOTE = 0.1
+
+
+def _light_damping_line(table) -> str:
+    """The comment on the least damped closed-loop pole pair of the cells ('' above
+    :data:`DAMPING_NOTE`)."""
+    low = table[table["damping_min"] < DAMPING_NOTE]
+    if not len(low):
+        return ""
+    row = low.loc[low["damping_min"].idxmin()]
+    zeta = float(row["damping_min"])
+    poles = [complex(p.replace(" ", "")) for p in str(row.get("poles", "")).split(";") if p.strip()]
+    f = max((abs(p) / (2 * math.pi) for p in poles if p.imag != 0.0), default=float("nan"))
+    where = f"at {f:.0f} Hz, " if math.isfinite(f) else ""
+    above = (
+        f"above the loop's bandwidth (<= {table['bandwidth_hz'].max():.0f} Hz), so it does not shape "
+        "the tracking but rings after a disturbance near it; "
+        if math.isfinite(f) and f > table["bandwidth_hz"].max()
+        else ""
+    )
+    return (
+        f"  note: damping {zeta:.3f} < {DAMPING_NOTE:g} ({where}cell {row['cell']}; {len(low)} of "
+        f"{len(table)} cells below {DAMPING_NOTE:g}): such a pair overshoots by "
+        f"{100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2)):.0f} % and takes "
+        f"{1 / (2 * math.pi * zeta):.1f} periods to decay by 1/e; {above}the design model's "
+        "prediction, judged by the verification on the full model"
+    )
 
 
 def _pole_stats(Acl, ts, Br, C):

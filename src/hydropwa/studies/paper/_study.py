@@ -36,7 +36,12 @@ from ..._io import (
     output_lock,
     overwrite_flag,
 )
-from ...control import closed_loop_study, closed_loop_verification, save_controller
+from ...control import (
+    closed_loop_study,
+    closed_loop_verification,
+    model_warnings,
+    save_controller,
+)
 from ...data import Run, read_dataset
 from ...evaluation import coverage_study, evaluate_run, evaluation_params, sound_runs
 from ...identification import (
@@ -766,7 +771,10 @@ def _stage_control(
             plot_closed_loop(shown, "LQR designed on the identified PWA model"),
             out / "figures" / "closed_loop",
         )
-        return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
+        notes = [f"closed loop design: {w}" for w in design.warnings[:3]]
+        # which model can represent the loop (the valve left out near ω_h, cells left, limit cycles)
+        notes += [f"closed loop: {w}" for w in model_warnings(shown, pwa.params, pwa=pwa)]
+        return files, {"notes": notes}
 
     m = runner.run("control", text_hash(inp.key(), key, "control"), work)
     if notes is not None:  # the design's warnings (cells unstable with the valve) are shown
