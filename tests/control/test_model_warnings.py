@@ -65,7 +65,14 @@ def test_compare_honours_the_sensor_noise_and_warns_for_a_valve_near_omega_h(
     save_params(near, tmp_path / "near.toml")
     ctrl = tmp_path / "c.toml"
     save_controller(default, ctrl, machine_parameters=paper)
-    base = ["control", "simulate", "--controller", str(ctrl), "--params", str(tmp_path / "near.toml")]
+    base = [
+        "control",
+        "simulate",
+        "--controller",
+        str(ctrl),
+        "--params",
+        str(tmp_path / "near.toml"),
+    ]
     base += ["--reference", "steps:0=100 mm,0.05=110 mm", "--duration", "0.4 s", "--compare"]
     tables = {}
     for noise in ("0 um", "200 um"):

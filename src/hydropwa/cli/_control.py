@@ -777,6 +777,11 @@ def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
     )
     for w in table.attrs.get("warnings", []):
         print(f"warning: {w}", file=sys.stderr)
+    _write_compare(table, results, out, plot, f"{ctrl.kind} controller on every model")
+
+
+def _write_compare(table, results, out: Path, plot: Path | None, title: str) -> None:
+    """The ``--compare`` table (``--out``, .csv or .parquet) and its figure (``--plot``)."""
     if out.suffix.lower() == ".csv":
         table.to_csv(out)
     else:
@@ -788,11 +793,6 @@ def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
             save_figure,
         )
 
-        save_figure(
-            plot_closed_loop(results, f"{ctrl.kind} controller on every model"),
-            plot,
-            dpi=150,
-            overwrite=True,
-        )
+        save_figure(plot_closed_loop(results, title), plot, dpi=150, overwrite=True)
         msg += f" and {plot}"
     typer.echo(msg)

@@ -390,9 +390,7 @@ def verdict_line(controller) -> str:
         return f"PASS: verified on the full model ({runs}, sensor noise, delay)"
     fails = list(ver.get("failures", []))
     first = f"; first: {fails[0]}" if fails else ""
-    return (
-        f"FAIL: {len(fails)} failed checks of the verification on the full model ({runs}){first}"
-    )
+    return f"FAIL: {len(fails)} failed checks of the verification on the full model ({runs}){first}"
 
 
 def cost_per_step(
