@@ -100,3 +100,35 @@ def test_the_engineering_section_shows_written_figures(small_study):
         assert (out / rel).is_file(), rel
     m = re.search(r"differ by at most ([\d.]+) % in magnitude and ([\d.]+)° in phase", sec)
     assert m and float(m.group(1)) < 3.0 and float(m.group(2)) < 3.0
+
+
+def test_the_verdict_includes_the_controllers_verification(small_study, tmp_path):
+    """The first screen's verdict has the closed-loop design's verification as a check: never
+    PASS beside a closed-loop FAIL. The study's own table decides; a copy of the report folder
+    whose design row is turned to fail makes the verdict FAIL (the test can fail)."""
+    import shutil
+
+    import pandas as pd
+
+    from hydropwa.studies.paper._report import _controller_verdict_rows
+
+    out = small_study.out
+    ver = pd.read_csv(out / "tables" / "closed_loop_verification.csv", keep_default_na=False)
+    design = ver[ver["controller"] == "design"].iloc[0]
+    page = (out / "index.html").read_text()
+    head = page[page.index("<h2>Verdict</h2>") : page.index('<nav class="toc">')]
+    assert "closed-loop design verified on the full model" in head
+    if design["verdict"] == "fail":
+        assert "class='fail'>FAIL</span>" in head
+    (row,) = _controller_verdict_rows(out)
+    assert row[3] is (design["verdict"] == "pass")
+    copy = tmp_path / "report"
+    shutil.copytree(out / "tables", copy / "tables")
+    ver.loc[ver["controller"] == "design", ["verdict", "failed_checks", "first_failure"]] = [
+        "fail",
+        2,
+        "steps +50 % force, draw 1: hold 0.2 mm peak to peak > 0.1 mm",
+    ]
+    ver.to_csv(copy / "tables" / "closed_loop_verification.csv", index=False)
+    (row,) = _controller_verdict_rows(copy)
+    assert row[3] is False and "fail: 2 checks" in row[2]
