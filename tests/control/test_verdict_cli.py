@@ -51,3 +51,23 @@ def test_one_default_design_and_limits_from_the_machine(paper):
     exact = VerificationCriteria.for_machine(paper, {})
     assert exact.hold_peak_to_peak == pytest.approx(2e-4 * paper.cylinder.stroke)
     assert "5 x the position noise 20 um" in crit.basis(paper)
+
+
+def test_a_lightly_damped_cell_is_commented_with_its_threshold():
+    """The summary's note names ζ, the 0.1 threshold, the least damped pair's frequency (the
+    paper rig's cell s=+1 o=1 w=1: −41 ± 1414j, i.e. 225 Hz, ζ = 0.029) and its overshoot
+    exp(−πζ/√(1 − ζ²)) = 91 %; nothing above the threshold."""
+    import math
+
+    import pandas as pd
+
+    from hydropwa.control._design import DAMPING_NOTE, _light_damping_line
+
+    poles = "-41+1414j; -41-1414j; -72404+6283j; -510+480j; -510-480j; -84+0j; -21+0j"
+    zeta = 41 / abs(complex(-41, 1414))
+    row = {"cell": "s=+1 o=1 w=1", "damping_min": zeta, "bandwidth_hz": 29.2, "poles": poles}
+    line = _light_damping_line(pd.DataFrame([row]))
+    assert DAMPING_NOTE == 0.1 and "< 0.1" in line and f"damping {zeta:.3f}" in line
+    assert f"{abs(complex(-41, 1414)) / (2 * math.pi):.0f}" == "225" and "at 225 Hz" in line
+    assert "overshoots by 91 %" in line and "above the loop's bandwidth" in line
+    assert _light_damping_line(pd.DataFrame([{**row, "damping_min": 0.2}])) == ""

@@ -291,7 +291,9 @@ def _light_damping_line(table) -> str:
     row = low.loc[low["damping_min"].idxmin()]
     zeta = float(row["damping_min"])
     poles = [complex(p.replace(" ", "")) for p in str(row.get("poles", "")).split(";") if p.strip()]
-    f = max((abs(p) / (2 * math.pi) for p in poles if p.imag != 0.0), default=float("nan"))
+    pairs = [p for p in poles if p.imag != 0.0 and abs(p) > 0.0]
+    # the frequency |s|/2π of the least damped pair (ζ = −Re s/|s|)
+    f = abs(min(pairs, key=lambda p: -p.real / abs(p))) / (2 * math.pi) if pairs else math.nan
     where = f"at {f:.0f} Hz, " if math.isfinite(f) else ""
     above = (
         f"above the loop's bandwidth (<= {table['bandwidth_hz'].max():.0f} Hz), so it does not shape "

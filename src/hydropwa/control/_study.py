@@ -151,7 +151,8 @@ def closed_loop_verification(
         See :func:`~hydropwa.control.verify_controller`.
     verification : Verification, optional
         The design's own verification (``design_controller``'s): shown as it is instead of
-        verifying the design again; the baseline is then verified at its draws, seed and noise.
+        verifying the design again; the baseline is then verified at the same draws, seed and
+        noise as the design was.
 
     Returns
     -------
