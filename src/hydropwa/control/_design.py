@@ -290,10 +290,12 @@ def _light_damping_line(table) -> str:
         return ""
     row = low.loc[low["damping_min"].idxmin()]
     zeta = float(row["damping_min"])
-    poles = [complex(p.replace(" ", "")) for p in str(row.get("poles", "")).split(";") if p.strip()]
+    text = str(row.get("poles", ""))
+    poles: list[complex] = [complex(p.replace(" ", "")) for p in text.split(";") if p.strip()]
     pairs = [p for p in poles if p.imag != 0.0 and abs(p) > 0.0]
     # the frequency |s|/2π of the least damped pair (ζ = −Re s/|s|)
-    f = abs(min(pairs, key=lambda p: -p.real / abs(p))) / (2 * math.pi) if pairs else math.nan
+    least = min(pairs, key=lambda p: -p.real / abs(p)) if pairs else None
+    f = abs(least) / (2 * math.pi) if least is not None else math.nan
     where = f"at {f:.0f} Hz, " if math.isfinite(f) else ""
     above = (
         f"above the loop's bandwidth (<= {table['bandwidth_hz'].max():.0f} Hz), so it does not shape "
