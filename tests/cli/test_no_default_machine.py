@@ -124,7 +124,8 @@ def test_a_manifests_machine_entry(tmp_path, heavy):
 
 def _pi_controller(tmp_path: Path, machine: dict | None) -> Path:
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
+    argv = ["control", "design", "-p", "paper", "--method", "pi", "--no-verify"]
+    assert main([*argv, "--out", str(ctrl)]) == 0
     import tomllib
 
     doc = tomllib.loads(ctrl.read_text())
@@ -142,7 +143,8 @@ def test_control_design_writes_its_machine_for_control_simulate(tmp_path):
     low = get_preset("paper").replace(**{"supply.pressure": 60e5})
     save_params(low, tmp_path / "low.toml")
     ctrl, out = tmp_path / "pi.toml", tmp_path / "run.csv"
-    design = ["control", "design", "--method", "pi", "--params", str(tmp_path / "low.toml")]
+    design = ["control", "design", "--method", "pi", "--no-verify"]
+    design += ["--params", str(tmp_path / "low.toml")]
     assert main([*design, "--out", str(ctrl)]) == 0
     args = ["--reference", "steps:0=100 mm,0.05=110 mm", "--duration", "0.2", "--model", "reduced"]
     assert main(["control", "simulate", "--controller", str(ctrl), "--out", str(out), *args]) == 0

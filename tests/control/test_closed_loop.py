@@ -245,7 +245,7 @@ def test_one_sample_delay_shifts_the_applied_command(linear_valve):
 
 @pytest.fixture(scope="module")
 def lqr(paper):
-    return design_state_feedback(linearize(paper))
+    return design_state_feedback(linearize(paper), delay=False)
 
 
 @pytest.mark.parametrize("load", [0.0, 1500.0, -1500.0])

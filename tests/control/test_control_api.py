@@ -274,7 +274,10 @@ def test_cli_design_and_simulate(tmp_path, capsys):
     from hydropwa.cli import main
 
     ctrl = tmp_path / "pi.toml"
-    assert main(["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]) == 0
+    # the PI fails the verification under the default sensor noise (sign changes at the holds):
+    # written only with --write-unverified (test_verdict_cli checks the exit 1 without it)
+    argv = ["control", "design", "-p", "paper", "--method", "pi", "--out", str(ctrl)]
+    assert main([*argv, "--write-unverified"]) == 0
     run = tmp_path / "run.csv"
     code = main(
         [
@@ -404,7 +407,7 @@ def test_pole_placement_puts_every_cell_at_the_requested_poles(paper):
         complex(-2 * w),
         complex(-3 * w),
     )
-    d = design_state_feedback(linearize(paper), method="place", poles=poles)
+    d = design_state_feedback(linearize(paper), method="place", poles=poles, delay=False)
     want = np.sort_complex(np.array(poles))
     for text in d.table["poles"]:
         got = np.sort_complex(

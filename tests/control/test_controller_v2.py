@@ -216,8 +216,10 @@ def written(paper, paper_pwa, tmp_path_factory):
         "pi": design_pi(paper_pwa).controller,
         "pi_ff": design_pi(paper_pwa, flow_feedforward=True).controller,
         "lqr": design_state_feedback(paper_pwa, delay=True).controller,
-        "lqr_plain": design_state_feedback(paper_pwa, valve=False, feedforward=False).controller,
-        "place": design_state_feedback(paper_pwa, method="place").controller,
+        "lqr_plain": design_state_feedback(
+            paper_pwa, valve=False, feedforward=False, delay=False
+        ).controller,
+        "place": design_state_feedback(paper_pwa, method="place", delay=False).controller,
         "observer": design_state_feedback(paper_pwa, delay=True, position_noise=20e-6).controller,
         "measured_spool": design_state_feedback(paper_pwa, delay=True, spool="measured").controller,
         "hysteresis": design_state_feedback(

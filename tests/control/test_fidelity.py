@@ -53,7 +53,7 @@ def heavy():
     the controller of issue 38's measurement."""
     prm = load_params(INDUSTRIAL).replace(**{"load.force": 5000.0})
     pwa = linearize(prm)
-    return prm, pwa, design_state_feedback(pwa, valve=False, feedforward=False)
+    return prm, pwa, design_state_feedback(pwa, valve=False, feedforward=False, delay=False)
 
 
 def test_chamber_model_predicts_the_limit_cycle_of_the_heavy_axis(heavy):
@@ -169,7 +169,7 @@ def test_chamber_model_agrees_on_the_quiet_default_design(heavy):
     a factor 1.5 of the full model's or both below 0.1 mm (issue 38: a controller the full model
     holds, the chamber model holds too)."""
     prm, pwa, _ = heavy
-    design = design_state_feedback(pwa)
+    design = design_state_feedback(pwa, delay=False)
     _, table = closed_loop_fidelity(
         design.controller,
         as_reference(STEPS),
@@ -201,7 +201,7 @@ def test_a_hold_within_50_um_on_the_full_model_is_one_on_pwa_chamber(machine, he
         prm, pwa = paper, linearize(paper)
         ref = as_reference("steps:0 s=20 mm,0.1 s=150 mm,1.5 s=40 mm,3 s=100 mm")
         dur, x0 = 4.5, 0.02
-    design = design_state_feedback(pwa, weights={"integral": 1e-3})
+    design = design_state_feedback(pwa, weights={"integral": 1e-3}, delay=False)
     results, table = closed_loop_fidelity(
         design.controller,
         ref,

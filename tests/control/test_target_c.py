@@ -118,7 +118,9 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         load_pressure="mean-area",
         dead_zone_inverse=dzi,
     )
-    lqr_v1 = design_state_feedback(linearize(paper), valve=False, feedforward=False).controller
+    lqr_v1 = design_state_feedback(
+        linearize(paper), valve=False, feedforward=False, delay=False
+    ).controller
     sf_delay = StateFeedbackController(
         rows=lqr_v1.rows,
         delay=True,
@@ -139,7 +141,7 @@ def _variants(paper, paper_lqr, industrial, industrial_lqr):
         velocity_filter=1e-3,
         position_observer=position_observer_gains(ts, 20e-6, 1.0),
     )
-    lqr_no_delay = design_state_feedback(linearize(paper)).controller
+    lqr_no_delay = design_state_feedback(linearize(paper), delay=False).controller
     pwa = linearize(paper)
     d_kf = design_state_feedback(pwa, delay=True)
     lqr_kalman = dataclasses.replace(
@@ -530,7 +532,9 @@ def test_fmu_export_without_a_c_compiler_is_one_line(paper_lqr, tmp_path, monkey
 
 def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, capsys):
     """``hydropwa control export``: C and FMU; an occupied target or a file it cannot read is
-    one line and exit 2; ``--force`` rewrites."""
+    one line and exit 2; ``--force`` rewrites. A file without a passed verification (here none:
+    ``design_state_feedback``) is refused in one line, nothing written, unless
+    ``--write-unverified``; then the C, its README and the FMU's description say so."""
     from hydropwa.cli import main
     from hydropwa.control import save_controller
 
@@ -538,8 +542,17 @@ def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, cap
     save_controller(paper_lqr, ctrl_file)
     argv = ["control", "export", str(ctrl_file), "--c", str(tmp_path / "c")]
     argv += ["--fmu", str(tmp_path / "c.fmu")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--write-unverified" in err[0] and "no verification" in err[0], err
+    assert not (tmp_path / "c").exists() and not (tmp_path / "c.fmu").exists()
+    argv.append("--write-unverified")
     assert main(argv) == 0
     assert (tmp_path / "c" / "hydropwa_ctrl.c").is_file() and (tmp_path / "c.fmu").is_file()
+    assert "#define HYDROPWA_CTRL_VERIFIED 0" in (tmp_path / "c" / "hydropwa_ctrl.h").read_text()
+    assert "NOT VERIFIED" in (tmp_path / "c" / "README.md").read_text()
+    with zipfile.ZipFile(tmp_path / "c.fmu") as z:
+        assert "NOT VERIFIED" in z.read("modelDescription.xml").decode()
     capsys.readouterr()
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -552,6 +565,39 @@ def test_cli_export_writes_both_and_refuses_in_one_line(paper_lqr, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'mpc'" in err[0], err
     assert not (tmp_path / "d").exists()
+
+
+def test_the_verdict_travels_into_the_c_and_a_failed_file_is_refused(paper_lqr, tmp_path, capsys):
+    """A failed verdict in the file: ``control export`` refuses it (one line, exit 2); with
+    ``--write-unverified`` the header, the source and the README state FAIL with the first
+    failed check and ``HYDROPWA_CTRL_VERIFIED`` is 0; a passed one is 1 and exports plainly."""
+    from hydropwa.cli import main
+    from hydropwa.control import save_controller
+
+    settings = {"draws": 4, "tasks": 3}
+    for verdict, failures in (("fail", ["trapezoid, draw 2: hold 0.2 mm > 0.1 mm"]), ("pass", [])):
+        ctrl = dataclasses.replace(
+            paper_lqr,
+            verification={"verdict": verdict, "failures": failures, "settings": settings},
+        )
+        f = tmp_path / f"{verdict}.toml"
+        save_controller(ctrl, f)
+        argv = ["control", "export", str(f), "--c", str(tmp_path / verdict)]
+        if verdict == "fail":
+            assert main(argv) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and "failed its verification" in err[0], err
+            assert not (tmp_path / verdict).exists()
+            argv.append("--write-unverified")
+        assert main(argv) == 0
+        texts = {n: (tmp_path / verdict / n).read_text() for n in C_FILES}
+        flag = "1" if verdict == "pass" else "0"
+        assert f"#define HYDROPWA_CTRL_VERIFIED {flag}" in texts["hydropwa_ctrl.h"]
+        head = "FAIL: 1 failed checks" if verdict == "fail" else "PASS: verified"
+        for name in C_FILES:
+            assert head in texts[name], name
+        if failures:
+            assert failures[0] in texts["README.md"]
 
 
 def test_c_structs_mirror_the_header_field_by_field():

@@ -26,7 +26,7 @@ def pwa(paper):
 def design(pwa):
     from hydropwa.control import design_state_feedback
 
-    return design_state_feedback(pwa)
+    return design_state_feedback(pwa, delay=False)
 
 
 @pytest.fixture(scope="module")

@@ -154,3 +154,35 @@ def test_a_normal_greybox_termination_is_not_a_warning(small_study):
     assert not any("termination condition" in b for b in boxes), boxes
     if "No grey-box fit" not in section:
         assert re.search(r"<p class='small'>grey-box fit: .*evaluations", section)
+
+
+def test_the_verdict_includes_the_controllers_verification(small_study, tmp_path):
+    """The first screen's verdict has the closed-loop design's verification as a check: never
+    PASS beside a closed-loop FAIL. The study's own table decides; a copy of the report folder
+    whose design row is turned to fail makes the verdict FAIL (the test can fail)."""
+    import shutil
+
+    import pandas as pd
+
+    from hydropwa.studies.paper._report import _controller_verdict_rows
+
+    out = small_study.out
+    ver = pd.read_csv(out / "tables" / "closed_loop_verification.csv", keep_default_na=False)
+    design = ver[ver["controller"] == "design"].iloc[0]
+    page = (out / "index.html").read_text()
+    head = page[page.index("<h2>Verdict</h2>") : page.index('<nav class="toc">')]
+    assert "closed-loop design verified on the full model" in head
+    if design["verdict"] == "fail":
+        assert "class='fail'>FAIL</span>" in head
+    (row,) = _controller_verdict_rows(out)
+    assert row[3] is (design["verdict"] == "pass")
+    copy = tmp_path / "report"
+    shutil.copytree(out / "tables", copy / "tables")
+    ver.loc[ver["controller"] == "design", ["verdict", "failed_checks", "first_failure"]] = [
+        "fail",
+        2,
+        "steps +50 % force, draw 1: hold 0.2 mm peak to peak > 0.1 mm",
+    ]
+    ver.to_csv(copy / "tables" / "closed_loop_verification.csv", index=False)
+    (row,) = _controller_verdict_rows(copy)
+    assert row[3] is False and "fail: 2 checks" in row[2]

@@ -16,7 +16,7 @@ import typer
 
 from .._errors import PwaError
 from .._io import check_output
-from ._app import new_app
+from ._app import error_line, new_app
 from ._options import (
     SAMPLE_TIME_METAVAR,
     MachineParamsOption,
@@ -272,8 +272,9 @@ def design_command(
         Path | None, typer.Option("--pwa", help="Design on this PWA JSON document instead.")
     ] = None,
     method: Annotated[
-        str, typer.Option("--method", help="lqr (per cell), place (per cell) or pi.")
-    ] = "lqr",
+        str | None,
+        typer.Option("--method", help="lqr (per cell), place (per cell) or pi (default: lqr)."),
+    ] = None,
     sample_time: Annotated[
         str | None,
         typer.Option(
@@ -287,12 +288,12 @@ def design_command(
         typer.Option("--rate", hidden=True, help="Deprecated name of --sample-time."),
     ] = None,
     delay: Annotated[
-        bool,
+        bool | None,
         typer.Option(
             "--delay/--no-delay",
             help="One sample of computation delay (default: on, as on any target).",
         ),
-    ] = True,
+    ] = None,
     weights: Annotated[
         str | None,
         typer.Option(
@@ -326,12 +327,15 @@ def design_command(
         ),
     ] = True,
     draws: Annotated[
-        int,
-        typer.Option("--draws", help="Parameter draws of the verification (nominal + draws-1)."),
-    ] = 4,
+        int | None,
+        typer.Option(
+            "--draws", help="Parameter draws of the verification (nominal + draws-1; default 4)."
+        ),
+    ] = None,
     seed: Annotated[
-        int, typer.Option("--seed", help="Seed of the draws and the sensor noise.")
-    ] = 0,
+        int | None,
+        typer.Option("--seed", help="Seed of the draws and the sensor noise (default 0)."),
+    ] = None,
     sensor_noise: Annotated[
         str | None,
         typer.Option(
@@ -390,10 +394,19 @@ def design_command(
             "gain for its noise (--sensor-noise 'spool=0.2 %'; default 0.1 %).",
         ),
     ] = "estimated",
+    write_unverified: Annotated[
+        bool,
+        typer.Option(
+            "--write-unverified",
+            help="Write the controller even when it fails its verification (the file records "
+            "the failed verdict; without this option a failed design exits 1 and writes nothing).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_DESIGN,
         ControlError,
         design_controller,
         save_controller,
@@ -402,6 +415,11 @@ def design_command(
         parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    # the defaults of the one default design (the Python API's, the paper study's)
+    method = DEFAULT_DESIGN.method if method is None else method
+    delay = DEFAULT_DESIGN.delay if delay is None else delay
+    draws = DEFAULT_DESIGN.draws if draws is None else draws
+    seed = DEFAULT_DESIGN.seed if seed is None else seed
     check_output(out, force, option="--out")
     if table is not None:
         check_output(table, force, option="--table")
@@ -428,7 +446,11 @@ def design_command(
     if quiet_band and (method == "pi" or not dzi):
         raise ControlError("--quiet-band needs --method lqr or place and the dead-zone inverse")
     # on by default for --model pwa; opt-in for pwa-chamber
-    kw["quiet"] = quiet_band is not False if model_name == "pwa" else bool(quiet_band)
+    kw["quiet"] = (
+        (DEFAULT_DESIGN.quiet if quiet_band is None else quiet_band)
+        if model_name == "pwa"
+        else bool(quiet_band)
+    )
     design = design_controller if model_name == "pwa" else _design_on_chamber
     d = design(
         model,
@@ -442,17 +464,25 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
-    # the machine goes with the controller: `control simulate` needs no --params to run it
-    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
-    if d.verification is not None and not d.verification.passed:
+    failed = d.verification is not None and not d.verification.passed
+    if failed and not write_unverified:
+        error_line(
+            f"the controller failed its verification on the full model "
+            f"({len(d.verification.failures)} failed checks above); {out} not written (give "
+            "--write-unverified to write it with its failed verdict)"
+        )
+        raise typer.Exit(code=1)
+    if failed:
         print(
-            "warning: the controller failed its verification on the full model; the file records "
-            "the failed checks ([verification])",
+            "warning: the controller failed its verification on the full model; written with "
+            "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
     written = [str(out)]
     if table is not None:
         from .._io import (
@@ -481,8 +511,9 @@ def simulate_command(
         ),
     ],
     model: Annotated[
-        str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
-    ] = "full",
+        str | None,
+        typer.Option("--model", "-m", help="full (default), reduced, pwa or pwa-chamber."),
+    ] = None,
     params: MachineParamsOption = None,
     pwa: Annotated[
         Path | None,
@@ -564,6 +595,11 @@ def simulate_command(
         simulate,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    if compare and model is not None:
+        raise ControlError(
+            f"--compare runs every model side by side; drop --model {model} (or drop --compare)"
+        )
+    model = "full" if model is None else model
     if model not in MODEL_NAMES:
         raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):
@@ -583,7 +619,8 @@ def simulate_command(
     else:
         t_end = parse_quantity(duration, "s", "--duration")
     if compare:
-        _compare(ctrl, ref, prm, prm, pwa, t_end, x0, load_force, supply_pressure, rtol, out, plot)
+        case = {"x0": x0, "load_force": load_force, "supply_pressure": supply_pressure}
+        _compare(ctrl, ref, prm, pwa, t_end, case, rtol, out, plot, noise, seed)
         return
     mdl = (
         _pwa_model(prm, pwa)
@@ -611,6 +648,10 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)
+    from ..control import valve_warning  # deferred: loaded only when this command runs
+
+    if valve_warning(prm, model):
+        print(f"warning: {valve_warning(prm, model)}", file=sys.stderr)
     if ctrl.verification.get("verdict") == "fail":
         print(
             f"warning: {controller} failed its verification on the full model "
@@ -649,6 +690,14 @@ def export_command(
     fmi_version: Annotated[
         str, typer.Option("--fmi-version", help="FMI version of the FMU: 2.0 or 3.0.")
     ] = "2.0",
+    write_unverified: Annotated[
+        bool,
+        typer.Option(
+            "--write-unverified",
+            help="Export a controller that failed its verification or was never verified (the "
+            "C, its README and the FMU state the verdict).",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Export a controller file as dependency-free C99 code and/or an FMU for a real-time target."""
@@ -673,6 +722,12 @@ def export_command(
         check_output(fmu, force, option="--fmu")
         find_compiler()  # before anything is written: no C folder without its FMU
     ctrl = load_controller(controller)
+    if ctrl.verdict != "pass" and not write_unverified:
+        why = "failed its verification" if ctrl.verdict == "fail" else "records no verification"
+        raise ControlError(
+            f"{controller} {why} on the full model; design one that passes (hydropwa control "
+            "design), or give --write-unverified to export it with that verdict stated"
+        )
     written = []
     if c_dir is not None:
         export_c(ctrl, c_dir, overwrite=force)
@@ -680,13 +735,13 @@ def export_command(
     if fmu is not None:
         export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
-    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")
+    typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
 
 
-def _compare(
-    ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
-):
-    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written."""
+def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
+    """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written;
+    every option of ``control simulate`` reaches every model (the sensor noise with the same
+    draws), ``--model`` and ``--supply-pressure`` are refused; the model warnings printed."""
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         ControlError,
         closed_loop_fidelity,
@@ -695,11 +750,12 @@ def _compare(
         parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    if supply_pressure is not None:
+    if case["supply_pressure"] is not None:
         raise ControlError(
             "--compare runs every model at the parameters' P_S; drop --supply-pressure"
         )
-    pwa_model = _pwa_model(params, pwa) if pwa is not None else None
+    pwa_model = _pwa_model(prm, pwa) if pwa is not None else None
+    x0 = case["x0"]
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
     results, table = closed_loop_fidelity(
         ctrl,
@@ -708,8 +764,10 @@ def _compare(
         pwa=pwa_model,
         duration=duration,
         initial_position=start,
-        load_force=load_force,
+        load_force=case["load_force"],
         rtol=rtol,
+        sensor_noise=noise,
+        seed=seed,
     )
     units = table.attrs["units"]
     typer.echo(
@@ -717,6 +775,13 @@ def _compare(
             float_format=lambda v: f"{v:.4g}"
         )
     )
+    for w in table.attrs.get("warnings", []):
+        print(f"warning: {w}", file=sys.stderr)
+    _write_compare(table, results, out, plot, f"{ctrl.kind} controller on every model")
+
+
+def _write_compare(table, results, out: Path, plot: Path | None, title: str) -> None:
+    """The ``--compare`` table (``--out``, .csv or .parquet) and its figure (``--plot``)."""
     if out.suffix.lower() == ".csv":
         table.to_csv(out)
     else:
@@ -728,11 +793,6 @@ def _compare(
             save_figure,
         )
 
-        save_figure(
-            plot_closed_loop(results, f"{ctrl.kind} controller on every model"),
-            plot,
-            dpi=150,
-            overwrite=True,
-        )
+        save_figure(plot_closed_loop(results, title), plot, dpi=150, overwrite=True)
         msg += f" and {plot}"
     typer.echo(msg)

@@ -39,6 +39,7 @@ from ._controllers import (
     position_observer_gains,
     spool_filter_gain,
 )
+from ._defaults import DEFAULT_DESIGN, DesignDefaults
 from ._design import (
     DEFAULT_WEIGHTS,
     ControlDesign,
@@ -53,7 +54,15 @@ from ._estimator import (
     CellEstimator,
     design_cell_estimator,
 )
-from ._fidelity import FIDELITY_MODELS, closed_loop_fidelity, hold_oscillations
+from ._fidelity import (
+    FIDELITY_MODELS,
+    VALVE_FACTOR,
+    closed_loop_fidelity,
+    hold_oscillations,
+    hydraulic_frequency,
+    model_warnings,
+    valve_warning,
+)
 from ._io import (
     SCHEMA,
     SCHEMAS,
@@ -67,7 +76,7 @@ from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_me
 from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
 from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
-from ._target import c_structs, export_c, export_fmu
+from ._target import c_structs, export_c, export_fmu, verdict_line
 from ._verify import (
     DEFAULT_SENSOR_NOISE,
     DEFAULT_SPOOL_NOISE,
@@ -90,6 +99,8 @@ __all__ = [
     "design_cell_estimator",
     "MACHINE_KEYS",
     "ANTI_WINDUP",
+    "DEFAULT_DESIGN",
+    "DesignDefaults",
     "DEFAULT_SAMPLE_TIME",
     "DEFAULT_WEIGHTS",
     "FIDELITY_MODELS",
@@ -151,9 +162,14 @@ __all__ = [
     "design_pi",
     "design_state_feedback",
     "export_c",
+    "verdict_line",
     "c_structs",
     "export_fmu",
     "hold_oscillations",
+    "hydraulic_frequency",
+    "model_warnings",
+    "valve_warning",
+    "VALVE_FACTOR",
     "load_controller",
     "parse_reference",
     "save_controller",

@@ -608,6 +608,15 @@ class _Discrete:
             )
 
     @property
+    def verdict(self) -> str:
+        """The verification verdict the controller carries: ``"pass"``, ``"fail"`` or
+        ``"unverified"`` (no ``[verification]`` record, e.g. ``control design --no-verify`` or a
+        controller built by hand). It travels into the controller file, the exported C (the
+        ``HYDROPWA_CTRL_VERIFIED`` define), its README and the FMU's description."""
+        v = self.verification.get("verdict")
+        return v if v in ("pass", "fail") else "unverified"
+
+    @property
     def extended(self) -> bool:
         """Whether the controller uses a schema-2 element (feed-forward, velocity filter, spool model)."""
         return (

@@ -41,6 +41,7 @@ from ._controllers import (
     machine_of,
     position_observer_gains,
 )
+from ._defaults import DEFAULT_DESIGN
 from ._design_result import DesignResult
 
 __all__ = [
@@ -95,6 +96,9 @@ class ControlDesign(DesignResult):
                 f"..{t['bandwidth_hz'].max():.1f} Hz, spectral radius <= {t['radius'].max():.4f} "
                 f"(with valve dynamics {t['radius_valve'].max():.4f})"
             )
+            light = _light_damping_line(t)
+            if light:
+                lines.append(light)
         if self.verification is not None:
             lines.append(self.verification.summary())
         lines += [f"warning: {w}" for w in self.warnings]
@@ -270,6 +274,44 @@ def _radius(Aa, Ba, K, delay: bool) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(M))))
 
 
+#: Closed-loop damping [1] below which the design summary comments on a cell's pole pair: a
+#: pair with ζ < 0.1 overshoots a step by exp(−πζ/√(1 − ζ²)) > 73 % and needs 1/(2πζ) > 1.6
+#: periods to decay by 1/e; where it sits far above the loop's bandwidth (the hydraulic mode a
+#: state feedback leaves as the plant has it) it does not shape the tracking but rings after
+#: every disturbance near its frequency.
+DAMPING_NOTE = 0.1
+
+
+def _light_damping_line(table) -> str:
+    """The comment on the least damped closed-loop pole pair of the cells ('' above
+    :data:`DAMPING_NOTE`)."""
+    low = table[table["damping_min"] < DAMPING_NOTE]
+    if not len(low):
+        return ""
+    row = low.loc[low["damping_min"].idxmin()]
+    zeta = float(row["damping_min"])
+    text = str(row.get("poles", ""))
+    poles: list[complex] = [complex(p.replace(" ", "")) for p in text.split(";") if p.strip()]
+    pairs = [p for p in poles if p.imag != 0.0 and abs(p) > 0.0]
+    # the frequency |s|/2π of the least damped pair (ζ = −Re s/|s|)
+    least = min(pairs, key=lambda p: -p.real / abs(p)) if pairs else None
+    f = abs(least) / (2 * math.pi) if least is not None else math.nan
+    where = f"at {f:.0f} Hz, " if math.isfinite(f) else ""
+    above = (
+        f"above the loop's bandwidth (<= {table['bandwidth_hz'].max():.0f} Hz), so it does not shape "
+        "the tracking but rings after a disturbance near it; "
+        if math.isfinite(f) and f > table["bandwidth_hz"].max()
+        else ""
+    )
+    return (
+        f"  note: damping {zeta:.3f} < {DAMPING_NOTE:g} ({where}cell {row['cell']}; {len(low)} of "
+        f"{len(table)} cells below {DAMPING_NOTE:g}): such a pair overshoots by "
+        f"{100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2)):.0f} % and takes "
+        f"{1 / (2 * math.pi * zeta):.1f} periods to decay by 1/e; {above}the design model's "
+        "prediction, judged by the verification on the full model"
+    )
+
+
 def _pole_stats(Acl, ts, Br, C):
     """Continuous-equivalent poles, min damping, dominant natural frequency [Hz], bandwidth [Hz]."""
     z = np.linalg.eigvals(Acl).astype(complex)
@@ -331,7 +373,7 @@ def design_state_feedback(
     sample_time: float = DEFAULT_SAMPLE_TIME,
     weights: Mapping[str, float] | None = None,
     poles: tuple[complex, ...] | None = None,
-    delay: bool = False,
+    delay: bool = DEFAULT_DESIGN.delay,
     load_force: float | None = None,
     dead_zone_inverse: bool = True,
     u_limits: tuple[float, float] = (-1.0, 1.0),
@@ -346,6 +388,14 @@ def design_state_feedback(
     dead_zone_hysteresis: float = 0.0,
 ) -> ControlDesign:
     """Gain-scheduled state feedback with integral action, one gain row per PWA cell.
+
+    The gain step of the default design, not the default design itself: it adds no position
+    observer and no quiet band (their sizes come from the sensor noise) and does not verify,
+    so its controller is ``unverified`` and ``hydropwa control export`` refuses it without
+    ``--write-unverified``. The default design, the one the CLI, the paper study and the
+    tutorials use, is :func:`~hydropwa.control.design_controller`
+    (:data:`~hydropwa.control.DEFAULT_DESIGN`); its sample time and delay are this function's
+    defaults.
 
     Parameters
     ----------
@@ -363,8 +413,9 @@ def design_state_feedback(
         ``place``: four continuous-time closed-loop poles [1/s] (mapped to e^{pT_s});
         default a 15 Hz, ζ = 0.8 pair and real poles at 2× and 3× that frequency.
     delay : bool
-        Whether the controller runs with a one-sample computation delay (the table's
-        radius then includes it; the gains are designed without).
+        Whether the controller runs with a one-sample computation delay (default
+        :data:`~hydropwa.control.DEFAULT_DESIGN`'s, True: any target computes for a while; the
+        valve-aware LQR designs with it, the table's radius includes it).
     load_force : float, optional
         Load force [N] at which the cells are linearized (default params.load.force).
     dead_zone_inverse : bool

@@ -107,9 +107,23 @@ _LAW2 = (
     "c = c_fb + c_ff; u = sat(DZinv(c)); "
     "c_fb = k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt "
     "- k_nu*nu_hat - k_dnu*dnu_hat - k_up*c_pending (state feedback: k_p = k_x, k_ff = k_dpl = 0); "
-    "c_ff = A_A*dr_ff/(K*sqrt(dp(sign(dr_ff), P_L, P_S))) "
+    "c_ff = A_A*dr_ff/(K*rho(max(dp(sign(dr_ff), P_L, P_S), min_drop), transition_pressure)) "
     "+ [reference_state] (k_v*dr + k_pl*(P_ref - lowpass(P_ref)) + (k_nu + k_up)*c_flow), "
-    "P_ref = (m*d2r + b*dr)/A_A, dr_ff = dr(t + lead), e = r - x"
+    "P_ref = (m*d2r + b*dr)/A_A, dr_ff = dr(t + lead) (required input), e = r - x; "
+    "[position_observer] x, v := Kalman x_hat, v_hat driven by d2r; "
+    "[spool_model] nu_hat, dnu_hat := Phi*[nu_hat, dnu_hat] + Gamma*c_apply, "
+    "[measured] corrected first by gain*(nu_m - nu_hat); "
+    "[hysteresis h] DZinv keeps its side until c leaves +-h; "
+    "[quiet_band q, at rest: |dr|, |dr_ff| <= 1e-6 m/s, |d2r| <= 1e-3 m/s^2] c_o = 0 for |c| <= q, "
+    "2(|c| - q)sign(c) to 2q, c beyond; held = c_o = 0 and |k_x e| < 8q; "
+    "[quiet_open n] the band passes c only on the n-th sample in a row beyond q (at once for |e| > e_I); "
+    "[pressure_vent T_p] p_low := a_p*p_low + (1 - a_p)*p_dev every sample before use, "
+    "inside the band c_o = vent(-k_pl*p_low, 0.8q, q); "
+    "[pre_open tau_o] at rest with dr(t + tau_o) moving: c_o = max(c_o, z_w) toward the move (required input); "
+    "integral: [integral_leak] where the valve is parked (c_o = 0 or vent leak) I := a_l*I whatever held says, "
+    "else no integration where held, k_i = 0 or [integral_band] |e| > e_I, else the anti-windup rule; "
+    "[delay] u(t_k) is the command computed at t_(k-1) "
+    "(docs/controller_target.md, 'The law, sample by sample')"
 )
 CONVENTIONS = {
     "command": "u in [u_min, u_max], +1 the full valve signal opening P->A (rod extends, +x), -1 opening P->B",
@@ -393,6 +407,8 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
             k: _read(ff[k], _FF[k][2], f"feedforward.{k}") for k in _FF if k in ff
         }
         kw["reference_state"] = bool(ff.get("reference_state", True))
+        # optional: the regularised root's transition (absent: 0, the plain root √Δp)
+        kw.setdefault("transition_pressure", 0.0)
         out["feedforward"] = FlowFeedForward(**kw)
     po = d.get("position_observer")
     if po is not None:

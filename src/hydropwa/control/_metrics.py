@@ -264,6 +264,8 @@ def compare_models(
     window: tuple[float, float] | None = None,
     rtol: float | None = None,
     x0: float | None = None,
+    sensor_noise=None,
+    seed: int | None = None,
 ) -> tuple[dict[str, Any], Any]:
     """Run one controller on several models and tabulate the tracking metrics.
 
@@ -288,6 +290,11 @@ def compare_models(
         Relative tolerance of the integration.
     x0 : float, optional
         Deprecated alias of ``initial_position``.
+    sensor_noise : mapping, optional
+        Noise on the controller's sensors (standard deviations, SI: ``x``, ``p_a``, ``p_b``,
+        ``spool``), as :func:`~hydropwa.simulation.simulate` takes it.
+    seed : int, optional
+        Seed of the noise: every model gets the same draws.
 
     Returns
     -------
@@ -330,6 +337,8 @@ def compare_models(
             initial_position=start,
             load_force=load_force,
             rtol=DEFAULT_RTOL if rtol is None else rtol,
+            sensor_noise=sensor_noise,
+            seed=seed,
         )
     w = window or (None, None)
     table = pd.DataFrame(

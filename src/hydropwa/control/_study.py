@@ -6,10 +6,10 @@ from typing import Any
 
 from ..linearization import linearize
 from ..simulation import simulate
-from ._design import design_state_feedback, design_textbook_pi
+from ._design import design_textbook_pi
 from ._metrics import METRIC_UNITS, tracking_metrics
 from ._reference import MotionProfile, MoveSequence
-from ._verify import verify_controller
+from ._verify import design_controller, verify_controller
 
 __all__ = ["POSITIONING_TASK", "closed_loop_study", "closed_loop_verification"]
 
@@ -30,8 +30,13 @@ def _reference():
 
 
 def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any]:
-    """Design an LQR on ``pwa`` and run the positioning task on the full, reduced, PWA and
-    chamber-level PWA (``pwa-chamber``) models.
+    """Design the default controller on ``pwa`` and run the positioning task on the full,
+    reduced, PWA and chamber-level PWA (``pwa-chamber``) models.
+
+    The design is the one of ``hydropwa control design`` (:func:`~hydropwa.control.
+    design_controller` at :data:`~hydropwa.control.DEFAULT_DESIGN`: computation delay, position
+    observer, quiet band, verified on the full model of ``pwa.params`` and re-tuned where it
+    fails); its verdict is ``design.verification``.
 
     The table also holds the baseline, a textbook PI with velocity feed-forward designed from
     the same parameters (:func:`~hydropwa.control.design_textbook_pi`) on the full model, so a
@@ -51,10 +56,11 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
     table : pandas.DataFrame
         Tracking metrics per model (:func:`~hydropwa.control.tracking_metrics`), index ``model``.
     design : ControlDesign
+        With ``verification`` set.
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-    design = design_state_feedback(pwa)
+    design = design_controller(pwa)
     ref = _reference()
     runs: dict[str, Any] = {}
     for name, mdl, prm in (
@@ -120,7 +126,15 @@ VERIFICATION_COLUMNS = (
 )
 
 
-def closed_loop_verification(pwa, controller, *, draws: int = 1, seed: int = 0, sensor_noise=None):
+def closed_loop_verification(
+    pwa,
+    controller,
+    *,
+    draws: int = 1,
+    seed: int = 0,
+    sensor_noise=None,
+    verification=None,
+):
     """The verification verdict of a design beside the textbook PI + feed-forward baseline.
 
     Both controllers run the same :func:`~hydropwa.control.verify_controller` task set on the
@@ -143,6 +157,10 @@ def closed_loop_verification(pwa, controller, *, draws: int = 1, seed: int = 0, 
     sensor_noise : mapping of str to float, optional
         Noise standard deviations per sensor [m, Pa], see
         :func:`~hydropwa.control.verify_controller`.
+    verification : Verification, optional
+        The design's own verification (``design_controller``'s): shown as it is instead of
+        verifying the design again; the baseline is then verified at the same draws, seed and
+        noise as the design was.
 
     Returns
     -------
@@ -156,9 +174,19 @@ def closed_loop_verification(pwa, controller, *, draws: int = 1, seed: int = 0, 
     base = design_textbook_pi(
         pwa, sample_time=controller.sample_time, delay=controller.delay
     ).controller
+    if verification is not None:
+        st = verification.settings
+        draws, seed = int(st.get("draws", draws)), int(st.get("seed", seed))
+        sensor_noise = st.get("sensor_noise", sensor_noise)
     rows = {}
     for name, ctrl in (("design", controller), ("textbook PI + FF (baseline)", base)):
-        v = verify_controller(ctrl, pwa.params, draws=draws, seed=seed, sensor_noise=sensor_noise)
+        v = (
+            verification
+            if name == "design" and verification is not None
+            else verify_controller(
+                ctrl, pwa.params, draws=draws, seed=seed, sensor_noise=sensor_noise
+            )
+        )
         rows[name] = {
             "verdict": "pass" if v.passed else "fail",
             **{k: float(v.metrics[k]) for k in VERIFICATION_COLUMNS},

@@ -72,7 +72,8 @@ gain row (see :data:`EXT_SLOTS`)::
                  the spool model and the delay, and the integral holds while the opening is
                  0 and |k_x e| < QUIET_HOLD·q
     e0+X_DZQR    quiet band only at rest (1; 0: always): the band acts only while the
-                 reference is at rest, ṙ(t_k) = ṙ_ff = r̈(t_k) = 0 (:func:`quiet_acts`)
+                 reference is at rest, |ṙ(t_k)|, |ṙ_ff| ≤ REST_RATE, |r̈(t_k)| ≤
+                 REST_ACCELERATION (:func:`quiet_acts`)
     e0+X_DZPO    pre-opening look-ahead τ_o [s] (0: none; :func:`pre_open`): while ṙ(t_k) = 0
                  and ṙ_o = ṙ(t_k + τ_o) ≠ 0 (reference channel ``RC_DRPO``, sampled where the
                  reference is) the opening asked for is at least z_w (ctl[8]) toward sign ṙ_o,
@@ -259,6 +260,16 @@ SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
 #: integral re-winds and hunts), 8 → 0.067 mm with offsets ≤ 0.10 mm, never released →
 #: 0.068 mm but offsets up to 0.57 mm (the integral keeps the load share of the move)
 QUIET_HOLD = 8.0
+#: "at rest" (the quiet band at rest, e0+X_DZQR, and the pre-opening, e0+X_DZPO): |ṙ(t_k)| and
+#: |ṙ_ff| at most REST_RATE [m/s] and |r̈(t_k)| at most REST_ACCELERATION [m/s²], not exactly 0:
+#: a real reference generator leaves 1e-12 m/s at rest (rounding, a decaying filter), and the
+#: exact test then never engaged the band (paper rig, issue 49: holds of 0.081 mm at 260-780
+#: command sign changes/s). 1 µm/s moves the reference 0.5 nm per 0.5 ms sample and 1 µm in a
+#: whole second of hold, 1/20 of the default position noise (20 µm), while any move a profile
+#: makes is mm/s or faster; 1e-3 m/s² changes the rate by 0.5 nm/s per sample, so an
+#: acceleration below it cannot carry the rate past REST_RATE before the next test.
+REST_RATE = 1e-6
+REST_ACCELERATION = 1e-3
 #: per-cell Kalman filter (e0+X_EST on): after the XROW rows, EROW values per gain row:
 #: Φ (7 × 7, row-major), Γ (7), the affine term φ₀ (7), L (7 × 2, row-major) and the
 #: initial values' coefficients (a_vp, a_pp, f_a, f_p)
@@ -336,7 +347,8 @@ def dead_zone_hysteresis(c, offset, width, hyst, side):
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def quiet_acts(ctl, e0, rch, k):
     """Whether the quiet band (e0+X_DZQ > 0) acts at sample k: always, or with
-    e0+X_DZQR = 1 only while the reference is at rest (ṙ(t_k) = ṙ_ff = r̈(t_k) = 0).
+    e0+X_DZQR = 1 only while the reference is at rest (|ṙ(t_k)|, |ṙ_ff| ≤ ``REST_RATE`` and
+    |r̈(t_k)| ≤ ``REST_ACCELERATION``).
 
     While the reference moves the command is far above the sensor noise's share, and a
     band there only delays the breakaway out of static friction at a profile's start
@@ -344,20 +356,24 @@ def quiet_acts(ctl, e0, rch, k):
     """
     if ctl[e0 + X_DZQR] < 0.5:
         return True
-    return rch[RC_DR, k] == 0.0 and rch[RC_DRFF, k] == 0.0 and rch[RC_DDR, k] == 0.0
+    return (
+        abs(rch[RC_DR, k]) <= REST_RATE
+        and abs(rch[RC_DRFF, k]) <= REST_RATE
+        and abs(rch[RC_DDR, k]) <= REST_ACCELERATION
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def pre_open(c, width, rate_now, rate_ahead):
     """Opening [1] asked for with the pre-opening: at least z_w = ``width`` toward the coming move.
 
-    While the reference is at rest now (``rate_now`` = ṙ(t_k) = 0) but moves τ_o ahead
-    (``rate_ahead`` = ṙ(t_k + τ_o) ≠ 0), the opening c becomes max(c, z_w) for a coming
+    While the reference is at rest now (|``rate_now``| = |ṙ(t_k)| ≤ ``REST_RATE``) but moves
+    τ_o ahead (|``rate_ahead``| = |ṙ(t_k + τ_o)| > ``REST_RATE``), the opening c becomes max(c, z_w) for a coming
     extension (min(c, −z_w) for a retraction): the dead-zone inverse then sends the spool
     to the dead zone's edge, where no flow opens yet, and the valve's lag of crossing the
     dead zone (~4 ms on the paper rig) is spent before the reference starts. Elsewhere c.
     """
-    if rate_now != 0.0 or rate_ahead == 0.0:
+    if abs(rate_now) > REST_RATE or abs(rate_ahead) <= REST_RATE:
         return c
     if rate_ahead > 0.0:
         return max(c, width)

@@ -43,11 +43,18 @@ static double hp_dead_zone_hysteresis(double c, double offset, double width, dou
     return 0.0;
 }
 
-/* Pre-opening: while r'(t_k) = 0 and r'(t_k + tau_o) != 0 the opening is at least the blend
- * width toward the coming move (the spool waits at the dead zone's edge, no flow yet). */
+/* The reference at rest: |r'| <= HP_REST_RATE [m/s] (1 um/s) and |r''| <= HP_REST_ACCELERATION
+ * [m/s^2], not exactly 0: a real reference generator leaves ~1e-12 m/s at rest. */
+static int hp_rate_at_rest(double rate)
+{
+    return (rate < 0.0 ? -rate : rate) <= HP_REST_RATE;
+}
+
+/* Pre-opening: while r'(t_k) is at rest and r'(t_k + tau_o) is not the opening is at least the
+ * blend width toward the coming move (the spool waits at the dead zone's edge, no flow yet). */
 static double hp_pre_open(double c, double width, double rate_now, double rate_ahead)
 {
-    if (rate_now != 0.0 || rate_ahead == 0.0) {
+    if (!hp_rate_at_rest(rate_now) || hp_rate_at_rest(rate_ahead)) {
         return c;
     }
     if (rate_ahead > 0.0) {
@@ -529,7 +536,8 @@ double hydropwa_ctrl_step(hydropwa_ctrl_state *s, const hydropwa_ctrl_meas *m,
         /* with X_DZQR = 1 the band acts only while the reference is at rest */
         if (HP_EXT && X[HP_X_DZQ] > 0.0
             && (X[HP_X_DZQR] < 0.5
-                || (ref->r_rate == 0.0 && ref->r_rate_ff == 0.0 && ref->r_acc == 0.0))) {
+                || (hp_rate_at_rest(ref->r_rate) && hp_rate_at_rest(ref->r_rate_ff)
+                    && (ref->r_acc < 0.0 ? -ref->r_acc : ref->r_acc) <= HP_REST_ACCELERATION))) {
             c_band = c_raw;
             if (X[HP_X_DZQO] > 0.0) { /* the band opens only after n samples beyond q */
                 far = X[HP_X_IBAND] > 0.0 && (e < 0.0 ? -e : e) > X[HP_X_IBAND];

@@ -369,6 +369,7 @@ def _verdict_section(out: Path, fit, true) -> str:
                     bool(sse <= VERDICT_SSE_FRACTION * step),
                 )
             )
+    rows.extend(_controller_verdict_rows(out))
     failed = [r for r in rows if r[3] is False]
     verdict = (
         f"<span class='fail'>FAIL</span>: {len(failed)} of {len(rows)} checks"
@@ -385,6 +386,31 @@ def _verdict_section(out: Path, fit, true) -> str:
         "<table><thead><tr><th>what was checked</th><th>threshold</th><th>value</th>"
         f"<th>result</th></tr></thead><tbody>{body}</tbody></table>"
     )
+
+
+def _controller_verdict_rows(out: Path) -> list[tuple[str, str, str, bool]]:
+    """The verdict's row of the controller's verification (``closed_loop_verification.csv``):
+    the report says PASS only where the closed-loop design passed its verification too."""
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+    f = out / "tables" / "closed_loop_verification.csv"
+    if not f.is_file():
+        return []
+    ver = pd.read_csv(f, keep_default_na=False)
+    design = ver[ver["controller"] == "design"]
+    if not len(design):
+        return []
+    row = design.iloc[0]
+    ok = str(row["verdict"]) == "pass"
+    value = "pass" if ok else f"fail: {int(row['failed_checks'])} checks ({row['first_failure']})"
+    return [
+        (
+            "closed-loop design verified on the full model (task set, draws, sensor noise, delay)",
+            "every check of the verification",
+            value,
+            ok,
+        )
+    ]
 
 
 def _warnings(stage_notes: dict, stage: str) -> str:

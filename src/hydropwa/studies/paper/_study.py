@@ -36,7 +36,12 @@ from ..._io import (
     output_lock,
     overwrite_flag,
 )
-from ...control import closed_loop_study, closed_loop_verification, save_controller
+from ...control import (
+    closed_loop_study,
+    closed_loop_verification,
+    model_warnings,
+    save_controller,
+)
 from ...data import Run, read_dataset
 from ...evaluation import coverage_study, evaluate_run, evaluation_params, sound_runs
 from ...identification import (
@@ -748,7 +753,7 @@ def _stage_evaluate(
 def _stage_control(
     inp: _Inputs, runner: StageRunner, true, key: str, notes: list[str] | None = None
 ) -> str:
-    """Closed loop: an LQR designed on the identified PWA model, verified on the full model."""
+    """Closed loop: the default design on the identified PWA model, verified on the full model."""
     out = inp.out
 
     def work():
@@ -758,7 +763,8 @@ def _stage_control(
         runs, table, design = closed_loop_study(pwa, true)
         files = [save_controller(design.controller, out / "controller.toml", overwrite=True)]
         files += _write_table(table.reset_index(), out / "tables" / "closed_loop")
-        ver = closed_loop_verification(pwa, design.controller)  # the verdict beside the PI
+        # the design's own verdict beside the PI's (same task set, draws, seed and noise)
+        ver = closed_loop_verification(pwa, design.controller, verification=design.verification)
         files += _write_table(ver.reset_index(), out / "tables" / "closed_loop_verification")
         files += _write_table(design.table, out / "tables" / "closed_loop_cells")
         # every model and the baseline (the run with the true parameters repeats "full")
@@ -769,7 +775,10 @@ def _stage_control(
             ),
             out / "figures" / "closed_loop",
         )
-        return files, {"notes": [f"closed loop design: {w}" for w in design.warnings[:3]]}
+        notes = [f"closed loop design: {w}" for w in design.warnings[:3]]
+        # which model can represent the loop (the valve left out near ω_h, cells left, limit cycles)
+        notes += [f"closed loop: {w}" for w in model_warnings(shown, pwa.params, pwa=pwa)]
+        return files, {"notes": notes}
 
     m = runner.run("control", text_hash(inp.key(), key, "control"), work)
     if notes is not None:  # the design's warnings (cells unstable with the valve) are shown
