@@ -544,6 +544,19 @@ class Load:
         Viscous damping c [N·s/m] of an attached load, e.g. the pressure-controlled
         counter cylinder of the rig: the load is F_L(t) + c·ẋ and the force sensor
         (channel ``f_l``) measures that sum. 0 for a free rod.
+    specimen_stiffness : float
+        Stiffness k [N/m] of a specimen, tool or spring the rod meets
+        (:func:`~hydropwa.components.specimen_force`); 0 (default): none. A rigid wall is a
+        stiff one (about the end stops' stiffness).
+    specimen_damping : float
+        Damping c [N·s/m] of that specimen (acts only in contact).
+    contact_position : float
+        Rod position x_c [m] at which the rod meets the specimen; it pushes back only while
+        x > x_c. At or below the stroke start (x_c ≤ 0) the spring is attached: it acts at
+        every position and pulls as well as pushes.
+    preload : float
+        Specimen force F_0 [N] at the contact position (≥ 0 for a contact; an attached
+        spring may have F_0 < 0, which puts its rest position x_c − F_0/k inside the stroke).
     """
 
     #: SI unit of each field (a pint expression; None: not a quantity).
@@ -551,16 +564,35 @@ class Load:
         "mass": "kg",
         "force": "N",
         "damping": "N*s/m",
+        "specimen_stiffness": "N/m",
+        "specimen_damping": "N*s/m",
+        "contact_position": "m",
+        "preload": "N",
     }
 
     mass: float = 1.394
     force: float = 0.0
     damping: float = 0.0
+    specimen_stiffness: float = 0.0
+    specimen_damping: float = 0.0
+    contact_position: float = 0.0
+    preload: float = 0.0
 
     def __post_init__(self) -> None:
         _check(self, "mass", "kg", gt=0.0)
         _check(self, "force", "N")
         _check(self, "damping", "N·s/m", ge=0.0)
+        # above 1e12 N/m the contact's period (√(m/k) ≈ 1 µs at 1 kg) is far below any step
+        _check(self, "specimen_stiffness", "N/m", ge=0.0, le=1e12)
+        _check(self, "specimen_damping", "N·s/m", ge=0.0)
+        _check(self, "contact_position", "m", gt=-10.0, lt=10.0)
+        _check(self, "preload", "N")
+        if self.contact_position > 0.0 and self.preload < 0.0:
+            raise ParameterError(
+                f"Load.preload = {self.preload:g} N is negative for a contact at "
+                f"Load.contact_position = {self.contact_position:g} m: a contact only pushes; "
+                "give a preload >= 0, or contact_position <= 0 for an attached spring"
+            )
 
 
 @dataclass(frozen=True, slots=True)
