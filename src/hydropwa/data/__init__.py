@@ -16,6 +16,7 @@ from ._dataset import (
     write_dataset,
 )
 from ._emps import load_emps
+from ._faster import load_faster, uniform_clock
 from ._formats import FORMATS, read_run, write_run
 from ._run import Run
 from ._units import CANONICAL_UNITS, convert_units, to_si
@@ -49,6 +50,8 @@ __all__ = [
     "convert",
     "convert_units",
     "load_emps",
+    "load_faster",
+    "uniform_clock",
     "read_dataset",
     "read_run",
     "screen_runs",
