@@ -120,7 +120,7 @@ def simulate_command(
         Path | None,
         typer.Option(
             "--input-file",
-            help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT).",
+            help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT); in volts where the machine sets [valve] command_voltage.",
         ),
     ] = None,
     duration: Annotated[
@@ -214,7 +214,10 @@ def simulate_command(
             raise SignalError(
                 f"{input_file} has no valve command channel 'u'; map one with a channel map"
             )
-        u = Sampled(run.t - run.t[0], run["u"])
+        command = run["u"]
+        if prm.valve.command_voltage > 0.0:  # the machine's commands are volts ([valve])
+            command = prm.valve.command_from_volts(command)
+        u = Sampled(run.t - run.t[0], command)
         if duration_s is None:
             duration_s = float(run.t[-1] - run.t[0])
     else:

@@ -84,6 +84,12 @@ class ServoValve:
         amplitude (Table II). When given, ω0 is interpolated linearly at the
         amplitude of the command signal (peak |u| of the run), clamped at the
         ends.
+    command_voltage : float
+        Command voltage [V] that opens the valve fully (u = 1): the servo amplifier's full
+        scale. 0 (default): commands are fractions [1]. Where it is set, a replayed command
+        file (``simulate --input-file``) holds ``u`` in volts, read by :meth:`command_from_volts`.
+    null_voltage : float
+        Command voltage [V] at which the spool is centred (the valve's null bias).
     """
 
     #: SI unit of each field (a pint expression; None: not a quantity).
@@ -91,15 +97,27 @@ class ServoValve:
         "omega0": "rad/s",
         "zeta": "",
         "omega0_table": None,
+        "command_voltage": "V",
+        "null_voltage": "V",
     }
 
     omega0: float = 628.3
     zeta: float = 0.7
     omega0_table: tuple[tuple[float, float], ...] = ()
+    command_voltage: float = 0.0
+    null_voltage: float = 0.0
 
     def __post_init__(self) -> None:
         _check(self, "omega0", "rad/s", gt=0.0)
         _check(self, "zeta", "1", gt=0.0, le=10.0)
+        _check(self, "command_voltage", "V", ge=0.0, le=100.0)
+        _check(self, "null_voltage", "V", ge=-100.0, le=100.0)
+        if self.null_voltage != 0.0 and abs(self.null_voltage) >= self.command_voltage:
+            raise ParameterError(
+                f"ServoValve.null_voltage = {self.null_voltage:g} V needs a larger "
+                f"ServoValve.command_voltage (now {self.command_voltage:g} V): the null bias "
+                "lies inside the command range; set command_voltage to the full-scale voltage"
+            )
         try:
             table = tuple((float(a), float(w)) for a, w in self.omega0_table)
         except (TypeError, ValueError):
@@ -118,6 +136,21 @@ class ServoValve:
                 "ServoValve.omega0_table amplitudes [1] must be strictly increasing"
             )
         object.__setattr__(self, "omega0_table", table)
+
+    def command_from_volts(self, volts: np.ndarray) -> np.ndarray:
+        """Valve command u [1] from a command in volts: (V − null_voltage)/command_voltage.
+
+        Raises
+        ------
+        ParameterError
+            If ``command_voltage`` is 0 (the machine takes fractional commands).
+        """
+        if self.command_voltage <= 0.0:
+            raise ParameterError(
+                "ServoValve.command_voltage is 0: the machine takes commands as fractions [1]; "
+                "set [valve] command_voltage (the full-scale voltage [V]) to read volts"
+            )
+        return (np.asarray(volts, dtype=float) - self.null_voltage) / self.command_voltage
 
     def omega0_at(self, amplitude: float) -> float:
         """ω0 [rad/s] for a command amplitude |u| [1] (Table II schedule or constant)."""
