@@ -64,7 +64,9 @@ class ArxModel:
         up = np.concatenate([np.full(lag, u[0]), u])
         for k in range(lag, y.shape[0]):
             past_u = up[k - self.delay - np.arange(nb)]
-            y[k] = np.einsum("ij,ji->i", self.a, y[k - 1 - np.arange(na)]) + self.b @ past_u + self.c
+            y[k] = (
+                np.einsum("ij,ji->i", self.a, y[k - 1 - np.arange(na)]) + self.b @ past_u + self.c
+            )
         return y[lag:]
 
 
