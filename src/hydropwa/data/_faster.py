@@ -3,7 +3,8 @@
 The logged time stamps are a uniform clock printed with five significant digits: below 10 s
 they resolve 0.1 ms, from 10 s 1 ms, from 100 s 10 ms, so the step reads 0 … 11 ms and from
 100 s on stamps repeat (the rows at a repeated stamp are different samples). The reader
-restores the clock: it fits t_k = t_0 + k Δt to the stamps by least squares and keeps the fit
+restores the clock: it fits t_k = t_0 + k Δt to the stamps by least squares, each weighted by its printed
+resolution, and keeps the fit
 only if every stamp lies within half its printed resolution of it (plus 1 % of a step);
 otherwise it refuses in one line. No sample is dropped, merged or interpolated.
 """
@@ -57,11 +58,12 @@ def uniform_clock(t: np.ndarray, digits: int) -> tuple[np.ndarray, float, float]
     """
     t = np.asarray(t, dtype=float)
     k = np.arange(t.size, dtype=float)
-    dt, t0 = np.polyfit(k, t, 1)
-    clock = t0 + k * dt
     mag = np.floor(np.log10(np.maximum(np.abs(t), 1e-300)))
     half_quantum = np.where(t != 0.0, 0.5 * 10.0 ** (mag - (digits - 1)), 0.0)
-    allowed = half_quantum + 0.01 * dt
+    allowed = half_quantum + 0.01 * float(np.polyfit(k, t, 1)[0])
+    # each stamp weighted by its resolution: the early, finely printed ones fix t_0
+    dt, t0 = np.polyfit(k, t, 1, w=1.0 / allowed)
+    clock = t0 + k * dt
     ratio = np.abs(t - clock) / allowed
     i = int(np.argmax(ratio))
     if not ratio[i] <= 1.0:
