@@ -121,8 +121,9 @@ def select_arx(
     for n in orders:
         for nk in delays:
             model = fit_arx(u[:cut], y[:cut], n, n, nk)
-            sim = model.simulate(u[cut:], y[cut])
-            err = float(np.mean(((sim - y[cut:]) / y.std(axis=0)) ** 2))
+            with np.errstate(over="ignore", invalid="ignore"):  # an unstable candidate diverges
+                sim = model.simulate(u[cut:], y[cut])
+                err = float(np.mean(((sim - y[cut:]) / y.std(axis=0)) ** 2))
             if np.isfinite(err) and err < best_err:
                 best, best_err = (n, nk), err
     if best is None:
