@@ -56,6 +56,11 @@ BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
     ("grelief", "supply.relief_gain"),
     ("mass", "load.mass"),
     ("cload", "load.damping"),
+    # specimen / tool / spring the rod meets (components.specimen_force; stiffness 0: none)
+    ("kspec", "load.specimen_stiffness"),
+    ("cspec", "load.specimen_damping"),
+    ("xspec", "load.contact_position"),
+    ("fspec", "load.preload"),
     # reduced / PWA load-pressure form: 0 asymmetric single-rod model, 1 the paper's mean area
     ("rform", None),
     # rod position [m] at which the PWA model evaluates its chamber capacitances; < 0: the state x
@@ -137,6 +142,7 @@ OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("x", "m"),
     ("v", "m/s"),
     ("friction", "N"),
+    ("f_spec", "N"),  # force of the specimen on the rod (components.specimen_force)
 )
 #: Extra output rows of the PWA model (active cells), after :data:`OUTPUT_CHANNELS`.
 PWA_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (

@@ -168,7 +168,8 @@ def test_emitted_rhs_is_the_kernel_on_random_states(paper, tmp_path):
     """The C of rhs_full against the compiled kernel at 2000 random states and inputs.
 
     Covers every branch the emitter translates (flow directions, cavitation, end stops on
-    both sides, the pump and the accumulator slots): relative 1e-12 of each rate's scale.
+    both sides, the pump and the accumulator slots, a specimen in and out of contact and an
+    attached spring): relative 1e-12 of each rate's scale.
     """
     rhs, names = axis_rhs_c()
     assert {"rhs_full", "stribeck_friction", "orifice_flows", "chamber_pressure_rates"} <= set(
@@ -197,6 +198,16 @@ def test_emitted_rhs_is_the_kernel_on_random_states(paper, tmp_path):
         paper,
         paper.replace(**{"supply.model": "pump"}),
         paper.replace(**{"accumulator.gas_volume": 0.5e-3, "accumulator.precharge_pressure": 30e5}),
+        # a specimen met at mid-stroke with a preload (one-sided), and an attached spring
+        paper.replace(
+            **{
+                "load.specimen_stiffness": 2e6,
+                "load.specimen_damping": 3e3,
+                "load.contact_position": 0.1,
+                "load.preload": 500.0,
+            }
+        ),
+        paper.replace(**{"load.specimen_stiffness": 1e6, "load.preload": -5e4}),
     ]
     n = len(FULL_STATES)
     scale = np.array([s for _n, _u, s in FULL_STATES])

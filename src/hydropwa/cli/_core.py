@@ -127,7 +127,7 @@ def simulate_command(
         Path | None,
         typer.Option(
             "--input-file",
-            help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT).",
+            help="Replay the command channel 'u' of a measured run (CSV/Parquet/MAT); in volts where the machine sets [valve] command_voltage.",
         ),
     ] = None,
     duration: Annotated[
@@ -212,16 +212,28 @@ def simulate_command(
     sampling = sample_time_source(sample_time, fs, "--fs", "Hz") or "0.5 ms"
     fs_hz = round(1.0 / parse_sample_time(sampling), 9)  # '0.5 ms' → exactly 2000 Hz
     u: Sampled | str
+    volts = ""
     if input_file is not None:
-        from ..data import read_run  # deferred: loaded only when this command runs (a fast --help)
+        from ..data import (  # deferred: loaded only when this command runs (a fast --help)
+            read_run,
+            validate_run,
+        )
 
-        run = read_run(input_file)
+        run = read_run(input_file, validate=False)
         prm = _replay_machine(params, input_file, run)  # --params, or the run's, or both agree
+        run = validate_run(run, ranges=_command_ranges(prm)).run
         if not run.has("u"):
             raise SignalError(
                 f"{input_file} has no valve command channel 'u'; map one with a channel map"
             )
-        u = Sampled(run.t - run.t[0], run["u"])
+        command = run["u"]
+        if prm.valve.command_voltage > 0.0:  # the machine's commands are volts ([valve])
+            command = prm.valve.command_from_volts(command)
+            volts = (
+                f"; u read in V as (u - {prm.valve.null_voltage:g} V)/"
+                f"{prm.valve.command_voltage:g} V"
+            )
+        u = Sampled(run.t - run.t[0], command)
         if duration_s is None:
             duration_s = float(run.t[-1] - run.t[0])
     else:
@@ -260,7 +272,7 @@ def simulate_command(
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms"
     if res.stats.get("compile_time", 0.0) > 0.5:
         msg += f"; solver loaded/compiled in {res.stats['compile_time']:.1f} s, once"
-    msg += ")"
+    msg += f"{volts})"
     if plot is not None:
         from ..plotting import (  # deferred: loaded only when this command runs (a fast --help)
             plot_result,
@@ -270,6 +282,21 @@ def simulate_command(
         save_figure(plot_result(res), plot, dpi=150, overwrite=True)  # checked with --force above
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+def _command_ranges(prm):
+    """Plausible ranges of a replayed run: the command in volts where the machine takes volts."""
+    from ..data import PLAUSIBLE_RANGES, Plausible  # deferred: see simulate_command
+
+    valve = prm.valve
+    if valve.command_voltage <= 0.0:
+        return PLAUSIBLE_RANGES
+    span = 1.05 * valve.command_voltage
+    hint = "commands beyond the valve's full scale: check [valve] command_voltage [V]"
+    return {
+        **PLAUSIBLE_RANGES,
+        "u": Plausible(valve.null_voltage - span, valve.null_voltage + span, high_hint=hint),
+    }
 
 
 def _replay_machine(params: str | None, input_file: Path, run):

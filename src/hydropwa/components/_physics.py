@@ -48,6 +48,8 @@ __all__ = [
     "stribeck_friction_slope",
     "end_stop_force",
     "end_stop_force_slope",
+    "specimen_force",
+    "specimen_force_slope",
     "piston_acceleration",
     "net_piston_force",
     "pump_supply_rate",
@@ -565,6 +567,43 @@ def end_stop_force_slope(x: float, v: float, stroke: float, k: float, c: float):
         if -k * (x - stroke) - c * v < 0.0:
             return -k, -c
     return 0.0, 0.0
+
+
+@njit(**_JIT)
+def specimen_force(x: float, v: float, k: float, c: float, x_c: float, f_0: float) -> float:
+    """Force of an elastic specimen or tool on the rod [N], positive opposing extension.
+
+    A spring–damper the rod meets at the contact position x_c (a test specimen, a press tool,
+    a spring return; a rigid wall is a stiff one): F = F_0 + k (x − x_c) + c ẋ while x > x_c,
+    0 before. A contact only pushes: the force is clipped at 0, so the rod leaves it freely.
+    With x_c ≤ 0 (at or below the stroke start) the spring is attached: it acts at every x and
+    pulls as well as pushes (F_0 < 0 puts its rest position at x_c − F_0/k inside the stroke).
+
+    Parameters
+    ----------
+    x, v : float
+        Rod position [m] and velocity [m/s].
+    k, c : float
+        Specimen stiffness [N/m] and damping [N·s/m].
+    x_c : float
+        Contact position [m].
+    f_0 : float
+        Preload at contact [N].
+    """
+    if x_c > 0.0:
+        if x <= x_c:
+            return 0.0
+        f = f_0 + k * (x - x_c) + c * v
+        return f if f > 0.0 else 0.0
+    return f_0 + k * (x - x_c) + c * v
+
+
+@njit(**_JIT)
+def specimen_force_slope(x: float, v: float, k: float, c: float, x_c: float, f_0: float):
+    """Partial derivatives (∂F/∂x [N/m], ∂F/∂ẋ [N·s/m]) of :func:`specimen_force`."""
+    if x_c > 0.0 and (x <= x_c or f_0 + k * (x - x_c) + c * v <= 0.0):
+        return 0.0, 0.0
+    return k, c
 
 
 @njit(**_JIT)

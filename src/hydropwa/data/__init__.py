@@ -16,6 +16,7 @@ from ._dataset import (
     write_dataset,
 )
 from ._emps import load_emps
+from ._faster import load_faster, uniform_clock
 from ._formats import FORMATS, read_run, write_run
 from ._import import ImportedRun, ImportResult, import_logs, read_plan
 from ._run import Run
@@ -54,6 +55,8 @@ __all__ = [
     "convert",
     "convert_units",
     "load_emps",
+    "load_faster",
+    "uniform_clock",
     "read_dataset",
     "read_run",
     "screen_runs",

@@ -7,6 +7,7 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 ``identify_inverse_dynamics``) work on plain arrays.
 """
 
+from ._baselines import ArxModel, DmdcModel, fit_arx, fit_dmdc, select_arx
 from ._common import (
     ESTIMATOR_CHANNELS,
     IdentificationWarning,
@@ -86,6 +87,11 @@ from .greybox import (
 )
 
 __all__ = [
+    "ArxModel",
+    "DmdcModel",
+    "fit_arx",
+    "fit_dmdc",
+    "select_arx",
     "MACHINE_FILE",
     "check_same_machine",
     "machine_for",

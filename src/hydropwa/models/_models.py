@@ -27,6 +27,7 @@ from .._layout import (
     SLOT,
     state_vector,
 )
+from ..components import specimen_force
 from ..params import SystemParams
 
 __all__ = [
@@ -158,6 +159,16 @@ class SmoothModelStates:
         return self.smooth.initial_state(initial_position, supply_pressure, load_force)
 
 
+def _specimen_at_rest(params: SystemParams, x: float) -> float:
+    """Force [N] of the specimen on the rod at rest at x (:func:`~hydropwa.components.specimen_force`)."""
+    ld = params.load
+    return float(
+        specimen_force(
+            x, 0.0, ld.specimen_stiffness, ld.specimen_damping, ld.contact_position, ld.preload
+        )
+    )
+
+
 @dataclass(frozen=True)
 class _ModelBase:
     """Shared fields of the full and reduced models; ``params`` is the one parameter set."""
@@ -199,11 +210,13 @@ class FullOrderModel(_ModelBase):
         load_force: float = 0.0,
     ) -> np.ndarray:
         """Rest at ``initial_position`` [m] (default mid-stroke) with P_A + P_B = P_S and
-        balanced forces."""
+        balanced forces (the load and the specimen's force there)."""
         c = self.params.cylinder
         ps = self.params.supply.pressure if supply_pressure is None else supply_pressure
         x = 0.5 * c.stroke if initial_position is None else initial_position
-        pa = (load_force + ps * c.area_b) / (c.area_a + c.area_b)
+        pa = (load_force + _specimen_at_rest(self.params, x) + ps * c.area_b) / (
+            c.area_a + c.area_b
+        )
         pa = min(max(pa, 0.0), ps)
         return self.state_from_measurement(x, 0.0, pa, ps - pa, ps)
 
@@ -268,11 +281,12 @@ class ReducedModel(_ModelBase):
         supply_pressure: float | None = None,
         load_force: float = 0.0,
     ) -> np.ndarray:
-        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L (A = A_A, or
-        Ā in the paper form)."""
+        """Rest at ``initial_position`` [m] (default mid-stroke) with A·P_L = F_L + F_spec (A = A_A,
+        or Ā in the paper form; F_spec the specimen's force there)."""
         c = self.params.cylinder
         x = 0.5 * c.stroke if initial_position is None else initial_position
-        return self.state_from_measurement(x, 0.0, load_force / self.force_area, 0.0)
+        f = load_force + _specimen_at_rest(self.params, x)
+        return self.state_from_measurement(x, 0.0, f / self.force_area, 0.0)
 
     def state_from_measurement(
         self,

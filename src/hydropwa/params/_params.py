@@ -86,6 +86,12 @@ class ServoValve:
         amplitude (Table II). When given, ω0 is interpolated linearly at the
         amplitude of the command signal (peak |u| of the run), clamped at the
         ends.
+    command_voltage : float
+        Command voltage [V] that opens the valve fully (u = 1): the servo amplifier's full
+        scale. 0 (default): commands are fractions [1]. Where it is set, a replayed command
+        file (``simulate --input-file``) holds ``u`` in volts, read by :meth:`command_from_volts`.
+    null_voltage : float
+        Command voltage [V] at which the spool is centred (the valve's null bias).
     """
 
     #: SI unit of each field (a pint expression; None: not a quantity).
@@ -93,15 +99,27 @@ class ServoValve:
         "omega0": "rad/s",
         "zeta": "",
         "omega0_table": None,
+        "command_voltage": "V",
+        "null_voltage": "V",
     }
 
     omega0: float = 628.3
     zeta: float = 0.7
     omega0_table: tuple[tuple[float, float], ...] = ()
+    command_voltage: float = 0.0
+    null_voltage: float = 0.0
 
     def __post_init__(self) -> None:
         _check(self, "omega0", "rad/s", gt=0.0)
         _check(self, "zeta", "1", gt=0.0, le=10.0)
+        _check(self, "command_voltage", "V", ge=0.0, le=100.0)
+        _check(self, "null_voltage", "V", ge=-100.0, le=100.0)
+        if self.null_voltage != 0.0 and abs(self.null_voltage) >= self.command_voltage:
+            raise ParameterError(
+                f"ServoValve.null_voltage = {self.null_voltage:g} V needs a larger "
+                f"ServoValve.command_voltage (now {self.command_voltage:g} V): the null bias "
+                "lies inside the command range; set command_voltage to the full-scale voltage"
+            )
         try:
             table = tuple((float(a), float(w)) for a, w in self.omega0_table)
         except (TypeError, ValueError):
@@ -120,6 +138,21 @@ class ServoValve:
                 "ServoValve.omega0_table amplitudes [1] must be strictly increasing"
             )
         object.__setattr__(self, "omega0_table", table)
+
+    def command_from_volts(self, volts: np.ndarray) -> np.ndarray:
+        """Valve command u [1] from a command in volts: (V − null_voltage)/command_voltage.
+
+        Raises
+        ------
+        ParameterError
+            If ``command_voltage`` is 0 (the machine takes fractional commands).
+        """
+        if self.command_voltage <= 0.0:
+            raise ParameterError(
+                "ServoValve.command_voltage is 0: the machine takes commands as fractions [1]; "
+                "set [valve] command_voltage (the full-scale voltage [V]) to read volts"
+            )
+        return (np.asarray(volts, dtype=float) - self.null_voltage) / self.command_voltage
 
     def omega0_at(self, amplitude: float) -> float:
         """ω0 [rad/s] for a command amplitude |u| [1] (Table II schedule or constant)."""
@@ -546,6 +579,19 @@ class Load:
         Viscous damping c [N·s/m] of an attached load, e.g. the pressure-controlled
         counter cylinder of the rig: the load is F_L(t) + c·ẋ and the force sensor
         (channel ``f_l``) measures that sum. 0 for a free rod.
+    specimen_stiffness : float
+        Stiffness k [N/m] of a specimen, tool or spring the rod meets
+        (:func:`~hydropwa.components.specimen_force`); 0 (default): none. A rigid wall is a
+        stiff one (about the end stops' stiffness).
+    specimen_damping : float
+        Damping c [N·s/m] of that specimen (acts only in contact).
+    contact_position : float
+        Rod position x_c [m] at which the rod meets the specimen; it pushes back only while
+        x > x_c. At or below the stroke start (x_c ≤ 0) the spring is attached: it acts at
+        every position and pulls as well as pushes.
+    preload : float
+        Specimen force F_0 [N] at the contact position (≥ 0 for a contact; an attached
+        spring may have F_0 < 0, which puts its rest position x_c − F_0/k inside the stroke).
     """
 
     #: SI unit of each field (a pint expression; None: not a quantity).
@@ -553,16 +599,35 @@ class Load:
         "mass": "kg",
         "force": "N",
         "damping": "N*s/m",
+        "specimen_stiffness": "N/m",
+        "specimen_damping": "N*s/m",
+        "contact_position": "m",
+        "preload": "N",
     }
 
     mass: float = 1.394
     force: float = 0.0
     damping: float = 0.0
+    specimen_stiffness: float = 0.0
+    specimen_damping: float = 0.0
+    contact_position: float = 0.0
+    preload: float = 0.0
 
     def __post_init__(self) -> None:
         _check(self, "mass", "kg", gt=0.0)
         _check(self, "force", "N")
         _check(self, "damping", "N·s/m", ge=0.0)
+        # above 1e12 N/m the contact's period (√(m/k) ≈ 1 µs at 1 kg) is far below any step
+        _check(self, "specimen_stiffness", "N/m", ge=0.0, le=1e12)
+        _check(self, "specimen_damping", "N·s/m", ge=0.0)
+        _check(self, "contact_position", "m", gt=-10.0, lt=10.0)
+        _check(self, "preload", "N")
+        if self.contact_position > 0.0 and self.preload < 0.0:
+            raise ParameterError(
+                f"Load.preload = {self.preload:g} N is negative for a contact at "
+                f"Load.contact_position = {self.contact_position:g} m: a contact only pushes; "
+                "give a preload >= 0, or contact_position <= 0 for an attached spring"
+            )
 
 
 @dataclass(frozen=True, slots=True)

@@ -30,7 +30,11 @@ from .._layout import (
 )
 from ..components._physics import (
     dead_zone,
+    end_stop_force,
+    end_stop_force_slope,
     load_pressure_gain,
+    specimen_force,
+    specimen_force_slope,
     stribeck_friction,
 )
 from ._signals import NO_REFCOUNT, eval_signal, eval_signal_rate
@@ -75,6 +79,7 @@ I_PT, I_PUMP, I_PSET, I_QMAX, I_DROOP, I_VLINE, I_PRELIEF, I_GRELIEF, I_MASS = (
     SLOT[k] for k in ("pt", "pump", "pset", "qmax", "droop", "vline", "prelief", "grelief", "mass")
 )
 I_CLOAD = SLOT["cload"]  # viscous damping of the attached load (counter cylinder) [N·s/m]
+I_KSPEC, I_CSPEC, I_XSPEC, I_FSPEC = (SLOT[k] for k in ("kspec", "cspec", "xspec", "fspec"))
 I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (mean area)
 I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
 I_ACCV, I_ACCP0, I_ACCN, I_HOSEL, I_HOSED, I_HOSEVOL, I_VISC = (
@@ -86,6 +91,7 @@ I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLO
 O_U, O_SPOOL, O_Z, O_P_A, O_P_B, O_P_L, O_P_S, O_F_L, O_X, O_V, O_FRICTION = (
     OUT[k] for k in ("u", "spool", "z", "p_a", "p_b", "p_l", "p_s", "f_l", "x", "v", "friction")
 )
+O_F_SPEC = OUT["f_spec"]
 #: Number of output rows of the full/reduced models and of the PWA model.
 N_OUT, N_OUT_PWA = len(OUTPUT_CHANNELS), len(OUTPUT_CHANNELS) + len(PWA_OUTPUT_CHANNELS)
 N_OUT_CHAMBER = len(OUTPUT_CHANNELS) + len(CHAMBER_OUTPUT_CHANNELS)
@@ -156,3 +162,26 @@ def _mean_area(p):
 def _load_gain(p):
     """4E/V_t [Pa/m³] of Eq. (14) (:func:`~hydropwa.components.load_pressure_gain`)."""
     return load_pressure_gain(p[I_E], p[I_VA] + p[I_VB])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _specimen(x, v, p):
+    """Force of the specimen on the rod [N], opposing extension (:func:`~hydropwa.components.specimen_force`)."""
+    return specimen_force(x, v, p[I_KSPEC], p[I_CSPEC], p[I_XSPEC], p[I_FSPEC])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _contact_force(x, v, p):
+    """Contact force on the piston [N], positive towards +x: the end stops minus the specimen.
+
+    Every model's Newton's law (Eqs. (10), (15)) takes it as its ``stop`` term.
+    """
+    return end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP]) - _specimen(x, v, p)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
+def _contact_force_slope(x, v, p):
+    """(∂F/∂x [N/m], ∂F/∂ẋ [N·s/m]) of :func:`_contact_force`."""
+    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    sx, sv = specimen_force_slope(x, v, p[I_KSPEC], p[I_CSPEC], p[I_XSPEC], p[I_FSPEC])
+    return kx - sx, kv - sv

@@ -22,6 +22,7 @@ from ._kcommon import (
     N_OUT_CHAMBER,
     N_OUT_PWA,
     O_F_L,
+    O_F_SPEC,
     O_FRICTION,
     O_P_A,
     O_P_B,
@@ -43,6 +44,7 @@ from ._kcommon import (
     _friction,
     _inputs,
     _opening,
+    _specimen,
     n_states,
 )
 from ._rhs_chamber import chamber_terms
@@ -74,7 +76,7 @@ def _dense_output(kind, Y, k_out, t_out, t, h, y, f0, ynew, fnew):
 
 
 # One compiled output pass per model: each holds only its own model's code, and a command
-# compiles only the one it runs. Rows: the layout table's OUTPUT_CHANNELS (11), and for the PWA
+# compiles only the one it runs. Rows: the layout table's OUTPUT_CHANNELS (12), and for the PWA
 # model the active cells g, o, n, w (PWA_OUTPUT_CHANNELS). The friction row of the full and
 # reduced models is the Stribeck law at each sample's velocity, computed in the same pass.
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -128,6 +130,7 @@ def _write_outputs(out, k, u, spool, z, pa, pb, pl, ps, fl, x, v, fr, p):
     out[O_X, k] = x
     out[O_V, k] = v
     out[O_FRICTION, k] = fr
+    out[O_F_SPEC, k] = _specimen(x, v, p)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)

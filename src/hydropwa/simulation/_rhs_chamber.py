@@ -13,7 +13,6 @@ from .._layout import (
 )
 from ..components._physics import (
     effective_bulk_modulus,
-    end_stop_force_slope,
 )
 from ._kcommon import (
     _N_FULL,
@@ -22,10 +21,8 @@ from ._kcommon import (
     I_ACCV,
     I_CL,
     I_CLOAD,
-    I_CSTOP,
     I_E,
     I_K,
-    I_KSTOP,
     I_MASS,
     I_NG,
     I_NN,
@@ -48,6 +45,7 @@ from ._kcommon import (
     Y_PS,
     Y_V,
     Y_X,
+    _contact_force_slope,
 )
 from ._rhs_full import _chambers_and_mechanics
 from ._rhs_load import _cell
@@ -254,7 +252,7 @@ def jac_chamber(y, u, ps_in, fl, p, J):
     J[Y_PB, Y_V] = cb * p[I_AB]
     J[Y_X, Y_V] = 1.0
     m = p[I_MASS]
-    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    kx, kv = _contact_force_slope(x, v, p)
     J[Y_V, Y_PA] = p[I_AA] / m
     J[Y_V, Y_PB] = -p[I_AB] / m
     J[Y_V, Y_X] = kx / m

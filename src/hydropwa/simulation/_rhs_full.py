@@ -15,8 +15,6 @@ from ..components._physics import (
     dead_zone_slope,
     effective_bulk_modulus,
     effective_bulk_modulus_slope,
-    end_stop_force,
-    end_stop_force_slope,
     hose_flow,
     orifice_flow_slopes,
     orifice_flows,
@@ -40,7 +38,6 @@ from ._kcommon import (
     I_CL,
     I_CLOAD,
     I_CREEP,
-    I_CSTOP,
     I_DELTA,
     I_DROOP,
     I_E,
@@ -52,7 +49,6 @@ from ._kcommon import (
     I_HOSEL,
     I_HOSEVOL,
     I_K,
-    I_KSTOP,
     I_MASS,
     I_OMEGA0,
     I_OUTER,
@@ -79,6 +75,8 @@ from ._kcommon import (
     Y_PS,
     Y_V,
     Y_X,
+    _contact_force,
+    _contact_force_slope,
     _friction,
     _opening,
 )
@@ -130,7 +128,7 @@ def _chambers_and_mechanics(y, u, fl, qa, qb, xvol, friction, p, dy):
         p[I_PVAP],
         p[I_PREL],
     )
-    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    stop = _contact_force(x, v, p)
     dy[Y_NU] = dnu
     dy[Y_DNU] = servo_valve_acceleration(nu, dnu, u, p[I_OMEGA0], p[I_ZETA])
     dy[Y_PA] = dpa
@@ -240,7 +238,7 @@ def jac_full(y, u, ps_in, fl, p, J):
             J[Y_PS, Y_PS] = dps_ps - dps_q * qb_ps
     J[Y_X, Y_V] = 1.0
     inv_m = 1.0 / p[I_MASS]
-    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    kx, kv = _contact_force_slope(x, v, p)
     ff = stribeck_friction_slope(v, p[I_FC], p[I_FS], p[I_SIGMA], p[I_CHI], p[I_DELTA], p[I_GAMMA])
     J[Y_V, Y_PA] = aa * inv_m
     J[Y_V, Y_PB] = -ab * inv_m

@@ -19,8 +19,6 @@ from ..components._physics import (
     chamber_pressure_difference_slopes,
     chamber_pressures_from_load,
     dead_zone_slope,
-    end_stop_force,
-    end_stop_force_slope,
     load_capacitance,
     load_capacitance_slope,
     load_flow,
@@ -38,7 +36,6 @@ from ._kcommon import (
     I_CL,
     I_CLOAD,
     I_CREEP,
-    I_CSTOP,
     I_DELTA,
     I_E,
     I_FC,
@@ -46,7 +43,6 @@ from ._kcommon import (
     I_FS,
     I_GAMMA,
     I_K,
-    I_KSTOP,
     I_MASS,
     I_NG,
     I_NN,
@@ -63,6 +59,8 @@ from ._kcommon import (
     I_VA,
     I_VB,
     I_XCAP,
+    _contact_force,
+    _contact_force_slope,
     _friction,
     _load_gain,
     _mean_area,
@@ -107,7 +105,7 @@ def _load_and_mechanics(ql, ff, y, z, ps, fl, p, dy):
     pl, v, x = y[0], y[1], y[2]
     al, pt, area, cq, cl, _dcq, _dcl = _reduced_terms(x, p)
     pa, pb = chamber_pressures_from_load(z, pl, ps, al, pt)
-    stop = end_stop_force(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    stop = _contact_force(x, v, p)
     dy[0] = asymmetric_load_pressure_rate(ql, v, pa - pb, area, cq, cl, p[I_CL])
     dy[1] = piston_acceleration(area * pl, ff, fl + p[I_CLOAD] * v, stop, p[I_MASS])
     dy[2] = v
@@ -274,7 +272,7 @@ def _mechanics_jacobian(v, x, area, p, J):
     ẋ = v gives the row [0, 1, 0].
     """
     m = p[I_MASS]
-    kx, kv = end_stop_force_slope(x, v, p[I_STROKE], p[I_KSTOP], p[I_CSTOP])
+    kx, kv = _contact_force_slope(x, v, p)
     J[1, 0] = area / m
     J[1, 1] = (kv - p[I_CLOAD]) / m
     J[1, 2] = kx / m
