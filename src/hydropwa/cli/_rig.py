@@ -59,6 +59,14 @@ def run_command(
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")
     ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            help="Inject a fault, KIND=SIZE[@AT][:growing] (repeatable; replaces the campaign's "
+            "[[faults]]), e.g. 'internal_leakage=0.1 L/min@50 bar', 'friction=30 %'.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
     from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
@@ -71,6 +79,7 @@ def run_command(
     from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
         Rig,
         load_campaign,
+        parse_fault_spec,
         run_campaign,
     )
 
@@ -80,6 +89,7 @@ def run_command(
 
         raise ParameterError(f"--seed {seed} is larger than 2**63 - 1; give a smaller seed")
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
+    faults = [parse_fault_spec(f) for f in fault] if fault else None
     camp = load_campaign(campaign)
     rig = Rig.from_params(resolve_params(params)).with_overrides(camp.sensors, camp.supply)
     if not quiet:
@@ -96,6 +106,7 @@ def run_command(
             jobs=jobs or os.cpu_count() or 1,
             progress=not quiet,
             overwrite=force,
+            faults=faults,
         )
     runs = sum(len(ds) for ds in datasets.values())
     typer.echo(

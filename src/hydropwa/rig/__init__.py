@@ -30,12 +30,28 @@ from ._experiments import (
     plan,
     run_seed,
 )
+from ._faults import (
+    FAULT_KINDS,
+    Fault,
+    FaultKind,
+    inject,
+    parse_fault_spec,
+    parse_faults,
+    shift_command,
+)
 from ._rig import Rig, machine_supply, paper_supply
 from ._runner import TRUE_PARAMS, run_campaign, run_experiment
 from ._sensors import MEASURED_CHANNELS, SensorModel, machine_sensors, measure, paper_sensors
 
 __all__ = [
     "EXPERIMENTS",
+    "FAULT_KINDS",
+    "Fault",
+    "FaultKind",
+    "inject",
+    "parse_fault_spec",
+    "parse_faults",
+    "shift_command",
     "MEASURED_CHANNELS",
     "TRUE_PARAMS",
     "BroadbandSweep",
