@@ -31,7 +31,16 @@ from numba import njit
 from ..components import dead_zone, dead_zone_slope, orifice_flows, stribeck_friction
 from ..params import SystemParams
 
-__all__ = ["Signals", "prepare", "continuity_fit", "friction_fit", "supply_fit", "LinearFit"]
+__all__ = [
+    "LinearFit",
+    "Signals",
+    "continuity_fit",
+    "friction_fit",
+    "friction_scale_fit",
+    "prepare",
+    "spool_fit",
+    "supply_fit",
+]
 
 
 @dataclass(frozen=True)
@@ -41,6 +50,7 @@ class Signals:
     t: np.ndarray
     u: np.ndarray
     nu: np.ndarray
+    nu_model: np.ndarray
     x: np.ndarray
     v: np.ndarray
     a: np.ndarray
@@ -52,30 +62,70 @@ class Signals:
     f_l: np.ndarray | None
     measured_supply: bool
     measured_spool: bool
+    speed_noise: float
 
 
 @dataclass(frozen=True)
 class LinearFit:
-    """A weighted least-squares estimate: values, standard errors, residual RMS per block."""
+    """A weighted least-squares estimate of θ.
+
+    Attributes
+    ----------
+    theta : ndarray
+        The estimate (SI).
+    cov : ndarray
+        Its covariance, scaled by the residuals' autocorrelation (:func:`_correlation_factor`).
+    rms : tuple of float
+        Residual RMS per block (SI).
+    rows : int
+        Rows used.
+    """
 
     theta: np.ndarray
-    std: np.ndarray
+    cov: np.ndarray
     rms: tuple[float, ...]
     rows: int
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard errors of θ (SI)."""
+        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
+
+
+def _correlation_factor(r: np.ndarray, lags: int = 20) -> float:
+    """Variance inflation 1 + 2 Σ ρ_k (Bartlett window) of correlated residuals, at least 1.
+
+    Least squares' covariance assumes independent rows; the equation errors of neighbouring
+    rows share the filter and the model's slow errors, so the effective number of rows is
+    smaller by this factor.
+    """
+    r = r - r.mean()
+    d = float(r @ r)
+    if d <= 0.0 or r.size <= 2 * lags:
+        return 1.0
+    rho = np.array([float(r[:-k] @ r[k:]) / d for k in range(1, lags + 1)])
+    w = 1.0 - np.arange(1, lags + 1) / (lags + 1)
+    return max(1.0, 1.0 + 2.0 * float(np.sum(w * rho)))
 
 
 def _savgol(y: np.ndarray, window: int, deriv: int, dt: float) -> np.ndarray:
     from scipy.signal import savgol_filter  # deferred: scipy.signal costs ~0.2 s at import
 
-    return savgol_filter(y, window, 3, deriv=deriv, delta=dt, mode="interp")
+    # edges: the rows within one window of either end are not used (see prepare)
+    return savgol_filter(y, window, 3, deriv=deriv, delta=dt, mode="nearest")
 
 
-def _spool(u: np.ndarray, t: np.ndarray, omega0: float, zeta: float) -> np.ndarray:
-    """ν(t) of the servo valve, Eq. (3), driven by the logged command (exact for linear u)."""
-    from scipy.signal import lsim  # deferred: scipy.signal costs ~0.2 s at import
+def _spool(u: np.ndarray, dt: float, omega0: float, zeta: float) -> np.ndarray:
+    """ν(t) of the servo valve, Eq. (3), driven by the logged command, settled at u(0).
+
+    The first-order-hold discretisation is exact for a command linear between samples.
+    """
+    from scipy.signal import cont2discrete, lfilter, lfilter_zi  # deferred: scipy.signal
 
     w2 = omega0 * omega0
-    _, y, _ = lsim(([w2], [1.0, 2.0 * zeta * omega0, w2]), u, t - t[0], X0=[0.0, u[0] / w2])
+    num, den, _ = cont2discrete(([w2], [1.0, 2.0 * zeta * omega0, w2]), dt, method="foh")
+    b, a = np.ravel(num), np.ravel(den)
+    y, _ = lfilter(b, a, u, zi=lfilter_zi(b, a) * u[0])
     return np.asarray(y, dtype=float)
 
 
@@ -99,22 +149,27 @@ def prepare(channels: dict[str, np.ndarray], fs: float, params: SystemParams, wi
     w = max(7, int(round(window_s * fs)) | 1)
     u = np.asarray(channels["u"], float)
     spool = channels.get("spool")
-    if spool is None:
-        omega = params.valve.omega0_at(float(np.max(np.abs(u))))
-        nu = _spool(u, t, omega, params.valve.zeta)
-    else:
-        nu = np.asarray(spool, float)
+    omega = params.valve.omega0_at(float(np.max(np.abs(u))))
+    nu_model = _spool(u, dt, omega, params.valve.zeta)
+    nu = nu_model if spool is None else np.asarray(spool, float)
 
     def f(name: str, deriv: int = 0) -> np.ndarray:
         return _savgol(np.asarray(channels[name], float), w, deriv, dt)
 
     sl = slice(w, t.size - w, max(1, w // 2))
+    # the speed's noise: the position's high-frequency residual through the filter's gain
+    x = np.asarray(channels["x"], float)
+    impulse = np.zeros(w)
+    impulse[w // 2] = 1.0
+    gain = float(np.linalg.norm(_savgol(impulse, w, 1, dt)))
+    x_noise = float(np.std(np.diff(x, 2))) / np.sqrt(6.0)
     p_s = f("p_s")[sl] if "p_s" in channels else None
     f_l = f("f_l")[sl] if "f_l" in channels else None
     return Signals(
         t=t[sl],
         u=u[sl],
         nu=_savgol(nu, w, 0, dt)[sl],
+        nu_model=_savgol(nu_model, w, 0, dt)[sl],
         x=f("x")[sl],
         v=f("x", 1)[sl],
         a=f("x", 2)[sl],
@@ -126,6 +181,7 @@ def prepare(channels: dict[str, np.ndarray], fs: float, params: SystemParams, wi
         f_l=f_l,
         measured_supply=p_s is not None,
         measured_spool=spool is not None,
+        speed_noise=x_noise * gain,
     )
 
 
@@ -173,10 +229,10 @@ def _wls(blocks: list[tuple[np.ndarray, np.ndarray]], scale: np.ndarray) -> Line
     sol, *_ = np.linalg.lstsq(A, y, rcond=None)
     theta = sol * scale
     dof = max(1, A.shape[0] - A.shape[1])
-    s2 = float(np.sum((y - A @ sol) ** 2)) / dof
-    cov = s2 * np.linalg.pinv(A.T @ A)
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * np.abs(scale)
-    return LinearFit(theta=theta, std=std, rms=tuple(weights), rows=int(A.shape[0]))
+    res = y - A @ sol
+    s2 = float(res @ res) / dof * _correlation_factor(res)
+    cov = s2 * np.linalg.pinv(A.T @ A) * np.outer(scale, scale)
+    return LinearFit(theta=theta, cov=cov, rms=tuple(weights), rows=int(A.shape[0]))
 
 
 #: Column scales of the continuity unknowns (1/E, C_L, C_eA, C_eB, δ): typical magnitudes.
@@ -207,17 +263,57 @@ def continuity_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> Line
 FRICTION_SCALE = np.array([100.0, 100.0, 1000.0])
 
 
+def _sliding(sig: Signals, params: SystemParams, mask: np.ndarray) -> np.ndarray:
+    """Rows where the rod slides clearly: |ẋ| above 10× its noise and 3/γ.
+
+    Near zero speed the Stribeck curve is steep (its tanh step is 1/γ wide) and the filtered
+    speed's noise would attenuate the fitted forces (errors in the regressor).
+    """
+    v_min = max(10.0 * sig.speed_noise, 3.0 / params.friction.smoothness)
+    return mask & (np.abs(sig.v) > v_min)
+
+
+def _friction_force(sig: Signals, params: SystemParams) -> np.ndarray:
+    """F = A_A P_A − A_B P_B − f_l − m ẍ [N], the friction force by Newton's law, Eq. (10)."""
+    c, ld = params.cylinder, params.load
+    load = sig.f_l if sig.f_l is not None else ld.force + ld.damping * sig.v
+    return c.area_a * sig.p_a - c.area_b * sig.p_b - load - ld.mass * sig.a
+
+
 def friction_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFit:
     """(F_c, F_s − F_c, σ) from Newton's law, Eq. (10), on the Stribeck basis of Eq. (11)."""
-    c, fr, ld = params.cylinder, params.friction, params.load
-    load = sig.f_l if sig.f_l is not None else ld.force + ld.damping * sig.v
-    force = c.area_a * sig.p_a - c.area_b * sig.p_b - load - ld.mass * sig.a
+    fr = params.friction
+    force = _friction_force(sig, params)
     v = sig.v
     # the basis functions are Eq. (11) itself with unit forces: one component call each
     sign = stribeck_friction(v, 1.0, 1.0, 0.0, fr.stribeck_velocity, fr.shape, fr.smoothness)
     bump = stribeck_friction(v, 0.0, 1.0, 0.0, fr.stribeck_velocity, fr.shape, fr.smoothness)
-    A = np.column_stack([sign, bump, v])[mask]
-    return _wls([(A, force[mask])], FRICTION_SCALE)
+    rows = _sliding(sig, params, mask)
+    A = np.column_stack([sign, bump, v])[rows]
+    return _wls([(A, force[rows])], FRICTION_SCALE)
+
+
+def friction_scale_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFit:
+    """The friction level s [1]: F = s · f(ẋ) with the identified Stribeck curve f, Eq. (11).
+
+    One number that the run's velocities determine well, where F_c, F_s and σ apart are not
+    (over a narrow speed range the Stribeck bump and the Coulomb step are nearly collinear).
+    """
+    fr = params.friction
+    force = _friction_force(sig, params)
+    curve = stribeck_friction(
+        sig.v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness
+    )
+    rows = _sliding(sig, params, mask)
+    return _wls([(curve[rows][:, None], force[rows])], np.array([1.0]))
+
+
+def spool_fit(sig: Signals, mask: np.ndarray) -> LinearFit | None:
+    """The valve null offset δ [1]: measured spool less the valve model's, Eq. (3) (None: no spool)."""
+    if not sig.measured_spool:
+        return None
+    ones = np.ones((int(mask.sum()), 1))
+    return _wls([(ones, (sig.nu - sig.nu_model)[mask])], np.array([1e-2]))
 
 
 def supply_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFit | None:
@@ -231,8 +327,7 @@ def supply_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFi
             sig.nu, sig.p_a, sig.p_b, sig.p_s, 0.0, sup.tank_pressure, fl.K,
             fl.transition_pressure, dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset,
         )
-        z = np.array([dead_zone(n, dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset) for n in sig.nu])
-        q_s = np.where(z >= 0.0, qa, -qb)
+        q_s = np.where(sig.nu >= 0.0, qa, -qb)  # dead_zone keeps the sign of ν
         p_set = p_set + sup.compensator_droop * np.clip(q_s, 0.0, None) / sup.pump_flow
     ones = np.ones((int(mask.sum()), 1))
     return _wls([(ones, p_set[mask])], np.array([1e7]))
