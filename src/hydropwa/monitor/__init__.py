@@ -5,7 +5,7 @@
 ``hydropwa monitor`` command runs it on a dataset folder. See docs/monitoring.md.
 """
 
-from ._indicators import INDICATORS, NUISANCE, Indicator, parameter_intervals
+from ._indicators import INDICATORS, NUISANCE, Indicator, draw_within, parameter_intervals
 from ._monitor import HealthMonitor, HealthReport, IndicatorValue, RunHealth, monitor
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "Indicator",
     "IndicatorValue",
     "RunHealth",
+    "draw_within",
     "monitor",
     "parameter_intervals",
 ]

@@ -11,13 +11,14 @@ model-error allowance (:mod:`._thresholds`).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 from ..params import SystemParams
 
-__all__ = ["INDICATORS", "NUISANCE", "Indicator", "parameter_intervals"]
+__all__ = ["INDICATORS", "NUISANCE", "Indicator", "draw_within", "parameter_intervals"]
 
 
 @dataclass(frozen=True)
@@ -171,6 +172,32 @@ def parameter_intervals(
         else:
             h = abs(value) * w if rel else w
             out[path] = ((value - h, value + h), "assumed")
+    return out
+
+
+def draw_within(
+    params: SystemParams,
+    intervals: Mapping[str, tuple[tuple[float, float], str]],
+    rng: Any,
+) -> SystemParams:
+    """A healthy machine: each parameter of ``intervals`` drawn uniformly inside its interval.
+
+    The population the thresholds are sized for (a healthy axis within its identified or
+    assumed intervals), for checking them (benchmarks/monitor_study.py, the tests). The valve's
+    ω0 amplitude table moves with ω0; F_s is kept at least F_c.
+    """
+    changes: dict[str, float] = {}
+    for path, ((lo, hi), _src) in intervals.items():
+        if hi > lo:
+            changes[path] = float(rng.uniform(lo, hi))
+    if "friction.static" in changes and "friction.coulomb" in changes:
+        changes["friction.static"] = max(changes["friction.static"], changes["friction.coulomb"])
+    w = changes.pop("valve.omega0", None)
+    out = params.replace(**changes)
+    if w is not None:
+        v = out.valve
+        table = tuple((a, x * w / v.omega0) for a, x in v.omega0_table)
+        out = out.replace(valve=dataclasses.replace(v, omega0=w, omega0_table=table))
     return out
 
 
