@@ -35,7 +35,10 @@ from hydropwa.params import get_preset, load_params
 from hydropwa.rig import Fault, Rig, execute, inject, load_campaign, plan, run_seed
 
 ROOT = Path(__file__).resolve().parents[1]
-MACHINES = {"paper": lambda: get_preset("paper"), "heavy": lambda: load_params(ROOT / "tests/machines/industrial.toml")}
+MACHINES = {
+    "paper": lambda: get_preset("paper"),
+    "heavy": lambda: load_params(ROOT / "tests/machines/industrial.toml"),
+}
 FAULTS = {
     "healthy": (),
     "internal_leakage": (Fault("internal_leakage", 0.1e-3 / 60.0, at=50e5),),
@@ -57,7 +60,9 @@ def _case(machine: str, fault: str, i: int) -> dict:
     true = draw_within(rig.params, monitor.intervals_, rng)
     true, offset, _ = inject(true, FAULTS[fault], 0, 1)
     faulty = dataclasses.replace(rig, params=true, supply=true.supply)
-    run = execute(faulty, dataclasses.replace(spec, command_offset=offset), run_seed(i, fault, spec.name))
+    run = execute(
+        faulty, dataclasses.replace(spec, command_offset=offset), run_seed(i, fault, spec.name)
+    )
     h = monitor.check(run)
     cl = h.indicators["internal_leakage"]
     dp = np.sqrt(np.mean((run.channels["p_a"] - run.channels["p_b"]) ** 2))
@@ -74,22 +79,34 @@ def _case(machine: str, fault: str, i: int) -> dict:
 
 
 def _table(rows: list[dict]) -> str:
-    out = ["| machine | case | run kind | runs | alarms | named correctly |", "|---|---|---|---|---|---|"]
+    out = [
+        "| machine | case | run kind | runs | alarms | named correctly |",
+        "|---|---|---|---|---|---|",
+    ]
     keys = sorted({(r["machine"], r["fault"], r["kind"]) for r in rows})
     for m, f, k in keys:
         sel = [r for r in rows if (r["machine"], r["fault"], r["kind"]) == (m, f, k)]
         alarms = sum(r["alarm"] for r in sel)
         named = sum(r["named"] == f for r in sel if r["alarm"])
         right = "—" if f == "healthy" else f"{named}/{alarms}"
-        out.append(f"| {m} | {f} | {k} | {len(sel)} | {alarms} ({100 * alarms / len(sel):.1f} %) | {right} |")
+        out.append(
+            f"| {m} | {f} | {k} | {len(sel)} | {alarms} ({100 * alarms / len(sel):.1f} %) | {right} |"
+        )
     return "\n".join(out)
 
 
 def _leak_table(rows: list[dict]) -> str:
-    out = ["| machine | run | RMS(P_A − P_B) [bar] | leakage detected in 99 % [L/min @ 50 bar], median |", "|---|---|---|---|"]
+    out = [
+        "| machine | run | RMS(P_A − P_B) [bar] | leakage detected in 99 % [L/min @ 50 bar], median |",
+        "|---|---|---|---|",
+    ]
     for m in sorted({r["machine"] for r in rows}):
         for name in sorted({r["run"] for r in rows if r["machine"] == m}):
-            sel = [r for r in rows if r["machine"] == m and r["run"] == name and r["fault"] == "healthy"]
+            sel = [
+                r
+                for r in rows
+                if r["machine"] == m and r["run"] == name and r["fault"] == "healthy"
+            ]
             if sel:
                 dp = np.median([r["dp_rms_bar"] for r in sel])
                 q = np.median([r["leak_detectable"] for r in sel])

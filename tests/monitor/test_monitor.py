@@ -36,7 +36,9 @@ def _measure(rig: Rig, spec, faults=(), seed=0, true=None):
     true = rig.params if true is None else true
     params, offset, _ = inject(true, faults, 0, 1)
     faulty = dataclasses.replace(rig, params=params, supply=params.supply)
-    return execute(faulty, dataclasses.replace(spec, command_offset=offset), run_seed(seed, "sine", spec.name))
+    return execute(
+        faulty, dataclasses.replace(spec, command_offset=offset), run_seed(seed, "sine", spec.name)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +61,12 @@ def test_healthy_runs_within_the_intervals_do_not_alarm(paper):
     [
         # the leakage's standard error on this run is ~2.5 % of 0.1 L/min; 4 of them
         (Fault("internal_leakage", 0.1 * LPM, at=50e5), "internal_leakage", 0.1 * LPM / 50e5, 0.10),
-        (Fault("external_leakage_a", 0.1 * LPM, at=50e5), "external_leakage_a", 0.1 * LPM / 50e5, 0.15),
+        (
+            Fault("external_leakage_a", 0.1 * LPM, at=50e5),
+            "external_leakage_a",
+            0.1 * LPM / 50e5,
+            0.15,
+        ),
         # the spool sensor gives the null directly: standard error 1.4e-5 of 5e-3
         (Fault("valve_null", 0.005), "valve_null", 0.005, 0.02),
         # the pump's droop corrected: within the droop law's steady-state error
@@ -79,7 +86,9 @@ def test_the_bulk_modulus_is_the_rigs(paper):
     rig, spec, mon = paper
     h = mon.check(_measure(rig, spec, seed=5))
     # continuity's 1/E column: ~0.1 % standard error; 2 % covers the filter's lag
-    assert h.indicators["bulk_modulus"].value == pytest.approx(rig.params.oil.bulk_modulus, rel=0.02)
+    assert h.indicators["bulk_modulus"].value == pytest.approx(
+        rig.params.oil.bulk_modulus, rel=0.02
+    )
 
 
 def test_heavy_axis_healthy_and_leaking():
@@ -118,9 +127,18 @@ def test_cli_monitor_writes_the_report_and_refuses_to_overwrite(paper, tmp_path)
     rig, spec, _mon = paper
     ds = Dataset.create(tmp_path / "data")
     ds.add_run(_measure(rig, spec, seed=1))
-    ds.add_run(dataclasses.replace(_measure(rig, spec, [Fault("supply", 0.1)], seed=1), name="weak_pump"))
+    ds.add_run(
+        dataclasses.replace(_measure(rig, spec, [Fault("supply", 0.1)], seed=1), name="weak_pump")
+    )
     save_params(rig.params, tmp_path / "identified.toml")
-    argv = ["monitor", str(tmp_path / "data"), "--params", str(tmp_path / "identified.toml"), "--out", str(tmp_path / "h")]
+    argv = [
+        "monitor",
+        str(tmp_path / "data"),
+        "--params",
+        str(tmp_path / "identified.toml"),
+        "--out",
+        str(tmp_path / "h"),
+    ]
     res = CliRunner().invoke(app, argv)
     assert res.exit_code == 0, res.output
     doc = json.loads((tmp_path / "h" / "health.json").read_text())

@@ -39,18 +39,30 @@ def test_leakage_faults_are_the_rated_flow_over_the_rated_drop(rig):
         ("external_leakage_b", "external_leakage_b"),
     ):
         p, offset, applied = inject(base, [Fault(kind, 0.1 * LPM, at=50e5)], 0, 1)
-        assert getattr(p.cylinder, field) == pytest.approx(getattr(base.cylinder, field) + 0.1 * LPM / 50e5, rel=1e-12)
+        assert getattr(p.cylinder, field) == pytest.approx(
+            getattr(base.cylinder, field) + 0.1 * LPM / 50e5, rel=1e-12
+        )
         assert offset == 0.0 and applied == [
-            {"kind": kind, "size": pytest.approx(0.1), "unit": "L/min", "onset": "abrupt", "at_bar": 50.0}
+            {
+                "kind": kind,
+                "size": pytest.approx(0.1),
+                "unit": "L/min",
+                "onset": "abrupt",
+                "at_bar": 50.0,
+            }
         ]
 
 
 def test_percentage_faults_scale_the_declared_fields(rig):
     base = rig.params
-    p, _, _ = inject(base, [Fault("friction", 0.3), Fault("supply", 0.1), Fault("bulk_modulus", 0.2)], 0, 1)
+    p, _, _ = inject(
+        base, [Fault("friction", 0.3), Fault("supply", 0.1), Fault("bulk_modulus", 0.2)], 0, 1
+    )
     for f in FAULT_KINDS["friction"].moves:
         comp, name = f.split(".")
-        assert getattr(p.friction, name) == pytest.approx(1.3 * getattr(base.friction, name), rel=1e-12)
+        assert getattr(p.friction, name) == pytest.approx(
+            1.3 * getattr(base.friction, name), rel=1e-12
+        )
     assert p.supply.pressure == pytest.approx(0.9 * base.supply.pressure, rel=1e-12)
     assert p.oil.bulk_modulus == pytest.approx(0.8 * base.oil.bulk_modulus, rel=1e-12)
     assert p.cylinder == base.cylinder and p.valve == base.valve  # nothing else moves
@@ -70,7 +82,14 @@ def test_growing_fault_is_linear_from_its_start_run():
 
 
 @pytest.mark.parametrize(
-    "signal", [Constant(0.1), Step(0.2, 0.0, 0.3), Ramp(0.0, 1.0, -0.2, 0.2), Sine(0.2, 2.0, 0.05), Sampled(np.array([0.0, 1.0]), np.array([0.1, -0.1]))]
+    "signal",
+    [
+        Constant(0.1),
+        Step(0.2, 0.0, 0.3),
+        Ramp(0.0, 1.0, -0.2, 0.2),
+        Sine(0.2, 2.0, 0.05),
+        Sampled(np.array([0.0, 1.0]), np.array([0.1, -0.1])),
+    ],
 )
 def test_shift_command_adds_the_offset_at_every_time(signal):
     t = np.linspace(0.0, 1.5, 31)
@@ -80,7 +99,9 @@ def test_shift_command_adds_the_offset_at_every_time(signal):
 
 
 def test_the_valve_sees_the_offset_and_the_run_records_the_command_as_sent(rig):
-    spec = RunSpec("hold", "deadzone", Constant(0.02), duration=0.3, start_position=0.1, command_offset=0.004)
+    spec = RunSpec(
+        "hold", "deadzone", Constant(0.02), duration=0.3, start_position=0.1, command_offset=0.004
+    )
     run = execute(rig, spec, run_seed(0, "deadzone", "hold"))
     assert np.all(run.channels["u"] == 0.02)
     late = run.channels["t"] > 0.1  # the spool (ω0 ≈ 100 Hz) has settled at u + offset
@@ -109,7 +130,10 @@ def test_campaign_faults_table_and_command_line_spec():
     ("table", "needle"),
     [
         ({"kind": "leak", "size": "1 %"}, "kind 'leak' is unknown; choose from internal_leakage"),
-        ({"kind": "friction", "size": "30 %", "at": "50 bar"}, "'at' is only for the leakage kinds"),
+        (
+            {"kind": "friction", "size": "30 %", "at": "50 bar"},
+            "'at' is only for the leakage kinds",
+        ),
         ({"kind": "friction"}, "needs kind and size"),
         ({"kind": "friction", "size": "3000 %"}, "size 3000 % must lie in 0…1000 %"),
         ({"kind": "supply", "size": "10 %", "when": 3}, "unknown key(s) when"),
@@ -125,12 +149,18 @@ def test_bad_fault_tables_are_one_line_naming_the_table(table, needle):
 def test_external_leakage_drains_a_closed_chamber_at_the_closed_form_rate():
     e, ce, pa, pb, x = 1.2e9, 2e-12, 80e5, 30e5, 0.05
     aa, ab, stroke, va0, vb0 = 1.3e-3, 0.76e-3, 0.2, 0.7e-3, 0.6e-3
-    dpa, dpb = chamber_pressure_rates(0.0, 0.0, x, 0.0, pa, pb, aa, ab, stroke, va0, vb0, 0.0, e, -0.95e5, 0.0, ce, 0.0)
+    dpa, dpb = chamber_pressure_rates(
+        0.0, 0.0, x, 0.0, pa, pb, aa, ab, stroke, va0, vb0, 0.0, e, -0.95e5, 0.0, ce, 0.0
+    )
     assert dpa == pytest.approx(-e * ce * pa / (va0 + aa * x), rel=1e-14)
     assert dpb == 0.0
     # both leakages at once add their flows (continuity is linear in them)
-    _, dpb2 = chamber_pressure_rates(0.0, 0.0, x, 0.0, pa, pb, aa, ab, stroke, va0, vb0, 1e-12, e, -0.95e5, 0.0, 0.0, ce)
-    assert dpb2 == pytest.approx(e / (vb0 + ab * (stroke - x)) * (1e-12 * (pa - pb) - ce * pb), rel=1e-14)
+    _, dpb2 = chamber_pressure_rates(
+        0.0, 0.0, x, 0.0, pa, pb, aa, ab, stroke, va0, vb0, 1e-12, e, -0.95e5, 0.0, 0.0, ce
+    )
+    assert dpb2 == pytest.approx(
+        e / (vb0 + ab * (stroke - x)) * (1e-12 * (pa - pb) - ce * pb), rel=1e-14
+    )
 
 
 def test_run_experiment_writes_each_runs_faults(rig, tmp_path):
@@ -140,4 +170,7 @@ def test_run_experiment_writes_each_runs_faults(rig, tmp_path):
     ds = run_experiment(rig, exp, tmp_path, faults=[Fault("friction", 0.3, onset="growing")])
     sizes = [r.meta["faults"][0]["size"] if r.meta["faults"] else 0.0 for r in ds]
     assert sizes == pytest.approx([0.0, 30.0])
-    assert dataclasses.asdict(Fault("friction", 0.3, onset="growing")) in ds.meta["definition"]["faults"]
+    assert (
+        dataclasses.asdict(Fault("friction", 0.3, onset="growing"))
+        in ds.meta["definition"]["faults"]
+    )

@@ -271,7 +271,9 @@ def _perturbed(params: SystemParams, path: str, value: float) -> SystemParams:
     if path == "valve.omega0" and params.valve.omega0_table:
         r = value / params.valve.omega0
         table = tuple((a, w * r) for a, w in params.valve.omega0_table)
-        return params.replace(valve=dataclasses.replace(params.valve, omega0=value, omega0_table=table))
+        return params.replace(
+            valve=dataclasses.replace(params.valve, omega0=value, omega0_table=table)
+        )
     return params.replace(**{path: value})
 
 
@@ -329,7 +331,9 @@ class HealthMonitor:
                 f"false_alarm = {self.false_alarm!r} must lie in (0, 0.5) (a probability per run, e.g. 1e-3)"
             )
         if not (1e-3 <= self.window <= 0.2):
-            raise ParameterError(f"window = {self.window!r} s must lie in 1 ms … 200 ms (e.g. 0.01)")
+            raise ParameterError(
+                f"window = {self.window!r} s must lie in 1 ms … 200 ms (e.g. 0.01)"
+            )
         self.params_ = params
         self.intervals_ = parameter_intervals(params, self.intervals)
         sides = sum((2 if ind.direction == 0 else 1) for ind in INDICATORS if ind.alarms)
@@ -399,16 +403,32 @@ class HealthMonitor:
             if iv.alarm:
                 faults[ind.fault] = max(faults.get(ind.fault, 0.0), iv.score)
         named = tuple(sorted(faults, key=lambda f: -faults[f]))
-        notes = tuple(f"{n} not available from this run" for n, iv in values.items() if not iv.available)
+        notes = tuple(
+            f"{n} not available from this run" for n, iv in values.items() if not iv.available
+        )
         rows = fits["continuity"].rows if fits["continuity"] is not None else 0
         return RunHealth(run.name, values, bool(named), named, rows, notes)
 
-    def _indicator(self, ind: Indicator, fits: Mapping[str, LinearFit | None], bias: float) -> IndicatorValue:
+    def _indicator(
+        self, ind: Indicator, fits: Mapping[str, LinearFit | None], bias: float
+    ) -> IndicatorValue:
         lo, hi = self._healthy(ind)
         got = _read(ind, fits)
         if got is None:
             nan = float("nan")
-            return IndicatorValue(ind.name, ind.unit, nan, nan, (nan, nan), (lo, hi), bias, (None, None), False, nan, False)
+            return IndicatorValue(
+                ind.name,
+                ind.unit,
+                nan,
+                nan,
+                (nan, nan),
+                (lo, hi),
+                bias,
+                (None, None),
+                False,
+                nan,
+                False,
+            )
         value, std = got
         margin = self.k_ * std + bias
         low = lo - margin if ind.direction <= 0 and ind.alarms else None
@@ -420,8 +440,16 @@ class HealthMonitor:
             scores.append((low - value) / max(margin, 1e-300))
         score = max(scores)
         return IndicatorValue(
-            ind.name, ind.unit, value, std, (value - self.k_ * std, value + self.k_ * std),
-            (lo, hi), bias, (low, high), bool(score > 0.0), score,
+            ind.name,
+            ind.unit,
+            value,
+            std,
+            (value - self.k_ * std, value + self.k_ * std),
+            (lo, hi),
+            bias,
+            (low, high),
+            bool(score > 0.0),
+            score,
         )
 
     def _healthy(self, ind: Indicator) -> tuple[float, float]:
@@ -450,11 +478,14 @@ class HealthMonitor:
             except DataError as exc:
                 skipped.append(f"{run.name}: {exc}")
         return HealthReport(
-            tuple(out), self.false_alarm, self.k_, describe_intervals(self.intervals_), tuple(skipped)
+            tuple(out),
+            self.false_alarm,
+            self.k_,
+            describe_intervals(self.intervals_),
+            tuple(skipped),
         )
 
 
 def monitor(runs: Iterable[Any], params: SystemParams, **settings: Any) -> HealthReport:
     """The health of logged runs: ``HealthMonitor(**settings).fit(params).check_dataset(runs)``."""
     return HealthMonitor(**settings).fit(params).check_dataset(runs)
-

@@ -59,7 +59,9 @@ def _trend_svg(report: HealthReport, ind: Indicator) -> str:
         line = [(X(i), Y(iv.threshold[side] * s)) for i, iv in pts if _finite(iv.threshold[side])]
         if line:
             d = " ".join(f"{x:.1f},{y:.1f}" for x, y in line)
-            parts.append(f'<polyline points="{d}" fill="none" stroke="#c00" stroke-dasharray="4 3"/>')
+            parts.append(
+                f'<polyline points="{d}" fill="none" stroke="#c00" stroke-dasharray="4 3"/>'
+            )
     for i, iv in pts:
         x = X(i)
         colour = "#c00" if iv.alarm else "#246"
@@ -78,7 +80,9 @@ def _run_table(report: HealthReport) -> str:
     rows = []
     for r in report.runs:
         state = f"ALARM: {', '.join(r.faults)}" if r.alarm else "healthy"
-        rows.append(f"<tr><td>{html.escape(r.run)}</td><td>{html.escape(state)}</td><td>{r.rows}</td></tr>")
+        rows.append(
+            f"<tr><td>{html.escape(r.run)}</td><td>{html.escape(state)}</td><td>{r.rows}</td></tr>"
+        )
     return (
         "<table><tr><th>run</th><th>state (fault named first)</th><th>rows</th></tr>"
         + "".join(rows)
@@ -107,7 +111,9 @@ def _html(report: HealthReport) -> str:
     )
 
 
-def write_report(report: HealthReport, out: str | os.PathLike, *, overwrite: bool = False) -> dict[str, Any]:
+def write_report(
+    report: HealthReport, out: str | os.PathLike, *, overwrite: bool = False
+) -> dict[str, Any]:
     """Write ``out/health.json`` and ``out/health.html``; returns ``{"json": path, "html": path}``.
 
     Raises

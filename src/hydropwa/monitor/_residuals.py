@@ -129,7 +129,9 @@ def _spool(u: np.ndarray, dt: float, omega0: float, zeta: float) -> np.ndarray:
     return np.asarray(y, dtype=float)
 
 
-def prepare(channels: dict[str, np.ndarray], fs: float, params: SystemParams, window_s: float) -> Signals:
+def prepare(
+    channels: dict[str, np.ndarray], fs: float, params: SystemParams, window_s: float
+) -> Signals:
     """Filter a run's channels and keep about one row per filter window.
 
     Parameters
@@ -218,7 +220,9 @@ def _wls(blocks: list[tuple[np.ndarray, np.ndarray]], scale: np.ndarray) -> Line
     """
     weights = [1.0] * len(blocks)
     for _ in range(2):
-        A = np.vstack([b[0] * (s / w) for b, w, s in zip(blocks, weights, [scale] * len(blocks), strict=True)])
+        A = np.vstack(
+            [b[0] * (s / w) for b, w, s in zip(blocks, weights, [scale] * len(blocks), strict=True)]
+        )
         y = np.concatenate([b[1] / w for b, w in zip(blocks, weights, strict=True)])
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         theta = sol * scale
@@ -244,8 +248,18 @@ def continuity_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> Line
     c, fl, dz = params.cylinder, params.flow, params.dead_zone
     ps = _supply_pressure(sig, params)
     qa, qb, ga, gb = _valve_terms(
-        sig.nu, sig.p_a, sig.p_b, ps, 0.0, params.supply.tank_pressure, fl.K,
-        fl.transition_pressure, dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset,
+        sig.nu,
+        sig.p_a,
+        sig.p_b,
+        ps,
+        0.0,
+        params.supply.tank_pressure,
+        fl.K,
+        fl.transition_pressure,
+        dz.alpha,
+        dz.beta,
+        dz.creep_slope,
+        dz.outer_offset,
     )
     xs = np.clip(sig.x, 0.0, c.stroke)
     va = c.dead_volume_a + c.area_a * xs
@@ -324,8 +338,18 @@ def supply_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFi
     p_set = sig.p_s.copy()
     if sup.model == "pump":
         qa, qb, _ga, _gb = _valve_terms(
-            sig.nu, sig.p_a, sig.p_b, sig.p_s, 0.0, sup.tank_pressure, fl.K,
-            fl.transition_pressure, dz.alpha, dz.beta, dz.creep_slope, dz.outer_offset,
+            sig.nu,
+            sig.p_a,
+            sig.p_b,
+            sig.p_s,
+            0.0,
+            sup.tank_pressure,
+            fl.K,
+            fl.transition_pressure,
+            dz.alpha,
+            dz.beta,
+            dz.creep_slope,
+            dz.outer_offset,
         )
         q_s = np.where(sig.nu >= 0.0, qa, -qb)  # dead_zone keeps the sign of ν
         p_set = p_set + sup.compensator_droop * np.clip(q_s, 0.0, None) / sup.pump_flow

@@ -18,7 +18,6 @@ import numpy as np
 from ..components import load_pressure_range
 from ..models import FullOrderModel
 from ..simulation import Chirp, Constant, Sampled, Signal, Sine, Step, simulate
-from ._faults import shift_command
 from ._campaign import (
     DeadZoneExperiment,
     Experiment,
@@ -27,6 +26,7 @@ from ._campaign import (
     LoadRuns,
     SineExperiment,
 )
+from ._faults import shift_command
 from ._rig import Rig
 from ._sensors import measure
 

@@ -206,7 +206,9 @@ class Fault:
                 f"fault {self.kind}: onset {self.onset!r} must be one of {', '.join(ONSETS)}"
             )
         if not (isinstance(self.start, int) and self.start >= 0):
-            raise ParameterError(f"fault {self.kind}: start = {self.start!r} must be an integer >= 0")
+            raise ParameterError(
+                f"fault {self.kind}: start = {self.start!r} must be an integer >= 0"
+            )
 
     def size_at(self, index: int, total: int) -> float:
         """Size (SI) at run ``index`` of ``total`` runs (0 before ``start``)."""
@@ -317,19 +319,31 @@ def parse_faults(tables: Any, source: str = "<dict>") -> tuple[Fault, ...]:
             raise ParameterError(f"{where} must be a table with kind and size")
         extra = sorted(set(t) - {"kind", "size", "at", "onset", "start"})
         if extra:
-            raise ParameterError(f"{where}: unknown key(s) {', '.join(extra)}; known: kind, size, at, onset, start")
+            raise ParameterError(
+                f"{where}: unknown key(s) {', '.join(extra)}; known: kind, size, at, onset, start"
+            )
         if "kind" not in t or "size" not in t:
-            raise ParameterError(f"{where}: needs kind and size (e.g. kind = 'friction', size = '30 %')")
+            raise ParameterError(
+                f"{where}: needs kind and size (e.g. kind = 'friction', size = '30 %')"
+            )
         name = str(t["kind"])
         if name not in FAULT_KINDS:
-            raise ParameterError(f"{where}: kind {name!r} is unknown; choose from {', '.join(FAULT_KINDS)}")
+            raise ParameterError(
+                f"{where}: kind {name!r} is unknown; choose from {', '.join(FAULT_KINDS)}"
+            )
         kind = FAULT_KINDS[name]
         if "at" in t and not kind.rated_drop:
             raise ParameterError(f"{where}: 'at' is only for the leakage kinds, not {name}")
         at = parse_quantity(t["at"], "Pa", f"{where}: at") if "at" in t else 50e5
         try:
             out.append(
-                Fault(name, _size(kind, t["size"], where), at, str(t.get("onset", "abrupt")), t.get("start", 0))
+                Fault(
+                    name,
+                    _size(kind, t["size"], where),
+                    at,
+                    str(t.get("onset", "abrupt")),
+                    t.get("start", 0),
+                )
             )
         except ParameterError as exc:
             raise ParameterError(f"{where}: {exc}") from None

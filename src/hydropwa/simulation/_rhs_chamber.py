@@ -13,8 +13,8 @@ from .._layout import (
 )
 from ..components._physics import (
     effective_bulk_modulus,
-    external_leakage_flow,
     end_stop_force_slope,
+    external_leakage_flow,
 )
 from ._kcommon import (
     _N_FULL,
