@@ -119,13 +119,16 @@ def main() -> None:
     ap.add_argument("--healthy", type=int, default=110, help="healthy runs per machine")
     ap.add_argument("--faulty", type=int, default=22, help="runs per fault and machine")
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument(
+        "--first", type=int, default=0, help="first case index (to extend a study with new draws)"
+    )
     ap.add_argument("--machines", nargs="*", default=list(MACHINES))
     a = ap.parse_args()
     cases = [
         (m, f, i)
         for m in a.machines
         for f in FAULTS
-        for i in range(a.healthy if f == "healthy" else a.faulty)
+        for i in range(a.first, a.first + (a.healthy if f == "healthy" else a.faulty))
     ]
     t0 = time.perf_counter()
     with cf.ProcessPoolExecutor(a.jobs) if a.jobs > 1 else _Serial() as pool:

@@ -63,8 +63,9 @@ def run_command(
         list[str] | None,
         typer.Option(
             "--fault",
-            help="Inject a fault, KIND=SIZE[@AT][:growing] (repeatable; replaces the campaign's "
-            "[[faults]]), e.g. 'internal_leakage=0.1 L/min@50 bar', 'friction=30 %'.",
+            help="Inject a fault as KIND=SIZE, optionally @AT (a leakage's rated pressure) and "
+            ":growing (repeatable; replaces the campaign's faults tables), e.g. "
+            "'internal_leakage=0.1 L/min@50 bar', 'friction=30 %:growing'.",
         ),
     ] = None,
 ) -> None:

@@ -27,10 +27,6 @@ HEALTH_HTML = "health.html"
 _W, _H, _PAD = 520, 150, 36
 
 
-def _finite(x: float | None) -> bool:
-    return x is not None and math.isfinite(x)
-
-
 def _trend_svg(report: HealthReport, ind: Indicator) -> str:
     """One indicator over the runs: intervals as bars, values as dots, thresholds dashed."""
     pts = []
@@ -41,7 +37,8 @@ def _trend_svg(report: HealthReport, ind: Indicator) -> str:
     if not pts:
         return "<p>not available from these runs</p>"
     s = ind.display_scale
-    ys = [y * s for _, iv in pts for y in (*iv.interval, *(t for t in iv.threshold if _finite(t)))]
+    ys = [y * s for _, iv in pts for y in iv.interval]
+    ys += [t * s for _, iv in pts for t in iv.threshold if t is not None and math.isfinite(t)]
     lo, hi = min(ys), max(ys)
     span = (hi - lo) or (abs(hi) or 1.0)
     lo, hi = lo - 0.05 * span, hi + 0.05 * span
@@ -56,7 +53,11 @@ def _trend_svg(report: HealthReport, ind: Indicator) -> str:
     parts = [f'<svg width="{_W}" height="{_H}" xmlns="http://www.w3.org/2000/svg">']
     parts.append(f'<rect x="0" y="0" width="{_W}" height="{_H}" fill="white" stroke="#ccc"/>')
     for side in (0, 1):
-        line = [(X(i), Y(iv.threshold[side] * s)) for i, iv in pts if _finite(iv.threshold[side])]
+        line = [
+            (X(i), Y(t * s))
+            for i, iv in pts
+            if (t := iv.threshold[side]) is not None and math.isfinite(t)
+        ]
         if line:
             d = " ".join(f"{x:.1f},{y:.1f}" for x, y in line)
             parts.append(
