@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from ..components import dead_zone, dead_zone_slope, orifice_flows, stribeck_friction
 from ..params import SystemParams
 
