@@ -46,6 +46,7 @@ COMPILED_MODULES = (
     "simulation/_march.py",
     "simulation/_entries.py",
     "simulation/_controller.py",
+    "monitor/_residuals.py",  # its valve terms inline the physics of components/_physics.py
 )
 
 #: What the compiled code depends on: those modules, the controller-sampling hooks (numba

@@ -73,6 +73,9 @@ BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
     ("hosed", "accumulator.hose_diameter"),
     ("hosevol", "accumulator.hose_volume"),
     ("visc", "accumulator.viscosity"),
+    # external leakage of each chamber to the ambient, C_eA, C_eB [m³/(s·Pa)]
+    ("cea", "cylinder.external_leakage_a"),
+    ("ceb", "cylinder.external_leakage_b"),
 )
 
 #: Index of each base slot.

@@ -27,6 +27,7 @@ from hydropwa.cli import (
     _export,
     _identify,
     _linearize,
+    _monitor,
     _options,
     _paper,
     _rig,
@@ -52,9 +53,10 @@ _ARGS = {
     "identify friction": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify all": ["{tmp}/data", "--out", "{tmp}/i.toml"],
     "identify model": ["{tmp}/data", "--free", "flow.K", "--out", "{tmp}/i.toml"],
+    "monitor": ["{tmp}/data", "--out", "{tmp}/health"],
 }
 
-_MODULES = (_control, _core, _data, _export, _identify, _linearize, _paper, _rig)
+_MODULES = (_control, _core, _data, _export, _identify, _linearize, _monitor, _paper, _rig)
 
 
 def _commands(cmd, path=()):

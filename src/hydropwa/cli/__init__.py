@@ -16,7 +16,18 @@ import sys
 import typer
 
 from .. import _interrupt
-from . import _control, _core, _data, _export, _identify, _linearize, _paper, _rig, _sweep
+from . import (
+    _control,
+    _core,
+    _data,
+    _export,
+    _identify,
+    _linearize,
+    _monitor,
+    _paper,
+    _rig,
+    _sweep,
+)
 from ._app import INTERRUPTED, INTERRUPTED_CODE, exit_code, new_app
 
 __all__ = ["app", "main"]
@@ -44,7 +55,18 @@ def _root(
 
 
 # Named apps are command groups (`hydropwa data ...`); unnamed ones add top-level commands.
-for _module in (_core, _data, _rig, _identify, _linearize, _sweep, _paper, _control, _export):
+for _module in (
+    _core,
+    _data,
+    _rig,
+    _identify,
+    _linearize,
+    _sweep,
+    _paper,
+    _control,
+    _export,
+    _monitor,
+):
     app.add_typer(_module.app)
 
 

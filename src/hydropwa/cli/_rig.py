@@ -70,6 +70,15 @@ def run_command(
         bool, typer.Option("--force", help="Overwrite an output made with other settings.")
     ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            help="Inject a fault as KIND=SIZE, optionally @AT (a leakage's rated pressure) and "
+            ":growing (repeatable; replaces the campaign's faults tables), e.g. "
+            "'internal_leakage=0.1 L/min@50 bar', 'friction=30 %:growing'.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate experiments on the virtual rig; reruns resume and skip finished runs."""
     from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
@@ -82,6 +91,7 @@ def run_command(
     from hydropwa.rig import (  # deferred: loaded only when this command runs (a fast --help)
         Rig,
         campaign_for,
+        parse_fault_spec,
         run_campaign,
     )
 
@@ -91,6 +101,7 @@ def run_command(
 
         raise ParameterError(f"--seed {seed} is larger than 2**63 - 1; give a smaller seed")
     check_output(out, True, folder=True, option="--out")  # a file there is not a folder
+    faults = [parse_fault_spec(f) for f in fault] if fault else None
     machine = resolve_params(params)
     camp = campaign_for(campaign, machine)
     rig = Rig.from_params(machine).with_overrides(camp.sensors, camp.supply)
@@ -108,6 +119,7 @@ def run_command(
             jobs=jobs or os.cpu_count() or 1,
             progress=not quiet,
             overwrite=force,
+            faults=faults,
         )
     runs = sum(len(ds) for ds in datasets.values())
     typer.echo(

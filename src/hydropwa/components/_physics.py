@@ -36,6 +36,7 @@ __all__ = [
     "effective_bulk_modulus",
     "effective_bulk_modulus_slope",
     "chamber_pressure_rates",
+    "external_leakage_flow",
     "load_pressure_gain",
     "load_pressure_rate",
     "asymmetric_load_pressure_rate",
@@ -437,6 +438,16 @@ def effective_bulk_modulus_slope(
 
 
 @njit(**_JIT)
+def external_leakage_flow(p: float, leak: float) -> float:
+    """External leakage Q_e = C_e · P [m³/s] out of a chamber at gauge pressure P [Pa].
+
+    Laminar flow past a worn rod or port seal to the ambient (gauge 0 Pa), linear in the
+    pressure like the piston leakage of Eq. (9); C_e [m³/(s·Pa)]. Its pressure slope is C_e.
+    """
+    return leak * p
+
+
+@njit(**_JIT)
 def chamber_pressure_rates(
     q_a: float,
     q_b: float,
@@ -453,16 +464,21 @@ def chamber_pressure_rates(
     E: float,
     p_vap: float,
     p_rel: float,
+    leak_a: float = 0.0,
+    leak_b: float = 0.0,
 ):
     """Pressure rates Ṗ_A, Ṗ_B [Pa/s] from continuity, Eq. (9) with the corrected sign of Q_B.
 
-    Ṗ_A = E/(V_A + A_A x) · (Q_A − A_A ẋ + C_L (P_B − P_A))
-    Ṗ_B = E/(V_B + A_B (l − x)) · (−Q_B + A_B ẋ + C_L (P_A − P_B))
+    Ṗ_A = E/(V_A + A_A x) · (Q_A − A_A ẋ + C_L (P_B − P_A) − C_eA P_A)
+    Ṗ_B = E/(V_B + A_B (l − x)) · (−Q_B + A_B ẋ + C_L (P_A − P_B) − C_eB P_B)
+
+    ``leak_a``, ``leak_b`` are the external leakage coefficients C_eA, C_eB [m³/(s·Pa)] of
+    each chamber to the ambient (gauge 0 Pa; :func:`external_leakage_flow`); 0 in the paper.
     """
     va = vol_a + area_a * x
     vb = vol_b + area_b * (stroke - x)
-    net_a = q_a - area_a * v + leak * (p_b - p_a)
-    net_b = -q_b + area_b * v + leak * (p_a - p_b)
+    net_a = q_a - area_a * v + leak * (p_b - p_a) - external_leakage_flow(p_a, leak_a)
+    net_b = -q_b + area_b * v + leak * (p_a - p_b) - external_leakage_flow(p_b, leak_b)
     dpa = effective_bulk_modulus(p_a, E, p_vap, p_rel, net_a) / va * net_a
     dpb = effective_bulk_modulus(p_b, E, p_vap, p_rel, net_b) / vb * net_b
     return dpa, dpb

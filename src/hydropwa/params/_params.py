@@ -314,6 +314,9 @@ class Cylinder:
         Contact stiffness [N/m] of the end stops (penalty force outside 0..l).
     end_stop_damping : float
         Contact damping [N·s/m] of the end stops (acts only while in contact).
+    external_leakage_a, external_leakage_b : float
+        External leakage coefficients C_eA, C_eB [m³/(s·Pa)] of chamber A and B to the
+        ambient (worn rod or port seals), Q_e = C_e·P (0: tight, as in the paper).
     """
 
     #: SI unit of each field (a pint expression; None: not a quantity).
@@ -326,6 +329,8 @@ class Cylinder:
         "leakage": "m**3/s/Pa",
         "end_stop_stiffness": "N/m",
         "end_stop_damping": "N*s/m",
+        "external_leakage_a": "m**3/s/Pa",
+        "external_leakage_b": "m**3/s/Pa",
     }
 
     area_a: float = 1.3e-3
@@ -336,6 +341,8 @@ class Cylinder:
     leakage: float = 0.0
     end_stop_stiffness: float = 1e8
     end_stop_damping: float = 2e4
+    external_leakage_a: float = 0.0
+    external_leakage_b: float = 0.0
 
     @staticmethod
     def areas_from_diameters(bore: float, rod: float) -> dict[str, float]:
@@ -371,6 +378,8 @@ class Cylinder:
         _check(self, "leakage", "m³/(s·Pa)", ge=0.0, lt=1e-6)
         _check(self, "end_stop_stiffness", "N/m", gt=0.0)
         _check(self, "end_stop_damping", "N·s/m", ge=0.0)
+        _check(self, "external_leakage_a", "m³/(s·Pa)", ge=0.0, lt=1e-6)
+        _check(self, "external_leakage_b", "m³/(s·Pa)", ge=0.0, lt=1e-6)
         if self.area_b > self.area_a * (1.0 + 1e-9):
             raise ParameterError(
                 f"Cylinder.area_b = {self.area_b:g} m² exceeds Cylinder.area_a = {self.area_a:g} m²; "

@@ -30,6 +30,15 @@ from ._experiments import (
     plan,
     run_seed,
 )
+from ._faults import (
+    FAULT_KINDS,
+    Fault,
+    FaultKind,
+    inject,
+    parse_fault_spec,
+    parse_faults,
+    shift_command,
+)
 from ._plan import (
     LOG_COLUMNS,
     PLAN_MANIFEST,
@@ -62,6 +71,13 @@ __all__ = [
     "parse_limits",
     "plan_campaign",
     "size_campaign",
+    "FAULT_KINDS",
+    "Fault",
+    "FaultKind",
+    "inject",
+    "parse_fault_spec",
+    "parse_faults",
+    "shift_command",
     "MEASURED_CHANNELS",
     "TRUE_PARAMS",
     "BroadbandSweep",

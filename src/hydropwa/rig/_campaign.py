@@ -20,6 +20,7 @@ from typing import Any
 
 from .._errors import ParameterError
 from ..params import parse_quantity
+from ._faults import Fault, parse_faults
 
 __all__ = [
     "EXPERIMENTS",
@@ -391,6 +392,8 @@ class Campaign:
     supply : dict
         ``[supply]`` overrides of the rig's pump unit (``pump_flow``, ``compensator_droop``,
         ``line_volume``, ``relief_pressure``, ``relief_gain``), SI.
+    faults : tuple of Fault
+        ``[[faults]]`` injected into every experiment (:func:`~hydropwa.rig.parse_faults`).
     """
 
     name: str
@@ -400,6 +403,7 @@ class Campaign:
     source: str = ""
     sensors: dict[str, dict[str, Any]] = field(default_factory=dict)
     supply: dict[str, float] = field(default_factory=dict)
+    faults: tuple[Fault, ...] = ()
 
     def __getitem__(self, name: str) -> Experiment:
         try:
@@ -634,10 +638,12 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
             t.finish()
     sensors = _sensors(_Table(top.raw("sensors", {}), f"{source}: [sensors]"))
     supply = _supply(_Table(top.raw("supply", {}), f"{source}: [supply]"))
+    faults = parse_faults(top.raw("faults", []), source)
     extra = sorted(set(data) - top.used - set(EXPERIMENTS) - {"limits"})  # [limits]: rig plan's
     if extra:
         raise ParameterError(
-            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, limits, "
+            f"{source}: unknown table(s) {', '.join(extra)}; known: campaign, sensors, supply, "
+            f"faults, limits, "
             f"{', '.join(EXPERIMENTS)}"
         )
     if not experiments:
@@ -650,6 +656,7 @@ def parse_campaign(data: Mapping[str, Any], source: str = "<dict>") -> Campaign:
         source=source,
         sensors=sensors,
         supply=supply,
+        faults=faults,
     )
 
 

@@ -26,6 +26,7 @@ from ._campaign import (
     LoadRuns,
     SineExperiment,
 )
+from ._faults import shift_command
 from ._rig import Rig
 from ._sensors import measure
 
@@ -71,6 +72,9 @@ class RunSpec:
         Load force F_L [N] at times [s], linearly interpolated (the sine experiment's load runs).
     meta : dict
         Setting of the run for the metadata (``level``, ``frequency``, ``direction``, ...).
+    command_offset : float
+        Valve null fault [1]: added to the command inside the valve
+        (:func:`~hydropwa.rig.shift_command`); the run records the command as sent.
     """
 
     name: str
@@ -84,6 +88,7 @@ class RunSpec:
     counter_force: dict[str, float] | None = None
     load_profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    command_offset: float = 0.0
 
 
 def _pct(value: float) -> str:
@@ -445,15 +450,20 @@ def execute(
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
     model = FullOrderModel(params)
+    command = spec.command
+    if spec.command_offset:
+        command = shift_command(command, spec.command_offset)
     result = simulate(
         model,
-        spec.command,
+        command,
         duration=spec.duration,
         load_force=load,
         initial_position=spec.start_position,
         fs=rig.fs,
         rtol=rig.rtol,
     )
+    if spec.command_offset:  # the rig records the command as sent, not as the valve sees it
+        result.channels = {**result.channels, "u": result.channels["u"] - spec.command_offset}
     n = _stop_index(result.channels["x"], result.t, spec, rig.params.cylinder.stroke)
     if n < result.t.size:
         result.channels = {k: v[:n] for k, v in result.channels.items()}

@@ -22,7 +22,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
@@ -35,6 +35,7 @@ from ..data import MANIFEST, Dataset
 from ..params import params_to_toml
 from ._campaign import EXPERIMENTS, Campaign, Experiment
 from ._experiments import RunSpec, execute, plan, run_seed
+from ._faults import Fault, inject
 from ._rig import Rig
 
 __all__ = ["run_experiment", "run_campaign", "TRUE_PARAMS"]
@@ -50,9 +51,11 @@ def _json_safe(obj: Any) -> Any:
 
 
 def _dataset_meta(
-    rig: Rig, experiment: Experiment, campaign_name: str, seed: int
+    rig: Rig, experiment: Experiment, campaign_name: str, seed: int, faults: Sequence[Fault] = ()
 ) -> dict[str, Any]:
     definition = {"experiment": experiment.name, **dataclasses.asdict(experiment)}
+    if faults:  # a faulty campaign is other settings than the healthy one (no silent resume)
+        definition["faults"] = [dataclasses.asdict(f) for f in faults]
     meta = {
         "generator": f"hydropwa {__version__} virtual rig",
         "experiment": experiment.name,
@@ -159,13 +162,29 @@ def _sigint_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _worker(rig: Rig, seed: int, base_meta: dict[str, Any], spec: RunSpec):
+def _worker(seed: int, base_meta: dict[str, Any], job: tuple[Rig, RunSpec]):
+    rig, spec = job
     return execute(rig, spec, run_seed(seed, spec.experiment, spec.name), base_meta)
+
+
+def _faulty_jobs(
+    rig: Rig, specs: list[RunSpec], faults: Sequence[Fault]
+) -> list[tuple[Rig, RunSpec]]:
+    """Each run with the rig of its own faults (:func:`~hydropwa.rig.inject`; sizes by plan index)."""
+    if not faults:
+        return [(rig, s) for s in specs]
+    jobs = []
+    for i, spec in enumerate(specs):
+        params, offset, applied = inject(rig.params, faults, i, len(specs))
+        faulty = dataclasses.replace(rig, params=params, supply=params.supply)
+        meta = {**spec.meta, "faults": applied}
+        jobs.append((faulty, dataclasses.replace(spec, command_offset=offset, meta=meta)))
+    return jobs
 
 
 @contextmanager
 def _results(
-    rig: Rig, specs: list[RunSpec], seed: int, base_meta: dict, jobs: int
+    specs: list[tuple[Rig, RunSpec]], seed: int, base_meta: dict, jobs: int
 ) -> Iterator[Iterator]:
     """Measured runs in plan order, computed in this process or in a process pool.
 
@@ -175,7 +194,7 @@ def _results(
     shutdown waited for garbage collection; at interpreter exit multiprocessing then joined
     workers that never got their stop sentinel, and ``hydropwa paper`` hung after Ctrl-C.
     """
-    fn = partial(_worker, rig, seed, base_meta)
+    fn = partial(_worker, seed, base_meta)
     if jobs <= 1 or len(specs) <= 1:
         yield map(fn, specs)
         return
@@ -225,6 +244,7 @@ def run_experiment(
     campaign_name: str = "",
     format: str = "parquet",
     force: bool | None = None,
+    faults: Sequence[Fault] = (),
 ) -> Dataset:
     """Run one experiment on the rig and write it as ``out_dir/<experiment>/``.
 
@@ -250,6 +270,9 @@ def run_experiment(
         File format of the runs.
     force : bool, optional
         Former name of ``overwrite`` (deprecated).
+    faults : sequence of Fault
+        Faults injected into the runs (:mod:`hydropwa.rig._faults`; sizes by plan index); each
+        run's ``meta["faults"]`` lists those present.
 
     Returns
     -------
@@ -262,10 +285,11 @@ def run_experiment(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     _write_true_params(rig, out, overwrite)
-    meta = _dataset_meta(rig, experiment, campaign_name, seed)
+    meta = _dataset_meta(rig, experiment, campaign_name, seed, faults)
     ds = _open_dataset(out / experiment.name, meta, overwrite)
-    specs = [s for s in plan(experiment, rig) if not _complete(ds, s.name)]
-    total = len(plan(experiment, rig))
+    planned = _faulty_jobs(rig, plan(experiment, rig), faults)
+    specs = [job for job in planned if not _complete(ds, job[1].name)]
+    total = len(planned)
     done = total - len(specs)
     base_meta = {"campaign": campaign_name, "seed": int(seed)}
     bar = task = None
@@ -274,7 +298,7 @@ def run_experiment(
         bar.start()
         task = bar.add_task(experiment.name, total=total, completed=done)
     try:
-        with _results(rig, specs, seed, base_meta, jobs) as results:
+        with _results(specs, seed, base_meta, jobs) as results:
             for run in results:
                 ds.add_run(run, format=format, overwrite=True)
                 _interrupt.checkpoint()  # a Ctrl-C a finalizer swallowed stops here (see hydropwa._interrupt)
@@ -301,6 +325,7 @@ def run_campaign(
     overwrite: bool = False,
     format: str = "parquet",
     force: bool | None = None,
+    faults: Sequence[Fault] | None = None,
 ) -> dict[str, Dataset]:
     """Run a campaign's experiments, each into ``out_dir/<experiment>/``.
 
@@ -325,6 +350,8 @@ def run_campaign(
         Run file format, as in :func:`run_experiment`.
     force : bool, optional
         Former name of ``overwrite`` (deprecated), as in :func:`run_experiment`.
+    faults : sequence of Fault, optional
+        Faults to inject into every experiment (default: the campaign's ``[[faults]]``).
 
     Returns
     -------
@@ -350,6 +377,7 @@ def run_campaign(
             overwrite=overwrite,
             campaign_name=campaign.name,
             format=format,
+            faults=campaign.faults if faults is None else tuple(faults),
         )
         for n in names
     }

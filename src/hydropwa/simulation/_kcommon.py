@@ -68,8 +68,8 @@ L_PL, L_V, L_X = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
     SLOT[k] for k in ("omega0", "zeta", "alpha", "beta", "creep", "outer")
 )
-I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL = (
-    SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl")
+I_K, I_PTR, I_AA, I_AB, I_STROKE, I_VA, I_VB, I_CL, I_CEA, I_CEB = (
+    SLOT[k] for k in ("K", "ptr", "aa", "ab", "stroke", "va", "vb", "cl", "cea", "ceb")
 )
 I_KSTOP, I_CSTOP, I_E, I_PVAP, I_PREL = (SLOT[k] for k in ("kstop", "cstop", "e", "pvap", "prel"))
 I_FC, I_FS, I_SIGMA, I_CHI, I_DELTA, I_GAMMA = (

@@ -13,12 +13,15 @@ from .._layout import (
 )
 from ..components._physics import (
     effective_bulk_modulus,
+    external_leakage_flow,
 )
 from ._kcommon import (
     _N_FULL,
     I_AA,
     I_AB,
     I_ACCV,
+    I_CEA,
+    I_CEB,
     I_CL,
     I_CLOAD,
     I_E,
@@ -158,8 +161,8 @@ def _chamber_capacitances(qa_net, qb, xcap, v, pa, pb, p):
     """E_eff/V_A and E_eff/V_B [Pa/m³] at the capacitance cell's position, as in Eq. (9)."""
     va = p[I_VA] + p[I_AA] * xcap
     vb = p[I_VB] + p[I_AB] * (p[I_STROKE] - xcap)
-    net_a = qa_net - p[I_AA] * v + p[I_CL] * (pb - pa)
-    net_b = -qb + p[I_AB] * v + p[I_CL] * (pa - pb)
+    net_a = qa_net - p[I_AA] * v + p[I_CL] * (pb - pa) - external_leakage_flow(pa, p[I_CEA])
+    net_b = -qb + p[I_AB] * v + p[I_CL] * (pa - pb) - external_leakage_flow(pb, p[I_CEB])
     ea = effective_bulk_modulus(pa, p[I_E], p[I_PVAP], p[I_PREL], net_a)
     eb = effective_bulk_modulus(pb, p[I_E], p[I_PVAP], p[I_PREL], net_b)
     return ea / va, eb / vb
@@ -243,11 +246,11 @@ def jac_chamber(y, u, ps_in, fl, p, J):
     J[Y_DNU, Y_DNU] = -2.0 * p[I_ZETA] * w0
     cl = p[I_CL]
     J[Y_PA, Y_NU] = ca * qaz * kg
-    J[Y_PA, Y_PA] = ca * (qapa - cl)
+    J[Y_PA, Y_PA] = ca * (qapa - cl - p[I_CEA])
     J[Y_PA, Y_PB] = ca * cl
     J[Y_PA, Y_V] = -ca * p[I_AA]
     J[Y_PB, Y_NU] = -cb * qbz * kg
-    J[Y_PB, Y_PB] = cb * (-qbpb - cl)
+    J[Y_PB, Y_PB] = cb * (-qbpb - cl - p[I_CEB])
     J[Y_PB, Y_PA] = cb * cl
     J[Y_PB, Y_V] = cb * p[I_AB]
     J[Y_X, Y_V] = 1.0

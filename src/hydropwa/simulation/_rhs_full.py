@@ -15,6 +15,7 @@ from ..components._physics import (
     dead_zone_slope,
     effective_bulk_modulus,
     effective_bulk_modulus_slope,
+    external_leakage_flow,
     hose_flow,
     orifice_flow_slopes,
     orifice_flows,
@@ -34,6 +35,8 @@ from ._kcommon import (
     I_ACCV,
     I_ALPHA,
     I_BETA,
+    I_CEA,
+    I_CEB,
     I_CHI,
     I_CL,
     I_CLOAD,
@@ -127,6 +130,8 @@ def _chambers_and_mechanics(y, u, fl, qa, qb, xvol, friction, p, dy):
         p[I_E],
         p[I_PVAP],
         p[I_PREL],
+        p[I_CEA],
+        p[I_CEB],
     )
     stop = _contact_force(x, v, p)
     dy[Y_NU] = dnu
@@ -168,8 +173,9 @@ def rhs_full(y, u, ps_in, fl, p, dy):
 def _chamber_row(dq, qx, net_c, p_c, vol, dvol, p, J, row, col_p, col_other):
     """Row ``row`` of ∂f/∂y for one chamber, Eq. (9): Ṗ = E_eff(P, net)/V(x) · net.
 
-    ``dq`` holds ∂Q/∂(its own pressure), ``qx`` ∂net/∂v; the leakage couples the chamber's
-    own pressure column ``col_p`` (−C_L) and the other chamber's ``col_other`` (+C_L);
+    ``dq`` holds ∂Q/∂(its own pressure) less the chamber's external leakage C_e, ``qx``
+    ∂net/∂v; the piston leakage couples the chamber's own pressure column ``col_p`` (−C_L) and
+    the other chamber's ``col_other`` (+C_L);
     V(x) changes with x at the rate ``dvol``. Returns E_eff/V (the flow gain of the row).
     """
     e = effective_bulk_modulus(p_c, p[I_E], p[I_PVAP], p[I_PREL], net_c)
@@ -214,12 +220,12 @@ def jac_full(y, u, ps_in, fl, p, J):
     J[Y_NU, Y_DNU] = 1.0
     J[Y_DNU, Y_NU] = -w0 * w0
     J[Y_DNU, Y_DNU] = -2.0 * p[I_ZETA] * w0
-    net_a = qa - aa * v + cl * (pb - pa)
-    net_b = -qb + ab * v + cl * (pa - pb)
+    net_a = qa - aa * v + cl * (pb - pa) - external_leakage_flow(pa, p[I_CEA])
+    net_b = -qb + ab * v + cl * (pa - pb) - external_leakage_flow(pb, p[I_CEB])
     va = p[I_VA] + aa * x
     vb = p[I_VB] + ab * (p[I_STROKE] - x)
-    ga = _chamber_row(qa_pa, -aa, net_a, pa, va, aa, p, J, Y_PA, Y_PA, Y_PB)
-    gb = _chamber_row(-qb_pb, ab, net_b, pb, vb, -ab, p, J, Y_PB, Y_PB, Y_PA)
+    ga = _chamber_row(qa_pa - p[I_CEA], -aa, net_a, pa, va, aa, p, J, Y_PA, Y_PA, Y_PB)
+    gb = _chamber_row(-qb_pb - p[I_CEB], ab, net_b, pb, vb, -ab, p, J, Y_PB, Y_PB, Y_PA)
     J[Y_PA, Y_NU] = ga * qa_z * dz
     J[Y_PB, Y_NU] = -gb * qb_z * dz
     if pump:
@@ -269,8 +275,8 @@ def dfdt_full(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
         z, pa, pb, ps_in, p[I_PT], p[I_K], p[I_PTR]
     )
     aa, ab, cl, E = p[I_AA], p[I_AB], p[I_CL], p[I_E]
-    net_a = qa - aa * v + cl * (pb - pa)
-    net_b = -qb + ab * v + cl * (pa - pb)
+    net_a = qa - aa * v + cl * (pb - pa) - external_leakage_flow(pa, p[I_CEA])
+    net_b = -qb + ab * v + cl * (pa - pb) - external_leakage_flow(pb, p[I_CEB])
     va = p[I_VA] + aa * x
     vb = p[I_VB] + ab * (p[I_STROKE] - x)
     dfdt[Y_PA] = effective_bulk_modulus(pa, E, p[I_PVAP], p[I_PREL], net_a) / va * qa_ps * dps
