@@ -81,7 +81,7 @@ BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
 #: Index of each base slot.
 SLOT: dict[str, int] = {name: i for i, (name, _src) in enumerate(BASE_SLOTS)}
 #: Size of the base block (room for a few more slots before the PWA section).
-N_BASE = 48
+N_BASE = 56
 assert len(BASE_SLOTS) <= N_BASE
 
 #: PWA section (after the base block): flags and cell counts, then the cell table from I_CELLS.
