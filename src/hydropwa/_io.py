@@ -10,6 +10,9 @@
   lock left by a killed process is stale and taken over), which also removes the
   temporary files such a process left behind (:func:`remove_stale_temps`).
 - :func:`os_error_message`: one line naming the path and what to do, for every ``OSError``.
+- :func:`read_text` / :func:`read_bytes` / :func:`check_read_size`: every file the package
+  reads, with a size ceiling per kind of file (:data:`READ_LIMITS`) and one decoding rule
+  (UTF-8, a byte-order mark allowed); both refused in one line in the caller's error class.
 """
 
 from __future__ import annotations
@@ -36,6 +39,12 @@ __all__ = [
     "remove_stale_temps",
     "os_error_message",
     "LOCK_NAME",
+    "READ_LIMITS",
+    "check_read_size",
+    "decode_text",
+    "human_bytes",
+    "read_bytes",
+    "read_text",
 ]
 
 #: Name of the lock file that :func:`output_lock` keeps in an output folder.
@@ -389,3 +398,113 @@ def os_error_message(exc: OSError) -> str:
     if hint is None and exc.errno is not None:
         text = f"{text} (errno {exc.errno})"
     return " ".join(f"{where}: {text}".split())
+
+
+# ----------------------------------------------------------------------------- reading
+#: The largest file of each kind the package reads [bytes], and what the kind is. A file
+#: above its ceiling is refused before it is read (a few hundred times the largest such file
+#: the package writes for a real machine, so no genuine file comes near it).
+READ_LIMITS: dict[str, tuple[int, str]] = {
+    "parameter file": (1_000_000, "a machine's TOML/JSON parameter file (a few kB)"),
+    "controller file": (10_000_000, "a controller file (~3 MB for 5000 gain rows)"),
+    "manifest": (50_000_000, "a dataset manifest (~300 B per run)"),
+    "channel map": (1_000_000, "a channel map (a few kB)"),
+    "sweep file": (1_000_000, "a sweep specification (a few kB)"),
+    "campaign file": (1_000_000, "a campaign file (a few kB)"),
+    "PWA document": (200_000_000, "a PWA JSON export (~1 kB per cell)"),
+    "C header": (10_000_000, "a C header (a few kB)"),
+    "measurement file": (2_000_000_000, "a measured run (CSV/Parquet/MAT)"),
+    "JSON file": (50_000_000, "a JSON document the package wrote"),
+}
+
+
+def human_bytes(n: float) -> str:
+    """``1.2 GB``-style size."""
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"  # pragma: no cover
+
+
+def _size_error(error: type[Exception], path: Path, size: int, kind: str) -> Exception:
+    limit, what = READ_LIMITS[kind]
+    return error(
+        f"{path}: the {kind} is {human_bytes(size)}, more than the {human_bytes(limit)} "
+        f"{what} may be; check that it is the file you meant"
+    )
+
+
+def check_read_size(
+    path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError
+) -> int:
+    """The size of ``path`` [bytes]; ``error`` (one line) above the ceiling of ``kind``.
+
+    For readers that take a path (pyarrow, pandas); :func:`read_bytes` and :func:`read_text`
+    check it themselves. ``kind`` is a key of :data:`READ_LIMITS`.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise _named(exc, path) from None
+    if size > READ_LIMITS[kind][0]:
+        raise _size_error(error, path, size, kind)
+    return size
+
+
+def read_bytes(
+    path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError
+) -> bytes:
+    """The bytes of ``path``, refused with one line above the ceiling of ``kind``.
+
+    The size is checked on the open file and the read is bounded by the ceiling, so a file
+    that grows meanwhile (or a device that never ends) is refused the same way.
+    """
+    path = Path(path)
+    limit = READ_LIMITS[kind][0]
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size > limit:
+                raise _size_error(error, path, size, kind)
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise _named(exc, path) from None
+    if len(data) > limit:
+        raise _size_error(error, path, len(data), kind)
+    return data
+
+
+def decode_text(data: bytes, path: str | os.PathLike, error: type[Exception] = HydropwaError) -> str:
+    """``data`` as UTF-8 text (a byte-order mark is dropped); one line naming the bad byte."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        bad = data[exc.start]
+        raise error(
+            f"{path} is not UTF-8 text (byte 0x{bad:02x} at offset {exc.start}): save it as UTF-8"
+        ) from None
+
+
+def read_text(
+    path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError
+) -> str:
+    """The text of ``path``: the one decoding rule (UTF-8, BOM allowed) and size ceiling.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    kind : str
+        What the file is, a key of :data:`READ_LIMITS` (its size ceiling and the message).
+    error : exception class
+        The calling layer's error (``DataError``, ``ControlError``...), raised with one line
+        for a file above the ceiling or not UTF-8 text.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read (naming it).
+    """
+    return decode_text(read_bytes(path, kind, error), path, error)

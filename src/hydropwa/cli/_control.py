@@ -14,8 +14,8 @@ from typing import Annotated
 
 import typer
 
-from .._errors import PwaError
-from .._io import check_output
+from .._errors import HydropwaError, PwaError
+from .._io import check_output, read_text
 from ._app import new_app
 from ._options import (
     SAMPLE_TIME_METAVAR,
@@ -82,9 +82,9 @@ def _machine_of(controller: Path):
 
     doc = None
     try:
-        text = controller.read_text(encoding="utf-8")
+        text = read_text(controller, "controller file")
         doc = json.loads(text) if controller.suffix.lower() == ".json" else tomllib.loads(text)
-    except (OSError, UnicodeDecodeError, ValueError):
+    except (OSError, ValueError, RecursionError, HydropwaError):
         pass  # load_controller names the problem
     machine = doc.get("machine") if isinstance(doc, dict) else None
     from ..control import (  # deferred: loaded only when this command runs

@@ -30,6 +30,7 @@ from typing import Annotated, Any
 import typer
 
 from .._errors import ParameterError
+from .._io import read_text
 from ..params import (
     PRESETS,
     SystemParams,
@@ -135,9 +136,7 @@ def params_source(params: str | None, base_params: str | None) -> str | None:
 def _read_json(path: Path) -> SystemParams:
     """Parameters from a JSON document: a parameter dict, or a PWA export's ``params``."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise ParameterError(f"{path}: not a text file; expected a JSON parameter file") from None
+        data = json.loads(read_text(path, "parameter file", ParameterError))
     except json.JSONDecodeError as exc:
         raise ParameterError(f"{path}: invalid JSON ({exc})") from None
     if isinstance(data, dict) and str(data.get("schema", "")).startswith("hydropwa.pwa"):
