@@ -16,6 +16,7 @@ import typer
 
 from .._errors import HydropwaError, PwaError
 from .._io import check_output, read_text
+from .._limits import check_position
 from ._app import new_app
 from ._options import (
     SAMPLE_TIME_METAVAR,
@@ -593,6 +594,8 @@ def simulate_command(
         else model
     )
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
+    check_position(start, prm, "--x0" if x0 is not None else "the reference at t = 0")
     res = simulate(
         mdl,
         duration=t_end,
