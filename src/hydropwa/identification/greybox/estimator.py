@@ -221,12 +221,45 @@ def _windowed_experiments(
                 pairs[k] = (r, again)
 
 
+#: The least peak-to-peak valve command [1] (a share of the full opening) a run must have to
+#: excite the axis: 0.1 %, a hundredth of the paper rig's 10 % dead zone.
+MIN_EXCITATION = 1e-3
+
+
+def check_excitation(runs: list) -> None:
+    """Refuse runs none of which moves the valve command by :data:`MIN_EXCITATION`.
+
+    With a constant command the outputs carry no information on any parameter: the fit's
+    Jacobian is zero and the cost flat (it ended in NaN steps or an infinite cost).
+    """
+    moved = [
+        r
+        for r in runs
+        if not r.has("u")
+        or (
+            np.isfinite(r["u"]).any()
+            and float(np.nanmax(r["u"]) - np.nanmin(r["u"])) >= MIN_EXCITATION
+        )
+    ]
+    if runs and not moved:
+        ptp = max(
+            float(np.nanmax(r["u"]) - np.nanmin(r["u"])) if np.isfinite(r["u"]).any() else 0.0
+            for r in runs
+        )
+        raise IdentificationError(
+            f"no run excites the axis: the valve command u varies by at most {ptp:.3g} in all "
+            f"{len(runs)} runs (less than {MIN_EXCITATION:g}); give runs with steps, sines or "
+            "chirps"
+        )
+
+
 def prepare_data(
     base_model: Any, runs: Any, free: Iterable[str] | str, opts: FitOptions
 ) -> FitData:
     """The runs prepared for the fit (segments, noise levels, shooting per run)."""
     shooting = opts.shooting or Shooting()
     run_list, held = split_runs(as_runs(runs), opts.validate)
+    check_excitation(run_list)
     names = expand_free(free, base_model.params)
     skipped: list[SkippedRun] = []
     work_model = _work_model(base_model, run_list, names)
