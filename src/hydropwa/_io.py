@@ -549,7 +549,7 @@ READ_LIMITS: dict[str, tuple[int, str]] = {
     "PWA document": (200_000_000, "a PWA JSON export (~1 kB per cell)"),
     "C header": (10_000_000, "a C header (a few kB)"),
     "measurement file": (2_000_000_000, "a measured run (CSV/Parquet/MAT)"),
-    "JSON file": (50_000_000, "a JSON document the package wrote"),
+    "sweep results": (2_000_000_000, "a sweep's results file (~200 B per case)"),
 }
 
 

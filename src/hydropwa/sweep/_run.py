@@ -41,7 +41,7 @@ import pandas as pd
 from .. import _interrupt
 from .._dask import dask_client
 from .._errors import HydropwaError, ParameterError
-from .._io import atomic_write_text
+from .._io import atomic_write_text, read_bytes
 from ..linearization import linearize
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
@@ -146,8 +146,9 @@ class SweepJournal:
             atomic_write_text(self.path, json.dumps({"sweep": self.key}) + "\n")
 
     def _read(self) -> None:
+        data = read_bytes(self.path, "sweep results", ParameterError)
         try:
-            lines = self.path.read_bytes().decode("utf-8").splitlines()
+            lines = data.decode("utf-8").splitlines()
             head = json.loads(lines[0]) if lines else {}
         except (ValueError, IndexError):
             head = {}
