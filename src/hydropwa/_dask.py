@@ -41,13 +41,13 @@ def parse_address(
     host = host.strip("[]")
     if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
         raise error(
-            f"{option} {scheduler!r} is not HOST:PORT with a port 1-65535; give e.g. "
-            "tcp://10.0.0.5:8786, or 'local'"
+            f"{option} {scheduler!r} is not a Dask scheduler address (HOST:PORT, a port "
+            "1-65535); give tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786) or 'local'"
         )
     return host, int(port)
 
 
-def _probe(host: str, port: int, timeout_s: float) -> str | None:
+def probe_scheduler(host: str, port: int, timeout_s: float) -> str | None:
     """Why ``host:port`` is no Dask scheduler, or None: it must accept a connection and send
     its handshake (a Dask server speaks first) within ``timeout_s``; a silent listener would
     otherwise hang the client past its own time-out."""
@@ -109,7 +109,7 @@ def dask_client(
             client = Client(cluster)
         else:
             host, port = parse_address(scheduler, error, option)
-            why = _probe(host, port, timeout_s)
+            why = probe_scheduler(host, port, timeout_s)
             if why is not None:
                 raise error(
                     f"{option} {scheduler!r}: cannot connect ({why}); check the address, or {hint}"

@@ -312,6 +312,7 @@ OUTPUT_OPTIONS = frozenset(
         "--out",
         "--figures",
         "--plot",
+        "--table",
         "--summary",
         "--c",
         "--fmu",
