@@ -299,9 +299,12 @@ NUMBER_RANGES: dict[str, Range] = {
     "--seed": Range(0, 2**32 - 1, "a random seed, a non-negative integer below 2^32"),
     "--jobs": Range(1, 1024, "the number of workers"),
     "--dead-zone-hysteresis": Range(0.0, 0.5, "a share of the opening, e.g. 0.005"),
-    "--duration": Range(1e-6, 1e7, "the simulated time, e.g. '2 s'", "s"),
+    # positive and finite here; whether the samples fit in memory is _limits.check_samples
+    "--duration": Range(1e-9, math.inf, "a positive, finite simulated time, e.g. '2 s'", "s"),
     "--x0": Range(0.0, 100.0, "an initial rod position on the stroke, e.g. '100 mm'", "m"),
-    "--sample-time": Range(1e-7, 10.0, "a sampling period ('0.5 ms') or rate ('2 kHz')", "period"),
+    "--sample-time": Range(
+        1e-15, 3600.0, "a sampling period ('0.5 ms') or rate ('2 kHz')", "period"
+    ),
 }
 
 #: The options and arguments that name what a command writes (files or folders): the CLI
