@@ -15,7 +15,7 @@ from typing import Any
 from ._errors import HydropwaError
 
 #: Address schemes a scheduler may be given with: plain TCP (``tcp://HOST:PORT`` or
-#: ``HOST:PORT``). TLS, websockets and UCX need security or transport settings this package
+#: ``HOST:PORT``); from Python also ``inproc://`` (a cluster in the same process). TLS, websockets and UCX need security or transport settings this package
 #: does not take, so they are refused in one line rather than failing inside Dask.
 SCHEMES = ("tcp",)
 
@@ -63,6 +63,39 @@ def probe_scheduler(host: str, port: int, timeout_s: float) -> str | None:
     return None
 
 
+def _connect(
+    client_class: Any,
+    scheduler: str,
+    timeout_s: float,
+    error: Callable[[str], Exception],
+    option: str,
+    hint: str,
+) -> Any:
+    """A client on an address: ``inproc://`` (a cluster of this process, from Python) as is,
+    a TCP address once it answers (:func:`probe_scheduler`); in both, a worker within
+    ``timeout_s``."""
+    if scheduler.startswith("inproc://"):
+        client = client_class(scheduler, timeout=f"{timeout_s:g}s")
+    else:
+        host, port = parse_address(scheduler, error, option)
+        why = probe_scheduler(host, port, timeout_s)
+        if why is not None:
+            raise error(
+                f"{option} {scheduler!r}: cannot connect ({why}); check the address, or {hint}"
+            )
+        client = client_class(f"tcp://{host}:{port}", timeout=f"{timeout_s:g}s")
+    try:
+        client.wait_for_workers(1, timeout=timeout_s)
+    except (OSError, TimeoutError) as exc:
+        with contextlib.suppress(Exception):
+            client.close()
+        raise error(
+            f"{option} {scheduler!r}: the scheduler has no workers ({exc}); start workers for "
+            f"it, or {hint}"
+        ) from None
+    return client
+
+
 @contextlib.contextmanager
 def dask_client(
     scheduler: str,
@@ -108,22 +141,7 @@ def dask_client(
             )
             client = Client(cluster)
         else:
-            host, port = parse_address(scheduler, error, option)
-            why = probe_scheduler(host, port, timeout_s)
-            if why is not None:
-                raise error(
-                    f"{option} {scheduler!r}: cannot connect ({why}); check the address, or {hint}"
-                )
-            client = Client(f"tcp://{host}:{port}", timeout=f"{timeout_s:g}s")
-            try:
-                client.wait_for_workers(1, timeout=timeout_s)
-            except (OSError, TimeoutError) as exc:
-                with contextlib.suppress(Exception):
-                    client.close()
-                raise error(
-                    f"{option} {scheduler!r}: the scheduler has no workers ({exc}); start "
-                    f"workers for it, or {hint}"
-                ) from None
+            client = _connect(Client, scheduler, timeout_s, error, option, hint)
     except HydropwaError:
         if cluster is not None:
             cluster.close()
