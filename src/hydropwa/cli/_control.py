@@ -594,7 +594,6 @@ def simulate_command(
         else model
     )
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
-    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
     check_position(start, prm, "--x0" if x0 is not None else "the reference at t = 0")
     res = simulate(
         mdl,
@@ -704,6 +703,7 @@ def _compare(
         )
     pwa_model = _pwa_model(params, pwa) if pwa is not None else None
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
     results, table = closed_loop_fidelity(
         ctrl,
         ref,
