@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from ._errors import ParameterError
+from ._errors import ParameterError, SignalError
 from ._io import human_bytes
 from .simulation import as_signal
 from .simulation._simulate import RTOL_RANGE as _RTOL_RANGE
@@ -122,7 +122,12 @@ def check_supply_pressure(value, params, duration: float, where: str = "--supply
     """
     if value is None:
         return
-    vals = _signal_values(value, "Pa", "supply_pressure", duration)
+    try:
+        vals = _signal_values(value, "Pa", "supply_pressure", duration)
+    except (
+        SignalError
+    ) as exc:  # name the option: "Constant.value = inf is not finite" alone does not
+        raise SignalError(f"{where} {value!r}: {exc}") from None
     if not np.all(np.isfinite(vals)):
         raise ParameterError(
             f"{where} {value!r}: P_S is not finite everywhere; give a finite pressure"

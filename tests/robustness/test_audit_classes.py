@@ -312,6 +312,12 @@ def test_a_byte_order_mark_is_allowed(tmp_path):
                 ("--jobs", "0"),
             )
         ],  # fmt: skip
+        (["control", "design", "--params", "paper", "--load-force", "nan"], "--load-force"),
+        (["control", "design", "--params", "paper", "--load-force", "1e12 N"], "--load-force"),
+        (
+            ["simulate", "--params", "paper", "--supply-pressure", "inf", "--out", "o.csv"],
+            "--supply-pressure",
+        ),  # fmt: skip
         (["control", "design", "--params", "paper", "--draws", "0"], "--draws"),
         (["control", "design", "--params", "paper", "--seed", "-1"], "--seed"),
         (

@@ -253,15 +253,23 @@ class Range:
         ``None``: the option is typed as a number (int/float). A unit (``"s"``, ``"m"``): the
         option is a quantity text (``'100 mm'``), read with ``parse_quantity``; ``"period"``:
         a sampling period or rate, read with :func:`parse_sample_time`.
+    signal : bool
+        The option also takes a signal spec (``kind:key=value,...``), checked where it is read.
     """
 
     low: float
     high: float
     what: str
     unit: str | None = None
+    signal: bool = False
 
-    def value(self, option: str, raw: Any) -> float:
-        """``raw`` as a number [SI]; ParameterError (one line) when it is none or out of range."""
+    def value(self, option: str, raw: Any) -> float | None:
+        """``raw`` as a number [SI]; ParameterError (one line) when it is none or out of range.
+
+        With ``signal``, a signal spec (``'sine:...'``) is left to the signal parser (None).
+        """
+        if self.signal and ":" in str(raw):
+            return None
         if self.unit == "period":
             v = parse_sample_time(str(raw), option)
         elif self.unit is not None:
@@ -280,7 +288,8 @@ class Range:
 #: Every numeric option of the CLI (by its long name) and the values it accepts; checked for
 #: every command before it runs (:func:`check_numbers`), so ``nan``, ``inf``, ``''``, a
 #: negative count or an implausible tolerance is one line, exit 2. A test walks the commands:
-#: an option typed as a number without a row here fails it.
+#: an option typed as a number without a row here fails it. ``--supply-pressure`` has no row:
+#: it gets the bounds of ``Supply.pressure`` where the machine is known (``_limits``).
 NUMBER_RANGES: dict[str, Range] = {
     # the range simulate checks (simulation.RTOL_RANGE; a test keeps them equal)
     "--rtol": Range(
@@ -302,6 +311,9 @@ NUMBER_RANGES: dict[str, Range] = {
     # positive and finite here; whether the samples fit in memory is _limits.check_samples
     "--duration": Range(1e-9, math.inf, "a positive, finite simulated time, e.g. '2 s'", "s"),
     "--x0": Range(0.0, 100.0, "an initial rod position on the stroke, e.g. '100 mm'", "m"),
+    "--load-force": Range(
+        -1e8, 1e8, "a load force, e.g. '500 N' (or a signal spec)", "N", signal=True
+    ),
     "--sample-time": Range(
         1e-15, 3600.0, "a sampling period ('0.5 ms') or rate ('2 kHz')", "period"
     ),
