@@ -593,8 +593,7 @@ def simulate_command(
         if model == "pwa-chamber"
         else model
     )
-    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
-    check_position(start, prm, "--x0" if x0 is not None else "the reference at t = 0")
+    start = _start_position(x0, ref, prm)
     res = simulate(
         mdl,
         duration=t_end,
@@ -685,6 +684,17 @@ def export_command(
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller)")
 
 
+def _start_position(x0: str | None, ref, params) -> float:
+    """The loop's start [m]: ``--x0``, else the reference at t = 0; on the stroke."""
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
+    return start
+
+
 def _compare(
     ctrl, ref, prm, params, pwa, duration, x0, load_force, supply_pressure, rtol, out, plot
 ):
@@ -693,17 +703,13 @@ def _compare(
         ControlError,
         closed_loop_fidelity,
     )
-    from ..params import (
-        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
-    )
 
     if supply_pressure is not None:
         raise ControlError(
             "--compare runs every model at the parameters' P_S; drop --supply-pressure"
         )
     pwa_model = _pwa_model(params, pwa) if pwa is not None else None
-    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
-    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
+    start = _start_position(x0, ref, params)
     results, table = closed_loop_fidelity(
         ctrl,
         ref,
