@@ -637,3 +637,8 @@ def test_runs_that_excite_nothing_are_refused_in_one_line(tmp_path):
         check_excitation([flat])
     step = Run("step", {"t": t, "u": np.where(t > 0.05, 0.2, 0.0), "x": 0 * t})
     check_excitation([flat, step])  # one run that moves the valve is enough
+    steady = Run("steady", {"t": t, "u": 0.3 + 0 * t, "x": 0.05 + 0.01 * t})  # 1 mm travel
+    check_excitation([steady])  # a constant command that moves the rod excites it
+    still = Run("still", {"t": t, "u": 0.3 + 0 * t, "x": 0.05 + 5e-5 * np.sin(40 * t)})
+    with pytest.raises(IdentificationError, match="rod travels less than 0.1 mm"):
+        check_excitation([still])
