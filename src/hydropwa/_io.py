@@ -9,7 +9,14 @@
 - :func:`output_lock`: one writer per output folder (a lock file held with ``flock``; a
   lock left by a killed process is stale and taken over), which also removes the
   temporary files such a process left behind (:func:`remove_stale_temps`).
+- :func:`target_lock`: one writer per output file or folder (every command's outputs, taken
+  by the CLI before the command runs), so two runs into one ``--out`` cannot both succeed.
+- :func:`scratch_folder`: the package's temporary folders (``hydropwa-KIND-*``, locked while
+  used); those a killed run left are removed by the next run (:func:`remove_stale_scratch`).
 - :func:`os_error_message`: one line naming the path and what to do, for every ``OSError``.
+- :func:`read_text` / :func:`read_bytes` / :func:`check_read_size`: every file the package
+  reads, with a size ceiling per kind of file (:data:`READ_LIMITS`) and one decoding rule
+  (UTF-8, a byte-order mark allowed); both refused in one line in the caller's error class.
 """
 
 from __future__ import annotations
@@ -34,9 +41,20 @@ __all__ = [
     "atomic_write_bytes",
     "check_output",
     "output_lock",
+    "target_lock",
+    "TARGET_LOCK_SUFFIX",
     "remove_stale_temps",
     "os_error_message",
+    "remove_stale_scratch",
+    "scratch_folder",
+    "SCRATCH_PREFIX",
     "LOCK_NAME",
+    "READ_LIMITS",
+    "check_read_size",
+    "decode_text",
+    "human_bytes",
+    "read_bytes",
+    "read_text",
 ]
 
 #: Name of the lock file that :func:`output_lock` keeps in an output folder.
@@ -301,6 +319,7 @@ def output_lock(
     *,
     name: str = LOCK_NAME,
     clean: bool = True,
+    target: Path | None = None,
 ) -> Iterator[Path]:
     """Hold the lock of an output folder for the duration of the block.
 
@@ -309,6 +328,9 @@ def output_lock(
     left by a killed run is stale and is taken over. With ``clean``, taking the lock removes
     the temporary files of earlier, interrupted writers in the folder tree
     (:func:`remove_stale_temps`).
+
+    With ``target`` (see :func:`target_lock`) the lock guards that one output in
+    ``folder`` and the message names it.
 
     Raises
     ------
@@ -329,17 +351,11 @@ def output_lock(
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             os.close(fd)
-            raise OutputLockedError(
-                f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait for "
-                f"it to finish or choose another folder (if no run is active, delete {path})"
-            ) from None
+            raise OutputLockedError(_locked_message(folder, path, target)) from None
         except OSError:  # a file system without flock: fall back to the pid check
             os.close(fd)
             if _pid_lock_taken(path):
-                raise OutputLockedError(
-                    f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait "
-                    f"for it to finish or choose another folder (if no run is active, delete {path})"
-                ) from None
+                raise OutputLockedError(_locked_message(folder, path, target)) from None
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
@@ -373,6 +389,70 @@ def output_lock(
         os.close(fd)
 
 
+def _locked_message(folder: Path, path: Path, target: Path | None) -> str:
+    if target is not None:
+        return (
+            f"{target}: another run writes this output ({_lock_owner(path)}); wait for it to "
+            f"finish or choose another name (if no run is active, delete {path})"
+        )
+    return (
+        f"{folder}: another run writes into this folder ({_lock_owner(path)}); wait for it to "
+        f"finish or choose another folder (if no run is active, delete {path})"
+    )
+
+
+#: Ending of the lock file of one output (:func:`target_lock`): ``.{name}.hydropwa.lock``.
+TARGET_LOCK_SUFFIX = ".hydropwa.lock"
+
+
+@contextlib.contextmanager
+def target_lock(path: str | os.PathLike, command: str = "hydropwa") -> Iterator[Path | None]:
+    """Hold the lock of one output, a file or a folder, for the duration of the block.
+
+    The lock file ``.{name}.hydropwa.lock`` beside the output (held as :func:`output_lock`
+    holds a folder's) makes a second run that writes the same output, at the same time, fail
+    with one line instead of silently replacing the first one's result; a run that comes
+    after finds the output and needs ``--force``. Taking it removes the temporary files an
+    interrupted writer of this output left (:func:`remove_stale_temps`). Folders created for
+    the lock are removed again if they are still empty at the end. Where no lock file can be
+    made (a read-only folder, a file where a folder should be) the block runs unlocked, so
+    the writer reports the problem in its own words.
+
+    Raises
+    ------
+    OutputLockedError
+        Another live process writes the same output.
+    """
+    target = Path(path).resolve()
+    parent = target.parent
+    if not target.name or any(p.exists() and not p.is_dir() for p in (parent, *parent.parents)):
+        yield None
+        return
+    created = [p for p in (parent, *parent.parents) if not p.exists()]
+    stack = contextlib.ExitStack()
+    try:
+        try:
+            lock: Path | None = stack.enter_context(
+                output_lock(
+                    parent,
+                    command,
+                    name=f".{target.name}{TARGET_LOCK_SUFFIX}",
+                    clean=False,
+                    target=Path(path),
+                )
+            )
+        except OSError:
+            lock = None
+        with stack:
+            if lock is not None:
+                remove_stale_temps(parent, recursive=False, target=target.name)
+            yield lock
+    finally:
+        for p in created:  # innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+
+
 def _pid_lock_taken(path: Path) -> bool:
     """Without flock: the lock is taken if it names a live process on this host."""
     try:
@@ -389,6 +469,70 @@ def _pid_lock_taken(path: Path) -> bool:
     except PermissionError:
         return True
     return pid != os.getpid()
+
+
+# ----------------------------------------------------------------------------- scratch folders
+#: Prefix of every temporary folder the package makes (:func:`scratch_folder`).
+SCRATCH_PREFIX = "hydropwa-"
+#: A scratch folder younger than this [s] is never removed as stale (its owner may be between
+#: creating it and taking its lock).
+SCRATCH_GRACE_S = 120.0
+_SCRATCH_LOCK = ".owner.lock"
+
+
+def remove_stale_scratch(kind: str, root: str | os.PathLike | None = None) -> list[Path]:
+    """Remove the scratch folders of ``kind`` that killed runs left (their lock is free).
+
+    A folder ``{root}/hydropwa-{kind}-*`` is stale when it is older than
+    :data:`SCRATCH_GRACE_S` and no live process holds its lock (``flock``, which the kernel
+    drops when its holder dies). Returns the removed folders.
+    """
+    import fcntl  # deferred: POSIX only
+    import shutil  # deferred: only to remove a folder
+
+    base = Path(root if root is not None else tempfile.gettempdir())
+    removed = []
+    now = time.time()
+    for folder in base.glob(f"{SCRATCH_PREFIX}{kind}-*"):
+        try:
+            if not folder.is_dir() or folder.is_symlink():
+                continue
+            if now - folder.stat().st_mtime < SCRATCH_GRACE_S:
+                continue
+            fd = os.open(folder / _SCRATCH_LOCK, os.O_RDWR | os.O_CREAT, 0o600)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # held: its owner is alive
+            os.close(fd)
+            continue
+        shutil.rmtree(folder, ignore_errors=True)
+        os.close(fd)
+        removed.append(folder)
+    return removed
+
+
+@contextlib.contextmanager
+def scratch_folder(kind: str, root: str | os.PathLike | None = None) -> Iterator[Path]:
+    """A temporary folder ``hydropwa-{kind}-XXXX`` for the block, removed after it.
+
+    Its lock is held while the block runs; a folder left by a run that was killed (so that
+    its clean-up never ran) is removed by the next run of the same ``kind``
+    (:func:`remove_stale_scratch`).
+    """
+    import fcntl  # deferred: POSIX only
+    import shutil  # deferred: only to remove a folder
+
+    remove_stale_scratch(kind, root)
+    folder = Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{kind}-", dir=root))
+    fd = os.open(folder / _SCRATCH_LOCK, os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+        os.close(fd)
 
 
 # ----------------------------------------------------------------------------- messages
@@ -419,3 +563,111 @@ def os_error_message(exc: OSError) -> str:
     if hint is None and exc.errno is not None:
         text = f"{text} (errno {exc.errno})"
     return " ".join(f"{where}: {text}".split())
+
+
+# ----------------------------------------------------------------------------- reading
+#: The largest file of each kind the package reads [bytes], and what the kind is. A file
+#: above its ceiling is refused before it is read (a few hundred times the largest such file
+#: the package writes for a real machine, so no genuine file comes near it).
+READ_LIMITS: dict[str, tuple[int, str]] = {
+    "parameter file": (1_000_000, "a machine's TOML/JSON parameter file (a few kB)"),
+    "controller file": (10_000_000, "a controller file (~3 MB for 5000 gain rows)"),
+    "manifest": (50_000_000, "a dataset manifest (~300 B per run)"),
+    "channel map": (1_000_000, "a channel map (a few kB)"),
+    "sweep file": (1_000_000, "a sweep specification (a few kB)"),
+    "campaign file": (1_000_000, "a campaign file (a few kB)"),
+    "PWA document": (200_000_000, "a PWA JSON export (~1 kB per cell)"),
+    "C header": (10_000_000, "a C header (a few kB)"),
+    "measurement file": (2_000_000_000, "a measured run (CSV/Parquet/MAT)"),
+    "sweep results": (2_000_000_000, "a sweep's results file (~200 B per case)"),
+}
+
+
+def human_bytes(n: float) -> str:
+    """``1.2 GB``-style size."""
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"  # pragma: no cover
+
+
+def _size_error(error: type[Exception], path: Path, size: int, kind: str) -> Exception:
+    limit, what = READ_LIMITS[kind]
+    return error(
+        f"{path}: the {kind} is {human_bytes(size)}, more than the {human_bytes(limit)} "
+        f"{what} may be; check that it is the file you meant"
+    )
+
+
+def check_read_size(
+    path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError
+) -> int:
+    """The size of ``path`` [bytes]; ``error`` (one line) above the ceiling of ``kind``.
+
+    For readers that take a path (pyarrow, pandas); :func:`read_bytes` and :func:`read_text`
+    check it themselves. ``kind`` is a key of :data:`READ_LIMITS`.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise _named(exc, path) from None
+    if size > READ_LIMITS[kind][0]:
+        raise _size_error(error, path, size, kind)
+    return size
+
+
+def read_bytes(path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError) -> bytes:
+    """The bytes of ``path``, refused with one line above the ceiling of ``kind``.
+
+    The size is checked on the open file and the read is bounded by the ceiling, so a file
+    that grows meanwhile (or a device that never ends) is refused the same way.
+    """
+    path = Path(path)
+    limit = READ_LIMITS[kind][0]
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size > limit:
+                raise _size_error(error, path, size, kind)
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise _named(exc, path) from None
+    if len(data) > limit:
+        raise _size_error(error, path, len(data), kind)
+    return data
+
+
+def decode_text(
+    data: bytes, path: str | os.PathLike, error: type[Exception] = HydropwaError
+) -> str:
+    """``data`` as UTF-8 text (a byte-order mark is dropped); one line naming the bad byte."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        bad = data[exc.start]
+        raise error(
+            f"{path} is not UTF-8 text (byte 0x{bad:02x} at offset {exc.start}): save it as UTF-8"
+        ) from None
+
+
+def read_text(path: str | os.PathLike, kind: str, error: type[Exception] = HydropwaError) -> str:
+    """The text of ``path``: the one decoding rule (UTF-8, BOM allowed) and size ceiling.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    kind : str
+        What the file is, a key of :data:`READ_LIMITS` (its size ceiling and the message).
+    error : exception class
+        The calling layer's error (``DataError``, ``ControlError``...), raised with one line
+        for a file above the ceiling or not UTF-8 text.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read (naming it).
+    """
+    return decode_text(read_bytes(path, kind, error), path, error)

@@ -14,7 +14,8 @@ import os
 
 import numpy as np
 
-from ._errors import ParameterError
+from ._errors import ParameterError, SignalError
+from ._io import human_bytes
 from .simulation import as_signal
 from .simulation._simulate import RTOL_RANGE as _RTOL_RANGE
 
@@ -40,15 +41,6 @@ BYTES_PER_SAMPLE = 800
 
 #: A sweep larger than this is refused: its case list alone would take minutes to build.
 MAX_SWEEP_CASES = 1_000_000
-
-
-def human_bytes(n: float) -> str:
-    """``1.2 GB``-style size."""
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if abs(n) < 1000 or unit == "PB":
-            return f"{n:.3g} {unit}"
-        n /= 1000.0
-    return f"{n:.3g} PB"  # pragma: no cover
 
 
 def memory_budget() -> float:
@@ -130,7 +122,12 @@ def check_supply_pressure(value, params, duration: float, where: str = "--supply
     """
     if value is None:
         return
-    vals = _signal_values(value, "Pa", "supply_pressure", duration)
+    try:
+        vals = _signal_values(value, "Pa", "supply_pressure", duration)
+    except (
+        SignalError
+    ) as exc:  # name the option: "Constant.value = inf is not finite" alone does not
+        raise SignalError(f"{where} {value!r}: {exc}") from None
     if not np.all(np.isfinite(vals)):
         raise ParameterError(
             f"{where} {value!r}: P_S is not finite everywhere; give a finite pressure"

@@ -501,11 +501,11 @@ def test_scheduler_addresses_fail_fast(address, expect):
         (["params", "show", "deep.toml"], "nested too deeply|deep.toml"),
         (
             ["rig", "run", "frf", "-p", "paper", "--campaign", "binary.toml", "--out", "x"],
-            "binary.toml: byte 0 is not UTF-8",
+            r"binary.toml is not UTF-8 text \(byte 0xff at offset 0\): save it as UTF-8",
         ),
         (
             ["data", "check", "r.csv", "--channel-map", "binary.toml"],
-            "channel map .*binary.toml.* not UTF-8",
+            r"binary.toml is not UTF-8 text \(byte 0xff at offset 0\)",
         ),
         (
             ["rig", "run", "frf", "-p", "paper", "--campaign", "deep.toml", "--out", "x"],

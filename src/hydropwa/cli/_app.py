@@ -22,6 +22,7 @@ command tree all see the same behaviour. Help texts are shown literally (no rich
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import sys
@@ -30,12 +31,20 @@ from typing import Any
 
 import click
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 
 from .._errors import HydropwaError, interrupt_cause
 from .._io import os_error_message
 
-__all__ = ["CommandGroup", "INTERRUPTED", "INTERRUPTED_CODE", "error_line", "exit_code", "new_app"]
+__all__ = [
+    "Command",
+    "CommandGroup",
+    "INTERRUPTED",
+    "INTERRUPTED_CODE",
+    "error_line",
+    "exit_code",
+    "new_app",
+]
 
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT), as shells report it.
 INTERRUPTED_CODE = 130
@@ -164,6 +173,33 @@ class CommandGroup(TyperGroup):
                 raise typer.Exit(code) from None
 
 
+class Command(TyperCommand):
+    """The command class of every ``hydropwa`` command: the checks every command shares.
+
+    Before the command runs, every numeric option it was given is checked against its
+    declared range (:func:`~hydropwa.cli._options.check_numbers`), and the lock of every
+    output it names is taken (:func:`~hydropwa._io.target_lock`) and held until it ends, so
+    two runs into one ``--out`` cannot both succeed. Errors go the one error path of the group.
+    """
+
+    def invoke(self, ctx: Any) -> Any:
+        from .._io import target_lock  # deferred: loaded only when a command runs
+        from ._options import check_numbers, output_paths
+
+        check_numbers(ctx)
+        with contextlib.ExitStack() as stack:
+            for path in output_paths(ctx):
+                stack.enter_context(target_lock(path, f"hydropwa {ctx.command_path}"))
+            return super().invoke(ctx)
+
+
+class _Typer(typer.Typer):
+    """A typer app whose commands are :class:`Command` s."""
+
+    def command(self, name: str | None = None, *, cls: Any = None, **kwargs: Any) -> Any:
+        return super().command(name, cls=cls or Command, **kwargs)
+
+
 def new_app(name: str | None = None, *, help: str | None = None, **kwargs: Any) -> typer.Typer:
     """A typer app of the ``hydropwa`` CLI (named: a command group; unnamed: merged commands)."""
     settings: dict[str, Any] = {
@@ -174,4 +210,4 @@ def new_app(name: str | None = None, *, help: str | None = None, **kwargs: Any) 
         "pretty_exceptions_enable": False,
     }
     settings.update(kwargs)
-    return typer.Typer(name=name, help=help, **settings)
+    return _Typer(name=name, help=help, **settings)

@@ -14,8 +14,9 @@ from typing import Annotated
 
 import typer
 
-from .._errors import PwaError
-from .._io import check_output
+from .._errors import HydropwaError, PwaError
+from .._io import check_output, read_text
+from .._limits import check_position
 from ._app import error_line, new_app
 from ._options import (
     SAMPLE_TIME_METAVAR,
@@ -82,9 +83,9 @@ def _machine_of(controller: Path):
 
     doc = None
     try:
-        text = controller.read_text(encoding="utf-8")
+        text = read_text(controller, "controller file")
         doc = json.loads(text) if controller.suffix.lower() == ".json" else tomllib.loads(text)
-    except (OSError, UnicodeDecodeError, ValueError):
+    except (OSError, ValueError, RecursionError, HydropwaError):
         pass  # load_controller names the problem
     machine = doc.get("machine") if isinstance(doc, dict) else None
     from ..control import (  # deferred: loaded only when this command runs
@@ -629,7 +630,7 @@ def simulate_command(
         if model == "pwa-chamber"
         else model
     )
-    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    start = _start_position(x0, ref, prm)
     res = simulate(
         mdl,
         duration=t_end,
@@ -738,6 +739,17 @@ def export_command(
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
 
 
+def _start_position(x0: str | None, ref, params) -> float:
+    """The loop's start [m]: ``--x0``, else the reference at t = 0; on the stroke."""
+    from ..params import (
+        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
+    )
+
+    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    check_position(start, params, "--x0" if x0 is not None else "the reference at t = 0")
+    return start
+
+
 def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
     """``control simulate --compare``: :func:`~hydropwa.control.closed_loop_fidelity`, written;
     every option of ``control simulate`` reaches every model (the sensor noise with the same
@@ -746,17 +758,13 @@ def _compare(ctrl, ref, prm, pwa, duration, case, rtol, out, plot, noise, seed):
         ControlError,
         closed_loop_fidelity,
     )
-    from ..params import (
-        parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
-    )
 
     if case["supply_pressure"] is not None:
         raise ControlError(
             "--compare runs every model at the parameters' P_S; drop --supply-pressure"
         )
     pwa_model = _pwa_model(prm, pwa) if pwa is not None else None
-    x0 = case["x0"]
-    start = parse_quantity(x0, "m", "--x0") if x0 is not None else float(ref(0.0))
+    start = _start_position(case["x0"], ref, prm)
     results, table = closed_loop_fidelity(
         ctrl,
         ref,

@@ -12,6 +12,7 @@ from typing import Annotated
 import typer
 
 from .._io import check_output
+from .._limits import check_position
 from ._app import new_app
 from ._options import ParamsOption, resolve_params
 
@@ -46,5 +47,6 @@ def fmu_command(
     prm = resolve_params(params)  # an FMU is a machine: none given is one line, exit 2
     check_output(out, force, option="--out")
     start = parse_quantity(x0, "m", "--x0") if x0 is not None else None
+    check_position(start, prm)
     export_axis_fmu(prm, out, initial_position=start, rtol=rtol, overwrite=force)
     typer.echo(f"wrote {out} (FMI 2.0 co-simulation, full-order axis)")

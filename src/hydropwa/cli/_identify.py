@@ -417,6 +417,8 @@ def model(
     check_output(out, force)
     summary = summary or out.with_suffix(".md")
     check_output(summary, force)
+    if figures is not None:
+        check_output(figures, force, folder=True, option="--figures", files=("greybox_*.png",))
     if model_kind not in ("full", "reduced"):
         raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
     selection = Selection(method=select, budget=budget)

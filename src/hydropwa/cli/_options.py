@@ -21,15 +21,18 @@ without ``--force``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from .._errors import ParameterError
+from .._io import read_text
 from ..params import (
     PRESETS,
     SystemParams,
@@ -51,6 +54,11 @@ __all__ = [
     "MACHINE_FIX",
     "NO_MACHINE",
     "SAMPLE_TIME_METAVAR",
+    "NUMBER_RANGES",
+    "OUTPUT_OPTIONS",
+    "Range",
+    "check_numbers",
+    "output_paths",
     "params_source",
     "parse_sample_time",
     "resolve_params",
@@ -135,9 +143,7 @@ def params_source(params: str | None, base_params: str | None) -> str | None:
 def _read_json(path: Path) -> SystemParams:
     """Parameters from a JSON document: a parameter dict, or a PWA export's ``params``."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise ParameterError(f"{path}: not a text file; expected a JSON parameter file") from None
+        data = json.loads(read_text(path, "parameter file", ParameterError))
     except json.JSONDecodeError as exc:
         raise ParameterError(f"{path}: invalid JSON ({exc})") from None
     if isinstance(data, dict) and str(data.get("schema", "")).startswith("hydropwa.pwa"):
@@ -230,3 +236,131 @@ def sample_time_source(
         return f"{float(old)!r} {old_unit}"
     except ValueError:
         return old
+
+
+# ----------------------------------------------------------------------------- ranges
+@dataclasses.dataclass(frozen=True)
+class Range:
+    """The accepted values of a numeric option: ``low <= value <= high``, finite.
+
+    Attributes
+    ----------
+    low, high : float
+        The closed range, in SI units (``unit``).
+    what : str
+        What the number is, for the message (how to choose a good value).
+    unit : str or None
+        ``None``: the option is typed as a number (int/float). A unit (``"s"``, ``"m"``): the
+        option is a quantity text (``'100 mm'``), read with ``parse_quantity``; ``"period"``:
+        a sampling period or rate, read with :func:`parse_sample_time`.
+    signal : bool
+        The option also takes a signal spec (``kind:key=value,...``), checked where it is read.
+    """
+
+    low: float
+    high: float
+    what: str
+    unit: str | None = None
+    signal: bool = False
+
+    def value(self, option: str, raw: Any) -> float | None:
+        """``raw`` as a number [SI]; ParameterError (one line) when it is none or out of range.
+
+        With ``signal``, a signal spec (``'sine:...'``) is left to the signal parser (None).
+        """
+        if self.signal and ":" in str(raw):
+            return None
+        if self.unit == "period":
+            v = parse_sample_time(str(raw), option)
+        elif self.unit is not None:
+            v = parse_quantity(str(raw), self.unit, option)
+        else:
+            v = float(raw)
+        if not (math.isfinite(v) and self.low <= v <= self.high):
+            unit = "s" if self.unit == "period" else (self.unit or "")
+            raise ParameterError(
+                f"{option} {raw!r} is outside [{self.low:g}, {self.high:g}]{' ' + unit if unit else ''}"
+                f": {self.what}"
+            )
+        return v
+
+
+#: Every numeric option of the CLI (by its long name) and the values it accepts; checked for
+#: every command before it runs (:func:`check_numbers`), so ``nan``, ``inf``, ``''``, a
+#: negative count or an implausible tolerance is one line, exit 2. A test walks the commands:
+#: an option typed as a number without a row here fails it. ``--supply-pressure`` has no row:
+#: it gets the bounds of ``Supply.pressure`` where the machine is known (``_limits``).
+NUMBER_RANGES: dict[str, Range] = {
+    # the range simulate checks (simulation.RTOL_RANGE; a test keeps them equal)
+    "--rtol": Range(
+        1e-12,
+        0.1,
+        "the integrator's relative tolerance; 1e-3 keeps the position "
+        "within 0.1 mm, 1e-6 is measurement grade",
+    ),
+    "--starts": Range(1, 1000, "the number of optimiser starts; 1 is one fit, 8-32 a multi-start"),
+    "--window": Range(1e-4, 60.0, "the multiple-shooting window [s]; 0.02 suits the paper's rig"),
+    "--budget": Range(0.1, 86_400.0, "the seconds of data a selection keeps; default 6"),
+    "--validate": Range(
+        0.0, 0.8, "the share of the runs held out of the fit; 0.2 holds out one in five"
+    ),
+    "--draws": Range(1, 1000, "the parameter draws of the verification; default 4"),
+    "--seed": Range(0, 2**32 - 1, "a random seed, a non-negative integer below 2^32"),
+    "--jobs": Range(1, 1024, "the number of workers"),
+    "--dead-zone-hysteresis": Range(0.0, 0.5, "a share of the opening, e.g. 0.005"),
+    # positive and finite here; whether the samples fit in memory is _limits.check_samples
+    "--duration": Range(1e-9, math.inf, "a positive, finite simulated time, e.g. '2 s'", "s"),
+    "--x0": Range(0.0, 100.0, "an initial rod position on the stroke, e.g. '100 mm'", "m"),
+    "--load-force": Range(
+        -1e8, 1e8, "a load force, e.g. '500 N' (or a signal spec)", "N", signal=True
+    ),
+    "--sample-time": Range(
+        1e-15, 3600.0, "a sampling period ('0.5 ms') or rate ('2 kHz')", "period"
+    ),
+}
+
+#: The options and arguments that name what a command writes (files or folders): the CLI
+#: holds the lock of each (``hydropwa._io.target_lock``) while the command runs. A test walks
+#: the commands: a path option in neither this set nor ``INPUT_OPTIONS`` fails it.
+OUTPUT_OPTIONS = frozenset(
+    {
+        "--out",
+        "--figures",
+        "--plot",
+        "--table",
+        "--summary",
+        "--c",
+        "--fmu",
+        "--trajectories",
+        "--tables",
+        "--mat",
+        "dst",
+    }
+)
+
+
+def _option_values(ctx: Any) -> Iterator[tuple[str, Any]]:
+    """(long option name or argument name, parsed value) of the given values of a command."""
+    for prm in ctx.command.params:
+        value = ctx.params.get(prm.name)
+        if value is None or isinstance(value, bool):
+            continue
+        names = [o for o in prm.opts if o.startswith("--")] or list(prm.opts)
+        yield names[0], value
+
+
+def check_numbers(ctx: Any) -> None:
+    """Check every numeric option a command was given against :data:`NUMBER_RANGES`."""
+    for option, value in _option_values(ctx):
+        rng = NUMBER_RANGES.get(option)
+        if rng is not None and not isinstance(value, tuple | list):
+            rng.value(option, value)
+
+
+def output_paths(ctx: Any) -> list[Path]:
+    """The outputs a command names (:data:`OUTPUT_OPTIONS`), each once."""
+    seen: dict[Path, Path] = {}
+    for option, value in _option_values(ctx):
+        if option in OUTPUT_OPTIONS and isinstance(value, str | os.PathLike):
+            seen.setdefault(Path(value).resolve(), Path(value))
+    return list(seen.values())

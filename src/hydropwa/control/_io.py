@@ -54,7 +54,7 @@ from typing import Any
 import tomli_w
 
 from .._errors import HydropwaError
-from .._io import atomic_write_text, check_output, overwrite_flag
+from .._io import atomic_write_text, check_output, overwrite_flag, read_text
 from ..params import parse_quantity
 from ._controllers import (
     DEAD_ZONE_V2,
@@ -80,6 +80,10 @@ __all__ = [
 ]
 
 SCHEMA = "hydropwa.controller/2"
+#: The most gain rows a controller file may hold: the most cell combinations a PWA export
+#: holds (``linearization.MAX_CHAMBER_CELLS``); a larger table is refused before it is read
+#: (140 000 rows took minutes to load and to export as C).
+MAX_GAIN_ROWS = 5000
 #: schemas :func:`controller_from_dict` reads (schema 1: the law without the extension block)
 SCHEMAS = ("hydropwa.controller/1", SCHEMA)
 _LAW = {
@@ -317,6 +321,19 @@ def _plain(obj):
     return obj
 
 
+def _check_rows(cells: Any) -> None:
+    """The ``cells`` table: a list of at most :data:`MAX_GAIN_ROWS` rows."""
+    if not isinstance(cells, list):
+        raise ControlError(
+            f"controller file: 'cells' is a {type(cells).__name__}, expected a list of gain rows"
+        )
+    if len(cells) > MAX_GAIN_ROWS:
+        raise ControlError(
+            f"controller file: {len(cells)} gain rows, more than the {MAX_GAIN_ROWS} a PWA model "
+            "has; check that it is the file you meant (a design writes one row per cell)"
+        )
+
+
 def controller_from_dict(d: dict[str, Any]):
     """Rebuild a controller from :func:`controller_to_dict` output (units converted to SI)."""
     if not isinstance(d, dict) or d.get("schema") not in SCHEMAS:
@@ -354,6 +371,7 @@ def controller_from_dict(d: dict[str, Any]):
             }
             return PIController(**common, **gains)
         if kind == "state_feedback":
+            _check_rows(d["cells"])
             rows = []
             for i, c in enumerate(d["cells"]):
                 lo = tuple(
@@ -469,7 +487,7 @@ def load_controller(path: str | os.PathLike):
     path = Path(path)
     if not path.is_file():
         raise ControlError(f"controller file {path} does not exist")
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, "controller file", ControlError)
     try:
         if path.suffix.lower() == ".json":
             d = json.loads(text)

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from .._io import atomic_write_text, check_output
+from .._io import atomic_write_text, check_output, read_text
 from ..components import _physics as P
 from ..simulation import _controller as C
 from ..simulation._emit_c import emit_functions
@@ -350,7 +350,7 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
     if header is None:
         text = _read_template("hydropwa_ctrl.h")
     elif isinstance(header, Path) or "typedef" not in header:  # a path, as Path or str
-        text = Path(header).read_text(encoding="utf-8")
+        text = read_text(header, "C header", ControlError)
     else:
         text = header
     types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}

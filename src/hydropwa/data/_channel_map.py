@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from hydropwa._errors import DataError
+from hydropwa._io import read_text
 
 from ._run import Run
 from ._units import CANONICAL_UNITS
@@ -194,7 +195,7 @@ class ChannelMap:
         """Read a channel map from a TOML file."""
         path = Path(path)
         try:
-            doc = tomllib.loads(path.read_text(encoding="utf-8"))
+            doc = tomllib.loads(read_text(path, "channel map", DataError))
         except OSError as exc:
             raise DataError(
                 f"channel map {str(path)!r}: cannot be read ({exc.strerror}); hint: check the path"

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from hydropwa._errors import DataError
-from hydropwa._io import atomic_write_text
+from hydropwa._io import atomic_write_text, decode_text, read_bytes
 
 from .._display import html_table
 from ._channel_map import ChannelMap, resolve_channel_map
@@ -50,6 +50,9 @@ __all__ = [
 MANIFEST = "manifest.json"
 _FORMAT = "hydropwa-dataset"
 _VERSION = 1
+#: The most runs a manifest may list: a rig campaign has tens, a long test programme a few
+#: thousand; more is refused before the entries are checked (a million took minutes).
+MAX_RUNS = 10_000
 
 
 def _empty_manifest(meta: Mapping | None) -> dict[str, Any]:
@@ -69,12 +72,7 @@ def _read_manifest(root: Path) -> dict[str, Any]:
             "create one with write_dataset() or `hydropwa data convert SRC_DIR DST_DIR`"
         )
     try:
-        doc = json.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError as exc:
-        raise DataError(
-            f"{str(path)!r}: byte {exc.start} is not UTF-8 text; hint: save the manifest as "
-            "UTF-8 JSON or rewrite the dataset"
-        ) from None
+        doc = json.loads(decode_text(read_bytes(path, "manifest", DataError), path, DataError))
     except RecursionError:
         raise DataError(
             f"{str(path)!r}: the JSON is nested too deeply to be a manifest; hint: rewrite the "
@@ -123,6 +121,12 @@ def manifest_problems(doc: Any, root: str | os.PathLike) -> list[str]:
     runs = doc.get("runs")
     if not isinstance(runs, list):
         problems.append('"runs" must be a list of run entries')
+        return problems
+    if len(runs) > MAX_RUNS:
+        problems.append(
+            f'"runs" lists {len(runs)} runs, more than the {MAX_RUNS} a dataset may hold; split '
+            "it into several datasets"
+        )
         return problems
     names: dict[str, int] = {}
     files: dict[str, int] = {}

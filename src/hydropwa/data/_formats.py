@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from hydropwa._errors import DataError
-from hydropwa._io import atomic_path, atomic_write_text
+from hydropwa._io import atomic_path, atomic_write_text, check_read_size, read_bytes, read_text
 
 from ._channel_map import ChannelMap, resolve_channel_map
 from ._run import Run, format_column_label, parse_column_label
@@ -110,13 +110,7 @@ def _read_csv(path: Path) -> tuple[dict, dict, dict]:
 
     header: dict[str, Any] = {}
     n_comment = 0
-    try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the text
-    except UnicodeDecodeError as exc:
-        raise DataError(
-            f"{str(path)!r}: byte {exc.start} is not UTF-8 text; hint: save the CSV as UTF-8 "
-            "(or check that the file is really a CSV table)"
-        ) from None
+    text = read_text(path, "measurement file", DataError)  # UTF-8, a byte-order mark dropped
     for line in io.StringIO(text, newline=None):  # universal newlines, as open() reads
         if not line.startswith("#"):
             break
@@ -191,6 +185,7 @@ def _read_parquet(path: Path) -> tuple[dict, dict, dict]:
     import pyarrow as pa  # deferred: pyarrow costs ~0.2 s at import
     import pyarrow.parquet as pq  # deferred: pyarrow costs ~0.2 s at import
 
+    check_read_size(path, "measurement file", DataError)
     try:
         table = pq.read_table(path)
     except (pa.ArrowException, OSError, ValueError) as exc:
@@ -472,8 +467,8 @@ def _check_mat_v5(buf: bytes) -> None:
 def _load_mat(path: Path) -> dict[str, Any]:
     import scipy.io  # deferred: scipy submodules cost 0.1-0.5 s at import
 
+    buf = read_bytes(path, "measurement file", DataError)  # read once: checked, then parsed
     try:
-        buf = path.read_bytes()  # read once: checked, then parsed from memory
         if scipy.io.matlab.matfile_version(io.BytesIO(buf))[0] == 1:
             _check_mat_v5(buf)
         return scipy.io.loadmat(io.BytesIO(buf), simplify_cells=True)

@@ -64,6 +64,13 @@ def _from_entry(entry: Any, folder: Path, where: str) -> SystemParams:
     )
 
 
+def _machine_file(folder: Path) -> SystemParams:
+    """The campaign's ``true_params.toml`` in ``folder``; refused if a link leads out of it."""
+    from ..data import contained_path  # deferred: hydropwa.data loads pint
+
+    return load_params(contained_path(folder, MACHINE_FILE, "machine file"))
+
+
 def _from_meta(meta: Any, folder: Path, where: str) -> SystemParams | None:
     if not isinstance(meta, Mapping):
         return None
@@ -121,7 +128,7 @@ def recorded_machine(data: Any) -> tuple[SystemParams, str] | None:
     if not root.is_dir():
         return None
     if (root / MACHINE_FILE).is_file():
-        return load_params(root / MACHINE_FILE), str(root / MACHINE_FILE)
+        return _machine_file(root), str(root / MACHINE_FILE)
     if (root / MANIFEST).is_file():
         folders = [root]
     else:
@@ -133,7 +140,7 @@ def recorded_machine(data: Any) -> tuple[SystemParams, str] | None:
         if got is not None:
             found.append((got, str(folder / MANIFEST)))
     if not found and (root / MANIFEST).is_file() and (root.parent / MACHINE_FILE).is_file():
-        return load_params(root.parent / MACHINE_FILE), str(root.parent / MACHINE_FILE)
+        return _machine_file(root.parent), str(root.parent / MACHINE_FILE)
     return _agree(found)
 
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from .._display import channel_unit
 from .._errors import HydropwaError, PwaError
-from .._io import atomic_path, atomic_write_text, check_output
+from .._io import atomic_path, atomic_write_text, check_output, read_text
 from .._layout import FULL_STATES
 from ..components import PiecewiseAffine
 from ..params import params_from_dict
@@ -572,7 +572,7 @@ def load_pwa(path: str | os.PathLike):
     ``hydropwa.pwa-chamber/1``, a :class:`~._chamber.ChamberPwaModel`); PwaError on schema
     mismatch."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_text(path, "PWA document", PwaError)
     except OSError as exc:
         raise PwaError(f"cannot read PWA document {path}: {exc.strerror}") from None
     return PwaModel.from_json(text)

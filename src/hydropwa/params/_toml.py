@@ -18,7 +18,7 @@ from typing import Any
 import tomli_w
 
 from .._errors import ParameterError
-from .._io import atomic_write_text
+from .._io import atomic_write_text, read_text
 from ._params import COMPONENT_TYPES, Cylinder, SystemParams, flow_coefficient_from_rating
 from ._presets import PRESET_NOTES, PRESETS, get_preset
 
@@ -451,9 +451,7 @@ def load_params(path: str | os.PathLike) -> SystemParams:
             f"parameter file {str(p)!r} not found; give a TOML file or a preset ({', '.join(PRESETS)})"
         )
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise ParameterError(f"{p}: not a text file; expected a TOML parameter file") from None
+        data = tomllib.loads(read_text(p, "parameter file", ParameterError))
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(f"{p}: invalid TOML ({exc})") from None
     except RecursionError:  # tomllib recurses per nesting level ("a = [[[[...")

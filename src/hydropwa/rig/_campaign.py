@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from .._errors import ParameterError
+from .._io import read_text
 from ..params import parse_quantity
 from ._faults import Fault, parse_faults
 
@@ -681,12 +682,7 @@ def load_campaign(name_or_path: str | os.PathLike = "paper") -> Campaign:
         )
         source = f"{name_or_path}.toml"
     elif p.is_file():
-        try:
-            text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError as exc:
-            raise ParameterError(
-                f"{p}: byte {exc.start} is not UTF-8 text; save the campaign as UTF-8"
-            ) from None
+        text = read_text(p, "campaign file", ParameterError)
         source = str(p)
     else:
         raise ParameterError(

@@ -12,6 +12,7 @@ with their derivatives, ramped: first-order hold).
 
 from __future__ import annotations
 
+import math
 import os
 from importlib import resources
 from pathlib import Path
@@ -26,6 +27,7 @@ from ..params import SystemParams
 from . import _kernel as K
 from ._emit_c import emit_functions
 from ._fmu import FmuVariable, build_fmu, fmi2_source
+from ._simulate import RTOL_RANGE
 
 __all__ = ["export_axis_fmu", "axis_rhs_c", "AXIS_OUTPUTS"]
 
@@ -60,6 +62,23 @@ def _c_array(kind: str, name: str, values) -> str:
     else:
         body = ", ".join(repr(float(v)) for v in values)
     return f"static const {kind} {name}[{len(values)}] = {{{body}}};"
+
+
+def _check_fmu_start(params: SystemParams, initial_position: float | None, rtol: float) -> None:
+    """The FMU's start values: a position on the stroke, rtol within ``RTOL_RANGE``."""
+    lo, hi = RTOL_RANGE
+    if not (isinstance(rtol, int | float) and math.isfinite(rtol) and lo <= rtol <= hi):
+        raise ParameterError(
+            f"rtol = {rtol!r} is outside [{lo:g}, {hi:g}]; 1e-6 (the default) is measurement grade"
+        )
+    stroke = params.cylinder.stroke
+    if initial_position is not None and not (
+        math.isfinite(initial_position) and 0.0 <= initial_position <= stroke
+    ):
+        raise ParameterError(
+            f"initial_position = {initial_position:g} m is off the stroke [0, {stroke:g}] m; "
+            "give a position on it (e.g. '100 mm')"
+        )
 
 
 def export_axis_fmu(
@@ -104,6 +123,7 @@ def export_axis_fmu(
         raise ParameterError(
             f"export_axis_fmu needs a SystemParams (load_params or get_preset), got {type(params).__name__}"
         )
+    _check_fmu_start(params, initial_position, rtol)
     model = FullOrderModel(params)
     p = np.asarray(model.pack(), dtype=float)
     p[SLOT["omega0"]] = params.valve.omega0

@@ -19,7 +19,6 @@ import platform
 import shutil
 import subprocess
 import sys
-import tempfile
 import uuid
 import zipfile
 from dataclasses import dataclass
@@ -28,7 +27,7 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 from .._errors import HydropwaError
-from .._io import atomic_path, check_output
+from .._io import atomic_path, check_output, scratch_folder
 
 __all__ = [
     "FmuVariable",
@@ -325,7 +324,7 @@ def build_fmu(
         k: (f'#define HP_GUID "{guid}"\n' + v) if k.endswith(("_fmi2.c", "_fmi3.c")) else v
         for k, v in sources.items()
     }
-    with tempfile.TemporaryDirectory(prefix="hydropwa-fmu-") as tmp:
+    with scratch_folder("fmu") as tmp:  # a compile killed midway is cleaned by the next one
         src = Path(tmp) / "sources"
         src.mkdir()
         for name, text in sources.items():

@@ -29,8 +29,6 @@ import contextlib
 import hashlib
 import json
 import os
-import re
-import socket
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
@@ -39,9 +37,9 @@ from typing import Any
 import pandas as pd
 
 from .. import _interrupt
-from .._dask import dask_client
+from .._dask import dask_client, parse_address, probe_scheduler
 from .._errors import HydropwaError, ParameterError
-from .._io import atomic_write_text
+from .._io import atomic_write_text, read_bytes
 from ..linearization import linearize
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
@@ -50,11 +48,6 @@ __all__ = ["run_case", "run_sweep", "SweepJournal", "check_scheduler"]
 
 #: Seconds to wait for a Dask scheduler to answer before giving up.
 CONNECT_TIMEOUT = 5.0
-
-_ADDRESS = re.compile(
-    r"^(?:(?P<proto>tcp|tls|ucx|ws|wss|inproc)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
-    r":(?P<port>\d{1,5})/?$"
-)
 
 
 def _row(case: SweepCase, summary: dict[str, float]) -> dict[str, Any]:
@@ -146,8 +139,9 @@ class SweepJournal:
             atomic_write_text(self.path, json.dumps({"sweep": self.key}) + "\n")
 
     def _read(self) -> None:
+        data = read_bytes(self.path, "sweep results", ParameterError)
         try:
-            lines = self.path.read_bytes().decode("utf-8").splitlines()
+            lines = data.decode("utf-8").splitlines()
             head = json.loads(lines[0]) if lines else {}
         except (ValueError, IndexError):
             head = {}
@@ -191,29 +185,19 @@ def _plain(value):
 def check_scheduler(address: str, timeout: float = CONNECT_TIMEOUT) -> str:
     """A Dask scheduler address that is well formed and answers, else one ParameterError.
 
-    ``"local"`` (a LocalCluster) is accepted as is. For a TCP address the port is tried
-    with a plain socket first, so an unreachable scheduler fails in ``timeout`` seconds
-    instead of Dask's 30 s connect timeout.
+    ``"local"`` (a LocalCluster) is accepted as is; an address is ``tcp://HOST:PORT`` or
+    ``HOST:PORT`` (:func:`hydropwa._dask.parse_address`), and must answer with a Dask
+    handshake within ``timeout`` seconds (:func:`hydropwa._dask.probe_scheduler`).
     """
     if address == "local":
         return address
-    m = _ADDRESS.match(address.strip()) if isinstance(address, str) else None
-    if m is None or not 1 <= int(m["port"]) <= 65535:
+    host, port = parse_address(address, ParameterError, "--scheduler")
+    why = probe_scheduler(host, port, timeout)
+    if why is not None:
         raise ParameterError(
-            f"--scheduler {address!r} is not a Dask scheduler address; give tcp://HOST:PORT "
-            "(e.g. tcp://10.0.0.5:8786) or 'local'"
+            f"--scheduler {address!r}: cannot reach the scheduler ({why}); start it with "
+            "`dask scheduler` and check the address, or run in-process without --scheduler"
         )
-    if (m["proto"] or "tcp") == "tcp":
-        host = m["host"].strip("[]")
-        try:
-            with socket.create_connection((host, int(m["port"])), timeout=timeout):
-                pass
-        except OSError as exc:
-            reason = exc.strerror or type(exc).__name__
-            raise ParameterError(
-                f"--scheduler {address!r}: cannot reach the scheduler ({reason}); start it with "
-                "`dask scheduler` and check the address, or run in-process without --scheduler"
-            ) from None
     return address
 
 

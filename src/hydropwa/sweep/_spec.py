@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError, ParameterError
+from .._io import read_text
 from .._layout import MODEL_NAMES
 from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
 from ..params import FIELD_UNITS, SystemParams, get_preset, load_params, parse_quantity
@@ -331,11 +332,7 @@ def load_sweep(path: str | os.PathLike) -> SweepSpec:
         what = "is a folder, not a sweep file" if path.is_dir() else "does not exist"
         raise ParameterError(f"sweep file {path} {what}; give a TOML file")
     try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ParameterError(
-            f"sweep file {path}: byte {exc.start} is not UTF-8 text; save it as UTF-8"
-        ) from None
+        data = tomllib.loads(read_text(path, "sweep file", ParameterError))
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError(
             f"sweep file {path}: not valid TOML ({exc}); fix the line it names"

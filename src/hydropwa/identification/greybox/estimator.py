@@ -221,12 +221,51 @@ def _windowed_experiments(
                 pairs[k] = (r, again)
 
 
+#: The least peak-to-peak valve command [1] (a share of the full opening) a run must have to
+#: excite the axis: 0.1 %, a hundredth of the paper rig's 10 % dead zone.
+MIN_EXCITATION = 1e-3
+#: The least peak-to-peak rod travel [m] that excites the axis under a constant command (a
+#: constant-speed run): 0.1 mm, five times a position sensor's 20 µm noise.
+MIN_TRAVEL = 1e-4
+
+
+def _span(run: Any, channel: str) -> float:
+    """Peak-to-peak of a channel over its finite samples (0 when it has none)."""
+    y = np.asarray(run[channel], dtype=float)
+    y = y[np.isfinite(y)]
+    return float(y.max() - y.min()) if y.size else 0.0
+
+
+def check_excitation(runs: list) -> None:
+    """Refuse runs none of which excites the axis: the valve command varies by less than
+    :data:`MIN_EXCITATION` and the rod travels less than :data:`MIN_TRAVEL` in every run.
+
+    With a constant command and a resting rod the outputs carry no information on any
+    parameter: the fit's Jacobian is zero and the cost flat (it ended in NaN steps or an
+    infinite cost). A constant command that moves the rod (a constant-speed run) excites it.
+    """
+    if not runs or any(
+        not r.has("u")
+        or _span(r, "u") >= MIN_EXCITATION
+        or (r.has("x") and _span(r, "x") >= MIN_TRAVEL)
+        for r in runs
+    ):
+        return
+    ptp = max(_span(r, "u") for r in runs)
+    raise IdentificationError(
+        f"no run excites the axis: the valve command u varies by at most {ptp:.3g} (less "
+        f"than {MIN_EXCITATION:g}) and the rod travels less than {MIN_TRAVEL * 1e3:g} mm in "
+        f"all {len(runs)} runs; give runs with steps, sines or chirps"
+    )
+
+
 def prepare_data(
     base_model: Any, runs: Any, free: Iterable[str] | str, opts: FitOptions
 ) -> FitData:
     """The runs prepared for the fit (segments, noise levels, shooting per run)."""
     shooting = opts.shooting or Shooting()
     run_list, held = split_runs(as_runs(runs), opts.validate)
+    check_excitation(run_list)
     names = expand_free(free, base_model.params)
     skipped: list[SkippedRun] = []
     work_model = _work_model(base_model, run_list, names)
