@@ -90,4 +90,4 @@ def test_no_machine_word_ranges_in_help(tmp_path, capsys):
         )
         == 2
     )
-    assert "2**63" in capsys.readouterr().err
+    assert "--seed" in (err := capsys.readouterr().err) and "below 2^32" in err  # one line

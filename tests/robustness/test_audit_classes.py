@@ -364,6 +364,7 @@ def _annotation(prm) -> str:
 _INPUTS = {
     "--input-file", "--channel-map", "--pwa", "--noise-from", "--validation", "--controller",
     "source", "src", "data_dir", "file", "controller", "spec", "--data", "--reference",
+    "data", "logs", "--plan",
 }  # fmt: skip
 
 

@@ -308,6 +308,9 @@ NUMBER_RANGES: dict[str, Range] = {
     "--seed": Range(0, 2**32 - 1, "a random seed, a non-negative integer below 2^32"),
     "--jobs": Range(1, 1024, "the number of workers"),
     "--dead-zone-hysteresis": Range(0.0, 0.5, "a share of the opening, e.g. 0.005"),
+    "--false-alarm": Range(
+        1e-12, 0.5, "the false-alarm probability per healthy run the thresholds allow, e.g. 1e-3"
+    ),
     # positive and finite here; whether the samples fit in memory is _limits.check_samples
     "--duration": Range(1e-9, math.inf, "a positive, finite simulated time, e.g. '2 s'", "s"),
     "--x0": Range(0.0, 100.0, "an initial rod position on the stroke, e.g. '100 mm'", "m"),
