@@ -13,10 +13,12 @@ from ._common import (
     OptimizerStatus,
     ParameterEstimate,
     RigGeometry,
+    TRUTH_OUTSIDE,
     SkippedRun,
     estimator_view,
     sandwich_covariance,
     screen_for_estimator,
+    truth_in_interval,
 )
 from ._deadzone import (
     DeadZoneFit,
@@ -110,6 +112,8 @@ __all__ = [
     "FrictionPoint",
     "IdentificationWarning",
     "ParameterEstimate",
+    "TRUTH_OUTSIDE",
+    "truth_in_interval",
     "SecondOrderFit",
     "SineFit",
     "SkippedRun",
