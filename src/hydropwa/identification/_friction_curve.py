@@ -460,7 +460,18 @@ def _curve_band(v: np.ndarray, th: np.ndarray, cov: np.ndarray, free_idx: list[i
         return (z, z, z)
     vb = np.geomspace(float(va.min()), float(va.max()), 25)
     Jb = _jac_theta(vb, th)[:, free_idx]
-    sd = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", Jb, cov, Jb), 0.0, None))
+    # a direction without a variance (not determined) that does not move the curve at these
+    # speeds (a saturated tanh's γ) leaves the band alone; one that does makes it unbounded
+    bad = ~np.isfinite(np.diag(cov))
+    moves = np.max(np.abs(Jb), axis=0) > 1e-9 * max(float(np.max(np.abs(Jb))), 1e-300)
+    keep = ~bad
+    c = np.nan_to_num(cov[np.ix_(keep, keep)], nan=0.0, posinf=0.0, neginf=0.0)
+    Jk = Jb[:, keep]
+    var = np.einsum("ij,jk,ik->i", Jk, c, Jk)
+    if np.any(bad & moves):
+        var = np.full(vb.size, np.inf)
+    var = np.where(np.isnan(var), np.inf, var)  # a covariance that is not a number bounds nothing
+    sd = np.sqrt(np.clip(var, 0.0, None))
     fb = _eval(vb, th)
     return (vb, fb - q * sd, fb + q * sd)
 
