@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -83,28 +84,7 @@ def profile(
             c = loss_cost(prob.fun(th), loss, f_scale)
         return max(2.0 * (c - cost0) / kappa, 0.0), th
 
-    # walked outward from the optimum on each side, each point refitted from its
-    # neighbour's (pyPESTO's profiler): along a flat valley the few iterations of one
-    # refit then add up instead of restarting from the optimum every time
-    k0 = int(np.argmin(np.abs(np.asarray(grid) - theta[i])))
-    at: dict[float, tuple[float, np.ndarray]] = {}
-    for side in (-1, 1):
-        start = theta
-        ks = range(k0, -1, -1) if side < 0 else range(k0, len(grid))
-        for k in ks:
-            if grid[k] not in at:
-                at[grid[k]] = q_at(grid[k], start)
-            start = at[grid[k]][1]
-        bound = tlo[i] if side < 0 else thi[i]
-        g_end = grid[0] if side < 0 else grid[-1]
-        while at[g_end][0] <= z**2 and side * (bound - g_end) > 1e-9:
-            reach = abs(g_end - theta[i])
-            if reach >= REACH - 1e-9:
-                break
-            g = theta[i] + side * min(2.0 * reach, REACH)
-            g = max(g, bound) if side < 0 else min(g, bound)
-            at[g] = q_at(g, at[g_end][1])
-            g_end = g
+    at = _walk(q_at, grid, theta, i, (tlo[i], thi[i]), z**2)
     grid_a = np.asarray(sorted(at))
     vals_a = np.asarray([at[g][0] for g in grid_a])
     ths = np.asarray([at[g][1] for g in grid_a])
@@ -112,6 +92,39 @@ def profile(
     refitted = {prob.free[k]: prob.ref[k] * np.exp(ths[:, k]) for k in others}
     ci = crossing(grid_a, vals_a, theta[i], z**2, prob.ref[i])
     return Profile(prob.free[i], pv, vals_a, ci, refitted)
+
+
+def _walk(
+    q_at: Callable[[float, np.ndarray], tuple[float, np.ndarray]],
+    grid: list[float],
+    theta: np.ndarray,
+    i: int,
+    bounds: tuple[float, float],
+    level: float,
+) -> dict[float, tuple[float, np.ndarray]]:
+    """The profile's points (value → statistic, refitted θ): the grid walked outward from
+    the optimum on each side, each point refitted from its neighbour's (pyPESTO's profiler:
+    along a flat valley the few iterations of one refit then add up instead of restarting
+    from the optimum every time), then on, doubling the distance, while the statistic stays
+    within ``level``, up to the bound or :data:`REACH`."""
+    k0 = int(np.argmin(np.abs(np.asarray(grid) - theta[i])))
+    at: dict[float, tuple[float, np.ndarray]] = {}
+    for side, bound in ((-1, bounds[0]), (1, bounds[1])):
+        start = theta
+        for k in range(k0, -1, -1) if side < 0 else range(k0, len(grid)):
+            if grid[k] not in at:
+                at[grid[k]] = q_at(grid[k], start)
+            start = at[grid[k]][1]
+        g_end = grid[0] if side < 0 else grid[-1]
+        while at[g_end][0] <= level and side * (bound - g_end) > 1e-9:
+            reach = abs(g_end - theta[i])
+            if reach >= REACH - 1e-9:
+                break
+            g = theta[i] + side * min(2.0 * reach, REACH)
+            g = max(g, bound) if side < 0 else min(g, bound)
+            at[g] = q_at(g, at[g_end][1])
+            g_end = g
+    return at
 
 
 def carry(

@@ -189,7 +189,7 @@ def _params_section(out: Path) -> str:
     )
 
 
-def _truth_flag(low, high, true) -> tuple[str, bool]:
+def _truth_flag(low: float, high: float, true: float) -> tuple[str, bool]:
     """The cell of a table's "true in interval" column (the one rule,
     :func:`~hydropwa.identification.truth_in_interval`; a miss in red) and whether it is one."""
     verdict = truth_in_interval(float(low), float(high), float(true))
