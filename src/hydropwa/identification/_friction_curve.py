@@ -325,7 +325,7 @@ def _profile_shape(
     that parameter held at points walked outward from the optimum in steps of a fifth of
     its bounded range (log χ, δ, log γ; γ from ``g_low`` [s/m] unless the caller bounds
     it), each started from its neighbour's fit, until a fit is significantly worse or the
-    bound is reached; that edge is bisected three times, and each parameter's interval
+    bound is reached; that edge is bisected twice, and each parameter's interval
     becomes the envelope of the intervals of every held value whose fit is not
     significantly worse (ΔSSR/s² ≤ χ²₁(95 %) = 3.84), the held parameter's own interval
     the accepted range; std = half-width / q. The curve's band (:attr:`StribeckFit.band`)
@@ -373,7 +373,7 @@ def _profile_shape(
                 tried.append((x, fit))
                 if fit is None:
                     x_out = x
-                    for _ in range(3):  # the edge to within 1/8 of a step
+                    for _ in range(2):  # the edge to within 1/4 of a step
                         mid = 0.5 * (x_in + x_out)
                         got = trial(i, name, mid, near)
                         tried.append((mid, got))
