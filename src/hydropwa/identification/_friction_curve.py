@@ -435,7 +435,10 @@ def _envelope(
     return out
 
 
-def _band_envelope(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+_Band = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _band_envelope(a: _Band, b: _Band) -> _Band:
     """The envelope of two curve bands (velocity, low, high) on the same velocities."""
     if a[0].shape != b[0].shape:
         return a
