@@ -413,8 +413,9 @@ def _widened(
 ) -> ParameterEstimate:
     """``old`` with the interval (lo, hi) and the standard error its half-width implies
     (on the log scale for χ and γ)."""
-    if log:
-        std = max(old.std, old.value * np.log(hi / lo) / 2 / q)
+    if log:  # an interval reaching 0 on the log scale: not determined on that side
+        half = float(np.log(hi / lo)) / 2 if lo > 0 and np.isfinite(hi) else np.inf
+        std = max(old.std, old.value * half / q)
     else:
         std = max(old.std, 0.5 * (hi - lo) / q)
     return ParameterEstimate(old.value, float(std), (lo, hi), old.unit, old.level)
