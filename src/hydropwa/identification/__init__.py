@@ -9,11 +9,11 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 
 from ._common import (
     ESTIMATOR_CHANNELS,
+    TRUTH_OUTSIDE,
     IdentificationWarning,
     OptimizerStatus,
     ParameterEstimate,
     RigGeometry,
-    TRUTH_OUTSIDE,
     SkippedRun,
     estimator_view,
     sandwich_covariance,
