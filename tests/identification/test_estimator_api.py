@@ -247,7 +247,7 @@ def test_intervals_include_the_gamma_the_data_cannot_pin():
     true = get_preset("paper").friction
     v, f = np.array(_SEED20_V), np.array(_SEED20_F)
     fit = fit_stribeck(v, f)
-    assert "smoothness" in fit.weak and "γ profiled" in fit.status.message
+    assert "smoothness" in fit.weak and "shape profiled" in fit.status.message
     # the true γ fits as well as the optimum by the F criterion the profile uses ...
     at_true = fit_stribeck(v, f, fixed={"smoothness": true.smoothness}, n_starts=8)
     ssr0, ssr1 = np.sum(fit.residuals**2), np.sum(at_true.residuals**2)

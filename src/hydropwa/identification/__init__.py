@@ -10,6 +10,7 @@ run or a list of runs; the numpy-level functions (``fit_sinusoid``,
 from ._baselines import ArxModel, DmdcModel, fit_arx, fit_dmdc, select_arx
 from ._common import (
     ESTIMATOR_CHANNELS,
+    TRUTH_OUTSIDE,
     IdentificationWarning,
     OptimizerStatus,
     ParameterEstimate,
@@ -18,6 +19,7 @@ from ._common import (
     estimator_view,
     sandwich_covariance,
     screen_for_estimator,
+    truth_in_interval,
 )
 from ._deadzone import (
     DeadZoneFit,
@@ -116,6 +118,8 @@ __all__ = [
     "FrictionPoint",
     "IdentificationWarning",
     "ParameterEstimate",
+    "TRUTH_OUTSIDE",
+    "truth_in_interval",
     "SecondOrderFit",
     "SineFit",
     "SkippedRun",

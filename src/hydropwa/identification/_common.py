@@ -10,6 +10,7 @@ intervals.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import warnings
 from collections.abc import Iterable, Mapping
@@ -27,6 +28,8 @@ __all__ = [
     "RigGeometry",
     "SkippedRun",
     "ParameterEstimate",
+    "TRUTH_OUTSIDE",
+    "truth_in_interval",
     "covariance_from_jacobian",
     "sandwich_covariance",
     "as_runs",
@@ -292,6 +295,30 @@ class ParameterEstimate:
 
     def __str__(self) -> str:
         return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}])".strip()
+
+
+#: the verdict of :func:`truth_in_interval` on an interval that misses a known truth
+TRUTH_OUTSIDE = "no: outside"
+
+
+def truth_in_interval(low: float, high: float, true: float | None) -> str:
+    """Whether a known true value (a virtual rig's ``true_params.toml``) lies in an interval.
+
+    The one rule every table that shows an interval beside a truth applies: ``"yes"``,
+    :data:`TRUTH_OUTSIDE` (``"no: outside"``), or ``""`` where the truth or an end of the
+    interval is unknown (NaN, None); an infinite end (a parameter not determined on that
+    side) holds every truth beyond it.
+
+    Parameters
+    ----------
+    low, high : float
+        The interval's ends [unit of the parameter].
+    true : float or None
+        The true value [same unit].
+    """
+    if true is None or any(math.isnan(float(x)) for x in (low, high, true)):
+        return ""
+    return "yes" if float(low) <= float(true) <= float(high) else TRUTH_OUTSIDE
 
 
 def covariance_from_jacobian(

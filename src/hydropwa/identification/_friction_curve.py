@@ -126,6 +126,12 @@ class StribeckFit(FitResult):
         given parameters' value) and reported as not identified.
     velocity, force, residuals : ndarray
         Data [m/s], [N] and residuals f_data − f_model [N].
+    band : (ndarray, ndarray, ndarray)
+        The curve's pointwise confidence band over the speeds the data excite: speeds [m/s]
+        (25, log-spaced from the slowest to the fastest point; the curve is odd) and the
+        band's low and high force [N] there, the envelope over every shape the data do not
+        reject (:func:`_profile_shape`). The curve is determined there where single
+        parameters (F_s against δ and χ) are not.
     rms_residual : float
         RMS residual [N].
     loss : str
@@ -150,6 +156,9 @@ class StribeckFit(FitResult):
     n_starts: int
     status: OptimizerStatus
     unidentified: tuple[str, ...] = ()
+    band: tuple[np.ndarray, np.ndarray, np.ndarray] = dataclasses.field(
+        default=(np.zeros(0), np.zeros(0), np.zeros(0)), repr=False
+    )
 
     def _estimates(self) -> dict[str, ParameterEstimate]:
         return self.estimates
@@ -278,7 +287,8 @@ def fit_stribeck(
     """
     s = _Settings(fixed, loss, f_scale, n_starts, level, seed, bounds, breakaway)
     if "smoothness" in (fixed or {}) or "smoothness" in (bounds or {}):
-        return _fit_stribeck_bounded(v, f, s)
+        fit = _fit_stribeck_bounded(v, f, s)
+        return _profile_shape(v, f, fit, None, max(fit.velocity.size - len(fit.free), 1), s)
     va = np.abs(np.asarray(v, dtype=float))
     vmin = max(float(np.min(va[va != 0])) if np.any(va != 0) else 1e-6, 1e-6)
     strict, wide = (
@@ -293,82 +303,184 @@ def fit_stribeck(
     chosen = wide if ssr_s - ssr_w > 3.84 * ssr_w / dof else strict
     total = strict.status.nfev + wide.status.nfev
     chosen = dataclasses.replace(chosen, status=dataclasses.replace(chosen.status, nfev=total))
-    if "smoothness" in chosen.weak:
-        chosen = _profile_smoothness(v, f, chosen, 0.3 / vmin, dof, s)
-    return chosen
+    return _profile_shape(v, f, chosen, 0.3 / vmin, dof, s)
 
 
-def _profile_smoothness(
-    v, f, best: StribeckFit, g_low: float, dof: int, s: _Settings
+#: the curve's shape parameters (θ index, name): constant-speed data trade each of them
+#: against F_s and F_c along valleys the covariance at the optimum does not see
+_SHAPE = ((3, "stribeck_velocity"), (4, "shape"), (5, "smoothness"))
+
+
+def _profile_shape(
+    v, f, best: StribeckFit, g_low: float | None, dof: int, s: _Settings
 ) -> StribeckFit:
-    """Widen the intervals by the γ the data cannot pin (a profile over γ).
+    """Intervals that carry the weak directions: a profile over each shape parameter.
 
-    With every point at |ẋ| ≫ 1/γ the tanh is saturated at the optimum, γ's Jacobian column
-    vanishes, and the covariance of the other parameters is the one *at that γ*, as if γ were
-    known. But a slow (creeping) point sits on the tanh corner for smaller γ, and there F_s, χ,
-    δ trade against γ: on the paper rig (issue 18, seed 20 of the coverage study) one point at
-    1.5 mm/s gave F_s = 161.0 ± 0.7 N at γ = 3·10⁴ (truth 174.8 N: 19σ), while γ = 1325 (the
-    truth) fits nearly as well (ΔSSR/s² = 3.2 < 3.84) with F_s = 172.2 N. So the fit is
-    repeated with γ held on a grid from its lower bound to the optimum, and each parameter's
-    interval becomes the envelope of the intervals of every γ whose fit is not significantly
-    worse (ΔSSR/s² ≤ χ²₁(95 %) = 3.84); std = half-width / q.
+    The covariance at the optimum is the one *at that shape*, as if χ, δ and γ were known
+    where the data barely pin them. On the paper rig (issue 18, seed 20 of the coverage
+    study) one point at 1.5 mm/s gave F_s = 161.0 ± 0.7 N at γ = 3·10⁴ (truth 174.8 N:
+    19σ), while γ = 1325 (the truth) fits nearly as well (ΔSSR/s² = 3.2 < 3.84) with
+    F_s = 172.2 N; a campaign with δ 1.6 and χ 11 mm/s (issue 49) trades δ and χ against F_s
+    the same way. So, per shape parameter not held by the caller, the fit is repeated with
+    that parameter held at points walked outward from the optimum in steps of a fifth of
+    its bounded range (log χ, δ, log γ; γ from ``g_low`` [s/m] unless the caller bounds
+    it), each started from its neighbour's fit, until a fit is significantly worse or the
+    bound is reached; that edge is bisected four times, and each parameter's interval
+    becomes the envelope of the intervals of every held value whose fit is not
+    significantly worse (ΔSSR/s² ≤ χ²₁(95 %) = 3.84), the held parameter's own interval
+    the accepted range; std = half-width / q. The curve's band (:attr:`StribeckFit.band`)
+    is the envelope of theirs. A parameter whose interval then exceeds ±50 % (a factor 2
+    for χ, γ) is flagged weak; one whose accepted range reaches both ends of its bounds
+    is not identified.
     """
-    g_best = best.friction.smoothness
-    if not g_best > g_low * 1.01:
-        return best
     ssr0 = float(np.sum(best.residuals**2))
     s2 = ssr0 / max(dof, 1)
-    # the profile's fits keep the caller's fixed values, not its bounds, with fewer starts
-    s = dataclasses.replace(s, bounds=None, n_starts=max(4, s.n_starts // 3))
+    fixed = dict(s.fixed or {})
+    # the profile's fits keep the caller's fixed values and bounds; each starts from its
+    # neighbour's fit and from a few of the usual starts (a warm start alone stalled on the
+    # tanh corner: seed 20 of the coverage study accepted no other γ)
+    s = dataclasses.replace(s, n_starts=4)
+    pr = _problem(np.asarray(v, float), np.asarray(f, float), s)
+    lb, ub = pr.lb_all.copy(), pr.ub_all.copy()
+    if g_low is not None and "smoothness" not in (s.bounds or {}):
+        lb[5] = min(lb[5], np.log10(g_low))
+        s = dataclasses.replace(
+            s, bounds={**(s.bounds or {}), "smoothness": (float(10.0 ** lb[5]), 1e7)}
+        )
+    th0 = _theta_of(best.friction)
     est = dict(best.estimates)
-    nfev = best.status.nfev
-    used = 0
+    band = best.band
+    nfev, used = best.status.nfev, 0
+    unidentified = best.unidentified
     q = t_quantile(next(iter(est.values())).level if est else 0.95, dof)
 
-    def trial(g: float) -> StribeckFit | None:
+    def trial(i: int, name: str, x: float, near: StribeckFit) -> StribeckFit | None:
         nonlocal nfev
-        at_g = dataclasses.replace(s, fixed={**(s.fixed or {}), "smoothness": float(g)})
-        fit = _fit_stribeck_bounded(v, f, at_g)
+        val = 10.0**x if i in (3, 5) else x
+        at = dataclasses.replace(s, fixed={**fixed, name: val}, start=_theta_of(near.friction))
+        fit = _fit_stribeck_bounded(v, f, at)
         nfev += fit.status.nfev
         return None if float(np.sum(fit.residuals**2)) - ssr0 > 3.84 * s2 else fit
 
-    # a coarse grid from the bound up, then bisection (log γ) to the smallest γ that fits:
-    # the trade-off is monotone there, so the edge of the region holds the widest intervals
-    grid = np.geomspace(g_low, g_best, 7)[:-1]
-    fits = [(g, trial(g)) for g in grid]
-    accepted = [fit for _, fit in fits if fit is not None]
-    rejected = [g for g, fit in fits if fit is None]
-    if accepted and rejected:
-        lo_g = max(rejected)
-        hi_g = min(g for g, fit in fits if fit is not None and g > lo_g)
-        for _ in range(6):  # to within (γ ratio of a grid step)^(1/64), ≈ 1.5 %
-            mid = float(np.sqrt(lo_g * hi_g))
-            fit = trial(mid)
-            if fit is None:
-                lo_g = mid
-            else:
-                hi_g = mid
-                accepted.append(fit)
-    for fit in accepted:
-        used += 1
-        for name, e in fit.estimates.items():
-            if name not in est or name == "smoothness":
-                continue
-            old = est[name]
-            lo, hi = min(old.ci[0], e.ci[0]), max(old.ci[1], e.ci[1])
-            if (lo, hi) == old.ci:
-                continue
-            if name == "stribeck_velocity":  # log-scale interval: keep its geometric form
-                std = max(old.std, old.value * np.log(hi / lo) / 2 / q)
-            else:
-                std = max(old.std, 0.5 * (hi - lo) / q)
-            est[name] = ParameterEstimate(old.value, float(std), (lo, hi), old.unit, old.level)
+    for i, name in _SHAPE:
+        if name in fixed:
+            continue
+        tried: list[tuple[float, StribeckFit | None]] = [(float(th0[i]), best)]
+        h = (ub[i] - lb[i]) / 5.0
+        for side, end in ((-1.0, lb[i]), (1.0, ub[i])):
+            # walked outward from the optimum, each point started from its neighbour's fit
+            x_in, near = float(th0[i]), best
+            while side * (end - x_in) > 1e-9:
+                x = float(np.clip(x_in + side * h, min(lb[i], ub[i]), max(lb[i], ub[i])))
+                fit = trial(i, name, x, near)
+                tried.append((x, fit))
+                if fit is None:
+                    x_out = x
+                    for _ in range(4):  # the edge to within 1/16 of a step
+                        mid = 0.5 * (x_in + x_out)
+                        got = trial(i, name, mid, near)
+                        tried.append((mid, got))
+                        if got is None:
+                            x_out = mid
+                        else:
+                            x_in, near = mid, got
+                    break
+                x_in, near = x, fit
+        ok = [(x, fit) for x, fit in tried if fit is not None]
+        used += len(ok) - 1
+        for _x, fit in ok:
+            est = _envelope(est, fit.estimates, q, skip=name)
+            band = _band_envelope(band, fit.band)
+        xs = [x for x, _ in ok]
+        held = est[name]
+        lo_x, hi_x = min(xs), max(xs)
+        lo, hi = (10.0**lo_x, 10.0**hi_x) if i in (3, 5) else (lo_x, hi_x)
+        lo, hi = min(lo, held.ci[0]), max(hi, held.ci[1])
+        if (lo, hi) != held.ci:
+            est[name] = _widened(held, lo, hi, q, log=i in (3, 5))
+        if lo_x <= lb[i] + 1e-9 and hi_x >= ub[i] - 1e-9 and name not in unidentified:
+            unidentified += (name,)  # every shape in its bounds fits as well
+    weak = tuple(n for n in best.free if n in best.weak or _too_wide(n, est[n], q))
     status = dataclasses.replace(
         best.status,
         nfev=nfev,
-        message=best.status.message + f" (γ profiled: {used} lower γ fit as well)",
+        message=best.status.message + f" (shape profiled: {used} other shapes fit as well)",
     )
-    return dataclasses.replace(best, estimates=est, status=status)
+    return dataclasses.replace(
+        best, estimates=est, status=status, weak=weak, band=band, unidentified=unidentified
+    )
+
+
+def _widened(
+    old: ParameterEstimate, lo: float, hi: float, q: float, log: bool
+) -> ParameterEstimate:
+    """``old`` with the interval (lo, hi) and the standard error its half-width implies
+    (on the log scale for χ and γ)."""
+    if log:  # an interval reaching 0 on the log scale: not determined on that side
+        half = float(np.log(hi / lo)) / 2 if lo > 0 and np.isfinite(hi) else np.inf
+        std = max(old.std, old.value * half / q)
+    else:
+        std = max(old.std, 0.5 * (hi - lo) / q)
+    return ParameterEstimate(old.value, float(std), (lo, hi), old.unit, old.level)
+
+
+def _envelope(
+    est: dict[str, ParameterEstimate], other: dict[str, ParameterEstimate], q: float, skip: str
+) -> dict[str, ParameterEstimate]:
+    """Each interval of ``est`` widened to hold ``other``'s (the held parameter ``skip`` left)."""
+    out = dict(est)
+    for name, e in other.items():
+        if name not in out or name == skip:
+            continue
+        old = out[name]
+        lo, hi = min(old.ci[0], e.ci[0]), max(old.ci[1], e.ci[1])
+        if (lo, hi) != old.ci:
+            out[name] = _widened(old, lo, hi, q, log=name in ("stribeck_velocity", "smoothness"))
+    return out
+
+
+_Band = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _band_envelope(a: _Band, b: _Band) -> _Band:
+    """The envelope of two curve bands (velocity, low, high) on the same velocities."""
+    if a[0].shape != b[0].shape:
+        return a
+    return (a[0], np.minimum(a[1], b[1]), np.maximum(a[2], b[2]))
+
+
+def _too_wide(name: str, e: ParameterEstimate, q: float) -> bool:
+    """An interval wider than ±50 % of the value (a factor 2 on the log scale for χ, γ)."""
+    lo, hi = e.ci
+    if name in ("stribeck_velocity", "smoothness"):
+        return bool(lo <= 0 or hi / e.value > 2.0 or e.value / lo > 2.0)
+    return bool(0.5 * (hi - lo) > 0.5 * abs(e.value))
+
+
+def _curve_band(v: np.ndarray, th: np.ndarray, cov: np.ndarray, free_idx: list[int], q: float):
+    """The fitted curve's pointwise interval over the speeds the data excite: (velocity [m/s],
+    low [N], high [N]) on 25 speeds log-spaced from the slowest to the fastest |ẋ| (the
+    curve is odd), f ± q·√(J·Cov·Jᵀ) with J the curve's Jacobian at each speed."""
+    va = np.abs(v[v != 0])
+    if va.size == 0 or cov.size == 0:
+        z = np.zeros(0)
+        return (z, z, z)
+    vb = np.geomspace(float(va.min()), float(va.max()), 25)
+    Jb = _jac_theta(vb, th)[:, free_idx]
+    # a direction without a variance (not determined) that does not move the curve at these
+    # speeds (a saturated tanh's γ) leaves the band alone; one that does makes it unbounded
+    bad = ~np.isfinite(np.diag(cov))
+    moves = np.max(np.abs(Jb), axis=0) > 1e-9 * max(float(np.max(np.abs(Jb))), 1e-300)
+    keep = ~bad
+    c = np.nan_to_num(cov[np.ix_(keep, keep)], nan=0.0, posinf=0.0, neginf=0.0)
+    Jk = Jb[:, keep]
+    var = np.einsum("ij,jk,ik->i", Jk, c, Jk)
+    if np.any(bad & moves):
+        var = np.full(vb.size, np.inf)
+    var = np.where(np.isnan(var), np.inf, var)  # a covariance that is not a number bounds nothing
+    sd = np.sqrt(np.clip(var, 0.0, None))
+    fb = _eval(vb, th)
+    return (vb, fb - q * sd, fb + q * sd)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -383,6 +495,8 @@ class _Settings:
     seed: int = 0
     bounds: dict[str, tuple[float, float]] | None = None
     breakaway: tuple[float, float] | None = None
+    #: θ to start from first (a profile's neighbouring point), before the multistart
+    start: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -479,7 +593,13 @@ def _problem(v: np.ndarray, f: np.ndarray, s: _Settings) -> _Problem:
 
 def _starts(pr: _Problem, s: _Settings) -> list[np.ndarray]:
     """Starting points in the free θ: a grid over (log χ, δ, log γ) plus random draws, the
-    forces from the linear fit at each."""
+    forces from the linear fit at each; ``s.start`` first where given."""
+    first = []
+    if s.start is not None:
+        th0 = np.asarray(s.start, dtype=float).copy()
+        for i, val in pr.fixed_th.items():
+            th0[i] = val
+        first = [np.clip(th0[pr.free_idx], pr.lb + 1e-9, pr.ub - 1e-9)]
     rng = np.random.default_rng(s.seed)
     lo_s, hi_s = pr.lb_all[3:], pr.ub_all[3:]
     v = pr.v
@@ -504,7 +624,7 @@ def _starts(pr: _Problem, s: _Settings) -> list[np.ndarray]:
         for i, val in pr.fixed_th.items():
             th0[i] = val
         starts.append(np.clip(th0[pr.free_idx], pr.lb + 1e-9, pr.ub - 1e-9))
-    return starts
+    return first + starts
 
 
 def _solve(pr: _Problem, s: _Settings) -> tuple[Any, int, int]:
@@ -656,6 +776,7 @@ def _fit_stribeck_bounded(v, f, s: _Settings) -> StribeckFit:
         n_starts,
         OptimizerStatus(bool(best.success), str(best.message), nfev, None),
         tuple(unidentified),
+        _curve_band(v, th, cov, pr.free_idx, q),
     )
 
 

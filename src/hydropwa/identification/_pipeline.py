@@ -649,6 +649,26 @@ def _friction_summary(friction: StribeckIdentifier, params: SystemParams) -> lis
             f"{', '.join(fit.unidentified)}. Give runs that determine them or the "
             "machine's values with --params."
         )
+    lines += _band_lines(fit)
     lines += [f"Note: {n}." for n in friction.notes_]
     lines.append("")
     return lines
+
+
+def _band_lines(fit: Any) -> list[str]:
+    """The fitted curve's 95 % band at five of the speeds the data excite: where single
+    parameters trade against each other (F_s against δ and χ) the curve is still known."""
+    vb, lo, hi = fit.band
+    if vb.size == 0:
+        return []
+    pick = np.unique(np.round(np.linspace(0, vb.size - 1, 5)).astype(int))
+    return [
+        "",
+        f"Friction curve, {100 * fit.estimates[fit.free[0]].level:g} % band over the speeds the "
+        f"data excite ({1e3 * vb[0]:.3g}–{1e3 * vb[-1]:.3g} mm/s; the curve is odd):",
+        "",
+        "| speed [mm/s] | force [N] |",
+        "|---|---|",
+        *(f"| {1e3 * vb[k]:.3g} | {lo[k]:.4g} … {hi[k]:.4g} |" for k in pick),
+        "",
+    ]

@@ -31,6 +31,7 @@ from .jacobian import DIFFERENCES
 from .objective import LOSSES, OutputErrorObjective
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem, expand_free
+from .profile import carry
 from .profile import profile as _profile
 from .report import fitted_params, identifiability, run_fits
 from .result import FitStatus, GreyBoxFit, Profile
@@ -878,6 +879,7 @@ def fit_model(
         to_profile = list(dict.fromkeys(weak + est.widened))  # the cost is not quadratic
         profiles = _profiles(opts, data, to_profile, est, plan, best, got, client)
     ident.undetermined += _profile_intervals(est, profiles, ident.undetermined)
+    _carry_weak(est, profiles, ident.undetermined, data.notes)
     sol = best.sol
     info = {
         "model": data.base_model.name,
@@ -979,6 +981,24 @@ def _profile_intervals(
         else:
             est.estimates[n] = dataclasses.replace(e, ci=(lo, hi))
     return out
+
+
+def _carry_weak(
+    est: _Estimate, profiles: dict[str, Profile], undetermined: list[str], notes: list[str]
+) -> None:
+    """Every interval widened to the values the others' profiles refitted within their
+    threshold (:func:`~hydropwa.identification.greybox.profile.carry`): the weak directions
+    carried into the intervals of the parameters they trade against; a note names them."""
+    keep = {n: e for n, e in est.estimates.items() if n not in undetermined}
+    got, widened = carry(keep, profiles, est.z**2)
+    est.estimates.update(got)
+    if widened:
+        est.widened += [n for n in widened if n not in est.widened]
+        notes.append(
+            "Intervals widened along the profiles of "
+            + ", ".join(profiles)
+            + f" (values the data do not reject): {', '.join(widened)}."
+        )
 
 
 def _weak(est: _Estimate, undetermined: list[str]) -> list[str]:

@@ -150,12 +150,17 @@ class Profile:
     ci : tuple of float
         Profile interval (low, high) [SI]: where the curve stays below 3.84 (a bound
         of the grid when it never rises that far: the data do not limit it there).
+    refitted : dict[str, ndarray]
+        The other free parameters [SI] refitted at each of ``values``: where the profile
+        stays below the threshold they are values the data do not reject either, so their
+        intervals must reach them (:func:`~hydropwa.identification.greybox.profile.carry`).
     """
 
     name: str
     values: np.ndarray
     cost: np.ndarray
     ci: tuple[float, float]
+    refitted: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass

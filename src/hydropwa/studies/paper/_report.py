@@ -14,6 +14,7 @@ from ... import __version__
 from ..._io import atomic_write_text
 from ...control import METRIC_UNITS, POSITIONING_TASK
 from ...data import read_dataset
+from ...identification import TRUTH_OUTSIDE, truth_in_interval
 from ...linearization import reproduce_paper_tables
 from ...params import params_to_toml
 from ._report_control import closed_loop_verification_html
@@ -90,10 +91,14 @@ def _cell(v) -> str:
     return html.escape(str(v))
 
 
-def _table(df, caption: str = "") -> str:
+def _table(df, caption: str = "", raw: tuple[str, ...] = ()) -> str:
+    """An HTML table of ``df``; the columns ``raw`` hold HTML already (flags)."""
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+    keep = [c in raw for c in df.columns]
     body = "\n".join(
-        "<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in row) + "</tr>"
+        "<tr>"
+        + "".join(f"<td>{v if k else _cell(v)}</td>" for v, k in zip(row, keep, strict=True))
+        + "</tr>"
         for row in df.itertuples(index=False)
     )
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
@@ -164,12 +169,8 @@ def _params_section(out: Path) -> str:
                 f"<td>{g(true)}</td><td></td></tr>"
             )
             continue
-        if math.isfinite(true) and math.isfinite(float(r.ci_low)):
-            inside = float(r.ci_low) <= true <= float(r.ci_high)
-            flag = "yes" if inside else "<b style='color:#b00'>no: outside</b>"
-            n_out += not inside
-        else:
-            flag = ""
+        flag, outside = _truth_flag(r.ci_low, r.ci_high, true)
+        n_out += outside
         rows.append(
             f"<tr><td>{html.escape(str(r.parameter))}</td><td>{html.escape(str(r.unit))}</td>"
             f"<td>{g(r.identified)}</td><td>{_cell(float(r.std))}</td>"
@@ -187,16 +188,29 @@ def _params_section(out: Path) -> str:
             "true in interval",
         )
     )
-    note = (
-        f"<p class='small'><b>{n_out} true value(s) outside their interval</b>: the interval covers the "
-        "statistical error of the fit, not a bias of the method (see docs/architecture_identification.md).</p>"
-        if n_out
-        else ""
-    )
     return (
         "<table><caption>identified parameters: estimate, standard error, confidence interval, "
         "true value (virtual rig; empty when unknown)</caption>"
-        f"<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{note}"
+        f"<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{_outside_note(n_out)}"
+    )
+
+
+def _truth_flag(low: float, high: float, true: float) -> tuple[str, bool]:
+    """The cell of a table's "true in interval" column (the one rule,
+    :func:`~hydropwa.identification.truth_in_interval`; a miss in red) and whether it is one."""
+    verdict = truth_in_interval(float(low), float(high), float(true))
+    if verdict == TRUTH_OUTSIDE:
+        return f"<b style='color:#b00'>{html.escape(verdict)}</b>", True
+    return html.escape(verdict), False
+
+
+def _outside_note(n_out: int) -> str:
+    """The line under a table with ``n_out`` true values outside their intervals."""
+    if not n_out:
+        return ""
+    return (
+        f"<p class='small'><b>{n_out} true value(s) outside their interval</b>: the interval covers the "
+        "statistical error of the fit, not a bias of the method (see docs/architecture_identification.md).</p>"
     )
 
 
@@ -483,9 +497,24 @@ def _greybox_section(out: Path, status: str = "") -> str:
     if not f.is_file():
         return "<p>No grey-box fit (see the notes).</p>"
     line = f"<p class='small'>{html.escape(status)}</p>" if status else ""
-    return line + _table(
-        pd.read_csv(f),
-        "grey-box estimates: value, standard error, 95 % interval, variance inflation",
+    df = pd.read_csv(f)
+    n_out = 0
+    if "true" in df:  # virtual-rig data: every interval checked against the truth
+        flags = [
+            _truth_flag(lo, hi, t)
+            for lo, hi, t in zip(df["ci_low"], df["ci_high"], df["true"], strict=True)
+        ]
+        df["true in interval"] = [c for c, _ in flags]
+        n_out = sum(o for _, o in flags)
+    return (
+        line
+        + _table(
+            df,
+            "grey-box estimates: value, standard error, 95 % interval, variance inflation"
+            + (", true value (virtual rig)" if "true" in df else ""),
+            raw=("true in interval",),
+        )
+        + _outside_note(n_out)
     )
 
 

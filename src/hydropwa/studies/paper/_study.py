@@ -51,6 +51,7 @@ from ...identification import (
     identify,
     machine_for,
     recorded_machine,
+    truth_in_interval,
 )
 from ...linearization import export_pwa, friction_function, linearize, load_pwa, save_pwa
 from ...models import FullOrderModel
@@ -301,7 +302,7 @@ _ESTIMATE_COLUMNS = [
 def _estimates_rows(name_unit_est: list[tuple[str, str, Any, float | None]]) -> list[dict]:
     rows = []
     for name, unit, est, true in name_unit_est:
-        inside = "" if true is None else ("yes" if est.ci[0] <= true <= est.ci[1] else "NO")
+        inside = truth_in_interval(est.ci[0], est.ci[1], true)
         rows.append(
             {
                 "parameter": name,
