@@ -35,7 +35,7 @@ CALLED_FROM_PYTHON = ("_physics", "_signals")
 
 def _compile_all() -> None:
     """Compile every warm-up kernel in this process (the child of :func:`build`)."""
-    from . import _kernel as K
+    from . import _kernel as K  # deferred: only the build's child compiles
 
     cpu: dict[str, float] = {}  # CPU time of each entry's compile [s]
     for name in K.WARMUP_NAMES:
