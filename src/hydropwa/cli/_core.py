@@ -229,10 +229,9 @@ def simulate_command(
         command = run["u"]
         if prm.valve.command_voltage > 0.0:  # the machine's commands are volts ([valve])
             command = prm.valve.command_from_volts(command)
-            volts = (
-                f"; u read in V as (u - {prm.valve.null_voltage:g} V)/"
-                f"{prm.valve.command_voltage:g} V"
-            )
+            null = prm.valve.null_voltage
+            sign = "-" if null >= 0.0 else "+"
+            volts = f"; u read in V as (u {sign} {abs(null):g} V)/{prm.valve.command_voltage:g} V"
         u = Sampled(run.t - run.t[0], command)
         if duration_s is None:
             duration_s = float(run.t[-1] - run.t[0])
