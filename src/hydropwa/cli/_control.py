@@ -19,12 +19,12 @@ from .._io import check_output, read_text
 from .._limits import check_position
 from ._app import error_line, new_app
 from ._options import (
-    SAMPLE_TIME_METAVAR,
     MachineParamsOption,
     ParamsOption,
     duration_option,
     parse_sample_time,
     resolve_params,
+    sample_time_option,
     sample_time_source,
 )
 
@@ -278,10 +278,8 @@ def design_command(
     ] = None,
     sample_time: Annotated[
         str | None,
-        typer.Option(
-            "--sample-time",
-            metavar=SAMPLE_TIME_METAVAR,
-            help="Controller sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms).",
+        sample_time_option(
+            "Controller sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms)."
         ),
     ] = None,
     rate: Annotated[

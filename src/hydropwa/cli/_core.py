@@ -15,11 +15,11 @@ from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
 from ._options import (
     MACHINE_FIX,
-    SAMPLE_TIME_METAVAR,
     ParamsOption,
     duration_option,
     parse_sample_time,
     resolve_params,
+    sample_time_option,
     sample_time_source,
 )
 
@@ -149,10 +149,8 @@ def simulate_command(
     ] = None,
     sample_time: Annotated[
         str | None,
-        typer.Option(
-            "--sample-time",
-            metavar=SAMPLE_TIME_METAVAR,
-            help="Output sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms).",
+        sample_time_option(
+            "Output sampling: a period ('0.5 ms') or a rate ('2 kHz') (default: 0.5 ms)."
         ),
     ] = None,
     fs: Annotated[

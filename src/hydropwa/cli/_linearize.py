@@ -14,7 +14,7 @@ import typer
 from hydropwa._errors import PwaError
 
 from ._app import new_app
-from ._options import SAMPLE_TIME_METAVAR, ParamsOption, parse_sample_time, resolve_params
+from ._options import ParamsOption, parse_sample_time, resolve_params, sample_time_option
 
 if TYPE_CHECKING:
     from hydropwa.params import SystemParams
@@ -249,11 +249,7 @@ def _run(
     ] = False,
     sample_time: Annotated[
         str | None,
-        typer.Option(
-            "--sample-time",
-            metavar=SAMPLE_TIME_METAVAR,
-            help="ZOH-discretise the cells: a period ('1 ms') or a rate ('1 kHz').",
-        ),
+        sample_time_option("ZOH-discretise the cells: a period ('1 ms') or a rate ('1 kHz')."),
     ] = None,
     figures: Annotated[
         Path | None, typer.Option("--figures", help="Folder for Figs. 1-2 (PNG+SVG).")

@@ -62,11 +62,20 @@ __all__ = [
     "params_source",
     "parse_sample_time",
     "resolve_params",
+    "sample_time_option",
     "sample_time_source",
 ]
 
 #: How help texts show the value of ``--sample-time``.
 SAMPLE_TIME_METAVAR = "PERIOD|RATE"
+
+
+def sample_time_option(help_text: str) -> Any:
+    """The ``--sample-time`` option (a period or a rate, :func:`parse_sample_time`) with a
+    command's own help text."""
+    return typer.Option("--sample-time", metavar=SAMPLE_TIME_METAVAR, help=help_text)
+
+
 #: The help ending of every ``--jobs/-j`` (default ``None``: all cores).
 JOBS_HELP = "(default: all cores)"
 

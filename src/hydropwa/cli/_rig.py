@@ -16,11 +16,11 @@ import typer
 
 from ._app import new_app
 from ._options import (
-    SAMPLE_TIME_METAVAR,
     ParamsOption,
     jobs_option,
     parse_sample_time,
     resolve_params,
+    sample_time_option,
 )
 
 __all__ = ["app"]
@@ -183,11 +183,7 @@ def plan_command(
     ] = "machine",
     sample_time: Annotated[
         str,
-        typer.Option(
-            "--sample-time",
-            metavar=SAMPLE_TIME_METAVAR,
-            help="The rig controller's sampling: a period ('1 ms') or a rate ('1 kHz').",
-        ),
+        sample_time_option("The rig controller's sampling: a period ('1 ms') or a rate ('1 kHz')."),
     ] = "1 kHz",
     stroke_margin: Annotated[
         str | None, _limit("--stroke-margin", "Distance to each end stop (default 5 mm).")

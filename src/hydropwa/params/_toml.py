@@ -102,6 +102,16 @@ PLAUSIBLE: dict[tuple[str, str], tuple[float, float, tuple[tuple[str, float], ..
     ("accumulator", "hose_length"): (1e-2, 100.0, _MM),
     ("accumulator", "hose_diameter"): (1e-4, 0.2, _MM),
     ("accumulator", "viscosity"): (1e-4, 10.0, (("mPa*s", 1e-3),)),
+    # the valve's volt scale: ±10 V servo inputs, a null of millivolts (FASTER: 22 mV)
+    ("valve", "command_voltage"): (0.1, 100.0, (("mV", 1e-3),)),
+    ("valve", "null_voltage"): (1e-6, 10.0, (("mV", 1e-3),)),
+    ("cylinder", "external_leakage_a"): (1e-18, 1e-7, _PER_BAR),
+    ("cylinder", "external_leakage_b"): (1e-18, 1e-7, _PER_BAR),
+    # a specimen: a rubber pad's 1e3 N/m to a steel block's 1e11 N/m
+    ("load", "specimen_stiffness"): (1.0, 1e12, (("N/mm", 1e3), ("kN/mm", 1e6))),
+    ("load", "specimen_damping"): (1e-3, 1e9, (("kN*s/m", 1e3),)),
+    ("load", "contact_position"): (1e-5, 20.0, _MM),
+    ("load", "preload"): (1e-3, 1e8, (("kN", 1e3),)),
 }
 
 #: Pint spellings of display units, for the example a hint writes.
