@@ -101,6 +101,7 @@ def test_cli_design_measures_the_verification_noise_from_a_dataset(tmp_path, cap
         "pi",
         "--draws",
         "1",
+        "--write-unverified",  # a PI fails the verification; this test is about the noise
         "--out",
         str(ctrl),
     ]
@@ -202,8 +203,9 @@ def test_cli_dead_zone_hysteresis_is_refused_where_it_means_nothing(tmp_path, ca
 
     out = ["--no-verify", "--out", str(tmp_path / "c.toml")]
     cases = [
-        (["--dead-zone-hysteresis", "0.5"], "must be a share of the opening"),
-        (["--dead-zone-hysteresis", "nan"], "must be a share of the opening"),
+        # the command's own rule (< 0.1) and the CLI's range table (finite, in [0, 0.5])
+        (["--dead-zone-hysteresis", "0.5"], "share of the opening"),
+        (["--dead-zone-hysteresis", "nan"], "share of the opening"),
         (["--method", "pi", "--dead-zone-hysteresis", "0.005"], "needs the dead-zone inverse"),
         (
             ["--no-dead-zone-inverse", "--dead-zone-hysteresis", "0.005"],
