@@ -352,13 +352,13 @@ def test_sandwich_intervals_hold_where_the_noise_varies_from_point_to_point():
 
 
 def test_paper_report_flags_a_truth_outside_its_interval():
-    from hydropwa.identification._common import estimate
+    from hydropwa.identification._common import TRUTH_OUTSIDE, estimate
     from hydropwa.studies.paper._study import _estimates_rows
 
     rows = _estimates_rows(
         [("a", "1", estimate(1.0, 0.01, 2.0), 1.5), ("b", "1", estimate(1.0, 0.01, 2.0), 1.0)]
     )
-    assert [r["true_in_ci"] for r in rows] == ["NO", "yes"]
+    assert [r["true_in_ci"] for r in rows] == [TRUTH_OUTSIDE, "yes"]  # the one flag rule
 
 
 def test_paper_with_only_sine_runs_keeps_the_rest_and_says_so(tmp_path):
