@@ -72,6 +72,7 @@ import time
 import warnings
 from collections.abc import Callable
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -421,11 +422,10 @@ COMPILE_TIMES = "hydropwa-compile-seconds.json"
 def _record_compile(dispatcher, seconds: float) -> None:
     """Keep the wall time ``dispatcher`` took to compile on this machine (for the next notice)."""
     try:
-        path = os.path.join(dispatcher._cache.cache_path, COMPILE_TIMES)
-        times = json.loads(open(path).read()) if os.path.exists(path) else {}
+        path = Path(dispatcher._cache.cache_path, COMPILE_TIMES)
+        times = json.loads(path.read_text()) if path.exists() else {}
         times[dispatcher._cache._impl.filename_base] = round(seconds, 1)
-        with open(path, "w") as fh:
-            fh.write(json.dumps(times))
+        path.write_text(json.dumps(times))
     except Exception:  # a read-only cache folder, numba internals differ: nothing to keep
         pass
 
@@ -439,9 +439,9 @@ def _expected_compile(dispatcher) -> str:
     """
     try:
         base = dispatcher._cache._impl.filename_base
-        here = os.path.join(dispatcher._cache.cache_path, COMPILE_TIMES)
-        if os.path.exists(here):
-            seconds = json.loads(open(here).read()).get(base)
+        here = Path(dispatcher._cache.cache_path, COMPILE_TIMES)
+        if here.exists():
+            seconds = json.loads(here.read_text()).get(base)
             if seconds is not None:
                 return f"~{seconds:.0f} s, as it took on this machine last time"
         build = json.loads((_jitcache.PREBUILT_DIR / "BUILD.json").read_text())
