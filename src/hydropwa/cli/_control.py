@@ -201,7 +201,7 @@ def _sensor_noise(text: str | None, option: str = "--sensor-noise") -> dict[str,
 
 def _sample_time(sample_time: str | None, rate: str | None) -> float:
     """T_s [s] from ``--sample-time`` (or its old name ``--rate``); default 0.5 ms (2 kHz)."""
-    return parse_sample_time(sample_time_source(sample_time, rate, "--rate", "Hz") or "0.5 ms")
+    return parse_sample_time(sample_time_source(sample_time, rate, "--rate", "Hz"))
 
 
 def _noise_from(path: Path, given: str | None) -> dict[str, float]:

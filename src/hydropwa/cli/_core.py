@@ -207,7 +207,7 @@ def simulate_command(
     if input is not None and input_file is not None:
         raise SignalError("give either --input or --input-file, not both")
     duration_s = None if duration is None else parse_quantity(duration, "s", "--duration")
-    sampling = sample_time_source(sample_time, fs, "--fs", "Hz") or "0.5 ms"
+    sampling = sample_time_source(sample_time, fs, "--fs", "Hz")
     fs_hz = round(1.0 / parse_sample_time(sampling), 9)  # '0.5 ms' → exactly 2000 Hz
     u: Sampled | str
     volts = ""

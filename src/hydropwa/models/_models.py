@@ -162,8 +162,10 @@ class SmoothModelStates:
 def _specimen_at_rest(params: SystemParams, x: float) -> float:
     """Force [N] of the specimen on the rod at rest at x (:func:`~hydropwa.components.specimen_force`)."""
     ld = params.load
+    # The same source run as Python: one scalar at set-up is not worth a compiled call's
+    # dispatch (loading the entry and numba's target costs ~0.3 CPU-s in a fresh process).
     return float(
-        specimen_force(
+        specimen_force.py_func(
             x, 0.0, ld.specimen_stiffness, ld.specimen_damping, ld.contact_position, ld.preload
         )
     )
