@@ -48,13 +48,22 @@ def _cpu() -> float:
     return ru.ru_utime + ru.ru_stime
 
 
+def _env(**extra: str) -> dict[str, str]:
+    """This process's environment for a timed child, as a user's shell has it: without
+    ``PYTHONDONTWRITEBYTECODE`` (set on some CI and sandbox machines, it makes every process
+    compile the sources of every module it imports, ~1.5 CPU-s a command here; a user's
+    install writes the bytecode once), with ``extra`` added."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, **extra}
+
+
 def timed(cmd: list[str], cwd: Path, cache: Path) -> tuple[float, float]:
     """(wall, CPU) seconds of ``cmd`` and its child processes.
 
     CPU time is what the command costs on an idle machine with one core per busy process; on
     a shared machine the wall time grows with the load, the CPU time much less.
     """
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg", **EXTRA_ENV)
+    env = _env(NUMBA_CACHE_DIR=str(cache), MPLBACKEND="Agg", **EXTRA_ENV)
     c0, t0 = _cpu(), time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
     wall, cpu = time.perf_counter() - t0, _cpu() - c0
@@ -66,7 +75,8 @@ def timed(cmd: list[str], cwd: Path, cache: Path) -> tuple[float, float]:
 def import_time() -> float:
     code = "import time; t = time.perf_counter(); import hydropwa; print(time.perf_counter() - t)"
     runs = [
-        float(subprocess.check_output([sys.executable, "-c", code], text=True)) for _ in range(5)
+        float(subprocess.check_output([sys.executable, "-c", code], text=True, env=_env()))
+        for _ in range(5)
     ]
     return min(runs)
 
