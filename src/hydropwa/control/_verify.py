@@ -596,7 +596,9 @@ def design_controller(
     Parameters
     ----------
     model : PwaModel
-    method : {"lqr", "place", "pi"}
+    method : str
+        ``"lqr"``, ``"place"`` or ``"pi"``; default the one default design's
+        (:data:`~hydropwa.control.DEFAULT_DESIGN`).
     weights : mapping, optional
         LQR Bryson maxima (:data:`~hydropwa.control.DEFAULT_WEIGHTS`).
     verify : bool

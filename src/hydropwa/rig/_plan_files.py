@@ -31,8 +31,10 @@ def positioning_reference(
         Positions [m].
     rate : float
         Sample rate [Hz].
-    v, a : float
-        Cruise speed [m/s] and acceleration [m/s²] of the move.
+    v : float
+        Cruise speed [m/s] of the move.
+    a : float
+        Acceleration [m/s²] of the move (default 1 m/s²).
 
     Returns
     -------
