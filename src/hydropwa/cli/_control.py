@@ -28,7 +28,7 @@ from ._options import (
     sample_time_source,
 )
 
-__all__ = ["app", "design_command", "simulate_command", "export_command"]
+__all__ = ["app", "design_command", "simulate_command", "export_command", "certify_command"]
 
 app = new_app(
     "control", help="Closed-loop position control: design on the PWA model, verify on any model."
@@ -735,6 +735,46 @@ def export_command(
         export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
+
+
+@app.command("certify")
+def certify_command(
+    controller: Annotated[
+        Path, typer.Argument(help="Controller file (.toml/.json) from 'control design'.")
+    ],
+    params: MachineParamsOption = None,
+    delay_samples: Annotated[
+        int | None,
+        typer.Option(
+            "--delay-samples",
+            help="Samples of delay between computation and valve (default: the file's, 0 or 1).",
+        ),
+    ] = None,
+    write: Annotated[
+        bool,
+        typer.Option("--write", help="Write the [certificate] table into the controller file."),
+    ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace a [certificate] the file holds.")
+    ] = False,
+) -> None:
+    """Certify the loop at a hold: the ultimate bound on the position error and the region it is reached from."""
+    from ..control import load_controller  # deferred: loaded only when this command runs
+    from ..control._certify import (  # deferred: loaded only when this command runs
+        certify,
+        write_certificate,
+    )
+    from ..linearization import linearize  # deferred: loaded only when this command runs
+
+    ctrl = load_controller(controller)
+    prm = _machine_of(controller) if params is None else resolve_params(params)
+    cert = certify(ctrl, linearize(prm), delay_samples=delay_samples)
+    typer.echo(cert.summary())
+    if write:
+        write_certificate(controller, cert, overwrite=force)
+        typer.echo(f"wrote [certificate] into {controller}")
+    if not cert.success:
+        raise typer.Exit(code=1)
 
 
 def _start_position(x0: str | None, ref, params) -> float:
