@@ -1,5 +1,6 @@
-"""The loop certificate (issue 51): two independent assemblies of the certified loop agree, the
-checker rejects a wrong certificate, and the default design's verdict states why it fails."""
+"""The loop certificate (issue 51): two independent assemblies of the certified loop agree, an
+invariant ellipsoid found for a loop is accepted by the checker and a wrong one rejected, and
+the default design's verdict says why it is not certified."""
 
 import dataclasses
 import tomllib
@@ -13,12 +14,10 @@ from hydropwa.cli import app
 from hydropwa.control import controller_schema, load_controller, save_controller
 from hydropwa.control._certcheck import _expm, check_certificate, row_matrices
 from hydropwa.control._certify import (
-    Certificate,
     CertificateStatus,
     _row_loop,
     _scaled,
     _scales,
-    _solve_lyapunov,
     certify,
     loop_data,
 )
@@ -29,92 +28,54 @@ def data(default, paper_pwa):
     return loop_data(default, paper_pwa)
 
 
+@pytest.fixture(scope="module")
+def quiet_row(default, paper_pwa):
+    """One gain row of the default design without friction and with 1/100 of the noise: a loop
+    whose invariant ellipsoid lies inside its linear region (certified in ~10 s)."""
+    d = loop_data(default, paper_pwa)
+    w3 = [c for c in d.cells if c["label"].startswith("s=+1 o=0 w=3")]
+    bounds = {k: v / 100 for k, v in d.bounds.items()} | {"friction": 0.0}
+    return dataclasses.replace(d, cells=tuple(w3), bounds=bounds, integral_band=0.0)
+
+
 def test_checker_exponential_matches_scipy():
-    # the checker's own expm against scipy's Padé on matrices up to the loop's stiffness
-    # (‖A T_s‖ ≈ 400 for the valve's ω0² T_s): agreement to 1e-10 of the norm
+    # the checker's own expm against scipy's Padé up to the sampled valve's stiffness
+    # (‖A T_s‖ ≈ 200): agreement to 1e-10 of the norm
     rng = np.random.default_rng(1)
     for scale in (0.1, 3.0, 40.0):
-        M = rng.normal(size=(9, 9)) * scale / 3
-        M -= np.eye(9) * scale  # stable, as the sampled plants are
+        M = rng.normal(size=(9, 9)) * scale / 3 - np.eye(9) * scale
         ref = expm(M)
         assert np.abs(_expm(M) - ref).max() <= 1e-10 * max(1.0, np.abs(ref).max())
 
 
 @pytest.mark.parametrize("delay", [1, 3])
 def test_two_assemblies_of_the_loop_agree(default, paper_pwa, delay):
-    # the certifier's loop (scipy expm, its own assembly) and the checker's (its own series,
+    # the certifier's loop (scipy's expm, its assembly) and the checker's (its own series,
     # assembled from the law's text) share no code: they agree to 1e-9 of each matrix's size
     d = loop_data(default, paper_pwa, delay_samples=delay)
+    assert d.n_states == 9 + delay
     for cell in d.cells:
         Mi, Ml, E, a, _k, _h = _row_loop(d, cell)
         Mi2, Ml2, EA = row_matrices(d, cell)
-        for x, y in ((Mi, Mi2), (Ml, Ml2), (E, EA[:, :5]), (a, EA[:, 5])):
+        for x, y in ((Mi, Mi2), (Ml, Ml2), (E, EA[:, :5])):
             assert np.abs(x - y).max() <= 1e-9 * np.abs(x).max()
+        assert np.abs(a - EA[:, 5]).max() <= 1e-9 * (1.0 + np.abs(a).max())
 
 
 def test_rows_are_stable_alone_with_the_friction_bounded(data):
-    # with the Stribeck drop as a bounded force (not the falling branch's slope) every row's
-    # loop contracts in both integral modes; its slowest mode is the integral's (≈ 0.995)
-    S = _scales(data)
+    # with the Stribeck drop as a bounded force (not the falling branch's slope, 1.42 per
+    # sample on the paper rig) every row's loop contracts in both integral modes; the slowest
+    # mode is the integral's, ≈ 0.995 per sample
     for Mi, Ml in _scaled(data).modes:
         for M in (Mi, Ml):
-            r = np.abs(np.linalg.eigvals(M)).max()
-            assert 0.98 < r < 1.0
-    assert S.shape == (data.n_states,)
+            assert 0.98 < np.abs(np.linalg.eigvals(M)).max() < 1.0
 
 
-def _one_row_certificate(data, P, lam):
-    return Certificate(
-        status=CertificateStatus.CERTIFIED,
-        success=False,
-        message="",
-        e_bar=1.0,
-        box=(0.0, 0.0, 0.0),
-        reach_time=0.0,
-        P=P,
-        scales=_scales(data),
-        lam=lam,
-        level_ultimate=0.0,
-        level_region=1.0,
-        rho=np.zeros(1),
-        rho_hold=0.0,
-        disturbance={},
-        failing_rows=(),
-        not_modelled=(),
-        model_hash="",
-        law_hash="",
-        data=data,
-    )
-
-
-def test_checker_rejects_a_wrong_lyapunov_matrix(data):
-    one = dataclasses.replace(data, cells=(data.cells[0],))
-    lam = 0.999
-    P = _solve_lyapunov(_scaled(one), one, lam)
-    assert P is not None
-
-    def lmi_failures(Pm):
-        res = check_certificate(_one_row_certificate(one, Pm, lam), one)
-        return [f for f in res.failures if "λP" in f]
-
-    assert lmi_failures(P) == []
-    assert lmi_failures(7.0 * P) == []  # MᵀPM ≼ λP is invariant under P → αP
-    D = np.diag(np.geomspace(1.0, 30.0, one.n_states))
-    assert lmi_failures(D @ P @ D)  # a distorted P: the decrease fails
-    assert check_certificate(_one_row_certificate(one, -P, lam), one).failures == (
-        "P is not symmetric positive definite",
-    )
-
-
-def test_default_paper_design_is_not_certified_and_says_why(default, paper_pwa):
+def test_default_design_is_not_certified_and_says_why(default, paper_pwa):
     cert = certify(default, paper_pwa)
-    # measured: the integral band's hold (I frozen while |e| > e_I) is a perturbation of the
-    # slow integral mode larger than its contraction; the verdict says so with the numbers
-    assert not cert.success
-    assert cert.status is CertificateStatus.NO_BOUND
-    assert cert.rho_hold > 1.0 - np.sqrt(cert.lam) > 0
-    assert "ρ₁" in cert.message and cert.e_bar == np.inf
-    assert "not certified" in cert.to_dict()["verdict"]
+    assert not cert.success and cert.status is CertificateStatus.INTEGRAL_HOLD
+    assert "integral_band = 0" in cert.message and cert.e_bar == np.inf
+    assert cert.to_dict()["verdict"] == "not certified"
 
 
 def test_a_flipped_position_gain_names_its_rows(default, paper_pwa):
@@ -124,6 +85,65 @@ def test_a_flipped_position_gain_names_its_rows(default, paper_pwa):
     cert = certify(flipped, paper_pwa)
     assert cert.status is CertificateStatus.NO_LYAPUNOV
     assert len(cert.failing_rows) == len(loop_data(flipped, paper_pwa).cells)
+
+
+def _certify_data(data):
+    """:func:`certify`'s path on prepared loop data (the rows, bounds and modes given)."""
+    from hydropwa.control._certify import (
+        Certificate,
+        _levels,
+        _solve_lyapunov,
+    )
+
+    sc = _scaled(data)
+    P, mus = _solve_lyapunov(sc, data, 0.995)
+    lv = _levels(P, mus, sc, data, 0.995)
+    assert lv["status"] is CertificateStatus.CERTIFIED, lv["status"]
+    return Certificate(
+        status=lv["status"],
+        success=False,
+        message="",
+        e_bar=lv["e_bar"],
+        box=lv["box"],
+        reach_time=lv["reach_time"],
+        P=P,
+        scales=_scales(data),
+        lam=0.995,
+        level_ultimate=lv["level_ultimate"],
+        level_region=lv["level_region"],
+        mu=tuple(mus),
+        disturbance=dict(data.bounds),
+        failing_rows=(),
+        not_modelled=(),
+        model_hash="",
+        law_hash="",
+        data=data,
+    )
+
+
+def test_checker_accepts_the_ellipsoid_and_rejects_wrong_ones(quiet_row):
+    cert = _certify_data(quiet_row)
+    res = check_certificate(cert, quiet_row)
+    assert res.passed, res.failures
+    # the ellipsoid's extent in x is the bound: sub-millimetre without friction, and the
+    # largest box of the region is not empty
+    assert 0 < cert.e_bar < 1e-3 and min(cert.box) > 0
+    # P scaled ×1e4 with ē / 100: the same shape, a set 100× smaller than the ellipsoid found;
+    # one sample of the disturbances leaves it (a state on its boundary with the worst noise)
+    wrong = dataclasses.replace(cert, P=1e4 * cert.P, e_bar=cert.e_bar / 100)
+    assert any("≼" in f for f in check_certificate(wrong, quiet_row).failures)
+    # a claimed ē below the ellipsoid's extent
+    low = dataclasses.replace(cert, e_bar=0.9 * cert.e_bar)
+    assert any("ē" in f for f in check_certificate(low, quiet_row).failures)
+    # a box wider than the region
+    wide = dataclasses.replace(cert, box=tuple(2 * b for b in cert.box))
+    assert any("box corner" in f for f in check_certificate(wide, quiet_row).failures)
+    # multipliers that overspend the contraction
+    greedy = dataclasses.replace(cert, mu=tuple(m + 0.01 for m in cert.mu))
+    assert not check_certificate(greedy, quiet_row).passed
+    assert check_certificate(dataclasses.replace(cert, P=-cert.P), quiet_row).failures == (
+        "P is not symmetric positive definite",
+    )
 
 
 def test_cli_certify_writes_the_table(tmp_path, default, paper):

@@ -766,8 +766,8 @@ def certify_command(
     )
     from ..linearization import linearize  # deferred: loaded only when this command runs
 
-    ctrl = load_controller(controller)
     prm = _machine_of(controller) if params is None else resolve_params(params)
+    ctrl = load_controller(controller)
     cert = certify(ctrl, linearize(prm), delay_samples=delay_samples)
     typer.echo(cert.summary())
     if write:

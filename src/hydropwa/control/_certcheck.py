@@ -3,9 +3,9 @@
 
 It rebuilds every row's closed-loop matrix from the raw :class:`~hydropwa.control._certify.LoopData`
 (its own matrix exponential, its own assembly of the law), and re-checks each inequality the
-certificate rests on: P ≻ 0, MᵀPM ≼ λP for every row's integrate and leak modes, the
-contraction left after the integral hold's share (1 − √λ − ρ₁ > 0), ē ≥ √(c_U (P⁻¹)ₓₓ) with
-c_U from its own disturbance norms, c_U < c_R ≤ the saturation-free level, and the reported box's
+certificate rests on: P ≻ 0, the invariant ellipsoid's S-procedure inequality for every row,
+pressure vertex and integral mode with its multipliers, ē against the ellipsoid's extent,
+c_U < c_R ≤ the saturation-free level (from its own command rows), and the reported box's
 start states inside {V ≤ c_R}. Its verdict decides.
 """
 
@@ -119,85 +119,130 @@ def _psd(M: np.ndarray) -> bool:
 
 def check_certificate(cert, data) -> CheckResult:
     """Re-check every inequality of ``cert`` (a :class:`~hydropwa.control._certify.Certificate`)
-    on ``data`` in float64; the verdict is ``passed``."""
+    on ``data`` in float64; the verdict is ``passed``.
+
+    Per row, pressure vertex and integral mode (integrate, leak):
+    [M W]ᵀP[M W] − diag(λP, diag μ) ≼ 0 and Σμ ≤ 1 − λ (μ ≥ 0); then ē ≥ √(c_U (P⁻¹)ₓₓ),
+    c_U = (1.1)² > 1, c_R above c_U and at most the saturation-free level, and the box's start
+    states inside {V ≤ c_R}.
+    """
     S = np.asarray(cert.scales, float)
     P = np.asarray(cert.P, float)
-    fails: list[str] = []
     n = P.shape[0]
-    checked = 1
     if not (
-        np.allclose(P, P.T, rtol=0, atol=1e-12 * np.abs(P).max()) and _psd(P - 1e-9 * np.eye(n))
+        np.allclose(P, P.T, rtol=0, atol=1e-12 * np.abs(P).max())
+        and _psd(P - 1e-12 * np.abs(P).max() * np.eye(n))
     ):
         return CheckResult(False, ("P is not symmetric positive definite",), 1)
-    Pinv = np.linalg.inv(P)
     lam = float(cert.lam)
-    b = data.bounds
-    i_i = 5 + data.delay_samples
-    rho = []
+    fails: list[str] = []
+    checked = 1
+    mus = iter(cert.mu)
+    forms = []
     for cell in data.cells:
-        Mi, Ml, EA = row_matrices(data, cell)
+        Mi, Ml, EA, c_form = _row(data, cell)
+        W = (EA * _magnitudes(data, cell)) / S[:, None]
+        W = W[:, np.abs(W).max(axis=0) > 1e-12]
+        forms.append(c_form)
         for name, M in (("integrate", Mi), ("leak", Ml)):
             Ms = (M * S) / S[:, None]
-            checked += 1
-            if not _psd(lam * P - Ms.T @ P @ Ms):
-                fails.append(f"row {cell['label']} ({name}): MᵀPM ≼ λP fails")
-        mags = np.array(
-            [b["friction"], b["x_noise"], b["p_noise"], b["command"], cell["error_bound"], 1.0]
-        )
-        W = (EA * mags) / S[:, None]
-        rho.append(sum(math.sqrt(max(float(w @ P @ w), 0.0)) for w in W.T))
-    # the integral hold: I⁺ = I instead of I − T_s·x̂⁺, x̂⁺ = h ξ
-    h = _observer_row(data) * S
-    e_i = np.zeros(n)
-    e_i[i_i] = data.sample_time / S[i_i]
-    rho1 = math.sqrt(float(e_i @ P @ e_i)) * math.sqrt(float(h @ Pinv @ h))
-    kappa = 1.0 - math.sqrt(lam) - rho1
-    checked += 1
-    if not kappa > 0:
-        fails.append(f"no contraction left: 1 − √λ − ρ₁ = {kappa:.3g}")
-        return CheckResult(False, tuple(fails), checked)
-    e_min = math.sqrt(max(cert.level_ultimate, 0.0) * Pinv[2, 2]) * S[2]
+            mu = np.asarray(next(mus, np.zeros(0)), float)
+            checked += 2
+            if mu.shape != (W.shape[1],) or (mu < 0).any():
+                fails.append(f"row {cell['label']} ({name}): multipliers missing or negative")
+                continue
+            MW = np.hstack([Ms, W])
+            D = np.zeros((n + mu.size, n + mu.size))
+            D[:n, :n] = lam * P
+            D[n:, n:] = np.diag(mu)
+            if not _psd(D - MW.T @ P @ MW):
+                fails.append(f"row {cell['label']} ({name}): [M W]ᵀP[M W] ≼ diag(λP, μ) fails")
+            if mu.sum() > (1.0 - lam) * (1 + 1e-9):
+                fails.append(f"row {cell['label']} ({name}): Σμ > 1 − λ")
+    Pinv = np.linalg.inv(P)
+    c_u = 1.1**2
     checked += 3
-    if cert.e_bar < e_min * (1 - 1e-9):
-        fails.append(f"ē = {cert.e_bar:.6g} m is below √(c_U (P⁻¹)ₓₓ) = {e_min:.6g} m")
-    if not cert.level_region > cert.level_ultimate >= _ultimate_level(data, Pinv, S, rho, kappa):
-        fails.append("c_U is below the disturbances' level, or the region not above it")
-    # the box's start states inside the region
-    T = np.zeros((n, 3))
-    T[2, 0] = T[7 + data.delay_samples, 0] = T[1, 1] = T[0, 2] = 1.0
+    if cert.e_bar < math.sqrt(c_u * Pinv[2, 2]) * S[2] * (1 - 1e-9):
+        fails.append(f"ē = {cert.e_bar:.6g} m is below the ellipsoid's extent")
+    if not (cert.level_ultimate >= c_u * (1 - 1e-12) and cert.level_region > cert.level_ultimate):
+        fails.append("the region's level is not above the ultimate set's")
+    if cert.level_region > _saturation_level(data, forms, Pinv, S) * (1 + 1e-9):
+        fails.append("the region reaches saturation, the velocity limit or other cells")
+    fails += _box_failures(cert, data, P, S)
+    return CheckResult(not fails, tuple(fails), checked + 8)
+
+
+def _magnitudes(data, cell) -> np.ndarray:
+    b = data.bounds
+    return np.array(
+        [b["friction"], b["x_noise"], b["p_noise"], b["command"], cell["error_bound"], 1.0]
+    )
+
+
+def _row(data, cell):
+    Mi, Ml, EA = row_matrices(data, cell)
+    return Mi, Ml, EA, _command_form(data, cell)
+
+
+def _command_form(data, cell) -> np.ndarray:
+    """c over [ξ, n_x, n_p] (SI), noise the last two entries."""
+    nd = data.delay_samples
+    n = 9 + nd
+    lx, lv = data.observer
+    ts = data.sample_time
+    g = cell["gains"]
+    z = np.zeros(n + 2)
+    innov = np.zeros(n + 2)
+    innov[2] = innov[n] = 1.0
+    innov[7 + nd] -= 1.0
+    innov[8 + nd] -= ts
+    xh = np.zeros(n + 2)
+    xh[7 + nd], xh[8 + nd] = 1.0, ts
+    xh += lx * innov
+    vh = np.zeros(n + 2)
+    vh[8 + nd] = 1.0
+    vh += lv * innov
+    pm = np.zeros(n + 2)
+    pm[0] = pm[n + 1] = 1.0
+    pfb = pm.copy()
     if data.washout > 0:
-        T[6 + data.delay_samples, 2] = 1.0
+        pfb[6 + nd] -= 1.0
+        pfb *= data.washout
+    z += -g["k_x"] * xh - g["k_v"] * vh - g["k_pl"] * pfb
+    z[5 + nd] += g["k_i"]
+    z[3] -= g["k_nu"]
+    z[4] -= g["k_dnu"]
+    if nd:
+        z[5] -= g["k_up"]
+    return z
+
+
+def _saturation_level(data, forms, Pinv, S) -> float:
+    """The largest level of V free of saturation, inside the friction fit and the cells."""
+    n = Pinv.shape[0]
+    b = data.bounds
+    out = []
+    for z in forms:
+        k = z[:n] * S
+        room = data.command_limit - abs(z[n]) * b["x_noise"] - abs(z[n + 1]) * b["p_noise"]
+        out.append(max(room, 0.0) ** 2 / float(k @ Pinv @ k))
+    out.append((data.velocity_limit / S[1]) ** 2 / Pinv[1, 1])
+    lo = max(c["lower"][0] for c in data.cells) - data.hold_pressure
+    hi = min(c["upper"][0] for c in data.cells) - data.hold_pressure
+    out.append((min(-lo, hi) / S[0]) ** 2 / Pinv[0, 0])
+    return min(out)
+
+
+def _box_failures(cert, data, P, S) -> list[str]:
+    n = P.shape[0]
+    nd = data.delay_samples
+    T = np.zeros((n, 3))
+    T[2, 0] = T[7 + nd, 0] = T[1, 1] = T[0, 2] = 1.0
+    if data.washout > 0:
+        T[6 + nd, 2] = 1.0
     D = (T / S[:, None]) * np.asarray(cert.box, float)
     for sgn in np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T:
-        checked += 1
         z = D @ sgn
         if float(z @ P @ z) > cert.level_region * (1 + 1e-9):
-            fails.append(f"box corner {tuple(sgn)} lies outside the region")
-            break
-    return CheckResult(not fails, tuple(fails), checked)
-
-
-def _ultimate_level(data, Pinv, S, rho, kappa) -> float:
-    """c_U: (1.1)²·max (ρ_j/κ)² over the rows whose box may hold a state below (1.1)²(ρ_j/κ)²."""
-    worst = 0.0
-    for cell, r in zip(data.cells, rho, strict=True):
-        need = (1.1 * r / kappa) ** 2
-        low = 0.0
-        for i, ref in ((0, data.hold_pressure), (1, 0.0)):
-            a, b = cell["lower"][i] - ref, cell["upper"][i] - ref
-            if a * b > 0:
-                low = max(low, (min(abs(a), abs(b)) / S[i]) ** 2 / Pinv[i, i])
-        if low < need:
-            worst = max(worst, need)
-    return worst * (1 - 1e-9)
-
-
-def _observer_row(data) -> np.ndarray:
-    """x̂⁺ over ξ (SI): x̂ + T_s v̂ + L_x (x − x̂ − T_s v̂)."""
-    n = 9 + data.delay_samples
-    h = np.zeros(n)
-    lx = data.observer[0]
-    h[7 + data.delay_samples] = 1.0 - lx
-    h[8 + data.delay_samples] = data.sample_time * (1.0 - lx)
-    h[2] = lx
-    return h
+            return [f"box corner {tuple(int(v) for v in sgn)} lies outside the region"]
+    return []

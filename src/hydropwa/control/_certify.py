@@ -9,25 +9,30 @@ this module, rebuilds every matrix from the raw data and re-checks every inequal
 The certified loop (per gain row j, state ξ = [P_L, ẋ, x, ν, ν̇, c_pend…, I, P̄_L, x̂, v̂] as
 deviations from the hold, x the position error):
 
-* the row's PWA cell (the Ṗ_L row of :meth:`~hydropwa.linearization.PwaModel.state_space`),
-  the servo valve of Eq. (1) in series, a zero-order hold, ``delay_samples`` samples of delay;
-* the friction as its viscous slope b plus a bounded force: |F_f(ẋ) − b ẋ| ≤ F_s (the
-  Stribeck drop and Coulomb's force as a disturbance, not as the unstable falling branch);
-* the law's linear part: washout, position observer, the row's gains, the integral (two
-  modes, integrate and leak, as vertices; the hold of the integral band as a disturbance
-  proportional to |x̂|);
-* bounded disturbances per row: the cell's affine residual at the hold and its guaranteed
-  error bound (:meth:`~hydropwa.linearization.PwaModel.error_bound`), the sensor noise within
-  ``noise_sigmas`` standard deviations, the quiet band with its vent (|c_o − c| ≤ 2q) and the
-  dead-zone inverse's blend (≤ z_w + creep).
+* the row's PWA plant (:meth:`~hydropwa.linearization.PwaModel.state_space` at a small
+  opening) at both ends of the region's load-pressure range (the flow gain ∝ √Δp is monotone
+  in P_L: two vertices), the servo valve of Eq. (1) in series, a zero-order hold and
+  ``delay_samples`` samples of delay;
+* the friction as its viscous slope b plus a bounded force, |F_f(ẋ) − b ẋ| ≤ F_s (the
+  Stribeck drop and Coulomb's force as a disturbance, not the unstable falling branch);
+* the law's linear part: washout, position observer, the row's gains, the integral in its
+  two modes (integrate, and the leak where the valve is parked) as vertices;
+* bounded disturbances: the plant's residual at the hold, the sensor noise within
+  :data:`NOISE_SIGMAS` standard deviations, the quiet band with its vent (|c_o − c| ≤ 2q)
+  and the dead-zone inverse's blend (≤ z_w + creep).
 
-With ρ_j the largest ‖P^½ w‖ of row j and ρ₁√V the integral hold's share,
-√V⁺ ≤ (√λ + ρ₁)√V + ρ_j; every sublevel set above c_j = (ρ_j / (1 − √λ − ρ₁))² then shrinks.
-A row whose box lies at V ≥ c_j everywhere (a lower bound from the box's faces) cannot hold
-the state above 𝒰 = {V ≤ c_U}; the others set c_U. ē = √(c_U·(P⁻¹)ₓₓ). The region
-𝓡 = {V ≤ c_R} keeps every row's command out of saturation and the velocity inside the
-friction fit; its largest box of (x, ẋ, P_L) with the controller's start values (x̂ = x,
-v̂ = 0, P̄_L = P_L, I = 0) is reported with the reach time from 𝓡 to 𝒰.
+An invariant ellipsoid: P and multipliers μ ≥ 0 with [M W]ᵀP[M W] ≼ diag(λP, diag μ),
+Σμ ≤ 1 − λ for every row, pressure vertex and integral mode (W the disturbance columns times
+their bounds) give V⁺ − 1 ≤ λ(V − 1) for every disturbance in its box (the S-procedure).
+𝒰 = {V ≤ (1 + m)²}, ē = (1 + m)·√((P⁻¹)ₓₓ); the region 𝓡 = {V ≤ c_R} keeps every row's
+command out of saturation, the velocity inside the friction fit and P_L inside the hold's
+pressure cells; it is reported as its largest box of (e, ẋ, ΔP_L) of :data:`REGION_SHAPE`'s
+aspect with the controller's start values (x̂ = x, v̂ = 0, P̄_L = P_L, I = 0), with the
+reach time log((c_U − 1)/(c_R − 1))/log λ samples.
+
+The integral band's hold (I frozen while |e| > e_I and the valve is open) is not certified:
+it leaves a line of rest points on which no quadratic function decreases
+(:attr:`CertificateStatus.INTEGRAL_HOLD`).
 
 Not in the certified model (the certificate lists them): the opening delay ``quiet_open``
 (the band opens only on the n-th sample beyond q), the feed-forward (zero at rest), the
@@ -36,15 +41,21 @@ supply-pressure and parameter draws of the verification.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import hashlib
 import json
 import math
+import tomllib
+import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomli_w
 
+from .._io import atomic_write_text, read_text
 from ._controllers import ControlError, StateFeedbackController
 
 __all__ = [
@@ -62,8 +73,9 @@ __all__ = [
 NOISE_SIGMAS = 4.0
 #: the box the region is reported as, scaled: position error 20 mm, velocity 100 mm/s, 30 bar
 REGION_SHAPE = (20e-3, 0.1, 30e5)
-#: contraction rates tried for λ (per sample), slowest last
-_LAMBDAS = (0.999, 0.9995, 0.9999)
+#: contraction rates of V tried (per sample; the rows' slowest loop mode is ≈ 0.995, so
+#: λ ≥ 0.990); one rate keeps a certificate within a minute on two cores
+_LAMBDAS = (0.995,)
 #: the certified loop's state names and their engineering scales (bar, mm/s, mm, %, …)
 _NAMES = ("p_l", "v", "x", "nu", "nu_rate")
 _SCALES = {"p_l": 1e5, "v": 1e-3, "x": 1e-3, "nu": 1e-2, "nu_rate": 1.0}
@@ -78,10 +90,12 @@ class CertificateStatus(enum.Enum):
         "no common quadratic Lyapunov function of the rows' loops: a row's loop is unstable "
         "alone or the rows cannot share one (see failing_rows)",
     )
-    NO_BOUND = (
+    INTEGRAL_HOLD = (
         False,
-        "the disturbances are too large for the contraction: no sublevel set shrinks (a "
-        "softer integral or a stiffer position loop may help)",
+        "the integral band holds I while |e| > e_I with the valve open: the loop then has a "
+        "line of rest points (x̂ = k_i·I/k_x) on which no quadratic function decreases; it is "
+        "left only through the quiet band's leak, which this certificate does not model. "
+        "Certify the law without the band (integral_band = 0)",
     )
     EMPTY_REGION = (
         False,
@@ -128,6 +142,8 @@ class LoopData:
         ``command`` [1].
     hold_pressure : float
         P_L at the hold [Pa].
+    integral_band : float
+        e_I [m] of the integral's band (0: none).
     velocity_limit, command_limit : float
         |ẋ| [m/s] of the friction fit and |c| [1] before saturation, inside the region.
     """
@@ -143,6 +159,7 @@ class LoopData:
     mass: float
     bounds: dict
     hold_pressure: float
+    integral_band: float
     velocity_limit: float
     command_limit: float
 
@@ -177,9 +194,8 @@ class Certificate:
         Contraction rate λ [1] per sample of V.
     level_ultimate, level_region : float
         c_U and c_R of V.
-    rho : ndarray
-        ρ_j per row [√V units]; ``rho_hold`` ρ₁.
-    rho_hold : float
+    mu : tuple of ndarray
+        The S-procedure multipliers per row and mode (the acting disturbance columns).
     disturbance : dict
         The disturbance terms (SI magnitudes).
     failing_rows : tuple of str
@@ -204,8 +220,7 @@ class Certificate:
     lam: float
     level_ultimate: float
     level_region: float
-    rho: np.ndarray
-    rho_hold: float
+    mu: tuple
     disturbance: dict
     failing_rows: tuple[str, ...]
     not_modelled: tuple[str, ...]
@@ -275,37 +290,46 @@ def law_hash(controller) -> str:
     return _hash(d)
 
 
-def _row_cell(model, row, prm, hold_pressure: float) -> dict:
-    """The certified data of one gain row: its cell with viscous friction, residual, bound."""
+#: the opening [1] at which a row's flow gain is taken (the hold's neighbourhood: the
+#: pressure-flow coefficient ∝ opening is then nearly 0, as it is at the hold)
+SMALL_OPENING = 0.01
+
+
+def _row_cells(model, row, prm, hold_pressure: float, p_range) -> list[dict]:
+    """The certified plants of one gain row: its cell with viscous friction at both ends of
+    the region's load-pressure range (the flow gain ∝ √Δp is monotone in P_L, so the two ends
+    bound it), and the affine residual at the hold."""
     lo, hi = np.array(row.lower, float), np.array(row.upper, float)
     s = 1.0 if hi[3] > 0 else -1.0
     v_mid = 0.5 * (max(lo[1], model.friction.interval[0]) + min(hi[1], model.friction.interval[1]))
-    p_mid = 0.5 * (lo[0] + hi[0])
-    dyn = model.state_space({"p_l": p_mid, "v": v_mid, "u": 0.5 * s})
-    k_g = float(model.dead_zone.slopes[dyn.cells.g])
-    A = dyn.A.copy()
-    B = dyn.B[:, 0] / k_g
-    A[1, 1] = -prm.friction.viscous / prm.load.mass  # the rest of the friction is bounded
-    # residual at the hold (P_L*, ẋ = 0, c = 0) in the cell's affine form; the mechanics row
-    # is balanced by the choice of P_L* and its friction is in the bounded force
-    y = np.array([hold_pressure, 0.0, 0.0])
-    # c = k_g·u + o_g on the open dead-zone cell: c = 0 is u = −o_g/k_g
-    o_g = float(model.dead_zone.offsets[dyn.cells.g])
-    f0 = np.array([dyn.A[0] @ y + dyn.f[0] - dyn.B[0, 0] * o_g / k_g, 0.0, 0.0])
-    ebound = float(model.error_bound(dyn.cells, dyn))
     gains = {
         k: float(getattr(row, k)) for k in ("k_pl", "k_v", "k_x", "k_i", "k_nu", "k_dnu", "k_up")
     }
-    return {
-        "label": row.label,
-        "A": A,
-        "B": B,
-        "f0": f0,
-        "error_bound": ebound,
-        "gains": gains,
-        "lower": lo,
-        "upper": hi,
-    }
+    out = []
+    for end, p_l in (("low", p_range[0]), ("high", p_range[1])):
+        g = int(model.dead_zone.cell(0.5 * s))
+        k_g, o_g = float(model.dead_zone.slopes[g]), float(model.dead_zone.offsets[g])
+        u = (s * SMALL_OPENING - o_g) / k_g  # the valve command of a small opening
+        dyn = model.state_space({"p_l": p_l, "v": v_mid, "u": u})
+        A = dyn.A.copy()
+        A[1, 1] = -prm.friction.viscous / prm.load.mass  # the rest of the friction is bounded
+        at_hold = model.state_space({"p_l": hold_pressure, "v": 0.0, "u": u})
+        # residual of Ṗ_L at the hold with the valve closed (c = 0: u = −o_g/k_g)
+        y = np.array([hold_pressure, 0.0, at_hold.point["x"]])
+        f0 = at_hold.A[0] @ y + at_hold.f[0] - at_hold.B[0, 0] * o_g / k_g
+        out.append(
+            {
+                "label": f"{row.label} P_L {end}",
+                "A": A,
+                "B": dyn.B[:, 0] / k_g,
+                "f0": np.array([f0, 0.0, 0.0]),
+                "error_bound": 0.0,
+                "gains": gains,
+                "lower": lo,
+                "upper": hi,
+            }
+        )
+    return out
 
 
 def loop_data(
@@ -361,7 +385,8 @@ def loop_data(
         raise ControlError(
             f"no gain row's load-pressure range holds the hold's P_L {hold_p / 1e5:.4g} bar"
         )
-    cells = tuple(_row_cell(model, r, prm, hold_p) for r in rows)
+    p_range = (max(r.lower[0] for r in rows), min(r.upper[0] for r in rows))
+    cells = tuple(c for r in rows for c in _row_cells(model, r, prm, hold_p, p_range))
     washout = (
         math.exp(-ts / controller.pressure_washout) if controller.pressure_washout > 0 else 0.0
     )
@@ -378,6 +403,7 @@ def loop_data(
         mass=float(prm.load.mass),
         bounds=bounds,
         hold_pressure=hold_p,
+        integral_band=float(dz.integral_band if dz is not None else 0.0),
         velocity_limit=float(min(-model.friction.interval[0], model.friction.interval[1])),
         command_limit=float(controller.u_max - beta - command),
     )
@@ -520,97 +546,75 @@ def _scaled(data: LoopData) -> _Scaled:
 
 
 def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float):
-    """P of the common quadratic V (scaled states) with MᵀPM ≼ λP for all rows and modes,
-    the disturbance energy of the rows at the hold minimised; None where infeasible."""
+    """(P, μ) of the invariant ellipsoid {V ≤ 1} (scaled states): for every row and mode and
+    every disturbance in its box, V⁺ − 1 ≤ λ(V − 1), i.e. [M W]ᵀP[M W] ≼ diag(λP, diag μ)
+    with Σμ ≤ 1 − λ (the S-procedure of the bounded components); the ellipsoid's extent in
+    x minimised. None where infeasible."""
     import cvxpy as cp  # deferred: cvxpy loads its solvers (~1 s)
 
     n = data.n_states
     P = cp.Variable((n, n), symmetric=True)
+    t = cp.Variable()
     ex = np.zeros((n, 1))
     ex[2, 0] = 1.0
-    cons = [P >> 1e-6 * np.eye(n), cp.bmat([[P, ex], [ex.T, np.ones((1, 1))]]) >> 0]
-    seen = set()
-    for Mi, Ml in sc.modes:
-        for M in (Mi, Ml):
-            key = M.round(12).tobytes()
-            if key in seen:
-                continue
-            seen.add(key)
-            blk = cp.bmat([[lam * P, M.T @ P], [P @ M, P]])
-            cons.append(0.5 * (blk + blk.T) >> 0)
-    near = [j for j, c in enumerate(data.cells) if _holds_rest(c, data)]
-    obj = sum(cp.trace(sc.W[j].T @ P @ sc.W[j]) for j in near)
-    prob = cp.Problem(cp.Minimize(obj), cons)
+    cons = [
+        P >> 1e-9 * np.eye(n),
+        cp.bmat([[cp.reshape(t, (1, 1), order="C"), ex.T], [ex, P]]) >> 0,
+    ]
+    mus = []
+    for modes, W in zip(sc.modes, sc.W, strict=True):
+        Wn = W[:, _kept(W)] / _OMEGA
+        m = Wn.shape[1]
+        for M in modes:
+            mu = cp.Variable(m, nonneg=True)
+            blk = cp.bmat(
+                [
+                    [lam * P, np.zeros((n, m)), M.T @ P],
+                    [np.zeros((m, n)), cp.diag(mu), Wn.T @ P],
+                    [P @ M, P @ Wn, P],
+                ]
+            )
+            cons += [0.5 * (blk + blk.T) >> 0, cp.sum(mu) <= 1.0 - lam]
+            mus.append(mu)
+    prob = cp.Problem(cp.Minimize(t), cons)
     try:
-        prob.solve(solver=cp.CLARABEL)
+        with warnings.catch_warnings():  # "may be inaccurate": the checker decides, not the solver
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=cp.CLARABEL, max_iter=300)
     except cp.error.SolverError:
         return None
     if prob.status not in ("optimal", "optimal_inaccurate") or P.value is None:
         return None
-    Pv = 0.5 * (P.value + P.value.T)
-    return Pv
+    Pv = 0.5 * (P.value + P.value.T) / _OMEGA**2  # the LMI with W/ω holds for P/ω² with W
+    return Pv, [np.maximum(np.asarray(mu.value, float), 0.0) for mu in mus]
 
 
-def _holds_rest(cell: dict, data: LoopData) -> bool:
-    lo, hi = cell["lower"], cell["upper"]
-    return bool(lo[0] <= data.hold_pressure <= hi[0] and lo[1] <= 0.0 <= hi[1])
+#: disturbances are scaled by 1/ω in the SDP: its ellipsoid is then of order 1 (Clarabel fails
+#: on the unscaled problem, whose P is ~1e-4)
+_OMEGA = 100.0
 
 
-def _levels(P: np.ndarray, sc: _Scaled, data: LoopData, lam: float) -> dict[str, Any]:
-    """ρ_j, ρ₁, c_U, c_R, ē, the box and the reach time of a Lyapunov matrix (scaled states)."""
-    n = data.n_states
+def _kept(W: np.ndarray) -> np.ndarray:
+    """The disturbance columns that act (a zero column makes its multiplier degenerate)."""
+    return np.abs(W).max(axis=0) > 1e-12
+
+
+def _levels(P: np.ndarray, mus, sc: _Scaled, data: LoopData, lam: float) -> dict[str, Any]:
+    """ē, the region's level c_R, its box and the reach time of an invariant ellipsoid."""
     S = _scales(data)
     Pinv = np.linalg.inv(P)
-    iI = 5 + data.delay_samples
-
-    def pnorm(w):
-        return float(np.sqrt(max(w @ P @ w, 0.0)))
-
-    h_x = sc.h[:n]
-    eI = _unit(n, iI) * data.sample_time / S[iI]  # the hold's I-increment per unit x̂⁺ [SI]
-    rho1 = pnorm(eI) * float(np.sqrt(h_x @ Pinv @ h_x))
-    rho = np.empty(len(data.cells))
-    for j, Wj in enumerate(sc.W):
-        hold_noise = pnorm(eI) * abs(sc.h[n + 1]) * data.bounds["x_noise"]
-        rho[j] = sum(pnorm(Wj[:, i]) for i in range(Wj.shape[1])) + hold_noise
-    kappa = 1.0 - math.sqrt(lam) - rho1
-    out: dict[str, Any] = {"rho": rho, "rho_hold": rho1, "kappa": kappa}
-    if kappa <= 0:
-        return out | {"status": CertificateStatus.NO_BOUND}
-    cj = (rho / kappa) ** 2
-    min_v = np.array([_min_level(c, Pinv, S, data) for c in data.cells])
-    contributing = min_v < (1 + MARGIN) ** 2 * cj
-    c_u0 = float(cj[contributing].max()) if contributing.any() else 0.0
-    c_u = (1 + MARGIN) ** 2 * c_u0
+    c_u = (1.0 + MARGIN) ** 2
     c_r = _region_level(Pinv, sc, data, S)
     e_bar = math.sqrt(c_u * Pinv[2, 2]) * S[2]
-    out |= {
-        "level_ultimate": c_u,
-        "level_region": c_r,
-        "e_bar": e_bar,
-        "contributing": contributing,
-    }
+    out: dict[str, Any] = {"level_ultimate": c_u, "level_region": c_r, "e_bar": e_bar, "mu": mus}
     if not c_r > c_u:
         return out | {"status": CertificateStatus.EMPTY_REGION}
-    gamma = 1.0 - kappa * MARGIN / (1 + MARGIN)
-    steps = math.ceil(math.log(math.sqrt(c_u / c_r)) / math.log(gamma))
-    box = _inscribed_box(P, S, data, c_r)
+    steps = math.ceil(math.log((c_u - 1.0) / (c_r - 1.0)) / math.log(lam))
     return out | {
         "status": CertificateStatus.CERTIFIED,
-        "reach_time": steps * data.sample_time,
-        "box": box,
+        "reach_time": max(steps, 0) * data.sample_time,
+        "box": _inscribed_box(P, S, data, c_r),
     }
-
-
-def _min_level(cell: dict, Pinv: np.ndarray, S: np.ndarray, data: LoopData) -> float:
-    """A lower bound of V over the row's box: its faces in P_L and ẋ that exclude the hold."""
-    best = 0.0
-    for i, ref in ((0, data.hold_pressure), (1, 0.0)):
-        lo, hi = cell["lower"][i] - ref, cell["upper"][i] - ref
-        if lo > 0 or hi < 0:
-            dist = min(abs(lo), abs(hi)) / S[i]
-            best = max(best, dist**2 / Pinv[i, i])
-    return best
 
 
 def _region_level(Pinv, sc: _Scaled, data: LoopData, S) -> float:
@@ -715,22 +719,30 @@ def certify(
     data = loop_data(controller, model, delay_samples=delay_samples, sensor_noise=sensor_noise)
     sc = _scaled(data)
     hashes = {"model_hash": _hash(model.params.to_dict()), "law_hash": law_hash(controller)}
-    best = None
     failing = _failing_rows(sc, data)
-    status = CertificateStatus.NO_LYAPUNOV
-    for lam in () if failing else _LAMBDAS:
-        P = _solve_lyapunov(sc, data, lam)
-        if P is None:
+    if failing:
+        return _failed(CertificateStatus.NO_LYAPUNOV, data, failing, hashes, {}, math.nan)
+    if data.integral_band > 0:
+        return _failed(CertificateStatus.INTEGRAL_HOLD, data, (), hashes, {}, math.nan)
+    best = None
+    for lam in _LAMBDAS:
+        sol = _solve_lyapunov(sc, data, lam)
+        if sol is None:
             continue
-        lv = _levels(P, sc, data, lam)
-        if best is None or (lv["status"].success and lv["e_bar"] < best[1].get("e_bar", math.inf)):
-            best = (lam, lv, P)
-        status = lv["status"] if not (best and best[1]["status"].success) else best[1]["status"]
-    if best is None or not best[1]["status"].success:
-        lv = best[1] if best is not None else {}
-        if best is None:
-            failing = failing or ("all rows (no common P)",)
-        return _failed(status, data, failing, hashes, lv, lam=best[0] if best else math.nan)
+        lv = _levels(sol[0], sol[1], sc, data, lam)
+        if best is None or lv["e_bar"] < best[1]["e_bar"]:
+            best = (lam, lv, sol[0])
+    if best is None:
+        return _failed(
+            CertificateStatus.NO_LYAPUNOV,
+            data,
+            ("all rows (no common P)",),
+            hashes,
+            {},
+            math.nan,
+        )
+    if not best[1]["status"].success:
+        return _failed(best[1]["status"], data, (), hashes, best[1], best[0])
     lam, lv, P = best
     cert = Certificate(
         status=CertificateStatus.CERTIFIED,
@@ -744,8 +756,7 @@ def certify(
         lam=lam,
         level_ultimate=lv["level_ultimate"],
         level_region=lv["level_region"],
-        rho=lv["rho"],
-        rho_hold=lv["rho_hold"],
+        mu=tuple(lv["mu"]),
         disturbance=dict(data.bounds),
         failing_rows=(),
         not_modelled=NOT_MODELLED,
@@ -759,19 +770,12 @@ def certify(
 
 
 def _replace(cert: Certificate, **kw) -> Certificate:
-    import dataclasses
-
     return dataclasses.replace(cert, **kw)
 
 
 def _failed(status, data, failing, hashes, lv, lam: float) -> Certificate:
     n = data.n_states
     msg = status.message
-    if status is CertificateStatus.NO_BOUND:
-        msg += (
-            f"; the integral hold's share ρ₁ = {lv['rho_hold']:.3g} exceeds the contraction "
-            f"1 − √λ = {1 - math.sqrt(lam):.3g} (λ = {lam})"
-        )
     return Certificate(
         status=status,
         success=False,
@@ -784,8 +788,7 @@ def _failed(status, data, failing, hashes, lv, lam: float) -> Certificate:
         lam=lam,
         level_ultimate=float(lv.get("level_ultimate", math.inf)),
         level_region=float(lv.get("level_region", 0.0)),
-        rho=np.asarray(lv.get("rho", np.zeros(len(data.cells)))),
-        rho_hold=float(lv.get("rho_hold", math.nan)),
+        mu=(),
         disturbance=dict(data.bounds),
         failing_rows=tuple(failing),
         not_modelled=NOT_MODELLED,
@@ -797,13 +800,6 @@ def _failed(status, data, failing, hashes, lv, lam: float) -> Certificate:
 def write_certificate(path, cert: Certificate, *, overwrite: bool = False):
     """Write ``cert`` as the ``[certificate]`` table into the controller file ``path``
     (atomically); a file that has one already is refused without ``overwrite``."""
-    import tomllib  # deferred: the file is read only here
-    from pathlib import Path
-
-    import tomli_w
-
-    from .._io import atomic_write_text, read_text
-
     path = Path(path)
     text = read_text(path, "controller file", ControlError)
     doc = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
