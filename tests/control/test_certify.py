@@ -160,3 +160,13 @@ def test_cli_certify_writes_the_table(tmp_path, default, paper):
     assert load_controller(path).rows == before.rows  # the law is untouched
     again = CliRunner().invoke(app, ["control", "certify", str(path), "--write"])
     assert again.exit_code == 2 and "--force" in again.output
+
+
+def test_design_certify_refuses_to_write_an_uncertified_design(tmp_path):
+    out = tmp_path / "c.toml"
+    argv = ["control", "design", "--params", "paper", "--no-verify", "--certify", "--out", str(out)]
+    res = CliRunner().invoke(app, argv)
+    assert res.exit_code == 1 and "cannot be certified (integral_hold)" in res.output
+    assert not out.exists()
+    pi = CliRunner().invoke(app, [*argv[:-2], "--method", "pi", "--out", str(out)])
+    assert pi.exit_code == 2 and "--certify needs" in pi.output

@@ -401,6 +401,14 @@ def design_command(
             "the failed verdict; without this option a failed design exits 1 and writes nothing).",
         ),
     ] = False,
+    certify: Annotated[
+        bool,
+        typer.Option(
+            "--certify",
+            help="Certify the loop at a hold (ultimate bound, region of attraction) before "
+            "writing; a design that cannot be certified says why and is not written.",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
@@ -426,6 +434,8 @@ def design_command(
         raise ControlError(f"--out {out} must end in .toml or .json")
     if model_name not in ("pwa", "pwa-chamber"):
         raise ControlError(f"--model {model_name!r} must be pwa or pwa-chamber")
+    if certify and (model_name != "pwa" or method == "pi"):
+        raise ControlError("--certify needs --method lqr or place on --model pwa")
     if model_name == "pwa-chamber" and method != "lqr":
         raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
     model = _pwa_model(params, pwa) if model_name == "pwa" else _chamber_model(params, pwa)
@@ -480,8 +490,13 @@ def design_command(
             "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
+    cert = _design_certificate(d.controller, model) if certify else None
     # the machine goes with the controller: `control simulate` needs no --params to run it
     save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
+    if cert is not None:
+        from ..control import write_certificate  # deferred: loaded only with --certify
+
+        write_certificate(out, cert)
     written = [str(out)]
     if table is not None:
         from .._io import (
@@ -491,6 +506,18 @@ def design_command(
         atomic_write_text(table, d.table.to_csv(index=False))
         written.append(str(table))
     typer.echo(f"wrote {', '.join(written)}")
+
+
+def _design_certificate(controller, model):
+    """``control design --certify``: the certificate of the design; none: exit 1, nothing written."""
+    from ..control import certify  # deferred: loaded only when this command runs
+
+    cert = certify(controller, model)
+    typer.echo(cert.summary())
+    if not cert.success:
+        error_line(f"the design cannot be certified ({cert.status.name.lower()}); nothing written")
+        raise typer.Exit(code=1)
+    return cert
 
 
 @app.command("simulate")
