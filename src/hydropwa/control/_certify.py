@@ -34,9 +34,10 @@ The integral band's hold (I frozen while |e| > e_I and the valve is open) is not
 it leaves a line of rest points on which no quadratic function decreases
 (:attr:`CertificateStatus.INTEGRAL_HOLD`).
 
-Not in the certified model (the certificate lists them): the opening delay ``quiet_open``
-(the band opens only on the n-th sample beyond q), the feed-forward (zero at rest), the
-supply-pressure and parameter draws of the verification.
+Not in the certified model (:data:`NOT_MODELLED`, listed in every certificate): the opening
+delay ``quiet_open``, the feed-forward (zero at rest), the verification's parameter and
+supply-pressure draws, the Ṗ_L row's error between the pressure vertices and to the full
+model (no one-step soundness check on the full model yet).
 """
 
 from __future__ import annotations
@@ -119,10 +120,12 @@ class LoopData:
     Attributes
     ----------
     cells : tuple of dict
-        Per gain row: ``label``, continuous ``A`` (3 × 3) and ``B`` (3,) of the cell with the
-        opening as input and the viscous friction slope, the affine residual ``f0`` (3,) at the
-        hold [Pa/s, m/s², m/s], ``error_bound`` [Pa/s], the row's ``gains`` and box
-        ``lower``/``upper`` over [P_L, ẋ, x, c].
+        Per gain row and pressure vertex (two per row): ``label``, continuous ``A`` (3 × 3)
+        and ``B`` (3,) of the cell at a small opening with the opening as input and the
+        viscous friction slope, the affine residual ``f0`` (3,) at the hold [Pa/s, m/s², m/s],
+        ``error_bound`` [Pa/s] (a bound on the Ṗ_L row's error; 0, see the module's list of
+        what is not modelled), the row's ``gains`` and box ``lower``/``upper`` over
+        [P_L, ẋ, x, c].
     sample_time : float
         T_s [s].
     omega0, zeta : float
@@ -323,6 +326,9 @@ def _row_cells(model, row, prm, hold_pressure: float, p_range) -> list[dict]:
                 "A": A,
                 "B": dyn.B[:, 0] / k_g,
                 "f0": np.array([f0, 0.0, 0.0]),
+                # the Ṗ_L row is the kernel's Jacobian at the vertex, exact there; the cell's
+                # guaranteed bound holds over its whole box (c up to 1: 2500 bar/s on the
+                # paper rig) and is not what a hold sees, so no bound is claimed here
                 "error_bound": 0.0,
                 "gains": gains,
                 "lower": lo,
@@ -670,6 +676,9 @@ NOT_MODELLED = (
     "parameter and supply-pressure draws (nominal machine)",
     "sensor noise beyond 4 sigma",
     "the rows outside the hold's pressure cells (the region keeps P_L inside them)",
+    "the flow's curvature between the two pressure vertices and the PWA's error to the full "
+    "model (error_bound 0; no one-step soundness check on the full model yet)",
+    "the chamber capacitance's change with the rod position (the PWA's capacitance position)",
 )
 
 
