@@ -146,6 +146,22 @@ def test_checker_accepts_the_ellipsoid_and_rejects_wrong_ones(quiet_row):
     )
 
 
+def test_a_certificate_table_round_trips(tmp_path, quiet_row, default, paper):
+    from hydropwa.control import write_certificate
+
+    cert = _certify_data(quiet_row)
+    res = check_certificate(cert, quiet_row)
+    cert = dataclasses.replace(cert, success=res.passed, check=res)
+    path = tmp_path / "ctrl.toml"
+    save_controller(default, path, machine_parameters=paper)
+    write_certificate(path, cert)
+    table = tomllib.loads(path.read_text())["certificate"]
+    assert table["verdict"] == "certified" and table["checker"] == "pass"
+    assert table["e_bar"] == f"{cert.e_bar * 1e3:.6g} mm"
+    P = np.array(table["sublevel"]["P"])
+    assert np.array_equal(P, cert.P)  # TOML keeps the float64 matrix bit for bit
+
+
 def test_cli_certify_writes_the_table(tmp_path, default, paper):
     jsonschema = pytest.importorskip("jsonschema")
     path = tmp_path / "ctrl.toml"
