@@ -679,6 +679,7 @@ NOT_MODELLED = (
     "the flow's curvature between the two pressure vertices and the PWA's error to the full "
     "model (error_bound 0; no one-step soundness check on the full model yet)",
     "the chamber capacitance's change with the rod position (the PWA's capacitance position)",
+    "the spool estimate's error (the valve model of Eq. (1) taken as exact: ν̂ = ν)",
 )
 
 
