@@ -46,6 +46,7 @@ _ARGS = {
     "paper": ["--out", "{tmp}/report"],
     "control design": ["--out", "{tmp}/ctrl.toml"],
     "control simulate": ["--controller", "{tmp}/c.toml", "--reference", "steps:0=0.1"],
+    "control certify": ["{tmp}/c.toml"],
     "export fmu": ["--out", "{tmp}/axis.fmu"],  # --params is added by each test
     "data convert": ["{tmp}/data", "{tmp}/copy"],
     "identify frf": ["{tmp}/data", "--out", "{tmp}/i.toml"],

@@ -28,7 +28,7 @@ from ._options import (
     sample_time_source,
 )
 
-__all__ = ["app", "design_command", "simulate_command", "export_command"]
+__all__ = ["app", "design_command", "simulate_command", "export_command", "certify_command"]
 
 app = new_app(
     "control", help="Closed-loop position control: design on the PWA model, verify on any model."
@@ -401,6 +401,14 @@ def design_command(
             "the failed verdict; without this option a failed design exits 1 and writes nothing).",
         ),
     ] = False,
+    certify: Annotated[
+        bool,
+        typer.Option(
+            "--certify",
+            help="Certify the loop at a hold (ultimate bound, region of attraction) before "
+            "writing; a design that cannot be certified says why and is not written.",
+        ),
+    ] = False,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
@@ -426,6 +434,8 @@ def design_command(
         raise ControlError(f"--out {out} must end in .toml or .json")
     if model_name not in ("pwa", "pwa-chamber"):
         raise ControlError(f"--model {model_name!r} must be pwa or pwa-chamber")
+    if certify and (model_name != "pwa" or method == "pi"):
+        raise ControlError("--certify needs --method lqr or place on --model pwa")
     if model_name == "pwa-chamber" and method != "lqr":
         raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
     model = _pwa_model(params, pwa) if model_name == "pwa" else _chamber_model(params, pwa)
@@ -480,8 +490,13 @@ def design_command(
             "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
+    cert = _design_certificate(d.controller, model) if certify else None
     # the machine goes with the controller: `control simulate` needs no --params to run it
     save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
+    if cert is not None:
+        from ..control import write_certificate  # deferred: loaded only with --certify
+
+        write_certificate(out, cert)
     written = [str(out)]
     if table is not None:
         from .._io import (
@@ -491,6 +506,18 @@ def design_command(
         atomic_write_text(table, d.table.to_csv(index=False))
         written.append(str(table))
     typer.echo(f"wrote {', '.join(written)}")
+
+
+def _design_certificate(controller, model):
+    """``control design --certify``: the certificate of the design; none: exit 1, nothing written."""
+    from ..control import certify  # deferred: loaded only when this command runs
+
+    cert = certify(controller, model)
+    typer.echo(cert.summary())
+    if not cert.success:
+        error_line(f"the design cannot be certified ({cert.status.name.lower()}); nothing written")
+        raise typer.Exit(code=1)
+    return cert
 
 
 @app.command("simulate")
@@ -735,6 +762,46 @@ def export_command(
         export_fmu(ctrl, fmu, fmi_version=fmi_version, overwrite=force)
         written.append(str(fmu))
     typer.echo(f"wrote {'; '.join(written)} ({ctrl.kind} controller, verification {ctrl.verdict})")
+
+
+@app.command("certify")
+def certify_command(
+    controller: Annotated[
+        Path, typer.Argument(help="Controller file (.toml/.json) from 'control design'.")
+    ],
+    params: MachineParamsOption = None,
+    delay_samples: Annotated[
+        int | None,
+        typer.Option(
+            "--delay-samples",
+            help="Samples of delay between computation and valve (default: the file's, 0 or 1).",
+        ),
+    ] = None,
+    write: Annotated[
+        bool,
+        typer.Option("--write", help="Write the [certificate] table into the controller file."),
+    ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace a [certificate] the file holds.")
+    ] = False,
+) -> None:
+    """Certify the loop at a hold: the ultimate bound on the position error and the region it is reached from."""
+    from ..control import load_controller  # deferred: loaded only when this command runs
+    from ..control._certify import (  # deferred: loaded only when this command runs
+        certify,
+        write_certificate,
+    )
+    from ..linearization import linearize  # deferred: loaded only when this command runs
+
+    prm = _machine_of(controller) if params is None else resolve_params(params)
+    ctrl = load_controller(controller)
+    cert = certify(ctrl, linearize(prm), delay_samples=delay_samples)
+    typer.echo(cert.summary())
+    if write:
+        write_certificate(controller, cert, overwrite=force)
+        typer.echo(f"wrote [certificate] into {controller}")
+    if not cert.success:
+        raise typer.Exit(code=1)
 
 
 def _start_position(x0: str | None, ref, params) -> float:

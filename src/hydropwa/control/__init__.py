@@ -24,6 +24,8 @@ from ._bands import (
     quiet_band_for,
     quiet_open_for,
 )
+from ._certcheck import CheckResult, check_certificate
+from ._certify import Certificate, CertificateStatus, certify, write_certificate
 from ._controllers import (
     ANTI_WINDUP,
     DEFAULT_SAMPLE_TIME,
@@ -94,6 +96,12 @@ from ._verify import (
 )
 
 __all__ = [
+    "Certificate",
+    "CertificateStatus",
+    "CheckResult",
+    "certify",
+    "check_certificate",
+    "write_certificate",
     "CellEstimator",
     "DEFAULT_PROCESS_NOISE",
     "design_cell_estimator",
