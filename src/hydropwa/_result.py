@@ -109,6 +109,7 @@ class ResultStatus(StatusEnum):
     PARTIAL = 2
     CHECK_FAILED = 3
     FAILED = 4
+    NOT_SETTLED = 5
 
 
 status_messages(
@@ -129,6 +130,10 @@ status_messages(
         ),
         ResultStatus.FAILED: (
             "a computation inside failed (see the message for which); fix its inputs and run again"
+        ),
+        ResultStatus.NOT_SETTLED: (
+            "the response did not settle within the window, so a step metric is NaN (see the "
+            "message for which); lengthen the window, or re-tune a loop that is too slow or rings"
         ),
     },
 )

@@ -19,7 +19,6 @@ from ..._errors import IdentificationError, ParameterError
 from ...models import as_model
 from .._common import (
     IdentificationWarning,
-    OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
     as_runs,
@@ -34,7 +33,7 @@ from .problem import GreyBoxProblem, expand_free
 from .profile import carry
 from .profile import profile as _profile
 from .report import fitted_params, identifiability, run_fits
-from .result import FitStatus, GreyBoxFit, Profile
+from .result import GreyBoxFit, Profile
 from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
@@ -902,20 +901,13 @@ def fit_model(
             IdentificationWarning,
             stacklevel=2,
         )
-    status = FitStatus.from_scipy(sol)
     checked = _validate(data, est, opts, plan)
     plan.report("done", 0, 0, cost=float(sol.cost), nfev=int(sol.nfev))
     return GreyBoxFit(
         params_=fitted, free=names, estimates_=est.estimates, covariance_=est.cov,
         correlation_=est.corr, inflation_=est.inflation,
-        success=all(st.success for st in stages if st.name in ("full", "sliding")),
-        status=status, message=status.message, nfev=int(sol.nfev), njev=int(sol.njev or 0),
         cost=float(sol.cost), initial_cost=float(best.initial_cost), runs_=fits,
         profiles_=profiles, identifiability_=ident, starts_=logs, model=data.base_model.name,
-        optimizer_=OptimizerStatus(
-            success=status.success, message=status.message, nfev=int(sol.nfev),
-            nit=int(sol.njev or 0),
-        ),
         skipped_=data.skipped, wall_time=time.perf_counter() - t0, level=opts.level,
         interval_scan_=est.scan, widened_=est.widened, sliding_=sliding_info, stages_=stages,
         data_=data.notes, validation_=checked,
