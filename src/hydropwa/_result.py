@@ -2,7 +2,9 @@
 
 Every result of the package (:class:`~hydropwa.SimulationResult`, the identification fits
 and :class:`~hydropwa.identification.IdentificationReport`, :class:`GreyBoxFit`,
-:class:`ControlDesign`, :class:`EvaluationResult`) satisfies :class:`Result`:
+:class:`ControlDesign`, :class:`EvaluationResult`, the control layer's
+:class:`~hydropwa.control.TrackingMetrics` and :class:`~hydropwa.control.Verification`)
+satisfies :class:`Result`:
 
 - ``status``: how the computation ended, always a :class:`Status`: an object with ``name``,
   ``success`` and a ``message`` that says what happened and what to change. The solver's

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hydropwa.control import TrackingMetrics, Verification, VerificationCriteria
+from hydropwa.data import Run
 from hydropwa.evaluation import EvaluationResult
 from hydropwa.evaluation._engineering import BodeComparison, CellLoops
 from hydropwa.identification import GreyBoxFit
@@ -22,6 +23,7 @@ from hydropwa.plotting._shapes import (
     EvaluationShape,
     ForceFit,
     MetricTable,
+    Recorded,
     TracedFit,
 )
 from hydropwa.simulation import SimulationResult
@@ -35,6 +37,8 @@ PAIRS = [
     (Verification, MetricTable),
     (GreyBoxFit, TracedFit),
     (EvaluationResult, EvaluationShape),
+    (SimulationResult, Recorded),
+    (Run, Recorded),
 ]
 
 

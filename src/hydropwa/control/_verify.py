@@ -24,7 +24,7 @@ import numpy as np
 
 from .._dask import dask_client
 from .._result import DerivedResult, ResultStatus
-from ..components._physics import load_flow_drop
+from ..components import load_flow_drop
 from ..simulation import simulate_batch
 from ._bands import (
     INTEGRAL_LEAK,

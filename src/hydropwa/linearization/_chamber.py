@@ -49,9 +49,8 @@ import numpy as np
 
 from .._errors import PwaError
 from .._layout import FULL_STATES, I_CELLS, N_BASE, PWA_SLOT
-from ..components import PiecewiseAffine
-from ..components._physics import dead_zone as _dz
-from ..components._physics import orifice_flows, signed_sqrt, signed_sqrt_slope
+from ..components import PiecewiseAffine, orifice_flows, signed_sqrt, signed_sqrt_slope
+from ..components import dead_zone as _dz
 from ..components._pwa import read_only
 from ..models import FullOrderModel, pack_params
 from ..models._models import SmoothModelStates

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
-from ._shapes import ClosedLoopRun, EvaluationShape, MetricTable, require
+from ._shapes import ClosedLoopRun, EvaluationShape, MetricTable, Recorded, require
 
 __all__ = [
     "plot_result",
@@ -34,7 +34,10 @@ def _display(ch: str) -> tuple[str, float, str]:
 
 
 def plot_result(
-    result: Any, channels: Sequence[str] = ("u", "x", "p_a", "p_b", "p_s"), *, ax: _AxesArg = None
+    result: Recorded,
+    channels: Sequence[str] = ("u", "x", "p_a", "p_b", "p_s"),
+    *,
+    ax: _AxesArg = None,
 ) -> Any:
     """Channels of a result (or run) against time, one axes per display unit (%, mm, bar, N).
 
@@ -51,6 +54,7 @@ def plot_result(
     -------
     matplotlib.figure.Figure
     """
+    require(result, Recorded, "plot_result")
     groups: dict[str, list[str]] = {}
     for ch in channels:
         if ch in result.channels:

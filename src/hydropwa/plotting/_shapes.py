@@ -23,6 +23,7 @@ __all__ = [
     "ClosedLoopRun",
     "ForceFit",
     "MetricTable",
+    "Recorded",
     "TracedFit",
     "TracedRun",
     "require",
@@ -103,6 +104,15 @@ class ChannelResult(Protocol):
 
     @property
     def t(self) -> np.ndarray: ...
+
+    @property
+    def channels(self) -> Mapping[str, np.ndarray]: ...
+
+
+@runtime_checkable
+class Recorded(Protocol):
+    """Recorded channels: ``channels`` (name → SI array, ``t`` [s] included), as a
+    :class:`~hydropwa.SimulationResult` and a :class:`~hydropwa.data.Run` hold them."""
 
     @property
     def channels(self) -> Mapping[str, np.ndarray]: ...
