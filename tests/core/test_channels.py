@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from hydropwa import ParameterError, get_preset
-from hydropwa.linearization import linearize
 from hydropwa._channels import (
     CHANNEL,
     CHANNELS,
@@ -20,6 +19,7 @@ from hydropwa._channels import (
 from hydropwa._layout import FULL_STATES, LOAD_STATES, Y_FULL
 from hydropwa.data import CANONICAL_UNITS, PLAUSIBLE_RANGES
 from hydropwa.evaluation import CHANNELS as EVALUATED
+from hydropwa.linearization import linearize
 from hydropwa.models import FullOrderModel, ReducedModel
 from hydropwa.rig import MEASURED_CHANNELS, machine_sensors, paper_sensors
 
