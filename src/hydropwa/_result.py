@@ -2,7 +2,9 @@
 
 Every result of the package (:class:`~hydropwa.SimulationResult`, the identification fits
 and :class:`~hydropwa.identification.IdentificationReport`, :class:`GreyBoxFit`,
-:class:`ControlDesign`, :class:`EvaluationResult`) satisfies :class:`Result`:
+:class:`ControlDesign`, :class:`EvaluationResult`, the control layer's
+:class:`~hydropwa.control.TrackingMetrics` and :class:`~hydropwa.control.Verification`)
+satisfies :class:`Result`:
 
 - ``status``: how the computation ended, always a :class:`Status`: an object with ``name``,
   ``success`` and a ``message`` that says what happened and what to change. The solver's
@@ -109,6 +111,7 @@ class ResultStatus(StatusEnum):
     PARTIAL = 2
     CHECK_FAILED = 3
     FAILED = 4
+    NOT_SETTLED = 5
 
 
 status_messages(
@@ -129,6 +132,10 @@ status_messages(
         ),
         ResultStatus.FAILED: (
             "a computation inside failed (see the message for which); fix its inputs and run again"
+        ),
+        ResultStatus.NOT_SETTLED: (
+            "the response did not settle within the window, so a step metric is NaN (see the "
+            "message for which); lengthen the window, or re-tune a loop that is too slow or rings"
         ),
     },
 )

@@ -59,7 +59,6 @@ EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
     ("control/_design.py", "design_pi"): (65, 14, _API),
     ("control/_verify.py", "design_controller"): (44, 13, _API),
     ("control/_metrics.py", "compare_models"): (43, 13, _API),
-    ("identification/greybox/profile.py", "profile"): (32, 12, _API),
     ("simulation/_simulate.py", "simulate"): (
         43,
         21,

@@ -106,7 +106,9 @@ def test_locked_piston_pressure_rise_rate(paper):
     p = _locked(_no_friction(paper))
     c = p.cylinder
     # spool held open at 0.3 for the first instant
-    y0 = FullOrderModel.state_from_measurement(0.05, 0.0, 20e5, 60e5, 100e5, spool=0.3)
+    y0 = FullOrderModel(p).state_from_measurement(
+        {"x": 0.05, "v": 0.0, "p_a": 20e5, "p_b": 60e5, "p_s": 100e5, "spool": 0.3}
+    )
     dy = np.empty(y0.size)
     K.rhs_full(y0, 0.3, 100e5, 0.0, pack_params(p), dy)
     z = dead_zone(0.3, 1.0, 0.1, 0.04, 0.1)
@@ -130,7 +132,9 @@ def test_oil_volume_balance_with_leakage(paper):
     c = p.cylinder
     x0 = 0.05
     va, vb = c.dead_volume_a + c.area_a * x0, c.dead_volume_b + c.area_b * (c.stroke - x0)
-    y0 = FullOrderModel.state_from_measurement(x0, 0.0, 80e5, 20e5, 100e5)
+    y0 = FullOrderModel(p).state_from_measurement(
+        {"x": x0, "v": 0.0, "p_a": 80e5, "p_b": 20e5, "p_s": 100e5}
+    )
     res = simulate(FullOrderModel(p), 0.0, duration=0.2, initial_state=y0, rtol=1e-8)
     stored = va * res["p_a"] + vb * res["p_b"]
     assert np.max(np.abs(stored - stored[0])) / abs(stored[0]) < 1e-6

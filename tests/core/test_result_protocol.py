@@ -11,15 +11,32 @@ against the objects they come from.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
-from hydropwa import FullOrderModel, ReducedModel, Result, ResultStatus, Status, simulate
+from hydropwa import (
+    FullOrderModel,
+    IdentificationError,
+    ReducedModel,
+    Result,
+    ResultStatus,
+    Status,
+    simulate,
+)
 from hydropwa.components import stribeck_friction
-from hydropwa.control import ControlDesign, design_pi
+from hydropwa.control import (
+    ControlDesign,
+    PIController,
+    TrackingMetrics,
+    Verification,
+    VerificationCriteria,
+    design_pi,
+    tracking_metrics,
+)
 from hydropwa.data import Run
 from hydropwa.evaluation import EvaluationResult, evaluate_run
 from hydropwa.identification import (
@@ -38,7 +55,14 @@ from hydropwa.identification import (
     identify,
     second_order_response,
 )
-from hydropwa.identification.greybox.result import FitStatus, Identifiability, Profile, RunFit
+from hydropwa.identification.greybox.result import (
+    FitStatus,
+    Identifiability,
+    Profile,
+    RunFit,
+    StageResult,
+    StartRecord,
+)
 from hydropwa.linearization import linearize
 from hydropwa.plotting._shapes import EvaluationShape, TracedFit
 from hydropwa.simulation import SimulationResult, SolverStatus
@@ -91,22 +115,21 @@ def _greybox(paper) -> GreyBoxFit:
         {"x": 0.1 * t},
         {"x": 0.1 * t + 1e-5},
     )
+    start = StartRecord(
+        start={"coulomb": 250.0}, value={"coulomb": 300.0}, cost=1.0, status=FitStatus.FTOL,
+        nfev=12, njev=3,
+    )  # fmt: skip
     return GreyBoxFit(
-        paper,
-        ("coulomb",),
-        est,
-        np.eye(1) * 100.0,
-        np.eye(1),
-        np.ones(1),
-        True,
-        FitStatus.FTOL,
-        FitStatus.FTOL.message,
-        12,
-        3,
-        1.0,
-        4.0,
-        [run],
-        {
+        params_=paper,
+        free=("coulomb",),
+        estimates_=est,
+        covariance_=np.eye(1) * 100.0,
+        correlation_=np.eye(1),
+        inflation_=np.ones(1),
+        cost=1.0,
+        initial_cost=4.0,
+        runs_=[run],
+        profiles_={
             "coulomb": Profile(
                 "coulomb",
                 np.array([280.0, 300.0, 320.0]),
@@ -114,11 +137,34 @@ def _greybox(paper) -> GreyBoxFit:
                 (280.0, 320.0),
             )
         },
-        Identifiability(1.0, [], [], [], []),
-        [],
-        "full",
-        OptimizerStatus.closed_form(),
+        identifiability_=Identifiability(1.0, [], [], [], []),
+        starts_=[start],
+        stages_=[StageResult("full", FitStatus.FTOL, 1.0, 12, 3)],
+        model="full",
     )
+
+
+def _step(paper):
+    """A 2 mm step of a P loop (kp = 300) on the reduced model: it stops 0.061 mm short."""
+    return simulate(
+        "reduced", params=paper, duration=0.3, controller=PIController(kp=300.0),
+        initial_position=0.1, reference="step:time=0.01,before=0.1,after=0.102",
+    )  # fmt: skip
+
+
+def _tracking(paper) -> TrackingMetrics:
+    # a settling band of 0.2 mm (10 % of the step) holds the 0.061 mm offset
+    return tracking_metrics(_step(paper), 0.01, band=2e-4)
+
+
+def _verification(paper) -> Verification:
+    """A verdict as verify_controller writes it: one hold over its limit."""
+    worst = {"hold_peak_to_peak_mm": 0.15, "hold_mean_error_mm": 0.01, "following_error_mm": 0.4,
+             "saturation_percent": 2.0, "sign_changes_per_s": 3.0, "limit_cycles": 0.0}  # fmt: skip
+    failures = ["hold_1, draw 2: hold 0.150 mm peak to peak > 0.1 mm"]
+    crit = dataclasses.asdict(VerificationCriteria())
+    runs = [{"task": "hold_1", "draw": 2, "hold_pp": 1.5e-4}]
+    return Verification(False, worst, failures, runs, {"criteria": crit, "draws": 3, "tasks": 1})
 
 
 def _evaluation(paper) -> EvaluationResult:
@@ -152,6 +198,8 @@ MAKERS = {
     "GreyBoxFit": _greybox,
     "ControlDesign": lambda p: design_pi(linearize(p)),
     "EvaluationResult": _evaluation,
+    "TrackingMetrics": _tracking,
+    "Verification": _verification,
 }
 CLASSES = {
     "SimulationResult": SimulationResult,
@@ -162,6 +210,8 @@ CLASSES = {
     "GreyBoxFit": GreyBoxFit,
     "ControlDesign": ControlDesign,
     "EvaluationResult": EvaluationResult,
+    "TrackingMetrics": TrackingMetrics,
+    "Verification": Verification,
 }
 
 
@@ -259,6 +309,57 @@ def test_report_and_design_status_follow_their_parts(results, paper):
     assert broken.message.startswith("cell 3 is not stable; ") and "re-tune" in broken.message
 
 
+def test_greybox_status_follows_its_deciding_stages(results):
+    """The fit's status, success and message are derived from its stages: a sliding stage that
+    did not converge fails the fit although the full stage converged (they used to disagree)."""
+    fit = _make(results, "GreyBoxFit")
+    assert fit.status is FitStatus.FTOL and fit.success and fit.nfev == 12 and fit.njev == 3
+    assert fit.optimizer_.success and fit.optimizer_.nfev == 12 and fit.optimizer_.nit is None
+    stalled = StageResult("sliding", FitStatus.MAX_EVALUATIONS, 0.5, 40, 8)
+    bad = dataclasses.replace(fit, stages_=[*fit.stages_, stalled])
+    assert bad.status is FitStatus.MAX_EVALUATIONS and not bad.success
+    assert bad.success is bad.status.success is bad.optimizer_.success is False
+    assert bad.message.startswith("the sliding stage did not converge; ")
+    assert "raise max_nfev" in bad.message and bad.nfev == 12  # still the full stage's counts
+    # locating and coarse stages lead the way; their outcome does not decide the fit
+    lost = dataclasses.replace(
+        fit, stages_=[StageResult("locate", FitStatus(0), 9.0, 5, 1), *fit.stages_]
+    )
+    assert lost.success and lost.status is FitStatus.FTOL
+    with pytest.raises(IdentificationError, match="exactly one 'full' stage"):
+        dataclasses.replace(fit, stages_=[stalled])
+    with pytest.raises(TypeError):
+        GreyBoxFit(fit.params_, fit.free)  # keyword-only
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fit.cost = 0.0
+
+
+def test_tracking_and_verification_say_how_they_ended(results):
+    m = _make(results, "TrackingMetrics")
+    # in the 0.2 mm band the step settles within the window: every metric computed
+    assert m.status is ResultStatus.SUCCESS and m.success and 0 < m.settling_time < 0.29
+    assert m.to_pandas().loc["rise_time", "value"] == m.rise_time
+    # the default band, 2 % of the step (0.04 mm), is narrower than the loop's 0.061 mm offset
+    assert abs(m.steady_state_error) > 0.02 * m.step
+    short = tracking_metrics(_step(results[1]), 0.01)
+    assert math.isnan(short.settling_time) and short.rise_time == m.rise_time
+    assert short.status is ResultStatus.NOT_SETTLED and not short.success
+    assert short.message.startswith("settling_time: the rod was outside the band")
+    assert "lengthen the window" in short.message and "NOT_SETTLED" in short.summary()
+    # no step: the step metrics are NaN by definition, not a failure
+    hold = dataclasses.replace(m, step=0.0, rise_time=float("nan"), settling_time=float("nan"))
+    assert hold.success
+    v = _make(results, "Verification")
+    assert v.status is ResultStatus.CHECK_FAILED and not v.success and not v.passed
+    assert v.message.startswith("hold_1, draw 2: hold 0.150 mm") and "re-tune" in v.message
+    assert v.to_pandas().loc["hold_peak_to_peak_mm", "value"] == 0.15
+    assert v.to_pandas().loc["saturation_percent", "unit"] == "%"
+    crashed = dataclasses.replace(v, runs=[{"task": "hold_1", "draw": 0, "failed": True}])
+    assert crashed.status is ResultStatus.FAILED
+    ok = dataclasses.replace(v, passed=True, failures=[])
+    assert ok.status is ResultStatus.SUCCESS and ok.success and "PASS (SUCCESS)" in ok.summary()
+
+
 def test_evaluation_status_names_a_failed_model(results):
     ev = _make(results, "EvaluationResult")
     assert ev.success and ev.to_pandas() is ev.metrics
@@ -289,7 +390,7 @@ def test_plotting_reads_results_through_declared_shapes(results):
 
 
 def test_status_enum_messages_are_distinct_and_only_success_succeeds():
-    assert [s.success for s in ResultStatus] == [True, False, False, False, False]
+    assert [s.success for s in ResultStatus] == [True, False, False, False, False, False]
     assert len({s.message for s in ResultStatus}) == len(ResultStatus)
     for enum_type in (ResultStatus, SolverStatus, FitStatus):
         assert all(isinstance(s, Status) for s in enum_type)

@@ -27,7 +27,7 @@ def test_full_model_fits_the_position(sine_run):
     assert res.fit("full", "p_l") >= 90.0
     # the start is the first upward zero crossing after one period (1/3 s)
     assert res.start.t0 == pytest.approx(1 / 3, abs=1e-3)
-    assert res.start.x == pytest.approx(run.channels["x"][res.start.index])
+    assert res.start["x"] == pytest.approx(run.channels["x"][res.start.index])
     assert not res.notes
     m = res.metrics
     x_full = m[(m.model == "full") & (m.channel == "x")].iloc[0]
@@ -70,7 +70,7 @@ def test_run_starting_mid_stroke(sine_run):
     assert start.t0 == pytest.approx(1.0, abs=1e-3)  # first crossing one period after 0.55 s
     res = evaluate_run(late, params, models=("full",))
     assert res.fit("full", "x") >= FULL_X_FIT
-    assert res.simulations["full"].channels["x"][0] == pytest.approx(start.x)
+    assert res.simulations["full"].channels["x"][0] == pytest.approx(start["x"])
 
 
 def test_evaluate_dataset_and_errors(sine_run):

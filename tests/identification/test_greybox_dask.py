@@ -46,7 +46,7 @@ def test_starts_and_profiles_on_a_local_cluster_match_the_in_process_fit(truth):
         np.testing.assert_allclose(
             there.profiles_[n].cost, here.profiles_[n].cost, rtol=1e-9, atol=1e-9
         )
-    assert [s["cost"] for s in there.starts_] == pytest.approx([s["cost"] for s in here.starts_])
+    assert [s.cost for s in there.starts_] == pytest.approx([s.cost for s in here.starts_])
     # each start reported from the caller as it was sent and as it came back
     starts = [(e.start, e.event) for e in seen if e.stage == "start"]
     assert starts == [(1, "begin"), (2, "begin"), (1, "end"), (2, "end")]

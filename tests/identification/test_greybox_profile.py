@@ -13,9 +13,17 @@ import math
 import numpy as np
 import pytest
 
-from hydropwa.identification.greybox.profile import REACH, crossing, profile
+from hydropwa.identification.greybox.profile import REACH, ProfileTask, crossing, profile
 
 Z = 1.959963984540054
+
+
+def _task(prob, theta, i, lo, hi, sd):
+    """Linear loss, unit scale, optimum cost 0, no variance correction (κ = 1)."""
+    return ProfileTask(
+        prob=prob, theta=theta, index=i, tlo=lo, thi=hi, loss="linear", f_scale=1.0,
+        cost0=0.0, kappa=1.0, z=Z, sd=sd,
+    )  # fmt: skip
 
 
 class _Residuals:
@@ -45,7 +53,7 @@ def test_a_linear_model_profiles_to_the_wald_interval():
     prob = _Residuals(lambda t: [(t[0] - 0.2) / s0, (t[0] + t[1] - 0.1) / s1], 2)
     theta = np.array([0.2, -0.1])
     lo, hi = np.full(2, -5.0), np.full(2, 5.0)
-    p = profile(prob, theta, 0, lo, hi, "linear", 1.0, 0.0, 1.0, Z, s0)
+    p = profile(_task(prob, theta, 0, lo, hi, s0))
     assert math.log(p.ci[0]) == pytest.approx(0.2 - Z * s0, abs=1e-3 * s0 * 10)
     assert math.log(p.ci[1]) == pytest.approx(0.2 + Z * s0, abs=1e-3 * s0 * 10)
     assert p.cost.max() > Z**2  # the grid reaches beyond the threshold on both sides
@@ -57,7 +65,7 @@ def test_a_parameter_the_data_do_not_limit_is_walked_to_its_reach():
     prob = _Residuals(lambda t: [(t[0] - 0.2) / 0.05, 0.5 * math.tanh((t[1] - 0.3) / 0.01)], 2)
     theta = np.array([0.2, 0.3])
     lo, hi = np.full(2, -10.0), np.full(2, 10.0)
-    p = profile(prob, theta, 1, lo, hi, "linear", 1.0, 0.0, 1.0, Z, 0.01)
+    p = profile(_task(prob, theta, 1, lo, hi, 0.01))
     assert p.cost.max() < Z**2
     assert math.log(p.values[0]) == pytest.approx(0.3 - REACH)
     assert math.log(p.values[-1]) == pytest.approx(0.3 + REACH)
@@ -65,7 +73,7 @@ def test_a_parameter_the_data_do_not_limit_is_walked_to_its_reach():
         0.3 + REACH
     )
     # a bound nearer than the reach ends the walk there
-    p = profile(prob, theta, 1, lo, np.array([10.0, 1.0]), "linear", 1.0, 0.0, 1.0, Z, 0.01)
+    p = profile(_task(prob, theta, 1, lo, np.array([10.0, 1.0]), 0.01))
     assert math.log(p.values[-1]) == pytest.approx(1.0) and p.cost[-1] < Z**2
 
 

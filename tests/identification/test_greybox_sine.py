@@ -124,7 +124,7 @@ def test_coulomb_and_static_friction_found_from_sine_runs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentificationWarning)
         fit = fit_model(FullOrderModel(start), runs, STICK_FREE, jobs=2, profile="none")
-    assert fit.starts_[0]["locate_evaluations"] > 0
+    assert fit.starts_[0].locate_evaluations > 0
     for n in STICK_FREE:
         tol = {"friction.coulomb": 0.10, "friction.static": 0.10, "friction.viscous": 0.03}.get(
             n, 0.01

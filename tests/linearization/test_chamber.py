@@ -288,7 +288,9 @@ def test_agrees_with_the_full_model_on_a_sine_with_supply_pressure(machine, indu
     x0 = 0.1 * prm.cylinder.stroke
     full = simulate("full", u, duration=1.5, params=prm.replace(supply=sup), initial_position=x0)
     m = linearize(prm, form="chamber", scheduled=True)
-    y0 = m.state_from_measurement(x0, 0.0, full["p_a"][0], full["p_b"][0], full["p_s"][0])
+    y0 = m.state_from_measurement(
+        {"x": x0, "v": 0.0, "p_a": full["p_a"][0], "p_b": full["p_b"][0], "p_s": full["p_s"][0]}
+    )
     res = simulate(
         m, u, duration=1.5, supply_pressure=Sampled(full.t, full["p_s"]), initial_state=y0
     )

@@ -185,9 +185,7 @@ def test_closed_valve_leakage_conserves_oil(params, pa, pb, leak):
     p = _locked(params).replace(**{"cylinder.leakage": leak})
     c, E = p.cylinder, p.oil.bulk_modulus
     x0 = 0.5 * c.stroke
-    state = FullOrderModel.state_from_measurement(
-        x=x0, v=0.0, p_a=pa, p_b=pb, p_s=p.supply.pressure
-    )
+    state = FullOrderModel(p).state_from_measurement({"x": x0, "v": 0.0, "p_a": pa, "p_b": pb})
     res = simulate(FullOrderModel(p), 0.0, duration=0.2, fs=2000, initial_state=state, rtol=1e-5)
     va = c.dead_volume_a + c.area_a * res["x"]
     vb = c.dead_volume_b + c.area_b * (c.stroke - res["x"])
@@ -225,7 +223,9 @@ def test_locked_piston_volume_balance(params, u):
     c, oil, sup = p.cylinder, p.oil, p.supply
     x0 = 0.5 * c.stroke
     ps = sup.pressure
-    state = FullOrderModel.state_from_measurement(x=x0, v=0.0, p_a=0.5 * ps, p_b=0.5 * ps, p_s=ps)
+    state = FullOrderModel(p).state_from_measurement(
+        {"x": x0, "v": 0.0, "p_a": 0.5 * ps, "p_b": 0.5 * ps, "p_s": ps}
+    )
     res = simulate(FullOrderModel(p), u, duration=0.02, fs=20000, initial_state=state)
     keep = (res["p_a"] > oil.release_pressure + 0.05 * ps) & (
         res["p_b"] > oil.release_pressure + 0.05 * ps

@@ -46,9 +46,13 @@ from ._design import (
     DEFAULT_WEIGHTS,
     ControlDesign,
     cell_plant,
+    clip_friction_slope,
     design_pi,
     design_state_feedback,
     design_textbook_pi,
+    friction_slope_limit,
+    valve_augment,
+    valve_series,
 )
 from ._design_chamber import design_on_chamber
 from ._estimator import (
@@ -161,6 +165,10 @@ __all__ = [
     "StepSequence",
     "as_reference",
     "cell_plant",
+    "clip_friction_slope",
+    "friction_slope_limit",
+    "valve_augment",
+    "valve_series",
     "closed_loop_fidelity",
     "closed_loop_study",
     "closed_loop_verification",

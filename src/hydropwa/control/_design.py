@@ -51,6 +51,10 @@ __all__ = [
     "design_state_feedback",
     "design_textbook_pi",
     "DEFAULT_WEIGHTS",
+    "clip_friction_slope",
+    "friction_slope_limit",
+    "valve_augment",
+    "valve_series",
 ]
 
 #: Bryson maxima of the LQR: P_L [Pa], ẋ [m/s], x [m], ∫e [m·s], command [1].
@@ -196,7 +200,7 @@ def valve_series(A, B, omega0: float, zeta: float):
     return Av, Bv
 
 
-def _valve_augment(A, B, ts, omega0, zeta, delay):
+def valve_augment(A, B, ts, omega0, zeta, delay):
     """Discrete cell plant with the servo valve, the integral and the computation delay.
 
     States [P_L, ẋ, x, ν, ν̇, I] (and the pending command c_{k−1} with ``delay``), input
@@ -446,7 +450,7 @@ def design_state_feedback(
     valve : bool, optional
         Default True for ``"lqr"``, False for ``"place"``. Design on each cell augmented with the servo valve's second-order dynamics
         (Eq. (1)), the zero-order hold and the one-sample delay if ``delay``
-        (:func:`_valve_augment`); the rows then feed back the spool position and rate,
+        (:func:`valve_augment`); the rows then feed back the spool position and rate,
         estimated in the controller by the discrete valve model (:class:`SpoolModel`),
         and with the delay the pending command. ``method="lqr"`` only; False: the cell
         alone (schema 1).
@@ -601,10 +605,28 @@ def _placement_poles(poles, ts: float) -> tuple[tuple[complex, ...], np.ndarray]
     return poles, np.exp(np.array(poles) * ts)
 
 
+def friction_slope_limit(model) -> float:
+    """The state-feedback design's ceiling k_w,max [N·s/m] of a cell's friction slope: the larger
+    slope of the PWA friction's two outermost (viscous) cells, at least 0
+    (``design_state_feedback(..., friction_slopes="clip")``)."""
+    slopes = model.friction.pwa.slopes
+    return float(max(slopes[0], slopes[-1], 0.0))
+
+
+def clip_friction_slope(A, k_w_max: float, mass: float) -> tuple[np.ndarray, bool]:
+    """(A, clipped): a cell's A with its friction slope k_w = −A[1, 1]·m [N·s/m] held to
+    [0, ``k_w_max``] (a copy where it was outside; ``mass`` [kg]), as the design clips it."""
+    k_w = -A[1, 1] * mass
+    if 0.0 <= k_w <= k_w_max:
+        return A, False
+    A = np.array(A, dtype=float)
+    A[1, 1] = -min(max(k_w, 0.0), k_w_max) / mass
+    return A, True
+
+
 def _design_cells(model, opt: _FeedbackOptions) -> tuple[list, list, list[str], list[str]]:
     """Gain rows, table records, warnings and notes over the design cells (:func:`_cell_boxes`)."""
-    slopes = model.friction.pwa.slopes
-    k_w_max = float(max(slopes[0], slopes[-1], 0.0))
+    k_w_max = friction_slope_limit(model)
     rows, recs, warns, notes = [], [], [], []
     for cell in _cell_boxes(model, opt.load_force):
         row, rec, cell_warns, cell_notes = _design_cell(model, cell, opt, k_w_max)
@@ -647,18 +669,18 @@ def _design_cell(model, cell, opt: _FeedbackOptions, k_w_max: float):
 def _clipped_friction(A, label: str, k_w_max: float, mass: float, friction_slopes: str):
     """(A, clipped, notes): with ``"clip"`` the cell's friction slope k_w = −A[1, 1]·m outside
     [0, k_w_max] is clipped into it (a copy of A), and a note says so."""
-    k_w = -A[1, 1] * mass
-    clipped = friction_slopes == "clip" and not 0.0 <= k_w <= k_w_max
+    if friction_slopes != "clip":
+        return A, False, []
+    clipped_A, clipped = clip_friction_slope(A, k_w_max, mass)
     if not clipped:
-        return A, clipped, []
+        return A, False, []
+    k_w = -A[1, 1] * mass
     growth = float(np.max(np.linalg.eigvals(A).real))
     note = (
         f"cell {label}: friction slope {k_w:.4g} N·s/m (open-loop eigenvalue real part up to {growth:+.0f} 1/s) "
-        f"clipped to {min(max(k_w, 0.0), k_w_max):.4g} N·s/m for the design"
+        f"clipped to {-clipped_A[1, 1] * mass:.4g} N·s/m for the design"
     )
-    A = A.copy()
-    A[1, 1] = -min(max(k_w, 0.0), k_w_max) / mass
-    return A, clipped, [note]
+    return clipped_A, True, [note]
 
 
 def _design_plant(A, B, opt: _FeedbackOptions, valve_prm):
@@ -666,11 +688,11 @@ def _design_plant(A, B, opt: _FeedbackOptions, valve_prm):
     state weights q = (scale/maximum)² in the scaled states.
 
     With ``opt.valve`` the states are [P_L, ẋ, x, ν, ν̇, I (, pending c)]: the servo valve
-    (Eq. (1)), the ZOH and the delay (:func:`_valve_augment`); else [P_L, ẋ, x, I]
+    (Eq. (1)), the ZOH and the delay (:func:`valve_augment`); else [P_L, ẋ, x, I]
     (:func:`_augment`).
     """
     if opt.valve:
-        Aa, Ba = _valve_augment(A, B, opt.ts, valve_prm.omega0, valve_prm.zeta, opt.delay)
+        Aa, Ba = valve_augment(A, B, opt.ts, valve_prm.omega0, valve_prm.zeta, opt.delay)
         m = Aa.shape[0]
         sc = _VALVE_SCALE[:m]
         mx = np.concatenate([opt.maxima[:3], _VALVE_MAXIMA, opt.maxima[3:], [opt.u_max]])[:m]

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import html
 import math
 import warnings
 from typing import Any, ClassVar
 
 import numpy as np
 
+from .._result import DerivedResult, ResultStatus
 from ..linearization import linearize
 from ..simulation import DEFAULT_RTOL, simulate
 from ._controllers import ControlError
@@ -48,7 +50,7 @@ _SI = {
 
 
 @dataclasses.dataclass(frozen=True)
-class TrackingMetrics:
+class TrackingMetrics(DerivedResult):
     """Tracking metrics of a closed-loop run over a window, in SI units.
 
     Attributes
@@ -78,6 +80,11 @@ class TrackingMetrics:
 
     Notes
     -----
+    The result protocol (:class:`hydropwa._result.Result`): ``status`` is
+    ``ResultStatus.NOT_SETTLED`` where the reference steps but the rise or settling time is
+    NaN (the rod did not reach 90 % of the step, or was outside the band at the window's
+    end), else ``SUCCESS``; ``success``, ``message``, ``summary()``, ``to_pandas()`` and
+    ``plot()`` (:func:`hydropwa.plotting.plot_metrics`) follow.
     :meth:`display` gives the values in engineering units (:data:`METRIC_UNITS`: mm, ms, %).
     Indexing (``m["overshoot"]``), ``keys()``, ``items()`` and ``values()`` are the former
     dict in those units: deprecated, with a ``DeprecationWarning``.
@@ -102,6 +109,32 @@ class TrackingMetrics:
         """The metrics in engineering units (:data:`METRIC_UNITS`: mm, ms, %, 1/s)."""
         return {k: float(getattr(self, k)) * f for k, (_, f) in _SI.items()}
 
+    def display_units(self) -> dict[str, str]:
+        """The engineering unit of each metric (:data:`METRIC_UNITS`)."""
+        return dict(METRIC_UNITS)
+
+    def _status_details(self) -> list[str]:
+        if self.step == 0 or not math.isfinite(self.step):
+            return []  # no step: the step metrics do not apply
+        out = []
+        if math.isnan(self.rise_time):
+            out.append("rise_time: the rod did not reach 90 % of the step in the window")
+        if math.isnan(self.settling_time):
+            out.append("settling_time: the rod was outside the band at the window's end")
+        return out
+
+    @property
+    def status(self) -> ResultStatus:
+        """``NOT_SETTLED`` where a step metric that applies is NaN, else ``SUCCESS``."""
+        return ResultStatus.NOT_SETTLED if self._status_details() else ResultStatus.SUCCESS
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """The metrics as bars in engineering units (:func:`hydropwa.plotting.plot_metrics`)."""
+        from ..plotting import plot_metrics  # deferred: matplotlib loads only when plotting
+
+        t0, t1 = self.window
+        return plot_metrics(self, title=f"tracking metrics, {t0:g}…{t1:g} s", ax=ax)
+
     def to_pandas(self):
         """One row per metric: SI value and unit, display value and unit."""
         import pandas as pd  # deferred: pandas costs ~0.3 s at import
@@ -118,8 +151,10 @@ class TrackingMetrics:
         )
 
     def summary(self) -> str:
-        """One line per metric in engineering units."""
-        return "\n".join(f"{k:<20} {v:>10.4g} {METRIC_UNITS[k]}" for k, v in self.display().items())
+        """The status, then one line per metric in engineering units."""
+        lines = [f"TrackingMetrics ({self._status_line()})"]
+        lines += [f"{k:<20} {v:>10.4g} {METRIC_UNITS[k]}" for k, v in self.display().items()]
+        return "\n".join(lines)
 
     def __repr__(self) -> str:
         t0, t1 = self.window
@@ -135,9 +170,10 @@ class TrackingMetrics:
             f"<tr><td>{k}</td><td>{v:.4g}</td><td>{METRIC_UNITS[k]}</td></tr>"
             for k, v in self.display().items()
         )
+        note = html.escape(self._status_line())
         return (
             "<div><table><thead><tr><th>metric</th><th>value</th><th>unit</th></tr></thead>"
-            f"<tbody>{rows}</tbody></table></div>"
+            f"<tbody>{rows}</tbody></table><div style='font-size:smaller'>{note}</div></div>"
         )
 
     # --- the former dict (engineering units), deprecated ------------------------------------

@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from .._dask import dask_client
-from ..components._physics import load_flow_drop
+from .._result import DerivedResult, ResultStatus
+from ..components import load_flow_drop
 from ..simulation import simulate_batch
 from ._bands import (
     INTEGRAL_LEAK,
@@ -294,9 +295,24 @@ def _scaled(params, f: Mapping[str, float]):
     )
 
 
+#: Display unit of each worst-case metric of :class:`Verification` (its ``metrics`` keys).
+VERIFICATION_UNITS: dict[str, str] = {
+    "hold_peak_to_peak_mm": "mm",
+    "hold_mean_error_mm": "mm",
+    "following_error_mm": "mm",
+    "saturation_percent": "%",
+    "sign_changes_per_s": "1/s",
+    "limit_cycles": "1",
+}
+
+
 @dataclass
-class Verification:
+class Verification(DerivedResult):
     """Outcome of :func:`verify_controller`.
+
+    The result protocol (:class:`hydropwa._result.Result`): ``status`` is ``SUCCESS`` when it
+    passed, ``FAILED`` when a simulation failed, else ``CHECK_FAILED``; ``message`` names the
+    first failed checks; ``to_pandas()`` and ``plot()`` show the worst values.
 
     Attributes
     ----------
@@ -320,10 +336,61 @@ class Verification:
     runs: list[dict[str, Any]] = field(default_factory=list)
     settings: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def status(self) -> ResultStatus:
+        """``SUCCESS`` (passed), ``FAILED`` (a simulation failed) or ``CHECK_FAILED``."""
+        if self.passed:
+            return ResultStatus.SUCCESS
+        if any(r.get("failed") for r in self.runs):
+            return ResultStatus.FAILED
+        return ResultStatus.CHECK_FAILED
+
+    def _status_details(self) -> list[str]:
+        more = len(self.failures) - 3
+        return self.failures[:3] + ([f"... and {more} more"] if more > 0 else [])
+
+    def display(self) -> dict[str, float]:
+        """The worst values over every task and draw, in their display units."""
+        return {k: float(v) for k, v in self.metrics.items()}
+
+    def display_units(self) -> dict[str, str]:
+        """The display unit of each worst value (:data:`VERIFICATION_UNITS`)."""
+        return {k: VERIFICATION_UNITS.get(k, "") for k in self.metrics}
+
+    def _summary_rows(self) -> list[tuple[str, Any, str]]:
+        # already in display units: shown as they are (the unit column names them)
+        return [
+            (k, f"{v:.4g}", u)
+            for (k, v), u in zip(self.display().items(), self.display_units().values(), strict=True)
+        ]
+
+    def to_pandas(self):
+        """One row per worst-case metric: value and display unit."""
+        import pandas as pd  # deferred: pandas costs ~0.3 s at import
+
+        return pd.DataFrame(
+            {"value": list(self.display().values()), "unit": list(self.display_units().values())},
+            index=pd.Index(list(self.metrics), name="metric"),
+        )
+
+    def plot(self, *, ax: Any = None) -> Any:
+        """The worst values as bars (:func:`hydropwa.plotting.plot_metrics`)."""
+        from ..plotting import plot_metrics  # deferred: matplotlib loads only when plotting
+
+        c = self.settings.get("criteria") or {}
+        # the limits in the metrics' display units (the following error's is per move)
+        scale = {"hold_peak_to_peak": ("hold_peak_to_peak_mm", 1e3),
+                 "hold_mean_error": ("hold_mean_error_mm", 1e3),
+                 "saturation": ("saturation_percent", 100.0),
+                 "sign_changes": ("sign_changes_per_s", 1.0)}  # fmt: skip
+        limits = {k: float(c[name]) * f for name, (k, f) in scale.items() if name in c}
+        title = f"verification: {self.status.name}"
+        return plot_metrics(self, limits=limits, title=title, ax=ax)
+
     def summary(self) -> str:
         """Verdict and the worst numbers in one paragraph."""
         m = self.metrics
-        head = "PASS" if self.passed else "FAIL"
+        head = f"{'PASS' if self.passed else 'FAIL'} ({self.status.name})"
         lines = [
             f"verification on the full model ({self.settings.get('draws')} parameter draws x "
             f"{self.settings.get('tasks')} tasks, sensor noise, delay): {head}",

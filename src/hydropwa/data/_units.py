@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hydropwa._channels import CHANNELS
 from hydropwa._errors import DataError
 
 if TYPE_CHECKING:
@@ -18,20 +19,9 @@ if TYPE_CHECKING:
 
 __all__ = ["CANONICAL_UNITS", "si_unit_for", "to_si", "from_si", "convert_units", "normalize_unit"]
 
-#: Canonical channel names and their SI units inside the package.
-CANONICAL_UNITS: dict[str, str] = {
-    "t": "s",
-    "u": "1",
-    "spool": "1",
-    "z": "1",
-    "x": "m",
-    "v": "m/s",
-    "p_a": "Pa",
-    "p_b": "Pa",
-    "p_s": "Pa",
-    "p_l": "Pa",
-    "f_l": "N",
-}
+#: Canonical channel names and their SI units inside the package (the channel table,
+#: :data:`hydropwa._channels.CHANNELS`).
+CANONICAL_UNITS: dict[str, str] = {c.name: c.unit for c in CHANNELS}
 
 # SI unit used for an extra (non-canonical) channel, chosen by dimensionality.
 _PREFERRED_SI = (

@@ -11,6 +11,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+from hydropwa._channels import CHANNEL, FLOOR_CHANNELS, RANGED_CHANNELS
 from hydropwa._errors import DataError
 from hydropwa._signal import mask_runs, stuck_at_rails
 
@@ -56,24 +57,11 @@ class Plausible:
     low_hint: str = "check the unit declared for this channel"
 
 
-_P_HIGH = "values above 1000 bar: check the declared unit (psi or kPa declared as Pa?)"
-_P_LOW = "the values look like bar (or MPa); declare the unit as 'bar' or 'MPa', e.g. 'p_a [bar]'"
-_FRACTION_HIGH = "the values look like percent; declare the unit as '%'"
-
-#: Plausibility ranges per canonical channel, SI units (see ``docs/architecture_data.md``).
+#: Plausibility ranges per canonical channel, SI units (see ``docs/architecture_data.md``), from
+#: the channel table (:data:`hydropwa._channels.CHANNELS`).
 PLAUSIBLE_RANGES: dict[str, Plausible] = {
-    "u": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
-    "spool": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
-    "z": Plausible(-1.05, 1.05, high_hint=_FRACTION_HIGH),
-    "x": Plausible(
-        -0.05, 2.0, high_hint="positions beyond 2 m look like mm; declare the unit as 'mm'"
-    ),
-    "v": Plausible(-5.0, 5.0, high_hint="speeds beyond 5 m/s look like mm/s; declare 'mm/s'"),
-    "p_a": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
-    "p_b": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
-    "p_s": Plausible(-1e5, 1e8, 1e3, _P_HIGH, _P_LOW),
-    "p_l": Plausible(-1e8, 1e8, 1e3, _P_HIGH, _P_LOW),
-    "f_l": Plausible(-1e7, 1e7, high_hint="forces beyond 10 MN: check the declared unit"),
+    c.name: Plausible(c.lo, c.hi, c.min_peak, c.high_hint, c.low_hint)
+    for c in (CHANNEL[name] for name in RANGED_CHANNELS)
 }
 
 
@@ -437,8 +425,8 @@ def _unique(issues: list[Issue]) -> list[Issue]:
     return out
 
 
-#: Chamber pressures: at a converter floor near ambient they meet a physical floor.
-PRESSURE_CHANNELS = ("p_a", "p_b")
+#: Chamber (and line) pressures: at a converter floor near ambient they meet a physical floor.
+PRESSURE_CHANNELS = FLOOR_CHANNELS
 #: Absolute vacuum as a gauge pressure [Pa]: no liquid's pressure goes below it.
 VACUUM_GAUGE = -1.01325e5
 #: A converter whose lowest value is at most this [Pa, gauge] starts near ambient (a gauge

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .._channels import CHANNEL, SCORED_CHANNELS
 from ..components import load_pressure_range
 
 __all__ = [
@@ -36,8 +37,9 @@ __all__ = [
 ]
 
 _DIRECTIONS = {1: "extend", -1: "retract"}
-#: Error channels of the band scores: the channel and its unit.
-_BAND_CHANNELS = (("x", "m"), ("p_a", "Pa"), ("p_b", "Pa"), ("p_l", "Pa"))
+#: Error channels of the band scores: the channel and its unit (the evaluation's scored channels
+#: but the velocity, an estimate from x).
+_BAND_CHANNELS = tuple((c, CHANNEL[c].unit) for c in SCORED_CHANNELS if c != "v")
 
 
 def _channels(run) -> Mapping[str, np.ndarray]:

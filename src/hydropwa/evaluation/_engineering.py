@@ -27,9 +27,11 @@ from typing import Any
 import numpy as np
 
 from .._errors import HydropwaError
-from ..control import cell_plant
-from ..control._design import (  # the design's own augmentation (one assembly)
-    _valve_augment,
+from ..control import (  # the design's own plant, clipping and augmentation (one assembly)
+    cell_plant,
+    clip_friction_slope,
+    friction_slope_limit,
+    valve_augment,
     valve_series,
 )
 from ..linearization import export_pwa
@@ -312,20 +314,16 @@ def _design_plant(pwa, key, f_l, opening: bool, clip: bool):
     cell's friction slope k_w held to [0, the larger slope of the two outer viscous cells].
     """
     A, B, _ = cell_plant(pwa, cells=key, f_l=f_l, opening_input=opening)
-    m = pwa.params.load.mass
-    k_w = -A[1, 1] * m
-    slopes = pwa.friction.pwa.slopes
-    k_max = float(max(slopes[0], slopes[-1], 0.0))
-    clipped = clip and not 0.0 <= k_w <= k_max
-    if clipped:
-        A[1, 1] = -min(max(k_w, 0.0), k_max) / m
+    if not clip:
+        return A, B, False
+    A, clipped = clip_friction_slope(A, friction_slope_limit(pwa), pwa.params.load.mass)
     return A, B, clipped
 
 
 def _loop(A, B, row, controller, valve):
     """Sampled loop of one cell: (Aa, Ba, K) with u = −K·state, as the design builds it."""
     ts, delay = float(controller.sample_time), bool(controller.delay)
-    Aa, Ba = _valve_augment(A, B, ts, valve.omega0, valve.zeta, delay)
+    Aa, Ba = valve_augment(A, B, ts, valve.omega0, valve.zeta, delay)
     K = np.zeros((1, Aa.shape[0]))
     K[0, :6] = (row.k_pl, row.k_v, row.k_x, row.k_nu, row.k_dnu, -row.k_i)
     if delay:

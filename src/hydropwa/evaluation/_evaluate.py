@@ -13,11 +13,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
+from .._channels import SCORED_CHANNELS, START_REQUIRED, STATE_CHANNELS
 from .._errors import DataError
 from .._result import DerivedResult, ResultStatus
 from ..data import screen_runs
@@ -49,8 +51,8 @@ MODELS: dict[str, str] = {
     "pwa-paper": "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
     "pwa-chamber": "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
 }
-#: Channels scored per run.
-CHANNELS = ("x", "p_a", "p_b", "p_l", "v")
+#: Channels scored per run (the channel table's scored rows, in its rank order).
+CHANNELS = SCORED_CHANNELS
 #: Active-cell channels: the load-pressure PWA models' (g, o, n, w), pwa-chamber's (g, qa, qb, x, w).
 _CELL_SETS = ("cell_g", "cell_o", "cell_n", "cell_w", "cell_qa", "cell_qb", "cell_x")
 
@@ -71,20 +73,23 @@ class EvaluationStart:
         Start time [s].
     period : float or None
         Input period [s] (None for a non-periodic command).
-    x, v, p_a, p_b, p_s, spool : float
-        Measured state at the start [m, m/s, Pa, Pa, Pa, 1]; v from a local quadratic fit
-        of x, spool = u (Sec. VII).
+    measured : Mapping[str, float]
+        Measured channels at the start, name → value [SI] (the state channels of
+        :data:`hydropwa._channels.STATE_CHANNELS` the run has; ``v`` from a local quadratic
+        fit of x, ``spool`` = u, Sec. VII); read-only.
     """
 
     index: int
     t0: float
     period: float | None
-    x: float
-    v: float
-    p_a: float
-    p_b: float
-    p_s: float
-    spool: float
+    measured: Mapping[str, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "measured", MappingProxyType(dict(self.measured)))
+
+    def __getitem__(self, channel: str) -> float:
+        """The measured value of one channel at the start [SI]."""
+        return self.measured[channel]
 
 
 def _frequency(run) -> float | None:
@@ -159,18 +164,10 @@ def evaluation_start(
             i = int(np.searchsorted(t, late[0]))
     i = min(i, t.size - 2)
     ch = run.channels
-    ps = float(ch["p_s"][i]) if "p_s" in ch else math.nan
-    return EvaluationStart(
-        index=i,
-        t0=float(t[i]),
-        period=period,
-        x=float(ch["x"][i]),
-        v=_local_slope(t, ch["x"], i, slope_window),
-        p_a=float(ch["p_a"][i]),
-        p_b=float(ch["p_b"][i]),
-        p_s=ps,
-        spool=float(u[i]),
-    )
+    measured = {c: float(ch[c][i]) for c in STATE_CHANNELS if c in ch}
+    measured["v"] = _local_slope(t, ch["x"], i, slope_window)
+    measured["spool"] = float(u[i])  # the valve at rest at its command (Sec. VII)
+    return EvaluationStart(index=i, t0=float(t[i]), period=period, measured=measured)
 
 
 def _area_ratio(params) -> float:
@@ -309,7 +306,7 @@ def _check_models(models: Iterable[str]) -> tuple[str, ...]:
 
 
 def _check_run(run) -> None:
-    missing = [c for c in ("t", "u", "x", "p_a", "p_b") if c not in run.channels]
+    missing = [c for c in ("t", "u", *START_REQUIRED) if c not in run.channels]
     if missing:
         raise DataError(
             f"run {run.name!r} lacks channel(s) {', '.join(missing)} needed for the evaluation"
@@ -353,8 +350,10 @@ def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
 
 
 def _initial_state(model, start: EvaluationStart, ps_mean: float) -> np.ndarray:
-    ps = start.p_s if math.isfinite(start.p_s) else ps_mean
-    return model.state_from_measurement(start.x, start.v, start.p_a, start.p_b, ps, start.spool)
+    measured = dict(start.measured)
+    if not math.isfinite(measured.get("p_s", math.nan)):
+        measured["p_s"] = ps_mean
+    return model.state_from_measurement(measured)
 
 
 def _simulate_variant(name, run, params, start, ps_signal, ps_mean, rtol, notes):

@@ -85,8 +85,11 @@ def load_runs(source, skipped: list | None = None, params: SystemParams | None =
     IdentificationError
         If a folder holds no dataset.
     """
-    from ..data import MANIFEST, read_dataset  # deferred: hydropwa.data loads pint
-    from ..data._validate import converter_limits  # deferred: hydropwa.data loads pint
+    from ..data import (  # deferred: hydropwa.data loads pint
+        MANIFEST,
+        converter_limits,  # deferred: hydropwa.data loads pint
+        read_dataset,
+    )
 
     skipped = [] if skipped is None else skipped
     stroke = None if params is None else params.cylinder.stroke

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from typing import Any, ClassVar, NamedTuple
@@ -49,9 +49,8 @@ import numpy as np
 
 from .._errors import PwaError
 from .._layout import FULL_STATES, I_CELLS, N_BASE, PWA_SLOT
-from ..components import PiecewiseAffine
-from ..components._physics import dead_zone as _dz
-from ..components._physics import orifice_flows, signed_sqrt, signed_sqrt_slope
+from ..components import PiecewiseAffine, orifice_flows, signed_sqrt, signed_sqrt_slope
+from ..components import dead_zone as _dz
 from ..components._pwa import read_only
 from ..models import FullOrderModel, pack_params
 from ..models._models import SmoothModelStates
@@ -395,10 +394,14 @@ class ChamberPwaModel(SmoothModelStates):
         body = [np.concatenate(s) for s in sets]
         return np.concatenate([base, head] + body)
 
-    def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
-        """Initial state from measured quantities (SI), as the full model's."""
-        ps = self.supply_pressure if p_s is None else p_s
-        return self.full.state_from_measurement(x, v, p_a, p_b, ps, spool)
+    def state_from_measurement(
+        self, measured: Mapping[str, float], /, *positional: float
+    ) -> np.ndarray:
+        """Initial state from measured channels (name → value [SI]), as the full model's; ``p_s``
+        [Pa] defaults to the model's supply pressure."""
+        if isinstance(measured, Mapping) and "p_s" not in measured:
+            measured = {**measured, "p_s": self.supply_pressure}
+        return self.full.state_from_measurement(measured, *positional)
 
     # --- cells and dynamics --------------------------------------------------------------
     def _ps(self, p_s: float | None) -> float:

@@ -309,9 +309,12 @@ class PwaModel(SmoothModelStates):
         """Kernel parameter vector (base layout of ``hydropwa.models.pack_params`` + PWA cells)."""
         return pack_pwa(self)
 
-    def state_from_measurement(self, x, v, p_a, p_b, p_s=None, spool=0.0) -> np.ndarray:
-        """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
-        return self.reduced.state_from_measurement(x, v, p_a, p_b, p_s, spool)
+    def state_from_measurement(
+        self, measured: Mapping[str, float], /, *positional: float
+    ) -> np.ndarray:
+        """Initial state [P_A − α P_B, v, x] from measured channels (name → value [SI]), as
+        the reduced model's."""
+        return self.reduced.state_from_measurement(measured, *positional)
 
     def edge_pressure(self, p_s: float, sign: int) -> tuple[float, float]:
         """(P_e [Pa], flow scale √(P_e/(1 + α³)) [√Pa]) of flow direction ``sign`` at P_S.

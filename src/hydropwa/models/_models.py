@@ -11,11 +11,13 @@ this layer sits below both and imports neither.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
+from .._channels import measured_values
 from .._errors import ParameterError
 from .._layout import (
     BASE_SLOTS,
@@ -220,14 +222,24 @@ class FullOrderModel(_ModelBase):
             c.area_a + c.area_b
         )
         pa = min(max(pa, 0.0), ps)
-        return self.state_from_measurement(x, 0.0, pa, ps - pa, ps)
+        return self.state_from_measurement({"x": x, "p_a": pa, "p_b": ps - pa, "p_s": ps})
 
-    @staticmethod
     def state_from_measurement(
-        x: float, v: float, p_a: float, p_b: float, p_s: float, spool: float = 0.0
+        self, measured: Mapping[str, float], /, *positional: float
     ) -> np.ndarray:
-        """Initial state from measured quantities (SI); states not measured rest with their node."""
-        values = {"spool": spool, "p_a": p_a, "p_b": p_b, "x": x, "v": v, "p_s": p_s}
+        """Initial state from measured channels.
+
+        Parameters
+        ----------
+        measured : Mapping[str, float]
+            Channel name → value [SI] (:data:`hydropwa._channels.CHANNELS`): ``x`` [m], ``p_a``,
+            ``p_b`` [Pa] required; ``v`` [m/s] and ``spool`` [1] default to rest (0), ``p_s``
+            [Pa] to ``params.supply.pressure``. A state without a measured channel rests with
+            the node it hangs on (:data:`~hydropwa._layout.FULL_STATE_TIES`).
+        """
+        states = tuple(name for name, _u, _s in FULL_STATES)
+        defaults = {"v": 0.0, "spool": 0.0, "p_s": self.params.supply.pressure}
+        values = measured_values(measured, states, defaults, positional)
         return np.array(state_vector(FULL_STATES, values, FULL_STATE_TIES), dtype=float)
 
 
@@ -288,19 +300,22 @@ class ReducedModel(_ModelBase):
         c = self.params.cylinder
         x = 0.5 * c.stroke if initial_position is None else initial_position
         f = load_force + _specimen_at_rest(self.params, x)
-        return self.state_from_measurement(x, 0.0, f / self.force_area, 0.0)
+        return self.state_from_measurement({"x": x, "p_a": f / self.force_area, "p_b": 0.0})
 
     def state_from_measurement(
-        self,
-        x: float,
-        v: float,
-        p_a: float,
-        p_b: float,
-        p_s: float | None = None,
-        spool: float = 0.0,
+        self, measured: Mapping[str, float], /, *positional: float
     ) -> np.ndarray:
-        """Initial state [P_A − α P_B, v, x] from measured quantities (SI)."""
-        values = {"p_l": p_a - self.area_ratio * p_b, "v": v, "x": x}
+        """Initial state [P_A − α P_B, v, x] from measured channels.
+
+        Parameters
+        ----------
+        measured : Mapping[str, float]
+            Channel name → value [SI] (:data:`hydropwa._channels.CHANNELS`): ``x`` [m], ``p_a``,
+            ``p_b`` [Pa] required, ``v`` [m/s] default 0; the other channels initialise no
+            state of this model (ν = u, P_S an input).
+        """
+        m = measured_values(measured, ("x", "v", "p_a", "p_b"), {"v": 0.0}, positional)
+        values = {"p_l": m["p_a"] - self.area_ratio * m["p_b"], "v": m["v"], "x": m["x"]}
         return np.array(state_vector(LOAD_STATES, values), dtype=float)
 
 

@@ -32,6 +32,7 @@ from ._results import (
     plot_closed_loop,
     plot_compare,
     plot_evaluation,
+    plot_metrics,
     plot_result,
     plot_supply_pressure,
 )
@@ -60,6 +61,7 @@ __all__ = [
     "plot_greybox_profiles",
     "plot_greybox_residuals",
     "plot_inverse_dynamics",
+    "plot_metrics",
     "plot_result",
     "plot_stribeck",
     "plot_supply_pressure",

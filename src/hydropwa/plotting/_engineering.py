@@ -12,6 +12,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 
 from ._base import new_figure
+from ._shapes import BodeComparisonShape, CellLoopsShape, require
 
 __all__ = [
     "plot_cell_margins",
@@ -21,7 +22,7 @@ __all__ = [
 ]
 
 
-def plot_small_signal_bode(bode: Any, *, ax: Axes | None = None) -> Any:
+def plot_small_signal_bode(bode: BodeComparisonShape, *, ax: Axes | None = None) -> Any:
     """Bode plot of u → ẋ: linearized (PWA cell + valve) against the full model's small signal.
 
     Each axis response is shown relative to its own static velocity gain (given in the
@@ -40,6 +41,7 @@ def plot_small_signal_bode(bode: Any, *, ax: Axes | None = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
+    require(bode, BodeComparisonShape, "plot_small_signal_bode")
     fig, axes = new_figure(2, 1, ax=ax, figsize=(7.0, 5.5), sharex=True)
     am, ap = axes[0, 0], axes[1, 0]
     f = np.asarray(bode.frequency)
@@ -94,7 +96,7 @@ def plot_small_signal_bode(bode: Any, *, ax: Axes | None = None) -> Any:
     return fig
 
 
-def plot_pole_map(loops: Any, *, ax: Axes | None = None) -> Any:
+def plot_pole_map(loops: CellLoopsShape, *, ax: Axes | None = None) -> Any:
     """Poles of every cell with the servo valve: open loop (×) and the designed closed loop (o).
 
     Parameters
@@ -107,6 +109,7 @@ def plot_pole_map(loops: Any, *, ax: Axes | None = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
+    require(loops, CellLoopsShape, "plot_pole_map")
     fig, axes = new_figure(ax=ax, figsize=(6.5, 5.0))
     a = axes[0, 0]
     for poles, marker, label in (
@@ -137,7 +140,7 @@ def plot_pole_map(loops: Any, *, ax: Axes | None = None) -> Any:
     return fig
 
 
-def plot_cell_margins(loops: Any, *, ax: Axes | None = None) -> Any:
+def plot_cell_margins(loops: CellLoopsShape, *, ax: Axes | None = None) -> Any:
     """Gain margin [dB] and phase margin [deg] of each cell's designed loop (bars).
 
     Parameters
@@ -150,6 +153,7 @@ def plot_cell_margins(loops: Any, *, ax: Axes | None = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
+    require(loops, CellLoopsShape, "plot_cell_margins")
     t = loops.table
     fig, axes = new_figure(2, 1, ax=ax, figsize=(7.5, 5.0), sharex=True)
     x = np.arange(len(t))

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import new_figure
-from ._shapes import EstimateShape, TracedFit, TracedRun, require
+from ._shapes import EstimateShape, ForceFit, TracedFit, TracedRun, require
 
 __all__ = [
     "plot_bode",
@@ -281,7 +281,7 @@ def plot_stribeck(
     return fig
 
 
-def plot_inverse_dynamics(result: Any, *, ax: Axes | None = None) -> Any:
+def plot_inverse_dynamics(result: ForceFit | Any, *, ax: Axes | None = None) -> Any:
     """Measured and predicted force of an inverse-dynamics (IDIM-LS) fit.
 
     Parameters
@@ -295,7 +295,8 @@ def plot_inverse_dynamics(result: Any, *, ax: Axes | None = None) -> Any:
     -------
     matplotlib.figure.Figure
     """
-    fit = getattr(result, "fit", result)
+    fit = result if isinstance(result, ForceFit) else getattr(result, "fit", result)
+    require(fit, ForceFit, "plot_inverse_dynamics")
     fig, axes = new_figure(ax=ax)
     a = axes[0, 0]
     a.plot(fit.time, fit.force, "-", lw=1.2, label="measured (decimated)")

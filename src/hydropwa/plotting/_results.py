@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
-from ._shapes import EvaluationShape, require
+from ._shapes import ClosedLoopRun, EvaluationShape, MetricTable, Recorded, require
 
 __all__ = [
     "plot_result",
@@ -23,6 +23,7 @@ __all__ = [
     "plot_closed_loop",
     "plot_supply_pressure",
     "plot_cell_design",
+    "plot_metrics",
 ]
 
 _AxesArg = Axes | Sequence[Axes] | None
@@ -33,7 +34,10 @@ def _display(ch: str) -> tuple[str, float, str]:
 
 
 def plot_result(
-    result: Any, channels: Sequence[str] = ("u", "x", "p_a", "p_b", "p_s"), *, ax: _AxesArg = None
+    result: Recorded,
+    channels: Sequence[str] = ("u", "x", "p_a", "p_b", "p_s"),
+    *,
+    ax: _AxesArg = None,
 ) -> Any:
     """Channels of a result (or run) against time, one axes per display unit (%, mm, bar, N).
 
@@ -50,6 +54,7 @@ def plot_result(
     -------
     matplotlib.figure.Figure
     """
+    require(result, Recorded, "plot_result")
     groups: dict[str, list[str]] = {}
     for ch in channels:
         if ch in result.channels:
@@ -210,7 +215,12 @@ def plot_compare(
 _LOOP_COLORS = {"full": "C0", "reduced": "C1", "pwa": "C2", "pwa-chamber": "C3"}
 
 
-def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = None) -> Any:
+def plot_closed_loop(
+    results: ClosedLoopRun | Mapping[str, ClosedLoopRun],
+    title: str | None = None,
+    *,
+    ax: _AxesArg = None,
+) -> Any:
     """Reference and position, following error and valve command of closed-loop runs.
 
     Parameters
@@ -227,6 +237,8 @@ def plot_closed_loop(results: Any, title: str | None = None, *, ax: _AxesArg = N
     """
     if not isinstance(results, Mapping):
         results = {results.model: results}
+    for res in results.values():
+        require(res, ClosedLoopRun, "plot_closed_loop")
     fig, axes = new_figure(3, 1, ax=ax, sharex=True, figsize=(8.0, 7.0))
     a = axes[:, 0]
     for i, (name, res) in enumerate(results.items()):
@@ -306,4 +318,57 @@ def plot_cell_design(damping: Any, bandwidth_hz: Any, *, ax: _AxesArg = None) ->
     for a in axes[:, 0]:
         a.grid(True, axis="y", alpha=0.3)
     axes[0, 0].set_title("Closed loop per cell", fontsize=10)
+    return fig
+
+
+def plot_metrics(
+    table: MetricTable,
+    *,
+    limits: Mapping[str, float] | None = None,
+    title: str | None = None,
+    ax: Axes | None = None,
+) -> Any:
+    """Headline metrics of a result as horizontal bars, each in its display unit.
+
+    Parameters
+    ----------
+    table : MetricTable
+        ``display()`` (name → value) and ``display_units()`` (name → unit), e.g.
+        :class:`~hydropwa.control.TrackingMetrics` or :class:`~hydropwa.control.Verification`.
+    limits : mapping of str to float, optional
+        A limit per metric in the same unit: marked on its bar, and a bar above it is red.
+    title : str, optional
+    ax : Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Notes
+    -----
+    The units differ between metrics, so each bar is labelled with its value and unit; a
+    metric that could not be computed (NaN) shows as "n/a".
+    """
+    require(table, MetricTable, "plot_metrics")
+    values, units = dict(table.display()), dict(table.display_units())
+    limits = dict(limits or {})
+    fig, axes = new_figure(1, 1, ax=ax, figsize=(7.0, 0.4 * len(values) + 1.2))
+    a = axes[0, 0]
+    names = list(values)
+    y = np.arange(len(names))
+    shown = np.array([values[n] if np.isfinite(values[n]) else 0.0 for n in names])
+    over = [n in limits and values[n] > limits[n] for n in names]
+    a.barh(y, shown, color=["C3" if o else "C0" for o in over])
+    for i, n in enumerate(names):
+        text = f"{values[n]:.4g} {units.get(n, '')}" if np.isfinite(values[n]) else "n/a"
+        a.annotate(text, (shown[i], y[i]), xytext=(3, 0), textcoords="offset points",
+                   va="center", fontsize=8)  # fmt: skip
+        if n in limits:
+            a.plot([limits[n]] * 2, [y[i] - 0.4, y[i] + 0.4], "k-", lw=1.5)
+    a.set_yticks(y, [f"{n} [{units.get(n, '')}]" for n in names])
+    a.invert_yaxis()
+    a.set_xlabel("value [display unit of each row]")
+    a.grid(True, axis="x", alpha=0.3)
+    if title:
+        a.set_title(title)
     return fig

@@ -14,7 +14,20 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["ChannelResult", "EstimateShape", "EvaluationShape", "TracedFit", "TracedRun", "require"]
+__all__ = [
+    "ChannelResult",
+    "EstimateShape",
+    "EvaluationShape",
+    "BodeComparisonShape",
+    "CellLoopsShape",
+    "ClosedLoopRun",
+    "ForceFit",
+    "MetricTable",
+    "Recorded",
+    "TracedFit",
+    "TracedRun",
+    "require",
+]
 
 
 @runtime_checkable
@@ -97,6 +110,15 @@ class ChannelResult(Protocol):
 
 
 @runtime_checkable
+class Recorded(Protocol):
+    """Recorded channels: ``channels`` (name → SI array, ``t`` [s] included), as a
+    :class:`~hydropwa.SimulationResult` and a :class:`~hydropwa.data.Run` hold them."""
+
+    @property
+    def channels(self) -> Mapping[str, np.ndarray]: ...
+
+
+@runtime_checkable
 class EvaluationShape(Protocol):
     """A model evaluation against one run (:class:`~hydropwa.evaluation.EvaluationResult`)."""
 
@@ -113,10 +135,138 @@ class EvaluationShape(Protocol):
     def meta(self) -> Mapping[str, Any]: ...
 
 
+@runtime_checkable
+class BodeComparisonShape(Protocol):
+    """u → ẋ of the linearized model against the full model's small signal
+    (:class:`~hydropwa.evaluation.BodeComparison`)."""
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """Frequencies [Hz]."""
+        ...
+
+    @property
+    def full(self) -> np.ndarray:
+        """The full model's small-signal response [m/s per unit command] (complex)."""
+        ...
+
+    @property
+    def linearized(self) -> np.ndarray:
+        """The PWA cell with the valve [m/s per unit command] (complex)."""
+        ...
+
+    @property
+    def measured(self) -> Mapping[float, tuple[np.ndarray, np.ndarray]]:
+        """Valve FRFs ν/u by amplitude [1]: (frequency [Hz], complex response [1])."""
+        ...
+
+    @property
+    def natural_frequency(self) -> float:
+        """The cell's hydraulic natural frequency [Hz]."""
+        ...
+
+    @property
+    def valve_frequency(self) -> float:
+        """The valve's natural frequency ω0/2π [Hz]."""
+        ...
+
+    @property
+    def working_point(self) -> Mapping[str, float]:
+        """``x`` [m], ``u`` [1], ``p_l`` [Pa], ``v`` [m/s] of the operating point."""
+        ...
+
+
+@runtime_checkable
+class CellLoopsShape(Protocol):
+    """Each PWA cell's designed loop (:class:`~hydropwa.evaluation.CellLoops`)."""
+
+    @property
+    def open_loop(self) -> Mapping[str, Any]:
+        """Cell label → continuous-time poles [1/s] of the cell with the valve."""
+        ...
+
+    @property
+    def closed_loop(self) -> Mapping[str, Any]:
+        """Cell label → the sampled closed loop's poles as ln z / T_s [1/s]."""
+        ...
+
+    @property
+    def table(self) -> Any:
+        """A DataFrame with ``cell``, ``gain_margin [dB]`` and ``phase_margin [deg]``."""
+        ...
+
+
+@runtime_checkable
+class ForceFit(Protocol):
+    """An inverse-dynamics force fit (:class:`~hydropwa.identification.InverseDynamicsResult`)."""
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times [s]."""
+        ...
+
+    @property
+    def force(self) -> np.ndarray:
+        """Measured force [N]."""
+        ...
+
+    @property
+    def predicted(self) -> np.ndarray:
+        """The model's force [N]."""
+        ...
+
+    @property
+    def relative_error(self) -> float:
+        """‖force − predicted‖ / ‖force‖ [1]."""
+        ...
+
+
+@runtime_checkable
+class ClosedLoopRun(Protocol):
+    """A closed-loop simulation (:class:`~hydropwa.SimulationResult` with a controller)."""
+
+    @property
+    def model(self) -> str:
+        """The model kind's name."""
+        ...
+
+    @property
+    def t(self) -> np.ndarray:
+        """Output times [s]."""
+        ...
+
+    @property
+    def control(self) -> Mapping[str, Any]:
+        """The controller's log: ``t`` [s] and ``u`` [1] at its samples."""
+        ...
+
+    def __getitem__(self, channel: str) -> np.ndarray:
+        """An output channel [SI]: ``reference``, ``x``, ``error`` [m]."""
+        ...
+
+
+@runtime_checkable
+class MetricTable(Protocol):
+    """Named headline numbers of a result in engineering units
+    (:class:`~hydropwa.control.TrackingMetrics`, :class:`~hydropwa.control.Verification`)."""
+
+    def display(self) -> Mapping[str, float]:
+        """Metric name → value in its display unit."""
+        ...
+
+    def display_units(self) -> Mapping[str, str]:
+        """Metric name → display unit (mm, ms, %, 1/s, 1)."""
+        ...
+
+
 def require(obj: Any, shape: type, who: str) -> None:
     """Raise a one-line ``TypeError`` when ``obj`` lacks an attribute ``shape`` declares."""
     if not isinstance(obj, shape):
-        members = [n for n, v in vars(shape).items() if isinstance(v, property)]
+        members = [
+            n
+            for n, v in vars(shape).items()
+            if isinstance(v, property) or (callable(v) and not n.startswith("_"))
+        ]
         missing = ", ".join(n for n in members if not hasattr(obj, n))
         doc = (shape.__doc__ or "").splitlines()[0]
         raise TypeError(f"{who}: a {type(obj).__name__} has no {missing}; it needs {doc}")

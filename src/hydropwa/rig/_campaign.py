@@ -18,6 +18,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from .._channels import CHANNEL, channels_of
 from .._errors import ParameterError
 from .._io import read_text
 from ..params import parse_quantity
@@ -542,14 +543,14 @@ def _sine(t: _Table) -> SineExperiment:
     )
 
 
+#: ``[sensors]`` tables: one per channel a sensor measures (the channel table's), and
+#: ``pressure`` for every pressure transmitter at once; the unit its quantities are read in.
 _SENSOR_UNITS = {
-    "x": "m",
-    "p_a": "Pa",
-    "p_b": "Pa",
-    "p_s": "Pa",
+    **{
+        c: "" if CHANNEL[c].unit == "1" else CHANNEL[c].unit
+        for c in channels_of("spool", "position", "pressure", "force")
+    },
     "pressure": "Pa",
-    "f_l": "N",
-    "spool": "",
 }
 _SUPPLY_FIELDS = {
     "pump_flow": "m**3/s",
@@ -596,7 +597,7 @@ def _sensors(t: _Table) -> dict[str, dict[str, Any]]:
         if "name" in st.data:
             over["name"] = st.text("name")
         st.finish()
-        for c in ("p_a", "p_b", "p_s") if ch == "pressure" else (ch,):
+        for c in channels_of("pressure") if ch == "pressure" else (ch,):
             out.setdefault(c, {}).update(over)
         t.used.add(ch)
     return out

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from .._channels import channels_of
 from .._errors import ParameterError
 from ..params import Supply, SystemParams, load_params
 from ._sensors import SensorModel, machine_sensors
@@ -169,7 +170,7 @@ class Rig:
                 f'converter\'s limit; set [sensors.x] range = ["{-1e3 * m:g} mm", "{1e3 * (stroke + m):g} mm"] '
                 "in the campaign, or leave [sensors] out to size it from the stroke"
             )
-        for ch in ("p_a", "p_b", "p_s"):
+        for ch in channels_of("pressure"):
             s = self._sensors.get(ch)
             if s is not None and s.range[1] < sup.relief_pressure:
                 raise ParameterError(

@@ -15,13 +15,15 @@ from typing import Any
 
 import numpy as np
 
+from .._channels import RECORDED_CHANNELS, channels_of
 from .._errors import ParameterError
 from ..data import Run
 
 __all__ = ["SensorModel", "paper_sensors", "machine_sensors", "measure", "MEASURED_CHANNELS"]
 
-#: Channels the rig records: the command it sends and what its sensors measure.
-MEASURED_CHANNELS = ("u", "spool", "p_a", "p_b", "p_s", "x", "f_l")
+#: Channels the rig records: the command it sends and what its sensors measure (the channel
+#: table's rows with a sensor, :data:`hydropwa._channels.RECORDED_CHANNELS`, in its order).
+MEASURED_CHANNELS = RECORDED_CHANNELS
 
 
 @dataclass(frozen=True)
@@ -190,9 +192,7 @@ def paper_sensors() -> dict[str, SensorModel]:
         )
 
     return {
-        "p_a": pressure("p_a"),
-        "p_b": pressure("p_b"),
-        "p_s": pressure("p_s"),
+        **{ch: pressure(ch) for ch in channels_of("pressure")},
         "x": SensorModel(
             "Celesco CLP-250 linear potentiometer",
             "x",
@@ -277,7 +277,7 @@ def machine_sensors(params, supply=None) -> dict[str, SensorModel]:
             noise_std=out[ch].noise_std if same else noise,
         )
 
-    for ch in ("p_a", "p_b", "p_s"):
+    for ch in channels_of("pressure"):
         out[ch] = sized(
             ch,
             f"pressure transmitter 0-{p_hi / 1e5:g} bar",

@@ -97,11 +97,11 @@ def _ol_rhs_for(kind, y, u, ps, fl, p, dy):
 def _rhs_fd(kind, y, u, ps, fl, p, dy):
     """The right-hand side for the finite-difference Jacobian; compiled code only.
 
-    The full model's Jacobian is always by differences: its right-hand side is called as in
-    :func:`_rhs_for`. The reduced and PWA models have exact Jacobians, so differences serve
-    only ``exact_jac=False`` (comparisons): there the right-hand side is called through a
-    wrapper instead of inlined, which keeps two more copies of it out of their kernels
-    (compile time) without costing the default path anything.
+    Every model has an exact Jacobian; differences serve ``exact_jac=False`` (comparisons)
+    and a full model whose exact Jacobian declines (with a gas accumulator): the full and
+    chamber models' right-hand side is called as in :func:`_rhs_for`, the reduced and PWA
+    models' through a wrapper instead of inlined, which keeps two more copies of it out of
+    their kernels (compile time) without costing the default path anything.
     """
 
 

@@ -103,8 +103,9 @@ def _integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exac
     gustafsson : bool
         Use Gustafsson's predictive step-size controller after accepted steps.
     exact_jac : bool
-        Reduced and PWA models: exact ∂f/∂y (:func:`jac_reduced`, :func:`jac_pwa`)
-        instead of finite differences; the full model always uses differences.
+        Exact ∂f/∂y and ∂f/∂t of every model (:func:`jac_full`, :func:`jac_reduced`,
+        :func:`jac_pwa`, :func:`jac_chamber`) instead of finite differences; a model whose
+        exact Jacobian declines (the full model with a gas accumulator) uses differences.
 
     Returns
     -------

@@ -299,9 +299,10 @@ _E32 = 6.0 + math.sqrt(2.0)
 def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     """Jacobian ∂f/∂y and time derivative ∂f/∂t at (t, y); returns rhs calls.
 
-    Both are exact for the reduced and PWA models when ``exact`` (:func:`jac_reduced`,
-    :func:`jac_pwa`; :func:`dfdt_reduced`, :func:`dfdt_pwa` with the inputs' rates), so
-    a refresh costs no right-hand side. Otherwise ∂f/∂y is by forward differences with
+    Both are exact for every model when ``exact`` (:func:`jac_full`, :func:`jac_reduced`,
+    :func:`jac_pwa`, :func:`jac_chamber`; the ``dfdt_*`` with the inputs' rates), so a
+    refresh costs no right-hand side. Otherwise (``exact`` off, or an exact Jacobian that
+    declines: the full model with a gas accumulator) ∂f/∂y is by forward differences with
     the inputs evaluated once for the n state columns (columns known to vanish, P_S of
     the full model without the pump, are skipped) and ∂f/∂t a forward difference,
     skipped when every input is constant.

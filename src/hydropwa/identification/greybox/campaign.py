@@ -219,7 +219,7 @@ def fit_campaign(
     fit = fit_model(model, runs, free, params=first, options=opts, progress=progress)
     if progress is not None:
         progress(FitProgress("friction check", 0, 0, "begin", elapsed=time.perf_counter() - t0))
-    ratio = check_friction(fit, model, runs, opts, first)
+    fit, ratio = check_friction(fit, model, runs, opts, first)
     if progress is not None:
         done = time.perf_counter() - t0
         progress(FitProgress("friction check", 0, 0, "end", cost=ratio or math.nan, elapsed=done))
@@ -242,9 +242,10 @@ FRICTION_TEST_LEVEL = 1e-3
 
 def check_friction(
     fit: GreyBoxFit, model: Any, runs: list, opts: FitOptions, start: SystemParams
-) -> float | None:
+) -> tuple[GreyBoxFit, float | None]:
     """Test the joint friction against the friction experiment alone, and defer to the
-    per-experiment estimate when they disagree; returns the test statistic (None: no test).
+    per-experiment estimate when they disagree; returns the fit (a new one where it deferred)
+    and the test statistic (None: no test).
 
     The friction experiment (Sec. VI-C, constant counter force) is the one designed for the
     Stribeck curve: its steady means hold F_c + σ·v at each speed. The other experiments see
@@ -276,12 +277,12 @@ def check_friction(
     held = set(fit.validation_.runs) if fit.validation_ is not None else set()
     own_runs = [r for r in runs if experiment_of(r) == "friction" and r.name not in held]
     if not names or not own_runs or len(own_runs) == len(runs):
-        return None
+        return fit, None
     try:
         own = _friction_fit(model, own_runs, names, fit.params_, opts)
     except IdentificationError as exc:
         fit.data_.append(f"The joint friction was not checked against the friction runs: {exc}")
-        return None
+        return fit, None
     m = sum(len(rf.sigma) for rf in own.runs_)
     s2 = max(1.0, 2.0 * own.cost / max(m - len(names), 1))
     ratio = 2.0 * (own.initial_cost - own.cost) / s2
@@ -292,10 +293,10 @@ def check_friction(
     )
     if not ratio > limit:
         fit.data_.append(f"The friction runs alone agree with the joint friction ({test}).")
-        return ratio
+        return fit, ratio
     found = (start.meta or {}).get("uncertainty", {}).get("friction", {})
     points = [n for n in names if n in STRIBECK_POINTS and n.split(".")[1] in found]
-    _defer_friction(fit, names, points, found, start, opts)
+    fit = _defer_friction(fit, names, points, found, start, opts)
     fit.data_.append(
         f"The friction runs alone disagree with the joint friction ({test}): the other "
         "experiments' model and data errors outweigh friction's small share of their forces."
@@ -307,7 +308,7 @@ def check_friction(
         )
         + f" {', '.join(n for n in names if n not in points)} are not determined."
     )
-    return ratio
+    return fit, ratio
 
 
 #: the friction parameters the friction experiment's steady means determine (Sec. VI-C)
@@ -341,9 +342,10 @@ def _defer_friction(
     found: dict[str, Any],
     start: SystemParams,
     opts: FitOptions,
-) -> None:
-    """``points`` at identify all's estimates (``found``: its friction uncertainty), their
-    intervals spanning both; the other ``names`` at the start, not determined (bounds)."""
+) -> GreyBoxFit:
+    """The fit with ``points`` at identify all's estimates (``found``: its friction
+    uncertainty), their intervals spanning both, and the other ``names`` at the start, not
+    determined (bounds)."""
     z = float(stats.norm.ppf(0.5 + 0.5 * fit.level))
     meta = dict(fit.params_.meta)
     unc = dict(meta.get("uncertainty", {}))
@@ -366,4 +368,6 @@ def _defer_friction(
         unc[n.replace(".", "_")] = {**fit.estimates_[n].to_dict(), "method": how}
         values[n] = v
     meta["uncertainty"] = unc
-    fit.params_ = dataclasses.replace(fit.params_.replace(**values), meta=meta)
+    return dataclasses.replace(
+        fit, params_=dataclasses.replace(fit.params_.replace(**values), meta=meta)
+    )

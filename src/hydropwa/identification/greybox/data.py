@@ -16,6 +16,13 @@ from typing import Any
 import numpy as np
 from scipy.signal import butter, savgol_coeffs, savgol_filter, sosfiltfilt
 
+from ..._channels import (
+    CONVERTER_CHANNELS,
+    RECORDED_CHANNELS,
+    SENSED_STATE_CHANNELS,
+    START_REQUIRED,
+    STATE_CHANNELS,
+)
 from ..._errors import IdentificationError
 from .._common import IdentificationWarning, SkippedRun, skip
 
@@ -189,21 +196,14 @@ def _arrays(
     """The run's usable channels and its fitted outputs (``p_l`` = p_a − p_b on request);
     None, with the reason in ``skipped``, for a run that cannot enter the fit."""
     ch = run.channels
-    needed = ["t", "u", "x", "p_a", "p_b"]
+    needed = ("t", "u", *START_REQUIRED)
     missing = [c for c in needed if c not in ch]
     if missing:
-        skip(
-            skipped,
-            run.name,
-            f"missing channel(s) {', '.join(missing)} (grey-box fit needs t, u, x, p_a, p_b)",
-            4,
-        )
+        why = f"missing channel(s) {', '.join(missing)} (grey-box fit needs {', '.join(needed)})"
+        skip(skipped, run.name, why, 4)
         return None
-    arrays = {
-        k: np.asarray(v, dtype=float)
-        for k, v in ch.items()
-        if k in (*needed, "p_s", "f_l", "spool", "v")
-    }
+    kept = {"t", *RECORDED_CHANNELS, *STATE_CHANNELS}
+    arrays = {k: np.asarray(v, dtype=float) for k, v in ch.items() if k in kept}
     bad = [k for k, v in arrays.items() if not np.all(np.isfinite(v))]
     if bad:
         skip(skipped, run.name, f"channel(s) {', '.join(bad)} hold non-finite samples", 4)
@@ -249,7 +249,7 @@ def _validity(
     excluded: list[tuple[float, float, str]] = []
     bad_mask = np.zeros(t.size, bool)
     widen = int(round(0.01 / dt))
-    for c in ("x", "p_a", "p_b", "p_s", "f_l"):
+    for c in CONVERTER_CHANNELS:
         if c in arrays:
             m = _clipped(arrays[c])
             if m.any():
@@ -297,6 +297,16 @@ def _method(ratio: float, shooting: Shooting, sliding_above: float | None) -> tu
     return shooting.method, "forced"
 
 
+#: Order of a segment's measured start: the bootstrap (:func:`perturbed_run`) draws its noise in
+#: it, so a seeded fit repeats; channels not listed (a new one of the channel table) follow.
+_DRAW_ORDER = ("x", "v", "p_a", "p_b", "p_s", "spool")
+
+
+def _draw_rank(item: tuple[str, float]) -> int:
+    name = item[0]
+    return _DRAW_ORDER.index(name) if name in _DRAW_ORDER else len(_DRAW_ORDER)
+
+
 @dataclasses.dataclass
 class _MeasuredStates:
     """Initial states from smoothed measurements: a raw sample's noise would persist through
@@ -313,33 +323,27 @@ class _MeasuredStates:
         cls, mdl: Any, t: np.ndarray, arrays: dict[str, np.ndarray], window: float
     ) -> _MeasuredStates:
         sm: dict[str, np.ndarray] = {
-            c: _smoothed(t, arrays[c], window)
-            for c in ("x", "p_a", "p_b", "p_s", "spool")
-            if c in arrays
+            c: _smoothed(t, arrays[c], window) for c in SENSED_STATE_CHANNELS if c in arrays
         }
         rate = _smoothed_velocity(t, arrays["spool"], window) if "spool" in arrays else None
         return cls(mdl, arrays["u"], _smoothed_velocity(t, arrays["x"], window), sm, rate)
 
     def make_state(self, m: dict[str, float]) -> np.ndarray:
         mdl = self.mdl
-        y0 = np.asarray(
-            mdl.state_from_measurement(m["x"], m["v"], m["p_a"], m["p_b"], m["p_s"], m["spool"]),
-            dtype=float,
-        )
+        measured = {c: m[c] for c in STATE_CHANNELS if c in m}
+        y0 = np.asarray(mdl.state_from_measurement(measured), dtype=float)
         if "spool_rate" in m and "spool_rate" in mdl.state_names:
             y0[mdl.state_names.index("spool_rate")] = m["spool_rate"]
         return y0
 
     def measured_at(self, i: int) -> dict[str, float]:
         sm = self.sm
-        m = {
-            "x": float(sm["x"][i]),
-            "v": float(self.v_est[i]),
-            "p_a": float(sm["p_a"][i]),
-            "p_b": float(sm["p_b"][i]),
-            "p_s": float(sm["p_s"][i]) if "p_s" in sm else float(self.mdl.params.supply.pressure),
-            "spool": float(sm["spool"][i]) if "spool" in sm else float(self.u[i]),
-        }
+        m = {c: float(y[i]) for c, y in sm.items()}
+        m["v"] = float(self.v_est[i])
+        # unmeasured: the machine's supply pressure, the spool at its command
+        m.setdefault("p_s", float(self.mdl.params.supply.pressure))
+        m.setdefault("spool", float(self.u[i]))
+        m = dict(sorted(m.items(), key=_draw_rank))
         if self.spool_rate is not None:
             m["spool_rate"] = float(self.spool_rate[i])
         return m
@@ -356,7 +360,7 @@ def _measurement_sd(arrays: dict[str, np.ndarray], window: float, dt: float) -> 
     g0 = math.sqrt(float(np.sum(savgol_coeffs(n_sg, 2) ** 2)))
     g1 = math.sqrt(float(np.sum(savgol_coeffs(n_sg, 2, deriv=1, delta=dt) ** 2)))
     meas_sd: dict[str, float] = {
-        c: noise_level(arrays[c]) * g0 for c in ("x", "p_a", "p_b", "p_s", "spool") if c in arrays
+        c: noise_level(arrays[c]) * g0 for c in SENSED_STATE_CHANNELS if c in arrays
     }
     meas_sd["v"] = noise_level(arrays["x"]) * g1
     if "spool" in arrays:

@@ -19,7 +19,6 @@ from ..._errors import IdentificationError, ParameterError
 from ...models import as_model
 from .._common import (
     IdentificationWarning,
-    OptimizerStatus,
     ParameterEstimate,
     SkippedRun,
     as_runs,
@@ -31,10 +30,10 @@ from .jacobian import DIFFERENCES
 from .objective import LOSSES, OutputErrorObjective
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem, expand_free
-from .profile import carry
+from .profile import ProfileTask, carry
 from .profile import profile as _profile
 from .report import fitted_params, identifiability, run_fits
-from .result import FitStatus, GreyBoxFit, Profile
+from .result import GreyBoxFit, Profile
 from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
@@ -902,20 +901,13 @@ def fit_model(
             IdentificationWarning,
             stacklevel=2,
         )
-    status = FitStatus.from_scipy(sol)
     checked = _validate(data, est, opts, plan)
     plan.report("done", 0, 0, cost=float(sol.cost), nfev=int(sol.nfev))
     return GreyBoxFit(
         params_=fitted, free=names, estimates_=est.estimates, covariance_=est.cov,
         correlation_=est.corr, inflation_=est.inflation,
-        success=all(st.success for st in stages if st.name in ("full", "sliding")),
-        status=status, message=status.message, nfev=int(sol.nfev), njev=int(sol.njev or 0),
         cost=float(sol.cost), initial_cost=float(best.initial_cost), runs_=fits,
         profiles_=profiles, identifiability_=ident, starts_=logs, model=data.base_model.name,
-        optimizer_=OptimizerStatus(
-            success=status.success, message=status.message, nfev=int(sol.nfev),
-            nit=int(sol.njev or 0),
-        ),
         skipped_=data.skipped, wall_time=time.perf_counter() - t0, level=opts.level,
         interval_scan_=est.scan, widened_=est.widened, sliding_=sliding_info, stages_=stages,
         data_=data.notes, validation_=checked,
@@ -1091,24 +1083,25 @@ def _profiles(
         plan.report("profiles", 0, 0)
     kap = kappa(est.cov_before_scan, est.cv.Hinv)
     tlo, thi = est.problem.theta_bounds
-    calls = {}
+    calls: dict[str, ProfileTask] = {}
     for n in to_profile:
         i = names.index(n)
         sd = float(est.sd[i])
         if isinstance(got, Sliding) and i in got.index:
             # a parameter of the sliding stage: its profile on the sliding stretches
             k = got.index.index(i)
-            calls[n] = (
-                got.prob, got.theta, k, got.tlo, got.thi, opts.loss, opts.f_scale, got.cost,
-                float(got.kappa[k]), est.z, sd,
+            calls[n] = ProfileTask(
+                prob=got.prob, theta=got.theta, index=k, tlo=got.tlo, thi=got.thi,
+                loss=opts.loss, f_scale=opts.f_scale, cost0=got.cost,
+                kappa=float(got.kappa[k]), z=est.z, sd=sd,
             )  # fmt: skip
         else:
-            calls[n] = (
-                plan.full, est.theta, i, tlo, thi, opts.loss, opts.f_scale, best.sol.cost,
-                float(kap[i]), est.z, sd,
+            calls[n] = ProfileTask(
+                prob=plan.full, theta=est.theta, index=i, tlo=tlo, thi=thi, loss=opts.loss,
+                f_scale=opts.f_scale, cost0=best.sol.cost, kappa=float(kap[i]), z=est.z, sd=sd,
             )  # fmt: skip
     if client is not None and len(calls) > 1:
         # one task per parameter (each refits the others along its grid)
-        futures = {n: client.submit(_profile, *args, pure=False) for n, args in calls.items()}
+        futures = {n: client.submit(_profile, task, pure=False) for n, task in calls.items()}
         return {n: fut.result() for n, fut in futures.items()}
-    return {n: _profile(*args) for n, args in calls.items()}
+    return {n: _profile(task) for n, task in calls.items()}

@@ -16,7 +16,7 @@ from .objective import loss_cost
 from .optimize import LeastSquares
 from .result import Profile
 
-__all__ = ["REACH", "carry", "crossing", "profile"]
+__all__ = ["REACH", "ProfileTask", "carry", "crossing", "profile"]
 
 
 class _Held:
@@ -44,20 +44,51 @@ class _Held:
 REACH = 3.0
 
 
-def profile(
-    prob: Any,
-    theta: np.ndarray,
-    i: int,
-    tlo: np.ndarray,
-    thi: np.ndarray,
-    loss: str,
-    f_scale: float,
-    cost0: float,
-    kappa: float,
-    z: float,
-    sd: float,
-    n_points: int = 9,
-) -> Profile:
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ProfileTask:
+    """One profile to walk (:func:`profile`; a Dask task ships it whole).
+
+    Attributes
+    ----------
+    prob : OutputErrorObjective
+        The objective (residuals of θ = ln(p / ref)).
+    theta : ndarray, shape (p,)
+        The optimum [ln p].
+    index : int
+        The profiled parameter's position in θ.
+    tlo, thi : ndarray, shape (p,)
+        Bounds of θ.
+    loss : str
+        The optimiser's loss (scipy's ``least_squares``).
+    f_scale : float
+        The loss's soft margin [1].
+    cost0 : float
+        ½Σρ(r²) at the optimum [1].
+    kappa : float
+        The sandwich's variance correction of the parameter [1].
+    z : float
+        Normal quantile of the interval's level [1].
+    sd : float
+        Standard deviation of θ[index] [1]; the grid spans ±2z of it.
+    n_points : int
+        Grid points before the walk outward.
+    """
+
+    prob: Any
+    theta: np.ndarray
+    index: int
+    tlo: np.ndarray
+    thi: np.ndarray
+    loss: str
+    f_scale: float
+    cost0: float
+    kappa: float
+    z: float
+    sd: float
+    n_points: int = 9
+
+
+def profile(task: ProfileTask) -> Profile:
     """Cost along parameter i, the others refitted (few iterations) from the optimum.
 
     The grid spans ±2z standard deviations of ln p (at least ±0.1 %, at most ×/÷ 20, inside
@@ -67,8 +98,13 @@ def profile(
     ×/÷ 20 (:data:`REACH`), as pyPESTO's profiler walks until its threshold. The statistic is
     2Δcost/κ (κ the sandwich's variance correction), compared with z².
     """
+    prob, theta, i, tlo, thi = task.prob, task.theta, task.index, task.tlo, task.thi
+    loss, f_scale, cost0, kappa, z, sd = (
+        task.loss, task.f_scale, task.cost0, task.kappa, task.z, task.sd
+    )  # fmt: skip
     span = min(max(2.0 * z * sd, 1e-3), REACH) if math.isfinite(sd) else REACH
-    grid = list(np.linspace(max(tlo[i], theta[i] - span), min(thi[i], theta[i] + span), n_points))
+    lo, hi = max(tlo[i], theta[i] - span), min(thi[i], theta[i] + span)
+    grid = list(np.linspace(lo, hi, task.n_points))
     others = [k for k in range(theta.size) if k != i]
     refit = LeastSquares(loss=loss, f_scale=f_scale, max_nfev=8, xtol=1e-3, ftol=1e-4)
 

@@ -1,19 +1,29 @@
-"""Results of the grey-box fit: per-run fits, profiles, identifiability, the stages' outcomes
-(:class:`FitStatus`, :class:`StageResult`) and :class:`GreyBoxFit`."""
+"""Results of the grey-box fit: per-run fits, profiles, identifiability, the stages' and the
+starts' outcomes (:class:`FitStatus`, :class:`StageResult`, :class:`StartRecord`) and
+:class:`GreyBoxFit`."""
 
 from __future__ import annotations
 
 import dataclasses
 import os
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-from ..._result import ResultMixin, StatusEnum, estimate_rows, status_messages
+from ..._errors import IdentificationError
+from ..._result import DerivedResult, StatusEnum, estimate_rows, status_messages
 from ...params import SystemParams, save_params
 from .._common import OptimizerStatus, ParameterEstimate, SkippedRun
 
-__all__ = ["FitStatus", "GreyBoxFit", "Identifiability", "Profile", "RunFit", "StageResult"]
+__all__ = [
+    "FitStatus",
+    "GreyBoxFit",
+    "Identifiability",
+    "Profile",
+    "RunFit",
+    "StageResult",
+    "StartRecord",
+]
 
 
 class FitStatus(StatusEnum):
@@ -94,6 +104,48 @@ class StageResult:
         return cls(
             name, FitStatus.from_scipy(res), float(res.cost), int(res.nfev), int(res.njev or 0)
         )
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class StartRecord:
+    """One start of the fit: where it began, where its full stage ended, and how.
+
+    Attributes
+    ----------
+    start, value : dict[str, float]
+        The free parameters [SI] at the start and at the end of its full stage.
+    cost : float
+        ½Σρ(r²) at the end of its full stage [1].
+    status : FitStatus
+        How its full stage's least squares ended (after its restarts).
+    nfev, njev : int
+        Residual and Jacobian evaluations of its full stage, restarts included.
+    locate_evaluations, coarse_evaluations : int
+        Evaluations of its locating stage (with the valley scan's) and its coarse stage
+        (residuals plus Jacobians; 0: the stage did not run).
+    restarts : int
+        Restarts of the full stage from a lower point of its last central differences.
+    """
+
+    start: dict[str, float]
+    value: dict[str, float]
+    cost: float
+    status: FitStatus
+    nfev: int
+    njev: int
+    locate_evaluations: int = 0
+    coarse_evaluations: int = 0
+    restarts: int = 0
+
+    @property
+    def success(self) -> bool:
+        """Whether its full stage met a tolerance."""
+        return self.status.success
+
+    @property
+    def message(self) -> str:
+        """The status's message."""
+        return self.status.message
 
 
 # ----------------------------------------------------------------------------- results
@@ -201,9 +253,9 @@ class Identifiability:
     undetermined: list[str] = dataclasses.field(default_factory=list)
 
 
-@dataclasses.dataclass
-class GreyBoxFit(ResultMixin):
-    """Result of :func:`fit_model`.
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class GreyBoxFit(DerivedResult):
+    """Result of :func:`fit_model` (keyword-only; its outcome is derived from ``stages_``).
 
     Attributes
     ----------
@@ -226,26 +278,28 @@ class GreyBoxFit(ResultMixin):
         residuals' correlation and the initial-state and input errors widen the interval.
     success : bool
         Whether every stage that decides an estimate met a tolerance: the full fit and, where
-        it ran, the sliding stage (``stages_`` has each).
+        it ran, the sliding stage (``status.success``; a property from ``stages_``).
     status : FitStatus
-        How the full fit's least squares ended (an ``IntEnum``: scipy's status code).
+        The first deciding stage (full, sliding) that did not converge, else the full stage's
+        status (an ``IntEnum``: scipy's status code; a property from ``stages_``).
     message : str
+        The stages that did not converge, then the status's message (a property).
     nfev, njev : int
-        Residual and Jacobian evaluations of the best start.
+        Residual and Jacobian evaluations of the best start's full stage (properties).
     cost, initial_cost : float
         ½Σρ(r²) at the full fit's optimum and at the start (r noise-scaled, ρ the loss;
         the sliding stage's own cost is in ``sliding_``).
     runs_ : list of RunFit
     profiles_ : dict[str, Profile]
     identifiability_ : Identifiability
-    starts_ : list of dict
-        Every start: its values, final cost, status, the evaluations of the locating
-        (multiple-shooting) and coarse stages, and the full stage's ``restarts`` from a
-        lower difference point.
+    starts_ : list of StartRecord
+        Every start, one record each: its values, final cost, status, evaluations, those of
+        the locating (multiple-shooting) and coarse stages, and the full stage's
+        ``restarts`` from a lower difference point.
     optimizer_ : OptimizerStatus
-        How ``least_squares`` ended for the best start: success, its stopping reason,
-        residual evaluations (``nit``: Jacobian evaluations, one per accepted or rejected
-        trust-region iteration).
+        The fit's outcome as the other fits report it (a property: ``success``, ``message``
+        and ``nfev`` of the fit; ``nit`` None: ``least_squares`` counts no iterations, its
+        Jacobian evaluations are ``njev``).
     model : str
         ``full`` or ``reduced``.
     wall_time : float
@@ -270,7 +324,7 @@ class GreyBoxFit(ResultMixin):
         or ``sliding=False``).
     stages_ : list of StageResult
         The best start's stages in order (locating, coarse, full, sliding), each with its
-        own status: ``success`` holds only when the full and the sliding stage converged.
+        own status: ``status`` and ``success`` follow from the full and the sliding stage.
     data_ : list of str
         Which data the fit used and why (the segment selection of a campaign, the shooting
         per experiment), one sentence each; the summary lists them.
@@ -285,28 +339,64 @@ class GreyBoxFit(ResultMixin):
     covariance_: np.ndarray
     correlation_: np.ndarray
     inflation_: np.ndarray
-    success: bool
-    status: FitStatus
-    message: str
-    nfev: int
-    njev: int
     cost: float
     initial_cost: float
     runs_: list[RunFit]
     profiles_: dict[str, Profile]
     identifiability_: Identifiability
-    starts_: list[dict[str, Any]]
+    starts_: list[StartRecord]
+    stages_: list[StageResult]
     model: str
-    optimizer_: OptimizerStatus
     skipped_: list[SkippedRun] = dataclasses.field(default_factory=list)
     wall_time: float = 0.0
     level: float = 0.95
     interval_scan_: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     widened_: list[str] = dataclasses.field(default_factory=list)
     sliding_: dict[str, Any] = dataclasses.field(default_factory=dict)
-    stages_: list[StageResult] = dataclasses.field(default_factory=list)
     data_: list[str] = dataclasses.field(default_factory=list)
     validation_: Any = None
+
+    #: Stages whose outcome decides an estimate (the others only lead to the full stage).
+    DECIDING: ClassVar[tuple[str, ...]] = ("full", "sliding")
+
+    def __post_init__(self) -> None:
+        if [st.name for st in self.stages_].count("full") != 1:
+            raise IdentificationError(
+                "GreyBoxFit needs exactly one 'full' stage in stages_ (its outcome decides the "
+                f"fit's status); got stages {[st.name for st in self.stages_]}"
+            )
+        if not self.starts_:
+            raise IdentificationError("GreyBoxFit needs the record of at least one start")
+
+    @property
+    def _full(self) -> StageResult:
+        return next(st for st in self.stages_ if st.name == "full")
+
+    def _failed_stages(self) -> list[StageResult]:
+        return [st for st in self.stages_ if st.name in self.DECIDING and not st.success]
+
+    @property
+    def status(self) -> FitStatus:
+        """The first deciding stage that did not converge, else the full stage's status."""
+        return (self._failed_stages() or [self._full])[0].status
+
+    def _status_details(self) -> list[str]:
+        return [f"the {st.name} stage did not converge" for st in self._failed_stages()]
+
+    @property
+    def nfev(self) -> int:
+        """Residual evaluations of the best start's full stage (restarts included)."""
+        return self._full.nfev
+
+    @property
+    def njev(self) -> int:
+        """Jacobian evaluations of the best start's full stage."""
+        return self._full.njev
+
+    @property
+    def optimizer_(self) -> OptimizerStatus:
+        """The fit's outcome in the other fits' shape (``nit`` None: see ``njev``)."""
+        return OptimizerStatus(success=self.success, message=self.message, nfev=self.nfev)
 
     def __repr__(self) -> str:
         vals = ", ".join(f"{n}={e.value:.4g}" for n, e in self.estimates_.items())
@@ -349,7 +439,8 @@ class GreyBoxFit(ResultMixin):
         lines = [
             f"# Grey-box fit ({self.model} model)",
             "",
-            f"{self.optimizer_} — cost {self.initial_cost:.4g} → {self.cost:.4g}, "
+            f"{self.optimizer_}, {self.njev} Jacobians — cost {self.initial_cost:.4g} → "
+            f"{self.cost:.4g}, "
             f"{self.wall_time:.1f} s",
             "",
             f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |",

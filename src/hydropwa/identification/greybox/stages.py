@@ -20,7 +20,7 @@ from .jacobian import FiniteDifferenceJacobian
 from .objective import loss_cost
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem
-from .result import StageResult
+from .result import StageResult, StartRecord
 
 __all__ = ["STICK", "FitProgress", "StagePlan", "restart_from_probes", "valley_scan"]
 
@@ -151,7 +151,7 @@ class StartResult:
 
     sol: Any
     initial_cost: float
-    log: dict[str, Any]
+    log: StartRecord
     stages: list[StageResult]
     central: tuple[np.ndarray, np.ndarray] | None
 
@@ -264,21 +264,23 @@ class StagePlan:
         self.report("full", *k, res=sol)
         stages.append(StageResult.from_scipy("full", sol))
         values = self.problem.values
-        log = {
-            "start": dict(zip(self.problem.names, values(th0).tolist(), strict=True)),
-            "value": dict(zip(self.problem.names, values(sol.x).tolist(), strict=True)),
-            "cost": float(sol.cost),
-            "status": int(sol.status),
-            "nfev": int(sol.nfev),
-            "coarse_evaluations": coarse_nfev,
-            "locate_evaluations": locate_nfev,
-            "restarts": restarts,
-        }
+        full = stages[-1]
+        log = StartRecord(
+            start=dict(zip(self.problem.names, values(th0).tolist(), strict=True)),
+            value=dict(zip(self.problem.names, values(sol.x).tolist(), strict=True)),
+            cost=full.cost,
+            status=full.status,
+            nfev=full.nfev,
+            njev=full.njev,
+            coarse_evaluations=coarse_nfev,
+            locate_evaluations=locate_nfev,
+            restarts=int(restarts),
+        )
         return StartResult(sol, math.nan, log, stages, last[0].central)
 
     def minimize(
         self, theta_starts: list[np.ndarray], client: Any = None
-    ) -> tuple[StartResult, list[dict[str, Any]]]:
+    ) -> tuple[StartResult, list[StartRecord]]:
         """Every start; the one with the lowest cost (its ``initial_cost`` set) and the log.
 
         ``client``: a ``dask.distributed.Client`` that runs the starts as tasks (each walks
