@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,7 @@ import numpy as np
 
 from .. import __version__
 from .._io import atomic_write_text, check_output, read_text
+from .._layout_law import SIZES as LAW_SIZES
 from ..components import _physics as P
 from ..simulation import _controller as C
 from ..simulation._emit_c import emit_functions
@@ -50,85 +52,15 @@ __all__ = ["export_c", "export_fmu", "c_sources", "c_structs", "check_expressibl
 #: files written by :func:`export_c`
 C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
 
-#: names of the packed layout emitted as ``#define HP_<name>`` (from simulation/_controller.py)
+#: names of the packed layout emitted as ``#define HP_<name>``: every index constant of the law
+#: (generated from the tables of hydropwa/_layout_law.py), its sizes, and its numeric rules
 _LAYOUT = (
-    "C_TS",
-    "C_DELAY",
-    "C_UMIN",
-    "C_UMAX",
-    "C_AW",
-    "C_KT",
-    "C_DZINV",
-    "C_DZOFF",
-    "C_DZW",
-    "C_FILT",
-    "C_NROWS",
-    "C_WASH",
-    "C_PLMEAN",
-    "C_SCALE",
-    "C_ROWS",
-    "ROW",
-    "R_LO",
-    "R_HI",
-    "R_KP",
-    "R_KI",
-    "R_KFF",
-    "R_KV",
-    "R_KPL",
-    "R_KDPL",
-    "R_UFF",
-    "AW_NONE",
-    "AW_CLAMP",
-    "AW_BACK",
-    # the extension block of schema 2 (offsets from its start, per-row slots after N_EXT)
-    "N_EXT",
-    "XROW",
-    "X_FF",
-    "X_K",
-    "X_PTR",
-    "X_AA",
-    "X_ALPHA",
-    "X_PS",
-    "X_PT",
-    "X_DPMIN",
-    "X_REFST",
-    "X_MASS",
-    "X_BV",
-    "X_LEAD",
-    "X_VEST",
-    "X_SPOOL",
-    "X_PHI",
-    "X_GAM",
-    "X_KF",
-    "X_KFX",
-    "X_KFV",
-    "X_DZH",
-    "X_EST",
-    "X_DZQ",
-    "X_ILEAK",
-    "X_IBAND",
-    "X_DZQR",
-    "X_DZPO",
-    "X_SPLN",
-    "X_SPLD",
-    "X_ESTNU",
-    "X_DZPV",
-    "X_DZQO",
+    *sorted(n for n in vars(C) if re.fullmatch(r"(C|R|X|XR|E|AW)_[A-Z]+", n)),
+    *LAW_SIZES,
     "QUIET_HOLD",
     "QUIET_VENT",
     "REST_RATE",
     "REST_ACCELERATION",
-    # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
-    "NZ",
-    "EROW",
-    "E_PHI",
-    "E_GAM",
-    "E_AFF",
-    "E_L",
-    "E_INIT",
-    "XR_KNU",
-    "XR_KDNU",
-    "XR_KUP",
 )
 
 #: functions of the physics the law calls (Eqs. (5)/(6) of the flow feed-forward), emitted to C
@@ -345,7 +277,6 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
         the compiled controller from Python (``hydropwa_ctrl_step(&state, &meas, &ref)``).
     """
     import ctypes  # deferred: only a caller of the compiled C needs it
-    import re
 
     if header is None:
         text = _read_template("hydropwa_ctrl.h")

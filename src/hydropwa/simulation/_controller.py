@@ -143,6 +143,8 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import FULL_STATES, MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
+from .._layout_law import CST, CTL, EROW_SLOT, EXT, LOG_ROW, RCH, ROW_SLOT, XROW_SLOT
+from .._layout_law import SIZES as LAW_SIZES
 from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
@@ -155,104 +157,50 @@ _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 #: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
 _SPOOL_A, _SPOOL_B = (k for k, states, _d in MODEL_KINDS.values() if states is FULL_STATES)
 
+#: the law's packed vectors, declared once in the layout layer (hydropwa/_layout_law.py); the
+#: index constants below are read from its tables (numba compiles them in as integers)
+C_ROWS, ROW, N_EXT, XROW, EROW, NZ = (
+    LAW_SIZES[k] for k in ("C_ROWS", "ROW", "N_EXT", "XROW", "EROW", "NZ")
+)
+N_CST, N_LOG, N_RCH = LAW_SIZES["N_CST"], LAW_SIZES["N_LOG"], LAW_SIZES["N_RCH"]
+# fmt: off
 (
-    C_TS,
-    C_DELAY,
-    C_UMIN,
-    C_UMAX,
-    C_AW,
-    C_KT,
-    C_DZINV,
-    C_DZOFF,
-    C_DZW,
-    C_FILT,
-    C_NROWS,
-    C_WASH,
-    C_PLMEAN,
-) = range(13)
-C_SCALE = 13
-C_ROWS = 17
-ROW = 15
-R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = 0, 4, 8, 9, 10, 11, 12, 13, 14
+    C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH,
+    C_PLMEAN, C_SCALE,
+) = (CTL[k] for k in (
+    "ts", "delay", "umin", "umax", "aw", "kt", "dzinv", "dzoff", "dzw", "filt", "nrows", "wash",
+    "plmean", "scale",
+))
+R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = (
+    ROW_SLOT[k] for k in ("lo", "hi", "kp", "ki", "kff", "kv", "kpl", "kdpl", "uff")
+)
 AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
-#: extension block (schema 2): header slots, then XROW per-row slots from N_EXT on
-EXT_SLOTS = (
-    "ff",
-    "k",
-    "ptr",
-    "aa",
-    "alpha",
-    "ps",
-    "pt",
-    "dpmin",
-    "refst",
-    "mass",
-    "bv",
-    "lead",
-    "vest",
-    "spool",
-    "phi00",
-    "phi01",
-    "phi10",
-    "phi11",
-    "gam0",
-    "gam1",
-    "kf",
-    "kf_x",
-    "kf_v",
-    "dz_hyst",
-    "est",
-    "dz_quiet",
-    "int_leak",
-    "int_band",
-    "dz_quiet_rest",
-    "dz_pre_open",
-    "spool_l_nu",
-    "spool_l_dnu",
-    "est_spool",
-    "dz_vent",
-    "dz_quiet_open",
+(
+    X_FF, X_K, X_PTR, X_AA, X_ALPHA, X_PS, X_PT, X_DPMIN, X_REFST, X_MASS, X_BV, X_LEAD, X_VEST,
+    X_SPOOL, X_PHI, X_GAM, X_KF, X_KFX, X_KFV, X_DZH, X_EST, X_DZQ, X_ILEAK, X_IBAND, X_DZQR,
+    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO,
+) = (EXT[k] for k in (
+    "ff", "k", "ptr", "aa", "alpha", "ps", "pt", "dpmin", "refst", "mass", "bv", "lead", "vest",
+    "spool", "phi", "gam", "kf", "kf_x", "kf_v", "dz_hyst", "est", "dz_quiet", "int_leak",
+    "int_band", "dz_quiet_rest", "dz_pre_open", "spool_l_nu", "spool_l_dnu", "est_spool",
+    "dz_vent", "dz_quiet_open",
+))
+XR_KNU, XR_KDNU, XR_KUP = (XROW_SLOT[k] for k in ("k_nu", "k_dnu", "k_up"))
+E_PHI, E_GAM, E_AFF, E_L, E_INIT = (EROW_SLOT[k] for k in ("phi", "gam", "aff", "l", "init"))
+RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO, RC_NNU = (
+    RCH[k] for k in ("dr", "drff", "ddr", "nx", "npa", "npb", "drpo", "nnu")
 )
 (
-    X_FF,
-    X_K,
-    X_PTR,
-    X_AA,
-    X_ALPHA,
-    X_PS,
-    X_PT,
-    X_DPMIN,
-    X_REFST,
-    X_MASS,
-    X_BV,
-    X_LEAD,
-    X_VEST,
-    X_SPOOL,
-    X_PHI,
-    _X_PHI01,
-    _X_PHI10,
-    _X_PHI11,
-    X_GAM,
-    _X_GAM1,
-    X_KF,
-    X_KFX,
-    X_KFV,
-    X_DZH,
-    X_EST,
-    X_DZQ,
-    X_ILEAK,
-    X_IBAND,
-    X_DZQR,
-    X_DZPO,
-    X_SPLN,
-    X_SPLD,
-    X_ESTNU,
-    X_DZPV,
-    X_DZQO,
-) = range(len(EXT_SLOTS))
-N_EXT = len(EXT_SLOTS)
-XROW = 3
-XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
+    S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR, S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU,
+    S_CPEND, S_XKF, S_VKF, S_DZS, S_Z, S_CAPP, S_ZP, S_PDEV, S_DZQN,
+) = (CST[k] for k in (
+    "int", "pl", "dpl", "pend", "cprev", "row", "plbar", "xprev", "vhat", "prbar", "nu", "dnu",
+    "cpend", "xkf", "vkf", "dzs", "z", "capp", "zp", "pdev", "dzqn",
+))
+L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = (
+    LOG_ROW[k] for k in ("t", "u", "r", "e", "c", "row", "int", "unew", "uff")
+)
+# fmt: on
 SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
 #: inside the quiet band (e0+X_DZQ) the integral holds while |k_x e| < QUIET_HOLD·q, so a
 #: hold's offset stays below about QUIET_HOLD·q/k_x. Measured on the heavy axis's verification
@@ -270,38 +218,12 @@ QUIET_HOLD = 8.0
 #: acceleration below it cannot carry the rate past REST_RATE before the next test.
 REST_RATE = 1e-6
 REST_ACCELERATION = 1e-3
-#: per-cell Kalman filter (e0+X_EST on): after the XROW rows, EROW values per gain row:
-#: Φ (7 × 7, row-major), Γ (7), the affine term φ₀ (7), L (7 × 2, row-major) and the
-#: initial values' coefficients (a_vp, a_pp, f_a, f_p)
-NZ = 7
-EROW = NZ * NZ + 4 * NZ + 4
-E_PHI, E_GAM, E_AFF, E_L, E_INIT = 0, NZ * NZ, NZ * NZ + NZ, NZ * NZ + 2 * NZ, NZ * NZ + 4 * NZ
-#: reference channels (rows of ``rch``)
-RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO, RC_NNU = range(8)
-N_RCH = 8
-#: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
-#: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
-#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂,
-#: the side s of the dead-zone inverse with hysteresis (0 before the first |c| ≥ h)
-S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
-S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 16)
-#: the per-cell Kalman filter's state ẑ (NZ values from S_Z), the opening command the valve
-#: received over the last sample (its input) and the prediction ẑ⁻ (scratch, NZ values from S_ZP)
-S_Z, S_CAPP, S_ZP = 16, 23, 24
-#: the low-passed load-pressure deviation p̃ of the pressure vent at rest (e0+X_DZPV)
-S_PDEV = 31
-#: the consecutive samples at rest with |c| > q so far (the quiet band's opening delay, e0+X_DZQO)
-S_DZQN = 32
-N_CST = 33
 #: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
 #: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig
 #: (noise seeds 1-10, T_p = 40 T_s), trapezoid hold / the +6.5 kN step hold's sign changes:
 #: 0.5 → up to 125/s on the trapezoid; 0.6 → ≤ 0.029 mm / up to 200/s; 0.7 → 0.031 mm / 132/s;
 #: 0.8 → 0.032 mm / ≤ 40/s (8/s without the vent) (docs/control.md)
 QUIET_VENT = 0.8
-#: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
-L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
-N_LOG = 9
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
