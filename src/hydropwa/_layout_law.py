@@ -126,6 +126,7 @@ MEMORY: Block = (
     ("zp", NZ, "SI", "per-cell Kalman filter's prediction (scratch)"),
     ("pdev", 1, "Pa", "pressure vent's low-pass of the load-pressure deviation"),
     ("dzqn", 1, "1", "quiet band's run of samples beyond q"),
+    ("ddr", 1, "m/s^2", "reference acceleration of the last sample (the observer's input)"),
 )
 #: the per-sample log (one column per sample, N_LOG rows)
 LOG: Block = (

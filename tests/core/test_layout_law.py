@@ -49,7 +49,7 @@ def test_the_law_reads_every_slot_at_the_layout_offset():
         35,
         3,
         C.NZ * C.NZ + 4 * C.NZ + 4,
-        33,
+        34,
         9,
         8,
     )

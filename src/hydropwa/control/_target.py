@@ -105,7 +105,7 @@ _CELL_COVERED = frozenset(
 #: the packed layout the C law was written for: header length, row length, memory size; a
 #: law element added to simulation/_controller.py changes one of them and stops the export
 #: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 33, "N_EXT": 35, "XROW": 3, "N_RCH": 8}
+_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 34, "N_EXT": 35, "XROW": 3, "N_RCH": 8}
 
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
