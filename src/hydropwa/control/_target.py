@@ -4,22 +4,20 @@
 law of :mod:`hydropwa.simulation._controller` in C, reading the controller's packed float
 vector (:meth:`~hydropwa.control.PIController.pack`) as one ``static const`` table.
 
-How the C stays the package's law:
+How the C stays the package's law: it *is* the package's law, translated.
 
-- the **layout** (the indices ``C_*``, ``R_*``, ``ROW``, ``AW_*`` of the packed vector) is
-  emitted as ``#define HP_*`` lines from the constants of :mod:`hydropwa.simulation._controller`,
-  so the table and the law's indices cannot disagree with the compiled controller;
-- the **law** (``_c/hydropwa_ctrl_law.c``) is one small C function per element of the numba
-  law (dead-zone inverse, box distance, row selection, pressure-rate filter, washout,
-  anti-windup, the step with saturation and delay; for schema 2 the position observer, the
-  velocity filter, the flow feed-forward, the reference state, the spool terms and the valve
-  model's update), written in the same order of floating-point operations; the tests step
-  both in lockstep on closed-loop runs of two machines and require the same command within
-  1e-12 at every sample;
-- the **physics** the law calls (the edge drop and the regularised root of Eqs. (5)/(6) in the
-  flow feed-forward) is translated from :mod:`hydropwa.components._physics` by
-  :mod:`hydropwa.simulation._emit_c`, as for the axis FMU;
-- a controller with a law element the C does not cover is refused, by name
+- the **law** is :func:`hydropwa.simulation._controller.law_step` and its stages, with the
+  physics they call (the edge drop and the regularised root of Eqs. (5)/(6) in the flow
+  feed-forward, :mod:`hydropwa.components._physics`), translated statement by statement from
+  their numba source by :mod:`hydropwa.simulation._emit_c` (:data:`LAW_FUNCTIONS`), as the
+  axis FMU's right-hand side is: the same floating-point operations in the same order, no
+  hand-kept copy (``_c/hydropwa_ctrl_api.c`` only passes the header's structs to it);
+- the **layout** (the indices ``C_*``, ``R_*``, ``X_*``, ``S_*``, ``RC_*``, ``L_*`` and the
+  sizes) is emitted as ``#define HP_*`` lines from the tables of :mod:`hydropwa._layout_law`,
+  and the header's memory and log arrays are sized from them;
+- the tests step both in lockstep on closed-loop runs of two machines and require the same
+  command within 1e-12 at every sample;
+- a controller with a setting the export does not cover is refused, by name
   (:func:`check_expressible`).
 
 The C needs no heap, no I/O and no global beyond the caller-owned state struct (the table is
@@ -39,11 +37,11 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from .. import _layout_law as LL
 from .._io import atomic_write_text, check_output, read_text
 from .._layout_law import SIZES as LAW_SIZES
-from ..components import _physics as P
 from ..simulation import _controller as C
-from ..simulation._emit_c import emit_functions
+from ..simulation._emit_c import emit_unit
 from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
@@ -55,17 +53,13 @@ C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
 #: names of the packed layout emitted as ``#define HP_<name>``: every index constant of the law
 #: (generated from the tables of hydropwa/_layout_law.py), its sizes, and its numeric rules
 _LAYOUT = (
-    *sorted(n for n in vars(C) if re.fullmatch(r"(C|R|X|XR|E|AW)_[A-Z]+", n)),
+    *sorted(n for n in vars(C) if re.fullmatch(r"(C|R|X|XR|E|AW|S|L|RC)_[A-Z]+", n)),
     *LAW_SIZES,
     "QUIET_HOLD",
     "QUIET_VENT",
     "REST_RATE",
     "REST_ACCELERATION",
 )
-
-#: functions of the physics the law calls (Eqs. (5)/(6) of the flow feed-forward), emitted to C
-#: from their numba source, so the C has no hand-kept copy
-_PHYSICS = (P.load_flow_drop, P.signed_sqrt)
 
 #: settings of ``describe()`` the C law covers (any other one that is set is refused)
 _COVERED = frozenset(
@@ -102,11 +96,6 @@ _COVERED = frozenset(
 _CELL_COVERED = frozenset(
     {"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff", "k_nu", "k_dnu", "k_up"}
 )
-#: the packed layout the C law was written for: header length, row length, memory size; a
-#: law element added to simulation/_controller.py changes one of them and stops the export
-#: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 34, "N_EXT": 35, "XROW": 3, "N_RCH": 8}
-
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
     "PI with velocity feed-forward k_ff·ṙ, velocity feedback k_v, load-pressure feedback k_pl and its filtered rate k_dpl",
@@ -167,14 +156,6 @@ def check_expressible(controller) -> np.ndarray:
         raise ControlError(
             f"cannot export a {type(controller).__name__} to C; the C law covers PIController and "
             "StateFeedbackController"
-        )
-    grown = [
-        f"{k} {getattr(C, k)} (C law: {v})" for k, v in _LAW_LAYOUT.items() if getattr(C, k) != v
-    ]
-    if grown:
-        raise ControlError(
-            f"the compiled law's packed layout changed ({', '.join(grown)}); the C export "
-            "implements the earlier law and cannot express this controller"
         )
     d = controller.describe()
     extra = sorted(k for k, v in d.items() if k not in _COVERED and _active(v))
@@ -254,8 +235,21 @@ def _table(ctl: np.ndarray) -> str:
     return "\n".join(lines)
 
 
+#: the numba functions the exported C translates (with everything they call)
+LAW_FUNCTIONS = (C.law_step, C.load_pressure)
+
+
 def _read_template(name: str) -> str:
-    return resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+    """A file of ``control/_c``; the header with the law's sizes and log rows filled in."""
+    text = resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+    if name == "hydropwa_ctrl.h":
+        rows = "\n".join(
+            f"#define HYDROPWA_CTRL_LOG_{n.upper()} {LL.LOG_ROW[n]} /* {what} [{unit}] */"
+            for n, _w, unit, what in LL.LOG
+        )
+        text = text.replace("@LOG_ROWS@", rows)
+        text = text.replace("@N_CST@", str(LL.N_CST)).replace("@N_LOG@", str(LL.N_LOG))
+    return text
 
 
 def c_structs(header: str | Path | None = None) -> dict[str, type]:
@@ -337,7 +331,7 @@ def cost_per_step(
     spool terms and the valve model's update) adds at most 76 operations (6 of them
     divisions, 2 square roots) and 14 comparisons, and its dead-zone rules (the quiet band
     with its at-rest test, the pre-opening, the hysteresis, the integral's band and leak;
-    counted on their longest paths in ``hydropwa_ctrl_law.c``) at most 11 operations and 28
+    counted on their longest paths in the law's stages) at most 11 operations and 28
     comparisons; the per-cell Kalman filter (``kalman``)
     adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
     142 operations, no division. The measured spool's filter (``hp_spool_filter``: the inverse
@@ -398,27 +392,10 @@ def c_sources(controller) -> dict[str, str]:
         header = header.replace(k, v)
         readme = readme.replace(k, v)
     layout = "\n".join(f"#define HP_{name} {getattr(C, name)}" for name in _LAYOUT)
-    eb = e0 + C.N_EXT + C.XROW * n
-    if ext:
-        ext_table = (
-            "/* The extension block (schema 2) of the table */\n"
-            f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n"
-        )
-    else:
-        ext_table = (
-            "/* Schema 1: no extension block; every schema-2 element is off */\n"
-            f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW * n}] = {{0.0}};\n"
-        )
-    if ctl.shape[0] > eb:
-        ext_table += f"/* The per-cell Kalman filters (EROW values per row) */\nstatic const double *const E = T + {eb};\n"
-    else:
-        ext_table += f"/* No Kalman filter (X[HP_X_EST] is 0) */\nstatic const double E[{C.EROW}] = {{0.0}};\n"
-    sb = eb + C.EROW * n
-    if ctl.shape[0] > sb:
-        ext_table += f"/* The Kalman filters' spool columns (NZ values per row) */\nstatic const double *const EN = T + {sb};\n"
-    else:
-        ext_table += f"/* The spool is not measured by the Kalman filter (X[HP_X_ESTNU] is 0) */\nstatic const double EN[{C.NZ}] = {{0.0}};\n"
-    physics = "\n".join(emit_functions(f, {})[0] for f in _PHYSICS)
+    # the areas of the flow feed-forward's mean-area conversion: the design's (schema 2)
+    a_a = float(ctl[e0 + C.X_AA]) if ext else 1.0
+    a_b = float(ctl[e0 + C.X_ALPHA]) * a_a if ext else 1.0
+    law, _names = emit_unit(LAW_FUNCTIONS)
     source = (
         f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"
         f" * Verification: {subs['@VERDICT@']}\n"
@@ -426,13 +403,14 @@ def c_sources(controller) -> dict[str, str]:
         " * C99, no heap, no I/O; the only data is the constant table T below. */\n"
         '#include "hydropwa_ctrl.h"\n\n'
         "#include <math.h> /* HUGE_VAL, fabs, sqrt (link with -lm where libm is separate) */\n\n"
-        "/* Packed layout of hydropwa/simulation/_controller.py (generated from its constants) */\n"
-        f"{layout}\n\n"
+        "/* Packed layout of hydropwa/_layout_law.py (generated from its tables) */\n"
+        f"{layout}\n"
+        f"#define HP_AREA_A {_c_float(a_a)}\n#define HP_AREA_B {_c_float(a_b)}\n\n"
         "/* The controller's packed vector (SI units; layout above) */\n"
-        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n"
-        f"{ext_table}\n"
-        "/* Physics of hydropwa/components/_physics.py, translated by simulation/_emit_c.py */\n"
-        f"{physics}\n" + _read_template("hydropwa_ctrl_law.c")
+        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n\n"
+        "/* The law: hydropwa/simulation/_controller.py's law_step and its stages and the\n"
+        " * physics they call (components/_physics.py), translated by simulation/_emit_c.py */\n"
+        f"{law}\n" + _read_template("hydropwa_ctrl_api.c")
     )
     return {"hydropwa_ctrl.h": header, "hydropwa_ctrl.c": source, "README.md": readme}
 
