@@ -242,14 +242,17 @@ LAW_FUNCTIONS = (C.law_step, C.load_pressure)
 def _read_template(name: str) -> str:
     """A file of ``control/_c``; the header with the law's sizes and log rows filled in."""
     text = resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
-    if name == "hydropwa_ctrl.h":
-        rows = "\n".join(
-            f"#define HYDROPWA_CTRL_LOG_{n.upper()} {LL.LOG_ROW[n]} /* {what} [{unit}] */"
-            for n, _w, unit, what in LL.LOG
-        )
-        text = text.replace("@LOG_ROWS@", rows)
-        text = text.replace("@N_CST@", str(LL.N_CST)).replace("@N_LOG@", str(LL.N_LOG))
-    return text
+    return _fill_layout(text) if name == "hydropwa_ctrl.h" else text
+
+
+def _fill_layout(header: str) -> str:
+    """The header with the law's memory and log sizes and log rows of :mod:`hydropwa._layout_law`."""
+    rows = "\n".join(
+        f"#define HYDROPWA_CTRL_LOG_{n.upper()} {LL.LOG_ROW[n]} /* {what} [{unit}] */"
+        for n, _w, unit, what in LL.LOG
+    )
+    header = header.replace("@LOG_ROWS@", rows)
+    return header.replace("@N_CST@", str(LL.N_CST)).replace("@N_LOG@", str(LL.N_LOG))
 
 
 def c_structs(header: str | Path | None = None) -> dict[str, type]:
@@ -278,6 +281,7 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
         text = read_text(header, "C header", ControlError)
     else:
         text = header
+    text = _fill_layout(text)  # a template's sizes (an exported header has them already)
     types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}
     out: dict[str, type] = {}
     for body, name in re.findall(r"typedef struct \{(.*?)\}\s*(\w+);", text, flags=re.S):
