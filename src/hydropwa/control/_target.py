@@ -338,7 +338,7 @@ def cost_per_step(
     counted on their longest paths in the law's stages) at most 11 operations and 28
     comparisons; the per-cell Kalman filter (``kalman``)
     adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
-    142 operations, no division. The measured spool's filter (``hp_spool_filter``: the inverse
+    142 operations, no division. The measured spool's filter (``spool_feedback``: the inverse
     of the dead-zone inverse, the innovation and two multiply-adds) adds at most 9 operations
     (1 division) and 6 comparisons to the schema-2 block; in the per-cell Kalman filter
     (``kalman_spool``) the spool's column adds 4 + 1 + 7 × 2 = 19 operations (1 division) and
