@@ -52,7 +52,7 @@ COMPILED_MODULES = (
 #: What the compiled code depends on: those modules, the controller-sampling hooks (numba
 #: overloads whose implementations compile into the step loop) and the layout table whose slot
 #: and state indices the kernels compile in as constants.
-STAMPED_MODULES = (*COMPILED_MODULES, "simulation/_sampling.py", "_layout.py")
+STAMPED_MODULES = (*COMPILED_MODULES, "simulation/_sampling.py", "_layout.py", "_layout_law.py")
 
 _ROOT = Path(__file__).resolve().parent
 _FILES = frozenset(str(_ROOT / m) for m in COMPILED_MODULES)

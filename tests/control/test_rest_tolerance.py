@@ -43,7 +43,7 @@ def test_rest_test_has_the_stated_tolerance():
         for value, rest in ((1e-9, True), (-limit, True), (1.01 * limit, False)):
             rch[:] = 0.0
             rch[row, 0] = value
-            assert bool(C.quiet_acts(ctl, 0, rch, 0)) is rest, (row, value)
+            assert bool(C.quiet_acts(ctl, 0, rch[:, 0])) is rest, (row, value)
     w = 0.004
     assert C.pre_open(0.0, w, 1e-9, 0.2) == w  # at rest now, moving ahead: pre-open
     assert C.pre_open(0.0, w, 0.0, -1e-9) == 0.0  # 1e-9 ahead is no move

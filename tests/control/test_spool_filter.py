@@ -131,22 +131,22 @@ def test_the_law_corrects_the_prediction_by_the_measured_spool(nu, noise, prior,
     ctl[e0 + C.X_SPLN], ctl[e0 + C.X_SPLD] = ln, ld
     cst = np.zeros(C.N_CST)
     cst[C.S_NU], cst[C.S_DNU] = prior, dprior
-    got = C.spool_feedback(0, y, ctl, e0, cst, noise, False)
+    got = C.spool_feedback(ctl, e0, cst, y[Y_FULL["spool"]] + noise, 1.0, False)
     want = (prior + ln * (nu_m - prior), dprior + ld * (nu_m - prior))
     assert got == pytest.approx(want, rel=1e-14, abs=1e-14)  # numba may fuse: a few ulps
     assert (cst[C.S_NU], cst[C.S_DNU]) == got
-    y[Y_FULL["spool_rate"]] = -7.0  # the rate is not read
+    # the law is given the measured position only (the state's rate never reaches it)
     cst[C.S_NU], cst[C.S_DNU] = prior, dprior
-    assert C.spool_feedback(0, y, ctl, e0, cst, noise, False) == got
+    assert C.spool_feedback(ctl, e0, cst, y[Y_FULL["spool"]] + noise, 1.0, False) == got
     ctl[e0 + C.X_SPOOL] = C.SPOOL_ESTIMATED
     cst = np.zeros(C.N_CST)
     cst[C.S_NU], cst[C.S_DNU] = prior, dprior
-    assert C.spool_feedback(0, y, ctl, e0, cst, noise, False) == (prior, dprior)
+    assert C.spool_feedback(ctl, e0, cst, m, 1.0, False) == (prior, dprior)
     # the load-state models have no spool: the estimate, whatever the mode
     ctl[e0 + C.X_SPOOL] = C.SPOOL_MEASURED
-    assert C.spool_feedback(1, y, ctl, e0, cst, noise, False) == (prior, dprior)
+    assert C.spool_feedback(ctl, e0, cst, m, 0.0, False) == (prior, dprior)
     cst[C.S_Z + 3], cst[C.S_Z + 4] = 0.25, -4.0  # the per-cell filter's spool states
-    assert C.spool_feedback(0, y, ctl, e0, cst, noise, True) == (0.25, -4.0)
+    assert C.spool_feedback(ctl, e0, cst, m, 1.0, True) == (0.25, -4.0)
     assert (cst[C.S_NU], cst[C.S_DNU]) == (prior, dprior)
 
 

@@ -14,6 +14,7 @@ within 1e-12 relative at every sample, the same gain row.
 from __future__ import annotations
 
 import dataclasses
+import re
 import struct
 import subprocess
 import sys
@@ -388,20 +389,32 @@ def test_export_refuses_an_occupied_folder_and_what_it_cannot_express(paper_lqr,
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
-def test_export_refuses_when_the_compiled_law_grew(monkeypatch, tmp_path):
-    """A new element in the packed layout stops the export until the C implements it."""
-    monkeypatch.setattr(C, "C_ROWS", C.C_ROWS + 1)
-    with pytest.raises(ControlError, match=r"packed layout changed \(C_ROWS 18 \(C law: 17\)\)"):
-        export_c(PIController(kp=1.0), tmp_path / "c")
-    assert not (tmp_path / "c").exists()
-    monkeypatch.undo()
-    n = C.N_EXT
-    monkeypatch.setattr(C, "N_EXT", n + 1)
-    with pytest.raises(
-        ControlError, match=rf"packed layout changed \(N_EXT {n + 1} \(C law: {n}\)\)"
-    ):
-        export_c(PIController(kp=1.0), tmp_path / "c")
-    assert not (tmp_path / "c").exists()
+def test_the_c_law_is_generated_from_the_compiled_law(paper_lqr):
+    """No hand-kept C law: every function of hydropwa_ctrl.c is the translation of a numba
+    function of the law (law_step, its stages, the physics they call), beside the four of the
+    header's interface; and no C law file ships beside the templates."""
+    from importlib import resources
+
+    from hydropwa.control._target import LAW_FUNCTIONS
+    from hydropwa.simulation._emit_c import emit_unit
+
+    src = c_sources(paper_lqr)["hydropwa_ctrl.c"]
+    _text, names = emit_unit(LAW_FUNCTIONS)
+    assert {"law_step", "quiet_stage", "integral_stage", "load_flow_drop"} <= set(names)
+    assert set(re.findall(r"^static \w+ (hp_\w+)\(", src, flags=re.M)) == {
+        "hp_" + n.lstrip("_") for n in names
+    }
+    assert set(re.findall(r"^(?:double|void) (hydropwa_ctrl_\w+)\(", src, flags=re.M)) == {
+        "hydropwa_ctrl_load_pressure",
+        "hydropwa_ctrl_reset",
+        "hydropwa_ctrl_init",
+        "hydropwa_ctrl_step",
+    }
+    c_dir = resources.files("hydropwa.control").joinpath("_c")
+    assert sorted(f.name for f in c_dir.iterdir() if f.name.endswith(".c")) == [
+        "hp_model_ctrl.c",
+        "hydropwa_ctrl_api.c",
+    ]
 
 
 def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constants(paper_lqr):
@@ -419,15 +432,16 @@ def test_generated_table_is_the_packed_vector_and_the_layout_the_package_constan
     ctl = paper_lqr.pack()
     assert len(values) == ctl.size
     np.testing.assert_array_equal(np.array(values), ctl)
-    # schema 2: the extension block is read through X = T + its start; schema 1 reads zeros
+    # schema 2: the law reads the extension block from its start e0 in the same table
     e0 = C.C_ROWS + C.ROW * len(paper_lqr.rows)
     assert ctl.size == e0 + C.N_EXT + C.XROW * len(paper_lqr.rows)
-    assert f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n" in src
-    for name in ("N_EXT", "XROW", "X_FF", "X_LEAD", "X_PHI", "X_KFV", "XR_KUP"):
+    for name in ("N_EXT", "XROW", "X_FF", "X_LEAD", "X_PHI", "X_KFV", "XR_KUP", "N_CST", "RC_DR"):
         assert f"#define HP_{name} {getattr(C, name)}\n" in src
     assert "static double hp_signed_sqrt(double dp, double p_tr)" in src  # emitted physics
+    # the flow feed-forward's areas: the design's A_A and alpha A_A
+    assert f"#define HP_AREA_A {float(ctl[e0 + C.X_AA])!r}\n" in src
     v1 = c_sources(PIController(kp=1.0))["hydropwa_ctrl.c"]
-    assert f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW}] = {{0.0}};" in v1
+    assert f"static const double T[{C.C_ROWS + C.ROW}]" in v1
     header = c_sources(paper_lqr)["hydropwa_ctrl.h"]
     n = len(paper_lqr.rows)
     assert f"#define HYDROPWA_CTRL_N_ROWS {n}\n" in header
@@ -610,9 +624,10 @@ def test_c_structs_mirror_the_header_field_by_field():
     s = c_structs()
     state = dict(s["hydropwa_ctrl_state"]._fields_)
     names = [n for n, _t in s["hydropwa_ctrl_state"]._fields_]
-    assert names[:2] == ["integral", "p_l_prev"]
-    assert names[-5:] == ["z", "c_in", "p_ref_w", "p_low", "dz_open"]
-    assert state["row"] is ctypes.c_int and state["z"]._length_ == 7
+    assert names == ["cst", "log", "k", "row", "c_raw", "u_new", "c_ff"]
+    # the law's memory and log column, sized by the layout's tables
+    assert state["cst"]._length_ == C.N_CST and state["log"]._length_ == C.N_LOG
+    assert state["row"] is ctypes.c_int and state["k"] is ctypes.c_double
     assert [n for n, _t in s["hydropwa_ctrl_ref"]._fields_] == [
         "r",
         "r_rate",

@@ -9,6 +9,7 @@ kernel function by function on random states (the translation, not only the end 
 from __future__ import annotations
 
 import ctypes
+import math
 import shutil
 import subprocess
 import zipfile
@@ -16,13 +17,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numba import njit
 
 from hydropwa import OutputExistsError, load_params
 from hydropwa._layout import FULL_STATES
 from hydropwa.simulation import _kernel as K
 from hydropwa.simulation import export_axis_fmu, simulate
 from hydropwa.simulation._axis_fmu import axis_rhs_c
-from hydropwa.simulation._emit_c import EmitError, emit_functions
+from hydropwa.simulation._emit_c import EmitError, emit_functions, emit_unit
 
 GCC = shutil.which("gcc")
 pytestmark = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
@@ -237,9 +239,64 @@ def test_emitter_refuses_python_it_cannot_translate():
     @njit
     def looped(x):
         s = 0.0
-        for i in range(3):
-            s += x * i
+        while s < x:
+            s += 1.0
         return s
 
-    with pytest.raises(EmitError, match=r"looped .*line \d+.*statement For"):
+    with pytest.raises(EmitError, match=r"looped .*line \d+.*statement While"):
         emit_functions(looped, {})
+
+    @njit
+    def two_d(a, k):
+        return a[0, k]
+
+    with pytest.raises(EmitError, match=r"two_d .*more than one index"):
+        emit_functions(two_d, {})
+
+
+@njit
+def _emit_accumulate(a, n, lo):
+    """A callee that writes the array it is given (the caller passes it on without indexing)."""
+    for i in range(int(n) - 1):
+        a[i + 1] += max(a[i], lo)
+
+
+@njit
+def _emit_entry(a, n, lo, hi):
+    _emit_accumulate(a, n, lo)
+    s = 0.0
+    for j in range(1, int(n)):
+        s += min(a[j] * 2.0, hi) if a[j] > -math.inf else 0.0
+    return s
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
+def test_emitter_translates_loops_index_expressions_min_max_and_int(tmp_path):
+    """The subset the control law uses (range loops, computed indices, min/max, int, an array
+    written through a callee): the C gives numba's numbers on random inputs."""
+    text, names = emit_unit([_emit_entry])
+    assert names == ["_emit_accumulate", "_emit_entry"]
+    src = tmp_path / "unit.c"
+    src.write_text(
+        "#include <math.h>\n" + text + "double run(double *a, double n, double lo, double hi)\n"
+        "{\n    return hp_emit_entry(a, n, lo, hi);\n}\n",
+        encoding="utf-8",
+    )
+    lib_path = tmp_path / "unit.so"
+    flags = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off"]
+    subprocess.run(
+        ["gcc", *flags, "-shared", "-fPIC", "-o", str(lib_path), str(src), "-lm"], check=True
+    )
+    lib = ctypes.CDLL(str(lib_path))
+    lib.run.restype = ctypes.c_double
+    lib.run.argtypes = [ctypes.POINTER(ctypes.c_double)] + [ctypes.c_double] * 3
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        a = rng.normal(size=9)
+        lo, hi = rng.normal(), rng.normal()
+        want_a = a.copy()
+        want = _emit_entry(want_a, 9.0, lo, hi)
+        got_a = a.copy()
+        got = lib.run(got_a.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), 9.0, lo, hi)
+        assert got == want
+        np.testing.assert_array_equal(got_a, want_a)

@@ -4,22 +4,20 @@
 law of :mod:`hydropwa.simulation._controller` in C, reading the controller's packed float
 vector (:meth:`~hydropwa.control.PIController.pack`) as one ``static const`` table.
 
-How the C stays the package's law:
+How the C stays the package's law: it *is* the package's law, translated.
 
-- the **layout** (the indices ``C_*``, ``R_*``, ``ROW``, ``AW_*`` of the packed vector) is
-  emitted as ``#define HP_*`` lines from the constants of :mod:`hydropwa.simulation._controller`,
-  so the table and the law's indices cannot disagree with the compiled controller;
-- the **law** (``_c/hydropwa_ctrl_law.c``) is one small C function per element of the numba
-  law (dead-zone inverse, box distance, row selection, pressure-rate filter, washout,
-  anti-windup, the step with saturation and delay; for schema 2 the position observer, the
-  velocity filter, the flow feed-forward, the reference state, the spool terms and the valve
-  model's update), written in the same order of floating-point operations; the tests step
-  both in lockstep on closed-loop runs of two machines and require the same command within
-  1e-12 at every sample;
-- the **physics** the law calls (the edge drop and the regularised root of Eqs. (5)/(6) in the
-  flow feed-forward) is translated from :mod:`hydropwa.components._physics` by
-  :mod:`hydropwa.simulation._emit_c`, as for the axis FMU;
-- a controller with a law element the C does not cover is refused, by name
+- the **law** is :func:`hydropwa.simulation._controller.law_step` and its stages, with the
+  physics they call (the edge drop and the regularised root of Eqs. (5)/(6) in the flow
+  feed-forward, :mod:`hydropwa.components._physics`), translated statement by statement from
+  their numba source by :mod:`hydropwa.simulation._emit_c` (:data:`LAW_FUNCTIONS`), as the
+  axis FMU's right-hand side is: the same floating-point operations in the same order, no
+  hand-kept copy (``_c/hydropwa_ctrl_api.c`` only passes the header's structs to it);
+- the **layout** (the indices ``C_*``, ``R_*``, ``X_*``, ``S_*``, ``RC_*``, ``L_*`` and the
+  sizes) is emitted as ``#define HP_*`` lines from the tables of :mod:`hydropwa._layout_law`,
+  and the header's memory and log arrays are sized from them;
+- the tests step both in lockstep on closed-loop runs of two machines and require the same
+  command within 1e-12 at every sample;
+- a controller with a setting the export does not cover is refused, by name
   (:func:`check_expressible`).
 
 The C needs no heap, no I/O and no global beyond the caller-owned state struct (the table is
@@ -31,6 +29,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -38,10 +37,11 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from .. import _layout_law as LL
 from .._io import atomic_write_text, check_output, read_text
-from ..components import _physics as P
+from .._layout_law import SIZES as LAW_SIZES
 from ..simulation import _controller as C
-from ..simulation._emit_c import emit_functions
+from ..simulation._emit_c import emit_unit
 from ..simulation._fmu import FmuVariable, build_fmu, fmi2_source, fmi3_source
 from ._controllers import ControlError, PIController, StateFeedbackController
 
@@ -50,90 +50,16 @@ __all__ = ["export_c", "export_fmu", "c_sources", "c_structs", "check_expressibl
 #: files written by :func:`export_c`
 C_FILES = ("hydropwa_ctrl.h", "hydropwa_ctrl.c", "README.md")
 
-#: names of the packed layout emitted as ``#define HP_<name>`` (from simulation/_controller.py)
+#: names of the packed layout emitted as ``#define HP_<name>``: every index constant of the law
+#: (generated from the tables of hydropwa/_layout_law.py), its sizes, and its numeric rules
 _LAYOUT = (
-    "C_TS",
-    "C_DELAY",
-    "C_UMIN",
-    "C_UMAX",
-    "C_AW",
-    "C_KT",
-    "C_DZINV",
-    "C_DZOFF",
-    "C_DZW",
-    "C_FILT",
-    "C_NROWS",
-    "C_WASH",
-    "C_PLMEAN",
-    "C_SCALE",
-    "C_ROWS",
-    "ROW",
-    "R_LO",
-    "R_HI",
-    "R_KP",
-    "R_KI",
-    "R_KFF",
-    "R_KV",
-    "R_KPL",
-    "R_KDPL",
-    "R_UFF",
-    "AW_NONE",
-    "AW_CLAMP",
-    "AW_BACK",
-    # the extension block of schema 2 (offsets from its start, per-row slots after N_EXT)
-    "N_EXT",
-    "XROW",
-    "X_FF",
-    "X_K",
-    "X_PTR",
-    "X_AA",
-    "X_ALPHA",
-    "X_PS",
-    "X_PT",
-    "X_DPMIN",
-    "X_REFST",
-    "X_MASS",
-    "X_BV",
-    "X_LEAD",
-    "X_VEST",
-    "X_SPOOL",
-    "X_PHI",
-    "X_GAM",
-    "X_KF",
-    "X_KFX",
-    "X_KFV",
-    "X_DZH",
-    "X_EST",
-    "X_DZQ",
-    "X_ILEAK",
-    "X_IBAND",
-    "X_DZQR",
-    "X_DZPO",
-    "X_SPLN",
-    "X_SPLD",
-    "X_ESTNU",
-    "X_DZPV",
-    "X_DZQO",
+    *sorted(n for n in vars(C) if re.fullmatch(r"(C|R|X|XR|E|AW|S|L|RC)_[A-Z]+", n)),
+    *LAW_SIZES,
     "QUIET_HOLD",
     "QUIET_VENT",
     "REST_RATE",
     "REST_ACCELERATION",
-    # the per-cell Kalman filter's rows (after the XROW rows, EROW values each)
-    "NZ",
-    "EROW",
-    "E_PHI",
-    "E_GAM",
-    "E_AFF",
-    "E_L",
-    "E_INIT",
-    "XR_KNU",
-    "XR_KDNU",
-    "XR_KUP",
 )
-
-#: functions of the physics the law calls (Eqs. (5)/(6) of the flow feed-forward), emitted to C
-#: from their numba source, so the C has no hand-kept copy
-_PHYSICS = (P.load_flow_drop, P.signed_sqrt)
 
 #: settings of ``describe()`` the C law covers (any other one that is set is refused)
 _COVERED = frozenset(
@@ -170,11 +96,6 @@ _COVERED = frozenset(
 _CELL_COVERED = frozenset(
     {"label", "lower", "upper", "k_pl", "k_v", "k_x", "k_i", "u_ff", "k_nu", "k_dnu", "k_up"}
 )
-#: the packed layout the C law was written for: header length, row length, memory size; a
-#: law element added to simulation/_controller.py changes one of them and stops the export
-#: until control/_c/hydropwa_ctrl_law.c implements it
-_LAW_LAYOUT = {"C_ROWS": 17, "ROW": 15, "N_CST": 33, "N_EXT": 35, "XROW": 3, "N_RCH": 8}
-
 #: law elements the C covers (the README and the report list them)
 LAW_ELEMENTS = (
     "PI with velocity feed-forward k_ff·ṙ, velocity feedback k_v, load-pressure feedback k_pl and its filtered rate k_dpl",
@@ -235,14 +156,6 @@ def check_expressible(controller) -> np.ndarray:
         raise ControlError(
             f"cannot export a {type(controller).__name__} to C; the C law covers PIController and "
             "StateFeedbackController"
-        )
-    grown = [
-        f"{k} {getattr(C, k)} (C law: {v})" for k, v in _LAW_LAYOUT.items() if getattr(C, k) != v
-    ]
-    if grown:
-        raise ControlError(
-            f"the compiled law's packed layout changed ({', '.join(grown)}); the C export "
-            "implements the earlier law and cannot express this controller"
         )
     d = controller.describe()
     extra = sorted(k for k, v in d.items() if k not in _COVERED and _active(v))
@@ -322,8 +235,24 @@ def _table(ctl: np.ndarray) -> str:
     return "\n".join(lines)
 
 
+#: the numba functions the exported C translates (with everything they call)
+LAW_FUNCTIONS = (C.law_step, C.load_pressure)
+
+
 def _read_template(name: str) -> str:
-    return resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+    """A file of ``control/_c``; the header with the law's sizes and log rows filled in."""
+    text = resources.files("hydropwa.control").joinpath("_c", name).read_text(encoding="utf-8")
+    return _fill_layout(text) if name == "hydropwa_ctrl.h" else text
+
+
+def _fill_layout(header: str) -> str:
+    """The header with the law's memory and log sizes and log rows of :mod:`hydropwa._layout_law`."""
+    rows = "\n".join(
+        f"#define HYDROPWA_CTRL_LOG_{n.upper()} {LL.LOG_ROW[n]} /* {what} [{unit}] */"
+        for n, _w, unit, what in LL.LOG
+    )
+    header = header.replace("@LOG_ROWS@", rows)
+    return header.replace("@N_CST@", str(LL.N_CST)).replace("@N_LOG@", str(LL.N_LOG))
 
 
 def c_structs(header: str | Path | None = None) -> dict[str, type]:
@@ -345,7 +274,6 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
         the compiled controller from Python (``hydropwa_ctrl_step(&state, &meas, &ref)``).
     """
     import ctypes  # deferred: only a caller of the compiled C needs it
-    import re
 
     if header is None:
         text = _read_template("hydropwa_ctrl.h")
@@ -353,6 +281,7 @@ def c_structs(header: str | Path | None = None) -> dict[str, type]:
         text = read_text(header, "C header", ControlError)
     else:
         text = header
+    text = _fill_layout(text)  # a template's sizes (an exported header has them already)
     types: dict[str, Any] = {"double": ctypes.c_double, "int": ctypes.c_int}
     out: dict[str, type] = {}
     for body, name in re.findall(r"typedef struct \{(.*?)\}\s*(\w+);", text, flags=re.S):
@@ -406,10 +335,10 @@ def cost_per_step(
     spool terms and the valve model's update) adds at most 76 operations (6 of them
     divisions, 2 square roots) and 14 comparisons, and its dead-zone rules (the quiet band
     with its at-rest test, the pre-opening, the hysteresis, the integral's band and leak;
-    counted on their longest paths in ``hydropwa_ctrl_law.c``) at most 11 operations and 28
+    counted on their longest paths in the law's stages) at most 11 operations and 28
     comparisons; the per-cell Kalman filter (``kalman``)
     adds 7 × (2 + 2·7) for the prediction, 2 for the innovations and 7 × 4 for the update:
-    142 operations, no division. The measured spool's filter (``hp_spool_filter``: the inverse
+    142 operations, no division. The measured spool's filter (``spool_feedback``: the inverse
     of the dead-zone inverse, the innovation and two multiply-adds) adds at most 9 operations
     (1 division) and 6 comparisons to the schema-2 block; in the per-cell Kalman filter
     (``kalman_spool``) the spool's column adds 4 + 1 + 7 × 2 = 19 operations (1 division) and
@@ -467,27 +396,10 @@ def c_sources(controller) -> dict[str, str]:
         header = header.replace(k, v)
         readme = readme.replace(k, v)
     layout = "\n".join(f"#define HP_{name} {getattr(C, name)}" for name in _LAYOUT)
-    eb = e0 + C.N_EXT + C.XROW * n
-    if ext:
-        ext_table = (
-            "/* The extension block (schema 2) of the table */\n"
-            f"#define HP_EXT 1\nstatic const double *const X = T + {e0};\n"
-        )
-    else:
-        ext_table = (
-            "/* Schema 1: no extension block; every schema-2 element is off */\n"
-            f"#define HP_EXT 0\nstatic const double X[{C.N_EXT + C.XROW * n}] = {{0.0}};\n"
-        )
-    if ctl.shape[0] > eb:
-        ext_table += f"/* The per-cell Kalman filters (EROW values per row) */\nstatic const double *const E = T + {eb};\n"
-    else:
-        ext_table += f"/* No Kalman filter (X[HP_X_EST] is 0) */\nstatic const double E[{C.EROW}] = {{0.0}};\n"
-    sb = eb + C.EROW * n
-    if ctl.shape[0] > sb:
-        ext_table += f"/* The Kalman filters' spool columns (NZ values per row) */\nstatic const double *const EN = T + {sb};\n"
-    else:
-        ext_table += f"/* The spool is not measured by the Kalman filter (X[HP_X_ESTNU] is 0) */\nstatic const double EN[{C.NZ}] = {{0.0}};\n"
-    physics = "\n".join(emit_functions(f, {})[0] for f in _PHYSICS)
+    # the areas of the flow feed-forward's mean-area conversion: the design's (schema 2)
+    a_a = float(ctl[e0 + C.X_AA]) if ext else 1.0
+    a_b = float(ctl[e0 + C.X_ALPHA]) * a_a if ext else 1.0
+    law, _names = emit_unit(LAW_FUNCTIONS)
     source = (
         f"/* hydropwa_ctrl.c: {subs['@KIND@']}, generated by hydropwa {__version__}.\n"
         f" * Verification: {subs['@VERDICT@']}\n"
@@ -495,13 +407,14 @@ def c_sources(controller) -> dict[str, str]:
         " * C99, no heap, no I/O; the only data is the constant table T below. */\n"
         '#include "hydropwa_ctrl.h"\n\n'
         "#include <math.h> /* HUGE_VAL, fabs, sqrt (link with -lm where libm is separate) */\n\n"
-        "/* Packed layout of hydropwa/simulation/_controller.py (generated from its constants) */\n"
-        f"{layout}\n\n"
+        "/* Packed layout of hydropwa/_layout_law.py (generated from its tables) */\n"
+        f"{layout}\n"
+        f"#define HP_AREA_A {_c_float(a_a)}\n#define HP_AREA_B {_c_float(a_b)}\n\n"
         "/* The controller's packed vector (SI units; layout above) */\n"
-        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n"
-        f"{ext_table}\n"
-        "/* Physics of hydropwa/components/_physics.py, translated by simulation/_emit_c.py */\n"
-        f"{physics}\n" + _read_template("hydropwa_ctrl_law.c")
+        f"static const double T[{ctl.shape[0]}] = {{\n{_table(ctl)}\n}};\n\n"
+        "/* The law: hydropwa/simulation/_controller.py's law_step and its stages and the\n"
+        " * physics they call (components/_physics.py), translated by simulation/_emit_c.py */\n"
+        f"{law}\n" + _read_template("hydropwa_ctrl_api.c")
     )
     return {"hydropwa_ctrl.h": header, "hydropwa_ctrl.c": source, "README.md": readme}
 

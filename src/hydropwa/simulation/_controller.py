@@ -30,7 +30,7 @@ ctl[17:]  rows of ``ROW`` values: box lower [P_L, ẋ, x, c_prev] (4), upper (4)
 Extension block (schema ``hydropwa.controller/2`` elements; absent in schema-1 controllers,
 whose vector ends after the rows, so their law is unchanged bit for bit). It starts at
 e0 = C_ROWS + ROW·ctl[C_NROWS] and holds ``N_EXT`` header values, then ``XROW`` values per
-gain row (see :data:`EXT_SLOTS`)::
+gain row (declared in :data:`hydropwa._layout_law.CTL_EXT`)::
 
     e0+X_FF      flow feed-forward on (1) / off (0): c_ff = A_A ṙ_ff / (K √Δp), Δp the
                  metering-edge drop of Eqs. (5)/(6) at the measured load pressure for the
@@ -119,11 +119,19 @@ P_A [Pa] and P_B [Pa] (P_L on the load-state models) at t_k (zeros: exact sensor
 ṙ_o = ṙ(t_k + τ_o) [m/s] of the pre-opening (zeros without it), and the sensor noise added to
 the measured spool position [1] (read only where the controller measures the spool).
 
-The schema-2 order of one sample (docs/controller_target.md states it for a target): measure
-(with the noise), the per-cell Kalman filter, the position observer, the velocity filter, the Ṗ_L filter, the washout, the
-row, the schema-1 terms, the flow feed-forward and reference state, the spool terms, the
-quiet band (with its opening delay, the pressure vent and its low-pass), the pre-opening, the dead-zone inverse and saturation, the integral (its leak and band), the delay, the
-spool estimate update.
+The law is a sequence of small compiled stages, composed by :func:`law_step` (which
+:func:`controller_sample` calls after :func:`measure`; the C export translates the same
+functions, :mod:`hydropwa.control._target`). Each stage reads its own slots of the layout
+(:mod:`hydropwa._layout_law`) and returns its input unchanged where its slot is 0 (schema 1:
+every schema-2 stage off). In the order of one sample (docs/controller_target.md states it
+for a target): measure (with the noise), :func:`law_start` (k = 0), :func:`estimate_stage`
+(per-cell Kalman filter), :func:`observer_stage`, :func:`velocity_stage`,
+:func:`pressure_stage` (Ṗ_L filter, washout), :func:`select_row`, :func:`feedback_command`
+(the schema-1 terms), :func:`feedforward_stage` (flow feed-forward, :func:`reference_state`,
+the spool terms of :func:`spool_feedback`), :func:`opening_stage` (:func:`quiet_stage` with
+its opening delay, the pressure vent and its low-pass; the pre-opening;
+:func:`dead_zone_stage`), the saturation, :func:`integral_stage` (its leak and band),
+:func:`delay_stage`, :func:`valve_model_stage` (the spool estimate update), :func:`law_log`.
 
 Control law at sample k (e = r − x, I the integral of e, c the command before the
 dead-zone inverse, row chosen by the box that holds [P_L, ẋ, x, c_{k−1}])::
@@ -143,6 +151,8 @@ from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import FULL_STATES, MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
+from .._layout_law import CST, CTL, EROW_SLOT, EXT, LOG_ROW, RCH, ROW_SLOT, XROW_SLOT
+from .._layout_law import SIZES as LAW_SIZES
 from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
@@ -155,104 +165,50 @@ _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 #: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
 _SPOOL_A, _SPOOL_B = (k for k, states, _d in MODEL_KINDS.values() if states is FULL_STATES)
 
+#: the law's packed vectors, declared once in the layout layer (hydropwa/_layout_law.py); the
+#: index constants below are read from its tables (numba compiles them in as integers)
+C_ROWS, ROW, N_EXT, XROW, EROW, NZ = (
+    LAW_SIZES[k] for k in ("C_ROWS", "ROW", "N_EXT", "XROW", "EROW", "NZ")
+)
+N_CST, N_LOG, N_RCH = LAW_SIZES["N_CST"], LAW_SIZES["N_LOG"], LAW_SIZES["N_RCH"]
+# fmt: off
 (
-    C_TS,
-    C_DELAY,
-    C_UMIN,
-    C_UMAX,
-    C_AW,
-    C_KT,
-    C_DZINV,
-    C_DZOFF,
-    C_DZW,
-    C_FILT,
-    C_NROWS,
-    C_WASH,
-    C_PLMEAN,
-) = range(13)
-C_SCALE = 13
-C_ROWS = 17
-ROW = 15
-R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = 0, 4, 8, 9, 10, 11, 12, 13, 14
+    C_TS, C_DELAY, C_UMIN, C_UMAX, C_AW, C_KT, C_DZINV, C_DZOFF, C_DZW, C_FILT, C_NROWS, C_WASH,
+    C_PLMEAN, C_SCALE,
+) = (CTL[k] for k in (
+    "ts", "delay", "umin", "umax", "aw", "kt", "dzinv", "dzoff", "dzw", "filt", "nrows", "wash",
+    "plmean", "scale",
+))
+R_LO, R_HI, R_KP, R_KI, R_KFF, R_KV, R_KPL, R_KDPL, R_UFF = (
+    ROW_SLOT[k] for k in ("lo", "hi", "kp", "ki", "kff", "kv", "kpl", "kdpl", "uff")
+)
 AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
-#: extension block (schema 2): header slots, then XROW per-row slots from N_EXT on
-EXT_SLOTS = (
-    "ff",
-    "k",
-    "ptr",
-    "aa",
-    "alpha",
-    "ps",
-    "pt",
-    "dpmin",
-    "refst",
-    "mass",
-    "bv",
-    "lead",
-    "vest",
-    "spool",
-    "phi00",
-    "phi01",
-    "phi10",
-    "phi11",
-    "gam0",
-    "gam1",
-    "kf",
-    "kf_x",
-    "kf_v",
-    "dz_hyst",
-    "est",
-    "dz_quiet",
-    "int_leak",
-    "int_band",
-    "dz_quiet_rest",
-    "dz_pre_open",
-    "spool_l_nu",
-    "spool_l_dnu",
-    "est_spool",
-    "dz_vent",
-    "dz_quiet_open",
+(
+    X_FF, X_K, X_PTR, X_AA, X_ALPHA, X_PS, X_PT, X_DPMIN, X_REFST, X_MASS, X_BV, X_LEAD, X_VEST,
+    X_SPOOL, X_PHI, X_GAM, X_KF, X_KFX, X_KFV, X_DZH, X_EST, X_DZQ, X_ILEAK, X_IBAND, X_DZQR,
+    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO,
+) = (EXT[k] for k in (
+    "ff", "k", "ptr", "aa", "alpha", "ps", "pt", "dpmin", "refst", "mass", "bv", "lead", "vest",
+    "spool", "phi", "gam", "kf", "kf_x", "kf_v", "dz_hyst", "est", "dz_quiet", "int_leak",
+    "int_band", "dz_quiet_rest", "dz_pre_open", "spool_l_nu", "spool_l_dnu", "est_spool",
+    "dz_vent", "dz_quiet_open",
+))
+XR_KNU, XR_KDNU, XR_KUP = (XROW_SLOT[k] for k in ("k_nu", "k_dnu", "k_up"))
+E_PHI, E_GAM, E_AFF, E_L, E_INIT = (EROW_SLOT[k] for k in ("phi", "gam", "aff", "l", "init"))
+RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO, RC_NNU = (
+    RCH[k] for k in ("dr", "drff", "ddr", "nx", "npa", "npb", "drpo", "nnu")
 )
 (
-    X_FF,
-    X_K,
-    X_PTR,
-    X_AA,
-    X_ALPHA,
-    X_PS,
-    X_PT,
-    X_DPMIN,
-    X_REFST,
-    X_MASS,
-    X_BV,
-    X_LEAD,
-    X_VEST,
-    X_SPOOL,
-    X_PHI,
-    _X_PHI01,
-    _X_PHI10,
-    _X_PHI11,
-    X_GAM,
-    _X_GAM1,
-    X_KF,
-    X_KFX,
-    X_KFV,
-    X_DZH,
-    X_EST,
-    X_DZQ,
-    X_ILEAK,
-    X_IBAND,
-    X_DZQR,
-    X_DZPO,
-    X_SPLN,
-    X_SPLD,
-    X_ESTNU,
-    X_DZPV,
-    X_DZQO,
-) = range(len(EXT_SLOTS))
-N_EXT = len(EXT_SLOTS)
-XROW = 3
-XR_KNU, XR_KDNU, XR_KUP = 0, 1, 2
+    S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR, S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU,
+    S_CPEND, S_XKF, S_VKF, S_DZS, S_Z, S_CAPP, S_ZP, S_PDEV, S_DZQN, S_DDR,
+) = (CST[k] for k in (
+    "int", "pl", "dpl", "pend", "cprev", "row", "plbar", "xprev", "vhat", "prbar", "nu", "dnu",
+    "cpend", "xkf", "vkf", "dzs", "z", "capp", "zp", "pdev", "dzqn", "ddr",
+))
+L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = (
+    LOG_ROW[k] for k in ("t", "u", "r", "e", "c", "row", "int", "unew", "uff")
+)
+# fmt: on
 SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
 #: inside the quiet band (e0+X_DZQ) the integral holds while |k_x e| < QUIET_HOLD·q, so a
 #: hold's offset stays below about QUIET_HOLD·q/k_x. Measured on the heavy axis's verification
@@ -270,38 +226,12 @@ QUIET_HOLD = 8.0
 #: acceleration below it cannot carry the rate past REST_RATE before the next test.
 REST_RATE = 1e-6
 REST_ACCELERATION = 1e-3
-#: per-cell Kalman filter (e0+X_EST on): after the XROW rows, EROW values per gain row:
-#: Φ (7 × 7, row-major), Γ (7), the affine term φ₀ (7), L (7 × 2, row-major) and the
-#: initial values' coefficients (a_vp, a_pp, f_a, f_p)
-NZ = 7
-EROW = NZ * NZ + 4 * NZ + 4
-E_PHI, E_GAM, E_AFF, E_L, E_INIT = 0, NZ * NZ, NZ * NZ + NZ, NZ * NZ + 2 * NZ, NZ * NZ + 4 * NZ
-#: reference channels (rows of ``rch``)
-RC_DR, RC_DRFF, RC_DDR, RC_NX, RC_NPA, RC_NPB, RC_DRPO, RC_NNU = range(8)
-N_RCH = 8
-#: controller memory ``cst``: integral, previous P_L, filtered Ṗ_L, pending command, previous c, row,
-#: low-passed P_L (washout); schema 2: previous x and v̂ (velocity estimate), low-passed P_ref,
-#: spool estimate ν̂, ν̂̇, pending opening command c (with the delay), the position observer's x̂, v̂,
-#: the side s of the dead-zone inverse with hysteresis (0 before the first |c| ≥ h)
-S_INT, S_PL, S_DPL, S_PEND, S_CPREV, S_ROW, S_PLBAR = range(7)
-S_XPREV, S_VHAT, S_PRBAR, S_NU, S_DNU, S_CPEND, S_XKF, S_VKF, S_DZS = range(7, 16)
-#: the per-cell Kalman filter's state ẑ (NZ values from S_Z), the opening command the valve
-#: received over the last sample (its input) and the prediction ẑ⁻ (scratch, NZ values from S_ZP)
-S_Z, S_CAPP, S_ZP = 16, 23, 24
-#: the low-passed load-pressure deviation p̃ of the pressure vent at rest (e0+X_DZPV)
-S_PDEV = 31
-#: the consecutive samples at rest with |c| > q so far (the quiet band's opening delay, e0+X_DZQO)
-S_DZQN = 32
-N_CST = 33
 #: pressure vent at rest (e0+X_DZPV): the low-passed pressure share −k_pl p̃ opens the valve
 #: inside the quiet band only beyond QUIET_VENT·q, and by at most q. Measured on the paper rig
 #: (noise seeds 1-10, T_p = 40 T_s), trapezoid hold / the +6.5 kN step hold's sign changes:
 #: 0.5 → up to 125/s on the trapezoid; 0.6 → ≤ 0.029 mm / up to 200/s; 0.7 → 0.031 mm / 132/s;
 #: 0.8 → 0.032 mm / ≤ 40/s (8/s without the vent) (docs/control.md)
 QUIET_VENT = 0.8
-#: per-sample log rows (log has shape (N_LOG, samples)); L_UFF the feed-forward part of c
-L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = range(9)
-N_LOG = 9
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -345,7 +275,7 @@ def dead_zone_hysteresis(c, offset, width, hyst, side):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def quiet_acts(ctl, e0, rch, k):
+def quiet_acts(ctl, e0, rc):
     """Whether the quiet band (e0+X_DZQ > 0) acts at sample k: always, or with
     e0+X_DZQR = 1 only while the reference is at rest (|ṙ(t_k)|, |ṙ_ff| ≤ ``REST_RATE`` and
     |r̈(t_k)| ≤ ``REST_ACCELERATION``).
@@ -357,9 +287,9 @@ def quiet_acts(ctl, e0, rch, k):
     if ctl[e0 + X_DZQR] < 0.5:
         return True
     return (
-        abs(rch[RC_DR, k]) <= REST_RATE
-        and abs(rch[RC_DRFF, k]) <= REST_RATE
-        and abs(rch[RC_DDR, k]) <= REST_ACCELERATION
+        abs(rc[RC_DR]) <= REST_RATE
+        and abs(rc[RC_DRFF]) <= REST_RATE
+        and abs(rc[RC_DDR]) <= REST_ACCELERATION
     )
 
 
@@ -490,6 +420,17 @@ def pressure_vent(c, band, share, ex):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def load_pressure(p_a, p_b, a_a, a_b, mean_area):
+    """Load pressure [Pa] of the design's form from the chamber pressures [Pa] and areas [m²].
+
+    (P_A·A_A − P_B·A_B)/A_A = P_A − α P_B (asymmetric, ``mean_area`` 0), /Ā with the
+    paper's mean area Ā = (A_A + A_B)/2 (``mean_area`` 1).
+    """
+    area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
+    return (p_a * a_a - p_b * a_b) / area
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
     """Measured channels (x [m], ẋ [m/s], P_L [Pa]) from the state of model ``kind``.
 
@@ -501,8 +442,7 @@ def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
     added to x, P_A and P_B (the load-state models: ``npa`` onto P_L).
     """
     if kind == _SPOOL_A or kind == _SPOOL_B:  # full and chamber PWA models (FULL_STATES)
-        area = 0.5 * (a_a + a_b) if mean_area != 0.0 else a_a
-        return y[_X] + nx, y[_V], ((y[_PA] + npa) * a_a - (y[_PB] + npb) * a_b) / area
+        return y[_X] + nx, y[_V], load_pressure(y[_PA] + npa, y[_PB] + npb, a_a, a_b, mean_area)
     return y[_LX] + nx, y[_LV], y[_LPL] + npa  # reduced, PWA (LOAD_STATES)
 
 
@@ -626,220 +566,392 @@ def cell_kalman_filter(ctl, cst, eb, k, pl, v0, x, row, sb=-1, nu_m=0.0):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def spool_feedback(kind, y, ctl, e0, cst, noise, kal):
+def ext_start(ctl):
+    """Start e0 of the extension block (schema 2) in ``ctl``: after the header and the gain rows."""
+    return C_ROWS + ROW * int(ctl[C_NROWS])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def ext_value(ctl, n_ctl, slot):
+    """ctl[e0 + slot] of a schema-2 controller (``n_ctl`` values); 0 (the element off) for schema 1."""
+    e0 = ext_start(ctl)
+    return ctl[e0 + slot] if n_ctl >= e0 + N_EXT else 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def spool_feedback(ctl, e0, cst, nu_m, has_spool, kal):
     """Spool position [1] and rate [1/s] (in units of the opening) that the spool terms feed back.
 
-    e0+X_SPOOL = 2 (or a model without a spool state): the valve model's estimate ν̂, ν̂̇ (the
-    per-cell Kalman filter's ẑ₃, ẑ₄ with ``kal``). e0+X_SPOOL = 1, the spool measured: ν_m the
-    full model's spool state plus the sensor noise ``noise`` [1], mapped to the opening by
-    :func:`spool_opening`, corrects the valve model's prediction ν̂⁻ with the filter gain
-    (:func:`~hydropwa.control.spool_filter_gain`; (1, Γ₂/Γ₁) for an exact sensor, so ν̂ = ν_m),
-    ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻), ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻), in cst[S_NU], cst[S_DNU] (the
-    model's update at the end of the sample then predicts the next): only the measured
-    position is read, as on a target. With ``kal`` the per-cell filter's ẑ₃, ẑ₄ (it has
-    measured the spool itself where e0+X_ESTNU = 1).
+    e0+X_SPOOL = 2 (or a model without a spool state, ``has_spool`` 0): the valve model's
+    estimate ν̂, ν̂̇ (the per-cell Kalman filter's ẑ₃, ẑ₄ with ``kal``). e0+X_SPOOL = 1, the
+    spool measured: ``nu_m`` [1], the measured spool with its sensor noise, mapped to the
+    opening by :func:`spool_opening`, corrects the valve model's prediction ν̂⁻ with the
+    filter gain (:func:`~hydropwa.control.spool_filter_gain`; (1, Γ₂/Γ₁) for an exact
+    sensor, so ν̂ = ν_m), ν̂ = ν̂⁻ + L_ν (ν_m − ν̂⁻), ν̂̇ = ν̂̇⁻ + L_ν̇ (ν_m − ν̂⁻), in
+    cst[S_NU], cst[S_DNU] (the model's update at the end of the sample then predicts the
+    next): only the measured position is read, as on a target.
     """
     if kal:
         return cst[S_Z + 3], cst[S_Z + 4]
     nu, dnu = cst[S_NU], cst[S_DNU]
-    if ctl[e0 + X_SPOOL] > 1.5 or not (kind == _SPOOL_A or kind == _SPOOL_B):
+    if ctl[e0 + X_SPOOL] > 1.5 or has_spool < 0.5:
         return nu, dnu
-    nu_m = spool_opening(y[_NU] + noise, 0.0, ctl)[0]
-    ln = ctl[e0 + X_SPLN]
-    inn = nu_m - nu
-    cst[S_NU] = nu + ln * inn
+    nu_o, _rate = spool_opening(nu_m, 0.0, ctl)
+    inn = nu_o - nu
+    cst[S_NU] = nu + ctl[e0 + X_SPLN] * inn
     cst[S_DNU] = dnu + ctl[e0 + X_SPLD] * inn
     return cst[S_NU], cst[S_DNU]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):  # noqa: C901 (compiled control law (numba), one pass per sample, mirrored by the generated C)
-    """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
+def law_start(cst, x, pl):
+    """Stage *start* (k = 0): the filters' memories start at the measured x [m] and P_L [Pa]."""
+    cst[S_PL] = pl
+    cst[S_DPL] = 0.0
+    cst[S_PLBAR] = pl
+    cst[S_XPREV] = x
+    cst[S_VHAT] = 0.0
+    cst[S_PRBAR] = 0.0
+    cst[S_NU] = 0.0
+    cst[S_DNU] = 0.0
+    cst[S_DZS] = 0.0
+    cst[S_DZQN] = 0.0
 
-    ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
-    Writes the command applied from t on into the packed valve-command slot sg[_S_U] (a
-    constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
-    ``cst`` and fills column k of ``log`` (one contiguous row per quantity). ``ref[k]``:
-    reference position [m] at t; ``rch[:, k]``: the reference channels and sensor noise
-    at t (rows ``RC_*``; ṙ is row ``RC_DR``).
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc):
+    """Stage *per-cell Kalman filter* (e0+X_EST): the estimates replace (P_L, v, x); returns them.
+
+    The filter of the last sample's row (at k = 0 the row of the measurement); with
+    e0+X_ESTNU and a model that has the spool (``has_spool``) it measures ``nu_m`` too.
     """
-    x, v, pl = measure(
-        kind, y, a_a, a_b, ctl[C_PLMEAN], rch[RC_NX, k], rch[RC_NPA, k], rch[RC_NPB, k]
-    )
-    ts = ctl[C_TS]
+    if ext_value(ctl, n_ctl, X_EST) <= 0.5:
+        return pl, v, x
     nrows = int(ctl[C_NROWS])
-    e0 = C_ROWS + ROW * nrows
-    ext = ctl.shape[0] >= e0 + N_EXT
-    r = ref[k]
-    e = r - x
+    e0 = ext_start(ctl)
+    r0 = select_row(ctl, pl, rc[RC_DR], x, 0.0, -1) if k == 0 else int(cst[S_ROW])
+    eb = e0 + N_EXT + XROW * nrows
+    sb = -1
+    nu_o = 0.0
+    if ctl[e0 + X_ESTNU] > 0.5 and has_spool > 0.5:  # y = [P_L, x, ν_m]
+        sb = eb + EROW * nrows
+        nu_o, _rate = spool_opening(nu_m, 0.0, ctl)
+    pl, v, x = cell_kalman_filter(ctl, cst, eb, k, pl, rc[RC_DR], x, r0, sb, nu_o)
+    return pl, v, x
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def observer_stage(ctl, n_ctl, cst, k, x, v, rc):
+    """Stage *position observer* (e0+X_KF): the steady-state Kalman filter's (x̂, v̂) for (x, v).
+
+    Driven by the last sample's reference acceleration (cst[S_DDR]); x̂ = x, v̂ = ṙ at k = 0.
+    """
+    if ext_value(ctl, n_ctl, X_KF) <= 0.5:
+        return x, v
+    e0 = ext_start(ctl)
     if k == 0:
-        cst[S_PL] = pl
-        cst[S_DPL] = 0.0
-        cst[S_PLBAR] = pl
-        cst[S_XPREV] = x
-        cst[S_VHAT] = 0.0
-        cst[S_PRBAR] = 0.0
-        cst[S_NU] = 0.0
-        cst[S_DNU] = 0.0
-        cst[S_DZS] = 0.0
-        cst[S_DZQN] = 0.0
-    kal = ext and ctl[e0 + X_EST] > 0.5
-    if kal:  # per-cell Kalman filter: the law uses the estimates
-        if k == 0:
-            r0 = select_row(ctl, pl, rch[RC_DR, k], x, 0.0, -1)
-        else:
-            r0 = int(cst[S_ROW])
-        eb = e0 + N_EXT + XROW * nrows
-        sb, nu_m = -1, 0.0
-        if ctl[e0 + X_ESTNU] > 0.5 and (kind == _SPOOL_A or kind == _SPOOL_B):  # y = [P_L, x, ν_m]
-            sb = eb + EROW * nrows
-            nu_m = spool_opening(y[_NU] + rch[RC_NNU, k], 0.0, ctl)[0]
-        pl, v, x = cell_kalman_filter(ctl, cst, eb, k, pl, rch[RC_DR, k], x, r0, sb, nu_m)
-        e = r - x
-    if ext and ctl[e0 + X_KF] > 0.5:  # position observer (steady-state Kalman filter)
-        if k == 0:
-            cst[S_XKF] = x
-            cst[S_VKF] = rch[RC_DR, k]
-        else:
-            acc = rch[RC_DDR, k - 1]
-            xp = cst[S_XKF] + ts * cst[S_VKF] + 0.5 * ts * ts * acc
-            vp = cst[S_VKF] + ts * acc
-            inn = x - xp
-            cst[S_XKF] = xp + ctl[e0 + X_KFX] * inn
-            cst[S_VKF] = vp + ctl[e0 + X_KFV] * inn
-        x = cst[S_XKF]
-        v = cst[S_VKF]
-        e = r - x
-    if ext and ctl[e0 + X_VEST] > 0.0:  # velocity from the position samples
-        av = ctl[e0 + X_VEST]
-        cst[S_VHAT] = av * cst[S_VHAT] + (1.0 - av) * (x - cst[S_XPREV]) / ts
-        cst[S_XPREV] = x
-        v = cst[S_VHAT]
-    a = ctl[C_FILT]
-    dpl = a * cst[S_DPL] + (1.0 - a) * (pl - cst[S_PL]) / ts
-    aw_ = ctl[C_WASH]
-    if aw_ > 0.0:
-        cst[S_PLBAR] = aw_ * cst[S_PLBAR] + (1.0 - aw_) * pl
-        pl_fb = pl - cst[S_PLBAR]
+        cst[S_XKF] = x
+        cst[S_VKF] = rc[RC_DR]
     else:
-        pl_fb = pl
-    p_dev = pl_fb  # the load-pressure deviation the gains k_pl act on (pressure vent at rest)
-    row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
-    b = C_ROWS + ROW * row
-    ki = ctl[b + R_KI]
-    c_raw = (
+        ts = ctl[C_TS]
+        acc = cst[S_DDR]
+        xp = cst[S_XKF] + ts * cst[S_VKF] + 0.5 * ts * ts * acc
+        vp = cst[S_VKF] + ts * acc
+        inn = x - xp
+        cst[S_XKF] = xp + ctl[e0 + X_KFX] * inn
+        cst[S_VKF] = vp + ctl[e0 + X_KFV] * inn
+    return cst[S_XKF], cst[S_VKF]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def velocity_stage(ctl, n_ctl, cst, x, v):
+    """Stage *velocity filter* (e0+X_VEST = a_v > 0): v̂ from the position samples, else ``v``."""
+    av = ext_value(ctl, n_ctl, X_VEST)
+    if av <= 0.0:
+        return v
+    cst[S_VHAT] = av * cst[S_VHAT] + (1.0 - av) * (x - cst[S_XPREV]) / ctl[C_TS]
+    cst[S_XPREV] = x
+    return cst[S_VHAT]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def pressure_stage(ctl, cst, pl):
+    """Stage *pressure filters*: the filtered Ṗ_L [Pa/s] and the P_L [Pa] the gains act on.
+
+    Ṗ_L: the first-order filter (ctl[C_FILT]) of the backward difference; P_L − P̄_L with the
+    washout (ctl[C_WASH] > 0, updates P̄_L), else P_L. Returns (Ṗ_L, P_L fed back).
+    """
+    a = ctl[C_FILT]
+    dpl = a * cst[S_DPL] + (1.0 - a) * (pl - cst[S_PL]) / ctl[C_TS]
+    aw = ctl[C_WASH]
+    if aw > 0.0:
+        cst[S_PLBAR] = aw * cst[S_PLBAR] + (1.0 - aw) * pl
+        return dpl, pl - cst[S_PLBAR]
+    return dpl, pl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def feedback_command(ctl, b, e, cst, dr, v, pl_fb, dpl):
+    """Stage *schema-1 terms*: c = u_ff + k_p e + k_i I + k_ff ṙ − k_v v − k_pl P_L − k_dpl Ṗ_L [1].
+
+    ``b``: the gain row's start in ``ctl``; ``dr`` = ṙ(t_k) [m/s].
+    """
+    return (
         ctl[b + R_UFF]
         + ctl[b + R_KP] * e
-        + ki * cst[S_INT]
-        + ctl[b + R_KFF] * rch[RC_DR, k]
+        + ctl[b + R_KI] * cst[S_INT]
+        + ctl[b + R_KFF] * dr
         - ctl[b + R_KV] * v
         - ctl[b + R_KPL] * pl_fb
         - ctl[b + R_KDPL] * dpl
     )
-    c_ff = 0.0
-    if ext:
-        c_fl = 0.0
-        if ctl[e0 + X_FF] > 0.5:
-            c_fl = flow_feedforward(ctl, e0, rch[RC_DRFF, k], pl, ctl[C_PLMEAN], a_a, a_b)
-        c_ff = c_fl
-        if ctl[e0 + X_REFST] > 0.5:  # the gains act on the deviation from the reference state
-            dr = rch[RC_DR, k]
-            p_ref = (ctl[e0 + X_MASS] * rch[RC_DDR, k] + ctl[e0 + X_BV] * dr) / ctl[e0 + X_AA]
-            if aw_ > 0.0:
-                cst[S_PRBAR] = aw_ * cst[S_PRBAR] + (1.0 - aw_) * p_ref
-                p_ref -= cst[S_PRBAR]
-            p_dev = pl_fb - p_ref
-            c_ff += ctl[b + R_KV] * dr + ctl[b + R_KPL] * p_ref
-            if ctl[e0 + X_SPOOL] > 0.5:  # the spool and the pending command follow c_fl
-                xb = e0 + N_EXT + XROW * row
-                kup = ctl[xb + XR_KUP] if ctl[C_DELAY] > 0.5 else 0.0
-                c_ff += (ctl[xb + XR_KNU] + kup) * c_fl
-        if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback: measured, or the valve model's estimate
-            xb = e0 + N_EXT + XROW * row
-            nu, dnu = spool_feedback(kind, y, ctl, e0, cst, rch[RC_NNU, k], kal)
-            c_ff -= ctl[xb + XR_KNU] * nu + ctl[xb + XR_KDNU] * dnu
-            if ctl[C_DELAY] > 0.5:
-                c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
-        c_raw += c_ff
-    c_open, held, leak = c_raw, False, False  # the opening asked for (quiet band, schema 2)
-    if ctl[C_DZINV] < 0.5:
-        u_raw = c_raw
-    else:
-        vented = ext and ctl[e0 + X_DZQ] > 0.0 and ctl[e0 + X_DZPV] > 0.0
-        p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if vented else 0.0
-        if ext and ctl[e0 + X_DZQ] > 0.0 and quiet_acts(ctl, e0, rch, k):
-            c_band = c_raw
-            if ctl[e0 + X_DZQO] > 0.0:  # the band opens only after n samples beyond q
-                far_ = ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
-                c_band, cst[S_DZQN] = quiet_open(
-                    c_raw, ctl[e0 + X_DZQ], cst[S_DZQN], ctl[e0 + X_DZQO], far_
-                )
-            if vented:
-                share = -ctl[b + R_KPL] * p_low
-                if ctl[e0 + X_DZQO] > 0.0:  # with the delay the vent does not push outward
-                    share = vent_toward_target(share, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
-                c_open, held, leak = pressure_vent(
-                    c_band, ctl[e0 + X_DZQ], share, ctl[b + R_KP] * e
-                )
-            else:
-                c_open, held = quiet_band(c_band, ctl[e0 + X_DZQ], ctl[b + R_KP] * e)
-        elif ext:
-            cst[S_DZQN] = 0.0
-        if ext and ctl[e0 + X_DZPO] > 0.0:
-            c_open = pre_open(c_open, ctl[C_DZW], rch[RC_DR, k], rch[RC_DRPO, k])
-        if ext and ctl[e0 + X_DZH] > 0.0:
-            u_raw, side = dead_zone_hysteresis(
-                c_open, ctl[C_DZOFF], ctl[C_DZW], ctl[e0 + X_DZH], cst[S_DZS]
-            )
-            cst[S_DZS] = side
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def reference_state(ctl, e0, b, cst, rc, pl_fb):
+    """Stage *reference state* (e0+X_REFST): its share k_v ṙ + k_pl P_ref of c and p_dev.
+
+    P_ref = (m r̈ + b ṙ)/A_A, washed out like P_L (P̄_ref in cst[S_PRBAR]); p_dev =
+    ``pl_fb`` − P_ref the deviation the gains k_pl act on. Returns (share [1], p_dev [Pa]).
+    """
+    dr = rc[RC_DR]
+    p_ref = (ctl[e0 + X_MASS] * rc[RC_DDR] + ctl[e0 + X_BV] * dr) / ctl[e0 + X_AA]
+    aw = ctl[C_WASH]
+    if aw > 0.0:
+        cst[S_PRBAR] = aw * cst[S_PRBAR] + (1.0 - aw) * p_ref
+        p_ref -= cst[S_PRBAR]
+    return ctl[b + R_KV] * dr + ctl[b + R_KPL] * p_ref, pl_fb - p_ref
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def feedforward_stage(ctl, n_ctl, b, row, cst, rc, pl, pl_fb, areas, nu_m, has_spool, kal):
+    """Stage *feed-forward* (schema 2): flow feed-forward, reference state and spool terms of c.
+
+    Returns (c_ff [1], p_dev [Pa]): the schema-2 part of the command and the load-pressure
+    deviation the pressure vent low-passes (``pl_fb`` without the reference state).
+    ``areas`` = (A_A, A_B) [m²] of the measured load pressure's form.
+    """
+    e0 = ext_start(ctl)
+    if n_ctl < e0 + N_EXT:
+        return 0.0, pl_fb
+    c_fl = 0.0
+    if ctl[e0 + X_FF] > 0.5:
+        c_fl = flow_feedforward(ctl, e0, rc[RC_DRFF], pl, ctl[C_PLMEAN], areas[0], areas[1])
+    c_ff = c_fl
+    p_dev = pl_fb
+    xb = e0 + N_EXT + XROW * row
+    if ctl[e0 + X_REFST] > 0.5:  # the gains act on the deviation from the reference state
+        c_ref, p_dev = reference_state(ctl, e0, b, cst, rc, pl_fb)
+        c_ff += c_ref
+        if ctl[e0 + X_SPOOL] > 0.5:  # the spool and the pending command follow c_fl
+            kup = ctl[xb + XR_KUP] if ctl[C_DELAY] > 0.5 else 0.0
+            c_ff += (ctl[xb + XR_KNU] + kup) * c_fl
+    if ctl[e0 + X_SPOOL] > 0.5:  # spool-state feedback: measured, or the valve model's estimate
+        nu, dnu = spool_feedback(ctl, e0, cst, nu_m, has_spool, kal)
+        c_ff -= ctl[xb + XR_KNU] * nu + ctl[xb + XR_KDNU] * dnu
+        if ctl[C_DELAY] > 0.5:
+            c_ff -= ctl[xb + XR_KUP] * cst[S_CPEND]
+    return c_ff, p_dev
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def quiet_stage(ctl, e0, cst, k, rc, b, e, c_raw, p_dev):
+    """Stage *quiet band* (e0+X_DZQ = q > 0): the opening asked for; returns (c_open, held, leak).
+
+    Where the band acts (:func:`quiet_acts`): its opening delay (:func:`quiet_open`), then
+    the pressure vent (:func:`pressure_vent`, the low-pass of ``p_dev`` running every
+    sample) or the plain band (:func:`quiet_band`); elsewhere the delay's run restarts.
+    """
+    q = ctl[e0 + X_DZQ]
+    c_open, held, leak = c_raw, False, False
+    vented = q > 0.0 and ctl[e0 + X_DZPV] > 0.0
+    p_low = pressure_lowpass(ctl, e0, cst, k, p_dev) if vented else 0.0
+    if q > 0.0 and quiet_acts(ctl, e0, rc):
+        c_band = c_raw
+        ex = ctl[b + R_KP] * e
+        if ctl[e0 + X_DZQO] > 0.0:  # the band opens only after n samples beyond q
+            far = ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
+            c_band, cst[S_DZQN] = quiet_open(c_raw, q, cst[S_DZQN], ctl[e0 + X_DZQO], far)
+        if vented:
+            share = -ctl[b + R_KPL] * p_low
+            if ctl[e0 + X_DZQO] > 0.0:  # with the delay the vent does not push outward
+                share = vent_toward_target(share, q, ex)
+            c_open, held, leak = pressure_vent(c_band, q, share, ex)
         else:
-            u_raw = dead_zone_inverse(c_open, ctl[C_DZOFF], ctl[C_DZW])
-    u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
-    c_sat = c_open - (u_raw - u)  # the inverse has slope 1 where the command saturates
-    log[L_INT, k] = cst[S_INT]
-    far = ext and ctl[e0 + X_IBAND] > 0.0 and abs(e) > ctl[e0 + X_IBAND]
-    parked = leak or (ext and ctl[e0 + X_DZQ] > 0.0 and c_open == 0.0 and ctl[C_DZINV] > 0.5)
-    if parked and ctl[e0 + X_ILEAK] > 0.0:  # the valve parked: the integral decays toward 0
-        cst[S_INT] *= ctl[e0 + X_ILEAK]
+            c_open, held = quiet_band(c_band, q, ex)
+    else:
+        cst[S_DZQN] = 0.0
+    return c_open, held, leak
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def dead_zone_stage(ctl, n_ctl, cst, c_open):
+    """Stage *dead-zone inverse*: the valve command u [1] for the opening ``c_open`` [1].
+
+    With the hysteresis (e0+X_DZH > 0) :func:`dead_zone_hysteresis` (its side in
+    cst[S_DZS]), else :func:`dead_zone_inverse`.
+    """
+    h = ext_value(ctl, n_ctl, X_DZH)
+    if h > 0.0:
+        u_raw, cst[S_DZS] = dead_zone_hysteresis(c_open, ctl[C_DZOFF], ctl[C_DZW], h, cst[S_DZS])
+        return u_raw
+    return dead_zone_inverse(c_open, ctl[C_DZOFF], ctl[C_DZW])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def opening_stage(ctl, n_ctl, cst, k, rc, b, e, c_raw, p_dev):
+    """Stages *quiet band*, *pre-opening* and *dead-zone inverse*: (c_open, u_raw, held, leak).
+
+    Without the dead-zone inverse (ctl[C_DZINV] = 0) the command itself; the quiet band and
+    the pre-opening (e0+X_DZPO > 0, :func:`pre_open`) only on a schema-2 controller.
+    """
+    if ctl[C_DZINV] < 0.5:
+        return c_raw, c_raw, False, False
+    c_open, held, leak = c_raw, False, False
+    e0 = ext_start(ctl)
+    if n_ctl >= e0 + N_EXT:
+        c_open, held, leak = quiet_stage(ctl, e0, cst, k, rc, b, e, c_raw, p_dev)
+        if ctl[e0 + X_DZPO] > 0.0:
+            c_open = pre_open(c_open, ctl[C_DZW], rc[RC_DR], rc[RC_DRPO])
+    u_raw = dead_zone_stage(ctl, n_ctl, cst, c_open)
+    return c_open, u_raw, held, leak
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def clamp_integrates(e, ki, u, u_raw):
+    """Clamping anti-windup: integrate unless saturated and e would drive further into the limit."""
+    return u == u_raw or (u_raw > u and e * ki < 0.0) or (u_raw < u and e * ki > 0.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def integral_stage(ctl, n_ctl, cst, e, ki, u, u_raw, c_open, c_sat, held, leak):
+    """Stage *integral rules*: the update of I (cst[S_INT]) after the saturation.
+
+    Where the valve is parked (the quiet band's opening 0, or the pressure vent's ``leak``)
+    it decays by the leak a_l (e0+X_ILEAK > 0); else it holds while ``held``, beyond the
+    integral band |e| > e_I (e0+X_IBAND) and with k_i = 0, and otherwise integrates e with
+    the anti-windup of ctl[C_AW] (none, clamping, back-calculation with ctl[C_KT]).
+    """
+    band = ext_value(ctl, n_ctl, X_IBAND)
+    far = band > 0.0 and abs(e) > band
+    quiet = ext_value(ctl, n_ctl, X_DZQ) > 0.0
+    parked = leak or (quiet and c_open == 0.0 and ctl[C_DZINV] > 0.5)
+    if parked and ext_value(ctl, n_ctl, X_ILEAK) > 0.0:  # the integral decays toward 0
+        cst[S_INT] *= ext_value(ctl, n_ctl, X_ILEAK)
     elif ki != 0.0 and not held and not far:
         aw = int(ctl[C_AW])
+        ts = ctl[C_TS]
         if aw == AW_CLAMP:
-            # integrate unless saturated and the error would drive further into the limit
-            if u == u_raw or (u_raw > u and e * ki < 0.0) or (u_raw < u and e * ki > 0.0):
+            if clamp_integrates(e, ki, u, u_raw):
                 cst[S_INT] += ts * e
         elif aw == AW_BACK:
             cst[S_INT] += ts * (e + ctl[C_KT] * (c_sat - c_open) / ki)
         else:
             cst[S_INT] += ts * e
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def delay_stage(ctl, cst, u, c_sat):
+    """Stage *delay*: the command and opening applied from t_k on; returns (u_apply, c_apply).
+
+    With the one-sample delay (ctl[C_DELAY]) the previous sample's (cst[S_PEND],
+    cst[S_CPEND]), which then hold this sample's; else ``u`` and ``c_sat``.
+    """
     if ctl[C_DELAY] > 0.5:
         u_apply = cst[S_PEND]
         cst[S_PEND] = u
         c_apply = cst[S_CPEND]
         cst[S_CPEND] = c_sat
-    else:
-        u_apply = u
-        c_apply = c_sat
-    if ext and ctl[e0 + X_SPOOL] > 0.5:  # the valve model driven by the opening it receives
-        nu, dnu = cst[S_NU], cst[S_DNU]
-        g = e0 + X_GAM
-        f = e0 + X_PHI
-        cst[S_NU] = ctl[f] * nu + ctl[f + 1] * dnu + ctl[g] * c_apply
-        cst[S_DNU] = ctl[f + 2] * nu + ctl[f + 3] * dnu + ctl[g + 1] * c_apply
+        return u_apply, c_apply
+    return u, c_sat
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def valve_model_stage(ctl, n_ctl, cst, c_apply):
+    """Stage *valve model* (e0+X_SPOOL > 0): [ν̂, ν̂̇]⁺ = Φ [ν̂, ν̂̇] + Γ c_apply (ZOH of Eq. (1))."""
+    if ext_value(ctl, n_ctl, X_SPOOL) <= 0.5:
+        return
+    nu, dnu = cst[S_NU], cst[S_DNU]
+    g = ext_start(ctl) + X_GAM
+    f = ext_start(ctl) + X_PHI
+    cst[S_NU] = ctl[f] * nu + ctl[f + 1] * dnu + ctl[g] * c_apply
+    cst[S_DNU] = ctl[f + 2] * nu + ctl[f + 3] * dnu + ctl[g + 1] * c_apply
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def law_log(lg, t, u_apply, r, e, c_raw, row, u, c_ff):
+    """Stage *log*: the sample's column of the log (rows ``L_*``; L_INT written before the update)."""
+    lg[L_T] = t
+    lg[L_U] = u_apply
+    lg[L_R] = r
+    lg[L_E] = e
+    lg[L_C] = c_raw
+    lg[L_ROW] = row
+    lg[L_UNEW] = u
+    lg[L_UFF] = c_ff
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def law_step(k, t, meas, r, ctl, n_ctl, areas, cst, rc, lg):
+    """One sample of the control law, composed of its stages; the command [1] applied from t on.
+
+    ``meas`` = (x [m], v [m/s], P_L [Pa], ν_m [1], has_spool): the measured channels with their
+    noise (ν_m the measured spool, read where ``has_spool`` is 1); ``r`` [m] the reference;
+    ``ctl`` the packed controller of ``n_ctl`` values; ``areas`` (A_A, A_B) [m²]; ``cst`` the
+    memory; ``rc`` the reference channels at t (``RC_*``); ``lg`` the sample's log column.
+    The C export translates this function and its stages (:mod:`hydropwa.control._target`).
+    """
+    x, v, pl, nu_m, has_spool = meas[0], meas[1], meas[2], meas[3], meas[4]
+    if k == 0:
+        law_start(cst, x, pl)
+    kal = ext_value(ctl, n_ctl, X_EST) > 0.5
+    pl, v, x = estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc)
+    x, v = observer_stage(ctl, n_ctl, cst, k, x, v, rc)
+    v = velocity_stage(ctl, n_ctl, cst, x, v)
+    e = r - x
+    dpl, pl_fb = pressure_stage(ctl, cst, pl)
+    row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
+    b = C_ROWS + ROW * row
+    c_raw = feedback_command(ctl, b, e, cst, rc[RC_DR], v, pl_fb, dpl)
+    c_ff, p_dev = feedforward_stage(
+        ctl, n_ctl, b, row, cst, rc, pl, pl_fb, areas, nu_m, has_spool, kal
+    )
+    if n_ctl >= ext_start(ctl) + N_EXT:
+        c_raw += c_ff
+    c_open, u_raw, held, leak = opening_stage(ctl, n_ctl, cst, k, rc, b, e, c_raw, p_dev)
+    u = min(max(u_raw, ctl[C_UMIN]), ctl[C_UMAX])
+    c_sat = c_open - (u_raw - u)  # the inverse has slope 1 where the command saturates
+    lg[L_INT] = cst[S_INT]
+    integral_stage(ctl, n_ctl, cst, e, ctl[b + R_KI], u, u_raw, c_open, c_sat, held, leak)
+    u_apply, c_apply = delay_stage(ctl, cst, u, c_sat)
+    valve_model_stage(ctl, n_ctl, cst, c_apply)
     if kal:
         cst[S_CAPP] = c_apply
-    sg[_S_U] = u_apply
     cst[S_PL] = pl
     cst[S_DPL] = dpl
     cst[S_CPREV] = c_sat
     cst[S_ROW] = row
-    log[L_T, k] = t
-    log[L_U, k] = u_apply
-    log[L_R, k] = r
-    log[L_E, k] = e
-    log[L_C, k] = c_raw
-    log[L_ROW, k] = row
-    log[L_UNEW, k] = u
-    log[L_UFF, k] = c_ff
+    cst[S_DDR] = rc[RC_DDR]
+    law_log(lg, t, u_apply, r, e, c_raw, row, u, c_ff)
+    return u_apply
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
+    """Evaluate the controller at sample k (time t [s], state y) and hold its command in ``sg``.
+
+    ``a_a``, ``a_b``: piston areas [m²] (for the full model's load pressure, :func:`measure`).
+    Writes the command applied from t on into the packed valve-command slot sg[_S_U] (a
+    constant signal, see :func:`hydropwa.simulation.pack_signals`), updates the memory
+    ``cst`` and fills column k of ``log`` (one row per quantity). ``ref[k]``: reference
+    position [m] at t; ``rch[:, k]``: the reference channels and sensor noise at t (rows
+    ``RC_*``). The law itself is :func:`law_step` on the measured channels.
+    """
+    rc = rch[:, k]
+    x, v, pl = measure(kind, y, a_a, a_b, ctl[C_PLMEAN], rc[RC_NX], rc[RC_NPA], rc[RC_NPB])
+    spool = kind == _SPOOL_A or kind == _SPOOL_B
+    meas = (x, v, pl, y[_NU] + rc[RC_NNU] if spool else 0.0, 1.0 if spool else 0.0)
+    sg[_S_U] = law_step(k, t, meas, ref[k], ctl, ctl.shape[0], (a_a, a_b), cst, rc, log[:, k])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

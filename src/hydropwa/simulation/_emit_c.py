@@ -25,12 +25,12 @@ import ast
 import inspect
 import math
 import textwrap
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import ModuleType
 
 from .._errors import HydropwaError
 
-__all__ = ["EmitError", "emit_functions"]
+__all__ = ["EmitError", "emit_functions", "emit_unit"]
 
 _MATH = {
     "sqrt": "sqrt",
@@ -85,6 +85,16 @@ class _Func:
             if isinstance(t, ast.Subscript) and isinstance(t.value, ast.Name)
         }
         self.arrays = subscripted & set(self.args)
+        # written in place (``a[i] += …``) or as an output of a call (``x, a[i] = f(…)``)
+        stored: list[ast.expr] = []
+        for n in ast.walk(node):
+            if isinstance(n, ast.AugAssign):
+                stored.append(n.target)
+            elif isinstance(n, ast.Assign) and isinstance(n.targets[0], ast.Tuple):
+                stored += n.targets[0].elts
+        for st in stored:
+            if isinstance(st, ast.Subscript) and isinstance(st.value, ast.Name):
+                self.written.add(st.value.id)
         returns = [n for n in ast.walk(node) if isinstance(n, ast.Return) and n.value is not None]
         sizes = {len(r.value.elts) if isinstance(r.value, ast.Tuple) else 1 for r in returns}
         if len(sizes) > 1:
@@ -96,6 +106,8 @@ class _Func:
             if isinstance(n, ast.Assign):
                 targets = list(n.targets)
             elif isinstance(n, ast.AugAssign):
+                targets = [n.target]
+            elif isinstance(n, ast.For):
                 targets = [n.target]
             for t in targets:
                 for e in t.elts if isinstance(t, ast.Tuple) else [t]:
@@ -113,6 +125,21 @@ class _Func:
             f"function): {what}"
         )
 
+    def resolve(self) -> None:
+        """Arrays passed on: an argument handed to a callee's array (or written array) parameter
+        is an array (written) here too; called once the callees are translated."""
+        for n in ast.walk(self.node):
+            if not isinstance(n, ast.Call):
+                continue
+            f = self.callee(n)
+            if f is None:
+                continue
+            for a, param in zip(n.args, f.args, strict=False):
+                if isinstance(a, ast.Name) and a.id in self.args and param in f.arrays:
+                    self.arrays.add(a.id)
+                    if param in f.written:
+                        self.written.add(a.id)
+
     def signature(self) -> str:
         params = []
         for a in self.args:
@@ -126,9 +153,10 @@ class _Func:
         return f"static {ret} {_c_name(self.name)}({', '.join(params) or 'void'})"
 
     def body(self) -> str:
+        self.resolve()
         lines = [f"{self.signature()}\n{{"]
-        if self.locals:
-            lines.append(f"    double {', '.join(self.locals)};")
+        if self.locals:  # all set to 0 first: no path reads one unset
+            lines.append(f"    double {' = 0.0, '.join(self.locals)} = 0.0;")
         for st in self.node.body:
             lines += self.stmt(st, 1)
         lines.append("}")
@@ -185,8 +213,32 @@ class _Func:
                     out += self.stmt(s, depth + 1)
             out.append(f"{ind}}}")
             return out
+        if isinstance(st, ast.For):
+            return self.for_range(st, depth)
         self.fail(st, f"statement {type(st).__name__}")
         return []
+
+    def for_range(self, st: ast.For, depth: int) -> list[str]:
+        """``for i in range([a,] b):`` as a C loop over a double counter (exact for integers)."""
+        ind = "    " * depth
+        it = st.iter
+        if (
+            not isinstance(st.target, ast.Name)
+            or not isinstance(it, ast.Call)
+            or not isinstance(it.func, ast.Name)
+            or it.func.id != "range"
+            or not 1 <= len(it.args) <= 2
+            or st.orelse
+        ):
+            self.fail(st, "a for loop other than over range(a, b)")
+        assert isinstance(st.target, ast.Name) and isinstance(it, ast.Call)
+        i = st.target.id
+        lo = self.expr(it.args[0]) if len(it.args) == 2 else "0.0"
+        hi = self.expr(it.args[-1])
+        out = [f"{ind}for ({i} = {lo}; {i} < {hi}; {i} += 1.0) {{"]
+        for s in st.body:
+            out += self.stmt(s, depth + 1)
+        return [*out, f"{ind}}}"]
 
     def target(self, e: ast.expr) -> str:
         if isinstance(e, ast.Name):
@@ -257,7 +309,9 @@ class _Func:
                 return f"{arr.id}[{v}]"
             if isinstance(idx, ast.Constant) and isinstance(idx.value, int):
                 return f"{arr.id}[{idx.value}]"
-            self.fail(e, "an index that is not a constant")
+            if isinstance(idx, ast.Tuple | ast.Slice):
+                self.fail(e, "a subscript of more than one index (pass a 1-d array)")
+            return f"{arr.id}[(int)({self.expr(idx)})]"  # an integer-valued expression
         if isinstance(e, ast.BinOp):
             left, right = self.expr(e.left), self.expr(e.right)
             if isinstance(e.op, ast.Pow):
@@ -297,6 +351,8 @@ class _Func:
         if isinstance(e, ast.Attribute):
             if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "pi":
                 return _literal(math.pi)
+            if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "inf":
+                return "HUGE_VAL"
             self.fail(e, f"attribute {ast.unparse(e)}")
         if isinstance(e, ast.Call):
             return self.call(e)
@@ -314,6 +370,12 @@ class _Func:
                 return f"fabs({self.expr(e.args[0])})"
             if fn.id == "float":
                 return self.expr(e.args[0])
+            if fn.id == "int":  # truncation toward zero, as Python's
+                return f"((double)(int)({self.expr(e.args[0])}))"
+            if fn.id in ("min", "max") and len(e.args) == 2:
+                a, b = (self.expr(x) for x in e.args)
+                # Python's: the first argument unless the second is strictly smaller (larger)
+                return f"({b} {'<' if fn.id == 'min' else '>'} {a} ? {b} : {a})"
             f = self.callee(e)
             if f is None:
                 self.fail(e, f"call of {fn.id}")
@@ -404,4 +466,35 @@ def emit_functions(entry: Callable, overloads: dict[str, Callable]) -> tuple[str
     assert module is not None
     em = _Emitter(overloads)
     em.function(entry.__name__, module, entry)
+    return "\n\n".join(em.order) + "\n", list(em.done)
+
+
+def emit_unit(
+    entries: Sequence[Callable], overloads: dict[str, Callable] | None = None
+) -> tuple[str, list[str]]:
+    """One C99 unit of several numba functions and everything they call, each function once.
+
+    The general form of :func:`emit_functions` (which the axis FMU uses for ``rhs_full``):
+    the control law's C (:func:`hydropwa.control.c_sources`) is its sampling function and the
+    load-pressure measurement; a residual generator's C would be its residual functions.
+
+    Parameters
+    ----------
+    entries : sequence of numba dispatchers
+        The functions a caller of the unit calls (named ``hp_<name>`` in the C, ``static``).
+    overloads : dict, optional
+        As for :func:`emit_functions`.
+
+    Returns
+    -------
+    text : str
+        The C functions, callees before callers.
+    names : list of str
+        The Python functions translated, in that order.
+    """
+    em = _Emitter(dict(overloads or {}))
+    for entry in entries:
+        module = inspect.getmodule(getattr(entry, "py_func", entry))
+        assert module is not None
+        em.function(entry.__name__, module, entry)
     return "\n\n".join(em.order) + "\n", list(em.done)

@@ -79,34 +79,18 @@ typedef struct {
     double r_rate_pre; /**< look-ahead rate r'(t_k + HYDROPWA_CTRL_PRE_OPEN) [m/s] (0 without) */
 } hydropwa_ctrl_ref;
 
+/** Rows of the law's per-sample log (hydropwa_ctrl_state.log), from hydropwa/_layout_law.py. */
+@LOG_ROWS@
+
 /** Memory of the controller; owned by the caller, set up by hydropwa_ctrl_init. */
 typedef struct {
-    double integral; /**< integral of r - x [m s] */
-    double p_l_prev; /**< P_L of the last sample [Pa] */
-    double dp_l;     /**< filtered rate of P_L [Pa/s] */
-    double pending;  /**< command held for the next sample (with the delay) [1] */
-    double c_prev;   /**< last command before the dead-zone inverse, saturated [1] */
-    double p_l_bar;  /**< low-pass of P_L for the washout [Pa] */
-    int row;         /**< gain row of the last sample */
-    int started;     /**< 0 before the first step after init/reset */
-    double c_raw;    /**< diagnostics: command before inverse and limits, last step [1] */
-    double u_new;    /**< diagnostics: saturated command computed in the last step [1] */
-    double x_prev;    /**< position of the last sample, velocity filter [m] */
-    double v_hat;     /**< velocity from the position samples [m/s] */
-    double p_ref_bar; /**< low-pass of the reference pressure P_ref for the washout [Pa] */
-    double nu;        /**< spool estimate of the valve model [1] */
-    double dnu;       /**< its rate [1/s] */
-    double c_pending; /**< opening command held for the next sample (with the delay) [1] */
-    double x_kf;      /**< position observer: estimated position [m] */
-    double v_kf;      /**< position observer: estimated velocity [m/s] */
-    double acc_prev;  /**< reference acceleration of the last sample [m/s^2] */
+    double cst[@N_CST@]; /**< the law's memory (the MEMORY table of hydropwa/_layout_law.py) */
+    double log[@N_LOG@]; /**< the last sample's log column (rows HYDROPWA_CTRL_LOG_*) */
+    double k;         /**< samples since init/reset */
+    int row;          /**< diagnostics: gain row of the last sample */
+    double c_raw;     /**< diagnostics: command before inverse and limits, last step [1] */
+    double u_new;     /**< diagnostics: saturated command computed in the last step [1] */
     double c_ff;      /**< diagnostics: schema-2 part of c in the last step [1] */
-    double dz_side;   /**< side (+-1, 0 before the first) of the dead-zone inverse with hysteresis */
-    double z[7];      /**< per-cell Kalman filter: [P_L, v, x, nu, nu', d_a, d_p] (SI) */
-    double c_in;      /**< per-cell Kalman filter: opening command the valve held over the last sample [1] */
-    double p_ref_w;   /**< washed-out reference pressure P_ref - low-pass of the last step (0 without) [Pa] */
-    double p_low;     /**< pressure vent at rest: low-pass of the load-pressure deviation [Pa] */
-    double dz_open;   /**< quiet band's opening delay: consecutive samples at rest with |c| > q */
 } hydropwa_ctrl_state;
 
 /** Set up the state before the first step. */
