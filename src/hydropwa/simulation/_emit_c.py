@@ -30,7 +30,7 @@ from types import ModuleType
 
 from .._errors import HydropwaError
 
-__all__ = ["EmitError", "emit_functions"]
+__all__ = ["EmitError", "emit_functions", "emit_many"]
 
 _MATH = {
     "sqrt": "sqrt",
@@ -404,4 +404,18 @@ def emit_functions(entry: Callable, overloads: dict[str, Callable]) -> tuple[str
     assert module is not None
     em = _Emitter(overloads)
     em.function(entry.__name__, module, entry)
+    return "\n\n".join(em.order) + "\n", list(em.done)
+
+
+def emit_many(entries: list[Callable], overloads: dict[str, Callable]) -> tuple[str, list[str]]:
+    """C99 text of several numba functions and their callees, each function once, callees first.
+
+    As :func:`emit_functions` for a list of entry points (e.g. a residual generator's row and
+    result functions, which share the component physics they call).
+    """
+    em = _Emitter(overloads)
+    for entry in entries:
+        module = inspect.getmodule(getattr(entry, "py_func", entry))
+        assert module is not None
+        em.function(entry.__name__, module, entry)
     return "\n\n".join(em.order) + "\n", list(em.done)
