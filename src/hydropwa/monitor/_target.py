@@ -58,6 +58,7 @@ class TargetIndicator:
     outputs and its threshold slots in ``P`` (-1: no alarm on that side)."""
 
     name: str
+    unit: str
     value: int
     alarm: int
     low: int
@@ -66,9 +67,9 @@ class TargetIndicator:
 
 #: The indicators on the target (one row each; the names are :data:`~._indicators.INDICATORS`').
 TARGET_INDICATORS = (
-    TargetIndicator("friction_scale", 0, 3, -1, R.MP_FR_HI),
-    TargetIndicator("supply_pressure", 1, 4, R.MP_PS_LO, -1),
-    TargetIndicator("valve_null", 2, 5, R.MP_NU_LO, R.MP_NU_HI),
+    TargetIndicator("friction_scale", "1", 0, 3, -1, R.MP_FR_HI),
+    TargetIndicator("supply_pressure", "Pa", 1, 4, R.MP_PS_LO, -1),
+    TargetIndicator("valve_null", "1", 2, 5, R.MP_NU_LO, R.MP_NU_HI),
 )
 
 
@@ -111,6 +112,8 @@ def pack_online(
         raise ParameterError("HealthMonitor is not fitted; call .fit(identified_params) first")
     p = monitor.params_
     c, fl, dz, fr, ld, sup = p.cylinder, p.flow, p.dead_zone, p.friction, p.load, p.supply
+    if sup.model == "pump" and not sup.pump_flow > 0.0:
+        raise ParameterError("supply.pump_flow must be > 0 for the pump's droop in the monitor")
     P = np.zeros(R.N_P)
     slots = {
         R.MP_AA: c.area_a, R.MP_AB: c.area_b, R.MP_STROKE: c.stroke,
@@ -122,7 +125,7 @@ def pack_online(
         R.MP_SIGMA: fr.viscous, R.MP_CHI: fr.stribeck_velocity, R.MP_DELTA: fr.shape,
         R.MP_GAMMA: fr.smoothness, R.MP_MASS: ld.mass, R.MP_LOADF: ld.force,
         R.MP_LOADD: ld.damping, R.MP_PUMP: 1.0 if sup.model == "pump" else 0.0,
-        R.MP_DROOP: sup.compensator_droop, R.MP_QMAX: sup.pump_flow, R.MP_PS: sup.pressure,
+        R.MP_DROOP: sup.compensator_droop, R.MP_QMAX: sup.pump_flow if sup.model == "pump" else 1.0, R.MP_PS: sup.pressure,
         R.MP_XLO: monitor.stroke_margin * c.stroke,
         R.MP_XHI: c.stroke - monitor.stroke_margin * c.stroke,
         R.MP_PMIN: monitor.min_pressure, R.MP_VMIN: sliding_speed,
@@ -137,8 +140,6 @@ def pack_online(
             P[ti.low] = lo
         if ti.high >= 0:
             P[ti.high] = hi
-    if sup.model == "pump" and not sup.pump_flow > 0.0:
-        raise ParameterError("supply.pump_flow must be > 0 for the pump's droop in the monitor")
     return P
 
 
@@ -177,7 +178,8 @@ class OnlineHealth(DerivedResult):
         return [] if self.sums[R.MS_N] > 0 else ["no usable row"]
 
     def _summary_rows(self) -> list[tuple[str, Any, str]]:
-        return [(n, v, "") for n, v in self.values.items()]
+        units = {ti.name: ti.unit for ti in TARGET_INDICATORS}
+        return [(n, v, units[n]) for n, v in self.values.items()]
 
     def to_pandas(self) -> Any:
         """The residuals per row (SI)."""
