@@ -11,11 +11,16 @@ seed, and checked by a :class:`~hydropwa.monitor.HealthMonitor` fitted to the no
 - faulty: ``--faulty`` draws per fault and machine: internal leakage 0.1 L/min at 50 bar,
   friction +30 %, valve null 0.5 %, supply −10 %: detection and isolation (the fault named
   first), per run kind (``sine`` without load, ``load`` with the counter-force profile);
+- ``--width PATH=REL`` sets a parameter's healthy interval to value·(1 ± REL), as an
+  identification would give it (the monitor's interval and the draws), e.g. the Stribeck
+  velocity's (docs/monitoring.md: what finds friction on the paper rig); ``--faults`` picks
+  the cases;
 - the smallest detectable internal leakage per run (threshold + 2.33 standard errors, the
   leakage detected in 99 % of runs), against the run's excitation (RMS of P_A − P_B).
 
-Prints Markdown tables; writes nothing. The issue's statistic is ``--healthy 1000``
-(about 2 s per run on one core)::
+Prints Markdown tables; with ``--rows FILE`` each run's row is also appended to FILE as one
+JSON line as it finishes (a long study stopped early keeps what it did). The issue's statistic
+is ``--healthy 1000`` (about 2 s per run on one core)::
 
     python benchmarks/monitor_study.py --healthy 1000 --faulty 100 --jobs 8
 """
@@ -25,6 +30,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import dataclasses
+import json
 import time
 from pathlib import Path
 
@@ -48,10 +54,20 @@ FAULTS = {
 }
 
 
-def _case(machine: str, fault: str, i: int) -> dict:
+def _intervals(params, widths: tuple[tuple[str, float], ...]) -> dict:
+    """``--width PATH=REL``: the healthy interval value·(1 ± REL) of a parameter."""
+    out = {}
+    for path, rel in widths:
+        comp, fld = path.split(".")
+        v = float(getattr(getattr(params, comp), fld))
+        out[path] = (v * (1.0 - rel), v * (1.0 + rel))
+    return out
+
+
+def _case(machine: str, fault: str, i: int, widths: tuple[tuple[str, float], ...] = ()) -> dict:
     params = MACHINES[machine]()
     rig = Rig(params)
-    monitor = HealthMonitor().fit(rig.params)
+    monitor = HealthMonitor(intervals=_intervals(rig.params, widths) or None).fit(rig.params)
     specs = plan(load_campaign("paper")["sine"], rig)
     loads = [s for s in specs if "load" in s.name]
     sines = [s for s in specs if "load" not in s.name]
@@ -75,6 +91,8 @@ def _case(machine: str, fault: str, i: int) -> dict:
         "named": h.faults[0] if h.faults else "",
         "leak_detectable": (cl.threshold[1] + 2.33 * cl.std) * 50e5 * 6e4,
         "dp_rms_bar": dp / 1e5,
+        "friction_threshold": h.indicators["friction_scale"].threshold[1],
+        "friction_bias": h.indicators["friction_scale"].bias,
     }
 
 
@@ -123,19 +141,40 @@ def main() -> None:
         "--first", type=int, default=0, help="first case index (to extend a study with new draws)"
     )
     ap.add_argument("--machines", nargs="*", default=list(MACHINES))
+    ap.add_argument("--rows", type=Path, default=None, help="append each run's row (JSON lines)")
+    ap.add_argument(
+        "--width",
+        action="append",
+        default=[],
+        help="PATH=REL: healthy interval value·(1 ± REL) of a parameter, as an identification "
+        "would give it (e.g. friction.stribeck_velocity=0.05); repeatable",
+    )
+    ap.add_argument("--faults", nargs="*", default=list(FAULTS), help="cases to run")
     a = ap.parse_args()
+    widths = tuple((w.split("=")[0], float(w.split("=")[1])) for w in a.width)
     cases = [
-        (m, f, i)
+        (m, f, i, widths)
         for m in a.machines
-        for f in FAULTS
+        for f in a.faults
         for i in range(a.first, a.first + (a.healthy if f == "healthy" else a.faulty))
     ]
+    # interleaved (by draw index, then machine and case): a study stopped early is balanced
+    cases.sort(key=lambda c: (c[2], c[0], c[1]))
     t0 = time.perf_counter()
     with cf.ProcessPoolExecutor(a.jobs) if a.jobs > 1 else _Serial() as pool:
-        rows = list(pool.map(_case, *zip(*cases, strict=True)))
+        rows = []
+        for row in pool.map(_case, *zip(*cases, strict=True)):
+            rows.append(row)
+            if a.rows is not None:
+                with a.rows.open("a") as fh:
+                    fh.write(json.dumps({k: _plain(v) for k, v in row.items()}) + "\n")
     print(f"{len(rows)} runs in {time.perf_counter() - t0:.0f} s\n")
     print(_table(rows), "\n")
     print(_leak_table(rows))
+
+
+def _plain(v):
+    return v.item() if isinstance(v, np.generic) else v
 
 
 class _Serial:

@@ -38,8 +38,17 @@ def monitor_command(
             help="False-alarm probability per healthy run the thresholds are sized for (default 1e-3).",
         ),
     ] = 1e-3,
+    c_dir: Annotated[
+        Path | None,
+        typer.Option(
+            "--c",
+            help="Also write the residual generator as C99 for the target (hydropwa_monitor.h, "
+            "hydropwa_monitor.c, README.md), its thresholds the widest of these runs'.",
+        ),
+    ] = None,
     force: Annotated[
-        bool, typer.Option("--force", help="Overwrite an existing health.json / health.html.")
+        bool,
+        typer.Option("--force", help="Overwrite an existing health.json / health.html (and --c)."),
     ] = False,
 ) -> None:
     """Health indicators, thresholds and alarms of each run (the identified machine in --params)."""
@@ -56,11 +65,32 @@ def monitor_command(
 
     machine = resolve_params(params)
     check_output(out, force, folder=True, option="--out", files=(HEALTH_JSON, HEALTH_HTML))
+    if c_dir is not None:
+        check_output(c_dir, force, folder=True, option="--c")
     monitor = HealthMonitor(false_alarm=false_alarm).fit(machine)
-    report = monitor.check_dataset(_runs(data))
+    runs = list(_runs(data))
+    report = monitor.check_dataset(runs)
     paths = report.write(out, overwrite=force)
     typer.echo(report.summary())
     typer.echo(f"wrote {paths['json']} and {paths['html']}")
+    if c_dir is not None:
+        _export_c(monitor, report, runs, c_dir, force)
+
+
+def _export_c(monitor, report, runs, c_dir: Path, force: bool) -> None:
+    """The on-target generator, sized on the checked runs (one sampling rate)."""
+    from hydropwa._errors import DataError  # deferred: loaded only when this command runs
+    from hydropwa.monitor._target import export_c  # deferred: the C writer, only with --c
+
+    checked = {r.run for r in report.runs}
+    rates = {float(r.fs) for r in runs if r.name in checked}
+    if len(rates) != 1:
+        raise DataError(
+            f"--c needs runs of one sampling rate (the filter's coefficients); got "
+            f"{sorted(rates) or 'no checked run'} Hz: give a dataset of one rate"
+        )
+    export_c(monitor, report, rates.pop(), c_dir, overwrite=force)
+    typer.echo(f"wrote the on-target residual generator to {c_dir}")
 
 
 def _runs(data: Path):

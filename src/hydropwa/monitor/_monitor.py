@@ -37,6 +37,7 @@ from ._residuals import (
     friction_fit,
     friction_scale_fit,
     prepare,
+    sliding_speed,
     spool_fit,
     supply_fit,
 )
@@ -45,6 +46,8 @@ __all__ = ["HealthMonitor", "HealthReport", "IndicatorValue", "RunHealth", "moni
 
 #: Channels a run must have.
 REQUIRED = ("t", "u", "x", "p_a", "p_b")
+#: Channels used when logged.
+OPTIONAL = ("p_s", "f_l", "spool")
 
 
 @dataclass(frozen=True)
@@ -117,6 +120,10 @@ class RunHealth(DerivedResult):
     faults: tuple[str, ...]
     rows: int
     notes: tuple[str, ...] = ()
+    #: the speed [m/s] above which the friction rows were read (:func:`~._residuals.sliding_speed`)
+    sliding_speed: float = float("nan")
+    #: the optional channels the run logged (of ``p_s``, ``f_l``, ``spool``)
+    logged: tuple[str, ...] = ()
 
     @property
     def status(self) -> ResultStatus:
@@ -407,7 +414,9 @@ class HealthMonitor:
             f"{n} not available from this run" for n, iv in values.items() if not iv.available
         )
         rows = fits["continuity"].rows if fits["continuity"] is not None else 0
-        return RunHealth(run.name, values, bool(named), named, rows, notes)
+        logged = tuple(c for c in OPTIONAL if c in run.channels)
+        speed = sliding_speed(prepared[0], self.params_)
+        return RunHealth(run.name, values, bool(named), named, rows, notes, speed, logged)
 
     def _indicator(
         self, ind: Indicator, fits: Mapping[str, LinearFit | None], bias: float

@@ -23,6 +23,7 @@ so their errors are close to independent.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,14 +34,21 @@ from ..components import dead_zone, dead_zone_slope, orifice_flows, stribeck_fri
 from ..params import SystemParams
 
 __all__ = [
+    "N_P",
+    "N_S",
     "LinearFit",
     "Signals",
     "continuity_fit",
     "friction_fit",
     "friction_scale_fit",
+    "monitor_result",
+    "monitor_row",
+    "monitor_rows",
     "prepare",
+    "sliding_speed",
     "spool_fit",
     "supply_fit",
+    "valve_row",
 ]
 
 
@@ -189,6 +197,22 @@ def prepare(
 
 
 @njit(cache=True)
+def valve_row(s, pa, pb, ps, pt, K, ptr, alpha, beta, creep, outer):  # pragma: no cover
+    """One row: Q_A, Q_B [m³/s] at the spool ``s`` and their slopes ∂Q/∂ν (dead zone's cells).
+
+    Scalar, in the C emitter's subset (:mod:`hydropwa.simulation._emit_c`): the on-target
+    generator (:func:`monitor_row`) and :func:`_valve_terms` share it.
+    """
+    z = dead_zone(s, alpha, beta, creep, outer)
+    qa, qb = orifice_flows(z, pa, pb, ps, pt, K, ptr)
+    dz = dead_zone_slope(s, alpha, beta, creep, outer)
+    h = 1e-6
+    qa1, qb1 = orifice_flows(z + h, pa, pb, ps, pt, K, ptr)
+    qa0, qb0 = orifice_flows(z - h, pa, pb, ps, pt, K, ptr)
+    return qa, qb, (qa1 - qa0) / (2 * h) * dz, (qb1 - qb0) / (2 * h) * dz
+
+
+@njit(cache=True)
 def _valve_terms(nu, pa, pb, ps, null, pt, K, ptr, alpha, beta, creep, outer):  # pragma: no cover
     """Per row: Q_A, Q_B [m³/s] at ν + δ and their slopes ∂Q/∂ν by the dead zone's cells."""
     n = nu.shape[0]
@@ -197,15 +221,9 @@ def _valve_terms(nu, pa, pb, ps, null, pt, K, ptr, alpha, beta, creep, outer):  
     ga = np.empty(n)
     gb = np.empty(n)
     for k in range(n):
-        s = nu[k] + null
-        z = dead_zone(s, alpha, beta, creep, outer)
-        qa[k], qb[k] = orifice_flows(z, pa[k], pb[k], ps[k], pt, K, ptr)
-        dz = dead_zone_slope(s, alpha, beta, creep, outer)
-        h = 1e-6
-        qa1, qb1 = orifice_flows(z + h, pa[k], pb[k], ps[k], pt, K, ptr)
-        qa0, qb0 = orifice_flows(z - h, pa[k], pb[k], ps[k], pt, K, ptr)
-        ga[k] = (qa1 - qa0) / (2 * h) * dz
-        gb[k] = (qb1 - qb0) / (2 * h) * dz
+        qa[k], qb[k], ga[k], gb[k] = valve_row(
+            nu[k] + null, pa[k], pb[k], ps[k], pt, K, ptr, alpha, beta, creep, outer
+        )
     return qa, qb, ga, gb
 
 
@@ -278,14 +296,18 @@ def continuity_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> Line
 FRICTION_SCALE = np.array([100.0, 100.0, 1000.0])
 
 
-def _sliding(sig: Signals, params: SystemParams, mask: np.ndarray) -> np.ndarray:
-    """Rows where the rod slides clearly: |ẋ| above 10× its noise and 3/γ.
+def sliding_speed(sig: Signals, params: SystemParams) -> float:
+    """The speed [m/s] above which the rod slides clearly: 10× the filtered speed's noise and 3/γ.
 
     Near zero speed the Stribeck curve is steep (its tanh step is 1/γ wide) and the filtered
     speed's noise would attenuate the fitted forces (errors in the regressor).
     """
-    v_min = max(10.0 * sig.speed_noise, 3.0 / params.friction.smoothness)
-    return mask & (np.abs(sig.v) > v_min)
+    return max(10.0 * sig.speed_noise, 3.0 / params.friction.smoothness)
+
+
+def _sliding(sig: Signals, params: SystemParams, mask: np.ndarray) -> np.ndarray:
+    """Rows where the rod slides clearly (|ẋ| above :func:`sliding_speed`)."""
+    return mask & (np.abs(sig.v) > sliding_speed(sig, params))
 
 
 def _friction_force(sig: Signals, params: SystemParams) -> np.ndarray:
@@ -356,3 +378,104 @@ def supply_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFi
         p_set = p_set + sup.compensator_droop * np.clip(q_s, 0.0, None) / sup.pump_flow
     ones = np.ones((int(mask.sum()), 1))
     return _wls([(ones, p_set[mask])], np.array([1e7]))
+
+
+# ---------------------------------------------------------------------------------------------
+# The on-target generator: one filtered row at a time, in the C emitter's subset (scalars, the
+# two arrays P and S indexed by the constants below), translated to C by monitor/_target.py.
+
+#: Slots of the parameter vector ``P`` of :func:`monitor_row` (SI; :func:`pack_online`).
+(MP_AA, MP_AB, MP_STROKE, MP_VA0, MP_VB0, MP_E, MP_CL, MP_CEA, MP_CEB) = range(9)
+(MP_K, MP_PTR, MP_PT, MP_ALPHA, MP_BETA, MP_CREEP, MP_OUTER) = range(9, 16)
+(MP_FC, MP_FS, MP_SIGMA, MP_CHI, MP_DELTA, MP_GAMMA, MP_MASS, MP_LOADF, MP_LOADD) = range(16, 25)
+(MP_PUMP, MP_DROOP, MP_QMAX, MP_PS) = range(25, 29)
+(MP_XLO, MP_XHI, MP_PMIN, MP_VMIN, MP_HAS_FL, MP_HAS_PS, MP_HAS_SPOOL) = range(29, 36)
+(MP_FR_HI, MP_PS_LO, MP_NU_LO, MP_NU_HI) = range(36, 40)
+N_P = 40
+#: Slots of the sums ``S`` (rows used, Σ r_A², Σ r_B², sliding rows, Σ r_F², Σ f², Σ f·F,
+#: Σ p_set, Σ (ν − ν_model)).
+(MS_N, MS_RA2, MS_RB2, MS_NF, MS_RF2, MS_FF, MS_FY, MS_PSET, MS_DNU) = range(9)
+N_S = 9
+#: +∞ (HUGE_VAL in C): NaN is 0·HUGE; a threshold side without an alarm is ±HUGE.
+HUGE = math.inf
+
+
+@njit(cache=True)
+def monitor_row(S, P, nu, nu_model, x, v, a, pa, pb, dpa, dpb, ps, fl):  # pragma: no cover
+    """One filtered row: the residuals (r_A, r_B [m³/s], r_F [N]) and the sums ``S`` updated.
+
+    r_A, r_B are the chambers' continuity equations of :func:`continuity_fit` at the identified
+    (1/E, C_L, C_eA, C_eB) and δ = 0; r_F is Newton's law less the identified Stribeck curve,
+    Eq. (11). A row enters the sums under the monitor's mask (stroke margin, chamber
+    pressures), and the friction sums only while the rod slides (:func:`_sliding`).
+    (``S[i] = S[i] + ...``: the emitter takes an array assigned by ``=`` as written.)
+    """
+    p_s = ps if P[MP_HAS_PS] > 0.5 else P[MP_PS]
+    qa, qb, ga, gb = valve_row(
+        nu, pa, pb, p_s, P[MP_PT], P[MP_K], P[MP_PTR], P[MP_ALPHA], P[MP_BETA],
+        P[MP_CREEP], P[MP_OUTER],
+    )  # fmt: skip
+    xs = x
+    if xs < 0.0:
+        xs = 0.0
+    if xs > P[MP_STROKE]:
+        xs = P[MP_STROKE]
+    va = P[MP_VA0] + P[MP_AA] * xs
+    vb = P[MP_VB0] + P[MP_AB] * (P[MP_STROKE] - xs)
+    dp = pa - pb
+    r_a = qa - P[MP_AA] * v - va * dpa / P[MP_E] - P[MP_CL] * dp - P[MP_CEA] * pa
+    r_b = -qb + P[MP_AB] * v - vb * dpb / P[MP_E] + P[MP_CL] * dp - P[MP_CEB] * pb
+    load = fl if P[MP_HAS_FL] > 0.5 else P[MP_LOADF] + P[MP_LOADD] * v
+    force = P[MP_AA] * pa - P[MP_AB] * pb - load - P[MP_MASS] * a
+    f = stribeck_friction(
+        v, P[MP_FC], P[MP_FS], P[MP_SIGMA], P[MP_CHI], P[MP_DELTA], P[MP_GAMMA]
+    )  # fmt: skip
+    r_f = force - f
+    used = (x > P[MP_XLO]) and (x < P[MP_XHI]) and (pa > P[MP_PMIN]) and (pb > P[MP_PMIN])
+    if used:
+        q_s = qa if nu >= 0.0 else -qb
+        if q_s < 0.0:
+            q_s = 0.0
+        S[MS_N] = S[MS_N] + 1.0
+        S[MS_RA2] = S[MS_RA2] + r_a * r_a
+        S[MS_RB2] = S[MS_RB2] + r_b * r_b
+        S[MS_PSET] = S[MS_PSET] + p_s + P[MP_PUMP] * P[MP_DROOP] * q_s / P[MP_QMAX]
+        S[MS_DNU] = S[MS_DNU] + nu - nu_model
+        if abs(v) > P[MP_VMIN]:
+            S[MS_NF] = S[MS_NF] + 1.0
+            S[MS_RF2] = S[MS_RF2] + r_f * r_f
+            S[MS_FF] = S[MS_FF] + f * f
+            S[MS_FY] = S[MS_FY] + f * force
+    return r_a, r_b, r_f
+
+
+@njit(cache=True)
+def monitor_result(S, P):  # pragma: no cover
+    """From the sums: friction level [1], supply set pressure [Pa], valve null [1], their
+    alarms (1.0 / 0.0) against the thresholds in ``P``, and the residuals' RMS (r_A, r_B
+    [m³/s], r_F [N]); NaN where the run had no usable row (no alarm then)."""
+    missing = 0.0 * HUGE
+    n = S[MS_N]
+    fr = S[MS_FY] / S[MS_FF] if S[MS_NF] > 0.5 else missing
+    p_set = S[MS_PSET] / n if n > 0.5 else missing
+    null = S[MS_DNU] / n if (n > 0.5 and P[MP_HAS_SPOOL] > 0.5) else missing
+    a_fr = 1.0 if fr > P[MP_FR_HI] else 0.0
+    a_ps = 1.0 if (P[MP_HAS_PS] > 0.5 and p_set < P[MP_PS_LO]) else 0.0
+    a_nu = 1.0 if (null < P[MP_NU_LO] or null > P[MP_NU_HI]) else 0.0
+    rms_a = math.sqrt(S[MS_RA2] / n) if n > 0.5 else missing
+    rms_b = math.sqrt(S[MS_RB2] / n) if n > 0.5 else missing
+    rms_f = math.sqrt(S[MS_RF2] / S[MS_NF]) if S[MS_NF] > 0.5 else missing
+    return fr, p_set, null, a_fr, a_ps, a_nu, rms_a, rms_b, rms_f
+
+
+@njit(cache=True)
+def monitor_rows(P, nu, nu_model, x, v, a, pa, pb, dpa, dpb, ps, fl):  # pragma: no cover
+    """:func:`monitor_row` over a run's rows: the residuals (n × 3) and the sums."""
+    S = np.zeros(N_S)
+    n = nu.shape[0]
+    r = np.empty((n, 3))
+    for k in range(n):
+        r[k, 0], r[k, 1], r[k, 2] = monitor_row(
+            S, P, nu[k], nu_model[k], x[k], v[k], a[k], pa[k], pb[k], dpa[k], dpb[k], ps[k], fl[k]
+        )
+    return r, S
