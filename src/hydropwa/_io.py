@@ -29,7 +29,7 @@ import re
 import socket
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from ._errors import HydropwaError, OutputExistsError, OutputLockedError
@@ -191,6 +191,20 @@ def atomic_write_text(
 
 
 # ----------------------------------------------------------------------------- targets
+def write_text_files(
+    directory: str | os.PathLike, texts: Mapping[str, str], *, overwrite: bool = False
+) -> Path:
+    """Write ``texts`` (file name → text) into ``directory``, each file atomically; a folder
+    that holds files is refused (:func:`check_output`) unless ``overwrite``. Returns the folder.
+    """
+    directory = Path(directory)
+    check_output(directory, overwrite, folder=True)
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, text in texts.items():
+        atomic_write_text(directory / name, text)
+    return directory
+
+
 def overwrite_flag(overwrite: bool, force: bool | None, where: str) -> bool:
     """The library's one overwrite keyword: ``overwrite``; ``force=`` of older releases still works.
 

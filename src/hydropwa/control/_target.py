@@ -38,7 +38,7 @@ import numpy as np
 
 from .. import __version__
 from .. import _layout_law as LL
-from .._io import atomic_write_text, check_output, read_text
+from .._io import read_text, write_text_files
 from .._layout_law import SIZES as LAW_SIZES
 from ..simulation import _controller as C
 from ..simulation._emit_c import emit_unit
@@ -449,13 +449,7 @@ def export_c(controller, directory: str | os.PathLike, *, overwrite: bool = Fals
     packed vector as a constant table; see the README written beside the sources for the call
     sequence, units and sign conventions.
     """
-    texts = c_sources(controller)
-    directory = Path(directory)
-    check_output(directory, overwrite, folder=True)
-    directory.mkdir(parents=True, exist_ok=True)
-    for name, text in texts.items():
-        atomic_write_text(directory / name, text)
-    return directory
+    return write_text_files(directory, c_sources(controller), overwrite=overwrite)
 
 
 #: the controller FMU's variables (value references in this order; hp_model_ctrl.c's VR_*)

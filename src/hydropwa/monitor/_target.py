@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import __version__
 from .._errors import DataError, ParameterError
-from .._io import atomic_write_text, check_output
+from .._io import write_text_files
 from .._result import DerivedResult, ResultStatus
 from ..components import _physics as PH
 from ..simulation._emit_c import emit_unit
@@ -313,10 +313,6 @@ def export_c(
         else ()
     )
     P = pack_online(monitor, target_thresholds(report), speed, logged)
-    texts = c_sources(monitor, P, fs, len(report.runs))
-    directory = Path(directory)
-    check_output(directory, overwrite, folder=True)
-    directory.mkdir(parents=True, exist_ok=True)
-    for name, text in texts.items():
-        atomic_write_text(directory / name, text)
-    return directory
+    return write_text_files(
+        directory, c_sources(monitor, P, fs, len(report.runs)), overwrite=overwrite
+    )
