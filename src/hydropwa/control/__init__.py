@@ -60,6 +60,7 @@ from ._fidelity import (
     closed_loop_fidelity,
     hold_oscillations,
     hydraulic_frequency,
+    loop_bandwidth,
     model_warnings,
     valve_warning,
 )
@@ -167,6 +168,7 @@ __all__ = [
     "export_fmu",
     "hold_oscillations",
     "hydraulic_frequency",
+    "loop_bandwidth",
     "model_warnings",
     "valve_warning",
     "VALVE_FACTOR",
