@@ -242,7 +242,7 @@ def plan_command(
 
     check_output(out, force, folder=True, option="--out")
     machine = resolve_params(params)
-    design = None if controller is None else _check_controller(controller, machine)
+    given_design = {} if controller is None else _check_controller(controller, machine)
     camp = campaign_for(campaign, machine)
     given = {
         "stroke_margin": stroke_margin,
@@ -257,17 +257,20 @@ def plan_command(
     rate = 1.0 / parse_sample_time(sample_time)
     result = plan_campaign(machine, camp, limits, rate=rate, strict=strict)
     with tempfile.TemporaryDirectory(prefix="hydropwa-plan-") as tmp:
-        if controller is None:
-            controller, design = _default_controller(machine, 1.0 / rate, Path(tmp))
+        written, design = (
+            _default_controller(machine, 1.0 / rate, Path(tmp))
+            if controller is None
+            else (controller, given_design)
+        )
         with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
-            result.write(out, overwrite=force, controller=controller, controller_design=design)
+            result.write(out, overwrite=force, controller=written, controller_design=design)
     typer.echo(result.summary())
     typer.echo(f"controller: {design['source']}: {_verdict_line(design)}")
     typer.echo(f"wrote {out}/manifest.json, commands/, plan.html")
     failed = [
         f"{len(result.refused)} run(s) refused (manifest 'refused')" if result.refused else "",
         "the controller failed its verification (manifest 'controller_design')"
-        if controller is None
+        if written is None
         else "",
     ]
     if any(failed):
