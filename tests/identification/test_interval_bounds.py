@@ -27,7 +27,9 @@ def test_within_cuts_an_interval_at_its_bounds_and_names_the_cut_ends():
     inside = ParameterEstimate(40.0, 1.0, (38.0, 42.0), "N")
     assert within_physical_bounds("static", inside) is inside
     drift = ParameterEstimate(-1e-4, 1e-4, (-3e-4, 1e-4), "m/s")  # a signed quantity: no bound
-    assert "drift_pos" not in PHYSICAL_BOUNDS and within_physical_bounds("drift_pos", drift) is drift
+    assert (
+        "drift_pos" not in PHYSICAL_BOUNDS and within_physical_bounds("drift_pos", drift) is drift
+    )
     assert PHYSICAL_BOUNDS["coulomb"] == (0.0, math.inf)
 
 
