@@ -131,6 +131,7 @@ def dask_client(
     )
 
     cluster = None
+    quiet = _QuietLoggers()  # a lost scheduler is the caller's one line, not Dask's traceback
     try:
         if scheduler == "local":
             cluster = LocalCluster(
@@ -154,10 +155,31 @@ def dask_client(
             f"address, or {hint}"
         ) from None
     try:
-        yield client
+        with quiet:
+            yield client
     finally:
-        with contextlib.suppress(Exception):
+        with quiet, contextlib.suppress(Exception):
             client.close()
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close()
+
+
+class _QuietLoggers:
+    """Dask's client and comm loggers held at CRITICAL inside the block: where the scheduler
+    goes away they log a traceback per retry, while the caller reports the loss in one line."""
+
+    names = ("distributed.client", "distributed.comm", "distributed.utils", "distributed.core")
+
+    def __enter__(self) -> None:
+        import logging  # deferred: only with a cluster
+
+        self._saved = {n: logging.getLogger(n).level for n in self.names}
+        for n in self.names:
+            logging.getLogger(n).setLevel(logging.CRITICAL)
+
+    def __exit__(self, *exc: object) -> None:
+        import logging  # deferred: as above
+
+        for n, level in self._saved.items():
+            logging.getLogger(n).setLevel(level)

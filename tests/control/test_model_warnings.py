@@ -91,3 +91,72 @@ def test_compare_honours_the_sensor_noise_and_warns_for_a_valve_near_omega_h(
     assert main([*base, "--model", "pwa", "--out", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--compare" in err[0] and "--model" in err[0], err
+
+
+def test_the_loops_bandwidth_reaches_the_warning_of_compare(paper, default, tmp_path):
+    """The design records its loop's bandwidth (the fastest cell's r → x, the table's maximum)
+    in the controller and its file; ``closed_loop_fidelity`` (``control simulate --compare``)
+    checks the valve against it: a machine whose 80 Hz valve is outside the ω_h band (ω_h
+    227 Hz) but below 3 × the paper design's ~29 Hz bandwidth flags reduced and pwa; the
+    paper's own 100 Hz valve (above 3 × 29 = 88 Hz) flags nothing."""
+    from hydropwa.control import (
+        as_reference,
+        closed_loop_fidelity,
+        design_state_feedback,
+        load_controller,
+        loop_bandwidth,
+    )
+    from hydropwa.control._fidelity import BANDWIDTH_FACTOR
+    from hydropwa.linearization import linearize
+
+    d = design_state_feedback(linearize(paper))
+    assert loop_bandwidth(d.controller) == pytest.approx(float(d.table["bandwidth_hz"].max()))
+    bw = loop_bandwidth(default)
+    assert bw is not None and 20.0 < bw < 40.0
+    save_controller(default, tmp_path / "c.toml", machine_parameters=paper)
+    assert loop_bandwidth(load_controller(tmp_path / "c.toml")) == pytest.approx(bw)
+    slow = paper.replace(**{"valve.omega0": 2 * math.pi * 80.0})
+    wh = hydraulic_frequency(slow)
+    assert slow.valve.omega0 < wh / VALVE_FACTOR  # outside the ω_h band: the bandwidth alone
+    assert slow.valve.omega0 < BANDWIDTH_FACTOR * 2 * math.pi * bw < paper.valve.omega0
+    ref = "steps:0=100 mm,0.05=110 mm"
+    for prm, flagged in ((slow, True), (paper, False)):
+        _, table = closed_loop_fidelity(
+            default,
+            as_reference(ref),
+            params=prm,
+            duration=0.3,
+            models=("full", "reduced", "pwa"),
+        )
+        lines = [w for w in table.attrs["warnings"] if "the loop's bandwidth" in w]
+        assert len(lines) == (2 if flagged else 0), table.attrs["warnings"]
+        assert all(f"{bw:.0f} Hz" in w and "trust the full model" in w for w in lines)
+
+
+def test_a_pwa_run_that_leaves_the_cells_is_flagged_with_its_share(paper, default):
+    """A PWA model whose friction cells span ±50 mm/s only, on a trapezoid cruising at
+    0.2 m/s: the pwa run leaves its cells for the cruise and is flagged with the share of its
+    samples outside them, the share recomputed here from the run's P_L and v and the cells'
+    boxes; on the default PWA model (−0.44…0.56 m/s) the same run stays inside, nothing said."""
+    from hydropwa.control import as_reference, closed_loop_fidelity
+    from hydropwa.control._fidelity import CELL_EXIT_SHARE
+    from hydropwa.linearization import linearize
+
+    ref = as_reference("trapezoid:from=50 mm,to=100 mm,v=0.2,a=5,start=0.05")
+    for pwa, flagged in ((linearize(paper, friction_range=(-0.05, 0.05)), True), (None, False)):
+        runs, table = closed_loop_fidelity(
+            default, ref, params=paper, pwa=pwa, duration=0.4, models=("full", "pwa")
+        )
+        lines = [w for w in table.attrs["warnings"] if "leaves the PWA model's cells" in w]
+        if not flagged:
+            assert lines == [], table.attrs["warnings"]
+            continue
+        boxes = pwa.regions()
+        lo = np.min([b[1] for b in boxes], axis=0)
+        hi = np.max([b[2] for b in boxes], axis=0)
+        assert (lo[1], hi[1]) == (-0.05, 0.05)
+        pl, v = np.asarray(runs["pwa"]["p_l"]), np.asarray(runs["pwa"]["v"])
+        share = np.mean((pl < lo[0]) | (pl > hi[0]) | (v < lo[1]) | (v > hi[1]))
+        assert 0.3 < share < 0.8 and share > CELL_EXIT_SHARE  # the cruise: ~0.2 s of 0.4 s
+        (line,) = lines
+        assert f"in {share:.0%} of its samples" in line and "trust the full model" in line

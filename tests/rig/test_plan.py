@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from hydropwa import DataError, ParameterError, load_params
+from hydropwa.control import DEFAULT_DESIGN, load_controller
 from hydropwa.data import import_logs, read_dataset
 from hydropwa.rig import PlanLimits, parse_campaign, parse_limits, plan_campaign, size_campaign
 
@@ -37,6 +38,7 @@ VENDOR_MAP = {  # the vendor's names; pressures as 0-10 V transmitters of 0-250 
     },
 }
 DELAY = 2  # samples
+REFUSED_CAMPAIGN = {"deadzone": {"inputs": [0.15], "directions": ["extend"], "duration": 0.5}}
 
 
 @pytest.fixture(scope="module")
@@ -237,6 +239,15 @@ def test_cli_plan_reads_the_campaigns_limits_and_import_names_a_missing_run(tmp_
     doc = json.loads((tmp_path / "plan" / "manifest.json").read_text())
     assert doc["limits"]["stroke_margin"] == 0.008 and doc["limits"]["max_velocity"] == 0.8
     assert doc["limits"]["max_opening"] == 0.9 and doc["runs"][0]["start_position"] == 0.016
+    assert doc["status"] == "success" and doc["refused"] == []
+    # no --controller: the default design at the plan's 1 ms, verified, written with its verdict
+    ctrl = load_controller(tmp_path / "plan" / doc["controller"])
+    design = doc["controller_design"]
+    assert design["source"].startswith("designed by rig plan (the default design")
+    assert ctrl.sample_time == 1e-3 == design["settings"]["sample_time"]
+    assert design["settings"]["delay"] is DEFAULT_DESIGN.delay
+    assert design["verification"]["verdict"] == "pass" == ctrl.verification["verdict"]
+    assert "controller_hint" not in doc
     res = runner.invoke(app, [*args, "--out", str(tmp_path / "plan")])
     assert res.exit_code == 2 and "--force" in res.output  # nothing overwritten without it
     (tmp_path / "logs").mkdir()
@@ -254,3 +265,37 @@ def test_cli_plan_reads_the_campaigns_limits_and_import_names_a_missing_run(tmp_
     )
     assert res.exit_code == 2
     assert "1 of 1 planned run(s) have no log" in res.output and "deadzone_extend_u15" in res.output
+
+
+def test_cli_plan_with_a_refused_run_writes_the_rest_and_exits_1(tmp_path):
+    """A refused run: the plan is written for the rest, exit 1, the manifest names the run and
+    the limit; --strict: exit 2 and nothing written. A given controller's verdict is recorded."""
+    import tomli_w
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+    from hydropwa.control import design_state_feedback, save_controller
+    from hydropwa.linearization import linearize
+
+    paper = load_params("paper")
+    (tmp_path / "c.toml").write_bytes(tomli_w.dumps(REFUSED_CAMPAIGN).encode())
+    ctrl = tmp_path / "ctrl.toml"
+    unverified = design_state_feedback(linearize(paper)).controller  # no verification run
+    save_controller(unverified, ctrl, machine_parameters=paper)
+    runner = CliRunner()
+    args = ["rig", "plan", "--params", "paper", "--campaign", str(tmp_path / "c.toml")]
+    args += ["--max-pressure", "40 bar", "--controller", str(ctrl)]  # rest: 63 bar in a chamber
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "plan")])
+    assert res.exit_code == 1, res.output
+    assert "1 run(s) refused" in res.output
+    doc = json.loads((tmp_path / "plan" / "manifest.json").read_text())
+    assert doc["status"] == "partial" and doc["runs"] == []
+    (refused,) = doc["refused"]
+    assert refused["name"] == "deadzone_extend_u15" and refused["limit"] == "max_pressure"
+    assert "limit 40 bar" in refused["message"]
+    assert doc["controller"] == "controller.toml"
+    assert doc["controller_design"]["source"] == f"given (--controller {ctrl})"
+    assert doc["controller_design"]["verification"] == {}  # the file carries no verdict
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "strict"), "--strict"])
+    assert res.exit_code == 2 and "deadzone_extend_u15" in res.output
+    assert not (tmp_path / "strict").exists()

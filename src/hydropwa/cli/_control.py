@@ -674,10 +674,14 @@ def simulate_command(
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
     for w in closed_loop_warnings(res):
         print(f"warning: {w}", file=sys.stderr)
-    from ..control import valve_warning  # deferred: loaded only when this command runs
+    from ..control import (  # deferred: loaded only when this command runs
+        loop_bandwidth,
+        valve_warning,
+    )
 
-    if valve_warning(prm, model):
-        print(f"warning: {valve_warning(prm, model)}", file=sys.stderr)
+    valve = valve_warning(prm, model, loop_bandwidth(ctrl))
+    if valve:
+        print(f"warning: {valve}", file=sys.stderr)
     if ctrl.verification.get("verdict") == "fail":
         print(
             f"warning: {controller} failed its verification on the full model "

@@ -7,6 +7,7 @@ Errors (:class:`~hydropwa.HydropwaError`) go through the CLI's one error path
 from __future__ import annotations
 
 import os
+import tempfile
 import time
 from enum import StrEnum
 from pathlib import Path
@@ -14,7 +15,7 @@ from typing import Annotated
 
 import typer
 
-from ._app import new_app
+from ._app import error_line, new_app
 from ._options import (
     ParamsOption,
     jobs_option,
@@ -219,7 +220,15 @@ def plan_command(
         bool, typer.Option("--force", help="Replace an existing plan folder.")
     ] = False,
 ) -> None:
-    """Plan a campaign for a real rig: command files, each run checked on the full model."""
+    """Plan a campaign for a real rig: command files, each run checked on the full model.
+
+    Without --controller the positioning moves' controller is designed here (the default
+    design at the rig's sample time, verified on the full model) and written into the plan
+    with its verdict. Exit 0: every run planned and a verified controller written; exit 1:
+    the plan is written, but runs were refused or the designed controller failed its
+    verification (the manifest's ``refused`` and ``controller_design`` say why); exit 2:
+    bad input, or --strict and a run breaks a limit (nothing written).
+    """
     from hydropwa._io import (  # deferred: loaded only when this command runs (a fast --help)
         check_output,
         output_lock,
@@ -233,8 +242,7 @@ def plan_command(
 
     check_output(out, force, folder=True, option="--out")
     machine = resolve_params(params)
-    if controller is not None:
-        _check_controller(controller, machine)
+    given_design = {} if controller is None else _check_controller(controller, machine)
     camp = campaign_for(campaign, machine)
     given = {
         "stroke_margin": stroke_margin,
@@ -248,14 +256,77 @@ def plan_command(
     limits = parse_limits(table, "limits")
     rate = 1.0 / parse_sample_time(sample_time)
     result = plan_campaign(machine, camp, limits, rate=rate, strict=strict)
-    with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
-        result.write(out, overwrite=force, controller=controller)
+    with tempfile.TemporaryDirectory(prefix="hydropwa-plan-") as tmp:
+        written, design = (
+            _default_controller(machine, 1.0 / rate, Path(tmp))
+            if controller is None
+            else (controller, given_design)
+        )
+        with output_lock(out.parent, "hydropwa rig plan", name=f".{out.name}.lock", clean=False):
+            result.write(out, overwrite=force, controller=written, controller_design=design)
     typer.echo(result.summary())
+    typer.echo(f"controller: {design['source']}: {_verdict_line(design)}")
     typer.echo(f"wrote {out}/manifest.json, commands/, plan.html")
+    failed = [
+        f"{len(result.refused)} run(s) refused (manifest 'refused')" if result.refused else "",
+        "the controller failed its verification (manifest 'controller_design')"
+        if written is None
+        else "",
+    ]
+    if any(failed):
+        error_line(f"the plan in {out} is incomplete: {'; '.join(f for f in failed if f)}")
+        raise typer.Exit(code=1)
 
 
-def _check_controller(path: Path, machine) -> None:
-    """The controller file loads, and was designed for this machine's cylinder (if it says)."""
+def _verdict_line(design: dict) -> str:
+    v = design.get("verification")
+    if not v:
+        return "no verification recorded"
+    n = len(v.get("failures", ()))
+    return f"verification {v.get('verdict', '?')}" + (f", {n} failed check(s)" if n else "")
+
+
+def _default_controller(machine, sample_time: float, tmp: Path) -> tuple[Path | None, dict]:
+    """The default design (``DEFAULT_DESIGN``) at the rig's sample time, verified on the full
+    model: its file in ``tmp`` (None when it fails its verification) and its record."""
+    from hydropwa.control import (  # deferred: loaded only when this command runs
+        DEFAULT_DESIGN,
+        design_controller,
+        save_controller,
+    )
+    from hydropwa.linearization import linearize  # deferred: as above
+
+    typer.echo("designing the positioning controller (the default design, verified) ...")
+    d = design_controller(linearize(machine), sample_time=sample_time)
+    v = d.verification
+    record = {
+        "source": "designed by rig plan (the default design, control DEFAULT_DESIGN, "
+        f"at the plan's sample time {1e3 * sample_time:g} ms)",
+        "settings": {
+            "method": DEFAULT_DESIGN.method,
+            "sample_time": sample_time,
+            "delay": DEFAULT_DESIGN.delay,
+            "quiet": DEFAULT_DESIGN.quiet,
+            "sensor_noise": dict(DEFAULT_DESIGN.sensor_noise),
+            "draws": DEFAULT_DESIGN.draws,
+            "seed": DEFAULT_DESIGN.seed,
+        },
+        "verification": None if v is None else v.to_dict(),
+    }
+    if v is not None and not v.passed:
+        record["reason"] = (
+            f"not written: it failed {len(v.failures)} check(s) of its verification on the "
+            "full model; design one with `hydropwa control design` and give rig plan --controller"
+        )
+        return None, record
+    path = tmp / "controller.toml"
+    save_controller(d.controller, path, machine_parameters=machine)
+    return path, record
+
+
+def _check_controller(path: Path, machine) -> dict:
+    """The controller file loads, and was designed for this machine's cylinder (if it says);
+    its record for the manifest (``source``, the verdict the file carries)."""
     from hydropwa.control import (
         load_controller,  # deferred: loaded only when this command runs (a fast --help)
     )
@@ -265,5 +336,6 @@ def _check_controller(path: Path, machine) -> None:
 
     from ._control import _machine_of  # deferred: the control CLI, only with --controller
 
-    load_controller(path)  # names a file that is not a controller
+    ctrl = load_controller(path)  # names a file that is not a controller
     check_same_machine(machine, _machine_of(path), str(path), "the controller's machine")
+    return {"source": f"given (--controller {path})", "verification": ctrl.verification}

@@ -66,6 +66,7 @@ from ._fidelity import (
     closed_loop_fidelity,
     hold_oscillations,
     hydraulic_frequency,
+    loop_bandwidth,
     model_warnings,
     valve_warning,
 )
@@ -183,6 +184,7 @@ __all__ = [
     "export_fmu",
     "hold_oscillations",
     "hydraulic_frequency",
+    "loop_bandwidth",
     "model_warnings",
     "valve_warning",
     "VALVE_FACTOR",

@@ -520,6 +520,10 @@ def design_state_feedback(
         else None
     )
     info = _feedback_info(model, opt, notes)
+    # the loop's bandwidth r → x [Hz], its fastest cell's: what a model that runs the loop must
+    # represent (control._fidelity.valve_warning reads it from the controller)
+    bws = [float(r["bandwidth_hz"]) for r in recs if math.isfinite(float(r["bandwidth_hz"]))]
+    info["bandwidth_hz"] = max(bws) if bws else None
     ctrl = StateFeedbackController(
         rows=tuple(rows),
         design=info,

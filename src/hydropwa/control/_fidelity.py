@@ -28,6 +28,7 @@ __all__ = [
     "closed_loop_fidelity",
     "hold_oscillations",
     "hydraulic_frequency",
+    "loop_bandwidth",
     "model_warnings",
     "valve_warning",
 ]
@@ -146,6 +147,14 @@ def valve_warning(params, model: str, bandwidth: float | None = None) -> str:
     )
 
 
+def loop_bandwidth(controller) -> float | None:
+    """The closed loop's bandwidth r → x [Hz] its design recorded (the fastest cell's,
+    ``controller.design["bandwidth_hz"]``); None where the controller records none (a PI
+    controller, a file written before the design recorded it)."""
+    bw = (getattr(controller, "design", None) or {}).get("bandwidth_hz")
+    return float(bw) if isinstance(bw, int | float) and math.isfinite(bw) and bw > 0 else None
+
+
 def cells_left(result, pwa) -> float:
     """Share [1] of a run's output samples outside every cell of ``pwa`` in (P_L, v): the
     fit ranges of :meth:`~hydropwa.linearization.PwaModel.regions` (where the model
@@ -254,5 +263,7 @@ def closed_loop_fidelity(
     pwa = case.get("pwa")
     if pwa is None and "pwa" in results:
         pwa = linearize(params)  # the default PWA model of compare_models
-    table.attrs["warnings"] = model_warnings(results, params, pwa=pwa)
+    table.attrs["warnings"] = model_warnings(
+        results, params, pwa=pwa, bandwidth=loop_bandwidth(controller)
+    )
     return results, table

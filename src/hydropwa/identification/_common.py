@@ -28,6 +28,8 @@ __all__ = [
     "RigGeometry",
     "SkippedRun",
     "ParameterEstimate",
+    "PHYSICAL_BOUNDS",
+    "within_physical_bounds",
     "TRUTH_OUTSIDE",
     "truth_in_interval",
     "covariance_from_jacobian",
@@ -268,6 +270,11 @@ class ParameterEstimate:
         Unit of value, std and ci.
     level : float
         Confidence level of ``ci`` [1].
+    clipped : str
+        ``""``, or which end of ``ci`` was cut at the parameter's physical bound
+        (:data:`PHYSICAL_BOUNDS`, :func:`within_physical_bounds`): ``"low"``, ``"high"`` or
+        ``"low, high"``. The interval before the cut reached where the parameter has no
+        meaning (a Coulomb force below 0 N); the cut one is what the data allow.
     """
 
     value: float
@@ -275,6 +282,7 @@ class ParameterEstimate:
     ci: tuple[float, float]
     unit: str = ""
     level: float = 0.95
+    clipped: str = ""
 
     @property
     def relative_ci_halfwidth(self) -> float:
@@ -291,10 +299,63 @@ class ParameterEstimate:
             "ci_high": float(self.ci[1]),
             "level": float(self.level),
             "unit": self.unit,
-        }
+        } | ({"clipped": self.clipped} if self.clipped else {})
 
     def __str__(self) -> str:
-        return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}])".strip()
+        cut = f", clipped at its physical bound ({self.clipped})" if self.clipped else ""
+        return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}]{cut})".strip()
+
+    def within(self, low: float, high: float) -> ParameterEstimate:
+        """The estimate with its interval cut to [``low``, ``high``] [unit] and the cut ends
+        named in ``clipped`` (itself where nothing is cut)."""
+        lo, hi = self.ci
+        cut = [end for end, out in (("low", lo < low), ("high", hi > high)) if out]
+        if not cut:
+            return self
+        done = [e for e in self.clipped.split(", ") if e]
+        return dataclasses.replace(
+            self,
+            ci=(max(lo, low), min(hi, high)),
+            clipped=", ".join(dict.fromkeys(done + cut)),
+        )
+
+
+#: Physical bounds [SI] of identified quantities, by the name's last dotted part (``coulomb``
+#: and ``friction.coulomb`` alike): outside them the parameter has no meaning, so an interval
+#: is cut there (:func:`within_physical_bounds`). Forces and coefficients of a dissipation
+#: (friction, leakage) and rates (ω0, a Stribeck velocity, a shape exponent) are not negative;
+#: the mass, the bulk modulus and the flow gain are positive; a dead-zone offset is a share of
+#: the opening, 0 … 1.
+PHYSICAL_BOUNDS: dict[str, tuple[float, float]] = {
+    **dict.fromkeys(
+        (
+            "coulomb",
+            "static",
+            "viscous",
+            "stribeck_velocity",
+            "shape",
+            "smoothness",
+            "breakaway",
+            "omega0",
+            "zeta",
+            "mass",
+            "bulk_modulus",
+            "K",
+            "leakage",
+            "gain_pos",
+            "gain_neg",
+        ),
+        (0.0, math.inf),
+    ),
+    **dict.fromkeys(("beta", "beta_pos", "beta_neg", "inner_offset", "outer_offset"), (0.0, 1.0)),
+}
+
+
+def within_physical_bounds(name: str, est: ParameterEstimate) -> ParameterEstimate:
+    """``est`` with its interval cut to ``name``'s :data:`PHYSICAL_BOUNDS` (flagged in
+    ``clipped``); unchanged for a name without bounds."""
+    bounds = PHYSICAL_BOUNDS.get(name.rsplit(".", 1)[-1])
+    return est if bounds is None else est.within(*bounds)
 
 
 #: the verdict of :func:`truth_in_interval` on an interval that misses a known truth

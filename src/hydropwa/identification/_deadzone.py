@@ -40,6 +40,7 @@ from ._common import (
     signal_value,
     skip,
     t_quantile,
+    within_physical_bounds,
 )
 
 __all__ = [
@@ -455,11 +456,11 @@ def fit_dead_zone(
     grad = np.array([-0.5 * c / gbar**2, -0.5 * c / gbar**2, 0.0, 0.0, 1.0 / gbar, 0.0, 0.0, 0.0])
     kg_sd = combination_std(cov, grad)
     return DeadZoneFit(
-        beta=estimate(beta, beta_sd, q, "1", level),
-        beta_pos=estimate(bp, sd[2], q, "1", level),
-        beta_neg=estimate(bn, sd[3], q, "1", level),
-        gain_pos=estimate(gp, sd[0], q, "m/s", level),
-        gain_neg=estimate(gn, sd[1], q, "m/s", level),
+        beta=within_physical_bounds("beta", estimate(beta, beta_sd, q, "1", level)),
+        beta_pos=within_physical_bounds("beta_pos", estimate(bp, sd[2], q, "1", level)),
+        beta_neg=within_physical_bounds("beta_neg", estimate(bn, sd[3], q, "1", level)),
+        gain_pos=within_physical_bounds("gain_pos", estimate(gp, sd[0], q, "m/s", level)),
+        gain_neg=within_physical_bounds("gain_neg", estimate(gn, sd[1], q, "m/s", level)),
         creep_velocity_slope=estimate(c, sd[4], q, "m/s", level),
         creep_slope=estimate(kg, kg_sd, q, "1", level),
         rms_residual=float(np.sqrt(np.mean(resid**2))),
@@ -470,7 +471,9 @@ def fit_dead_zone(
         drift_neg=estimate(dn, sd[6], q, "m/s", level),
         leakage=None
         if r is None
-        else _nonnegative(estimate(cl / r_scale, sd[7] / r_scale, q, "m**3/(s*Pa)", level)),
+        else within_physical_bounds(
+            "leakage", estimate(cl / r_scale, sd[7] / r_scale, q, "m**3/(s*Pa)", level)
+        ),
         status=OptimizerStatus(
             True,
             f"global optimum of {n_splits} band splits (linear least squares each)",
@@ -510,11 +513,6 @@ def _search_splits(u, v, up, un, continuous: bool, drift: bool, reg):
     if best is None:
         raise IdentificationError("dead-zone fit: no split of the commands to fit")
     return best, best_sides, n
-
-
-def _nonnegative(est: ParameterEstimate) -> ParameterEstimate:
-    """``est`` with its interval cut at 0 (a leakage coefficient is never negative)."""
-    return dataclasses.replace(est, ci=(max(est.ci[0], 0.0), max(est.ci[1], 0.0)))
 
 
 def _hinge_jacobian(u: np.ndarray, th: np.ndarray, continuous: bool, r=None) -> np.ndarray:

@@ -36,6 +36,7 @@ from ._common import (
     signal_value,
     skip,
     t_quantile,
+    within_physical_bounds,
 )
 
 __all__ = [
@@ -497,8 +498,8 @@ def fit_second_order(
     re, im = (resid(best.x) / wt2).reshape(2, -1)
     rms = float(np.sqrt(np.mean(re**2 + im**2)))
     return SecondOrderFit(
-        omega0=estimate(best.x[0], sd[0], q, "rad/s", level),
-        zeta=estimate(best.x[1], sd[1], q, "1", level),
+        omega0=within_physical_bounds("omega0", estimate(best.x[0], sd[0], q, "rad/s", level)),
+        zeta=within_physical_bounds("zeta", estimate(best.x[1], sd[1], q, "1", level)),
         correlation=float(correlation(cov)[0, 1]),
         rms_log_error=rms,
         n_points=int(w.size),

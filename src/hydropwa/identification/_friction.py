@@ -31,11 +31,13 @@ from ._common import (
     SkippedRun,
     as_runs,
     channels_of,
+    estimate,
     not_fitted,
     require_usable,
     resolve_geometry,
     skip,
     t_quantile,
+    within_physical_bounds,
 )
 from ._deadzone import command_level
 from ._friction_curve import (
@@ -581,7 +583,7 @@ class StribeckIdentifier:
         if vals.size == 2:
             sd = float(np.hypot(sd, 0.5 * (vals[0] - vals[1])))
         q = t_quantile(self.level, max(int(tab["used"].sum()) - 1, 1))
-        self.breakaway_ = ParameterEstimate(f_b, sd, (f_b - q * sd, f_b + q * sd), "N", self.level)
+        self.breakaway_ = within_physical_bounds("breakaway", estimate(f_b, sd, q, "N", self.level))
         self.breakaway_runs_ = tab
         txt = ", ".join(
             f"{'+' if d > 0 else '−'}: {val:.4g} ± {s_:.2g} N ({n} run(s))"

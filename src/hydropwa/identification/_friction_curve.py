@@ -24,6 +24,7 @@ from ._common import (
     correlation,
     sandwich_covariance,
     t_quantile,
+    within_physical_bounds,
 )
 
 #: Friction field names in the order of the fit vector.
@@ -406,6 +407,7 @@ def _profile_shape(
         nfev=nfev,
         message=best.status.message + f" (shape profiled: {used} other shapes fit as well)",
     )
+    est = {n: within_physical_bounds(n, e) for n, e in est.items()}
     return dataclasses.replace(
         best, estimates=est, status=status, weak=weak, band=band, unidentified=unidentified
     )
@@ -421,7 +423,7 @@ def _widened(
         std = max(old.std, old.value * half / q)
     else:
         std = max(old.std, 0.5 * (hi - lo) / q)
-    return ParameterEstimate(old.value, float(std), (lo, hi), old.unit, old.level)
+    return dataclasses.replace(old, std=float(std), ci=(lo, hi))  # a clipped end stays named
 
 
 def _envelope(
@@ -757,7 +759,8 @@ def _fit_stribeck_bounded(v, f, s: _Settings) -> StribeckFit:
     for k, i in enumerate(pr.free_idx):
         name = STRIBECK_NAMES[i]
         val, std, lo, hi, is_weak, at_bound = _estimate(pr, th, cov, k, q)
-        est[name] = ParameterEstimate(val, std, (lo, hi), _UNITS[name], s.level)
+        e = ParameterEstimate(val, std, (lo, hi), _UNITS[name], s.level)
+        est[name] = within_physical_bounds(name, e)
         if is_weak:
             weak.append(name)
         if _unidentified(pr, th, i, est[name], at_bound):

@@ -24,7 +24,7 @@ from scipy import signal
 
 from .._errors import IdentificationError
 from ..params import Friction
-from ._common import ParameterEstimate, correlation, estimate, t_quantile
+from ._common import ParameterEstimate, correlation, estimate, t_quantile, within_physical_bounds
 
 __all__ = [
     "InverseDynamicsResult",
@@ -246,7 +246,10 @@ def identify_inverse_dynamics(
     cov = sd_r**2 * np.linalg.inv(W.T @ W)
     sd = np.sqrt(np.diag(cov))
     q_t = t_quantile(level, y.size - theta.size)
-    est = {n: estimate(theta[i], sd[i], q_t, _UNITS[n], level) for i, n in enumerate(names)}
+    est = {
+        n: within_physical_bounds(n, estimate(theta[i], sd[i], q_t, _UNITS[n], level))
+        for i, n in enumerate(names)
+    }
     return InverseDynamicsResult(
         estimates=est,
         relative_error=float(np.linalg.norm(r) / np.linalg.norm(y)),

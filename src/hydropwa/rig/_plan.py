@@ -590,6 +590,8 @@ class Plan:
         return {
             "format": "hydropwa-plan/1",
             "generator": f"hydropwa {__version__} rig plan",
+            "status": self.status.name.lower(),
+            "message": self.message,
             "campaign": self.campaign,
             "rate": self.rate,
             "strict": self.strict,
@@ -606,20 +608,33 @@ class Plan:
         *,
         overwrite: bool = False,
         controller: str | os.PathLike | None = None,
+        controller_design: Mapping[str, Any] | None = None,
     ) -> Path:
         """Write the plan folder (all files, or none: written to a temporary folder first).
 
-        ``controller``: the position controller file (``hydropwa control design``) that plays
-        the positioning references; copied into the plan as ``controller.toml``/``.json``.
+        Parameters
+        ----------
+        out : path
+            The plan folder.
+        overwrite : bool
+            Replace an existing folder.
+        controller : path, optional
+            The position controller file (``hydropwa control design``) that plays the
+            positioning references; copied into the plan as ``controller.toml``/``.json``.
+        controller_design : mapping, optional
+            Where that controller came from and its verification verdict (``source``,
+            ``verification``, ...), written as the manifest's ``controller_design``; where no
+            controller is written, why (its ``reason``).
         """
         from ._plan_files import write_plan_files  # deferred: matplotlib and the MAT writer
 
         doc = self.to_manifest()
-        if controller is not None:
-            name = f"controller{Path(controller).suffix.lower()}"
-            doc["controller"] = name
-        else:
-            doc["controller"] = None
+        doc["controller"] = (
+            None if controller is None else f"controller{Path(controller).suffix.lower()}"
+        )
+        if controller_design is not None:
+            doc["controller_design"] = dict(controller_design)
+        if controller is None:
             doc["controller_hint"] = (
                 "design the position controller with `hydropwa control design --params "
                 "PLAN/machine.toml --out PLAN/controller.toml` (or give rig plan --controller)"

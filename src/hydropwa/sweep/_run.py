@@ -25,6 +25,7 @@ Cases a dead worker took down are reported in one error after every other case r
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import hashlib
 import json
@@ -243,30 +244,47 @@ def _run_dask(spec, cases, scheduler, jobs, traj_dir, on_done) -> list[tuple[Swe
 
 
 def _gather_dask(client, spec, cases, traj_dir, on_done) -> list[tuple[SweepCase, str]]:
-    """The cases' results as they complete on ``client``; the ones lost, with why."""
+    """The cases' results as they complete on ``client``; the ones lost, with why.
+
+    A scheduler lost mid-run (its connection closed, the client's reconnection timed out
+    after its time-out, ``2 × CONNECT_TIMEOUT``) loses every case not finished by then: they
+    are returned with the reason, so that the sweep ends in one line with the finished cases
+    kept, not in a traceback or a wait without end.
+    """
     from dask.distributed import (
         as_completed,  # deferred: dask.distributed costs ~1 s, only for a cluster
     )
 
     lost: list[tuple[SweepCase, str]] = []
-    spec_f = client.scatter(spec, broadcast=True)
-    keep = traj_dir is not None
-    futures = client.map(run_case, [spec_f] * len(cases), cases, keep_result=keep, pure=False)
-    index = {f.key: i for i, f in enumerate(futures)}
-    for fut in as_completed(futures):
-        i = index[fut.key]
-        try:
-            row, res = fut.result()
-        except HydropwaError:
-            raise
-        except Exception as exc:  # KilledWorker, FutureCancelledError, CommClosedError...
-            lost.append((cases[i], f"{type(exc).__name__}: {exc}"))
-            continue
-        finally:
-            fut.release()
-        on_done(cases[i], row, res)
-        _interrupt.checkpoint()
+    done: set[int] = set()
+    try:
+        spec_f = client.scatter(spec, broadcast=True)
+        keep = traj_dir is not None
+        futures = client.map(run_case, [spec_f] * len(cases), cases, keep_result=keep, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            done.add(i)
+            try:
+                row, res = fut.result()
+            except HydropwaError:
+                raise
+            except (Exception, asyncio.CancelledError) as exc:  # KilledWorker, cancelled...
+                lost.append((cases[i], _reason(exc)))
+                continue
+            finally:
+                fut.release()
+            on_done(cases[i], row, res)
+            _interrupt.checkpoint()
+    except (OSError, TimeoutError, asyncio.CancelledError) as exc:  # the scheduler is gone
+        why = f"the connection to the scheduler was lost ({_reason(exc)})"
+        lost += [(c, why) for i, c in enumerate(cases) if i not in done]
     return lost
+
+
+def _reason(exc: BaseException) -> str:
+    """An exception as one line (Dask's messages span lines)."""
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
 
 
 def run_sweep(

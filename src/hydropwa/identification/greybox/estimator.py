@@ -23,6 +23,7 @@ from .._common import (
     SkippedRun,
     as_runs,
     experiment_of,
+    within_physical_bounds,
 )
 from .data import RunData, Shooting, prepare_again, prepare_run
 from .intervals import estimate, log_interval, scan_widen
@@ -534,13 +535,14 @@ class _Estimate:
     def set_estimate(self, i: int, half_lo: float | None = None, half_hi: float | None = None):
         n = self.problem.names[i]
         hw = self.z * self.sd[i]
-        self.estimates[n] = estimate(
+        got = estimate(
             self.estimates[n],
             self.values[i],
             self.sd[i],
             hw if half_lo is None else half_lo,
             hw if half_hi is None else half_hi,
         )
+        self.estimates[n] = within_physical_bounds(n, got)
 
 
 def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estimate:
@@ -564,8 +566,11 @@ def _at_optimum(plan: StagePlan, best: StartResult, opts: FitOptions) -> _Estima
     tlo, thi = problem.theta_bounds
     for i, n in enumerate(problem.names):
         v, sd = float(est.values[i]), est.sd[i]
-        est.estimates[n] = ParameterEstimate(
-            v, float(v * sd), log_interval(v, z * sd, z * sd), problem.unit(n), opts.level
+        est.estimates[n] = within_physical_bounds(
+            n,
+            ParameterEstimate(
+                v, float(v * sd), log_interval(v, z * sd, z * sd), problem.unit(n), opts.level
+            ),
         )
         if theta[i] - tlo[i] < 1e-3 or thi[i] - theta[i] < 1e-3:
             est.at_bound.append(n)

@@ -186,9 +186,11 @@ def estimate(
     e: ParameterEstimate, value: float, sd: float, half_lo: float, half_hi: float
 ) -> ParameterEstimate:
     """``e`` at ``value`` [SI] with standard error ``sd`` and interval half-widths
-    ``half_lo``/``half_hi`` below and above, all in ln p (the fit's coordinates)."""
+    ``half_lo``/``half_hi`` below and above, all in ln p (the fit's coordinates); a new
+    interval, so no end of it is clipped yet (``clipped`` is cleared)."""
     v = float(value)
-    return dataclasses.replace(e, value=v, std=v * float(sd), ci=log_interval(v, half_lo, half_hi))
+    ci = log_interval(v, half_lo, half_hi)
+    return dataclasses.replace(e, value=v, std=v * float(sd), ci=ci, clipped="")
 
 
 def log_interval(value: float, half_lo: float, half_hi: float) -> tuple[float, float]:

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .._common import ParameterEstimate
+from .._common import ParameterEstimate, within_physical_bounds
 from .jacobian import FiniteDifferenceJacobian
 from .objective import loss_cost
 from .optimize import LeastSquares
@@ -187,7 +187,7 @@ def carry(
             got = np.asarray(vals)[ok]
             lo, hi = min(e.ci[0], float(got.min())), max(e.ci[1], float(got.max()))
             if (lo, hi) != tuple(e.ci):
-                out[name] = _widened(e, lo, hi)
+                out[name] = within_physical_bounds(name, _widened(e, lo, hi))
                 widened.append(name)
     return out, list(dict.fromkeys(widened))
 

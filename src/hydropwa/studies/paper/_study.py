@@ -39,6 +39,7 @@ from ..._io import (
 from ...control import (
     closed_loop_study,
     closed_loop_verification,
+    loop_bandwidth,
     model_warnings,
     save_controller,
 )
@@ -778,7 +779,10 @@ def _stage_control(
         )
         notes = [f"closed loop design: {w}" for w in design.warnings[:3]]
         # which model can represent the loop (the valve left out near ω_h, cells left, limit cycles)
-        notes += [f"closed loop: {w}" for w in model_warnings(shown, pwa.params, pwa=pwa)]
+        bw = loop_bandwidth(design.controller)
+        notes += [
+            f"closed loop: {w}" for w in model_warnings(shown, pwa.params, pwa=pwa, bandwidth=bw)
+        ]
         return files, {"notes": notes}
 
     m = runner.run("control", text_hash(inp.key(), key, "control"), work)
