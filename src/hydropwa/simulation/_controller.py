@@ -142,7 +142,7 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import FULL_STATES, MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
+from .._layout import MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
 from ..components._physics import load_flow_drop, signed_sqrt
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
@@ -153,7 +153,7 @@ _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
 _NU = Y_FULL["spool"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 #: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
-_SPOOL_A, _SPOOL_B = (k for k, states, _d in MODEL_KINDS.values() if states is FULL_STATES)
+_SPOOL_A, _SPOOL_B = (row.kernel for row in MODEL_KINDS.values() if row.carries_spool)
 
 (
     C_TS,

@@ -52,7 +52,7 @@ __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: The kernel's right-hand side of each model kind (the model's ``name``): model kinds are
 #: resolved here, where they are used, so the model layers need not import the kernel.
-_KERNEL_KIND = {name: kind for name, (kind, _states, _what) in MODEL_KINDS.items()}
+_KERNEL_KIND = {name: row.kernel for name, row in MODEL_KINDS.items()}
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
 CHANNEL_UNITS: dict[str, str] = {
