@@ -13,10 +13,20 @@ how the default and measured initial states fill it. The kernel's ``Y_*`` indice
 models' ``state_names``, ``state_scale`` and initial states are generated from them, so a
 new state (see the gas accumulator) is one row here plus its rate in the kernel.
 
-This module is a leaf: it imports nothing from the package.
+The model kinds are rows here too (:class:`ModelKind`, :data:`MODEL_KINDS`): what each kind
+is and does, read by the compiled side's per-kind tables and by every layer that builds a model
+(:func:`build_model`, whose factories are resolved lazily by name).
+
+This module imports nothing from the package but its error types.
 """
 
 from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+from ._errors import ParameterError
 
 #: (slot name, source in SystemParams or None) in kernel order. Slots with ``None`` are
 #: written by the model object (see ``hydropwa.models``).
@@ -195,20 +205,163 @@ LOAD_STATES: tuple[tuple[str, str, float], ...] = (
     ("v", "m/s", 1e-2),
     ("x", "m", 1e-3),
 )
-#: The model kinds, declared once: name → (kernel kind, state table, what it is). ``simulate``
-#: selects the compiled right-hand side by the name; the CLI, sweeps, warm-ups and evaluations
-#: read their choices from here. ``pwa-chamber`` keeps the full model's state vector (spool,
-#: chamber pressures, mechanics; P_S is its scheduled input).
-MODEL_KINDS: dict[str, tuple[int, tuple[tuple[str, str, float], ...], str]] = {
-    "full": (0, FULL_STATES, "full-order model, Eqs. (1)-(11)"),
-    "reduced": (1, LOAD_STATES, "reduced load-pressure model, Eqs. (12)-(15)"),
-    "pwa": (2, LOAD_STATES, "piecewise-affine load-pressure model, Eqs. (16)-(23)"),
-    "pwa-chamber": (3, FULL_STATES, "piecewise-affine chamber-level model (spool, P_A, P_B)"),
-}
+
+
+@dataclass(frozen=True)
+class ModelKind:
+    """One model kind: everything a layer asks of it, declared once (a row of :data:`MODEL_KINDS`).
+
+    The compiled side reads the fields below through per-kind constant tables indexed by
+    :attr:`kernel` (``simulation._kcommon``); Python layers build the model by
+    :func:`build_model`. A new kind is one row here plus its right-hand-side module
+    (docs/architecture.md, "Adding a model kind").
+
+    Attributes
+    ----------
+    name : str
+        The kind's name (``simulate``, the CLI's ``--model``, sweeps, evaluations).
+    kernel : int
+        Its index in every compiled per-kind table (its position in :data:`MODEL_KINDS`).
+    entry_id : str
+        Its part of the compiled entry points' names (``_integrate_<entry_id>``).
+    states : tuple of (name, SI unit, typical magnitude)
+        The state vector in kernel order.
+    extra_outputs : tuple of (name, SI unit)
+        Output rows after :data:`OUTPUT_CHANNELS` (the PWA models' active cells).
+    what : str
+        What it is, with the paper's equations.
+    label : str
+        Its name in compile notices ("compiling the chamber PWA model solver").
+    carries_spool : bool
+        The state holds the spool (ν, ν̇): the controller reads the spool from the state.
+    jacobian_depends_on_u : bool
+        ∂f/∂y changes with the valve command u: a new command refreshes the Jacobian.
+    inert_states : tuple of (state, slot or None, threshold)
+        Trailing states that are constant (zero row and column of ∂f/∂y), last state first:
+        inert when the slot is None, or when the packed parameter ``p[slot] <= threshold``.
+        The linear solves skip a trailing run of them (bit for bit the same solution).
+    lu_blocks : tuple of int
+        Ends of the diagonal blocks of W = I − hγJ when it is block lower triangular over its
+        full solved size (the last entry): factorised block by block; () a dense LU.
+    rhs_module : str
+        The compiled module holding its ``rhs_<entry_id>``, ``jac_<entry_id>`` (exact ∂f/∂y) and
+        ``dfdt_<entry_id>`` (∂f/∂t) (``hydropwa.simulation._rhs_*``); resolved by the kernel.
+    exact_jacobian_always : bool
+        Its ``jac_`` always fills the exact ∂f/∂y (else it returns False where it cannot, e.g.
+        with a gas accumulator, and the solver takes differences).
+    factory : str
+        ``"module:callable"`` building the model as ``callable(params, **options)``; resolved
+        by :func:`build_model` on first use, so this layer imports nothing above it.
+    factory_options : tuple of (keyword, value)
+        Keywords the factory always gets for this kind (``form="chamber"``).
+    style : (colour, line style, label)
+        How plots draw it.
+    """
+
+    name: str
+    kernel: int
+    entry_id: str
+    states: tuple[tuple[str, str, float], ...]
+    extra_outputs: tuple[tuple[str, str], ...]
+    what: str
+    label: str
+    carries_spool: bool
+    jacobian_depends_on_u: bool
+    inert_states: tuple[tuple[str, str | None, float], ...]
+    lu_blocks: tuple[int, ...]
+    rhs_module: str
+    exact_jacobian_always: bool
+    factory: str
+    factory_options: tuple[tuple[str, object], ...]
+    style: tuple[str, str, str]
+
+    @property
+    def linearized(self) -> bool:
+        """Built from parameters by :func:`hydropwa.linearization.linearize` (not by name alone)."""
+        return self.factory.startswith("hydropwa.linearization")
+
+    def build(self, params: Any, **options: Any) -> Any:
+        """The model of this kind for ``params`` (SystemParams), ``options`` passed to its factory."""
+        module, _sep, attr = self.factory.partition(":")
+        factory = getattr(importlib.import_module(module), attr)
+        return factory(params, **dict(self.factory_options), **options)
+
+
+#: The full model's inert trailing states: the gas accumulator without gas volume, P_S without
+#: the pump model (then an input).
+_FULL_INERT: tuple[tuple[str, str | None, float], ...] = (
+    ("p_acc", "accv", 0.0),
+    ("p_s", "pump", 0.5),
+)
+#: The model kinds, one row each, in kernel order (:attr:`ModelKind.kernel`). ``pwa-chamber``
+#: keeps the full model's state vector (spool, chamber pressures, mechanics; P_S is its
+#: scheduled input, so always inert).
+MODEL_KINDS: dict[str, ModelKind] = {
+    row.name: row
+    for row in (
+        ModelKind(
+            "full", 0, "full", FULL_STATES, (), "full-order model, Eqs. (1)-(11)", "full",
+            carries_spool=True, jacobian_depends_on_u=False, inert_states=_FULL_INERT,
+            rhs_module="hydropwa.simulation._rhs_full", exact_jacobian_always=False,
+            lu_blocks=(2, 6), factory="hydropwa.models:FullOrderModel", factory_options=(),
+            style=("tab:blue", "-", "full-order"),
+        ),
+        ModelKind(
+            "reduced", 1, "reduced", LOAD_STATES, (),
+            "reduced load-pressure model, Eqs. (12)-(15)", "reduced",
+            carries_spool=False, jacobian_depends_on_u=True, inert_states=(), lu_blocks=(),
+            rhs_module="hydropwa.simulation._rhs_load", exact_jacobian_always=True,
+            factory="hydropwa.models:ReducedModel", factory_options=(),
+            style=("tab:green", "--", "reduced (mean P_S)"),
+        ),
+        ModelKind(
+            "pwa", 2, "pwa", LOAD_STATES, PWA_OUTPUT_CHANNELS,
+            "piecewise-affine load-pressure model, Eqs. (16)-(23)", "PWA",
+            carries_spool=False, jacobian_depends_on_u=True, inert_states=(), lu_blocks=(),
+            rhs_module="hydropwa.simulation._rhs_load", exact_jacobian_always=True,
+            factory="hydropwa.linearization:linearize", factory_options=(),
+            style=("tab:red", "-.", "PWA (mean P_S)"),
+        ),
+        ModelKind(
+            "pwa-chamber", 3, "chamber", FULL_STATES, CHAMBER_OUTPUT_CHANNELS,
+            "piecewise-affine chamber-level model (spool, P_A, P_B)", "chamber PWA",
+            carries_spool=True, jacobian_depends_on_u=False,
+            inert_states=(("p_acc", "accv", 0.0), ("p_s", None, 0.0)), lu_blocks=(),
+            rhs_module="hydropwa.simulation._rhs_chamber", exact_jacobian_always=False,
+            factory="hydropwa.linearization:linearize", factory_options=(("form", "chamber"),),
+            style=("tab:orange", "-.", "PWA chamber-level (P_S(t))"),
+        ),
+    )
+}  # fmt: skip
+assert [row.kernel for row in MODEL_KINDS.values()] == list(range(len(MODEL_KINDS)))
 #: Names of the model kinds, in kernel order.
 MODEL_NAMES: tuple[str, ...] = tuple(MODEL_KINDS)
 #: Model kinds built from parameters by ``hydropwa.linearize`` (not by name alone).
-LINEARIZED_MODELS: tuple[str, ...] = ("pwa", "pwa-chamber")
+LINEARIZED_MODELS: tuple[str, ...] = tuple(r.name for r in MODEL_KINDS.values() if r.linearized)
+
+
+def model_kind(name: str) -> ModelKind:
+    """The registry row of the model kind ``name`` (case and surrounding blanks ignored).
+
+    Raises
+    ------
+    ParameterError
+        For an unknown name, listing the known ones.
+    """
+    row = MODEL_KINDS.get(str(name).strip().lower())
+    if row is None:
+        raise ParameterError(f"unknown model {name!r}; choose {', '.join(MODEL_NAMES)}")
+    return row
+
+
+def build_model(name: str, params: Any, **options: Any) -> Any:
+    """The model of kind ``name`` for ``params`` (a SystemParams): the one way a layer builds one.
+
+    ``options`` go to the kind's factory (:attr:`ModelKind.factory`), e.g. ``supply_pressure``,
+    ``scheduled`` for the PWA kinds or ``form="paper"`` for the reduced model.
+    """
+    return model_kind(name).build(params, **options)
+
 
 #: A full-model state whose initial value is that of another state when the caller does not
 #: give it (a component at rest with the node it hangs on).

@@ -50,7 +50,7 @@ def test_state_and_output_indices_follow_the_tables():
     for name, _unit in _layout.OUTPUT_CHANNELS:
         assert getattr(_kcommon, f"O_{name.upper()}") == _layout.OUT[name]
     assert _kcommon.N_OUT_PWA == len(_layout.OUTPUT_CHANNELS + _layout.PWA_OUTPUT_CHANNELS)
-    assert K.N_STATES == tuple(len(s) for _k, s, _w in _layout.MODEL_KINDS.values())
+    assert K.N_STATES == tuple(len(row.states) for row in _layout.MODEL_KINDS.values())
 
 
 def test_signal_slots_are_where_pack_signals_writes():
@@ -121,7 +121,7 @@ def test_every_compiled_module_carries_the_package_stamp():
 
 
 def test_entry_points_are_generated_for_every_model_and_method():
-    kinds = {kind for kind, _s, _w in _layout.MODEL_KINDS.values()}
+    kinds = {row.kernel for row in _layout.MODEL_KINDS.values()}
     assert set(K.ENTRIES) == set(K.SOLVERS.values())
     tables = [t for pair in K.ENTRIES.values() for t in pair]
     for table in tables:

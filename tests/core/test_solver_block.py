@@ -18,6 +18,7 @@ import hydropwa as hp
 from hydropwa.models import as_model
 from hydropwa.params import Accumulator
 from hydropwa.simulation import _kernel as K
+from hydropwa.simulation._kcommon import FULL  # a global: a literal kind in compiled code
 from hydropwa.simulation._rosenbrock import (
     _factor,
     _lu,
@@ -73,12 +74,19 @@ def test_block_solve_equals_the_dense_solve(variant, seed, log_hg):
     hg = 10.0**log_hg
     W = np.empty((n, n))
     piv = np.empty(n, dtype=np.int64)
-    _factor(K.FULL, J, W, piv, hg, p)
     B = b.reshape(1, n).copy()
-    _solve_block(K.FULL, W, piv, B, 0, n_lu)
+    _factor_and_solve_full(J, W, piv, hg, p, B, n_lu)
     x = np.linalg.solve(np.eye(n) - hg * J, b)
     np.testing.assert_allclose(B[0], x, rtol=1e-9, atol=1e-9 * np.max(np.abs(x)))
     assert np.all(B[0, n_lu:] == 0.0)  # the inert states' stage values stay exactly 0
+
+
+@njit(cache=False)
+def _factor_and_solve_full(J, W, piv, hg, p, B, n_lu):
+    """The step loop's factorisation and solve for the full model (its kind a literal, as in
+    every entry point: the kind's block structure is chosen while typing)."""
+    _factor(FULL, J, W, piv, hg, p)
+    _solve_block(FULL, W, piv, B, 0, n_lu)
 
 
 @njit(cache=False)
@@ -89,14 +97,15 @@ def _factor_and_solve_runtime(W, piv, B, n):
 
 @njit(cache=False)
 def _factor_and_solve_block(W, piv, B, n):
-    _lu_block(K.FULL, W, piv, n)  # the full model's path: the 2 + 4 block LU at size 6
-    _solve_block(K.FULL, W, piv, B, 0, n)
+    _lu_block(FULL, W, piv, n)  # the full model's path: the 2 + 4 block LU at size 6
+    _solve_block(FULL, W, piv, B, 0, n)
 
 
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), log_hg=st.floats(-9.0, -2.0))
 def test_the_full_models_block_lu_equals_the_dense_lu(seed, log_hg):
-    """The full model's 6×6 path (``_lu_block`` → ``_lu6``, ``_solve_block`` → ``_solve6``:
+    """The full model's 6×6 path (``_lu_block`` → ``_lu_full``, ``_solve_block`` → ``_solve_full``
+    from its registry row's ``lu_blocks`` = (2, 6):
     the spool block and the chambers–piston block factorised apart) solves W x = b as the
     dense LU with pivoting over all six rows does, for W with the model's structure (the
     spool's rows of J zero outside the spool's columns). Within 1e-9 of |x|: the two orders

@@ -35,17 +35,32 @@ app = new_app(
 )
 
 
-def _pwa_model(params_src, pwa_file: Path | None):
-    from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
-        linearize,
-        load_pwa,
-    )
+def _linearized_model(name: str, params_src, pwa_file: Path | None):
+    """The PWA model of kind ``name``: from a ``--pwa`` document of that kind, or built by name.
+
+    A document must hold a model of the kind asked for (``hydropwa linearize`` writes one per
+    ``--form``) and of the machine given (:func:`_same_machine`); without one the model is
+    built from the parameters by the registry (:func:`hydropwa._layout.build_model`).
+    """
+    from .._layout import build_model  # deferred: loaded only when this command runs
+    from ..linearization import load_pwa  # deferred: loaded only when this command runs
     from ..params import SystemParams  # deferred: loaded only when this command runs
 
     if pwa_file is not None:
-        return _same_machine(load_pwa(pwa_file), params_src, pwa_file)
+        model = load_pwa(pwa_file)
+        if model.name != name:
+            raise PwaError(
+                f"--pwa {pwa_file} holds a {model.name} model; --model {name} needs one written "
+                f"by 'hydropwa linearize' of that kind"
+            )
+        return _same_machine(model, params_src, pwa_file)
     prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
-    return linearize(prm)
+    return build_model(name, prm)
+
+
+def _pwa_model(params_src, pwa_file: Path | None):
+    """The load-pressure PWA model (the default kind of the control commands)."""
+    return _linearized_model("pwa", params_src, pwa_file)
 
 
 def _same_machine(model, params_src, pwa_file: Path):
@@ -123,28 +138,6 @@ def _design_on_chamber(model, *, method, weights, verify, params, **kw):
 
     vkw = {k: kw.pop(k) for k in ("draws", "seed", "sensor_noise", "scheduler")}
     return design_on_chamber(model, weights=weights, verify=verify, verify_kwargs=vkw, **kw)
-
-
-def _chamber_model(params_src, pwa_file: Path | None):
-    """The chamber PWA model: from a ``hydropwa.pwa-chamber/1`` document, or linearized."""
-    from ..linearization import (  # deferred: loaded only when this command runs (a fast --help)
-        ChamberPwaModel,
-        linearize,
-        load_pwa,
-    )
-
-    if pwa_file is not None:
-        model = load_pwa(pwa_file)
-        if not isinstance(model, ChamberPwaModel):
-            raise PwaError(
-                f"--pwa {pwa_file} holds a load-pressure PWA model; --model pwa-chamber needs "
-                "one written by 'hydropwa linearize --form chamber'"
-            )
-        return _same_machine(model, params_src, pwa_file)
-    from ..params import SystemParams  # deferred: loaded only when this command runs
-
-    prm = params_src if isinstance(params_src, SystemParams) else resolve_params(params_src)
-    return linearize(prm, form="chamber")
 
 
 def _weights(text: str | None) -> dict[str, float]:
@@ -432,13 +425,15 @@ def design_command(
         check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
-    if model_name not in ("pwa", "pwa-chamber"):
-        raise ControlError(f"--model {model_name!r} must be pwa or pwa-chamber")
+    from .._layout import LINEARIZED_MODELS  # deferred: loaded only when this command runs
+
+    if model_name not in LINEARIZED_MODELS:
+        raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
     if certify and (model_name != "pwa" or method == "pi"):
         raise ControlError("--certify needs --method lqr or place on --model pwa")
     if model_name == "pwa-chamber" and method != "lqr":
         raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
-    model = _pwa_model(params, pwa) if model_name == "pwa" else _chamber_model(params, pwa)
+    model = _linearized_model(model_name, params, pwa)
     ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
     if method not in ("lqr", "place", "pi"):
@@ -599,7 +594,7 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model under a controller file and print the tracking metrics."""
-    from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
+    from .._layout import MODEL_NAMES, model_kind  # deferred: loaded only when this command runs
     from ..control import (  # deferred: loaded only when this command runs (a fast --help)
         METRIC_UNITS,
         ControlError,
@@ -648,13 +643,7 @@ def simulate_command(
         case = {"x0": x0, "load_force": load_force, "supply_pressure": supply_pressure}
         _compare(ctrl, ref, prm, pwa, t_end, case, rtol, out, plot, noise, seed)
         return
-    mdl = (
-        _pwa_model(prm, pwa)
-        if model == "pwa"
-        else _chamber_model(prm, pwa)
-        if model == "pwa-chamber"
-        else model
-    )
+    mdl = _linearized_model(model, prm, pwa) if model_kind(model).linearized else model
     start = _start_position(x0, ref, prm)
     res = simulate(
         mdl,

@@ -174,11 +174,12 @@ def simulate_command(
     ] = False,
 ) -> None:
     """Simulate a model and write the trajectory (CSV or Parquet) and optionally a plot."""
-    from .._layout import MODEL_NAMES  # deferred: loaded only when this command runs
-    from ..models import (  # deferred: loaded only when this command runs (a fast --help)
-        Model,
-        as_model,
+    from .._layout import (  # deferred: loaded only when this command runs
+        MODEL_NAMES,
+        build_model,
+        model_kind,
     )
+    from ..models import Model  # deferred: loaded only when this command runs (a fast --help)
     from ..simulation import (  # deferred: loaded only when this command runs (a fast --help)
         Sampled,
         WarmUp,
@@ -241,17 +242,11 @@ def simulate_command(
     check_supply_pressure(supply_pressure, prm, duration_f)
     x_init = parse_quantity(x0, "m", "--x0") if x0 is not None else None
     check_position(x_init, prm)
-    mdl: Model
-    if model in ("pwa", "pwa-chamber"):
-        from ..linearization import (
-            linearize,  # deferred: loaded only when this command runs (a fast --help)
-        )
-
-        # with a given P_S (constant or a signal) the cells follow it online: the scheduled model
-        form = "chamber" if model == "pwa-chamber" else "asymmetric"
-        mdl = linearize(prm, form=form, scheduled=supply_pressure is not None)
-    else:
-        mdl = as_model(model, prm)
+    # with a given P_S (constant or a signal) the PWA cells follow it online: the scheduled model
+    linearized = model_kind(model).linearized
+    mdl: Model = build_model(
+        model, prm, **({"scheduled": supply_pressure is not None} if linearized else {})
+    )
     # on a fresh install, the output pass compiles on the other core while this process
     # compiles the solver (nothing starts when it is cached)
     WarmUp([f"output-{model}"])

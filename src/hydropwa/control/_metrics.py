@@ -10,8 +10,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .._layout import build_model
 from .._result import DerivedResult, ResultStatus
-from ..linearization import linearize
 from ..simulation import DEFAULT_RTOL, simulate
 from ._controllers import ControlError
 from ._reference import as_reference
@@ -355,15 +355,9 @@ def compare_models(
     ref = as_reference(reference)
     start = float(ref(0.0)) if initial_position is None else float(initial_position)
     results: dict[str, Any] = {}
+    given = {} if pwa is None else {pwa.name: pwa}  # a PWA model given stands for its kind
     for name in models:
-        if name == "pwa":
-            if pwa is None:
-                pwa = linearize(params)
-            mdl: Any = pwa
-        elif name == "pwa-chamber":
-            mdl = linearize(params, form="chamber")
-        else:
-            mdl = name
+        mdl = given[name] if name in given else build_model(name, params)
         results[name] = simulate(
             mdl,
             duration=duration,

@@ -15,16 +15,15 @@ import math
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .._channels import SCORED_CHANNELS, START_REQUIRED, STATE_CHANNELS
 from .._errors import DataError
+from .._layout import build_model, model_kind
 from .._result import DerivedResult, ResultStatus
 from ..data import screen_runs
-from ..linearization import linearize
-from ..models import FullOrderModel, ReducedModel
 from ..simulation import CHANNEL_UNITS, Sampled, simulate
 from ._metrics import channel_metrics, drift_per_period
 
@@ -40,17 +39,52 @@ __all__ = [
     "sound_runs",
 ]
 
-#: Model variants evaluate_run knows: name → description.
-MODELS: dict[str, str] = {
-    "full": "full-order model, measured P_S(t)",
-    "reduced": "asymmetric reduced model, average P_S",
-    "reduced-scheduled": "asymmetric reduced model, measured P_S(t)",
-    "pwa": "asymmetric PWA model, cells at the average P_S",
-    "pwa-scheduled": "asymmetric PWA model, cells scheduled on the measured P_S(t)",
-    "reduced-paper": "the paper's mean-area reduced model, average P_S (Sec. VII)",
-    "pwa-paper": "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
-    "pwa-chamber": "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
+
+class ModelVariant(NamedTuple):
+    """One model variant of the evaluation: a model kind, its factory options and its P_S input."""
+
+    what: str
+    kind: str  # the registry's model kind (hydropwa._layout.MODEL_KINDS)
+    options: tuple[tuple[str, Any], ...]  # keywords of the kind's factory (form, scheduled)
+    supply: str  # the P_S input: "measured" P_S(t), its "mean", or "none" (cells at the mean)
+
+
+#: The model variants evaluate_run knows, one row each. The PWA kinds are linearized at the
+#: run's average P_S.
+VARIANTS: dict[str, ModelVariant] = {
+    "full": ModelVariant("full-order model, measured P_S(t)", "full", (), "measured"),
+    "reduced": ModelVariant("asymmetric reduced model, average P_S", "reduced", (), "mean"),
+    "reduced-scheduled": ModelVariant(
+        "asymmetric reduced model, measured P_S(t)", "reduced", (), "measured"
+    ),
+    "pwa": ModelVariant("asymmetric PWA model, cells at the average P_S", "pwa", (), "none"),
+    "pwa-scheduled": ModelVariant(
+        "asymmetric PWA model, cells scheduled on the measured P_S(t)",
+        "pwa",
+        (("scheduled", True),),
+        "measured",
+    ),
+    "reduced-paper": ModelVariant(
+        "the paper's mean-area reduced model, average P_S (Sec. VII)",
+        "reduced",
+        (("form", "paper"),),
+        "mean",
+    ),
+    "pwa-paper": ModelVariant(
+        "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
+        "pwa",
+        (("form", "consistent"),),
+        "none",
+    ),
+    "pwa-chamber": ModelVariant(
+        "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
+        "pwa-chamber",
+        (("scheduled", True),),
+        "measured",
+    ),
 }
+#: Model variants evaluate_run knows: name → description.
+MODELS: dict[str, str] = {name: v.what for name, v in VARIANTS.items()}
 #: Channels scored per run (the channel table's scored rows, in its rank order).
 CHANNELS = SCORED_CHANNELS
 #: Active-cell channels: the load-pressure PWA models' (g, o, n, w), pwa-chamber's (g, qa, qb, x, w).
@@ -331,22 +365,13 @@ def _supply(run, params, start: EvaluationStart, notes: list[str]):
 
 
 def _model_and_inputs(name: str, params, ps_signal, ps_mean: float):
-    """(model object, supply-pressure input) of one variant."""
-    if name == "full":
-        return FullOrderModel(params), ps_signal
-    if name == "reduced":
-        return ReducedModel(params), ps_mean
-    if name == "reduced-scheduled":
-        return ReducedModel(params), ps_signal
-    if name == "reduced-paper":
-        return ReducedModel(params, "paper"), ps_mean
-    if name == "pwa":
-        return linearize(params, supply_pressure=ps_mean), None
-    if name == "pwa-paper":
-        return linearize(params, supply_pressure=ps_mean, form="consistent"), None
-    if name == "pwa-chamber":
-        return linearize(params, supply_pressure=ps_mean, form="chamber", scheduled=True), ps_signal
-    return linearize(params, supply_pressure=ps_mean, scheduled=True), ps_signal
+    """(model object, supply-pressure input) of one variant (:data:`VARIANTS`)."""
+    variant = VARIANTS[name]
+    options = dict(variant.options)
+    if model_kind(variant.kind).linearized:
+        options["supply_pressure"] = ps_mean
+    ps_in = {"measured": ps_signal, "mean": ps_mean, "none": None}[variant.supply]
+    return build_model(variant.kind, params, **options), ps_in
 
 
 def _initial_state(model, start: EvaluationStart, ps_mean: float) -> np.ndarray:

@@ -24,9 +24,11 @@ from .._layout import (
     FULL_STATE_TIES,
     FULL_STATES,
     LOAD_STATES,
+    MODEL_KINDS,
     MODEL_NAMES,
     N_BASE,
     SLOT,
+    model_kind,
     state_vector,
 )
 from ..components import specimen_force
@@ -319,44 +321,39 @@ class ReducedModel(_ModelBase):
         return np.array(state_vector(LOAD_STATES, values), dtype=float)
 
 
-_BY_NAME: dict[str, type[FullOrderModel] | type[ReducedModel]] = {
-    "full": FullOrderModel,
-    "reduced": ReducedModel,
-}
-
-
 def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
-    """Return a model object from a model object or a name (``full``, ``reduced``).
+    """Return a model object from a model object or the name of a kind built in this layer.
 
-    A name needs ``params`` (the machine); there is no default machine, so ``None`` with a
-    name raises :class:`~hydropwa.ParameterError` saying how to give it.
+    A name (``full``, ``reduced``: the registry rows whose factory is a class of this module,
+    :data:`hydropwa._layout.MODEL_KINDS`) needs ``params`` (the machine); there is no default
+    machine, so ``None`` with a name raises :class:`~hydropwa.ParameterError` saying how to give it.
 
-    The PWA model is built from its parameters by :func:`hydropwa.linearization.linearize`
-    (a layer above this one); pass that object, or resolve the name ``pwa`` where it is
-    used (the CLI, :mod:`hydropwa.sweep`).
+    The PWA kinds are built from parameters by :func:`hydropwa.linearization.linearize` (a layer
+    above this one); pass that object, or build it by name with
+    :func:`hydropwa._layout.build_model` where it is used (the CLI, :mod:`hydropwa.sweep`).
     """
     if isinstance(model, Model):
         return model
-    if isinstance(model, str):
-        name = model.strip().lower()
-        if name in _BY_NAME:
-            if params is None:  # no default machine (issue 37)
-                raise ParameterError(
-                    f"model {model!r} needs the machine: pass params=load_params('machine.toml') "
-                    "(your machine) or params=get_preset('paper') (the paper's rig)"
-                )
-            return _BY_NAME[name](params)
-        if name == "pwa":
-            raise ParameterError(
-                "the PWA model is built from parameters by linearize(params); "
-                "pass hydropwa.linearize(params) instead of 'pwa'"
-            )
-        if name == "pwa-chamber":
-            raise ParameterError(
-                "the chamber PWA model is built from parameters by linearize(params, form='chamber'); "
-                "pass hydropwa.linearize(params, form='chamber') instead of 'pwa-chamber'"
-            )
-        raise ParameterError(f"unknown model {model!r}; choose {', '.join(MODEL_NAMES)}")
-    raise ParameterError(
-        f"cannot simulate a {type(model).__name__}; give a model object or 'full'/'reduced'"
-    )
+    if not isinstance(model, str):
+        raise ParameterError(
+            f"cannot simulate a {type(model).__name__}; give a model object or a model name "
+            f"({', '.join(_OWN_KINDS)}) with params"
+        )
+    row = model_kind(model)
+    if row.linearized:
+        options = "".join(f", {k}={v!r}" for k, v in row.factory_options)
+        raise ParameterError(
+            f"the {row.what} is built from parameters by linearize(params{options}); "
+            f"pass hydropwa.linearize(params{options}) instead of {row.name!r}"
+        )
+    if params is None:  # no default machine (issue 37)
+        raise ParameterError(
+            f"model {model!r} needs the machine: pass params=load_params('machine.toml') "
+            "(your machine) or params=get_preset('paper') (the paper's rig)"
+        )
+    built: Model = row.build(params)
+    return built
+
+
+#: The kinds built in this layer (by :func:`as_model` from a name).
+_OWN_KINDS = tuple(name for name, row in MODEL_KINDS.items() if not row.linearized)

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from .._display import channel_unit
 from .._io import atomic_path
-from .._layout import OUTPUT_CHANNELS
+from .._layout import MODEL_KINDS, OUTPUT_CHANNELS
 
 __all__ = [
     "DISPLAY",
@@ -47,16 +47,14 @@ DISPLAY: dict[str, tuple[str, float, str]] = {
     if name in _LABELS
 }
 
-#: Line style per model variant (colour, line style, label).
+#: Line style per model variant (colour, line style, label): each model kind's from its registry
+#: row (:attr:`hydropwa._layout.ModelKind.style`), then the evaluation's other variants.
 MODEL_STYLE: dict[str, tuple[str, str, str]] = {
-    "full": ("tab:blue", "-", "full-order"),
-    "reduced": ("tab:green", "--", "reduced (mean P_S)"),
+    **{name: row.style for name, row in MODEL_KINDS.items()},
     "reduced-scheduled": ("tab:olive", "--", "reduced (P_S(t))"),
-    "pwa": ("tab:red", "-.", "PWA (mean P_S)"),
     "pwa-scheduled": ("tab:purple", ":", "PWA scheduled (P_S(t))"),
     "reduced-paper": ("tab:gray", "--", "reduced, paper form (mean area)"),
     "pwa-paper": ("tab:brown", "-.", "PWA, paper form (mean area)"),
-    "pwa-chamber": ("tab:orange", "-.", "PWA chamber-level (P_S(t))"),
 }
 
 

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from matplotlib.axes import Axes
 
+from .._layout import MODEL_KINDS
 from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
 from ._shapes import ClosedLoopRun, EvaluationShape, MetricTable, Recorded, require
 
@@ -212,7 +213,8 @@ def plot_compare(
     return fig
 
 
-_LOOP_COLORS = {"full": "C0", "reduced": "C1", "pwa": "C2", "pwa-chamber": "C3"}
+#: The closed-loop plot's colour of each model kind: the colour cycle in registry order.
+_LOOP_COLORS = {name: f"C{row.kernel}" for name, row in MODEL_KINDS.items()}
 
 
 def plot_closed_loop(

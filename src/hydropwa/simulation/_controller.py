@@ -150,7 +150,7 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import FULL_STATES, MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
+from .._layout import MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
 from .._layout_law import CST, CTL, EROW_SLOT, EXT, LOG_ROW, RCH, ROW_SLOT, XROW_SLOT
 from .._layout_law import SIZES as LAW_SIZES
 from ..components._physics import load_flow_drop, signed_sqrt
@@ -163,7 +163,7 @@ _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
 _NU = Y_FULL["spool"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
 #: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
-_SPOOL_A, _SPOOL_B = (k for k, states, _d in MODEL_KINDS.values() if states is FULL_STATES)
+_SPOOL_A, _SPOOL_B = (row.kernel for row in MODEL_KINDS.values() if row.carries_spool)
 
 #: the law's packed vectors, declared once in the layout layer (hydropwa/_layout_law.py); the
 #: index constants below are read from its tables (numba compiles them in as integers)

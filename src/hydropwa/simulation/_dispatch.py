@@ -1,27 +1,34 @@
 """The model table of the compiled code: each kind's right-hand side and derivatives.
 
-The overloads here are resolved while numba types a kernel, so a kernel whose model kind
-is a literal holds only its own model's code; the point kernels serve the Python side.
+The functions of each kind are found from its registry row (:data:`hydropwa._layout.MODEL_KINDS`:
+``rhs_module``, ``entry_id``, ``exact_jacobian_always``), once, at import: :data:`KIND_FUNCTIONS`.
+The overloads here pick a kind's functions from that table while numba types a kernel, so a
+kernel whose model kind is a literal holds only its own model's code, and no compiled code
+branches over kinds; the point kernels serve the Python side.
 """
 
 from __future__ import annotations
 
+import importlib
+from typing import Any, NamedTuple
+
 import numpy as np
-from numba import njit, types
+from numba import njit
+from numba.core.errors import TypingError
 from numba.extending import overload
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from ._kcommon import (
     CHAMBER,
-    FULL,
+    KIND_ROWS,
     PWA,
     REDUCED,
     Y_X,
     _input_rates,
     _inputs,
+    literal_kind,
 )
 from ._rhs_chamber import dfdt_chamber, jac_chamber, rhs_chamber
-from ._rhs_full import dfdt_full, jac_full, rhs_full
 from ._rhs_load import (
     _pwa_load_flow,
     dfdt_pwa,
@@ -34,85 +41,92 @@ from ._rhs_load import (
 )
 from ._signals import NO_REFCOUNT
 
+_literal_kind = literal_kind  # (the name the method table's overload imports)
+_JIT: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy", **NO_REFCOUNT}
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+
+class KindFunctions(NamedTuple):
+    """The compiled functions of one model kind (from its registry row)."""
+
+    rhs: Any  # f(y, u, P_S, F_L, p, dy)
+    jac: Any  # exact ∂f/∂y into J (returns False where it has none, see exact_always)
+    dfdt: Any  # ∂f/∂t from the inputs' rates
+    exact_always: bool
+    rhs_call: Any  # rhs called through a wrapper, not inlined (finite differences, see _rhs_fd)
+
+
+def _call_wrapper(rhs, name):
+    """``rhs`` behind a compiled call of its own (cached under ``name``)."""
+
+    def call(y, u, ps, fl, p, dy):
+        rhs(y, u, ps, fl, p, dy)
+
+    call.__name__ = call.__qualname__ = name
+    return njit(**_JIT)(call)
+
+
+def _kind_functions(row) -> KindFunctions:
+    """A registry row's compiled functions: ``rhs_<entry_id>`` etc. of its ``rhs_module``."""
+    module = importlib.import_module(row.rhs_module)
+    rhs, jac, dfdt = (getattr(module, f"{f}_{row.entry_id}") for f in ("rhs", "jac", "dfdt"))
+    call = _call_wrapper(rhs, f"_rhs_{row.entry_id}_call") if row.exact_jacobian_always else rhs
+    return KindFunctions(rhs, jac, dfdt, row.exact_jacobian_always, call)
+
+
+#: Each kind's compiled functions, indexed by its kernel id.
+KIND_FUNCTIONS: tuple[KindFunctions, ...] = tuple(_kind_functions(row) for row in KIND_ROWS)
+
+
+def _functions_of(kind, what):
+    """The :class:`KindFunctions` of a literal ``kind`` (a typing error otherwise)."""
+    k = literal_kind(kind)
+    if k is None:
+        raise TypingError(f"{what}: the model kind must be a compile-time constant")
+    return KIND_FUNCTIONS[k]
+
+
 def rhs_at(kind, y, u, ps, fl, p, dy):
-    """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated."""
-    if kind == FULL:
-        rhs_full(y, u, ps, fl, p, dy)
-    elif kind == REDUCED:
-        rhs_reduced(y, u, ps, fl, p, dy)
-    elif kind == PWA:
-        rhs_pwa(y, u, ps, fl, p, dy)
-    else:
-        rhs_chamber(y, u, ps, fl, p, dy)
-
-
-def _literal_kind(kind):
-    """The value of a literal integer type (a model kind or a method), or None if not literal."""
-    return kind.literal_value if isinstance(kind, types.IntegerLiteral) else None
+    """Right-hand side of model ``kind`` with the inputs u, P_S, F_L already evaluated (Python side)."""
+    KIND_FUNCTIONS[int(kind)].rhs(y, u, ps, fl, p, dy)
 
 
 def _rhs_for(kind, y, u, ps, fl, p, dy):
-    """:func:`rhs_at` resolved at compile time; callable from compiled code only.
+    """The right-hand side of the literal model ``kind``, chosen while typing; compiled code only.
 
-    Inside the integrator the model kind is a literal (one entry point per model). numba
-    inlines ``inline="always"`` functions before it types them, so the branches of an
-    inlined :func:`rhs_at` on ``kind`` survive and all three right-hand sides (with their
-    Jacobians) would be typed and compiled into every model's kernel. This overload picks
-    the model's own right-hand side while typing, so each kernel compiles only its model.
+    Inside the integrator the model kind is a literal (one entry point per model); this
+    overload picks the model's own right-hand side from :data:`KIND_FUNCTIONS`, so each kernel
+    compiles only its model.
     """
 
 
-# The reduced and PWA right-hand sides are inlined into their kernels through the _rhs_for
-# overload. Called through the two wrappers below instead, they compile faster (PWA 16.8 against
-# 24.7 CPU-s, reduced 13.7 against 14.6 s, measured on the mean-area models) but the asymmetric
-# models then run at 3.2 / 4.3 ms per 10 s of the paper rig instead of 3.0 / 3.3 ms (3300x and
-# 3000x real time, the speed the asymmetric model had to keep): the warm speed won. The
-# wrappers stay for a build that prefers a fast first run: return them from _ol_rhs_for.
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _rhs_reduced_call(y, u, ps, fl, p, dy):
-    rhs_reduced(y, u, ps, fl, p, dy)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _rhs_pwa_call(y, u, ps, fl, p, dy):
-    rhs_pwa(y, u, ps, fl, p, dy)
-
-
+# The reduced and PWA right-hand sides (exact Jacobians) are inlined into their kernels through
+# the _rhs_for overload. Called through their call wrappers instead (KindFunctions.rhs_call),
+# they compile faster (PWA 16.8 against 24.7 CPU-s, reduced 13.7 against 14.6 s, measured on the
+# mean-area models) but the asymmetric models then run at 3.2 / 4.3 ms per 10 s of the paper rig
+# instead of 3.0 / 3.3 ms (3300x and 3000x real time, the speed the asymmetric model had to
+# keep): the warm speed won. Return rhs_call from _ol_rhs_for for a build that prefers a fast
+# first run.
 @overload(_rhs_for, prefer_literal=True)
 def _ol_rhs_for(kind, y, u, ps, fl, p, dy):
-    k = _literal_kind(kind)
-    if k == FULL:
-        return lambda kind, y, u, ps, fl, p, dy: rhs_full(y, u, ps, fl, p, dy)
-    if k == REDUCED:
-        return lambda kind, y, u, ps, fl, p, dy: rhs_reduced(y, u, ps, fl, p, dy)
-    if k == PWA:
-        return lambda kind, y, u, ps, fl, p, dy: rhs_pwa(y, u, ps, fl, p, dy)
-    if k == CHAMBER:
-        return lambda kind, y, u, ps, fl, p, dy: rhs_chamber(y, u, ps, fl, p, dy)
-    return lambda kind, y, u, ps, fl, p, dy: rhs_at(kind, y, u, ps, fl, p, dy)
+    rhs = _functions_of(kind, "_rhs_for").rhs
+    return lambda kind, y, u, ps, fl, p, dy: rhs(y, u, ps, fl, p, dy)
 
 
 def _rhs_fd(kind, y, u, ps, fl, p, dy):
     """The right-hand side for the finite-difference Jacobian; compiled code only.
 
-    Every model has an exact Jacobian; differences serve ``exact_jac=False`` (comparisons)
-    and a full model whose exact Jacobian declines (with a gas accumulator): the full and
-    chamber models' right-hand side is called as in :func:`_rhs_for`, the reduced and PWA
-    models' through a wrapper instead of inlined, which keeps two more copies of it out of
-    their kernels (compile time) without costing the default path anything.
+    A kind whose Jacobian may be by differences (the full and chamber models) calls its
+    right-hand side as in :func:`_rhs_for`. Kinds with an exact Jacobian always use differences
+    only with ``exact_jac=False`` (comparisons): there the right-hand side is called through a
+    wrapper instead of inlined, which keeps two more copies of it out of their kernels
+    (compile time) without costing the default path anything.
     """
 
 
 @overload(_rhs_fd, prefer_literal=True)
 def _ol_rhs_fd(kind, y, u, ps, fl, p, dy):
-    k = _literal_kind(kind)
-    if k == REDUCED:
-        return lambda kind, y, u, ps, fl, p, dy: _rhs_reduced_call(y, u, ps, fl, p, dy)
-    if k == PWA:
-        return lambda kind, y, u, ps, fl, p, dy: _rhs_pwa_call(y, u, ps, fl, p, dy)
-    return lambda kind, y, u, ps, fl, p, dy: _rhs_for(kind, y, u, ps, fl, p, dy)
+    call = _functions_of(kind, "_rhs_fd").rhs_call
+    return lambda kind, y, u, ps, fl, p, dy: call(y, u, ps, fl, p, dy)
 
 
 def _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
@@ -123,74 +137,32 @@ def _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
     """
 
 
-def _exact_reduced(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    jac_reduced(y, u, ps, fl, p, J)
-    du, dps, dfl = _input_rates(t, sg)
-    dfdt_reduced(y, u, ps, fl, du, dps, dfl, p, dfdt)
-    return True
+def _exact_impl(fns: KindFunctions):
+    """:func:`_exact_derivatives` of one kind's functions."""
+    jac, rates = fns.jac, fns.dfdt
+    if fns.exact_always:
 
+        def always(kind, t, y, u, ps, fl, p, sg, J, dfdt):
+            jac(y, u, ps, fl, p, J)
+            du, dps, dfl = _input_rates(t, sg)
+            rates(y, u, ps, fl, du, dps, dfl, p, dfdt)
+            return True
 
-def _exact_pwa(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    jac_pwa(y, u, ps, fl, p, J)
-    du, dps, dfl = _input_rates(t, sg)
-    dfdt_pwa(y, u, ps, fl, du, dps, dfl, p, dfdt)
-    return True
+        return always
 
-
-def _exact_full(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    if not jac_full(y, u, ps, fl, p, J):
-        return False
-    du, dps, dfl = _input_rates(t, sg)
-    dfdt_full(y, u, ps, fl, du, dps, dfl, p, dfdt)
-    return True
-
-
-def _exact_chamber(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    if not jac_chamber(y, u, ps, fl, p, J):
-        return False
-    du, dps, dfl = _input_rates(t, sg)
-    dfdt_chamber(y, u, ps, fl, du, dps, dfl, p, dfdt)
-    return True
-
-
-def _exact_any(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    if kind == FULL:
-        if not jac_full(y, u, ps, fl, p, J):
+    def where_available(kind, t, y, u, ps, fl, p, sg, J, dfdt):
+        if not jac(y, u, ps, fl, p, J):
             return False
         du, dps, dfl = _input_rates(t, sg)
-        dfdt_full(y, u, ps, fl, du, dps, dfl, p, dfdt)
+        rates(y, u, ps, fl, du, dps, dfl, p, dfdt)
         return True
-    if kind == REDUCED:
-        jac_reduced(y, u, ps, fl, p, J)
-        du, dps, dfl = _input_rates(t, sg)
-        dfdt_reduced(y, u, ps, fl, du, dps, dfl, p, dfdt)
-        return True
-    if kind == PWA:
-        jac_pwa(y, u, ps, fl, p, J)
-        du, dps, dfl = _input_rates(t, sg)
-        dfdt_pwa(y, u, ps, fl, du, dps, dfl, p, dfdt)
-        return True
-    if kind == CHAMBER:
-        if not jac_chamber(y, u, ps, fl, p, J):
-            return False
-        du, dps, dfl = _input_rates(t, sg)
-        dfdt_chamber(y, u, ps, fl, du, dps, dfl, p, dfdt)
-        return True
-    return False
+
+    return where_available
 
 
 @overload(_exact_derivatives, prefer_literal=True)
 def _ol_exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
-    k = _literal_kind(kind)
-    if k == FULL:
-        return _exact_full
-    if k == REDUCED:
-        return _exact_reduced
-    if k == PWA:
-        return _exact_pwa
-    if k == CHAMBER:
-        return _exact_chamber
-    return _exact_any
+    return _exact_impl(_functions_of(kind, "_exact_derivatives"))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -249,8 +221,24 @@ def _point_chamber(y, u, ps, fl, p, f, J, G):
 _POINT = {REDUCED: _point_reduced, PWA: _point_pwa, CHAMBER: _point_chamber}
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+def _rhs_entry(fns: KindFunctions, name: str):
+    """``rhs(t, y, p, sg, dy)`` of one kind, the inputs evaluated from the packed signals."""
+    f = fns.rhs
+
+    def entry(t, y, p, sg, dy):
+        u, ps, fl = _inputs(t, sg)
+        f(y, u, ps, fl, p, dy)
+
+    entry.__name__ = entry.__qualname__ = name
+    return njit(cache=True, nogil=True, error_model="numpy")(entry)
+
+
+_RHS_ENTRIES = tuple(
+    _rhs_entry(fns, f"_rhs_{row.entry_id}_at_t")
+    for fns, row in zip(KIND_FUNCTIONS, KIND_ROWS, strict=True)
+)
+
+
 def rhs(kind, t, y, p, sg, dy):
     """Right-hand side of model ``kind`` at time t (inputs evaluated from the packed signals)."""
-    u, ps, fl = _inputs(t, sg)
-    rhs_at(kind, y, u, ps, fl, p, dy)
+    _RHS_ENTRIES[int(kind)](t, y, p, sg, dy)

@@ -5,7 +5,7 @@ compile-time constants (closure constants of :func:`_open_entry` / :func:`_close
 machine code holds only its own model's right-hand side, Jacobian and stepper (see
 :func:`~._dispatch._rhs_for`, :func:`~._dispatch._exact_derivatives`,
 :func:`~._rosenbrock._step_for`), and a command compiles only the one it runs. The table is
-:data:`hydropwa._layout.MODEL_KINDS` × :data:`~._rosenbrock.SOLVERS`; each entry is named
+:data:`hydropwa._layout.MODEL_KINDS` × :data:`~._rosenbrock.METHODS`; each entry is named
 ``_integrate_<model>[_ros23]`` and ``_closed_<model>[_ros23]`` (its on-disk cache file is keyed by
 that name, numba's index by the closure constants).
 
@@ -25,13 +25,11 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import MODEL_KINDS
 from ._march import _integrate, _integrate_closed
-from ._rosenbrock import ROS4LS, ROS23, ROS34PW2
+from ._rosenbrock import METHODS, ROS4LS, ROS23, ROS34PW2
 
-#: Identifier of each model kind in the entry points' names (``pwa-chamber`` → ``chamber``).
-KERNEL_IDS: dict[int, str] = {
-    kind: name.split("-")[-1] for name, (kind, _s, _w) in MODEL_KINDS.items()
-}
-_METHOD_SUFFIX = {ROS34PW2: "", ROS23: "_ros23", ROS4LS: "_ros4ls"}
+#: Identifier of each model kind in the entry points' names (its registry row's ``entry_id``).
+KERNEL_IDS: dict[int, str] = {row.kernel: row.entry_id for row in MODEL_KINDS.values()}
+_METHOD_SUFFIX = {m.id: m.entry_suffix for m in METHODS}
 
 
 def _compiled(fn, name):
@@ -58,20 +56,18 @@ def _closed_entry(kind, method):
     return _compiled(entry, f"_closed_{KERNEL_IDS[kind]}{_METHOD_SUFFIX[method]}")
 
 
-#: Open-loop entry points: ``_ENTRY[kind]`` (ROS34PW2), ``_ENTRY_ROS23[kind]``, ``_ENTRY_ROS4LS[kind]``.
-_ENTRY = {kind: _open_entry(kind, ROS34PW2) for kind in KERNEL_IDS}
-_ENTRY_ROS23 = {kind: _open_entry(kind, ROS23) for kind in KERNEL_IDS}
-_ENTRY_ROS4LS = {kind: _open_entry(kind, ROS4LS) for kind in KERNEL_IDS}
-#: Closed-loop entry points, likewise.
-_CLOSED = {kind: _closed_entry(kind, ROS34PW2) for kind in KERNEL_IDS}
-_CLOSED_ROS23 = {kind: _closed_entry(kind, ROS23) for kind in KERNEL_IDS}
-_CLOSED_ROS4LS = {kind: _closed_entry(kind, ROS4LS) for kind in KERNEL_IDS}
-#: The entry tables by method: open loop, closed loop.
+#: The entry tables by method id: (open loop, closed loop), each ``{kind: entry}``.
 ENTRIES = {
-    ROS34PW2: (_ENTRY, _CLOSED),
-    ROS23: (_ENTRY_ROS23, _CLOSED_ROS23),
-    ROS4LS: (_ENTRY_ROS4LS, _CLOSED_ROS4LS),
+    m.id: (
+        {kind: _open_entry(kind, m.id) for kind in KERNEL_IDS},
+        {kind: _closed_entry(kind, m.id) for kind in KERNEL_IDS},
+    )
+    for m in METHODS
 }
+#: The default method's (ROS34PW2) open- and closed-loop entries, and the others', by kind.
+_ENTRY, _CLOSED = ENTRIES[ROS34PW2]
+_ENTRY_ROS23, _CLOSED_ROS23 = ENTRIES[ROS23]
+_ENTRY_ROS4LS, _CLOSED_ROS4LS = ENTRIES[ROS4LS]
 # every entry under its name in this module (``_integrate_full``, ``_closed_pwa_ros23``, …)
 globals().update({d.__name__: d for pair in ENTRIES.values() for t in pair for d in t.values()})
 

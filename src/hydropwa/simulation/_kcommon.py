@@ -8,7 +8,8 @@ constants. The three packed inputs u, P_S, F_L are read here for every model.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import (
@@ -53,16 +54,42 @@ INLINE_JIT: dict = {**SOLVER_JIT, "inline": "always"}
 #: ... that touch only arrays their caller owns (no reference counting, see ``NO_REFCOUNT``).
 INLINE_NRT_JIT: dict = {**INLINE_JIT, **NO_REFCOUNT}
 
-FULL, REDUCED, PWA, CHAMBER = (MODEL_KINDS[k][0] for k in ("full", "reduced", "pwa", "pwa-chamber"))
+#: The registry rows (:data:`hydropwa._layout.MODEL_KINDS`) in kernel order: every per-kind
+#: constant of the compiled code below is derived from them, indexed by the kind's kernel id.
+KIND_ROWS = tuple(MODEL_KINDS.values())
+#: The kernel ids under the names the physics modules use (the registry's rows, in order).
+FULL, REDUCED, PWA, CHAMBER = (row.kernel for row in KIND_ROWS)
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
-N_STATES = tuple(len(states) for _kind, states, _what in MODEL_KINDS.values())
-_N_FULL, _N_LOAD = N_STATES[FULL], N_STATES[REDUCED]
+N_STATES = tuple(len(row.states) for row in KIND_ROWS)
+_N_FULL = N_STATES[FULL]  # (the chamber model's loops over the full state)
 # State indices: generated from the state tables in hydropwa._layout.
 Y_NU, Y_DNU, Y_PA, Y_PB, Y_X, Y_V, Y_PS = (
     Y_FULL[k] for k in ("spool", "spool_rate", "p_a", "p_b", "x", "v", "p_s")
 )
 Y_PACC = Y_FULL["p_acc"]
 L_PL, L_V, L_X = (Y_LOAD[k] for k in ("p_l", "v", "x"))
+
+#: Per-kind flags of the registry rows (``CARRIES_SPOOL[kind]``, ...).
+CARRIES_SPOOL = tuple(row.carries_spool for row in KIND_ROWS)
+JAC_DEPENDS_ON_U = tuple(row.jacobian_depends_on_u for row in KIND_ROWS)
+#: Inert trailing states of each kind (:attr:`~hydropwa._layout.ModelKind.inert_states`), padded
+#: to ``N_INERT`` entries: state index (−1: none), parameter slot (−1: always inert), threshold.
+N_INERT = max(len(row.inert_states) for row in KIND_ROWS)
+
+
+def _inert_table(row, field):
+    pad = ((-1, -1, 0.0),) * (N_INERT - len(row.inert_states))
+    index = {name: i for i, (name, _u, _s) in enumerate(row.states)}
+    entries = tuple(
+        (index[state], -1 if slot is None else SLOT[slot], float(limit))
+        for state, slot, limit in row.inert_states
+    )
+    return tuple(entry[field] for entry in entries + pad)
+
+
+INERT_STATE, INERT_SLOT, INERT_LIMIT = (
+    tuple(_inert_table(row, field) for row in KIND_ROWS) for field in range(3)
+)
 
 # Packed parameter vector layout: generated from the one table in hydropwa._layout.
 I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
@@ -109,10 +136,69 @@ N_STATS = len(SOLVER_STATS)
 OK, MAX_STEPS, STEP_COLLAPSE, NON_FINITE = 0, 1, 2, 3
 
 
+def literal_kind(kind):
+    """The value of a literal integer type (a model kind or a method), or None if not literal."""
+    return kind.literal_value if isinstance(kind, types.IntegerLiteral) else None
+
+
+def per_kind(table, name):
+    """A compiled function ``f(kind)`` returning ``table[kind]``; callable from compiled code only.
+
+    With a literal ``kind`` (one entry point per kind) the value is a compile-time constant of
+    the caller's code (loops over n states unroll, flags fold away); otherwise a table look-up.
+    """
+
+    def fn(kind):
+        raise NotImplementedError(f"{name} is called from compiled code only")
+
+    fn.__name__ = fn.__qualname__ = name
+
+    @overload(fn, prefer_literal=True, inline="always")
+    def _ol(kind):
+        k = literal_kind(kind)
+        if k is None:
+            return lambda kind: table[kind]
+        value = table[k]
+        return lambda kind: value
+
+    return fn
+
+
+#: Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll).
+n_states = per_kind(N_STATES, "n_states")
+#: Whether the state of model ``kind`` holds the spool (ν, ν̇).
+carries_spool = per_kind(CARRIES_SPOOL, "carries_spool")
+#: Whether ∂f/∂y of model ``kind`` depends on the valve command u.
+jac_depends_on_u = per_kind(JAC_DEPENDS_ON_U, "jac_depends_on_u")
+_inert_states = per_kind(INERT_STATE, "inert_states")
+_inert_slots = per_kind(INERT_SLOT, "inert_slots")
+_inert_limits = per_kind(INERT_LIMIT, "inert_limits")
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def n_states(kind):
-    """Number of states of model ``kind``; a compile-time constant where ``kind`` is (small loops unroll)."""
-    return _N_FULL if kind == FULL or kind == CHAMBER else _N_LOAD
+def inert_state(kind, j, p):
+    """State j of model ``kind`` is constant for the parameters p (a zero column and row of ∂f/∂y).
+
+    From the registry row's ``inert_states``: the full model's P_S without the pump model and
+    P_acc without an accumulator; the chamber model's P_S always (its input).
+    """
+    states, slots, limits = _inert_states(kind), _inert_slots(kind), _inert_limits(kind)
+    for i in range(N_INERT):
+        if states[i] == j:
+            return slots[i] < 0 or p[slots[i]] <= limits[i]
+    return False
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def n_solve(kind, p):
+    """Number of leading states of model ``kind`` left after its trailing inert states (:func:`inert_state`)."""
+    n = n_states(kind)
+    states = _inert_states(kind)
+    for i in range(N_INERT):
+        if states[i] != n - 1 or not inert_state(kind, states[i], p):
+            break
+        n -= 1
+    return n
 
 
 # the input channels as int64 values, not literals: a literal argument would compile

@@ -107,6 +107,7 @@ from ._entries import (
     _point_args,
 )
 from ._kcommon import (
+    CHAMBER,
     N_STATES,
     S_KIND_U,
 )
@@ -234,7 +235,8 @@ def integrate(kind, run, method=ROS34PW2, jac_reuse=True, gustafsson=True, exact
         return entry(*args)
 
 
-_KIND_NAMES = ("full", "reduced", "PWA", "chamber PWA")
+#: Each kind's name in compile notices (its registry row's ``label``).
+_KIND_NAMES = tuple(row.label for row in MODEL_KINDS.values())
 _compile_notice = None
 _noticed = False
 #: Seconds this process spent loading or compiling kernels (read by ``simulate``).
@@ -265,7 +267,7 @@ def warmup_calls(name):
     the compiled code is what they load.
     """
     z, zz = np.zeros(1), np.zeros((1, 1))
-    kinds = {name: kind for name, (kind, _s, _w) in MODEL_KINDS.items()}
+    kinds = {name: row.kernel for name, row in MODEL_KINDS.items()}
     if name == "point":
         args = _point_args(np.zeros(3), 0.0, 0.0, 0.0, z)
         return [
@@ -276,7 +278,7 @@ def warmup_calls(name):
     if name == "point-full":
         return [
             (
-                _POINT[kinds["pwa-chamber"]],
+                _POINT[CHAMBER],
                 _point_args(np.zeros(8), 0.0, 0.0, 0.0, z),
                 "linearization",
             ),

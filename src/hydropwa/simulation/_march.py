@@ -11,8 +11,6 @@ from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled module
 from ._controller import N_CST, N_LOG
 from ._dispatch import _rhs_for
 from ._kcommon import (
-    CHAMBER,
-    FULL,
     INLINE_JIT,
     MAX_STEPS,
     N_STATS,
@@ -25,19 +23,19 @@ from ._kcommon import (
     ST_STEPS,
     STEP_COLLAPSE,
     _inputs,
+    jac_depends_on_u,
     n_states,
 )
 from ._outputs import _dense_output
 from ._rosenbrock import (
-    _D23,
-    PW2_GAMMA,
-    R4_GAMMA,
-    ROS4LS,
-    ROS23,
     ROS34PW2,
     _factor,
     _jacobian,
     _step_for,
+    method_error_order,
+    method_fsal,
+    method_gamma,
+    method_w,
 )
 from ._sampling import _closed, _n_samples, _sample, _sample_time
 from ._signals import NO_REFCOUNT
@@ -158,10 +156,12 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
     closed = _closed(ctl)
     n_smp = _n_samples(log)
     dt_smp = _sample_time(ctl)
-    gamma = PW2_GAMMA if method == ROS34PW2 else (R4_GAMMA if method == ROS4LS else _D23)
-    # only the W-method keeps its order with an old Jacobian: ROS4LS takes one at every step
-    reuse = jac_reuse and method == ROS34PW2
-    fourth = method == ROS4LS  # its error estimate is of order 3: step factor err^(-1/4)
+    # the method's constants (its row of _rosenbrock.METHODS)
+    gamma = method_gamma(method)
+    # only a W-method keeps its order with an old Jacobian: the others take one at every step
+    reuse = jac_reuse and method_w(method)
+    order = method_error_order(method)  # step factor err^(-1/(order + 1))
+    fsal = method_fsal(method)  # its stepper fills f(t + h, ynew)
     # after an accepted step whose error exceeds this fraction of the tolerance the Jacobian
     # is refreshed: exact ones (reduced, PWA: no rhs call) at 0.2, differences at 0.5.
     # Measured on the paper rig: 0.2 saves the reduced model 8 % of its steps for 40 % more
@@ -219,13 +219,13 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
         )
         nfev += n_rhs
         err, finite = _error_norm(n, y, ynew, yerr, atol, rtol)
-        # ROS34PW2, ROS4LS: f(t + h, ynew) (next step's first stage, dense output) only if
-        # accepted (ROS2(3)'s error estimate needs it, so its stepper has filled it)
-        fresh = method != ROS23 and finite and err <= 1.0
+        # f(t + h, ynew) (next step's first stage, dense output) only if accepted, unless the
+        # method's error estimate needs it (fsal: its stepper has filled it)
+        fresh = not fsal and finite and err <= 1.0
         if fresh:
             _rhs_for(kind, ynew, u1, ps1, fl1, p, fnew)
             nfev += 1
-        if fresh or method == ROS23:
+        if fresh or fsal:
             for i in range(n):
                 if not math.isfinite(fnew[i]):
                     finite = False
@@ -256,10 +256,10 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
                 u, ps, fl = _inputs(t, sg)
                 _rhs_for(kind, y, u, ps, fl, p, f0)
                 nfev += 1
-                if kind != FULL and kind != CHAMBER:  # reduced, PWA: their ∂f/∂y depends on u
+                if jac_depends_on_u(kind):  # the registry row's flag (reduced, PWA)
                     need_jac = True
             fac, cb_acc = _accepted_factor(
-                err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac, fourth
+                err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac, order
             )
             h_acc = h
             h *= fac
@@ -268,7 +268,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
             last_rejected = False
         else:
             n_rej += 1
-            h *= _rejected_factor(err, fourth)
+            h *= _rejected_factor(err, order)
             need_jac = reuse and jac_age > 0
             last_rejected = True
     stats[ST_STEPS] = n_acc

@@ -27,7 +27,6 @@ from ..components._physics import (
     supply_flow,
 )
 from ._kcommon import (
-    CHAMBER,
     I_AA,
     I_AB,
     I_ACCN,
@@ -282,10 +281,3 @@ def dfdt_full(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
     dfdt[Y_PA] = effective_bulk_modulus(pa, E, p[I_PVAP], p[I_PREL], net_a) / va * qa_ps * dps
     dfdt[Y_PB] = -effective_bulk_modulus(pb, E, p[I_PVAP], p[I_PREL], net_b) / vb * qb_ps * dps
 
-
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT, inline="always")
-def _inert_column(kind, j, p):
-    """Full and chamber models: state j is constant for these parameters (zero Jacobian column)."""
-    if j == Y_PS:  # P_S is an input without the pump model (always in the chamber model)
-        return kind == CHAMBER or p[I_PUMP] <= 0.5
-    return j == Y_PACC and p[I_ACCV] <= 0.0  # no accumulator

@@ -1,30 +1,38 @@
-"""The Rosenbrock methods: LU, tableaus, Jacobian refresh and one step of each method."""
+"""The Rosenbrock methods: LU, tableaus, Jacobian refresh and one step of each method.
+
+A method is one row of :data:`METHODS` (:class:`Method`: γ, error order, W-method, FSAL, its
+stage coefficients); the step loop reads a method's constants through per-method tables
+indexed by the literal method id, and a kind's linear-solve block structure comes from its
+registry row (:attr:`hydropwa._layout.ModelKind.lu_blocks`).
+"""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
+from numba.core.errors import TypingError
 from numba.extending import overload
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from ._dispatch import _exact_derivatives, _literal_kind, _rhs_fd, _rhs_for
+from ._dispatch import _exact_derivatives, _rhs_fd, _rhs_for
 from ._kcommon import (
-    CHAMBER,
-    FULL,
     INLINE_NRT_JIT,
-    N_STATES,
+    KIND_ROWS,
     S_KIND_FL,
     S_KIND_PS,
     S_KIND_U,
     SOLVER_JIT,
-    Y_PACC,
-    Y_PS,
     _inputs,
+    inert_state,
+    literal_kind,
+    n_solve,
     n_states,
+    per_kind,
 )
-from ._rhs_full import _inert_column
 from ._signals import NO_REFCOUNT
 
 
@@ -77,14 +85,6 @@ def _solve(a, piv, B, r, n):
         B[r, i] = s * a[i, i]
 
 
-#: The full model's block size without pump model and accumulator (the common case), which its
-#: LU and solves get as a compile-time constant (see :func:`_lu_block`).
-_FULL_BLOCK = 6
-#: ... of which the leading two states (spool position and rate) form a closed block: the servo
-#: valve (3) is linear in ν, ν̇ and u alone, so their rows of J are zero in every other column.
-_SPOOL = 2
-
-
 @njit(**INLINE_NRT_JIT)
 def _lu_rows(a, piv, lo, hi):
     """:func:`_lu` of the diagonal block a[lo:hi, lo:hi]; a pivot swaps whole rows (0 … hi − 1)."""
@@ -134,76 +134,106 @@ def _solve_rows(a, piv, B, r, lo, hi):
         B[r, i] = s * a[i, i]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _lu6(a, piv):
-    """Block LU of the full model's leading 6×6 block of W = I − hγJ, compiled once (called, not
-    inlined at each use: inlined, the unrolled code added ~4 CPU-s to the first compilation).
+_BLOCK_JIT: dict[str, Any] = {"cache": True, "nogil": True, "error_model": "numpy", **NO_REFCOUNT}
 
-    The spool's rows of J vanish outside the spool columns (:data:`_SPOOL`), so W is block
-    lower triangular, [[A, 0], [C, D]]: A (2×2) and D (4×4: P_A, P_B, x, ẋ) are factorised
-    apart, each with partial pivoting inside its block (D's row swaps carry C's rows along),
-    and C is kept as it is. The same solution as the dense 6×6 LU (up to rounding) at about
-    a third of its operations: pivoting over all six rows only moved the spool columns'
-    pivots onto the chambers' rows.
+
+def _block_lu(blocks: tuple[int, ...], name: str):
+    """Block LU and solve of a W = I − hγJ that is block lower triangular, [[A, 0], [C, D]].
+
+    ``blocks`` = (end of A, end of D) (:attr:`~hydropwa._layout.ModelKind.lu_blocks`). The full
+    model's spool rows of J vanish outside the spool columns (the servo valve (3) is linear in
+    ν, ν̇ and u alone), so A (2×2) and D (4×4: P_A, P_B, x, ẋ) are factorised apart, each with
+    partial pivoting inside its block (D's row swaps carry C's rows along), and C is kept as it
+    is: the same solution as the dense LU (up to rounding) at about a third of its operations.
+    Compiled once each (called, not inlined at each use: inlined, the unrolled code added ~4
+    CPU-s to the first compilation).
     """
-    _lu_rows(a, piv, 0, _SPOOL)
-    _lu_rows(a, piv, _SPOOL, _FULL_BLOCK)
+    if len(blocks) != 2:
+        raise ValueError(f"lu_blocks {blocks} of {name}: the block LU takes two diagonal blocks")
+    b0, b1 = blocks
+
+    def lu(a, piv):
+        _lu_rows(a, piv, 0, b0)
+        _lu_rows(a, piv, b0, b1)
+
+    def solve(a, piv, B, r):
+        _solve_rows(a, piv, B, r, 0, b0)
+        _solve_rows(a, piv, B, r, b0, b1)
+
+    lu.__name__ = lu.__qualname__ = f"_lu_{name}"
+    solve.__name__ = solve.__qualname__ = f"_solve_{name}"
+    return njit(**_BLOCK_JIT)(lu), njit(**_BLOCK_JIT)(solve)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
-def _solve6(a, piv, B, r):
-    """Solve :func:`_lu6`'s block factors for row r of B: the spool block, then D with C's part."""
-    _solve_rows(a, piv, B, r, 0, _SPOOL)
-    _solve_rows(a, piv, B, r, _SPOOL, _FULL_BLOCK)
+#: Each kind's (block size, block LU, block solve), or None for a dense LU (registry ``lu_blocks``).
+_BLOCK_LU = tuple(
+    (row.lu_blocks[-1], *_block_lu(row.lu_blocks, row.entry_id)) if row.lu_blocks else None
+    for row in KIND_ROWS
+)
 
 
-@njit(**INLINE_NRT_JIT)
 def _lu_block(kind, a, piv, n):
-    """:func:`_lu` of the leading n×n block; for the full model's n = 6 the block LU :func:`_lu6`.
+    """:func:`_lu` of the leading n×n block; the kind's block LU where n is its block size.
 
     With a constant size LLVM unrolls the loops and keeps the block in registers, where a
     runtime size leaves loops of 1–7 iterations; the block form skips the zero block of the
-    spool's rows (docs/architecture_performance.md). The chamber model keeps the runtime size:
-    its trajectory moved at the tolerance level with the unrolled code.
+    spool's rows (docs/architecture_performance.md). The chamber model keeps the runtime size
+    (no ``lu_blocks``): its trajectory moved at the tolerance level with the unrolled code.
+    Compiled code only; the kind's structure is chosen while typing.
     """
-    if kind == FULL and n == _FULL_BLOCK:
-        _lu6(a, piv)
-    else:
-        _lu(a, piv, n)
 
 
-@njit(**INLINE_NRT_JIT)
 def _solve_block(kind, a, piv, B, r, n):
-    """:func:`_solve` on the leading n×n block, for the full model's n = 6 :func:`_solve6` (as :func:`_lu_block`)."""
-    if kind == FULL and n == _FULL_BLOCK:
-        _solve6(a, piv, B, r)
-    else:
-        _solve(a, piv, B, r, n)
+    """:func:`_solve` on the leading n×n block, with the kind's block solve (as :func:`_lu_block`)."""
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always", **NO_REFCOUNT)
-def _n_solve(kind, p):
-    """Size of the leading block of W = I − hγJ that the LU and the solves work on.
-
-    The full and chamber models' trailing states P_S (without the pump model; always in the
-    chamber model) and P_acc (without an accumulator) are constant: their rows and columns of
-    J vanish (:func:`~._rhs_full._inert_column`, and their rates are 0), so W is the identity
-    there, partial pivoting never picks those rows, and the solution there is the right-hand
-    side itself, which the stages leave at 0. Solving the leading block alone is therefore
-    the same arithmetic (bit for bit) at (6/8)³ of the LU's and (6/8)² of the solves' cost.
-    """
-    n = n_states(kind)
-    if kind == FULL or kind == CHAMBER:
-        if _inert_column(kind, Y_PACC, p):
-            n -= 1
-            if _inert_column(kind, Y_PS, p):
-                n -= 1
-    return n
+def _kind_blocks(kind, what):
+    k = literal_kind(kind)
+    if k is None:
+        raise TypingError(f"{what}: the model kind must be a compile-time constant")
+    return _BLOCK_LU[k]
 
 
-# (checked on the Python table: calling the compiled n_states here cost ~0.2 s per import)
-if not (Y_PACC == N_STATES[FULL] - 1 and Y_PS == N_STATES[FULL] - 2):  # pragma: no cover
-    raise ImportError("_n_solve needs P_S and P_acc as the full state's last two entries")
+@overload(_lu_block, prefer_literal=True, inline="always")
+def _ol_lu_block(kind, a, piv, n):
+    blocks = _kind_blocks(kind, "_lu_block")
+    if blocks is None:
+        return lambda kind, a, piv, n: _lu(a, piv, n)
+    size, lu, _solve_b = blocks
+
+    def impl(kind, a, piv, n):
+        if n == size:
+            lu(a, piv)
+        else:
+            _lu(a, piv, n)
+
+    return impl
+
+
+@overload(_solve_block, prefer_literal=True, inline="always")
+def _ol_solve_block(kind, a, piv, B, r, n):
+    blocks = _kind_blocks(kind, "_solve_block")
+    if blocks is None:
+        return lambda kind, a, piv, B, r, n: _solve(a, piv, B, r, n)
+    size, _lu_b, solve = blocks
+
+    def impl(kind, a, piv, B, r, n):
+        if n == size:
+            solve(a, piv, B, r)
+        else:
+            _solve(a, piv, B, r, n)
+
+    return impl
+
+
+#: Size of the leading block of W = I − hγJ that the LU and the solves work on
+#: (:func:`~._kcommon.n_solve`): the kind's trailing inert states (registry ``inert_states``;
+#: the full model's P_S without the pump model and P_acc without an accumulator) have zero rows
+#: and columns of J and zero rates, so W is the identity there, partial pivoting never picks
+#: those rows, and the solution there is the right-hand side itself, which the stages leave at
+#: 0. Solving the leading block alone is the same arithmetic (bit for bit) at (6/8)³ of the
+#: LU's and (6/8)² of the solves' cost.
+_n_solve = n_solve
 
 
 # --- Rosenbrock tableaus -----------------------------------------------------
@@ -214,8 +244,6 @@ if not (Y_PACC == N_STATES[FULL] - 1 and Y_PS == N_STATES[FULL] - 2):  # pragma:
 # ROS4LS is the L-stable member of the ROS4 family of order 4 with an embedded order-3
 # estimate (Hairer & Wanner): 4 stages, 3 right-hand sides (a_4j = a_3j); not a W-method, so
 # it takes a fresh Jacobian at every step.
-ROS23, ROS34PW2, ROS4LS = 0, 1, 2
-SOLVERS = {"ros23": ROS23, "ros34pw2": ROS34PW2, "ros4ls": ROS4LS}
 
 
 def _transformed_tableau(alpha, gamma, b, b_hat):
@@ -313,7 +341,7 @@ def _jacobian(kind, t, y, f0, u, ps, fl, p, sg, scale, J, dfdt, yt, ft, exact):
     if exact and _exact_derivatives(kind, t, y, u, ps, fl, p, sg, J, dfdt):
         return 0
     for j in range(n):
-        if (kind == FULL or kind == CHAMBER) and _inert_column(kind, j, p):
+        if inert_state(kind, j, p):
             for i in range(n):
                 J[i, j] = 0.0
             continue
@@ -396,36 +424,26 @@ def _four_stages(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, 
     return u, ps, fl
 
 
-_PW2_TAB = (PW2_A, PW2_C, PW2_ALPHA, PW2_GSUM, PW2_M, PW2_E)
-_R4_TAB = (R4_A, R4_C, R4_ALPHA, R4_GSUM, R4_M, R4_E)
+def _four_stage_stepper(name, tab, gamma, fresh, last_at_end):
+    """One step of a four-stage method in the transformed form (:func:`_four_stages`), compiled.
 
-
-@njit(**SOLVER_JIT, **NO_REFCOUNT)
-def _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    """One ROS34PW2 step from (t, y): fills ynew and the error yerr (:func:`_four_stages`).
-
-    Returns (rhs calls, u, P_S, F_L at t + h): α_4 = 1, so the last stage's inputs are those
-    at t + h. f(t + h, ynew) is left to the caller, which evaluates it only for an accepted
-    step (``fnew`` is untouched here).
+    Fills ynew and the error yerr; returns (rhs calls, u, P_S, F_L at t + h): the last stage's
+    inputs where it is evaluated at t + h (``last_at_end``: α_4 = 1 and a fresh right-hand side,
+    ROS34PW2), else the inputs at t + h evaluated anew. f(t + h, ynew) is left to the caller,
+    which evaluates it only for an accepted step (``fnew`` is untouched here).
     """
-    u, ps, fl = _four_stages(
-        kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, _PW2_TAB, PW2_GAMMA, 4
-    )
-    return 3, u, ps, fl
+    n_rhs = fresh - 1
 
+    def step(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+        u, ps, fl = _four_stages(
+            kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, tab, gamma, fresh
+        )
+        if not last_at_end:
+            u, ps, fl = _inputs(t + h, sg)
+        return n_rhs, u, ps, fl
 
-@njit(**SOLVER_JIT, **NO_REFCOUNT)
-def _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    """One ROS4LS step from (t, y) (W must hold I − h·R4_GAMMA·J with the exact J at (t, y)).
-
-    Like :func:`_step_ros34pw2`: fills ynew and yerr, returns (rhs calls, u, P_S, F_L at t + h);
-    f(t + h, ynew) is left to the caller. Stage 4 reuses stage 3's right-hand side.
-    """
-    _four_stages(
-        kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, yerr, p, sg, _R4_TAB, R4_GAMMA, 3
-    )
-    u, ps, fl = _inputs(t + h, sg)
-    return 2, u, ps, fl
+    step.__name__ = step.__qualname__ = f"_step_{name}"
+    return njit(**SOLVER_JIT, **NO_REFCOUNT)(step)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
@@ -461,43 +479,93 @@ def _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p,
     return 2, u, ps, fl
 
 
-def _step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    """One step of ``method`` (:func:`_step_ros34pw2`, :func:`_step_ros4ls` or :func:`_step_ros23`), chosen while typing.
+@dataclass(frozen=True)
+class Method:
+    """One Rosenbrock method: a row of :data:`METHODS`, all the step loop asks of it.
 
-    Compiled code only. With a literal ``method`` (one entry point per model and method)
-    the kernel holds only the stepper it uses; otherwise all three, chosen at run time.
+    Attributes
+    ----------
+    name : str
+        ``simulate(..., solver=name)``.
+    id : int
+        Its index in the per-method constant tables (its position in :data:`METHODS`).
+    gamma : float
+        The diagonal γ of W = I − hγJ.
+    error_order : int
+        Order q of its error estimate: the step factor is err^(−1/(q + 1)).
+    w_method : bool
+        It keeps its order with an old Jacobian (a W-method), so a Jacobian may be reused.
+    fsal : bool
+        Its error estimate needs f(t + h, y_new), which its stepper fills: the step loop does not
+        evaluate it again (the others get it from the step loop, for accepted steps only).
+    stages : tuple of 6 arrays or None
+        The transformed 4 × 4 tableau (A, C, α, γ_i sums, m, e) of :func:`_transformed_tableau`
+        for :func:`_four_stage_stepper`; None: ``stepper`` names its own compiled stepper.
+    fresh : int
+        Four-stage methods: stages 1 … fresh − 1 evaluate the right-hand side (a later stage
+        reuses the last one's).
+    stepper : str
+        The compiled stepper in this module, where ``stages`` is None.
+    entry_suffix : str
+        Its part of the compiled entry points' names (``_integrate_full_ros23``).
     """
 
-
-def _step_with_ros34pw2(
-    method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
-):
-    return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
-
-
-def _step_with_ros23(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
-
-
-def _step_with_ros4ls(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    return _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+    name: str
+    id: int
+    gamma: float
+    error_order: int
+    w_method: bool
+    fsal: bool
+    stages: tuple[np.ndarray, ...] | None
+    fresh: int
+    stepper: str
+    entry_suffix: str
 
 
-def _step_with_either(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    if method == ROS34PW2:
-        return _step_ros34pw2(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
-    if method == ROS4LS:
-        return _step_ros4ls(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
-    return _step_ros23(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+#: The methods, one row each, in id order. ROS34PW2's α_4 = 1: its last stage is at t + h.
+METHODS: tuple[Method, ...] = (
+    Method("ros23", 0, _D23, 2, False, True, None, 0, "_step_ros23", "_ros23"),
+    Method("ros34pw2", 1, PW2_GAMMA, 2, True, False, _PW2, 4, "", ""),
+    Method("ros4ls", 2, R4_GAMMA, 3, False, False, (R4_A, R4_C, R4_ALPHA, R4_GSUM, R4_M, R4_E), 3, "", "_ros4ls"),
+)  # fmt: skip
+assert [m.id for m in METHODS] == list(range(len(METHODS)))
+#: The method ids by name (``simulate``'s ``solver``).
+SOLVERS: dict[str, int] = {m.name: m.id for m in METHODS}
+ROS23, ROS34PW2, ROS4LS = (SOLVERS[name] for name in ("ros23", "ros34pw2", "ros4ls"))
+#: Per-method constants of the step loop, read by the literal method id.
+method_gamma = per_kind(tuple(m.gamma for m in METHODS), "method_gamma")
+method_error_order = per_kind(tuple(m.error_order for m in METHODS), "method_error_order")
+method_w = per_kind(tuple(m.w_method for m in METHODS), "method_w")
+method_fsal = per_kind(tuple(m.fsal for m in METHODS), "method_fsal")
+
+
+def _stepper(m: Method):
+    if m.stages is None:
+        return globals()[m.stepper]
+    tab = tuple(np.array(v) for v in m.stages)
+    last_at_end = m.fresh == 4 and float(tab[2][3]) == 1.0
+    return _four_stage_stepper(m.name, tab, m.gamma, m.fresh, last_at_end)
+
+
+#: Each method's compiled stepper, by id.
+STEPPERS = tuple(_stepper(m) for m in METHODS)
+
+
+def _step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+    """One step of the literal ``method`` (its :data:`STEPPERS` entry), chosen while typing.
+
+    Compiled code only: each entry point (one per model and method) holds only its stepper.
+    """
 
 
 @overload(_step_for, prefer_literal=True)
 def _ol_step_for(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
-    m = _literal_kind(method)
-    if m == ROS34PW2:
-        return _step_with_ros34pw2
-    if m == ROS23:
-        return _step_with_ros23
-    if m == ROS4LS:
-        return _step_with_ros4ls
-    return _step_with_either
+    m = literal_kind(method)
+    if m is None:
+        raise TypingError("_step_for: the method must be a compile-time constant")
+    step = STEPPERS[m]
+
+    def impl(method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg):
+        return step(kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg)
+
+    return impl

@@ -52,7 +52,7 @@ __all__ = ["DEFAULT_RTOL", "simulate", "SimulationResult", "CHANNEL_UNITS"]
 
 #: The kernel's right-hand side of each model kind (the model's ``name``): model kinds are
 #: resolved here, where they are used, so the model layers need not import the kernel.
-_KERNEL_KIND = {name: kind for name, (kind, _states, _what) in MODEL_KINDS.items()}
+_KERNEL_KIND = {name: row.kernel for name, row in MODEL_KINDS.items()}
 
 #: SI unit of every output channel (from the one layout table, :mod:`hydropwa._layout`).
 CHANNEL_UNITS: dict[str, str] = {
@@ -67,6 +67,8 @@ _PWA_COLS = tuple(name for name, _unit in PWA_OUTPUT_CHANNELS)
 _CHAMBER_COLS = tuple(name for name, _unit in CHAMBER_OUTPUT_CHANNELS)
 #: The active-cell channels of both PWA models, each once.
 _CELL_CHANNELS = tuple(dict.fromkeys(_PWA_COLS + _CHAMBER_COLS))
+#: Each kind's extra output rows (its registry row's ``extra_outputs``), by kernel id.
+_EXTRA_COLS = tuple(tuple(name for name, _u in row.extra_outputs) for row in MODEL_KINDS.values())
 
 
 class Channels(MutableMapping[str, np.ndarray]):
@@ -363,8 +365,7 @@ def _output_channels(kind, t_out, Y, n_done, p, sg) -> dict[str, np.ndarray]:
     """The output pass of :func:`simulate`: channel name → rows of the done samples."""
     out = K.outputs(kind, t_out, Y, n_done, p, sg)
     channels = {name: out[i] for i, name in enumerate(_OUT_COLS)}  # contiguous rows
-    extra = _PWA_COLS if kind == K.PWA else _CHAMBER_COLS if kind == K.CHAMBER else ()
-    for i, name in enumerate(extra):
+    for i, name in enumerate(_EXTRA_COLS[kind]):
         channels[name] = out[len(_OUT_COLS) + i]
     return channels
 
@@ -793,7 +794,7 @@ def _input_signals(
     fl_sig = as_signal(prm.load.force if load_force is None else load_force, "N", "load_force")
     if supply_pressure is not None:  # the parameters' own P_S was validated with them
         check_supply_signal(ps_sig, prm.supply, float(t_out[-1]))
-        if kind in (K.PWA, K.CHAMBER) and not getattr(mdl, "scheduled", True):
+        if MODEL_KINDS[mdl.name].linearized and not getattr(mdl, "scheduled", True):
             _check_fixed_supply(mdl, ps_sig)
     return u_sig, ps_sig, fl_sig
 

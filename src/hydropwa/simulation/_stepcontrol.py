@@ -28,30 +28,44 @@ def _error_norm(n, y, ynew, yerr, atol, rtol):
 
 
 @njit(**INLINE_NRT_JIT)
-def _err_root(err, fourth):
-    """err^(1/3) (a cube root, cheaper than pow), or err^(1/4) (two square roots) if ``fourth``.
+def _err_root(err, order):
+    """err^(1/(q + 1)) for an error estimate of order q = ``order`` (a method's ``error_order``).
 
-    The step factor's exponent is 1/(q + 1) for an error estimate of order q: 2 for ROS34PW2
-    and ROS2(3), 3 for ROS4LS.
+    A cube root for q = 2 (ROS34PW2, ROS2(3); cheaper than pow), two square roots for q = 3
+    (ROS4LS), pow otherwise. ``order`` is a compile-time constant in the step loop.
     """
-    return math.sqrt(math.sqrt(err)) if fourth else np.cbrt(err)
+    if order == 2:
+        return np.cbrt(err)
+    if order == 3:
+        return math.sqrt(math.sqrt(err))
+    return err ** (1.0 / (order + 1))
 
 
 @njit(**INLINE_NRT_JIT)
-def _accepted_factor(err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac, fourth):
+def _err_root_floor(order):
+    """The :func:`_err_root` of 1e-4 (the smallest error the predictive controller remembers)."""
+    if order == 2:
+        return _CBRT_1E4
+    if order == 3:
+        return 0.1  # exactly 1e-4 ** 0.25
+    return 1e-4 ** (1.0 / (order + 1))
+
+
+@njit(**INLINE_NRT_JIT)
+def _accepted_factor(err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac, order):
     """Next-step factor after an accepted step of error ``err`` (≤ 1); returns (factor, cb_acc).
 
-    0.9·err^(−1/3) (:func:`_err_root`; err^(−1/4) if ``fourth``), with Gustafsson's predictive
+    0.9·err^(−1/(q + 1)) for the error order q = ``order`` (:func:`_err_root`), with Gustafsson's predictive
     controller (1994) after an accepted step of size ``h_acc`` whose clipped error root was
     ``cb_acc``: fewer rejections in a row. Clipped to [0.2, 5], no growth right after a
     rejection, and 1 when the step would barely change (the factorisation is kept).
     """
-    cb = _err_root(err, fourth) if err > 0.0 else 0.0
+    cb = _err_root(err, order) if err > 0.0 else 0.0
     fac = 0.9 / cb if err > 0.0 else 5.0
     if gustafsson and h_acc > 0.0 and err > 0.0:
-        # (err_acc / err²)^(1/3) from the cube roots already taken (likewise fourth roots)
+        # (err_acc / err²)^(1/(q + 1)) from the roots already taken
         fac = min(fac, 0.9 * (h / h_acc) * cb_acc / (cb * cb))
-    floor = 0.1 if fourth else _CBRT_1E4  # the root of 1e-4
+    floor = _err_root_floor(order)
     cb_next = cb if err > 1e-4 else floor  # root of max(err, 1e-4)
     fac = min(5.0, max(0.2, fac))
     if last_rejected and fac > 1.0:
@@ -62,7 +76,7 @@ def _accepted_factor(err, h, h_acc, cb_acc, gustafsson, last_rejected, need_jac,
 
 
 @njit(**INLINE_NRT_JIT)
-def _rejected_factor(err, fourth):
-    """Step factor after a rejected step of error ``err`` (> 1): 0.9·err^(−1/3) (err^(−1/4) if
-    ``fourth``), at least 0.2."""
-    return max(0.2, 0.9 / _err_root(err, fourth))
+def _rejected_factor(err, order):
+    """Step factor after a rejected step of error ``err`` (> 1): 0.9·err^(−1/(q + 1)) for the
+    error order q = ``order``, at least 0.2."""
+    return max(0.2, 0.9 / _err_root(err, order))

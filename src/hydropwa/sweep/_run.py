@@ -41,7 +41,7 @@ from .. import _interrupt
 from .._dask import dask_client, parse_address, probe_scheduler
 from .._errors import HydropwaError, ParameterError
 from .._io import atomic_write_text, read_bytes
-from ..linearization import linearize
+from .._layout import build_model
 from ..simulation import SimulationResult, simulate, summarize
 from ._spec import SweepCase, SweepSpec
 
@@ -65,14 +65,7 @@ def run_case(
     function of picklable arguments.
     """
     params = spec.params_for(case)
-    # the PWA model is built from each case's parameters (model kinds resolve where used)
-    model = (
-        linearize(params)
-        if spec.model == "pwa"
-        else linearize(params, form="chamber")
-        if spec.model == "pwa-chamber"
-        else spec.model
-    )
+    model = build_model(spec.model, params)  # each case's model from its parameters
     res = simulate(
         model,
         spec.u,

@@ -1,0 +1,93 @@
+"""The model-kind registry (one ModelKind row per kind) and the method table (one Method row per
+Rosenbrock method): every per-kind and per-method constant of the compiled code is derived from
+a row, and every layer builds a model through ``build_model``."""
+
+import math
+
+import pytest
+
+from hydropwa import _layout
+from hydropwa._errors import ParameterError
+from hydropwa.models import FullOrderModel, ReducedModel, as_model
+from hydropwa.simulation import _dispatch, _kcommon, _rhs_chamber, _rhs_full, _rhs_load
+from hydropwa.simulation import _rosenbrock as R
+from hydropwa.simulation import _stepcontrol as SC
+
+
+def test_rows_are_in_kernel_order_with_unique_entry_ids():
+    rows = list(_layout.MODEL_KINDS.values())
+    assert [r.kernel for r in rows] == list(range(len(rows)))
+    assert len({r.entry_id for r in rows}) == len(rows)
+    assert _layout.MODEL_NAMES == tuple(r.name for r in rows)
+    assert _layout.LINEARIZED_MODELS == ("pwa", "pwa-chamber")
+
+
+def test_compiled_tables_are_the_rows():
+    """The step loop's per-kind flags and the inert-state table resolve the rows' names to the
+    kernel's state and slot indices (the full model: P_acc without gas, P_S without the pump;
+    the chamber model's P_S always)."""
+    K = _kcommon
+    assert K.CARRIES_SPOOL == (True, False, False, True)
+    assert K.JAC_DEPENDS_ON_U == (False, True, True, False)
+    assert K.INERT_STATE[K.FULL] == (K.Y_PACC, K.Y_PS) == K.INERT_STATE[K.CHAMBER]
+    assert K.INERT_SLOT[K.FULL] == (K.I_ACCV, K.I_PUMP)
+    assert K.INERT_SLOT[K.CHAMBER] == (K.I_ACCV, -1)  # -1: always inert
+    assert K.INERT_LIMIT[K.FULL] == (0.0, 0.5)
+    assert K.INERT_STATE[K.REDUCED] == K.INERT_STATE[K.PWA] == (-1, -1)
+    # the trailing-run rule of n_solve needs the inert states last, the last state first
+    assert K.INERT_STATE[K.FULL][0] == K.N_STATES[K.FULL] - 1
+
+
+def test_each_kind_finds_its_compiled_functions():
+    fns = _dispatch.KIND_FUNCTIONS
+    assert fns[_kcommon.FULL].rhs is _rhs_full.rhs_full
+    assert fns[_kcommon.FULL].jac is _rhs_full.jac_full
+    assert fns[_kcommon.REDUCED].dfdt is _rhs_load.dfdt_reduced
+    assert fns[_kcommon.PWA].jac is _rhs_load.jac_pwa
+    assert fns[_kcommon.CHAMBER].rhs is _rhs_chamber.rhs_chamber
+    # finite differences of an exact-Jacobian kind go through a call wrapper (compile time)
+    assert fns[_kcommon.REDUCED].rhs_call is not _rhs_load.rhs_reduced
+    assert fns[_kcommon.FULL].rhs_call is _rhs_full.rhs_full
+
+
+def test_build_model_builds_each_kind_of_this_layer(paper):
+    full = _layout.build_model("full", paper)
+    assert isinstance(full, FullOrderModel) and full.params is paper
+    red = _layout.build_model(" Reduced ", paper, form="paper")
+    assert isinstance(red, ReducedModel) and red.form == "paper"
+    for row in _layout.MODEL_KINDS.values():
+        module, _sep, attr = row.factory.partition(":")
+        assert callable(getattr(__import__(module, fromlist=[attr]), attr))
+        if not row.linearized:
+            model = row.build(paper)
+            assert model.name == row.name
+            assert len(model.state_names) == len(row.states)
+
+
+def test_unknown_or_linearized_names_are_refused_in_one_line(paper):
+    with pytest.raises(ParameterError, match="unknown model 'ful'; choose full, reduced"):
+        _layout.build_model("ful", paper)
+    with pytest.raises(ParameterError, match=r"linearize\(params, form='chamber'\)"):
+        as_model("pwa-chamber", paper)
+    with pytest.raises(ParameterError, match="needs the machine"):
+        as_model("full")
+
+
+def test_methods_are_rows():
+    assert R.SOLVERS == {"ros23": 0, "ros34pw2": 1, "ros4ls": 2}
+    assert [m.id for m in R.METHODS] == [0, 1, 2]
+    by = {m.name: m for m in R.METHODS}
+    assert by["ros23"].gamma == pytest.approx(1.0 / (2.0 + math.sqrt(2.0)), rel=1e-15)
+    assert [by[n].error_order for n in ("ros23", "ros34pw2", "ros4ls")] == [2, 2, 3]
+    assert [m.name for m in R.METHODS if m.w_method] == ["ros34pw2"]
+    assert [m.name for m in R.METHODS if m.fsal] == ["ros23"]
+    assert len(R.STEPPERS) == len(R.METHODS)
+
+
+@pytest.mark.parametrize("order", [2, 3, 4])
+def test_step_factor_root_is_the_error_orders(order):
+    """The step controller's root is err^(1/(q + 1)) for the method's error order q (the fast
+    paths for q = 2, 3 within rounding of pow; q = 4 by pow), its floor the root of 1e-4."""
+    for err in (1e-6, 0.3, 1.0, 7.5):
+        assert SC._err_root(err, order) == pytest.approx(err ** (1.0 / (order + 1)), rel=4e-16)
+    assert SC._err_root_floor(order) == pytest.approx(1e-4 ** (1.0 / (order + 1)), rel=4e-16)
