@@ -234,7 +234,8 @@ def _rhs_entry(fns: KindFunctions, name: str):
 
 
 _RHS_ENTRIES = tuple(
-    _rhs_entry(fns, f"_rhs_{row.entry_id}_at_t") for fns, row in zip(KIND_FUNCTIONS, KIND_ROWS, strict=True)
+    _rhs_entry(fns, f"_rhs_{row.entry_id}_at_t")
+    for fns, row in zip(KIND_FUNCTIONS, KIND_ROWS, strict=True)
 )
 
 
