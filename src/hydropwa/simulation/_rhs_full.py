@@ -280,4 +280,3 @@ def dfdt_full(y, u, ps_in, fl, du, dps, dfl, p, dfdt):
     vb = p[I_VB] + ab * (p[I_STROKE] - x)
     dfdt[Y_PA] = effective_bulk_modulus(pa, E, p[I_PVAP], p[I_PREL], net_a) / va * qa_ps * dps
     dfdt[Y_PB] = -effective_bulk_modulus(pb, E, p[I_PVAP], p[I_PREL], net_b) / vb * qb_ps * dps
-
