@@ -306,7 +306,7 @@ class ParameterEstimate:
         return f"{self.value:.5g} {self.unit} (±{self.std:.2g}, CI [{self.ci[0]:.5g}, {self.ci[1]:.5g}]{cut})".strip()
 
     def within(self, low: float, high: float) -> ParameterEstimate:
-        """The estimate with its interval cut to [``low``, ``high``] [unit] and the cut ends
+        """The estimate with its interval cut to [``low``, ``high``] (in its unit) and the cut ends
         named in ``clipped`` (itself where nothing is cut)."""
         lo, hi = self.ci
         cut = [end for end, out in (("low", lo < low), ("high", hi > high)) if out]
