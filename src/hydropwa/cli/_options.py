@@ -315,6 +315,9 @@ NUMBER_RANGES: dict[str, Range] = {
         "within 0.1 mm, 1e-6 is measurement grade",
     ),
     "--starts": Range(1, 1000, "the number of optimiser starts; 1 is one fit, 8-32 a multi-start"),
+    "--delay-samples": Range(
+        0, 20, "whole samples of delay between computation and valve; 0 or 1 on a real target"
+    ),
     "--window": Range(1e-4, 60.0, "the multiple-shooting window [s]; 0.02 suits the paper's rig"),
     "--budget": Range(0.1, 86_400.0, "the seconds of data a selection keeps; default 6"),
     "--validate": Range(
