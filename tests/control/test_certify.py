@@ -17,7 +17,7 @@ from hydropwa.control._certify import (
     CertificateStatus,
     _row_loop,
     _scaled,
-    _scales,
+    _unchecked,
     certify,
     loop_data,
 )
@@ -90,7 +90,6 @@ def test_a_flipped_position_gain_names_its_rows(default, paper_pwa):
 def _certify_data(data):
     """:func:`certify`'s path on prepared loop data (the rows, bounds and modes given)."""
     from hydropwa.control._certify import (
-        Certificate,
         _levels,
         _solve_lyapunov,
     )
@@ -99,26 +98,7 @@ def _certify_data(data):
     P, mus = _solve_lyapunov(sc, data, 0.995)
     lv = _levels(P, mus, sc, data, 0.995)
     assert lv["status"] is CertificateStatus.CERTIFIED, lv["status"]
-    return Certificate(
-        status=lv["status"],
-        success=False,
-        message="",
-        e_bar=lv["e_bar"],
-        box=lv["box"],
-        reach_time=lv["reach_time"],
-        P=P,
-        scales=_scales(data),
-        lam=0.995,
-        level_ultimate=lv["level_ultimate"],
-        level_region=lv["level_region"],
-        mu=tuple(mus),
-        disturbance=dict(data.bounds),
-        failing_rows=(),
-        not_modelled=(),
-        model_hash="",
-        law_hash="",
-        data=data,
-    )
+    return _unchecked(data, P, 0.995, {**lv, "mu": mus})
 
 
 def test_checker_accepts_the_ellipsoid_and_rejects_wrong_ones(quiet_row):

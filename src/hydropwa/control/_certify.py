@@ -754,8 +754,24 @@ def certify(
     if not best[1]["status"].success:
         return _failed(best[1]["status"], data, (), hashes, best[1], best[0])
     lam, lv, P = best
-    cert = Certificate(
-        status=CertificateStatus.CERTIFIED,
+    cert = _unchecked(data, P, lam, lv, not_modelled=NOT_MODELLED, **hashes)
+    check = check_certificate(cert, data)
+    st = CertificateStatus.CERTIFIED if check.passed else CertificateStatus.CHECK_FAILED
+    msg = st.message if check.passed else f"{st.message}: {'; '.join(check.failures[:3])}"
+    return _replace(cert, status=st, success=check.passed, message=msg, check=check)
+
+
+def _unchecked(data, P, lam: float, lv: dict, **given: Any) -> Certificate:
+    """The certificate the levels ``lv`` of P at rate ``lam`` give, before the checker ran
+    (status from the levels, ``success`` False until :func:`check_certificate` says so)."""
+    fields: dict[str, Any] = {
+        "not_modelled": (),
+        "model_hash": "",
+        "law_hash": "",
+        **given,
+    }
+    return Certificate(
+        status=lv["status"],
         success=False,
         message="",
         e_bar=lv["e_bar"],
@@ -769,14 +785,9 @@ def certify(
         mu=tuple(lv["mu"]),
         disturbance=dict(data.bounds),
         failing_rows=(),
-        not_modelled=NOT_MODELLED,
         data=data,
-        **hashes,
+        **fields,
     )
-    check = check_certificate(cert, data)
-    st = CertificateStatus.CERTIFIED if check.passed else CertificateStatus.CHECK_FAILED
-    msg = st.message if check.passed else f"{st.message}: {'; '.join(check.failures[:3])}"
-    return _replace(cert, status=st, success=check.passed, message=msg, check=check)
 
 
 def _replace(cert: Certificate, **kw) -> Certificate:
