@@ -256,6 +256,11 @@ class ModelKind:
         Keywords the factory always gets for this kind (``form="chamber"``).
     style : (colour, line style, label)
         How plots draw it.
+    norm_free_states : tuple of (state, slot, threshold)
+        Trailing states left out of the step's error norm (its RMS) where ``p[slot] <=
+        threshold``, last state first: the held state of an absent optional component (a hose
+        line of zero volume), so the kind then steps exactly as the kind without it. () for
+        every kind whose norm runs over all its states.
     """
 
     name: str
@@ -274,6 +279,7 @@ class ModelKind:
     factory: str
     factory_options: tuple[tuple[str, object], ...]
     style: tuple[str, str, str]
+    norm_free_states: tuple[tuple[str, str, float], ...] = ()
 
     @property
     def linearized(self) -> bool:

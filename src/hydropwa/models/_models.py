@@ -203,11 +203,13 @@ class FullOrderModel(_ModelBase):
     """
 
     name: ClassVar[str] = "full"
+    #: The state table (:mod:`hydropwa._layout`) the states, scales and initial states follow.
+    states: ClassVar[tuple[tuple[str, str, float], ...]] = FULL_STATES
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
 
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
-        return np.array([scale for _n, _u, scale in FULL_STATES])
+        return np.array([scale for _n, _u, scale in self.states])
 
     def initial_state(
         self,
@@ -239,10 +241,9 @@ class FullOrderModel(_ModelBase):
             [Pa] to ``params.supply.pressure``. A state without a measured channel rests with
             the node it hangs on (:data:`~hydropwa._layout.FULL_STATE_TIES`).
         """
-        states = tuple(name for name, _u, _s in FULL_STATES)
         defaults = {"v": 0.0, "spool": 0.0, "p_s": self.params.supply.pressure}
-        values = measured_values(measured, states, defaults, positional)
-        return np.array(state_vector(FULL_STATES, values, FULL_STATE_TIES), dtype=float)
+        values = measured_values(measured, self.state_names, defaults, positional)
+        return np.array(state_vector(self.states, values, FULL_STATE_TIES), dtype=float)
 
 
 @dataclass(frozen=True)
