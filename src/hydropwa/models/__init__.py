@@ -3,6 +3,7 @@
 from ._models import (
     MODEL_NAMES,
     REDUCED_FORMS,
+    FullLinesModel,
     FullOrderModel,
     Model,
     ReducedModel,
@@ -11,6 +12,7 @@ from ._models import (
 )
 
 __all__ = [
+    "FullLinesModel",
     "FullOrderModel",
     "MODEL_NAMES",
     "Model",

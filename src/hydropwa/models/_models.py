@@ -23,6 +23,7 @@ from .._layout import (
     BASE_SLOTS,
     FULL_STATE_TIES,
     FULL_STATES,
+    LINE_STATES,
     LOAD_STATES,
     MODEL_KINDS,
     MODEL_NAMES,
@@ -36,6 +37,7 @@ from ..params import SystemParams
 
 __all__ = [
     "FullOrderModel",
+    "FullLinesModel",
     "ReducedModel",
     "Model",
     "pack_params",
@@ -244,6 +246,21 @@ class FullOrderModel(_ModelBase):
         defaults = {"v": 0.0, "spool": 0.0, "p_s": self.params.supply.pressure}
         values = measured_values(measured, self.state_names, defaults, positional)
         return np.array(state_vector(self.states, values, FULL_STATE_TIES), dtype=float)
+
+
+@dataclass(frozen=True)
+class FullLinesModel(FullOrderModel):
+    """Full-order model with hose lines between the valve's ports and the chambers.
+
+    The states of :class:`FullOrderModel`, then the line pressures P_line,A, P_line,B [Pa]
+    (``params.lines``, :class:`~hydropwa.params.Lines`; a line of zero volume is no line, and
+    the model is then the full model). At rest, and without a measured ``p_line_a``/``p_line_b``,
+    a line holds its chamber's pressure.
+    """
+
+    name: ClassVar[str] = "full-lines"
+    states: ClassVar[tuple[tuple[str, str, float], ...]] = LINE_STATES
+    state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LINE_STATES)
 
 
 @dataclass(frozen=True)

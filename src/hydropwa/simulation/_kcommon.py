@@ -130,6 +130,10 @@ I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0:
 I_ACCV, I_ACCP0, I_ACCN, I_HOSEL, I_HOSED, I_HOSEVOL, I_VISC = (
     SLOT[k] for k in ("accv", "accp0", "accn", "hosel", "hosed", "hosevol", "visc")
 )
+# hose lines of the full-lines model: volumes, conductances, wall modulus, orifice law
+I_VLA, I_VLB, I_GLA, I_GLB, I_EHOSE, I_LORIF = (
+    SLOT[k] for k in ("vla", "vlb", "gla", "glb", "ehose", "lorif")
+)
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
 #: Output rows, named in the layout table.
