@@ -8,6 +8,7 @@ from ._models import (
     Model,
     ReducedModel,
     as_model,
+    machine_model,
     pack_params,
 )
 
@@ -19,5 +20,6 @@ __all__ = [
     "REDUCED_FORMS",
     "ReducedModel",
     "as_model",
+    "machine_model",
     "pack_params",
 ]

@@ -42,6 +42,7 @@ __all__ = [
     "Model",
     "pack_params",
     "as_model",
+    "machine_model",
     "REDUCED_FORMS",
     "MODEL_NAMES",
 ]
@@ -371,6 +372,16 @@ def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
         )
     built: Model = row.build(params)
     return built
+
+
+def machine_model(params: SystemParams) -> FullOrderModel:
+    """The full-order model of the machine ``params``: with its hose lines where it has them.
+
+    :class:`FullLinesModel` when ``params.lines`` gives a line a volume
+    (:attr:`~hydropwa.params.Lines.present`), else :class:`FullOrderModel`: what the virtual
+    rig simulates, so a rig on a machine with hoses records the line pressures.
+    """
+    return FullLinesModel(params) if params.lines.present else FullOrderModel(params)
 
 
 #: The kinds built in this layer (by :func:`as_model` from a name).
