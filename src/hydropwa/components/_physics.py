@@ -59,7 +59,9 @@ __all__ = [
     "hose_flow",
     "accumulator_pressure_rate",
     "line_flow",
+    "line_flow_slope",
     "series_bulk_modulus",
+    "series_bulk_modulus_slope",
 ]
 
 #: numba options of the compiled components. ``error_model="numpy"``: a division by zero gives
@@ -768,3 +770,19 @@ def series_bulk_modulus(E: float, wall: float) -> float:
     if wall <= 0.0:
         return E
     return E * wall / (E + wall)
+
+
+@njit(**_JIT)
+def line_flow_slope(dp: float, conductance: float, orifice: float, p_tr: float) -> float:
+    """∂Q/∂ΔP [m³/(s·Pa)] of :func:`line_flow`: G laminar; G √p_tr/1.25 · signed_sqrt' for an orifice."""
+    if orifice > 0.5:
+        return conductance * math.sqrt(p_tr) / 1.25 * signed_sqrt_slope(dp, p_tr)
+    return conductance
+
+
+@njit(**_JIT)
+def series_bulk_modulus_slope(E: float, wall: float) -> float:
+    """∂E_eff/∂E [1] of :func:`series_bulk_modulus`: E_wall²/(E + E_wall)², 1 for a rigid wall."""
+    if wall <= 0.0:
+        return 1.0
+    return wall * wall / ((E + wall) * (E + wall))

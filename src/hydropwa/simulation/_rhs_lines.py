@@ -23,15 +23,29 @@ from numba import njit
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
 from .._layout import LINE_STATES, Y_FULL
 from ..components._physics import (
+    dead_zone_slope,
     effective_bulk_modulus,
+    effective_bulk_modulus_slope,
+    external_leakage_flow,
     line_flow,
+    line_flow_slope,
     orifice_flow_slopes,
     orifice_flows,
     pump_supply_rate,
+    pump_supply_rate_slope,
     series_bulk_modulus,
+    series_bulk_modulus_slope,
     supply_flow,
 )
 from ._kcommon import (
+    I_AA,
+    I_AB,
+    I_ALPHA,
+    I_BETA,
+    I_CEA,
+    I_CEB,
+    I_CL,
+    I_CREEP,
     I_DROOP,
     I_E,
     I_EHOSE,
@@ -40,6 +54,7 @@ from ._kcommon import (
     I_GRELIEF,
     I_K,
     I_LORIF,
+    I_OUTER,
     I_PREL,
     I_PRELIEF,
     I_PSET,
@@ -48,6 +63,9 @@ from ._kcommon import (
     I_PUMP,
     I_PVAP,
     I_QMAX,
+    I_STROKE,
+    I_VA,
+    I_VB,
     I_VLA,
     I_VLB,
     I_VLINE,
@@ -60,7 +78,7 @@ from ._kcommon import (
     _friction,
     _opening,
 )
-from ._rhs_full import _chambers_and_mechanics, dfdt_full, jac_full
+from ._rhs_full import _chamber_row, _chambers_and_mechanics, dfdt_full, jac_full
 from ._signals import NO_REFCOUNT
 
 Y_PLA, Y_PLB = (len(Y_FULL), len(Y_FULL) + 1)
@@ -118,15 +136,100 @@ def rhs_lines(y, u, ps_in, fl, p, dy):
         dy[Y_PS] = 0.0
 
 
+@njit(**_JIT, inline="always")
+def _line_row(J, row, col_l, col_c, pl, net, dnet_l, s, vol, p):
+    """Row ``row`` of ∂f/∂y for a line, Ṗ_l = g(P_l, net)·net with g = E_line/V_l.
+
+    ``dnet_l`` = ∂net/∂P_l; the chamber's pressure enters net through the line flow with the
+    slope ``s`` (:func:`~hydropwa.components.line_flow_slope`) for both lines. Returns g.
+    """
+    e = effective_bulk_modulus(pl, p[I_E], p[I_PVAP], p[I_PREL], net)
+    de = effective_bulk_modulus_slope(pl, p[I_E], p[I_PVAP], p[I_PREL], net)
+    g = series_bulk_modulus(e, p[I_EHOSE]) / vol
+    dg = series_bulk_modulus_slope(e, p[I_EHOSE]) * de / vol
+    J[row, col_l] = g * dnet_l + dg * net
+    J[row, col_c] = g * s
+    return g
+
+
+@njit(**_JIT, inline="always")
+def _pump_row(J, z, dz, qa_z, qa_pa, qa_ps, qb_z, qb_pb, qb_ps, col_a, col_b, ps, p):
+    """The pump supply's row (P_S a state): its draw Q_A or −Q_B through the port pressures."""
+    dps_ps, dps_q = pump_supply_rate_slope(
+        ps, p[I_VLINE], p[I_E], p[I_QMAX], p[I_PSET], p[I_DROOP], p[I_PRELIEF], p[I_GRELIEF]
+    )
+    if z >= 0.0:  # the draw is Q_A (supply feeds A)
+        J[Y_PS, Y_NU] = dps_q * qa_z * dz
+        J[Y_PS, col_a] = dps_q * qa_pa
+        J[Y_PS, Y_PS] = dps_ps + dps_q * qa_ps
+    else:  # the draw is −Q_B (supply feeds B)
+        J[Y_PS, Y_NU] = -dps_q * qb_z * dz
+        J[Y_PS, col_b] = -dps_q * qb_pb
+        J[Y_PS, Y_PS] = dps_ps - dps_q * qb_ps
+
+
 @njit(**_JIT)
 def jac_lines(y, u, ps_in, fl, p, J):
-    """The full model's exact ∂f/∂y without lines (line rows and columns zero); False with one.
+    """Exact ∂f/∂y of :func:`rhs_lines` without an accumulator; False (J untouched) with one.
 
-    With a line the solver takes differences (its exact entries are not written yet).
+    The full model's (:func:`~._rhs_full.jac_full`), which it is without lines (called alone
+    there: with the line code in the same function the trajectory without lines moved, 728 →
+    730 steps on a paper-rig sine; not traced); with a line see :func:`_jac_through_lines`.
     """
-    if p[I_VLA] > 0.0 or p[I_VLB] > 0.0:
+    if p[I_VLA] <= 0.0 and p[I_VLB] <= 0.0:
+        return jac_full(y, u, ps_in, fl, p, J)
+    return _jac_through_lines(y, u, ps_in, fl, p, J)
+
+
+@njit(**_JIT)
+def _jac_through_lines(y, u, ps_in, fl, p, J):
+    """∂f/∂y with a line: the full model's, its chamber rows taking the line flow's slopes
+    instead of the metering edge's, the line's row the edge's (orifice, dead zone, supply) and
+    the line flow's, with the series modulus."""
+    if not jac_full(y, u, ps_in, fl, p, J):
         return False
-    return jac_full(y, u, ps_in, fl, p, J)
+    la, lb = p[I_VLA] > 0.0, p[I_VLB] > 0.0
+    pa, pb, x, v = y[Y_PA], y[Y_PB], y[Y_X], y[Y_V]
+    pump = p[I_PUMP] > 0.5
+    ps = y[Y_PS] if pump else ps_in
+    nu = y[Y_NU]
+    z = _opening(nu, p)
+    dz = dead_zone_slope(nu, p[I_ALPHA], p[I_BETA], p[I_CREEP], p[I_OUTER])
+    pla, plb = _port_pressures(y, p)
+    qa, qb = orifice_flows(z, pla, plb, ps, p[I_PT], p[I_K], p[I_PTR])
+    qa_z, qa_pa, qa_ps, qb_z, qb_pb, qb_ps = orifice_flow_slopes(
+        z, pla, plb, ps, p[I_PT], p[I_K], p[I_PTR]
+    )
+    qla, qlb = _line_flows(y, qa, qb, pla, plb, p)
+    sa = line_flow_slope(pla - pa, p[I_GLA], p[I_LORIF], p[I_PTR])
+    sb = line_flow_slope(pb - plb, p[I_GLB], p[I_LORIF], p[I_PTR])
+    aa, ab, cl = p[I_AA], p[I_AB], p[I_CL]
+    for j in range(J.shape[1]):  # the chamber rows and the pump's again, through the lines
+        J[Y_PA, j] = J[Y_PB, j] = J[Y_PS, j] = 0.0
+    net_a = qla - aa * v + cl * (pb - pa) - external_leakage_flow(pa, p[I_CEA])
+    net_b = -qlb + ab * v + cl * (pa - pb) - external_leakage_flow(pb, p[I_CEB])
+    va = p[I_VA] + aa * x
+    vb = p[I_VB] + ab * (p[I_STROKE] - x)
+    dqa = -sa if la else qa_pa
+    dqb = -sb if lb else -qb_pb
+    ga = _chamber_row(dqa - p[I_CEA], -aa, net_a, pa, va, aa, p, J, Y_PA, Y_PA, Y_PB)
+    gb = _chamber_row(dqb - p[I_CEB], ab, net_b, pb, vb, -ab, p, J, Y_PB, Y_PB, Y_PA)
+    if la:  # the edge feeds the line; the line feeds the chamber
+        J[Y_PA, Y_PLA] = ga * sa
+        g = _line_row(J, Y_PLA, Y_PLA, Y_PA, pla, qa - qla, qa_pa - sa, sa, p[I_VLA], p)
+        ga = g  # the node the edge A feeds (for its spool and supply columns)
+    if lb:
+        J[Y_PB, Y_PLB] = gb * sb
+        g = _line_row(J, Y_PLB, Y_PLB, Y_PB, plb, qlb - qb, -sb - qb_pb, sb, p[I_VLB], p)
+        gb = g
+    ra, rb = (Y_PLA if la else Y_PA), (Y_PLB if lb else Y_PB)
+    J[ra, Y_NU] = ga * qa_z * dz
+    J[rb, Y_NU] = -gb * qb_z * dz
+    if pump:
+        J[ra, Y_PS] = ga * qa_ps
+        J[rb, Y_PS] = -gb * qb_ps
+        _pump_row(J, z, dz, qa_z, qa_pa, qa_ps, qb_z, qb_pb, qb_ps, ra, rb, ps, p)
+    return True
 
 
 @njit(**_JIT)
