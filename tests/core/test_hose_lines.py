@@ -215,3 +215,44 @@ def test_a_rig_with_line_sensors_records_them_and_the_data_take_them(tmp_path):
     assert "p_line_a" in ev.simulations["full-lines"].channels
     rmse = ev.metrics.set_index(["model", "channel"])["rmse"]
     assert rmse["full-lines", "p_a"] < rmse["full", "p_a"]
+
+
+@pytest.mark.parametrize("pump", [False, True], ids=["constant-supply", "pump"])
+@pytest.mark.parametrize("lines", [HOSES, ORIFICES, Lines(volume_b=7.85e-5, conductance_b=6e-9)])
+@pytest.mark.parametrize("spool", [0.3, -0.2])
+def test_exact_jacobian_with_lines_matches_differences(lines, pump, spool):
+    """``jac_lines`` against central differences of ``rhs_lines`` (the solver's ∂f/∂y).
+
+    Steps of 1e-6 of each state's scale: truncation O(h²) and rounding O(ε/h) both below 1e-6 of
+    the entries; the orifice points sit outside its laminar band's edge (no kink in a stencil).
+    """
+    from hydropwa.simulation._rhs_lines import jac_lines, rhs_lines
+
+    params = PAPER.replace(lines=lines)
+    if pump:
+        params = params.replace(supply=machine_supply(params))
+    model = FullLinesModel(params)
+    p = model.pack()
+    y = model.initial_state(0.08)
+    names = model.state_names
+    y[names.index("spool")] = spool
+    y[names.index("v")] = 0.01
+    y[names.index("p_line_a")] = y[names.index("p_a")] + 3e5
+    y[names.index("p_line_b")] = y[names.index("p_b")] - 2e5
+    n = y.size
+    J = np.zeros((n, n))
+    assert jac_lines(y, spool, 100e5, 0.0, p, J)
+    scale = model.state_scale()
+    num = np.zeros((n, n))
+    for j in range(n):
+        h = 1e-6 * max(abs(y[j]), scale[j])
+        f1, f0 = np.zeros(n), np.zeros(n)
+        yp, ym = y.copy(), y.copy()
+        yp[j] += h
+        ym[j] -= h
+        rhs_lines(yp, spool, 100e5, 0.0, p, f1)
+        rhs_lines(ym, spool, 100e5, 0.0, p, f0)
+        num[:, j] = (f1 - f0) / (2 * h)
+    # 1e-5 of each row's largest entry: the rows span 1e-3 (spool) to 1e12 (pressures) per unit
+    tol = 1e-5 * np.max(np.abs(num), axis=1, keepdims=True) + 1e-12
+    assert np.all(np.abs(J - num) <= tol), np.argwhere(np.abs(J - num) > tol)
