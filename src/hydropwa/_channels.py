@@ -127,7 +127,8 @@ _INF = math.inf
 
 #: The canonical channels. The rig's sensors sample them in this order (its noise streams
 #: follow it) and it records the rows of sensor kind ``command`` to ``force``
-#: (:data:`RECORDED_CHANNELS`).
+#: (:data:`RECORDED_CHANNELS`) that its model simulates: the line pressures only on a machine
+#: with hose lines (they come last, so a machine without lines draws the same noise).
 # fmt: off
 CHANNELS: tuple[Channel, ...] = (
     #       name     unit   state    sensor      lo     hi    peak  floor  score hint
@@ -147,6 +148,10 @@ CHANNELS: tuple[Channel, ...] = (
             "rod position x, Eq. (10)"),
     Channel("f_l",   "N",   None,    "force",    -1e7,  1e7,  0.0,  False, 0, _F_HIGH,
             "external load force F_L, Eq. (10)"),
+    Channel("p_line_a", "Pa", "p_line_a", "pressure", -1e5, 1e8, 1e3, True, 0, _P_HIGH,
+            "pressure in the hose line on valve port A (params.Lines)", _P_LOW),
+    Channel("p_line_b", "Pa", "p_line_b", "pressure", -1e5, 1e8, 1e3, True, 0, _P_HIGH,
+            "pressure in the hose line on valve port B (params.Lines)", _P_LOW),
     Channel("z",     "1",   None,    "derived",  -1.05, 1.05, 0.0,  False, 0, _FRACTION_HIGH,
             "valve opening after the dead zone, Eq. (4)"),
     Channel("p_l",   "Pa",  None,    "derived",  -1e8,  1e8,  1e3,  False, 4, _P_HIGH,

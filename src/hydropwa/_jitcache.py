@@ -39,6 +39,7 @@ COMPILED_MODULES = (
     "simulation/_rhs_full.py",
     "simulation/_rhs_load.py",
     "simulation/_rhs_chamber.py",
+    "simulation/_rhs_lines.py",
     "simulation/_dispatch.py",
     "simulation/_rosenbrock.py",
     "simulation/_stepcontrol.py",

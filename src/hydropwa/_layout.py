@@ -86,6 +86,13 @@ BASE_SLOTS: tuple[tuple[str, str | None], ...] = (
     # external leakage of each chamber to the ambient, C_eA, C_eB [m³/(s·Pa)]
     ("cea", "cylinder.external_leakage_a"),
     ("ceb", "cylinder.external_leakage_b"),
+    # hose lines between the valve's ports and the chambers (the full-lines model; volume 0: none)
+    ("vla", "lines.volume_a"),
+    ("vlb", "lines.volume_b"),
+    ("gla", "lines.conductance_a"),
+    ("glb", "lines.conductance_b"),
+    ("ehose", "lines.bulk_modulus"),
+    ("lorif", "lines.orifice"),
 )
 
 #: Index of each base slot.
@@ -199,6 +206,14 @@ FULL_STATES: tuple[tuple[str, str, float], ...] = (
     ("p_s", "Pa", 1e5),  # supply pressure: a state only with the pump supply model
     ("p_acc", "Pa", 1e5),  # gas accumulator on port A (constant without one)
 )
+#: States of the full model with hose lines (``full-lines``): the full model's, then the
+#: pressure of the line on each valve port (a line of zero volume holds its chamber's pressure).
+LINE_STATES: tuple[tuple[str, str, float], ...] = FULL_STATES + (
+    ("p_line_a", "Pa", 1e5),
+    ("p_line_b", "Pa", 1e5),
+)
+#: Extra output rows of the full-lines model: the line pressures (a chamber's where it has none).
+LINE_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (("p_line_a", "Pa"), ("p_line_b", "Pa"))
 #: States of the reduced and PWA models (Eqs. (12)–(23)): load pressure, velocity, position.
 LOAD_STATES: tuple[tuple[str, str, float], ...] = (
     ("p_l", "Pa", 1e5),
@@ -256,6 +271,11 @@ class ModelKind:
         Keywords the factory always gets for this kind (``form="chamber"``).
     style : (colour, line style, label)
         How plots draw it.
+    norm_free_states : tuple of (state, slot, threshold)
+        Trailing states left out of the step's error norm (its RMS) where ``p[slot] <=
+        threshold``, last state first: the held state of an absent optional component (a hose
+        line of zero volume), so the kind then steps exactly as the kind without it. () for
+        every kind whose norm runs over all its states.
     """
 
     name: str
@@ -274,6 +294,7 @@ class ModelKind:
     factory: str
     factory_options: tuple[tuple[str, object], ...]
     style: tuple[str, str, str]
+    norm_free_states: tuple[tuple[str, str, float], ...] = ()
 
     @property
     def linearized(self) -> bool:
@@ -331,6 +352,16 @@ MODEL_KINDS: dict[str, ModelKind] = {
             factory="hydropwa.linearization:linearize", factory_options=(("form", "chamber"),),
             style=("tab:orange", "-.", "PWA chamber-level (P_S(t))"),
         ),
+        ModelKind(
+            "full-lines", 4, "lines", LINE_STATES, LINE_OUTPUT_CHANNELS,
+            "full-order model with hose lines between valve and chambers", "full (hose lines)",
+            carries_spool=True, jacobian_depends_on_u=False,
+            inert_states=(("p_line_b", "vlb", 0.0), ("p_line_a", "vla", 0.0), *_FULL_INERT),
+            rhs_module="hydropwa.simulation._rhs_lines", exact_jacobian_always=False,
+            lu_blocks=(2, 6), factory="hydropwa.models:FullLinesModel", factory_options=(),
+            style=("tab:purple", "-", "full-order, hose lines"),
+            norm_free_states=(("p_line_b", "vlb", 0.0), ("p_line_a", "vla", 0.0)),
+        ),
     )
 }  # fmt: skip
 assert [row.kernel for row in MODEL_KINDS.values()] == list(range(len(MODEL_KINDS)))
@@ -365,7 +396,7 @@ def build_model(name: str, params: Any, **options: Any) -> Any:
 
 #: A full-model state whose initial value is that of another state when the caller does not
 #: give it (a component at rest with the node it hangs on).
-FULL_STATE_TIES: dict[str, str] = {"p_acc": "p_a"}
+FULL_STATE_TIES: dict[str, str] = {"p_acc": "p_a", "p_line_a": "p_a", "p_line_b": "p_b"}
 
 #: Index of each state in the kernel's state vector.
 Y_FULL: dict[str, int] = {name: i for i, (name, _u, _s) in enumerate(FULL_STATES)}

@@ -16,7 +16,7 @@ from hydropwa._channels import (
     STATE_CHANNELS,
     channels_of,
 )
-from hydropwa._layout import FULL_STATES, LOAD_STATES, Y_FULL
+from hydropwa._layout import FULL_STATES, MODEL_KINDS, Y_FULL
 from hydropwa.data import CANONICAL_UNITS, PLAUSIBLE_RANGES
 from hydropwa.evaluation import CHANNELS as EVALUATED
 from hydropwa.linearization import linearize
@@ -32,7 +32,7 @@ def params():
 
 
 def test_every_state_channel_names_a_model_state():
-    states = {n for n, _u, _s in FULL_STATES} | {n for n, _u, _s in LOAD_STATES}
+    states = {n for row in MODEL_KINDS.values() for n, _u, _s in row.states}
     for c in CHANNELS:
         assert c.state is None or c.state in states, c.name
 
@@ -41,9 +41,16 @@ def test_the_layers_read_the_table():
     assert CANONICAL_UNITS == {c.name: c.unit for c in CHANNELS}
     assert set(PLAUSIBLE_RANGES) == set(CHANNEL) - {"t"}
     assert PLAUSIBLE_RANGES["p_a"].hi == CHANNEL["p_a"].hi
-    assert MEASURED_CHANNELS == RECORDED_CHANNELS == ("u", "spool", "p_a", "p_b", "p_s", "x", "f_l")
+    assert (
+        MEASURED_CHANNELS
+        == RECORDED_CHANNELS
+        == (
+            *("u", "spool", "p_a", "p_b", "p_s", "x", "f_l"),
+            *("p_line_a", "p_line_b"),  # recorded where the model simulates them (hose lines)
+        )
+    )
     assert EVALUATED == SCORED_CHANNELS == ("x", "p_a", "p_b", "p_l", "v")
-    assert FLOOR_CHANNELS == ("p_a", "p_b")
+    assert FLOOR_CHANNELS == ("p_a", "p_b", "p_line_a", "p_line_b")
 
 
 def test_the_rig_has_a_sensor_for_every_measured_channel(params):
@@ -57,7 +64,8 @@ def test_full_model_state_from_a_measurement(params):
     y = FullOrderModel(params).state_from_measurement(MEASURED)
     expected = np.zeros(len(FULL_STATES))
     for name in STATE_CHANNELS:
-        expected[Y_FULL[name]] = MEASURED[name]
+        if name in Y_FULL:  # the line pressures initialise the full-lines model's states
+            expected[Y_FULL[name]] = MEASURED[name]
     expected[Y_FULL["p_acc"]] = MEASURED["p_a"]  # the accumulator rests with chamber A
     np.testing.assert_array_equal(y, expected)
 

@@ -27,15 +27,25 @@ def test_compiled_tables_are_the_rows():
     kernel's state and slot indices (the full model: P_acc without gas, P_S without the pump;
     the chamber model's P_S always)."""
     K = _kcommon
-    assert K.CARRIES_SPOOL == (True, False, False, True)
-    assert K.JAC_DEPENDS_ON_U == (False, True, True, False)
-    assert K.INERT_STATE[K.FULL] == (K.Y_PACC, K.Y_PS) == K.INERT_STATE[K.CHAMBER]
-    assert K.INERT_SLOT[K.FULL] == (K.I_ACCV, K.I_PUMP)
-    assert K.INERT_SLOT[K.CHAMBER] == (K.I_ACCV, -1)  # -1: always inert
-    assert K.INERT_LIMIT[K.FULL] == (0.0, 0.5)
-    assert K.INERT_STATE[K.REDUCED] == K.INERT_STATE[K.PWA] == (-1, -1)
+    assert K.CARRIES_SPOOL == (True, False, False, True, True)
+    assert K.JAC_DEPENDS_ON_U == (False, True, True, False, False)
+    pad = (-1,) * (K.N_INERT - 2)  # the tables are padded to the longest row (full-lines: 4)
+    assert K.INERT_STATE[K.FULL] == (K.Y_PACC, K.Y_PS, *pad) == K.INERT_STATE[K.CHAMBER]
+    assert K.INERT_SLOT[K.FULL] == (K.I_ACCV, K.I_PUMP, *pad)
+    assert K.INERT_SLOT[K.CHAMBER] == (K.I_ACCV, -1, *pad)  # -1: always inert
+    assert K.INERT_LIMIT[K.FULL][:2] == (0.0, 0.5)
+    assert K.INERT_STATE[K.REDUCED] == K.INERT_STATE[K.PWA] == (-1,) * K.N_INERT
     # the trailing-run rule of n_solve needs the inert states last, the last state first
     assert K.INERT_STATE[K.FULL][0] == K.N_STATES[K.FULL] - 1
+    # full-lines: the lines (absent at volume 0) before the full model's inert states; only the
+    # lines leave the error norm, so without them it steps as the full model
+    lines = _layout.MODEL_KINDS["full-lines"].kernel
+    n = K.N_STATES[lines]
+    assert n == K.N_STATES[K.FULL] + 2
+    assert K.INERT_STATE[lines] == (n - 1, n - 2, K.Y_PACC, K.Y_PS)
+    vla, vlb = _layout.SLOT["vla"], _layout.SLOT["vlb"]
+    assert K.FREE_STATE[lines] == (n - 1, n - 2) and K.FREE_SLOT[lines] == (vlb, vla)
+    assert all(K.FREE_STATE[k] == (-1,) * K.N_FREE for k in (K.FULL, K.REDUCED, K.PWA, K.CHAMBER))
 
 
 def test_each_kind_finds_its_compiled_functions():

@@ -62,7 +62,7 @@ def test_the_howto_machine_is_the_industrial_axis():
         "valve.null_voltage",
     } | {f"supply.{k}" for k in FIELD_UNITS["supply"]} | {
         f"accumulator.{k}" for k in FIELD_UNITS["accumulator"]
-    }
+    } | {f"lines.{k}" for k in FIELD_UNITS["lines"]}  # no hose lines on the industrial axis
     for comp in ("valve", "dead_zone", "flow", "friction", "load", "oil"):
         a, b = getattr(howto, comp), getattr(industrial, comp)
         for f in dataclasses.fields(a):

@@ -58,6 +58,10 @@ __all__ = [
     "supply_flow",
     "hose_flow",
     "accumulator_pressure_rate",
+    "line_flow",
+    "line_flow_slope",
+    "series_bulk_modulus",
+    "series_bulk_modulus_slope",
 ]
 
 #: numba options of the compiled components. ``error_model="numpy"``: a division by zero gives
@@ -738,3 +742,47 @@ def accumulator_pressure_rate(
     pa_abs = p + 1e5
     gas = gas_volume * (((precharge + 1e5) / pa_abs) ** (1.0 / index))
     return q / (hose_volume / E + gas / (index * pa_abs))
+
+
+@njit(**_JIT)
+def line_flow(dp: float, conductance: float, orifice: float, p_tr: float) -> float:
+    """Flow [m³/s] through a hose line's resistance at the pressure drop ``dp`` [Pa] across it.
+
+    Laminar (``orifice`` ≤ 0.5): Q = G ΔP. Orifice (``orifice`` > 0.5): the regularised
+    square-root law of the valve's edges (:func:`signed_sqrt`, laminar below the transition
+    pressure p_tr) scaled to the same conductance G at small drops,
+    Q = G √p_tr / 1.25 · signed_sqrt(ΔP, p_tr), i.e. G p_tr/1.25 · √(ΔP/p_tr) above p_tr.
+    Not in the paper (its valve sits on the cylinder). G [m³/(s·Pa)], p_tr [Pa].
+    """
+    if orifice > 0.5:
+        return conductance * math.sqrt(p_tr) / 1.25 * signed_sqrt(dp, p_tr)
+    return conductance * dp
+
+
+@njit(**_JIT)
+def series_bulk_modulus(E: float, wall: float) -> float:
+    """Effective bulk modulus [Pa] of oil of modulus E in a hose whose wall has modulus ``wall``.
+
+    Compliances in series: 1/E_eff = 1/E + 1/E_wall (Merritt 1967, Sec. 2.7); ``wall`` ≤ 0 is a
+    rigid wall (E_eff = E). E is the oil's effective modulus at the line pressure
+    (:func:`effective_bulk_modulus`, with its cavitation branch).
+    """
+    if wall <= 0.0:
+        return E
+    return E * wall / (E + wall)
+
+
+@njit(**_JIT)
+def line_flow_slope(dp: float, conductance: float, orifice: float, p_tr: float) -> float:
+    """∂Q/∂ΔP [m³/(s·Pa)] of :func:`line_flow`: G laminar; G √p_tr/1.25 · signed_sqrt' for an orifice."""
+    if orifice > 0.5:
+        return conductance * math.sqrt(p_tr) / 1.25 * signed_sqrt_slope(dp, p_tr)
+    return conductance
+
+
+@njit(**_JIT)
+def series_bulk_modulus_slope(E: float, wall: float) -> float:
+    """∂E_eff/∂E [1] of :func:`series_bulk_modulus`: E_wall²/(E + E_wall)², 1 for a rigid wall."""
+    if wall <= 0.0:
+        return 1.0
+    return wall * wall / ((E + wall) * (E + wall))

@@ -53,6 +53,12 @@ class ModelVariant(NamedTuple):
 #: run's average P_S.
 VARIANTS: dict[str, ModelVariant] = {
     "full": ModelVariant("full-order model, measured P_S(t)", "full", (), "measured"),
+    "full-lines": ModelVariant(
+        "full-order model with the machine's hose lines, measured P_S(t)",
+        "full-lines",
+        (),
+        "measured",
+    ),
     "reduced": ModelVariant("asymmetric reduced model, average P_S", "reduced", (), "mean"),
     "reduced-scheduled": ModelVariant(
         "asymmetric reduced model, measured P_S(t)", "reduced", (), "measured"

@@ -23,6 +23,7 @@ from .._layout import (
     BASE_SLOTS,
     FULL_STATE_TIES,
     FULL_STATES,
+    LINE_STATES,
     LOAD_STATES,
     MODEL_KINDS,
     MODEL_NAMES,
@@ -36,10 +37,12 @@ from ..params import SystemParams
 
 __all__ = [
     "FullOrderModel",
+    "FullLinesModel",
     "ReducedModel",
     "Model",
     "pack_params",
     "as_model",
+    "machine_model",
     "REDUCED_FORMS",
     "MODEL_NAMES",
 ]
@@ -203,11 +206,13 @@ class FullOrderModel(_ModelBase):
     """
 
     name: ClassVar[str] = "full"
+    #: The state table (:mod:`hydropwa._layout`) the states, scales and initial states follow.
+    states: ClassVar[tuple[tuple[str, str, float], ...]] = FULL_STATES
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
 
     def state_scale(self) -> np.ndarray:
         """Typical state magnitudes used as absolute tolerances (× rtol)."""
-        return np.array([scale for _n, _u, scale in FULL_STATES])
+        return np.array([scale for _n, _u, scale in self.states])
 
     def initial_state(
         self,
@@ -239,10 +244,24 @@ class FullOrderModel(_ModelBase):
             [Pa] to ``params.supply.pressure``. A state without a measured channel rests with
             the node it hangs on (:data:`~hydropwa._layout.FULL_STATE_TIES`).
         """
-        states = tuple(name for name, _u, _s in FULL_STATES)
         defaults = {"v": 0.0, "spool": 0.0, "p_s": self.params.supply.pressure}
-        values = measured_values(measured, states, defaults, positional)
-        return np.array(state_vector(FULL_STATES, values, FULL_STATE_TIES), dtype=float)
+        values = measured_values(measured, self.state_names, defaults, positional)
+        return np.array(state_vector(self.states, values, FULL_STATE_TIES), dtype=float)
+
+
+@dataclass(frozen=True)
+class FullLinesModel(FullOrderModel):
+    """Full-order model with hose lines between the valve's ports and the chambers.
+
+    The states of :class:`FullOrderModel`, then the line pressures P_line,A, P_line,B [Pa]
+    (``params.lines``, :class:`~hydropwa.params.Lines`; a line of zero volume is no line, and
+    the model is then the full model). At rest, and without a measured ``p_line_a``/``p_line_b``,
+    a line holds its chamber's pressure.
+    """
+
+    name: ClassVar[str] = "full-lines"
+    states: ClassVar[tuple[tuple[str, str, float], ...]] = LINE_STATES
+    state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LINE_STATES)
 
 
 @dataclass(frozen=True)
@@ -353,6 +372,16 @@ def as_model(model: Model | str, params: SystemParams | None = None) -> Model:
         )
     built: Model = row.build(params)
     return built
+
+
+def machine_model(params: SystemParams) -> FullOrderModel:
+    """The full-order model of the machine ``params``: with its hose lines where it has them.
+
+    :class:`FullLinesModel` when ``params.lines`` gives a line a volume
+    (:attr:`~hydropwa.params.Lines.present`), else :class:`FullOrderModel`: what the virtual
+    rig simulates, so a rig on a machine with hoses records the line pressures.
+    """
+    return FullLinesModel(params) if params.lines.present else FullOrderModel(params)
 
 
 #: The kinds built in this layer (by :func:`as_model` from a name).

@@ -30,6 +30,7 @@ __all__ = [
     "Supply",
     "Load",
     "Accumulator",
+    "Lines",
     "SystemParams",
     "flow_coefficient_from_rating",
 ]
@@ -700,6 +701,75 @@ class Accumulator:
 
 
 @dataclass(frozen=True, slots=True)
+class Lines:
+    """Hose lines between the valve's ports and the chambers (not in the paper).
+
+    Each line is a volume with its own pressure P_line (a state of the ``full-lines`` model):
+    the valve's metering edges see the line pressure, and the line feeds its chamber through a
+    resistance, laminar (Q = G ΔP) or an orifice (laminar below the valve's transition
+    pressure P_tr with the same conductance G at small drops,
+    :func:`~hydropwa.components.line_flow`). The oil in the line is stiffened by the oil's
+    bulk modulus and softened by the hose wall's in series
+    (:func:`~hydropwa.components.series_bulk_modulus`). A line of zero volume is no line: that
+    port connects straight to its chamber (the default: no lines).
+
+    Attributes
+    ----------
+    volume_a, volume_b : float
+        Oil volume of the line on port A / B [m³] (0: no line).
+    conductance_a, conductance_b : float
+        Conductance G of the resistance between line and chamber [m³/(s·Pa)]; needed (> 0)
+        where the line has a volume.
+    bulk_modulus : float
+        Bulk modulus of the hose wall [Pa], in series with the oil's; 0: a rigid line.
+    orifice : bool
+        The resistance is an orifice (square-root law above P_tr) instead of laminar.
+    """
+
+    #: A parameter file may leave the section out (no lines).
+    OPTIONAL: ClassVar[bool] = True
+    #: SI unit of each field (a pint expression; None: not a quantity).
+    UNITS: ClassVar[dict[str, str | None]] = {
+        "volume_a": "m**3",
+        "volume_b": "m**3",
+        "conductance_a": "m**3/s/Pa",
+        "conductance_b": "m**3/s/Pa",
+        "bulk_modulus": "Pa",
+        "orifice": None,
+    }
+
+    volume_a: float = 0.0
+    volume_b: float = 0.0
+    conductance_a: float = 0.0
+    conductance_b: float = 0.0
+    bulk_modulus: float = 0.0
+    orifice: bool = False
+
+    def __post_init__(self) -> None:
+        for side in ("a", "b"):
+            _check(self, f"volume_{side}", "m³", ge=0.0, le=1.0)
+            _check(self, f"conductance_{side}", "m³/(s·Pa)", ge=0.0, le=1e-3)
+            if (
+                getattr(self, f"volume_{side}") > 0.0
+                and getattr(self, f"conductance_{side}") <= 0.0
+            ):
+                raise ParameterError(
+                    f"Lines.conductance_{side} = 0 m³/(s·Pa) with a line volume on port "
+                    f"{side.upper()}: give the conductance of the line's resistance (a 10 mm "
+                    "hose of 1 m with oil of 0.04 Pa·s: about 6e-9 m³/(s·Pa)), or volume 0 "
+                    "for no line"
+                )
+        _check(self, "bulk_modulus", "Pa", ge=0.0, le=1e12)
+        if not isinstance(self.orifice, bool):
+            raise ParameterError(f"Lines.orifice = {self.orifice!r} must be true or false")
+
+    @property
+    def present(self) -> bool:
+        """Whether either port has a line (a volume above zero)."""
+        return self.volume_a > 0.0 or self.volume_b > 0.0
+
+
+@dataclass(frozen=True, slots=True)
 class SystemParams:
     """All parameters of one valve-controlled cylinder (the three models share it).
 
@@ -715,6 +785,8 @@ class SystemParams:
     load : Load
     accumulator : Accumulator
         Optional gas accumulator on port A (none by default).
+    lines : Lines
+        Optional hose lines between the valve's ports and the chambers (none by default).
     meta : dict
         Free-form notes (not used by the physics).
     origin : mapping
@@ -732,6 +804,7 @@ class SystemParams:
     supply: Supply = field(default_factory=Supply)
     load: Load = field(default_factory=Load)
     accumulator: Accumulator = field(default_factory=Accumulator)
+    lines: Lines = field(default_factory=Lines)
     meta: dict = field(default_factory=dict, compare=False, hash=False)
     origin: Mapping[str, tuple[str, Any]] = field(
         default_factory=dict, compare=False, hash=False, repr=False

@@ -102,6 +102,11 @@ PLAUSIBLE: dict[tuple[str, str], tuple[float, float, tuple[tuple[str, float], ..
     ("accumulator", "hose_length"): (1e-2, 100.0, _MM),
     ("accumulator", "hose_diameter"): (1e-4, 0.2, _MM),
     ("accumulator", "viscosity"): (1e-4, 10.0, (("mPa*s", 1e-3),)),
+    ("lines", "volume_a"): (1e-9, 1.0, _LITRE),
+    ("lines", "volume_b"): (1e-9, 1.0, _LITRE),
+    ("lines", "conductance_a"): (1e-16, 1e-3, _PER_BAR),
+    ("lines", "conductance_b"): (1e-16, 1e-3, _PER_BAR),
+    ("lines", "bulk_modulus"): (1e6, 1e12, (("MPa", 1e6), ("GPa", 1e9))),
     # the valve's volt scale: ±10 V servo inputs, a null of millivolts (FASTER: 22 mV)
     ("valve", "command_voltage"): (0.1, 100.0, (("mV", 1e-3),)),
     ("valve", "null_voltage"): (1e-6, 10.0, (("mV", 1e-3),)),

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..components import load_pressure_range
-from ..models import FullOrderModel
+from ..models import machine_model
 from ..simulation import Chirp, Constant, Sampled, Signal, Sine, Step, simulate
 from ._campaign import (
     DeadZoneExperiment,
@@ -449,7 +449,7 @@ def execute(
     params = rig.params
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
-    model = FullOrderModel(params)
+    model = machine_model(params)
     command = spec.command
     if spec.command_offset:
         command = shift_command(command, spec.command_offset)

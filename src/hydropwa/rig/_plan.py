@@ -33,7 +33,7 @@ from .. import __version__
 from .._errors import ParameterError
 from .._io import atomic_folder
 from .._result import ResultStatus
-from ..models import FullOrderModel
+from ..models import machine_model
 from ..params import SystemParams, params_to_toml, parse_quantity
 from ..simulation import Sampled, simulate
 from ._campaign import EXPERIMENTS, Campaign
@@ -328,7 +328,7 @@ def _simulate(params: SystemParams, spec: RunSpec, t, u, f_l) -> dict[str, np.nd
     if spec.counter_force is not None and spec.counter_force.get("damping", 0.0) > 0.0:
         params = params.replace(**{"load.damping": spec.counter_force["damping"]})
     res = simulate(
-        FullOrderModel(params),
+        machine_model(params),
         Sampled(t, u),
         timepts=t,
         load_force=None if f_l is None else Sampled(t, f_l),

@@ -316,7 +316,8 @@ def measure(
         Full-model simulation sampled at the rig rate.
     sensors : dict[str, SensorModel]
         Sensor per channel; channels without a sensor are not recorded, except the
-        command ``u``, which the rig records as sent.
+        command ``u``, which the rig records as sent, nor those the model does not simulate
+        (the line pressures of a machine without hose lines).
     rng : numpy.random.Generator
         Noise source (one per run, see :func:`hydropwa.rig.run_seed`).
     name : str
@@ -335,12 +336,13 @@ def measure(
         "t": np.asarray(result.channels["t"], dtype=float),
         "u": np.asarray(result.channels["u"], dtype=float),
     }
+    simulated = result.channels
     for ch in MEASURED_CHANNELS:
-        if ch in sensors:
-            channels[ch] = sensors[ch].apply(result.channels[ch], rng)
+        if ch in sensors and ch in simulated:
+            channels[ch] = sensors[ch].apply(simulated[ch], rng)
     for ch, sensor in sensors.items():
-        if ch not in channels:
-            channels[ch] = sensor.apply(result.channels[ch], rng)
+        if ch not in channels and ch in simulated:
+            channels[ch] = sensor.apply(simulated[ch], rng)
     units = {ch: sensors[ch].unit for ch in channels if ch in sensors}
     meta = dict(meta or {})
     meta["converter_limits"] = {

@@ -150,10 +150,11 @@ import math
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import MODEL_KINDS, SG_VALUE, Y_FULL, Y_LOAD
+from .._layout import SG_VALUE, Y_FULL, Y_LOAD
 from .._layout_law import CST, CTL, EROW_SLOT, EXT, LOG_ROW, RCH, ROW_SLOT, XROW_SLOT
 from .._layout_law import SIZES as LAW_SIZES
 from ..components._physics import load_flow_drop, signed_sqrt
+from ._kcommon import carries_spool
 from ._signals import NO_REFCOUNT, eval_signal_rate
 
 #: the packed valve-command slot of the signal vector (the layout's one table)
@@ -162,8 +163,8 @@ _S_U = SG_VALUE["u"]
 _X, _V, _PA, _PB = (Y_FULL[k] for k in ("x", "v", "p_a", "p_b"))
 _NU = Y_FULL["spool"]
 _LPL, _LV, _LX = (Y_LOAD[k] for k in ("p_l", "v", "x"))
-#: the model kinds whose state holds the spool (ν, ν̇ of the full state): the full and chamber models
-_SPOOL_A, _SPOOL_B = (row.kernel for row in MODEL_KINDS.values() if row.carries_spool)
+# the model kinds whose state holds the spool (ν, ν̇ and the chambers of the full state: the
+# full, full-lines and chamber models) are their registry rows' carries_spool (_kcommon)
 
 #: the law's packed vectors, declared once in the layout layer (hydropwa/_layout_law.py); the
 #: index constants below are read from its tables (numba compiles them in as integers)
@@ -441,7 +442,7 @@ def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
     a state feedback would read as a load. ``nx`` [m], ``npa``, ``npb`` [Pa]: sensor noise
     added to x, P_A and P_B (the load-state models: ``npa`` onto P_L).
     """
-    if kind == _SPOOL_A or kind == _SPOOL_B:  # full and chamber PWA models (FULL_STATES)
+    if carries_spool(kind):  # full, full-lines and chamber PWA models (the full state's head)
         return y[_X] + nx, y[_V], load_pressure(y[_PA] + npa, y[_PB] + npb, a_a, a_b, mean_area)
     return y[_LX] + nx, y[_LV], y[_LPL] + npa  # reduced, PWA (LOAD_STATES)
 
@@ -949,7 +950,7 @@ def controller_sample(kind, k, t, y, a_a, a_b, ctl, cst, ref, rch, sg, log):
     """
     rc = rch[:, k]
     x, v, pl = measure(kind, y, a_a, a_b, ctl[C_PLMEAN], rc[RC_NX], rc[RC_NPA], rc[RC_NPB])
-    spool = kind == _SPOOL_A or kind == _SPOOL_B
+    spool = carries_spool(kind)
     meas = (x, v, pl, y[_NU] + rc[RC_NNU] if spool else 0.0, 1.0 if spool else 0.0)
     sg[_S_U] = law_step(k, t, meas, ref[k], ctl, ctl.shape[0], (a_a, a_b), cst, rc, log[:, k])
 

@@ -58,7 +58,7 @@ INLINE_NRT_JIT: dict = {**INLINE_JIT, **NO_REFCOUNT}
 #: constant of the compiled code below is derived from them, indexed by the kind's kernel id.
 KIND_ROWS = tuple(MODEL_KINDS.values())
 #: The kernel ids under the names the physics modules use (the registry's rows, in order).
-FULL, REDUCED, PWA, CHAMBER = (row.kernel for row in KIND_ROWS)
+FULL, REDUCED, PWA, CHAMBER = (row.kernel for row in KIND_ROWS[:4])
 _CBRT_1E4 = 1e-4 ** (1.0 / 3.0)
 N_STATES = tuple(len(row.states) for row in KIND_ROWS)
 _N_FULL = N_STATES[FULL]  # (the chamber model's loops over the full state)
@@ -90,6 +90,24 @@ def _inert_table(row, field):
 INERT_STATE, INERT_SLOT, INERT_LIMIT = (
     tuple(_inert_table(row, field) for row in KIND_ROWS) for field in range(3)
 )
+#: States each kind leaves out of the error norm when absent
+#: (:attr:`~hydropwa._layout.ModelKind.norm_free_states`), padded to ``N_FREE`` entries like the
+#: inert tables (at least one entry, so every kind's table has one type).
+N_FREE = max(1, max(len(row.norm_free_states) for row in KIND_ROWS))
+
+
+def _free_table(row, field):
+    pad = ((-1, 0, 0.0),) * (N_FREE - len(row.norm_free_states))
+    index = {name: i for i, (name, _u, _s) in enumerate(row.states)}
+    entries = tuple(
+        (index[state], SLOT[slot], float(limit)) for state, slot, limit in row.norm_free_states
+    )
+    return tuple(entry[field] for entry in entries + pad)
+
+
+FREE_STATE, FREE_SLOT, FREE_LIMIT = (
+    tuple(_free_table(row, field) for row in KIND_ROWS) for field in range(3)
+)
 
 # Packed parameter vector layout: generated from the one table in hydropwa._layout.
 I_OMEGA0, I_ZETA, I_ALPHA, I_BETA, I_CREEP, I_OUTER = (
@@ -111,6 +129,10 @@ I_RFORM = SLOT["rform"]  # reduced/PWA form: 0 asymmetric single-rod, 1 paper (m
 I_XCAP = SLOT["xcap"]  # PWA: rod position of the chamber capacitances [m]; < 0: the state x
 I_ACCV, I_ACCP0, I_ACCN, I_HOSEL, I_HOSED, I_HOSEVOL, I_VISC = (
     SLOT[k] for k in ("accv", "accp0", "accn", "hosel", "hosed", "hosevol", "visc")
+)
+# hose lines of the full-lines model: volumes, conductances, wall modulus, orifice law
+I_VLA, I_VLB, I_GLA, I_GLB, I_EHOSE, I_LORIF = (
+    SLOT[k] for k in ("vla", "vlb", "gla", "glb", "ehose", "lorif")
 )
 # PWA section (written by hydropwa.linearization.pack_pwa)
 I_SCHED, I_PSFIX, I_FORM, I_NG, I_NO, I_NN, I_NW = (PWA_SLOT[k] for k in PWA_SLOTS)
@@ -173,6 +195,9 @@ jac_depends_on_u = per_kind(JAC_DEPENDS_ON_U, "jac_depends_on_u")
 _inert_states = per_kind(INERT_STATE, "inert_states")
 _inert_slots = per_kind(INERT_SLOT, "inert_slots")
 _inert_limits = per_kind(INERT_LIMIT, "inert_limits")
+_free_states = per_kind(FREE_STATE, "free_states")
+_free_slots = per_kind(FREE_SLOT, "free_slots")
+_free_limits = per_kind(FREE_LIMIT, "free_limits")
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -196,6 +221,23 @@ def n_solve(kind, p):
     states = _inert_states(kind)
     for i in range(N_INERT):
         if states[i] != n - 1 or not inert_state(kind, states[i], p):
+            break
+        n -= 1
+    return n
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def n_norm(kind, p):
+    """Number of leading states of model ``kind`` in the step's error norm (the RMS).
+
+    All its states but a trailing run of absent ones (the registry row's ``norm_free_states``:
+    a hose line of zero volume), so a kind with an absent component steps as the kind without
+    it; every other kind's norm runs over all its states.
+    """
+    n = n_states(kind)
+    states, slots, limits = _free_states(kind), _free_slots(kind), _free_limits(kind)
+    for i in range(N_FREE):
+        if states[i] != n - 1 or p[slots[i]] > limits[i]:
             break
         n -= 1
     return n

@@ -24,6 +24,7 @@ from ._kcommon import (
     STEP_COLLAPSE,
     _inputs,
     jac_depends_on_u,
+    n_norm,
     n_states,
 )
 from ._outputs import _dense_output
@@ -152,6 +153,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
     Y, y, f0, fnew, ft, yt, ynew, yerr, dfdt, U, J, W, piv, stats = work
     ctl, cst, ref, dref, log = loop
     n = n_states(kind)
+    n_err = n_norm(kind, p)  # n, less a kind's absent trailing states (registry row)
     n_out = t_out.shape[0]
     closed = _closed(ctl)
     n_smp = _n_samples(log)
@@ -218,7 +220,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):  # noqa: C901 (compiled
             method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
         )
         nfev += n_rhs
-        err, finite = _error_norm(n, y, ynew, yerr, atol, rtol)
+        err, finite = _error_norm(n_err, y, ynew, yerr, atol, rtol)
         # f(t + h, ynew) (next step's first stage, dense output) only if accepted, unless the
         # method's error estimate needs it (fsal: its stepper has filled it)
         fresh = not fsal and finite and err <= 1.0

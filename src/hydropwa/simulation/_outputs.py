@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
+from .._layout import MODEL_KINDS
 from ..components._physics import (
     chamber_pressures_from_load,
 )
@@ -14,6 +15,8 @@ from ._kcommon import (
     FULL,
     I_CLOAD,
     I_PUMP,
+    I_VLA,
+    I_VLB,
     INLINE_NRT_JIT,
     L_PL,
     L_V,
@@ -107,12 +110,31 @@ def _outputs_chamber(t_out, Y, n_done, p, sg):
     return out
 
 
+_LINES_ROW = MODEL_KINDS["full-lines"]
+LINES = _LINES_ROW.kernel
+N_OUT_LINES = N_OUT + len(_LINES_ROW.extra_outputs)
+_Y_PLA, _Y_PLB = (len(_LINES_ROW.states) - 2, len(_LINES_ROW.states) - 1)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _outputs_lines(t_out, Y, n_done, p, sg):
+    """Output pass of the full-lines model: the full model's rows, then P_line,A and P_line,B
+    (a chamber's pressure where its port has no line)."""
+    out = np.empty((N_OUT_LINES, n_done))
+    _fill_full(t_out, Y, n_done, p, sg, out)
+    for k in range(n_done):
+        out[N_OUT, k] = Y[k, _Y_PLA] if p[I_VLA] > 0.0 else Y[k, Y_PA]
+        out[N_OUT + 1, k] = Y[k, _Y_PLB] if p[I_VLB] > 0.0 else Y[k, Y_PB]
+    return out
+
+
 #: The output pass of each model kind: ``OUTPUTS[kind](t_out, Y, n_done, p, sg)``.
 OUTPUTS = {
     FULL: _outputs_full,
     REDUCED: _outputs_reduced,
     PWA: _outputs_pwa,
     CHAMBER: _outputs_chamber,
+    LINES: _outputs_lines,
 }
 
 

@@ -60,6 +60,7 @@ CHANNEL_UNITS: dict[str, str] = {
     **dict(OUTPUT_CHANNELS),
     **dict(PWA_OUTPUT_CHANNELS),
     **dict(CHAMBER_OUTPUT_CHANNELS),
+    **{name: unit for row in MODEL_KINDS.values() for name, unit in row.extra_outputs},
     **dict(CONTROL_OUTPUT_CHANNELS),
 }
 _OUT_COLS = tuple(name for name, _unit in OUTPUT_CHANNELS)
