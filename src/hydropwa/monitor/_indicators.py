@@ -52,8 +52,9 @@ class Indicator:
         Whether it has a threshold. F_c, F_s and σ apart are estimates only: one run's speed
         range rarely separates them (``friction_scale`` carries the friction alarm).
     ratio_of : tuple of str
-        For a ratio to the identified value (nominal 1): the parameters whose relative
-        intervals bound it (``friction_scale``: the widest of F_c, F_s, σ).
+        For a ratio to the identified value (nominal 1): the parameters whose intervals
+        bound it (``friction_scale``: F_c, F_s, σ, weighted by the run's speeds,
+        :func:`~._residuals.friction_level_weights`).
     """
 
     name: str
@@ -212,6 +213,7 @@ NUISANCE: dict[str, float] = {
     "cylinder.dead_volume_b": 0.1,
     "load.mass": 0.05,
     "friction.stribeck_velocity": 0.2,
+    "friction.shape": 0.1,
     "supply.compensator_droop": 0.1,
     "supply.pump_flow": 0.05,
 }

@@ -35,6 +35,7 @@ from ._residuals import (
     Signals,
     continuity_fit,
     friction_fit,
+    friction_level_weights,
     friction_scale_fit,
     prepare,
     sliding_speed,
@@ -65,7 +66,8 @@ class IndicatorValue:
     nominal : (float, float)
         The healthy interval of the parameter it estimates.
     bias : float
-        Largest shift the held parameters' intervals can cause (to first order).
+        Largest shift the held parameters' intervals can cause (to first order), plus half
+        the shift when the filter's window is doubled (:meth:`HealthMonitor._filter_bias`).
     threshold : (float or None, float or None)
         Alarm below the first / above the second (None: no alarm on that side).
     alarm : bool
@@ -347,8 +349,10 @@ class HealthMonitor:
         self.k_ = NormalDist().inv_cdf(1.0 - self.false_alarm / sides)
         return self
 
-    def _signals(self, run: Any, params: SystemParams) -> tuple[Signals, np.ndarray]:
-        sig = prepare(run.channels, float(run.fs), params, self.window)
+    def _signals(
+        self, run: Any, params: SystemParams, window: float | None = None
+    ) -> tuple[Signals, np.ndarray]:
+        sig = prepare(run.channels, float(run.fs), params, window or self.window)
         c = params.cylinder
         m = self.stroke_margin * c.stroke
         mask = (sig.x > m) & (sig.x < c.stroke - m)
@@ -390,6 +394,25 @@ class HealthMonitor:
                     bias[ind.name] += 0.5 * abs(b[0] - a[0])
         return bias
 
+    def _filter_bias(self, run: Any, fits: Mapping[str, LinearFit | None]) -> dict[str, float]:
+        """Per indicator: half the change of the estimate when the filter's window is doubled.
+
+        The equations hold between filtered signals only for their linear terms: the
+        Stribeck curve of a filtered speed, the metering flows of filtered pressures and the
+        speed's noise in the regressors (errors in variables) bias the estimates by an amount
+        the filter sets. Refitting with twice the window measures it on this run (measured,
+        not bounded: docs/monitoring.md). Runs too short for the wider window add nothing.
+        """
+        try:
+            wide = self._fits(run, self.params_, self._signals(run, self.params_, 2 * self.window))
+        except DataError:
+            return {ind.name: 0.0 for ind in INDICATORS}
+        out = {}
+        for ind in INDICATORS:
+            a, b = _read(ind, fits), _read(ind, wide)
+            out[ind.name] = 0.5 * abs(b[0] - a[0]) if a is not None and b is not None else 0.0
+        return out
+
     def check(self, run: Any) -> RunHealth:
         """The health of one run (a :class:`hydropwa.data.Run`)."""
         if not hasattr(self, "params_"):
@@ -403,7 +426,10 @@ class HealthMonitor:
         prepared = self._signals(run, self.params_)
         fits = self._fits(run, self.params_, prepared)
         bias = self._held_bias(run, prepared)
-        values = {ind.name: self._indicator(ind, fits, bias[ind.name]) for ind in INDICATORS}
+        for name, b in self._filter_bias(run, fits).items():
+            bias[name] += b
+        level = friction_level_weights(prepared[0], self.params_, prepared[1])
+        values = {ind.name: self._indicator(ind, fits, bias[ind.name], level) for ind in INDICATORS}
         faults: dict[str, float] = {}
         for ind in INDICATORS:
             iv = values[ind.name]
@@ -419,9 +445,13 @@ class HealthMonitor:
         return RunHealth(run.name, values, bool(named), named, rows, notes, speed, logged)
 
     def _indicator(
-        self, ind: Indicator, fits: Mapping[str, LinearFit | None], bias: float
+        self,
+        ind: Indicator,
+        fits: Mapping[str, LinearFit | None],
+        bias: float,
+        level: np.ndarray,
     ) -> IndicatorValue:
-        lo, hi = self._healthy(ind)
+        lo, hi = self._healthy(ind, level)
         got = _read(ind, fits)
         if got is None:
             nan = float("nan")
@@ -461,9 +491,21 @@ class HealthMonitor:
             score,
         )
 
-    def _healthy(self, ind: Indicator) -> tuple[float, float]:
-        """The healthy interval (SI) of what an indicator estimates."""
-        if ind.ratio_of:  # a ratio to the identified value: the widest relative interval
+    def _healthy(self, ind: Indicator, level: np.ndarray) -> tuple[float, float]:
+        """The healthy interval (SI) of what an indicator estimates.
+
+        A ratio to the identified curve (``ratio_of``: the friction level) spans
+        Σ_j [lo_j, hi_j]·g_j over its parameters' intervals, g_j the run's weights
+        (:func:`~._residuals.friction_level_weights`; exact, the curve is linear in them);
+        without sliding rows (g NaN) the widest relative interval.
+        """
+        if ind.ratio_of and np.all(np.isfinite(level)):
+            ends = [
+                np.array(self.intervals_[p][0]) * g
+                for p, g in zip(ind.ratio_of, level, strict=True)
+            ]
+            return float(sum(e.min() for e in ends)), float(sum(e.max() for e in ends))
+        if ind.ratio_of:
             w = 0.0
             for path in ind.ratio_of:
                 (lo, hi), _src = self.intervals_[path]

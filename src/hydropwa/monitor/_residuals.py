@@ -40,6 +40,7 @@ __all__ = [
     "Signals",
     "continuity_fit",
     "friction_fit",
+    "friction_level_weights",
     "friction_scale_fit",
     "monitor_result",
     "monitor_row",
@@ -343,6 +344,31 @@ def friction_scale_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> 
     )
     rows = _sliding(sig, params, mask)
     return _wls([(curve[rows][:, None], force[rows])], np.array([1.0]))
+
+
+def friction_level_weights(sig: Signals, params: SystemParams, mask: np.ndarray) -> np.ndarray:
+    """g_j = ⟨f, b_j⟩ / ⟨f, f⟩ over the sliding rows, for θ = (F_c, F_s, σ) [1/N, 1/N, m/(N·s)].
+
+    Eq. (11) is linear in θ: f = Σ_j θ_j b_j(ẋ) with b_Fc = tanh(γẋ)(1 − e), b_Fs = tanh(γẋ)·e,
+    b_σ = ẋ (e = exp(−|ẋ/χ|^δ)). A machine with θ' and the identified χ, δ, γ has the friction
+    level :func:`friction_scale_fit` reads, without noise, s = Σ_j θ'_j g_j exactly (Σ_j θ_j g_j
+    = 1 at the identified θ), so θ's intervals bound the healthy level of *this* run's speeds.
+    """
+    fr = params.friction
+    rows = _sliding(sig, params, mask)
+    v = sig.v[rows]
+    curve = stribeck_friction(
+        v, fr.coulomb, fr.static, fr.viscous, fr.stribeck_velocity, fr.shape, fr.smoothness
+    )
+    basis = (
+        stribeck_friction(v, 1.0, 0.0, 0.0, fr.stribeck_velocity, fr.shape, fr.smoothness),
+        stribeck_friction(v, 0.0, 1.0, 0.0, fr.stribeck_velocity, fr.shape, fr.smoothness),
+        v,
+    )
+    ff = float(curve @ curve)
+    if ff <= 0.0:
+        return np.full(3, np.nan)
+    return np.array([float(curve @ b) / ff for b in basis])
 
 
 def spool_fit(sig: Signals, mask: np.ndarray) -> LinearFit | None:
