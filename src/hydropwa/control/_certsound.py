@@ -52,6 +52,7 @@ class SoundnessResult:
     error_bound: float  # [Pa/s] the set's bound
     max_leftover: float  # [scaled] largest mismatch no column explains
     grown_error_bound: float  # [Pa/s] the bound that holds on the samples (× GROWTH)
+    sector_violations: int = 0  # samples whose fitted F is not against ẋ₀ (F·ẋ₀ > 0)
 
     def summary(self) -> str:
         return (
@@ -59,7 +60,8 @@ class SoundnessResult:
             f"samples outside the set; |F| ≤ {self.max_friction:.4g} N (set {self.friction_bound:.4g}"
             f" N), |e_P| ≤ {self.max_error / 1e5:.4g} bar/s (set {self.error_bound / 1e5:.4g} "
             f"bar/s, grown {self.grown_error_bound / 1e5:.4g} bar/s), leftover "
-            f"{self.max_leftover:.3g} (scaled)"
+            f"{self.max_leftover:.3g} (scaled); friction with the motion (F·ẋ > 0) in "
+            f"{self.sector_violations} samples"
         )
 
 
@@ -190,7 +192,7 @@ def one_step_soundness(
     scales = np.array([_SCALES[k] for k in _NAMES])
     cells = list(data.cells)
     rng = np.random.default_rng(seed)
-    fs, es, lefts, bad = [], [], [], 0
+    fs, es, lefts, bad, sector = [], [], [], 0, 0
     bound_f = data.bounds["friction"]
     c_max = data.command_limit if opening is None else float(opening)
     for j, xi0, c in _sample_states(rng, data, cells, samples, c_max):
@@ -210,6 +212,7 @@ def one_step_soundness(
             + [k_g * y1[1]]
         )
         F, e, left = _explain(_vertex_maps(data, lo, hi), xi0, c, z1, scales)
+        sector += int(F * xi0[1] > 0 and abs(F) > 1e-3 * bound_f)
         fs.append(abs(F))
         es.append(abs(e))
         lefts.append(left)
@@ -224,6 +227,7 @@ def one_step_soundness(
         error_bound=max(c["error_bound"] for c in cells),
         max_leftover=max(lefts, default=0.0),
         grown_error_bound=GROWTH * max(es, default=0.0),
+        sector_violations=sector,
     )
 
 
