@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..components._physics import chamber_pressures_from_load
 from ..models import as_model
 from ..simulation import simulate
 
@@ -52,21 +51,22 @@ class FalsificationResult:
 
 
 def _start_state(full, params, x_ref: float, start) -> np.ndarray:
-    """The full state of a start (e [m], ẋ [m/s], ΔP_L [Pa]) at the hold, spool centred."""
+    """The full state of a start (e [m], ẋ [m/s], ΔP_L [Pa]) at the hold, the spool centred
+    and P_A + P_B kept at the rest's (P_S: :meth:`FullOrderModel.initial_state`)."""
     c = params.cylinder
     y = full.initial_state(x_ref)
     alpha = c.area_b / c.area_a
     p_l = params.load.force / c.area_a + start[2]
-    pa, pb = chamber_pressures_from_load(0.0, p_l, float(y[6]), alpha)
-    y[2], y[3], y[4], y[5] = pa, pb, x_ref + start[0], start[1]
+    total = float(y[2] + y[3])
+    pb = (total - p_l) / (1.0 + alpha)
+    y[2], y[3], y[4], y[5] = total - pb, pb, x_ref + start[0], start[1]
     return y
 
 
 def _final_error(controller, params, full, x_ref, start, duration, settle, noise, seed):
     """(largest |e| over the last ``settle`` seconds, largest |e| over the run) of one start."""
     res = simulate(
-        params,
-        model="full",
+        full,
         controller=controller,
         reference=x_ref,
         initial_state=_start_state(full, params, x_ref, start),
