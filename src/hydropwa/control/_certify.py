@@ -67,6 +67,7 @@ __all__ = [
     "Certificate",
     "LoopData",
     "certify",
+    "certify_data",
     "loop_data",
     "NOISE_SIGMAS",
     "REGION_SHAPE",
@@ -805,11 +806,18 @@ def certify(
     √V⁺ ≤ (√λ + ρ₁)√V + ρ_j; c_U = (1 + m)²·max c_j over the rows not separated from the
     hold; ē = √(c_U (P⁻¹)ₓₓ) [m]; c_R the largest level free of saturation.
     """
+    data = loop_data(controller, model, delay_samples=delay_samples, sensor_noise=sensor_noise)
+    hashes = {"model_hash": _hash(model.params.to_dict()), "law_hash": law_hash(controller)}
+    return certify_data(data, **hashes)
+
+
+def certify_data(data: LoopData, **hashes: str) -> Certificate:
+    """:func:`certify` on prepared loop data (its rows, bounds and modes as given: the
+    negative controls and the tests' reduced loops); ``hashes`` model_hash, law_hash."""
     from ._certcheck import check_certificate  # deferred: the independent checker
 
-    data = loop_data(controller, model, delay_samples=delay_samples, sensor_noise=sensor_noise)
+    hashes = {"model_hash": "", "law_hash": ""} | hashes
     sc = _scaled(data)
-    hashes = {"model_hash": _hash(model.params.to_dict()), "law_hash": law_hash(controller)}
     failing = _failing_rows(sc, data)
     if failing:
         return _failed(CertificateStatus.NO_LYAPUNOV, data, failing, hashes, {}, math.nan)
