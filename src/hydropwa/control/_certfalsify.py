@@ -106,8 +106,10 @@ def falsify(
         box's error bound by 2× (and ē) is counted as escaped.
     reach_time : float
         [s] after which the error must lie within ē (the window :data:`SETTLE_WINDOW` after it).
-    starts, adversarial : int
-        Random starts; then evaluations of the local search from the worst starts.
+    starts : int
+        Random starts.
+    adversarial : int
+        Then evaluations of the local search from the worst start so far.
     seed : int
     sensor_noise : mapping, optional
         Standard deviations {"x", "p_a", "p_b"} (default the default design's).
