@@ -57,9 +57,9 @@ def test_two_assemblies_of_the_loop_agree(default, paper_pwa, delay):
     for cell in d.cells:
         Mi, Ml, E, a, _k, _h = _row_loop(d, cell)
         Mi2, Ml2, EA = row_matrices(d, cell)
-        for x, y in ((Mi, Mi2), (Ml, Ml2), (E, EA[:, :5])):
+        for x, y in ((Mi, Mi2), (Ml, Ml2), (E, EA[:, :6])):
             assert np.abs(x - y).max() <= 1e-9 * np.abs(x).max()
-        assert np.abs(a - EA[:, 5]).max() <= 1e-9 * (1.0 + np.abs(a).max())
+        assert np.abs(a - EA[:, 6]).max() <= 1e-9 * (1.0 + np.abs(a).max())
 
 
 def test_rows_are_stable_alone_with_the_friction_bounded(data):
@@ -95,10 +95,10 @@ def _certify_data(data):
     )
 
     sc = _scaled(data)
-    P, mus = _solve_lyapunov(sc, data, 0.995)
+    P, mus, taus, sigmas = _solve_lyapunov(sc, data, 0.995)
     lv = _levels(P, mus, sc, data, 0.995)
     assert lv["status"] is CertificateStatus.CERTIFIED, lv["status"]
-    return _unchecked(data, P, 0.995, {**lv, "mu": mus})
+    return _unchecked(data, P, 0.995, {**lv, "mu": mus, "tau": taus, "sigma": sigmas})
 
 
 def test_checker_accepts_the_ellipsoid_and_rejects_wrong_ones(quiet_row):

@@ -65,8 +65,8 @@ def row_matrices(data, cell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     F[0, 8] = cell["f0"][0]
     X = _expm(F * ts)
     Ad, Bd = X[:5, :5], X[:5, 5:]
-    # the law over z = [ξ, F, n_x, n_p, δc, ė_p]
-    m = n + 5
+    # the law over z = [ξ, F, n_x, n_p, δc, ė_p, δ_band]
+    m = n + 6
     lx, lv = data.observer
     xh, vh, pfb, pb = (np.zeros(m) for _ in range(4))
     i_i, i_pb, i_xh, i_vh = 5 + nd, 6 + nd, 7 + nd, 8 + nd
@@ -88,7 +88,8 @@ def row_matrices(data, cell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         pfb = meas_p
     g = cell["gains"]
     c = g["k_i"] * np.eye(m)[i_i] - g["k_x"] * xh - g["k_v"] * vh - g["k_pl"] * pfb
-    c = c - g["k_nu"] * np.eye(m)[3] - g["k_dnu"] * np.eye(m)[4] + np.eye(m)[n + 3]
+    c = c - g["k_nu"] * np.eye(m)[3] - g["k_dnu"] * np.eye(m)[4]
+    c = c + np.eye(m)[n + 3] + np.eye(m)[n + 5]  # the blend and vent; the band's dead zone
     if nd:
         c = c - g["k_up"] * np.eye(m)[5]
     u = c if nd == 0 else np.eye(m)[5]
@@ -138,11 +139,14 @@ def check_certificate(cert, data) -> CheckResult:
     fails: list[str] = []
     checked = 1
     mus = iter(cert.mu)
+    taus = iter(getattr(cert, "tau", ()) or ())
+    sigmas = iter(getattr(cert, "sigma", ()) or ())
     forms = []
     for cell in data.cells:
         Mi, Ml, EA, c_form = _row(data, cell)
         W = (EA * _magnitudes(data, cell)) / S[:, None]
-        W = W[:, np.abs(W).max(axis=0) > 1e-12]
+        acting = np.abs(W).max(axis=0) > 1e-12
+        W = W[:, acting]
         forms.append(c_form)
         for name, M in (("integrate", Mi), ("leak", Ml)):
             Ms = (M * S) / S[:, None]
@@ -155,6 +159,19 @@ def check_certificate(cert, data) -> CheckResult:
             D = np.zeros((n + mu.size, n + mu.size))
             D[:n, :n] = lam * P
             D[n:, n:] = np.diag(mu)
+            tau = float(next(taus, 0.0))
+            if tau < 0:
+                fails.append(f"row {cell['label']} ({name}): a negative sector multiplier")
+            elif tau > 0 and acting[0]:
+                # friction beyond its viscous slope is a force against the motion: the force
+                # on the mass (disturbance 0) times ẋ (state 1) is ≤ 0, so τ·F·ẋ may be added
+                D[1, n] += 0.5 * tau
+                D[n, 1] += 0.5 * tau
+            sigma = float(next(sigmas, 0.0))
+            if sigma < 0:
+                fails.append(f"row {cell['label']} ({name}): a negative band multiplier")
+            elif sigma > 0 and acting[5]:
+                D += sigma * _band_term(data, cell, acting, n, S)
             if not _psd(D - MW.T @ P @ MW):
                 fails.append(f"row {cell['label']} ({name}): [M W]ᵀP[M W] ≼ diag(λP, μ) fails")
             if mu.sum() > (1.0 - lam) * (1 + 1e-9):
@@ -172,10 +189,37 @@ def check_certificate(cert, data) -> CheckResult:
     return CheckResult(not fails, tuple(fails), checked + 8)
 
 
+def _band_term(data, cell, acting, n: int, S) -> np.ndarray:
+    """q·d² + d·c over [ξ (scaled); acting d (scaled)]: the quiet band outputs c − δ with
+    δ = q·d between 0 and c (its dead zone, |δ| ≤ q), so δ(δ + c) ≤ 0 ⇔ q d² + d c ≤ 0."""
+    z = _command_form(data, cell)  # c over [ξ SI, n_x, n_p]
+    mag = _magnitudes(data, cell)
+    cols = np.flatnonzero(acting)
+    ell = np.zeros(n + cols.size)
+    ell[:n] = z[:n] * S
+    for j, col in enumerate(cols):
+        if col in (1, 2):  # the noises enter the command (through x̂, v̂ and the pressure)
+            ell[n + j] = z[n + col - 1] * mag[col]
+    b = n + int(np.flatnonzero(cols == 5)[0])
+    T = np.zeros((ell.size, ell.size))
+    T[b] += 0.5 * ell
+    T[:, b] += 0.5 * ell
+    T[b, b] += mag[5]
+    return T
+
+
 def _magnitudes(data, cell) -> np.ndarray:
     b = data.bounds
     return np.array(
-        [b["friction"], b["x_noise"], b["p_noise"], b["command"], cell["error_bound"], 1.0]
+        [
+            b["friction"],
+            b["x_noise"],
+            b["p_noise"],
+            b["command"],
+            cell["error_bound"],
+            b.get("band", 0.0),
+            1.0,
+        ]
     )
 
 

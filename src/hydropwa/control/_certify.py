@@ -14,12 +14,16 @@ deviations from the hold, x the position error):
   in P_L: two vertices), the servo valve of Eq. (1) in series, a zero-order hold and
   ``delay_samples`` samples of delay;
 * the friction as its viscous slope b plus a bounded force, |F_f(ẋ) − b ẋ| ≤ F_s (the
-  Stribeck drop and Coulomb's force as a disturbance, not the unstable falling branch);
+  Stribeck drop and Coulomb's force as a disturbance, not the unstable falling branch), which
+  is also passive: it opposes ẋ (an S-procedure term τ·F·ẋ, :data:`SECTOR_FRICTION`, off:
+  not sound in the sampled loop near ẋ = 0);
 * the law's linear part: washout, position observer, the row's gains, the integral in its
   two modes (integrate, and the leak where the valve is parked) as vertices;
 * bounded disturbances: the plant's residual at the hold, the sensor noise within
-  :data:`NOISE_SIGMAS` standard deviations, the quiet band with its vent (|c_o − c| ≤ 2q)
-  and the dead-zone inverse's blend (≤ z_w + creep).
+  :data:`NOISE_SIGMAS` standard deviations, the quiet band as a dead zone (|δ| ≤ q and
+  δ(δ + c) ≤ 0, sector [0, 1]: a term σ·(qd² + dc), :data:`SECTOR_BAND`), its vent's second
+  q, the dead-zone inverse's blend (≤ z_w + creep) and its offset's error against the
+  machine's dead band.
 
 An invariant ellipsoid: P and multipliers μ ≥ 0 with [M W]ᵀP[M W] ≼ diag(λP, diag μ),
 Σμ ≤ 1 − λ for every row, pressure vertex and integral mode (W the disturbance columns times
@@ -64,6 +68,7 @@ __all__ = [
     "Certificate",
     "LoopData",
     "certify",
+    "certify_data",
     "loop_data",
     "NOISE_SIGMAS",
     "REGION_SHAPE",
@@ -199,6 +204,10 @@ class Certificate:
         c_U and c_R of V.
     mu : tuple of ndarray
         The S-procedure multipliers per row and mode (the acting disturbance columns).
+    tau : tuple of float
+        The friction sector's multiplier per row and mode (τ·F·ẋ, F·ẋ ≤ 0; empty without it).
+    sigma : tuple of float
+        The quiet band's sector multiplier per row and mode (σ·(δ² + δc)/q, δ(δ + c) ≤ 0).
     disturbance : dict
         The disturbance terms (SI magnitudes).
     failing_rows : tuple of str
@@ -231,6 +240,8 @@ class Certificate:
     law_hash: str
     check: Any = None
     data: LoopData | None = field(default=None, repr=False)
+    tau: tuple = ()
+    sigma: tuple = ()
 
     def summary(self) -> str:
         """One paragraph: verdict, ē, the region's box and the reach time."""
@@ -272,6 +283,8 @@ class Certificate:
                     "level_region": self.level_region,
                     "scales": self.scales.tolist(),
                     "P": self.P.tolist(),
+                    "tau": [float(t) for t in self.tau],
+                    "sigma": [float(t) for t in self.sigma],
                 },
             }
         else:
@@ -377,12 +390,17 @@ def loop_data(
     q = dz.quiet_band if dz is not None else 0.0
     z_w = dz.width if dz is not None else 0.0
     beta = dz.offset if dz is not None else 0.0
-    command = 2.0 * q + z_w + prm.dead_zone.creep_slope * (z_w + beta)
+    # the band's dead zone (sector [0, 1], |δ| ≤ q) apart from the rest: the vent's second q,
+    # the inverse's blend z_w and the creep
+    # and the inverse's offset against the machine's dead band (a wrong offset opens or
+    # closes the valve by the difference at every command)
+    command = q + z_w + prm.dead_zone.creep_slope * (z_w + beta) + abs(beta - _machine_offset(prm))
     bounds = {
         "friction": float(max(prm.friction.static, prm.friction.coulomb)),
         "x_noise": NOISE_SIGMAS * float(noise.get("x", 0.0)),
         "p_noise": NOISE_SIGMAS * p_noise,
         "command": float(command),
+        "band": float(q),
     }
     # the rows whose pressure range holds the hold's P_L: the region keeps P_L inside the
     # intersection of their ranges, so no other row is ever active in it
@@ -400,7 +418,7 @@ def loop_data(
     return LoopData(
         cells=cells,
         sample_time=ts,
-        omega0=float(prm.valve.omega0),
+        omega0=float(prm.valve.omega0_at(0.0)),  # the hold's small amplitude (Table II)
         zeta=float(prm.valve.zeta),
         delay_samples=nd,
         observer=(float(controller.position_observer[0]), float(controller.position_observer[1])),
@@ -411,13 +429,20 @@ def loop_data(
         hold_pressure=hold_p,
         integral_band=float(dz.integral_band if dz is not None else 0.0),
         velocity_limit=float(min(-model.friction.interval[0], model.friction.interval[1])),
-        command_limit=float(controller.u_max - beta - command),
+        command_limit=float(controller.u_max - beta - command - q),
     )
+
+
+def _machine_offset(prm) -> float:
+    """The machine's outer-cell offset [1]: β, or β(1 − creep) with a continuous dead zone
+    (what the inverse's ``offset`` is designed to be)."""
+    dz = prm.dead_zone
+    return float(dz.beta * (1.0 - dz.creep_slope) if dz.continuous else dz.beta)
 
 
 #: disturbance components d of the loop, in the columns of E: friction force [N], position
 #: noise [m], load-pressure noise [Pa], command perturbation [1], Ṗ_L model error [Pa/s]
-_DIST = ("friction", "x_noise", "p_noise", "command", "error_bound")
+_DIST = ("friction", "x_noise", "p_noise", "command", "error_bound", "band")
 #: the ultimate set's margin m: 𝒰 = {√V ≤ (1 + m)·√c_U0}; a row is separated from 𝒰 where
 #: its box lies at V ≥ (1 + m)²·c_j
 MARGIN = 0.1
@@ -481,7 +506,8 @@ def _row_loop(data: LoopData, cell: dict):
     if nd > 0:
         k[5] -= g["k_up"]
     cmd = k.copy()
-    cmd[n + 3] += 1.0  # the band, the vent and the inverse's blend
+    cmd[n + 3] += 1.0  # the vent and the inverse's blend
+    cmd[n + 5] += 1.0  # the quiet band's dead zone
     applied = cmd if nd == 0 else _unit(nz, 5)
     T = np.zeros((n, nz))
     T[:5, :5] = Phi
@@ -520,7 +546,9 @@ def _scales(data: LoopData) -> np.ndarray:
 
 def _bounds(data: LoopData, cell: dict) -> np.ndarray:
     b = data.bounds
-    return np.array([b["friction"], b["x_noise"], b["p_noise"], b["command"], cell["error_bound"]])
+    return np.array(
+        [b["friction"], b["x_noise"], b["p_noise"], b["command"], cell["error_bound"], b["band"]]
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -531,6 +559,7 @@ class _Scaled:
     W: list  # per row: E·diag(bounds) (scaled) and the residual a as the last column
     k: list  # per row: command form over [ξ; d] (ξ scaled)
     h: np.ndarray  # x̂⁺ over [ξ; d] (ξ scaled)
+    bounds: list = field(default_factory=list)  # per row: the disturbances' magnitudes
 
 
 def _scaled(data: LoopData) -> _Scaled:
@@ -548,10 +577,10 @@ def _scaled(data: LoopData) -> _Scaled:
         h = xh.copy()
         h[:n] *= S
     assert h is not None
-    return _Scaled(modes, W, ks, h)
+    return _Scaled(modes, W, ks, h, [_bounds(data, c) for c in data.cells])
 
 
-def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float):
+def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float, sectors: bool = True):
     """(P, μ) of the invariant ellipsoid {V ≤ 1} (scaled states): for every row and mode and
     every disturbance in its box, V⁺ − 1 ≤ λ(V − 1), i.e. [M W]ᵀP[M W] ≼ diag(λP, diag μ)
     with Σμ ≤ 1 − λ (the S-procedure of the bounded components); the ellipsoid's extent in
@@ -567,12 +596,14 @@ def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float):
         P >> 1e-9 * np.eye(n),
         cp.bmat([[cp.reshape(t, (1, 1), order="C"), ex.T], [ex, P]]) >> 0,
     ]
-    mus = []
-    for modes, W in zip(sc.modes, sc.W, strict=True):
-        Wn = W[:, _kept(W)] / _OMEGA
+    mus, taus, sigmas = [], [], []
+    for modes, W, k_all, bounds in zip(sc.modes, sc.W, sc.k, sc.bounds, strict=True):
+        kept = _kept(W)
+        Wn = W[:, kept] / _OMEGA
         m = Wn.shape[1]
         for M in modes:
             mu = cp.Variable(m, nonneg=True)
+            tau = cp.Variable(nonneg=True)
             blk = cp.bmat(
                 [
                     [lam * P, np.zeros((n, m)), M.T @ P],
@@ -580,8 +611,15 @@ def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float):
                     [P @ M, P @ Wn, P],
                 ]
             )
+            if sectors and SECTOR_FRICTION and kept[0]:
+                blk = blk + tau * _sector_form(n, m, 2 * n + m)
+            sigma = cp.Variable(nonneg=True)
+            if sectors and SECTOR_BAND and kept[5]:
+                blk = blk + sigma * _band_form(n, kept, k_all, bounds, 2 * n + m)
             cons += [0.5 * (blk + blk.T) >> 0, cp.sum(mu) <= 1.0 - lam]
             mus.append(mu)
+            taus.append(tau)
+            sigmas.append(sigma)
     prob = cp.Problem(cp.Minimize(t), cons)
     try:
         with warnings.catch_warnings():  # "may be inaccurate": the checker decides, not the solver
@@ -592,7 +630,53 @@ def _solve_lyapunov(sc: _Scaled, data: LoopData, lam: float):
     if prob.status not in ("optimal", "optimal_inaccurate") or P.value is None:
         return None
     Pv = 0.5 * (P.value + P.value.T) / _OMEGA**2  # the LMI with W/ω holds for P/ω² with W
-    return Pv, [np.maximum(np.asarray(mu.value, float), 0.0) for mu in mus]
+    mu_v = [np.maximum(np.asarray(mu.value, float), 0.0) for mu in mus]
+    # the sector term τ·d_F·v of the problem in ξ/ω is τ/ω in ξ
+    tau_v = [max(float(tau.value or 0.0), 0.0) / _OMEGA for tau in taus]
+    # the band's term σ·(q d² + d·c) is written in c itself: the same σ in ξ
+    sig_v = [max(float(sg.value or 0.0), 0.0) for sg in sigmas]
+    return Pv, mu_v, tau_v, sig_v
+
+
+#: friction as a passive term (issue 51): the whole force beyond the viscous slope opposes
+#: the velocity, F·ẋ ≤ 0 (Coulomb and Stribeck alike), an S-procedure term τ·F·ẋ on top of
+#: its bound |F| ≤ F_s. **Off**: in the sampled loop F is the force held over a sample and
+#: ẋ the velocity at its start, and the one-step check on the full model finds F·ẋ > 0 in
+#: half its samples near ẋ = 0 (the rod reverses within the sample), so the sector is not
+#: sound there; it also bought only 0.3 % of ē on the paper rig
+SECTOR_FRICTION = False
+
+
+#: the quiet band as a dead zone (issue 51): its output is c − δ with δ of c's sign and
+#: |δ| ≤ min(|c|, q), i.e. δ(δ + c) ≤ 0 for the disturbance δ = q·d added to c, an
+#: S-procedure term σ·(q d² + d·c) on top of its bound
+SECTOR_BAND = True
+
+
+def _band_form(n: int, kept: np.ndarray, k_all: np.ndarray, bounds: np.ndarray, size: int):
+    """The quadratic form of q·d_b² + d_b·c over [ξ/ω; d_kept; ·] (c the law's command before
+    the band, k_all over [ξ scaled; d SI]; d_b the band's scaled disturbance, q its bound)."""
+    nd = len(kept) - 1  # the residual column a is the last of W, not a disturbance of c
+    idx = np.cumsum(kept) - 1
+    ell = np.zeros(size)
+    ell[:n] = _OMEGA * k_all[:n]
+    for i in range(nd):
+        if kept[i]:
+            ell[n + idx[i]] += k_all[n + i] * bounds[i]
+    b = n + idx[5]
+    S = np.zeros((size, size))
+    S[b, :] += 0.5 * ell
+    S[:, b] += 0.5 * ell
+    S[b, b] += bounds[5]
+    return S
+
+
+def _sector_form(n: int, m: int, size: int) -> np.ndarray:
+    """The quadratic form of d_F·ẋ over [ξ; d; ·] (ẋ the state 1, d_F the first disturbance),
+    symmetric: the S-procedure adds τ times it to diag(λP, μ) (d_F·ẋ ≤ 0 where it holds)."""
+    S = np.zeros((size, size))
+    S[1, n] = S[n, 1] = 0.5
+    return S
 
 
 #: disturbances are scaled by 1/ω in the SDP: its ellipsoid is then of order 1 (Clarabel fails
@@ -677,7 +761,9 @@ NOT_MODELLED = (
     "sensor noise beyond 4 sigma",
     "the rows outside the hold's pressure cells (the region keeps P_L inside them)",
     "the flow's curvature between the two pressure vertices and the PWA's error to the full "
-    "model (error_bound 0; no one-step soundness check on the full model yet)",
+    "model (error_bound 0 unless soundness_samples > 0: the one-step check on the full "
+    "model, _certsound, measures it and grows the set from its samples, not exhaustively)",
+    "the valve's omega0 schedule (Table II): the hold's small-amplitude omega0 is certified",
     "the chamber capacitance's change with the rod position (the PWA's capacitance position)",
     "the spool estimate's error (the valve model of Eq. (1) taken as exact: ν̂ = ν)",
 )
@@ -699,6 +785,7 @@ def certify(
     *,
     delay_samples: int | None = None,
     sensor_noise: dict | None = None,
+    soundness_samples: int = 0,
 ) -> Certificate:
     """Certify a state-feedback loop at a hold: an ultimate bound ē and a region of attraction.
 
@@ -712,6 +799,10 @@ def certify(
         Samples of delay between computation and valve (default: the file's, 0 or 1).
     sensor_noise : mapping, optional
         Standard deviations {"x" [m], "p_a", "p_b" [Pa]} (default: the default design's).
+    soundness_samples : int
+        When > 0, the disturbance set is first checked one sample at a time on the full model
+        over as many (state, command) pairs (:func:`~hydropwa.control._certsound.one_step_soundness`)
+        and the Ṗ_L row's bound grown to what they need (0: the bound 0, not checked).
 
     Returns
     -------
@@ -724,11 +815,23 @@ def certify(
     √V⁺ ≤ (√λ + ρ₁)√V + ρ_j; c_U = (1 + m)²·max c_j over the rows not separated from the
     hold; ē = √(c_U (P⁻¹)ₓₓ) [m]; c_R the largest level free of saturation.
     """
+    data = loop_data(controller, model, delay_samples=delay_samples, sensor_noise=sensor_noise)
+    if soundness_samples > 0:
+        from ._certsound import grow, one_step_soundness  # deferred: it imports this module
+
+        checked = one_step_soundness(controller, model, samples=soundness_samples, data=data)
+        data = grow(data, checked)
+    hashes = {"model_hash": _hash(model.params.to_dict()), "law_hash": law_hash(controller)}
+    return certify_data(data, **hashes)
+
+
+def certify_data(data: LoopData, **hashes: str) -> Certificate:
+    """:func:`certify` on prepared loop data (its rows, bounds and modes as given: the
+    negative controls and the tests' reduced loops); ``hashes`` model_hash, law_hash."""
     from ._certcheck import check_certificate  # deferred: the independent checker
 
-    data = loop_data(controller, model, delay_samples=delay_samples, sensor_noise=sensor_noise)
+    hashes = {"model_hash": "", "law_hash": ""} | hashes
     sc = _scaled(data)
-    hashes = {"model_hash": _hash(model.params.to_dict()), "law_hash": law_hash(controller)}
     failing = _failing_rows(sc, data)
     if failing:
         return _failed(CertificateStatus.NO_LYAPUNOV, data, failing, hashes, {}, math.nan)
@@ -736,10 +839,12 @@ def certify(
         return _failed(CertificateStatus.INTEGRAL_HOLD, data, (), hashes, {}, math.nan)
     best = None
     for lam in _LAMBDAS:
-        sol = _solve_lyapunov(sc, data, lam)
+        # the sector terms only widen the feasible set; where Clarabel fails on them (the
+        # heavy axis: their multipliers are ~1e-5 of P's scale) the plain problem is tried
+        sol = _solve_lyapunov(sc, data, lam) or _solve_lyapunov(sc, data, lam, sectors=False)
         if sol is None:
             continue
-        lv = _levels(sol[0], sol[1], sc, data, lam)
+        lv = _levels(sol[0], sol[1], sc, data, lam) | {"tau": sol[2], "sigma": sol[3]}
         if best is None or lv["e_bar"] < best[1]["e_bar"]:
             best = (lam, lv, sol[0])
     if best is None:
@@ -783,11 +888,18 @@ def _unchecked(data, P, lam: float, lv: dict, **given: Any) -> Certificate:
         level_ultimate=lv["level_ultimate"],
         level_region=lv["level_region"],
         mu=tuple(lv["mu"]),
-        disturbance=dict(data.bounds),
+        tau=tuple(lv.get("tau", ())),
+        sigma=tuple(lv.get("sigma", ())),
+        disturbance=_disturbance(data),
         failing_rows=(),
         data=data,
         **fields,
     )
+
+
+def _disturbance(data: LoopData) -> dict:
+    """The disturbance terms of the table (SI): the bounds and the cells' largest Ṗ_L bound."""
+    return dict(data.bounds) | {"p_l_rate": max(float(c["error_bound"]) for c in data.cells)}
 
 
 def _replace(cert: Certificate, **kw) -> Certificate:
@@ -801,7 +913,8 @@ def _failed(status, data, failing, hashes, lv, lam: float) -> Certificate:
         status=status,
         success=False,
         message=msg,
-        e_bar=math.inf,
+        # the ellipsoid's bound where one was found (its region empty), else inf
+        e_bar=float(lv.get("e_bar", math.inf)),
         box=(0.0, 0.0, 0.0),
         reach_time=math.inf,
         P=np.zeros((n, n)),
@@ -810,7 +923,7 @@ def _failed(status, data, failing, hashes, lv, lam: float) -> Certificate:
         level_ultimate=float(lv.get("level_ultimate", math.inf)),
         level_region=float(lv.get("level_region", 0.0)),
         mu=(),
-        disturbance=dict(data.bounds),
+        disturbance=_disturbance(data),
         failing_rows=tuple(failing),
         not_modelled=NOT_MODELLED,
         data=data,
