@@ -16,6 +16,7 @@ import typer
 
 from .._errors import HydropwaError, PwaError
 from .._io import check_output, read_text
+from .._layout import CHAMBER_KIND, DEFAULT_KIND, DESIGN_KIND
 from .._limits import check_position
 from ._app import error_line, new_app
 from ._options import (
@@ -60,7 +61,7 @@ def _linearized_model(name: str, params_src, pwa_file: Path | None):
 
 def _pwa_model(params_src, pwa_file: Path | None):
     """The load-pressure PWA model (the default kind of the control commands)."""
-    return _linearized_model("pwa", params_src, pwa_file)
+    return _linearized_model(DESIGN_KIND.name, params_src, pwa_file)
 
 
 def _same_machine(model, params_src, pwa_file: Path):
@@ -249,9 +250,10 @@ def _spool_option(kw: dict, spool: str, method: str, model_name: str) -> None:
     if spool not in ("estimated", "measured"):
         raise ControlError(f"--spool {spool!r} must be estimated or measured")
     if spool == "measured":
-        if method != "lqr" or model_name != "pwa":
+        if method != "lqr" or model_name != DESIGN_KIND.name:
             raise ControlError(
-                "--spool measured needs the valve-aware design of --method lqr on --model pwa"
+                "--spool measured needs the valve-aware design of --method lqr on "
+                f"--model {DESIGN_KIND.name}"
             )
         kw["spool"] = "measured"
 
@@ -310,7 +312,7 @@ def design_command(
             "-m",
             help="Design model: pwa, or pwa-chamber (its integral tuning chosen and checked on the chamber-level model).",
         ),
-    ] = "pwa",
+    ] = DESIGN_KIND.name,
     verify: Annotated[
         bool,
         typer.Option(
@@ -429,10 +431,10 @@ def design_command(
 
     if model_name not in LINEARIZED_MODELS:
         raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
-    if certify and (model_name != "pwa" or method == "pi"):
-        raise ControlError("--certify needs --method lqr or place on --model pwa")
-    if model_name == "pwa-chamber" and method != "lqr":
-        raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
+    if certify and (model_name != DESIGN_KIND.name or method == "pi"):
+        raise ControlError(f"--certify needs --method lqr or place on --model {DESIGN_KIND.name}")
+    if model_name == CHAMBER_KIND.name and method != "lqr":
+        raise ControlError(f"--model {model_name} designs an LQR; drop --method {method}")
     model = _linearized_model(model_name, params, pwa)
     ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
@@ -452,10 +454,10 @@ def design_command(
     # on by default for --model pwa; opt-in for pwa-chamber
     kw["quiet"] = (
         (DEFAULT_DESIGN.quiet if quiet_band is None else quiet_band)
-        if model_name == "pwa"
+        if model_name == DESIGN_KIND.name
         else bool(quiet_band)
     )
-    design = design_controller if model_name == "pwa" else _design_on_chamber
+    design = design_controller if model_name == DESIGN_KIND.name else _design_on_chamber
     d = design(
         model,
         method=method,
@@ -620,7 +622,7 @@ def simulate_command(
         raise ControlError(
             f"--compare runs every model side by side; drop --model {model} (or drop --compare)"
         )
-    model = "full" if model is None else model
+    model = DEFAULT_KIND.name if model is None else model
     if model not in MODEL_NAMES:
         raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):

@@ -11,6 +11,7 @@ import typer
 from .._display import ENGINEERING_UNITS
 from .._errors import ParameterError, SignalError
 from .._io import check_output
+from .._layout import DEFAULT_KIND
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
 from ._options import (
@@ -113,7 +114,7 @@ def params_export(
 def simulate_command(
     model: Annotated[
         str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
-    ] = "full",
+    ] = DEFAULT_KIND.name,
     params: ParamsOption = None,
     input: Annotated[
         str | None,

@@ -14,6 +14,7 @@ import typer
 
 from hydropwa._errors import IdentificationError, ParameterError
 from hydropwa._io import check_output
+from hydropwa._layout import DEFAULT_KIND, MEASURABLE_MODELS
 
 from ._app import new_app
 from ._options import BaseParamsAlias, jobs_option, params_source, resolve_params
@@ -314,7 +315,7 @@ def model(
     out: Out = Path("fitted.toml"),
     model_kind: Annotated[
         str, typer.Option("--model", help="Model to fit: full or reduced.")
-    ] = "full",
+    ] = DEFAULT_KIND.name,
     params_src: ParamsOption = None,
     base_params: BaseParamsAlias = None,
     channels: Annotated[
@@ -419,8 +420,9 @@ def model(
     check_output(summary, force)
     if figures is not None:
         check_output(figures, force, folder=True, option="--figures", files=("greybox_*.png",))
-    if model_kind not in ("full", "reduced"):
-        raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
+    if model_kind not in MEASURABLE_MODELS:
+        choose = " or ".join(MEASURABLE_MODELS)
+        raise IdentificationError(f"--model {model_kind!r}: choose {choose}")
     selection = Selection(method=select, budget=budget)
     if scheduler is not None:
         from hydropwa.sweep import (  # deferred: loaded only when this command runs (a fast --help)

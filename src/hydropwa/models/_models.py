@@ -21,12 +21,14 @@ from .._channels import measured_values
 from .._errors import ParameterError
 from .._layout import (
     BASE_SLOTS,
+    FULL_KIND,
     FULL_STATE_TIES,
     FULL_STATES,
     LOAD_STATES,
     MODEL_KINDS,
     MODEL_NAMES,
     N_BASE,
+    REDUCED_KIND,
     SLOT,
     model_kind,
     state_vector,
@@ -202,7 +204,7 @@ class FullOrderModel(_ModelBase):
     and P_S [Pa] (a state only with ``supply.model = "pump"``).
     """
 
-    name: ClassVar[str] = "full"
+    name: ClassVar[str] = FULL_KIND.name
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
 
     def state_scale(self) -> np.ndarray:
@@ -261,7 +263,7 @@ class ReducedModel(_ModelBase):
     """
 
     form: str = "asymmetric"
-    name: ClassVar[str] = "reduced"
+    name: ClassVar[str] = REDUCED_KIND.name
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LOAD_STATES)
 
     def __post_init__(self) -> None:
