@@ -427,14 +427,7 @@ def design_command(
         check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
-    from .._layout import LINEARIZED_MODELS  # deferred: loaded only when this command runs
-
-    if model_name not in LINEARIZED_MODELS:
-        raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
-    if certify and (model_name != DESIGN_KIND.name or method == "pi"):
-        raise ControlError(f"--certify needs --method lqr or place on --model {DESIGN_KIND.name}")
-    if model_name == CHAMBER_KIND.name and method != "lqr":
-        raise ControlError(f"--model {model_name} designs an LQR; drop --method {method}")
+    _check_design_model(model_name, method, certify)
     model = _linearized_model(model_name, params, pwa)
     ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
@@ -470,6 +463,41 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
+    _report_design(d, out, write_unverified)
+    cert = _design_certificate(d.controller, model) if certify else None
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
+    if cert is not None:
+        from ..control import write_certificate  # deferred: loaded only with --certify
+
+        write_certificate(out, cert)
+    written = [str(out)]
+    if table is not None:
+        from .._io import (
+            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
+        )
+
+        atomic_write_text(table, d.table.to_csv(index=False))
+        written.append(str(table))
+    typer.echo(f"wrote {', '.join(written)}")
+
+
+def _check_design_model(model_name: str, method: str, certify: bool) -> None:
+    """``control design --model``: a linearized kind, and the methods and options it takes."""
+    from .._layout import LINEARIZED_MODELS  # deferred: loaded only when this command runs
+    from ..control import ControlError  # deferred: a fast --help
+
+    if model_name not in LINEARIZED_MODELS:
+        raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
+    if certify and (model_name != DESIGN_KIND.name or method == "pi"):
+        raise ControlError(f"--certify needs --method lqr or place on --model {DESIGN_KIND.name}")
+    if model_name == CHAMBER_KIND.name and method != "lqr":
+        raise ControlError(f"--model {model_name} designs an LQR; drop --method {method}")
+
+
+def _report_design(d, out: Path, write_unverified: bool) -> None:
+    """The design's warnings and summary; a failed verification exits 1 (nothing written)
+    unless ``--write-unverified``."""
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
@@ -487,22 +515,6 @@ def design_command(
             "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
-    cert = _design_certificate(d.controller, model) if certify else None
-    # the machine goes with the controller: `control simulate` needs no --params to run it
-    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
-    if cert is not None:
-        from ..control import write_certificate  # deferred: loaded only with --certify
-
-        write_certificate(out, cert)
-    written = [str(out)]
-    if table is not None:
-        from .._io import (
-            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
-        )
-
-        atomic_write_text(table, d.table.to_csv(index=False))
-        written.append(str(table))
-    typer.echo(f"wrote {', '.join(written)}")
 
 
 def _design_certificate(controller, model):
@@ -603,7 +615,6 @@ def simulate_command(
         MotionProfile,
         as_reference,
         check_machine,
-        closed_loop_warnings,
         load_controller,
         tracking_metrics,
     )
@@ -663,22 +674,7 @@ def simulate_command(
     res.save(out, overwrite=True)  # checked with --force above
     m = tracking_metrics(res).display()
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
-    for w in closed_loop_warnings(res):
-        print(f"warning: {w}", file=sys.stderr)
-    from ..control import (  # deferred: loaded only when this command runs
-        loop_bandwidth,
-        valve_warning,
-    )
-
-    valve = valve_warning(prm, model, loop_bandwidth(ctrl))
-    if valve:
-        print(f"warning: {valve}", file=sys.stderr)
-    if ctrl.verification.get("verdict") == "fail":
-        print(
-            f"warning: {controller} failed its verification on the full model "
-            f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
-            file=sys.stderr,
-        )
+    _loop_warnings(res, prm, model, ctrl, controller)
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
         save_figure(
@@ -689,6 +685,28 @@ def simulate_command(
         )
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+def _loop_warnings(res, prm, model: str, ctrl, controller: Path) -> None:
+    """``control simulate``'s warnings on stderr: the run's, whether ``model`` can represent
+    the loop (its valve), and a controller file that failed its verification."""
+    from ..control import (  # deferred: loaded only when this command runs
+        closed_loop_warnings,
+        loop_bandwidth,
+        valve_warning,
+    )
+
+    for w in closed_loop_warnings(res):
+        print(f"warning: {w}", file=sys.stderr)
+    valve = valve_warning(prm, model, loop_bandwidth(ctrl))
+    if valve:
+        print(f"warning: {valve}", file=sys.stderr)
+    if ctrl.verification.get("verdict") == "fail":
+        print(
+            f"warning: {controller} failed its verification on the full model "
+            f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
+            file=sys.stderr,
+        )
 
 
 @app.command("export")
