@@ -369,6 +369,23 @@ assert [row.kernel for row in MODEL_KINDS.values()] == list(range(len(MODEL_KIND
 MODEL_NAMES: tuple[str, ...] = tuple(MODEL_KINDS)
 #: Model kinds built from parameters by ``hydropwa.linearize`` (not by name alone).
 LINEARIZED_MODELS: tuple[str, ...] = tuple(r.name for r in MODEL_KINDS.values() if r.linearized)
+#: The rows by name, for code that means one kind: ``FULL_KIND.name``, not a literal name (a test
+#: holds literal kind names outside this module and the CLI's help text below 5).
+FULL_KIND = MODEL_KINDS["full"]
+REDUCED_KIND = MODEL_KINDS["reduced"]
+PWA_KIND = MODEL_KINDS["pwa"]
+CHAMBER_KIND = MODEL_KINDS["pwa-chamber"]
+LINES_KIND = MODEL_KINDS["full-lines"]
+#: The kind simulated when none is named (``simulate`` by name, sweeps, batches, the CLI).
+DEFAULT_KIND = FULL_KIND
+#: The kind a controller is designed on unless told otherwise (``control design``).
+DESIGN_KIND = PWA_KIND
+#: Kinds without the valve and the two chambers: one load-pressure state (Eqs. (12)-(23)).
+LOAD_PRESSURE_MODELS: tuple[str, ...] = tuple(
+    r.name for r in MODEL_KINDS.values() if r.states == LOAD_STATES
+)
+#: Kinds built from parameters alone, so a grey-box fit can start one from measurements.
+MEASURABLE_MODELS: tuple[str, ...] = tuple(r.name for r in MODEL_KINDS.values() if not r.linearized)
 
 
 def model_kind(name: str) -> ModelKind:

@@ -1,16 +1,22 @@
-"""No function over 80 lines of code and none with more than 10 parameters (issue 33, "How we
-will know"), measured with ``ast`` over ``src/hydropwa``.
+"""No function over 80 lines of code and none with more than 10 parameters (issues 33 and 47,
+"How we will know"), measured with ``ast`` over ``src/hydropwa``.
 
 Lines of code: the non-blank, non-comment lines of a function's body after its docstring.
 Parameters: the named ones (positional and keyword-only), without ``self``/``cls`` and
 without ``*args``/``**kwargs``.
 
-Not measured, because they are a different kind of function:
+The line limit holds for every function: compiled kernels (the right-hand sides, the control
+law's stages) and CLI commands included. :data:`LINE_EXCEPTIONS` lists the functions allowed
+over it, each with its measured size as a ceiling and the reason: today only the compiled step
+loop ``_march`` (no right-hand side is over the limit).
 
-- compiled kernels (a decorator naming ``jit``, and everything in ``simulation/_kernel*``,
-  the numba back end whose entry points pass the solver's work arrays explicitly); their
-  split is the kernel issue's own work, timed against ``benchmarks/run.py``;
-- CLI commands (``@….command(...)``): each typer option is a parameter by construction.
+The parameter limit is not measured for two kinds of function, because their parameters are
+what they are by construction:
+
+- compiled kernels (a decorator naming ``jit``, and everything in the kernel's modules
+  :data:`KERNEL_FILES`): they pass the solver's work arrays and packed vectors explicitly,
+  since a struct of arrays would cost reference counting in the allocation-free loop;
+- CLI commands (``@….command(...)``): each typer option is a parameter.
 
 Every other function above a limit is listed in :data:`EXCEPTIONS` with its measured size as a
 ceiling and the reason; a function that grows past its ceiling, a new offender, and an entry
@@ -53,6 +59,17 @@ _SIGNALS = (
     "public function of measured signals: the channels (t, x, p_a, p_b, f_l) and the geometry "
     "are positional, the settings keywords; the friction method objects pass them through"
 )
+#: Functions allowed over the line limit: (file, function) → (lines of code, why).
+LINE_EXCEPTIONS: dict[tuple[str, str], tuple[int, str]] = {
+    ("simulation/_march.py", "_march"): (
+        120,
+        "the compiled step loop: split into inlined named steps (start, attempt, accept, "
+        "sample) it was not bit for bit the same (2026-12-02: the PWA model's paper sine "
+        "took 1806 steps instead of 1798, every closed loop's command moved by ~1e-11; LLVM "
+        "fuses and inlines differently), so it stays one function until a split is shown "
+        "bit-identical",
+    ),
+}
 #: (file, function) → (lines of code, parameters, why): the measured sizes are ceilings.
 EXCEPTIONS: dict[tuple[str, str], tuple[int, int, str]] = {
     ("control/_design.py", "design_state_feedback"): (46, 18, _API),
@@ -99,6 +116,7 @@ def _code_lines(lines: list[str], node: ast.FunctionDef | ast.AsyncFunctionDef) 
 
 
 def _exempt(rel: str, node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """Exempt from the parameter limit (not from the line limit): compiled code, CLI commands."""
     decorators = [ast.unparse(d) for d in node.decorator_list]
     return (
         rel.startswith(KERNEL_FILES)
@@ -108,21 +126,22 @@ def _exempt(rel: str, node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
 
 
 def measure() -> dict[tuple[str, str], tuple[int, int]]:
-    """(file, function) → (lines of code, parameters) of every function not exempt."""
+    """(file, function) → (lines of code, parameters) of every function; the parameters
+    count as 0 where :func:`_exempt` (compiled code, CLI commands)."""
     out: dict[tuple[str, str], tuple[int, int]] = {}
     for path in sorted(ROOT.rglob("*.py")):
         rel = path.relative_to(ROOT).as_posix()
         src = path.read_text(encoding="utf-8")
         lines = src.splitlines()
         for node in ast.walk(ast.parse(src)):
-            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) or _exempt(rel, node):
+            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 continue
             a = node.args
             named = [
                 x for x in a.posonlyargs + a.args + a.kwonlyargs if x.arg not in ("self", "cls")
             ]
             key = (rel, node.name)
-            loc, n = _code_lines(lines, node), len(named)
+            loc, n = _code_lines(lines, node), 0 if _exempt(rel, node) else len(named)
             old = out.get(key, (0, 0))
             out[key] = (max(loc, old[0]), max(n, old[1]))  # same-named methods: the largest
     return out
@@ -130,7 +149,15 @@ def measure() -> dict[tuple[str, str], tuple[int, int]]:
 
 def test_no_function_over_80_lines_or_10_parameters_but_the_listed_ones():
     sizes = measure()
-    offenders = {k: v for k, v in sizes.items() if v[0] > MAX_LINES or v[1] > MAX_PARAMS}
+    grown_long = [k for k in LINE_EXCEPTIONS if sizes[k][0] > LINE_EXCEPTIONS[k][0]]
+    assert not grown_long, f"grew past its ceiling: {grown_long}"
+    stale_long = [k for k in LINE_EXCEPTIONS if sizes[k][0] <= MAX_LINES]
+    assert not stale_long, f"within the line limit now; remove from LINE_EXCEPTIONS: {stale_long}"
+    offenders = {
+        k: v
+        for k, v in sizes.items()
+        if (v[0] > MAX_LINES and k not in LINE_EXCEPTIONS) or v[1] > MAX_PARAMS
+    }
     new = sorted(
         f"{f}::{n} {v[0]} lines, {v[1]} parameters"
         for (f, n), v in offenders.items()
@@ -148,20 +175,18 @@ def test_no_function_over_80_lines_or_10_parameters_but_the_listed_ones():
     assert not stale, "within the limits now; remove from EXCEPTIONS:\n" + "\n".join(stale)
 
 
-#: compiled modules whose functions are measured for their length all the same: the control
-#: law's stages (issue 47; their parameters are the law's vectors and slots, passed explicitly)
-COMPILED_MEASURED = ("simulation/_controller.py",)
-
-
-def test_the_compiled_control_law_is_stages_of_at_most_80_lines():
-    too_long = []
-    for rel in COMPILED_MEASURED:
-        src = (ROOT / rel).read_text(encoding="utf-8")
-        lines = src.splitlines()
-        for node in ast.walk(ast.parse(src)):
-            if isinstance(node, ast.FunctionDef) and _code_lines(lines, node) > MAX_LINES:
-                too_long.append(f"{rel}::{node.name} {_code_lines(lines, node)} lines")
-    assert not too_long, "split the stage:\n" + "\n".join(too_long)
+def test_compiled_code_and_cli_commands_are_measured_for_their_length():
+    """The step loop, a right-hand side, a law stage and a CLI command are in the measure (their
+    parameters are not: 0); the line-exempt list names compiled code only."""
+    sizes = measure()
+    for key in (
+        ("simulation/_march.py", "_march"),
+        ("simulation/_rhs_full.py", "rhs_full"),
+        ("simulation/_controller.py", "law_step"),
+        ("cli/_core.py", "simulate_command"),
+    ):
+        assert key in sizes and sizes[key][0] > 0 and sizes[key][1] == 0, key
+    assert all(f.startswith("simulation/_") for f, _n in LINE_EXCEPTIONS)
 
 
 def test_the_measure_counts_code_lines_and_named_parameters():

@@ -101,3 +101,73 @@ def test_step_factor_root_is_the_error_orders(order):
     for err in (1e-6, 0.3, 1.0, 7.5):
         assert SC._err_root(err, order) == pytest.approx(err ** (1.0 / (order + 1)), rel=4e-16)
     assert SC._err_root_floor(order) == pytest.approx(1e-4 ** (1.0 / (order + 1)), rel=4e-16)
+
+
+#: Literal model-kind names allowed in library code outside the registry and the CLI's help.
+KIND_NAME_LIMIT = 5
+
+
+def literal_kind_names() -> list[str]:
+    """Where library code spells a model kind's name instead of asking the registry.
+
+    Counted over every module of ``src/hydropwa`` except ``_layout.py`` (the registry), on the
+    parsed source (so comments do not count): each string constant equal to a kind name
+    (``"pwa"``, also as an f-string piece), and each quoted kind name (``'full'``, ``"full"``)
+    inside another string, such as an error message. Not counted: docstrings (the
+    documentation, as the CLI's help is) and strings passed as ``help=`` (the CLI's help text).
+    Composite names that only begin with a kind's (``"pwa-scheduled"``, ``"closed-full"``) are
+    other names and do not count.
+    """
+    import ast
+    from pathlib import Path
+
+    kinds = set(_layout.MODEL_NAMES)
+    quoted = [f"{q}{k}{q}" for k in kinds for q in "'\""]
+    root = Path(_layout.__file__).parent
+    hits = []
+    for path in sorted(root.rglob("*.py")):
+        if path.name == "_layout.py" and path.parent == root:
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        skip: set[int] = set()
+        for node in ast.walk(tree):
+            body = getattr(node, "body", None)
+            if isinstance(body, list) and body and isinstance(body[0], ast.Expr):
+                if isinstance(body[0].value, ast.Constant):
+                    skip.add(id(body[0].value))  # a docstring
+            if isinstance(node, ast.keyword) and node.arg == "help":
+                skip.update(id(n) for n in ast.walk(node.value))
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.Constant) or not isinstance(node.value, str):
+                continue
+            if id(node) in skip:
+                continue
+            if node.value in kinds or any(q in node.value for q in quoted):
+                hits.append(f"{path.relative_to(root)}:{node.lineno}: {node.value!r}")
+    return hits
+
+
+def test_library_code_names_kinds_through_the_registry():
+    """Fewer than 5 literal kind names outside the registry and the CLI's help (92 by grep,
+    docstrings included, at the last stop); see :func:`literal_kind_names` for what counts."""
+    hits = literal_kind_names()
+    assert len(hits) < KIND_NAME_LIMIT, "\n".join(hits)
+
+
+def test_the_kind_name_count_sees_a_literal(tmp_path, monkeypatch):
+    """The counter is not blind: a module with one literal name and one quoted name in a
+    message is two hits; the same names in a docstring, a comment or ``help=`` are none."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "_layout.py").write_text('MODEL = "full"\n')  # the registry itself: not counted
+    (pkg / "m.py").write_text(
+        '"""Module doc naming "full"."""\n'
+        "# a comment naming 'pwa'\n"
+        "def f(model='reduced'):\n"
+        '    """Docstring: "pwa"."""\n'
+        "    opt(help=\"full or 'pwa'\")\n"
+        "    raise ValueError(f\"{model}: fit 'full' instead\")\n"
+    )
+    monkeypatch.setattr(_layout, "__file__", str(pkg / "_layout.py"))
+    hits = literal_kind_names()
+    assert [h.split(":")[1] for h in hits] == ["3", "6"], hits

@@ -14,7 +14,10 @@ from hydropwa.data import Run
 from hydropwa.evaluation import EvaluationResult
 from hydropwa.evaluation._engineering import BodeComparison, CellLoops
 from hydropwa.identification import GreyBoxFit
-from hydropwa.identification._inverse_dynamics import InverseDynamicsResult
+from hydropwa.identification._deadzone import DeadZoneFit
+from hydropwa.identification._frf import FrequencyResponse
+from hydropwa.identification._friction_curve import StribeckFit
+from hydropwa.identification._inverse_dynamics import EmpsResult, InverseDynamicsResult
 from hydropwa.plotting import plot_closed_loop, plot_inverse_dynamics, plot_metrics
 from hydropwa.plotting._shapes import (
     BodeComparisonShape,
@@ -22,9 +25,14 @@ from hydropwa.plotting._shapes import (
     ClosedLoopRun,
     EvaluationShape,
     ForceFit,
+    ForceModel,
+    FrequencyResponseShape,
+    FrictionPoints,
+    HoldsForceFit,
     MetricTable,
     Recorded,
     TracedFit,
+    VelocityModel,
 )
 from hydropwa.simulation import SimulationResult
 
@@ -39,6 +47,11 @@ PAIRS = [
     (EvaluationResult, EvaluationShape),
     (SimulationResult, Recorded),
     (Run, Recorded),
+    (DeadZoneFit, VelocityModel),
+    (StribeckFit, FrictionPoints),
+    (StribeckFit, ForceModel),
+    (FrequencyResponse, FrequencyResponseShape),
+    (EmpsResult, HoldsForceFit),
 ]
 
 

@@ -16,6 +16,7 @@ import typer
 
 from .._errors import HydropwaError, PwaError
 from .._io import check_output, read_text
+from .._layout import CHAMBER_KIND, DEFAULT_KIND, DESIGN_KIND
 from .._limits import check_position
 from ._app import error_line, new_app
 from ._options import (
@@ -60,7 +61,7 @@ def _linearized_model(name: str, params_src, pwa_file: Path | None):
 
 def _pwa_model(params_src, pwa_file: Path | None):
     """The load-pressure PWA model (the default kind of the control commands)."""
-    return _linearized_model("pwa", params_src, pwa_file)
+    return _linearized_model(DESIGN_KIND.name, params_src, pwa_file)
 
 
 def _same_machine(model, params_src, pwa_file: Path):
@@ -249,9 +250,10 @@ def _spool_option(kw: dict, spool: str, method: str, model_name: str) -> None:
     if spool not in ("estimated", "measured"):
         raise ControlError(f"--spool {spool!r} must be estimated or measured")
     if spool == "measured":
-        if method != "lqr" or model_name != "pwa":
+        if method != "lqr" or model_name != DESIGN_KIND.name:
             raise ControlError(
-                "--spool measured needs the valve-aware design of --method lqr on --model pwa"
+                "--spool measured needs the valve-aware design of --method lqr on "
+                f"--model {DESIGN_KIND.name}"
             )
         kw["spool"] = "measured"
 
@@ -310,7 +312,7 @@ def design_command(
             "-m",
             help="Design model: pwa, or pwa-chamber (its integral tuning chosen and checked on the chamber-level model).",
         ),
-    ] = "pwa",
+    ] = DESIGN_KIND.name,
     verify: Annotated[
         bool,
         typer.Option(
@@ -425,14 +427,7 @@ def design_command(
         check_output(table, force, option="--table")
     if out.suffix.lower() not in (".toml", ".json"):
         raise ControlError(f"--out {out} must end in .toml or .json")
-    from .._layout import LINEARIZED_MODELS  # deferred: loaded only when this command runs
-
-    if model_name not in LINEARIZED_MODELS:
-        raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
-    if certify and (model_name != "pwa" or method == "pi"):
-        raise ControlError("--certify needs --method lqr or place on --model pwa")
-    if model_name == "pwa-chamber" and method != "lqr":
-        raise ControlError(f"--model pwa-chamber designs an LQR; drop --method {method}")
+    _check_design_model(model_name, method, certify)
     model = _linearized_model(model_name, params, pwa)
     ts = _sample_time(sample_time, rate)
     dzi = not no_dead_zone_inverse
@@ -452,10 +447,10 @@ def design_command(
     # on by default for --model pwa; opt-in for pwa-chamber
     kw["quiet"] = (
         (DEFAULT_DESIGN.quiet if quiet_band is None else quiet_band)
-        if model_name == "pwa"
+        if model_name == DESIGN_KIND.name
         else bool(quiet_band)
     )
-    design = design_controller if model_name == "pwa" else _design_on_chamber
+    design = design_controller if model_name == DESIGN_KIND.name else _design_on_chamber
     d = design(
         model,
         method=method,
@@ -468,6 +463,41 @@ def design_command(
         scheduler=scheduler,
         **kw,
     )
+    _report_design(d, out, write_unverified)
+    cert = _design_certificate(d.controller, model) if certify else None
+    # the machine goes with the controller: `control simulate` needs no --params to run it
+    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
+    if cert is not None:
+        from ..control import write_certificate  # deferred: loaded only with --certify
+
+        write_certificate(out, cert)
+    written = [str(out)]
+    if table is not None:
+        from .._io import (
+            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
+        )
+
+        atomic_write_text(table, d.table.to_csv(index=False))
+        written.append(str(table))
+    typer.echo(f"wrote {', '.join(written)}")
+
+
+def _check_design_model(model_name: str, method: str, certify: bool) -> None:
+    """``control design --model``: a linearized kind, and the methods and options it takes."""
+    from .._layout import LINEARIZED_MODELS  # deferred: loaded only when this command runs
+    from ..control import ControlError  # deferred: a fast --help
+
+    if model_name not in LINEARIZED_MODELS:
+        raise ControlError(f"--model {model_name!r} must be {' or '.join(LINEARIZED_MODELS)}")
+    if certify and (model_name != DESIGN_KIND.name or method == "pi"):
+        raise ControlError(f"--certify needs --method lqr or place on --model {DESIGN_KIND.name}")
+    if model_name == CHAMBER_KIND.name and method != "lqr":
+        raise ControlError(f"--model {model_name} designs an LQR; drop --method {method}")
+
+
+def _report_design(d, out: Path, write_unverified: bool) -> None:
+    """The design's warnings and summary; a failed verification exits 1 (nothing written)
+    unless ``--write-unverified``."""
     for w in d.warnings:
         print(f"warning: {w}", file=sys.stderr)
     typer.echo(d.summary().split("\nwarning:")[0])
@@ -485,22 +515,6 @@ def design_command(
             "--write-unverified, the file records the failed checks ([verification])",
             file=sys.stderr,
         )
-    cert = _design_certificate(d.controller, model) if certify else None
-    # the machine goes with the controller: `control simulate` needs no --params to run it
-    save_controller(d.controller, out, overwrite=force, machine_parameters=model.params)
-    if cert is not None:
-        from ..control import write_certificate  # deferred: loaded only with --certify
-
-        write_certificate(out, cert)
-    written = [str(out)]
-    if table is not None:
-        from .._io import (
-            atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
-        )
-
-        atomic_write_text(table, d.table.to_csv(index=False))
-        written.append(str(table))
-    typer.echo(f"wrote {', '.join(written)}")
 
 
 def _design_certificate(controller, model):
@@ -601,7 +615,6 @@ def simulate_command(
         MotionProfile,
         as_reference,
         check_machine,
-        closed_loop_warnings,
         load_controller,
         tracking_metrics,
     )
@@ -620,7 +633,7 @@ def simulate_command(
         raise ControlError(
             f"--compare runs every model side by side; drop --model {model} (or drop --compare)"
         )
-    model = "full" if model is None else model
+    model = DEFAULT_KIND.name if model is None else model
     if model not in MODEL_NAMES:
         raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
     if out.suffix.lower() not in (".csv", ".parquet"):
@@ -661,22 +674,7 @@ def simulate_command(
     res.save(out, overwrite=True)  # checked with --force above
     m = tracking_metrics(res).display()
     typer.echo("  ".join(f"{k} = {v:.4g} {METRIC_UNITS[k]}" for k, v in m.items()))
-    for w in closed_loop_warnings(res):
-        print(f"warning: {w}", file=sys.stderr)
-    from ..control import (  # deferred: loaded only when this command runs
-        loop_bandwidth,
-        valve_warning,
-    )
-
-    valve = valve_warning(prm, model, loop_bandwidth(ctrl))
-    if valve:
-        print(f"warning: {valve}", file=sys.stderr)
-    if ctrl.verification.get("verdict") == "fail":
-        print(
-            f"warning: {controller} failed its verification on the full model "
-            f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
-            file=sys.stderr,
-        )
+    _loop_warnings(res, prm, model, ctrl, controller)
     msg = f"wrote {out} ({res.t.size} samples, {res.stats['steps']} steps, {res.stats['wall_time'] * 1e3:.1f} ms)"
     if plot is not None:
         save_figure(
@@ -687,6 +685,28 @@ def simulate_command(
         )
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+def _loop_warnings(res, prm, model: str, ctrl, controller: Path) -> None:
+    """``control simulate``'s warnings on stderr: the run's, whether ``model`` can represent
+    the loop (its valve), and a controller file that failed its verification."""
+    from ..control import (  # deferred: loaded only when this command runs
+        closed_loop_warnings,
+        loop_bandwidth,
+        valve_warning,
+    )
+
+    for w in closed_loop_warnings(res):
+        print(f"warning: {w}", file=sys.stderr)
+    valve = valve_warning(prm, model, loop_bandwidth(ctrl))
+    if valve:
+        print(f"warning: {valve}", file=sys.stderr)
+    if ctrl.verification.get("verdict") == "fail":
+        print(
+            f"warning: {controller} failed its verification on the full model "
+            f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
+            file=sys.stderr,
+        )
 
 
 @app.command("export")

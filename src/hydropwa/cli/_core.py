@@ -11,6 +11,7 @@ import typer
 from .._display import ENGINEERING_UNITS
 from .._errors import ParameterError, SignalError
 from .._io import check_output
+from .._layout import DEFAULT_KIND
 from ..params import FIELD_UNITS, PRESETS, parse_quantity, save_params
 from ._app import new_app
 from ._options import (
@@ -113,7 +114,7 @@ def params_export(
 def simulate_command(
     model: Annotated[
         str, typer.Option("--model", "-m", help="full, reduced, pwa or pwa-chamber.")
-    ] = "full",
+    ] = DEFAULT_KIND.name,
     params: ParamsOption = None,
     input: Annotated[
         str | None,
@@ -213,27 +214,8 @@ def simulate_command(
     u: Sampled | str
     volts = ""
     if input_file is not None:
-        from ..data import (  # deferred: loaded only when this command runs (a fast --help)
-            read_run,
-            validate_run,
-        )
-
-        run = read_run(input_file, validate=False)
-        prm = _replay_machine(params, input_file, run)  # --params, or the run's, or both agree
-        run = validate_run(run, ranges=_command_ranges(prm)).run
-        if not run.has("u"):
-            raise SignalError(
-                f"{input_file} has no valve command channel 'u'; map one with a channel map"
-            )
-        command = run["u"]
-        if prm.valve.command_voltage > 0.0:  # the machine's commands are volts ([valve])
-            command = prm.valve.command_from_volts(command)
-            null = prm.valve.null_voltage
-            sign = "-" if null >= 0.0 else "+"
-            volts = f"; u read in V as (u {sign} {abs(null):g} V)/{prm.valve.command_voltage:g} V"
-        u = Sampled(run.t - run.t[0], command)
-        if duration_s is None:
-            duration_s = float(run.t[-1] - run.t[0])
+        prm, u, run_duration, volts = _replayed_command(input_file, params)
+        duration_s = run_duration if duration_s is None else duration_s
     else:
         prm = resolve_params(params)
         u = input if input is not None else "sine:amplitude=0.4,frequency=1"
@@ -274,6 +256,30 @@ def simulate_command(
         save_figure(plot_result(res), plot, dpi=150, overwrite=True)  # checked with --force above
         msg += f" and {plot}"
     typer.echo(msg)
+
+
+def _replayed_command(input_file: Path, params):
+    """``--input-file``: the machine (``--params``, or the run's, or both agree), the run's
+    valve command (read in volts where the machine takes volts), its duration [s] and the
+    note on the volts for the command's message."""
+    from ..data import read_run, validate_run  # deferred: see simulate_command
+    from ..simulation import Sampled  # deferred: see simulate_command
+
+    run = read_run(input_file, validate=False)
+    prm = _replay_machine(params, input_file, run)
+    run = validate_run(run, ranges=_command_ranges(prm)).run
+    if not run.has("u"):
+        raise SignalError(
+            f"{input_file} has no valve command channel 'u'; map one with a channel map"
+        )
+    command = run["u"]
+    volts = ""
+    if prm.valve.command_voltage > 0.0:  # the machine's commands are volts ([valve])
+        command = prm.valve.command_from_volts(command)
+        null = prm.valve.null_voltage
+        sign = "-" if null >= 0.0 else "+"
+        volts = f"; u read in V as (u {sign} {abs(null):g} V)/{prm.valve.command_voltage:g} V"
+    return prm, Sampled(run.t - run.t[0], command), float(run.t[-1] - run.t[0]), volts
 
 
 def _command_ranges(prm):

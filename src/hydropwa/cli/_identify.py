@@ -14,6 +14,7 @@ import typer
 
 from hydropwa._errors import IdentificationError, ParameterError
 from hydropwa._io import check_output
+from hydropwa._layout import DEFAULT_KIND, MEASURABLE_MODELS
 
 from ._app import new_app
 from ._options import BaseParamsAlias, jobs_option, params_source, resolve_params
@@ -314,7 +315,7 @@ def model(
     out: Out = Path("fitted.toml"),
     model_kind: Annotated[
         str, typer.Option("--model", help="Model to fit: full or reduced.")
-    ] = "full",
+    ] = DEFAULT_KIND.name,
     params_src: ParamsOption = None,
     base_params: BaseParamsAlias = None,
     channels: Annotated[
@@ -403,12 +404,6 @@ def model(
     from hydropwa.identification.greybox import (  # deferred: loaded only when this command runs (a fast --help)
         Selection,
     )
-    from hydropwa.plotting import (  # deferred: loaded only when this command runs (a fast --help)
-        plot_greybox_fit,
-        plot_greybox_profiles,
-        plot_greybox_residuals,
-        save_figure,
-    )
 
     from ._progress import (
         fit_progress,  # deferred: loaded only when this command runs (a fast --help)
@@ -419,8 +414,9 @@ def model(
     check_output(summary, force)
     if figures is not None:
         check_output(figures, force, folder=True, option="--figures", files=("greybox_*.png",))
-    if model_kind not in ("full", "reduced"):
-        raise IdentificationError(f"--model {model_kind!r}: choose full or reduced")
+    if model_kind not in MEASURABLE_MODELS:
+        choose = " or ".join(MEASURABLE_MODELS)
+        raise IdentificationError(f"--model {model_kind!r}: choose {choose}")
     selection = Selection(method=select, budget=budget)
     if scheduler is not None:
         from hydropwa.sweep import (  # deferred: loaded only when this command runs (a fast --help)
@@ -464,21 +460,31 @@ def model(
 
     atomic_write_text(summary, fit.summary_markdown(), overwrite=force)
     if figures is not None:
-        figures.mkdir(parents=True, exist_ok=True)
-        for r in fit.runs_[:6]:
-            save_figure(
-                plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True
-            )
-            save_figure(
-                plot_greybox_residuals(fit, r.name),
-                figures / f"greybox_residuals_{r.name}.png",
-                overwrite=True,
-            )
-        if fit.profiles_:
-            save_figure(
-                plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True
-            )
+        _fit_figures(fit, figures)
     for n, e in fit.estimates_.items():
         typer.echo(f"{n} = {e}")
     typer.echo(f"wrote parameters: {out}")
     typer.echo(f"wrote summary: {summary}")
+
+
+def _fit_figures(fit, figures: Path) -> None:
+    """``identify model --figures``: the fit and residuals of the first six runs, the profiles."""
+    from hydropwa.plotting import (  # deferred: loaded only when this command runs (a fast --help)
+        plot_greybox_fit,
+        plot_greybox_profiles,
+        plot_greybox_residuals,
+        save_figure,
+    )
+
+    figures.mkdir(parents=True, exist_ok=True)
+    for r in fit.runs_[:6]:
+        save_figure(
+            plot_greybox_fit(fit, r.name), figures / f"greybox_{r.name}.png", overwrite=True
+        )
+        save_figure(
+            plot_greybox_residuals(fit, r.name),
+            figures / f"greybox_residuals_{r.name}.png",
+            overwrite=True,
+        )
+    if fit.profiles_:
+        save_figure(plot_greybox_profiles(fit), figures / "greybox_profiles.png", overwrite=True)

@@ -78,7 +78,7 @@ def paper_command(
         overwrite=force,
         progress=not quiet,
     )
-    fit = res.position_fit("full")
+    fit = res.position_fit()  # the full model's (its default)
     reused = [k for k, v in res.stages.items() if v["reused"]]
     typer.echo(f"report: {res.report}")
     typer.echo(

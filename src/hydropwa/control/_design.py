@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .._layout import PWA_KIND
 from ._controllers import (
     DEFAULT_SAMPLE_TIME,
     ControlError,
@@ -821,7 +822,7 @@ def _feedback_info(model, opt: _FeedbackOptions, notes: list[str]) -> dict[str, 
         "method": opt.method,
         "sample_time": opt.ts,
         "delay": bool(opt.delay),
-        "model": "pwa",
+        "model": PWA_KIND.name,
         "form": model.form,
         "supply_pressure": model.supply_pressure,
         "friction_slopes": opt.friction_slopes,

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from .._layout import CHAMBER_KIND, FULL_KIND
 from ..linearization import ChamberPwaModel, linearize
 from ._controllers import ControlError
 from ._design import DEFAULT_WEIGHTS, design_state_feedback
@@ -131,7 +132,7 @@ def design_on_chamber(
     prm = chamber.params
     pwa = linearize(prm, supply_pressure=chamber.supply_pressure)
     ref, duration, x0 = chamber_step_task(prm)
-    task = {"params": prm, "pwa": pwa, "duration": duration, "initial_position": x0}
+    task = dict(params=prm, pwa=pwa, duration=duration, initial_position=x0)
     tried: list[tuple[float, float, Any]] = []
     noise = _quiet_noise(quiet, verify_kwargs, design_kwargs)
     for w_int in integral_candidates:
@@ -140,8 +141,8 @@ def design_on_chamber(
         )
         if noise is not None:
             d = _with_quiet_band(d, noise, prm)
-        _, table = closed_loop_fidelity(d.controller, ref, models=("pwa-chamber",), **task)
-        worst = max(_holds(table, "pwa-chamber"), default=float("inf"))
+        _, table = closed_loop_fidelity(d.controller, ref, models=(CHAMBER_KIND.name,), **task)
+        worst = max(_holds(table, CHAMBER_KIND.name), default=float("inf"))
         tried.append((w_int, worst, d))
         if worst <= 1e3 * hold_limit / HOLD_MARGIN:
             break
@@ -180,8 +181,9 @@ def _check(d, prm, ref, kept, task, verify_kwargs):
     from ._verify import verify_controller  # deferred: the verification loads the batch runner
 
     w_int, tried, hold_limit = kept
-    _, table = closed_loop_fidelity(d.controller, ref, models=("full", "pwa-chamber"), **task)
-    full, ch = _holds(table, "full"), _holds(table, "pwa-chamber")
+    kinds = (FULL_KIND.name, CHAMBER_KIND.name)
+    _, table = closed_loop_fidelity(d.controller, ref, models=kinds, **task)
+    full, ch = (_holds(table, kind) for kind in kinds)
     info = {
         "candidates_mm": {f"{w:g}": h for w, h, _ in tried},
         "integral_max": w_int,

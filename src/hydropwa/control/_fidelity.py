@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .._layout import FULL_KIND, LOAD_PRESSURE_MODELS, MODEL_NAMES, PWA_KIND
 from ..linearization import linearize
 from ._controllers import ControlError
 from ._metrics import compare_models, tracking_metrics
@@ -34,12 +35,12 @@ __all__ = [
 ]
 
 #: The models of the fidelity study, in the order of its table.
-FIDELITY_MODELS = ("full", "reduced", "pwa", "pwa-chamber")
+FIDELITY_MODELS = MODEL_NAMES
 #: Share of each hold skipped before its oscillation is measured (the settling after a move).
 HOLD_SETTLE = 0.5
 #: The models that leave the servo valve out (its spool follows the command at once) and make
-#: the chamber pressures one load pressure; the full and ``pwa-chamber`` models keep both.
-LOAD_PRESSURE_MODELS = ("reduced", "pwa")
+#: the chamber pressures one load pressure (``hydropwa._layout.LOAD_PRESSURE_MODELS``); the full
+#: and ``pwa-chamber`` models keep both.
 #: A model without the valve misrepresents a loop where ω0 is within this factor of the
 #: hydraulic natural frequency ω_h (ω_h/2 ≤ ω0 ≤ 2ω_h): the two second-order modes then couple
 #: (at ω0 = 2ω_h the valve's phase at ω_h is already atan(2ζr/(1 − r²)) = 47°, r = 1/2, ζ = 0.8,
@@ -190,7 +191,7 @@ def model_warnings(results, params, *, pwa=None, bandwidth: float | None = None)
         w = valve_warning(params, name, bandwidth)
         if w:
             out.append(w)
-        if name == "pwa" and pwa is not None:
+        if name == PWA_KIND.name and pwa is not None:
             share = cells_left(res, pwa)
             if share > CELL_EXIT_SHARE:
                 out.append(
@@ -208,7 +209,7 @@ def model_warnings(results, params, *, pwa=None, bandwidth: float | None = None)
 
 
 def closed_loop_fidelity(
-    controller, reference, *, models=FIDELITY_MODELS, **case: Any
+    controller, reference, *, models=FIDELITY_MODELS, pwa=None, **case: Any
 ) -> tuple[dict[str, Any], Any]:
     """Run one controller on several model levels; hold oscillations and tracking side by side.
 
@@ -218,9 +219,11 @@ def closed_loop_fidelity(
         As :func:`~hydropwa.control.compare_models`.
     models : tuple of str
         Model names (default :data:`FIDELITY_MODELS`).
+    pwa : PwaModel, optional
+        The PWA model (default ``linearize(params)``), as compare_models takes it.
     **case
         The run, as :func:`~hydropwa.control.compare_models` takes it: ``duration``
-        (required), ``params``, ``pwa``, ``initial_position``, ``load_force``, ``rtol``,
+        (required), ``params``, ``initial_position``, ``load_force``, ``rtol``,
         ``sensor_noise``, ``seed`` (the same noise draws on every model).
 
     Returns
@@ -235,9 +238,9 @@ def closed_loop_fidelity(
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-    results, _ = compare_models(controller, reference, models=tuple(models), **case)
+    results, _ = compare_models(controller, reference, models=tuple(models), pwa=pwa, **case)
     holds = {name: hold_oscillations(res) for name, res in results.items()}
-    full = holds.get("full")
+    full = holds.get(FULL_KIND.name)
     rows = {}
     for name, res in results.items():
         m = tracking_metrics(res).display()  # the table's units: mm, %
@@ -259,9 +262,8 @@ def closed_loop_fidelity(
         max_hold="mm", ratio_to_full="1", iae="mm·s", max_following_error="mm", saturation="%"
     )
     table.attrs["units"] = units
-    params = case.get("params") or case["pwa"].params
-    pwa = case.get("pwa")
-    if pwa is None and "pwa" in results:
+    params = case.get("params") or pwa.params
+    if pwa is None and PWA_KIND.name in results:
         pwa = linearize(params)  # the default PWA model of compare_models
     table.attrs["warnings"] = model_warnings(
         results, params, pwa=pwa, bandwidth=loop_bandwidth(controller)

@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._layout import build_model
+from .._layout import FULL_KIND, PWA_KIND, REDUCED_KIND, build_model
 from .._result import DerivedResult, ResultStatus
 from ..simulation import DEFAULT_RTOL, simulate
 from ._controllers import ControlError
@@ -296,7 +296,7 @@ def compare_models(
     duration: float,
     initial_position: float | None = None,
     load_force=None,
-    models=("full", "reduced", "pwa"),
+    models=(FULL_KIND.name, REDUCED_KIND.name, PWA_KIND.name),
     window: tuple[float, float] | None = None,
     rtol: float | None = None,
     x0: float | None = None,

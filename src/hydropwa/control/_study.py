@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from .._layout import CHAMBER_KIND, FULL_KIND, PWA_KIND, REDUCED_KIND
 from ..linearization import linearize
 from ..simulation import simulate
 from ._design import design_textbook_pi
@@ -64,12 +65,12 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
     ref = _reference()
     runs: dict[str, Any] = {}
     for name, mdl, prm in (
-        ("full", "full", pwa.params),
-        ("reduced", "reduced", pwa.params),
-        ("pwa", pwa, pwa.params),
+        (FULL_KIND.name, FULL_KIND.name, pwa.params),
+        (REDUCED_KIND.name, REDUCED_KIND.name, pwa.params),
+        (PWA_KIND.name, pwa, pwa.params),
         # the chamber-level model of the same parameters: keeps the valve and both chambers,
         # so it shows what the load-pressure models miss (docs/models.md, "Which model for what")
-        ("pwa-chamber", linearize(pwa.params, form="chamber"), pwa.params),
+        (CHAMBER_KIND.name, linearize(pwa.params, form="chamber"), pwa.params),
     ):
         runs[name] = simulate(
             mdl,
@@ -81,7 +82,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
         )
     # the baseline: a textbook PI with velocity feed-forward from the same parameters
     runs["full, textbook PI + FF (baseline)"] = simulate(
-        "full",
+        FULL_KIND.name,
         duration=_DURATION,
         params=pwa.params,
         controller=design_textbook_pi(
@@ -92,7 +93,7 @@ def closed_loop_study(pwa, verify_params=None) -> tuple[dict[str, Any], Any, Any
     )
     if verify_params is not None:
         runs["full (true params)"] = simulate(
-            "full",
+            FULL_KIND.name,
             duration=_DURATION,
             params=verify_params,
             controller=design.controller,

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .._dask import dask_client
+from .._layout import FULL_KIND
 from .._result import DerivedResult, ResultStatus
 from ..components import load_flow_drop
 from ..simulation import simulate_batch
@@ -489,7 +490,7 @@ class Verification(DerivedResult):
         """The verdict as written into the controller file (``[verification]``)."""
         return {
             "verdict": "pass" if self.passed else "fail",
-            "model": "full",
+            "model": FULL_KIND.name,
             **{k: float(v) for k, v in self.metrics.items()},
             "failures": list(self.failures),
             "settings": self.settings,
@@ -551,7 +552,7 @@ def _run_one(case):
     res = simulate_batch(
         prm,
         0.0,
-        model="full",
+        model=FULL_KIND.name,
         jobs=1,
         duration=task.duration,
         controller=ctrl,

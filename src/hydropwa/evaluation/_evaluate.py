@@ -21,7 +21,15 @@ import numpy as np
 
 from .._channels import SCORED_CHANNELS, START_REQUIRED, STATE_CHANNELS
 from .._errors import DataError
-from .._layout import build_model, model_kind
+from .._layout import (
+    CHAMBER_KIND,
+    FULL_KIND,
+    LINES_KIND,
+    PWA_KIND,
+    REDUCED_KIND,
+    build_model,
+    model_kind,
+)
 from .._result import DerivedResult, ResultStatus
 from ..data import screen_runs
 from ..simulation import CHANNEL_UNITS, Sampled, simulate
@@ -49,46 +57,48 @@ class ModelVariant(NamedTuple):
     supply: str  # the P_S input: "measured" P_S(t), its "mean", or "none" (cells at the mean)
 
 
-#: The model variants evaluate_run knows, one row each. The PWA kinds are linearized at the
-#: run's average P_S.
+_KINDS = (FULL_KIND, REDUCED_KIND, PWA_KIND, CHAMBER_KIND)
+_FULL, _REDUCED, _PWA, _CHAMBER = (k.name for k in _KINDS)
+_LINES = LINES_KIND.name
+#: The model variants evaluate_run knows, one row each; a kind's plain variant has its name.
+#: The PWA kinds are linearized at the run's average P_S.
 VARIANTS: dict[str, ModelVariant] = {
-    "full": ModelVariant("full-order model, measured P_S(t)", "full", (), "measured"),
-    "full-lines": ModelVariant(
-        "full-order model with the machine's hose lines, measured P_S(t)",
-        "full-lines",
-        (),
-        "measured",
+    _FULL: ModelVariant("full-order model, measured P_S(t)", _FULL, (), "measured"),
+    _LINES: ModelVariant(
+        "full-order model with the machine's hose lines, measured P_S(t)", _LINES, (), "measured"
     ),
-    "reduced": ModelVariant("asymmetric reduced model, average P_S", "reduced", (), "mean"),
+    _REDUCED: ModelVariant("asymmetric reduced model, average P_S", _REDUCED, (), "mean"),
     "reduced-scheduled": ModelVariant(
-        "asymmetric reduced model, measured P_S(t)", "reduced", (), "measured"
+        "asymmetric reduced model, measured P_S(t)", _REDUCED, (), "measured"
     ),
-    "pwa": ModelVariant("asymmetric PWA model, cells at the average P_S", "pwa", (), "none"),
+    _PWA: ModelVariant("asymmetric PWA model, cells at the average P_S", _PWA, (), "none"),
     "pwa-scheduled": ModelVariant(
         "asymmetric PWA model, cells scheduled on the measured P_S(t)",
-        "pwa",
+        _PWA,
         (("scheduled", True),),
         "measured",
     ),
     "reduced-paper": ModelVariant(
         "the paper's mean-area reduced model, average P_S (Sec. VII)",
-        "reduced",
+        _REDUCED,
         (("form", "paper"),),
         "mean",
     ),
     "pwa-paper": ModelVariant(
         "the paper's mean-area PWA model (Q_L = z·C_q), cells at the average P_S (Sec. VII)",
-        "pwa",
+        _PWA,
         (("form", "consistent"),),
         "none",
     ),
-    "pwa-chamber": ModelVariant(
+    _CHAMBER: ModelVariant(
         "chamber-level PWA model (spool, P_A, P_B), cells scheduled on the measured P_S(t)",
-        "pwa-chamber",
+        _CHAMBER,
         (("scheduled", True),),
         "measured",
     ),
 }
+#: The variants evaluate_run scores unless told.
+DEFAULT_VARIANTS: tuple[str, ...] = (_FULL, _REDUCED, _PWA, "pwa-scheduled")
 #: Model variants evaluate_run knows: name → description.
 MODELS: dict[str, str] = {name: v.what for name, v in VARIANTS.items()}
 #: Channels scored per run (the channel table's scored rows, in its rank order).
@@ -275,7 +285,7 @@ class EvaluationResult(DerivedResult):
     notes: list[str] = dataclasses.field(default_factory=list)
     meta: dict = dataclasses.field(default_factory=dict)
 
-    def fit(self, model: str = "full", channel: str = "x") -> float:
+    def fit(self, model: str = _FULL, channel: str = "x") -> float:
         """NRMSE fit [%] of one model variant on one channel."""
         m = self.metrics
         row = m[(m["model"] == model) & (m["channel"] == channel)]
@@ -503,7 +513,7 @@ def evaluate_run(
     run,
     params,
     *,
-    models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+    models: Iterable[str] = DEFAULT_VARIANTS,
     settle_periods: float = 1.0,
     rtol: float = 1e-5,
     slope_window: float = 0.01,
@@ -597,7 +607,7 @@ def evaluate_dataset(
     dataset,
     params,
     *,
-    models: Iterable[str] = ("full", "reduced", "pwa", "pwa-scheduled"),
+    models: Iterable[str] = DEFAULT_VARIANTS,
     progress=None,
     **kwargs,
 ):

@@ -48,7 +48,7 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from .._errors import PwaError
-from .._layout import FULL_STATES, I_CELLS, N_BASE, PWA_SLOT
+from .._layout import CHAMBER_KIND, FULL_STATES, I_CELLS, N_BASE, PWA_SLOT
 from ..components import PiecewiseAffine, orifice_flows, signed_sqrt, signed_sqrt_slope
 from ..components import dead_zone as _dz
 from ..components._pwa import read_only
@@ -330,7 +330,7 @@ class ChamberPwaModel(SmoothModelStates):
     scheduled: bool = False
     supply_pressure: float = 100e5
     kind: ClassVar[int] = K.CHAMBER
-    name: ClassVar[str] = "pwa-chamber"
+    name: ClassVar[str] = CHAMBER_KIND.name
     form: ClassVar[str] = "chamber"
     state_names: ClassVar[tuple[str, ...]] = _STATE_NAMES
 

@@ -30,7 +30,7 @@ import numpy as np
 from .._display import channel_unit
 from .._errors import HydropwaError, PwaError
 from .._io import atomic_path, atomic_write_text, check_output, read_text
-from .._layout import FULL_STATES
+from .._layout import CHAMBER_KIND, FULL_STATES
 from ..components import PiecewiseAffine
 from ..params import params_from_dict
 from ._chamber import CapacitanceCells, ChamberCellIndex, ChamberPwaModel, FlowCells
@@ -588,7 +588,7 @@ _CHAMBER_UNITS: dict[str, tuple[tuple[str, float], ...]] = {
 
 
 def _is_chamber(model) -> bool:
-    return getattr(model, "name", None) == "pwa-chamber"
+    return getattr(model, "name", None) == CHAMBER_KIND.name
 
 
 def chamber_regions(model, cells, ps: float):

@@ -36,7 +36,7 @@ import numpy as np
 
 from .._display import html_table
 from .._errors import ParameterError, PwaError
-from .._layout import I_CELLS, N_BASE, PWA_SLOT
+from .._layout import I_CELLS, N_BASE, PWA_KIND, PWA_SLOT
 from ..components import PiecewiseAffine
 from ..components import dead_zone as _dz
 from ..models import ReducedModel, pack_params
@@ -223,7 +223,7 @@ class PwaModel(SmoothModelStates):
     breakpoints: str = "paper"
     capacitance_position: float | None = None
     kind = KIND_PWA
-    name: ClassVar[str] = "pwa"
+    name: ClassVar[str] = PWA_KIND.name
     state_names: tuple[str, ...] = field(default=("p_l", "v", "x"), init=False)
 
     def __post_init__(self) -> None:

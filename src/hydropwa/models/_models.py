@@ -21,13 +21,16 @@ from .._channels import measured_values
 from .._errors import ParameterError
 from .._layout import (
     BASE_SLOTS,
+    FULL_KIND,
     FULL_STATE_TIES,
     FULL_STATES,
     LINE_STATES,
+    LINES_KIND,
     LOAD_STATES,
     MODEL_KINDS,
     MODEL_NAMES,
     N_BASE,
+    REDUCED_KIND,
     SLOT,
     model_kind,
     state_vector,
@@ -205,7 +208,7 @@ class FullOrderModel(_ModelBase):
     and P_S [Pa] (a state only with ``supply.model = "pump"``).
     """
 
-    name: ClassVar[str] = "full"
+    name: ClassVar[str] = FULL_KIND.name
     #: The state table (:mod:`hydropwa._layout`) the states, scales and initial states follow.
     states: ClassVar[tuple[tuple[str, str, float], ...]] = FULL_STATES
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in FULL_STATES)
@@ -259,7 +262,7 @@ class FullLinesModel(FullOrderModel):
     a line holds its chamber's pressure.
     """
 
-    name: ClassVar[str] = "full-lines"
+    name: ClassVar[str] = LINES_KIND.name
     states: ClassVar[tuple[tuple[str, str, float], ...]] = LINE_STATES
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LINE_STATES)
 
@@ -280,7 +283,7 @@ class ReducedModel(_ModelBase):
     """
 
     form: str = "asymmetric"
-    name: ClassVar[str] = "reduced"
+    name: ClassVar[str] = REDUCED_KIND.name
     state_names: ClassVar[tuple[str, ...]] = tuple(name for name, _u, _s in LOAD_STATES)
 
     def __post_init__(self) -> None:

@@ -12,7 +12,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 
 from ._base import new_figure
-from ._shapes import BodeComparisonShape, CellLoopsShape, require
+from ._shapes import BodeComparisonShape, CellLoopsShape, Columns, require
 
 __all__ = [
     "plot_cell_margins",
@@ -175,7 +175,7 @@ def plot_cell_margins(loops: CellLoopsShape, *, ax: Axes | None = None) -> Any:
     return fig
 
 
-def plot_error_bound_map(bounds: Any, *, ax: Axes | None = None) -> Any:
+def plot_error_bound_map(bounds: Columns, *, ax: Axes | None = None) -> Any:
     """Heat map of the PWA model's guaranteed Ṗ_L error bound [bar/s] per cell.
 
     One panel per flow direction (extending s = +1, retracting s = −1); rows the load-pressure

@@ -15,7 +15,22 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from ._base import new_figure
-from ._shapes import EstimateShape, ForceFit, TracedFit, TracedRun, require
+from ._shapes import (
+    Columns,
+    EstimateShape,
+    FittedCurve,
+    FittedFrf,
+    FittedPoints,
+    ForceFit,
+    ForceModel,
+    FrequencyResponseShape,
+    FrictionPoints,
+    HoldsForceFit,
+    TracedFit,
+    TracedRun,
+    VelocityModel,
+    require,
+)
 
 __all__ = [
     "plot_bode",
@@ -32,7 +47,7 @@ _AxesArg = Axes | Sequence[Axes] | None
 
 
 def plot_bode(
-    frf: Any,
+    frf: Mapping[float, FrequencyResponseShape] | FittedFrf,
     fits: Mapping[float, Any] | None = None,
     *,
     min_coherence: float | None = None,
@@ -57,7 +72,7 @@ def plot_bode(
     -------
     matplotlib.figure.Figure
     """
-    if hasattr(frf, "frf_"):
+    if isinstance(frf, FittedFrf):
         fits = getattr(frf, "fits_", None) if fits is None else fits
         if min_coherence is None:
             min_coherence = getattr(frf, "min_coherence", None)
@@ -124,7 +139,12 @@ def _column(points: Any, name: str) -> np.ndarray | None:
     return np.asarray(col, dtype=float)
 
 
-def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> Any:
+def plot_dead_zone(
+    points: Columns | FittedPoints,
+    fit: VelocityModel | Callable[[np.ndarray], Any] | None = None,
+    *,
+    ax: Axes | None = None,
+) -> Any:
     """Steady rod velocity over constant commands and the fitted dead zone, Fig. 6.
 
     Parameters
@@ -144,7 +164,7 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
     -------
     matplotlib.figure.Figure
     """
-    if hasattr(points, "points_"):
+    if isinstance(points, FittedPoints):
         fit = getattr(points, "fit_", None) if fit is None else fit
         points = points.points_
     u, v, v_std = _column(points, "u"), _column(points, "v"), _column(points, "v_std")
@@ -170,17 +190,18 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
             mfc="none",
             label="valve alone (fitted leakage removed)",
         )
-    if fit is not None:
-        curve: Callable[[np.ndarray], Any] = getattr(fit, "velocity", fit)
+    model: Any = fit  # a fit (its hinge parameters read where it has them) or a callable
+    if model is not None:
+        curve: Callable[[np.ndarray], Any] = getattr(model, "velocity", model)
         uu = np.linspace(u.min(), u.max(), 800)
         label = "PWA dead-zone fit (16)"
-        if all(hasattr(fit, k) for k in ("beta", "beta_pos", "beta_neg", "creep_slope")):
-            b = fit.beta
+        if all(hasattr(model, k) for k in ("beta", "beta_pos", "beta_neg", "creep_slope")):
+            b = model.beta
             label = (
                 f"hinge fit, β = {100 * b.value:.2f} % [{100 * b.ci[0]:.2f}, {100 * b.ci[1]:.2f}],"
-                f" k_g = {fit.creep_slope.value:.3f}"
+                f" k_g = {model.creep_slope.value:.3f}"
             )
-            for edge in (fit.beta_pos.value, -fit.beta_neg.value):
+            for edge in (model.beta_pos.value, -model.beta_neg.value):
                 a.axvline(100 * edge, color="0.6", ls=":")
         a.plot(100 * uu, 1e3 * np.asarray(curve(uu)), "r-", lw=1.2, label=label)
     a.set_xlabel("valve command u [%]")
@@ -192,8 +213,8 @@ def plot_dead_zone(points: Any, fit: Any = None, *, ax: Axes | None = None) -> A
 
 
 def plot_stribeck(
-    points: Any,
-    fit: Any = None,
+    points: Columns | FrictionPoints | FittedCurve,
+    fit: ForceModel | Callable[[np.ndarray], Any] | None = None,
     *,
     cells: Callable[[np.ndarray], Any] | None = None,
     reference: Callable[[np.ndarray], Any] | None = None,
@@ -222,11 +243,12 @@ def plot_stribeck(
     -------
     matplotlib.figure.Figure
     """
-    if hasattr(points, "fit_"):
+    if isinstance(points, FittedCurve):
         points = points.fit_
     weak: tuple[str, ...] = ()
-    if hasattr(points, "velocity") and hasattr(points, "force"):
-        fit = points if fit is None else fit
+    model: Any = fit  # a fit (its friction parameters in the legend) or a callable
+    if isinstance(points, FrictionPoints):
+        model = points if fit is None else fit
         weak = tuple(getattr(points, "weak", ()))
         v, f = np.asarray(points.velocity, dtype=float), np.asarray(points.force, dtype=float)
     else:
@@ -235,8 +257,8 @@ def plot_stribeck(
             raise ValueError("plot_stribeck: points need columns 'v' [m/s] and 'f' [N]")
         v, f = v_col, f_col
     curve: Callable[[np.ndarray], Any] | None = None
-    if fit is not None:
-        curve = getattr(fit, "force_at", fit)
+    if model is not None:
+        curve = getattr(model, "force_at", model)
     n_ax = 1 if ax is not None and isinstance(ax, Axes) else 2 if curve is not None else 1
     fig, axes = new_figure(
         n_ax,
@@ -252,7 +274,7 @@ def plot_stribeck(
     vv = np.linspace(-vmax, vmax, 1200)
     if curve is not None:
         label = "fitted Stribeck model (11)"
-        fc = getattr(fit, "friction", None)
+        fc = getattr(model, "friction", None)
         if fc is not None:
             label = (
                 f"Eq. (11): F_c = {fc.coulomb:.1f} N, F_s = {fc.static:.1f} N,"
@@ -281,7 +303,7 @@ def plot_stribeck(
     return fig
 
 
-def plot_inverse_dynamics(result: ForceFit | Any, *, ax: Axes | None = None) -> Any:
+def plot_inverse_dynamics(result: ForceFit | HoldsForceFit, *, ax: Axes | None = None) -> Any:
     """Measured and predicted force of an inverse-dynamics (IDIM-LS) fit.
 
     Parameters
@@ -295,7 +317,7 @@ def plot_inverse_dynamics(result: ForceFit | Any, *, ax: Axes | None = None) -> 
     -------
     matplotlib.figure.Figure
     """
-    fit = result if isinstance(result, ForceFit) else getattr(result, "fit", result)
+    fit: Any = result if isinstance(result, ForceFit) else getattr(result, "fit", result)
     require(fit, ForceFit, "plot_inverse_dynamics")
     fig, axes = new_figure(ax=ax)
     a = axes[0, 0]

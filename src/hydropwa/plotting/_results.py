@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
+from numpy.typing import ArrayLike
 
 from .._layout import MODEL_KINDS
 from ._base import DISPLAY, MODEL_STYLE, moving_average, new_figure
@@ -294,7 +295,7 @@ def plot_supply_pressure(
     return fig
 
 
-def plot_cell_design(damping: Any, bandwidth_hz: Any, *, ax: _AxesArg = None) -> Any:
+def plot_cell_design(damping: ArrayLike, bandwidth_hz: ArrayLike, *, ax: _AxesArg = None) -> Any:
     """Smallest closed-loop damping and bandwidth r → x of each cell of a controller design.
 
     Parameters

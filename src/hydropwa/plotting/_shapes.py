@@ -21,11 +21,20 @@ __all__ = [
     "BodeComparisonShape",
     "CellLoopsShape",
     "ClosedLoopRun",
+    "Columns",
+    "FittedCurve",
+    "FittedFrf",
+    "FittedPoints",
     "ForceFit",
+    "ForceModel",
+    "FrequencyResponseShape",
+    "FrictionPoints",
+    "HoldsForceFit",
     "MetricTable",
     "Recorded",
     "TracedFit",
     "TracedRun",
+    "VelocityModel",
     "require",
 ]
 
@@ -256,6 +265,108 @@ class MetricTable(Protocol):
 
     def display_units(self) -> Mapping[str, str]:
         """Metric name → display unit (mm, ms, %, 1/s, 1)."""
+        ...
+
+
+@runtime_checkable
+class Columns(Protocol):
+    """Named columns [SI] read as ``table["v"]``: a mapping of arrays or a DataFrame."""
+
+    def __getitem__(self, name: str, /) -> Any:
+        """The column ``name`` (an array or a Series)."""
+        ...
+
+
+@runtime_checkable
+class FittedPoints(Protocol):
+    """A fitted estimator that holds its points (``points_``; its fit, if any, ``fit_``)
+    (:class:`~hydropwa.identification.DeadZoneIdentifier`)."""
+
+    @property
+    def points_(self) -> Columns:
+        """The measured points."""
+        ...
+
+
+@runtime_checkable
+class FittedCurve(Protocol):
+    """A fitted estimator that holds its fit as ``fit_``
+    (:class:`~hydropwa.identification.StribeckIdentifier`)."""
+
+    @property
+    def fit_(self) -> Any:
+        """The fit (its own points and curve)."""
+        ...
+
+
+@runtime_checkable
+class FrictionPoints(Protocol):
+    """Steady friction points of a fit: ``velocity`` [m/s] and ``force`` [N]."""
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Steady velocities [m/s]."""
+        ...
+
+    @property
+    def force(self) -> np.ndarray:
+        """Friction forces [N]."""
+        ...
+
+
+@runtime_checkable
+class VelocityModel(Protocol):
+    """A fitted dead zone: steady rod velocity [m/s] at commands u [1]."""
+
+    def velocity(self, u: np.ndarray, /) -> Any:
+        """Velocity [m/s] at the commands ``u`` [1]."""
+        ...
+
+
+@runtime_checkable
+class ForceModel(Protocol):
+    """A fitted friction curve: force [N] at velocities v [m/s]."""
+
+    def force_at(self, v: np.ndarray, /) -> Any:
+        """Friction force [N] at the velocities ``v`` [m/s]."""
+        ...
+
+
+@runtime_checkable
+class FrequencyResponseShape(Protocol):
+    """A measured frequency response: ``frequency`` [Hz] and complex ``response``
+    (optionally ``coherence`` [1])."""
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """Frequencies [Hz]."""
+        ...
+
+    @property
+    def response(self) -> np.ndarray:
+        """The complex response [1]."""
+        ...
+
+
+@runtime_checkable
+class FittedFrf(Protocol):
+    """A fitted valve-FRF estimator: ``frf_`` by command amplitude (and ``fits_``,
+    ``min_coherence`` where it has them) (:class:`~hydropwa.identification.ValveFrfIdentifier`)."""
+
+    @property
+    def frf_(self) -> Mapping[float, FrequencyResponseShape]:
+        """Command amplitude [1] → measured response."""
+        ...
+
+
+@runtime_checkable
+class HoldsForceFit(Protocol):
+    """A result holding an inverse-dynamics force fit as ``fit``
+    (:class:`~hydropwa.identification.EmpsResult`)."""
+
+    @property
+    def fit(self) -> ForceFit:
+        """The force fit."""
         ...
 
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from .._errors import SignalError
+from .._layout import DEFAULT_KIND
 from ..models import Model, as_model
 from ..params import SystemParams
 from ._simulate import SimulationResult, simulate
@@ -122,7 +123,7 @@ def simulate_batch(
     models_or_params,
     inputs: Any = 0.0,
     *,
-    model: str = "full",
+    model: str = DEFAULT_KIND.name,
     jobs: int | None = None,
     summary: bool = False,
     progress: Callable[[int, int], None] | None = None,
@@ -139,8 +140,9 @@ def simulate_batch(
         One command u per case (anything :func:`simulate` accepts), or a single
         command for all cases. A single model with N inputs, or N models with
         one input, broadcast.
-    model : {"full", "reduced"}
-        Model level for entries given as :class:`~hydropwa.params.SystemParams` (for the PWA
+    model : str
+        Model kind for entries given as :class:`~hydropwa.params.SystemParams`: the full model
+        (the default, ``hydropwa._layout.DEFAULT_KIND``) or the reduced model (for the PWA
         model pass ``[linearize(p) for p in params]``).
     jobs : int, optional
         Worker threads (default: all cores, ``os.cpu_count()``).

@@ -163,60 +163,78 @@ class _Func:
         return "\n".join(lines)
 
     # ---------------------------------------------------------------- statements
-    def stmt(self, st: ast.stmt, depth: int) -> list[str]:  # noqa: C901 (one branch per Python statement kind the C emitter translates)
-        ind = "    " * depth
-        if isinstance(st, ast.Expr) and isinstance(st.value, ast.Constant):
+    def stmt(self, st: ast.stmt, depth: int) -> list[str]:
+        """C lines of one statement: the handler of its node type in :data:`_STATEMENTS`."""
+        handler = _STATEMENTS.get(type(st))
+        if handler is None:
+            self.fail(st, f"statement {type(st).__name__}")
+        assert handler is not None
+        return handler(self, st, depth)
+
+    def s_expr(self, st: ast.Expr, depth: int) -> list[str]:
+        if isinstance(st.value, ast.Constant):
             return []  # docstring
-        if isinstance(st, ast.Pass):
-            return []
-        if isinstance(st, ast.Expr) and isinstance(st.value, ast.Call):  # a call of a void function
-            f = self.callee(st.value)
-            if f is None or f.n_out != 0:
-                self.fail(st, "a call whose value is dropped")
-            assert f is not None
-            return [f"{ind}{_c_name(f.name)}({', '.join(self.call_args(st.value, f))});"]
-        if isinstance(st, ast.Return):
-            if st.value is None:
-                return [f"{ind}return;"]
-            if isinstance(st.value, ast.Tuple):
-                out = [f"{ind}*out{i} = {self.expr(e)};" for i, e in enumerate(st.value.elts)]
-                return [*out, f"{ind}return;"]
-            return [f"{ind}return {self.expr(st.value)};"]
-        if isinstance(st, ast.Assign):
-            if len(st.targets) != 1:
-                self.fail(st, "chained assignment")
-            t = st.targets[0]
-            if isinstance(t, ast.Tuple):
-                if isinstance(st.value, ast.Call):
-                    f = self.callee(st.value)
-                    if f is not None and f.n_out == len(t.elts):
-                        args = self.call_args(st.value, f)
-                        outs = [f"&{self.target(e)}" for e in t.elts]
-                        return [f"{ind}{_c_name(f.name)}({', '.join(args + outs)});"]
-                if isinstance(st.value, ast.Tuple) and len(st.value.elts) == len(t.elts):
-                    return [
-                        f"{ind}{self.target(e)} = {self.expr(v)};"
-                        for e, v in zip(t.elts, st.value.elts, strict=True)
-                    ]
-                self.fail(st, "tuple assignment from something other than a call or a tuple")
-            return [f"{ind}{self.target(t)} = {self.expr(st.value)};"]
-        if isinstance(st, ast.AugAssign):
-            op = self.binop_symbol(st.op, st)
-            return [f"{ind}{self.target(st.target)} {op}= {self.expr(st.value)};"]
-        if isinstance(st, ast.If):
-            out = [f"{ind}if ({self.expr(st.test)}) {{"]
-            for s in st.body:
-                out += self.stmt(s, depth + 1)
-            if st.orelse:
-                out.append(f"{ind}}} else {{")
-                for s in st.orelse:
-                    out += self.stmt(s, depth + 1)
-            out.append(f"{ind}}}")
-            return out
-        if isinstance(st, ast.For):
-            return self.for_range(st, depth)
-        self.fail(st, f"statement {type(st).__name__}")
+        if not isinstance(st.value, ast.Call):
+            self.fail(st, "statement Expr")
+        assert isinstance(st.value, ast.Call)
+        f = self.callee(st.value)  # a call of a void function
+        if f is None or f.n_out != 0:
+            self.fail(st, "a call whose value is dropped")
+        assert f is not None
+        return [f"{'    ' * depth}{_c_name(f.name)}({', '.join(self.call_args(st.value, f))});"]
+
+    def s_pass(self, st: ast.Pass, depth: int) -> list[str]:
         return []
+
+    def s_return(self, st: ast.Return, depth: int) -> list[str]:
+        ind = "    " * depth
+        if st.value is None:
+            return [f"{ind}return;"]
+        if isinstance(st.value, ast.Tuple):
+            out = [f"{ind}*out{i} = {self.expr(e)};" for i, e in enumerate(st.value.elts)]
+            return [*out, f"{ind}return;"]
+        return [f"{ind}return {self.expr(st.value)};"]
+
+    def s_assign(self, st: ast.Assign, depth: int) -> list[str]:
+        ind = "    " * depth
+        if len(st.targets) != 1:
+            self.fail(st, "chained assignment")
+        t = st.targets[0]
+        if isinstance(t, ast.Tuple):
+            return self.tuple_assign(st, t, ind)
+        return [f"{ind}{self.target(t)} = {self.expr(st.value)};"]
+
+    def tuple_assign(self, st: ast.Assign, t: ast.Tuple, ind: str) -> list[str]:
+        """``a, b = f(...)`` (a call with as many outputs) or ``a, b = x, y``."""
+        if isinstance(st.value, ast.Call):
+            f = self.callee(st.value)
+            if f is not None and f.n_out == len(t.elts):
+                args = self.call_args(st.value, f)
+                outs = [f"&{self.target(e)}" for e in t.elts]
+                return [f"{ind}{_c_name(f.name)}({', '.join(args + outs)});"]
+        if isinstance(st.value, ast.Tuple) and len(st.value.elts) == len(t.elts):
+            return [
+                f"{ind}{self.target(e)} = {self.expr(v)};"
+                for e, v in zip(t.elts, st.value.elts, strict=True)
+            ]
+        self.fail(st, "tuple assignment from something other than a call or a tuple")
+        return []
+
+    def s_augassign(self, st: ast.AugAssign, depth: int) -> list[str]:
+        op = self.binop_symbol(st.op, st)
+        return [f"{'    ' * depth}{self.target(st.target)} {op}= {self.expr(st.value)};"]
+
+    def s_if(self, st: ast.If, depth: int) -> list[str]:
+        ind = "    " * depth
+        out = [f"{ind}if ({self.expr(st.test)}) {{"]
+        for s in st.body:
+            out += self.stmt(s, depth + 1)
+        if st.orelse:
+            out.append(f"{ind}}} else {{")
+            for s in st.orelse:
+                out += self.stmt(s, depth + 1)
+        out.append(f"{ind}}}")
+        return out
 
     def for_range(self, st: ast.For, depth: int) -> list[str]:
         """``for i in range([a,] b):`` as a C loop over a double counter (exact for integers)."""
@@ -287,76 +305,82 @@ class _Func:
         f.fail(d, "a default argument that is not a number")
         return ""
 
-    def expr(self, e: ast.expr) -> str:  # noqa: C901 (one branch per Python expression kind the C emitter translates)
-        if isinstance(e, ast.Constant):
-            if isinstance(e.value, bool | int | float):
-                return _literal(e.value)
-            self.fail(e, f"constant {e.value!r}")
-        if isinstance(e, ast.Name):
-            if e.id in self.args or e.id in self.locals:
-                return e.id
-            return self.constant(e.id, e)
-        if isinstance(e, ast.Subscript):
-            arr = e.value
-            if not isinstance(arr, ast.Name) or arr.id not in self.arrays:
-                self.fail(e, "subscript of something other than an array argument")
-            assert isinstance(arr, ast.Name)
-            idx = e.slice
-            if isinstance(idx, ast.Name) and idx.id not in self.args and idx.id not in self.locals:
-                v = self.module.__dict__.get(idx.id)
-                if not isinstance(v, int):
-                    self.fail(e, f"index {idx.id!r} is not an integer constant")
-                return f"{arr.id}[{v}]"
-            if isinstance(idx, ast.Constant) and isinstance(idx.value, int):
-                return f"{arr.id}[{idx.value}]"
-            if isinstance(idx, ast.Tuple | ast.Slice):
-                self.fail(e, "a subscript of more than one index (pass a 1-d array)")
-            return f"{arr.id}[(int)({self.expr(idx)})]"  # an integer-valued expression
-        if isinstance(e, ast.BinOp):
-            left, right = self.expr(e.left), self.expr(e.right)
-            if isinstance(e.op, ast.Pow):
-                return f"pow({left}, {right})"
-            return f"({left} {self.binop_symbol(e.op, e)} {right})"
-        if isinstance(e, ast.UnaryOp):
-            if isinstance(e.op, ast.USub):
-                return f"(-{self.expr(e.operand)})"
-            if isinstance(e.op, ast.UAdd):
-                return self.expr(e.operand)
-            if isinstance(e.op, ast.Not):
-                return f"(!{self.expr(e.operand)})"
-            self.fail(e, "unary operator")
-        if isinstance(e, ast.BoolOp):
-            op = " && " if isinstance(e.op, ast.And) else " || "
-            return "(" + op.join(self.expr(v) for v in e.values) + ")"
-        if isinstance(e, ast.Compare):
-            ops = {
-                ast.Lt: "<",
-                ast.LtE: "<=",
-                ast.Gt: ">",
-                ast.GtE: ">=",
-                ast.Eq: "==",
-                ast.NotEq: "!=",
-            }
-            parts = []
-            lhs = e.left
-            for cmp, rhs in zip(e.ops, e.comparators, strict=True):
-                sym = next((v for k, v in ops.items() if isinstance(cmp, k)), None)
-                if sym is None:
-                    self.fail(e, f"comparison {type(cmp).__name__}")
-                parts.append(f"({self.expr(lhs)} {sym} {self.expr(rhs)})")
-                lhs = rhs
-            return "(" + " && ".join(parts) + ")"
-        if isinstance(e, ast.IfExp):
-            return f"({self.expr(e.test)} ? {self.expr(e.body)} : {self.expr(e.orelse)})"
-        if isinstance(e, ast.Attribute):
-            if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "pi":
-                return _literal(math.pi)
-            if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "inf":
-                return "HUGE_VAL"
-            self.fail(e, f"attribute {ast.unparse(e)}")
-        if isinstance(e, ast.Call):
-            return self.call(e)
-        self.fail(e, f"expression {type(e).__name__}")
+    def expr(self, e: ast.expr) -> str:
+        """C text of one expression: the handler of its node type in :data:`_EXPRESSIONS`."""
+        handler = _EXPRESSIONS.get(type(e))
+        if handler is None:
+            self.fail(e, f"expression {type(e).__name__}")
+        assert handler is not None
+        return handler(self, e)
+
+    def e_constant(self, e: ast.Constant) -> str:
+        if isinstance(e.value, bool | int | float):
+            return _literal(e.value)
+        self.fail(e, f"constant {e.value!r}")
+        return ""
+
+    def e_name(self, e: ast.Name) -> str:
+        if e.id in self.args or e.id in self.locals:
+            return e.id
+        return self.constant(e.id, e)
+
+    def e_subscript(self, e: ast.Subscript) -> str:
+        arr = e.value
+        if not isinstance(arr, ast.Name) or arr.id not in self.arrays:
+            self.fail(e, "subscript of something other than an array argument")
+        assert isinstance(arr, ast.Name)
+        idx = e.slice
+        if isinstance(idx, ast.Name) and idx.id not in self.args and idx.id not in self.locals:
+            v = self.module.__dict__.get(idx.id)
+            if not isinstance(v, int):
+                self.fail(e, f"index {idx.id!r} is not an integer constant")
+            return f"{arr.id}[{v}]"
+        if isinstance(idx, ast.Constant) and isinstance(idx.value, int):
+            return f"{arr.id}[{idx.value}]"
+        if isinstance(idx, ast.Tuple | ast.Slice):
+            self.fail(e, "a subscript of more than one index (pass a 1-d array)")
+        return f"{arr.id}[(int)({self.expr(idx)})]"  # an integer-valued expression
+
+    def e_binop(self, e: ast.BinOp) -> str:
+        left, right = self.expr(e.left), self.expr(e.right)
+        if isinstance(e.op, ast.Pow):
+            return f"pow({left}, {right})"
+        return f"({left} {self.binop_symbol(e.op, e)} {right})"
+
+    def e_unaryop(self, e: ast.UnaryOp) -> str:
+        if isinstance(e.op, ast.USub):
+            return f"(-{self.expr(e.operand)})"
+        if isinstance(e.op, ast.UAdd):
+            return self.expr(e.operand)
+        if isinstance(e.op, ast.Not):
+            return f"(!{self.expr(e.operand)})"
+        self.fail(e, "unary operator")
+        return ""
+
+    def e_boolop(self, e: ast.BoolOp) -> str:
+        op = " && " if isinstance(e.op, ast.And) else " || "
+        return "(" + op.join(self.expr(v) for v in e.values) + ")"
+
+    def e_compare(self, e: ast.Compare) -> str:
+        parts = []
+        lhs = e.left
+        for cmp, rhs in zip(e.ops, e.comparators, strict=True):
+            sym = _COMPARISONS.get(type(cmp))
+            if sym is None:
+                self.fail(e, f"comparison {type(cmp).__name__}")
+            parts.append(f"({self.expr(lhs)} {sym} {self.expr(rhs)})")
+            lhs = rhs
+        return "(" + " && ".join(parts) + ")"
+
+    def e_ifexp(self, e: ast.IfExp) -> str:
+        return f"({self.expr(e.test)} ? {self.expr(e.body)} : {self.expr(e.orelse)})"
+
+    def e_attribute(self, e: ast.Attribute) -> str:
+        if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "pi":
+            return _literal(math.pi)
+        if isinstance(e.value, ast.Name) and e.value.id == "math" and e.attr == "inf":
+            return "HUGE_VAL"
+        self.fail(e, f"attribute {ast.unparse(e)}")
         return ""
 
     def call(self, e: ast.Call) -> str:
@@ -385,6 +409,40 @@ class _Func:
             return f"{_c_name(f.name)}({', '.join(self.call_args(e, f))})"
         self.fail(e, "call")
         return ""
+
+
+#: The statements the emitter translates: node type → :class:`_Func` handler (lines of C).
+_STATEMENTS: dict[type, Callable[..., list[str]]] = {
+    ast.Expr: _Func.s_expr,
+    ast.Pass: _Func.s_pass,
+    ast.Return: _Func.s_return,
+    ast.Assign: _Func.s_assign,
+    ast.AugAssign: _Func.s_augassign,
+    ast.If: _Func.s_if,
+    ast.For: _Func.for_range,
+}
+#: The expressions it translates: node type → handler (C text).
+_EXPRESSIONS: dict[type, Callable[..., str]] = {
+    ast.Constant: _Func.e_constant,
+    ast.Name: _Func.e_name,
+    ast.Subscript: _Func.e_subscript,
+    ast.BinOp: _Func.e_binop,
+    ast.UnaryOp: _Func.e_unaryop,
+    ast.BoolOp: _Func.e_boolop,
+    ast.Compare: _Func.e_compare,
+    ast.IfExp: _Func.e_ifexp,
+    ast.Attribute: _Func.e_attribute,
+    ast.Call: _Func.call,
+}
+#: Python's comparison operators in C.
+_COMPARISONS: dict[type, str] = {
+    ast.Lt: "<",
+    ast.LtE: "<=",
+    ast.Gt: ">",
+    ast.GtE: ">=",
+    ast.Eq: "==",
+    ast.NotEq: "!=",
+}
 
 
 class _Emitter:

@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 from .. import _jitcache  # noqa: F401  (one cache stamp for all compiled modules)
-from .._layout import MODEL_KINDS
+from .._layout import LINES_KIND
 from ..components._physics import (
     chamber_pressures_from_load,
 )
@@ -110,7 +110,7 @@ def _outputs_chamber(t_out, Y, n_done, p, sg):
     return out
 
 
-_LINES_ROW = MODEL_KINDS["full-lines"]
+_LINES_ROW = LINES_KIND
 LINES = _LINES_ROW.kernel
 N_OUT_LINES = N_OUT + len(_LINES_ROW.extra_outputs)
 _Y_PLA, _Y_PLB = (len(_LINES_ROW.states) - 2, len(_LINES_ROW.states) - 1)

@@ -24,7 +24,7 @@ import sys
 import threading
 from collections.abc import Iterable
 
-from .._layout import MODEL_NAMES
+from .._layout import FULL_KIND, MODEL_NAMES, PWA_KIND, REDUCED_KIND
 from . import _kernel as K
 
 __all__ = ["WarmUp", "warm_up"]
@@ -32,7 +32,7 @@ __all__ = ["WarmUp", "warm_up"]
 #: Environment variable: ``0`` turns the automatic warm-up off.
 ENV = "HYDROPWA_WARMUP"
 #: What the automatic warm-up compiles: the open-loop models and the linearization.
-AUTO = ("full", "reduced", "point", "pwa")
+AUTO = (FULL_KIND.name, REDUCED_KIND.name, "point", PWA_KIND.name)
 
 _auto_started = False
 
@@ -199,7 +199,7 @@ class WarmUp:
 
 
 def warm_up(
-    models: Iterable[str] = ("full", "reduced", "pwa"),
+    models: Iterable[str] = (FULL_KIND.name, REDUCED_KIND.name, PWA_KIND.name),
     *,
     closed_loop: bool = False,
     linearization: bool = True,

@@ -34,7 +34,7 @@ import numpy as np
 
 from .._errors import HydropwaError, ParameterError
 from .._io import read_text
-from .._layout import MODEL_NAMES
+from .._layout import DEFAULT_KIND, MODEL_NAMES
 from .._limits import MAX_SWEEP_CASES, check_rtol, check_samples, check_supply_pressure
 from ..params import FIELD_UNITS, SystemParams, get_preset, load_params, parse_quantity
 from ..simulation import as_signal
@@ -109,7 +109,7 @@ class SweepSpec:
     seed: int = 0
     u: Any = 0.0
     duration: float = 1.0
-    model: str = "full"
+    model: str = DEFAULT_KIND.name
     options: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -292,7 +292,7 @@ def _parse_input(inp_table: Any) -> tuple[float, str, Any, dict[str, Any]]:
         if key not in _INPUT_KEYS:
             raise _unknown("[input] key", key, _INPUT_KEYS)
     duration = parse_quantity(inp.pop("duration", 1.0), "s", "input.duration")
-    model = inp.pop("model", "full")
+    model = inp.pop("model", DEFAULT_KIND.name)
     if model not in _MODELS:
         raise ParameterError(f"input.model = {model!r} is unknown; choose {', '.join(_MODELS)}")
     u = inp.pop("u", 0.0)

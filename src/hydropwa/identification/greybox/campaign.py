@@ -27,6 +27,7 @@ from typing import Any
 from scipy import stats
 
 from ..._errors import IdentificationError
+from ..._layout import DEFAULT_KIND
 from ...params import SystemParams
 from .._common import IdentificationWarning, experiment_of
 from .estimator import FitOptions, fit_model
@@ -160,7 +161,7 @@ def fit_campaign(
     *,
     params: SystemParams | None = None,
     start: SystemParams | str = "identify",
-    model: str = "full",
+    model: str = DEFAULT_KIND.name,
     options: FitOptions | None = None,
     progress: Callable[[FitProgress], None] | None = None,
     **settings: Any,

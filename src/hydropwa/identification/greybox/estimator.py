@@ -16,6 +16,7 @@ from scipy import stats
 
 from ..._dask import dask_client
 from ..._errors import IdentificationError, ParameterError
+from ..._layout import LINEARIZED_MODELS, MEASURABLE_MODELS
 from ...models import as_model
 from .._common import (
     IdentificationWarning,
@@ -176,10 +177,15 @@ class FitData:
         return [rd for _r, rd in self.pairs]
 
 
+#: The kinds a fit can start from measurements, for messages ("'full' or 'reduced'").
+_MEASURABLE = " or ".join(repr(name) for name in MEASURABLE_MODELS)
+
+
 def _base_model(model: Any, params: Any) -> Any:
-    if isinstance(model, str) and model.strip().lower() == "pwa":
+    if isinstance(model, str) and model.strip().lower() in LINEARIZED_MODELS:
         raise IdentificationError(
-            "the PWA model is fitted from its parameters; fit 'full' or 'reduced' and linearize"
+            f"the {model.strip()} model is fitted from its parameters; fit {_MEASURABLE} and "
+            "linearize"
         )
     try:
         base_model = as_model(model, params)
@@ -187,7 +193,7 @@ def _base_model(model: Any, params: Any) -> Any:
         raise IdentificationError(str(exc)) from None
     if not hasattr(type(base_model), "state_from_measurement"):
         raise IdentificationError(
-            f"the {base_model.name} model cannot start from measurements; fit 'full' or 'reduced'"
+            f"the {base_model.name} model cannot start from measurements; fit {_MEASURABLE}"
         )
     return base_model
 

@@ -25,6 +25,9 @@ __all__ = [
     "StartRecord",
 ]
 
+#: The stage that fits every free parameter at once (a stage's name, not a model kind's).
+FULL_STAGE = "full"
+
 
 class FitStatus(StatusEnum):
     """How a least-squares stage ended (scipy's ``least_squares`` status codes).
@@ -357,12 +360,12 @@ class GreyBoxFit(DerivedResult):
     validation_: Any = None
 
     #: Stages whose outcome decides an estimate (the others only lead to the full stage).
-    DECIDING: ClassVar[tuple[str, ...]] = ("full", "sliding")
+    DECIDING: ClassVar[tuple[str, ...]] = (FULL_STAGE, "sliding")
 
     def __post_init__(self) -> None:
-        if [st.name for st in self.stages_].count("full") != 1:
+        if [st.name for st in self.stages_].count(FULL_STAGE) != 1:
             raise IdentificationError(
-                "GreyBoxFit needs exactly one 'full' stage in stages_ (its outcome decides the "
+                f"GreyBoxFit needs exactly one {FULL_STAGE!r} stage in stages_ (its outcome decides the "
                 f"fit's status); got stages {[st.name for st in self.stages_]}"
             )
         if not self.starts_:
@@ -370,7 +373,7 @@ class GreyBoxFit(DerivedResult):
 
     @property
     def _full(self) -> StageResult:
-        return next(st for st in self.stages_ if st.name == "full")
+        return next(st for st in self.stages_ if st.name == FULL_STAGE)
 
     def _failed_stages(self) -> list[StageResult]:
         return [st for st in self.stages_ if st.name in self.DECIDING and not st.success]
@@ -429,7 +432,7 @@ class GreyBoxFit(DerivedResult):
                     "inflation": float(self.inflation_[i]),
                     "weak": n in self.identifiability_.weak,
                     "widened": n in self.widened_,
-                    "stage": "sliding" if n in self.sliding_.get("parameters", ()) else "full",
+                    "stage": "sliding" if n in self.sliding_.get("parameters", ()) else FULL_STAGE,
                 }
             )
         return pd.DataFrame(rows).set_index("parameter")

@@ -20,7 +20,7 @@ from .jacobian import FiniteDifferenceJacobian
 from .objective import loss_cost
 from .optimize import LeastSquares
 from .problem import GreyBoxProblem
-from .result import StageResult, StartRecord
+from .result import FULL_STAGE, StageResult, StartRecord
 
 __all__ = ["STICK", "FitProgress", "StagePlan", "restart_from_probes", "valley_scan"]
 
@@ -258,11 +258,11 @@ class StagePlan:
             self.report("restart", *k)
             return self.optimizer.solve(self.full.fun, self.problem.clip(theta0), last[0], bounds)
 
-        self.report("full", *k)
+        self.report(FULL_STAGE, *k)
         sol = self.optimizer.solve(self.full.fun, th, last[0], bounds)
         sol, restarts = restart_from_probes(self.full, sol, restart, self.cost)
-        self.report("full", *k, res=sol)
-        stages.append(StageResult.from_scipy("full", sol))
+        self.report(FULL_STAGE, *k, res=sol)
+        stages.append(StageResult.from_scipy(FULL_STAGE, sol))
         values = self.problem.values
         full = stages[-1]
         log = StartRecord(

@@ -12,6 +12,7 @@ import numpy as np
 
 from ... import __version__
 from ..._io import atomic_write_text
+from ..._layout import FULL_KIND, PWA_KIND, REDUCED_KIND
 from ...control import METRIC_UNITS, POSITIONING_TASK
 from ...data import read_dataset
 from ...identification import TRUTH_OUTSIDE, truth_in_interval
@@ -44,7 +45,7 @@ nav.toc{font-size:.9em;border:1px solid #ddd;padding:.3em 1em;display:inline-blo
 #: the sine runs each model must reach [%], the largest relative deviation of an identified
 #: value from the true one (virtual rig), and the closed loop's steady-state error on the full
 #: model as a fraction of its step.
-VERDICT_FIT = {"full": 90.0, "reduced": 80.0, "pwa": 80.0}
+VERDICT_FIT = {FULL_KIND.name: 90.0, REDUCED_KIND.name: 80.0, PWA_KIND.name: 80.0}
 VERDICT_PARAM_RTOL = 0.10
 VERDICT_SSE_FRACTION = 0.01
 
@@ -371,7 +372,7 @@ def _verdict_section(out: Path, fit, true) -> str:
     f = out / "tables" / "closed_loop.csv"
     if f.is_file():
         cl = pd.read_csv(f)
-        full = cl[cl.iloc[:, 0] == "full"]
+        full = cl[cl.iloc[:, 0] == FULL_KIND.name]
         if len(full) and {"steady_state_error", "step"} <= set(cl.columns):
             sse = abs(float(full["steady_state_error"].iloc[0]))
             step = abs(float(full["step"].iloc[0]))

@@ -36,6 +36,7 @@ from ..._io import (
     output_lock,
     overwrite_flag,
 )
+from ..._layout import CHAMBER_KIND, FULL_KIND, MODEL_NAMES, PWA_KIND, REDUCED_KIND
 from ...control import (
     closed_loop_study,
     closed_loop_verification,
@@ -108,7 +109,7 @@ class StudyResult:
     notes: list[str]
     elapsed: float
 
-    def position_fit(self, model: str = "full") -> Any:
+    def position_fit(self, model: str = FULL_KIND.name) -> Any:
         """Position NRMSE fit [%] per run of one model variant (a pandas Series)."""
         m = self.metrics
         sel = m[(m["model"] == model) & (m["channel"] == "x")]
@@ -693,17 +694,17 @@ def _stage_evaluate(
                     run,
                     ident,
                     models=(
-                        "full",
-                        "reduced",
-                        "pwa",
+                        FULL_KIND.name,
+                        REDUCED_KIND.name,
+                        PWA_KIND.name,
                         "pwa-scheduled",
                         "reduced-paper",
                         "pwa-paper",
-                        "pwa-chamber",
+                        CHAMBER_KIND.name,
                     ),
                 )
                 if true is not None:
-                    ref = evaluate_run(run, true, models=("full",))
+                    ref = evaluate_run(run, true, models=(FULL_KIND.name,))
             stage_notes.extend(f"{run.name}: {n}" for n in res.notes)
             stage_notes.extend(
                 f"{run.name}: {w.message}"
@@ -737,8 +738,8 @@ def _stage_evaluate(
         )
         files += _write_table(cell_df, out / "tables" / "pwa_cells")
         files += _coverage_tables(coverage_study(results, ident), out)
-        traj = example.simulations.get("pwa") if example is not None else None
-        load_pressure_forms = cell_df[cell_df["model"] != "pwa-chamber"]
+        traj = example.simulations.get(PWA_KIND.name) if example is not None else None
+        load_pressure_forms = cell_df[cell_df["model"] != CHAMBER_KIND.name]
         files += _save(
             plot_cell_occupancy(load_pressure_forms, load_pwa(out / "pwa.json"), traj),
             out / "figures" / "pwa_cells",
@@ -859,13 +860,8 @@ def run_paper_study(
 #: The compiled kernels the study uses besides the full model's, in the order it needs them.
 _STUDY_KERNELS = (
     "point",
-    "reduced",
-    "pwa",
-    "pwa-chamber",
-    "closed-full",
-    "closed-reduced",
-    "closed-pwa",
-    "closed-pwa-chamber",
+    *(name for name in MODEL_NAMES if name != FULL_KIND.name),
+    *(f"closed-{name}" for name in MODEL_NAMES),
 )
 
 
