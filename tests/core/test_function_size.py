@@ -62,7 +62,7 @@ _SIGNALS = (
 #: Functions allowed over the line limit: (file, function) → (lines of code, why).
 LINE_EXCEPTIONS: dict[tuple[str, str], tuple[int, str]] = {
     ("simulation/_march.py", "_march"): (
-        120,
+        121,  # 120, +1 for the hose lines' error-norm length (n_norm, a registry row's field)
         "the compiled step loop: split into inlined named steps (start, attempt, accept, "
         "sample) it was not bit for bit the same (2026-12-02: the PWA model's paper sine "
         "took 1806 steps instead of 1798, every closed loop's command moved by ~1e-11; LLVM "
