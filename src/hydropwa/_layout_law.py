@@ -88,6 +88,8 @@ CTL_EXT: Block = (
     ("est_spool", 1, "1", "the per-cell Kalman filter measures the spool (1)"),
     ("dz_vent", 1, "1", "pressure vent exp(-T_s/T_p) (0: none)"),
     ("dz_quiet_open", 1, "1", "quiet band's opening delay n in samples (0: none)"),
+    ("output", 1, "1", "controlled output: 0 position x, 1 cylinder force, 2 load pressure P_L"),
+    ("ff_compliance", 1, "m/(output unit)", "feed-forward velocity per unit of output rate"),
 )
 #: per gain row after the extension header (XROW values each)
 CTL_XROW: Block = (
