@@ -55,6 +55,7 @@ from ._design import (
     valve_series,
 )
 from ._design_chamber import design_on_chamber
+from ._design_force import ForceDesign, design_force, design_force_pi, hydraulic_stiffness
 from ._estimator import (
     DEFAULT_PROCESS_NOISE,
     CellEstimator,
@@ -99,6 +100,7 @@ from ._verify import (
     task_set,
     verify_controller,
 )
+from ._verify_force import ForceVerification, force_task_set, verify_force
 
 __all__ = [
     "Certificate",
@@ -131,6 +133,13 @@ __all__ = [
     "VerificationTask",
     "design_controller",
     "design_on_chamber",
+    "design_force",
+    "design_force_pi",
+    "ForceDesign",
+    "hydraulic_stiffness",
+    "verify_force",
+    "ForceVerification",
+    "force_task_set",
     "design_textbook_pi",
     "check_machine",
     "closed_loop_warnings",

@@ -37,6 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from ..components import effective_bulk_modulus
+from ..linearization import linearize
 from ._controllers import (
     ControlError,
     DeadZoneInverse,
@@ -83,8 +85,6 @@ def _area(params, output: str) -> float:
 
 def hydraulic_stiffness(params, x: float, supply_pressure: float | None = None) -> float:
     """Oil columns' stiffness k_h = A_A²β/V_A + A_B²β/V_B [N/m] at x [m] (β at the rest pressures)."""
-    from ..components import effective_bulk_modulus
-
     c = params.cylinder
     ps = params.supply.pressure if supply_pressure is None else float(supply_pressure)
     va = c.dead_volume_a + c.area_a * x
@@ -138,7 +138,7 @@ def force_plant(params, chamber, force: float, s: int, output: str = "force"):
 
 def _cell_gains(plant, ts: float, delay: bool, margins: dict[str, float]):
     """(G, the kept loop of :func:`~hydropwa.control._design._pi_crossover`) of one cell."""
-    import control  # deferred
+    import control  # deferred: python-control loads scipy.signal and matplotlib
 
     w = 2 * math.pi * GAIN_FREQUENCY
     g = float(abs(1j * w * complex(plant(1j * w))))
@@ -194,8 +194,6 @@ def _options(params, chamber, kw: dict[str, Any]) -> dict[str, Any]:
 
 
 def _setup(params, output, specimen_stiffness):
-    from ..linearization import linearize
-
     if output not in ("force", "pressure"):
         raise ControlError(f"output {output!r}: choose force or pressure")
     if specimen_stiffness is not None:
@@ -230,7 +228,7 @@ def design_force(
     Returns a :class:`ForceDesign` whose controller is a :class:`StateFeedbackController`
     with ``output`` set, one row per force cell and flow direction.
     """
-    import pandas as pd  # deferred
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     params, chamber = _setup(params, output, specimen_stiffness)
     kw = dict(sample_time=sample_time, delay=delay, output=output, quiet_band=quiet_band)
@@ -306,7 +304,7 @@ def design_force_pi(
     Tuned by the margin rule of :func:`design_force` at the middle force cell, opening
     positive; feed-forward 1/k_s·Ḟ_ref(t) through the flow inversion (no look-ahead).
     """
-    import pandas as pd  # deferred
+    import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     params, chamber = _setup(params, output, specimen_stiffness)
     margins = dict(

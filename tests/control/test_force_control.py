@@ -1,0 +1,124 @@
+"""Force control (issue 52): the law's force output, its C in lockstep, the fatigue rig vs the PI.
+
+The force law is the position law with the reference and the error in the cylinder force
+(``output_stage``) and the flow feed-forward of the force rate through a compliance
+(``feedforward_rate``); its C comes from the same numba source (``emit_unit``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from c_support import GCC, compile_shared, reference_channels, replay_c, replay_package
+
+from hydropwa.control import PIController, export_c
+from hydropwa.control._design_force import design_force, design_force_pi, hydraulic_stiffness
+from hydropwa.params import get_preset
+from hydropwa.simulation import _controller as C
+from hydropwa.simulation import simulate
+from hydropwa.simulation._signals import Sine
+
+#: the lockstep bar (the issue's), relative to max(|u|, 5e-2) as in test_target_c.py (numba's
+#: fused multiply-adds against the C's rounded products: ulps of terms of order 0.1-1)
+RTOL, FLOOR = 1e-12, 5e-2
+#: the fatigue rig's specimen [N/m] at a contact 0.1 m out, mean force and amplitude [N]
+K_SPEC, X_C, F_MEAN, F_AMP = 1e7, 0.1, 5000.0, 2000.0
+NOISE = {"x": 20e-6, "p_a": 0.1e5, "p_b": 0.1e5}
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return get_preset("paper").replace(
+        **{"load.specimen_stiffness": K_SPEC, "load.contact_position": X_C}
+    )
+
+
+@pytest.fixture(scope="module")
+def designs(rig):
+    return design_force(rig), design_force_pi(rig)
+
+
+def test_the_force_output_is_the_cylinder_force_and_a_position_law_is_unchanged():
+    """output_stage: F = A_A·P_L (asymmetric P_L = P_A − α P_B, so F = A_A P_A − A_B P_B),
+    Ā·P_L in the mean-area form, P_L itself for a pressure output; x for a position law
+    (whose description and file carry no output key)."""
+    a_a, a_b = 1.3e-3, 0.76e-3
+    p_a, p_b = 70e5, 30e5
+    pl = C.load_pressure(p_a, p_b, a_a, a_b, 0.0)
+    for output, expect in (("force", a_a * p_a - a_b * p_b), ("pressure", pl)):
+        ctl = PIController(kp=1e-4, output=output).pack()
+        got = C.output_stage(ctl, ctl.shape[0], 0.123, pl, (a_a, a_b))
+        assert got == pytest.approx(expect, rel=1e-14)
+    pos = PIController(kp=100.0)
+    assert C.output_stage(pos.pack(), pos.pack().shape[0], 0.123, pl, (a_a, a_b)) == 0.123
+    assert "output" not in pos.describe()
+
+
+def test_the_feedforward_compliance_is_the_specimen_and_the_oil_columns(rig, designs):
+    """1/k_s + 1/k_h with k_h = β(A_A²/V_A + A_B²/V_B) for the law, 1/k_s for the baseline."""
+    law, pi = (d.controller for d in designs)
+    c = rig.cylinder
+    k_h = hydraulic_stiffness(rig, X_C + 6500.0 / K_SPEC)
+    va, vb = c.dead_volume_a + c.area_a * 0.10065, c.dead_volume_b + c.area_b * (c.stroke - 0.10065)
+    assert k_h == pytest.approx(1e9 * (c.area_a**2 / va + c.area_b**2 / vb), rel=1e-3)
+    assert pi.feedforward_compliance == pytest.approx(1.0 / K_SPEC, rel=1e-12)
+    assert law.feedforward_compliance == pytest.approx(1.0 / K_SPEC + 1.0 / k_h, rel=1e-3)
+    assert law.feedforward.lead > 0.0 and pi.feedforward.lead == 0.0
+
+
+@pytest.mark.skipif(GCC is None, reason="gcc is not installed")
+def test_force_law_c_matches_the_compiled_law_in_lockstep(rig, designs, tmp_path):
+    """The generated C and the numba law on one noisy force sequence, law and baseline: command
+    and c within 1e-12 (relative, floor 5e-2), the same gain row at every sample."""
+    rng = np.random.default_rng(52)
+    ts = 5e-4
+    tk = ts * np.arange(2000)
+    ref = Sine(amplitude=F_AMP, frequency=5.0, offset=F_MEAN)
+    a_a, a_b = rig.cylinder.area_a, rig.cylinder.area_b
+    force = F_MEAN + 0.9 * F_AMP * np.sin(2 * np.pi * 5.0 * (tk - 0.004))
+    pl = force / a_a + rng.normal(0.0, 0.15e5, tk.size)
+    x = X_C + force / K_SPEC + rng.normal(0.0, 20e-6, tk.size)
+    v = np.gradient(force / K_SPEC, ts) + rng.normal(0.0, 5e-3, tk.size)
+    switched = 0
+    for name, design in zip(("law", "pi"), designs, strict=True):
+        ctrl = design.controller
+        out = tmp_path / name
+        export_c(ctrl, out)
+        lib = compile_shared(out, out / "libctrl.so")
+        r, rch = reference_channels(ctrl, ref, tk)
+        pkg = replay_package(ctrl.pack(), x, v, pl, r, rch, a_a, a_b)
+        c = replay_c(lib, x, v, pl, r, rch)
+        for key in ("u", "c"):
+            err = np.abs(c[key] - pkg[key]) / np.maximum(np.abs(pkg[key]), FLOOR)
+            assert np.max(err) <= RTOL, (name, key, float(np.max(err)))
+        np.testing.assert_array_equal(c["row"], pkg["row"], err_msg=name)
+        assert np.count_nonzero(rch[C.RC_DRFF]) > 1000  # the feed-forward acts
+        switched += int(np.count_nonzero(np.diff(pkg["row"])))
+    assert switched > 10  # the law's rows switch (force cells, flow direction)
+
+
+def _rms_error(rig, ctrl, hz: float) -> float:
+    ref = Sine(amplitude=F_AMP, frequency=hz, offset=F_MEAN)
+    res = simulate(
+        "full",
+        params=rig,
+        controller=ctrl,
+        reference=ref,
+        duration=0.6,
+        initial_position=X_C + F_MEAN / K_SPEC,
+        sensor_noise=NOISE,
+        seed=1,
+    )
+    assert res.success, res.message
+    keep = res["t"] > 0.2
+    assert min(res["p_a"].min(), res["p_b"].min()) > 1e5  # no chamber below 1 bar
+    return float(np.sqrt(np.mean(res["force_error"][keep] ** 2)))
+
+
+def test_fatigue_rig_the_law_halves_the_pi_baselines_error_at_10_hz(rig, designs):
+    """Paper rig on a 1e7 N/m specimen, 5 ± 2 kN at 10 Hz, 20 µm / 0.1 bar noise, the design's
+    one sample of delay, full model: RMS force error of the law at most half the PI's.
+    Measured (2026-12-02): 31.6 N against 440 N (1 s runs); the bound is the issue's ½."""
+    law, pi = (d.controller for d in designs)
+    e_law, e_pi = _rms_error(rig, law, 10.0), _rms_error(rig, pi, 10.0)
+    assert e_law <= 0.5 * e_pi, (e_law, e_pi)
