@@ -7,6 +7,8 @@ The force law is the position law with the reference and the error in the cylind
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from c_support import GCC, compile_shared, reference_channels, replay_c, replay_package
@@ -122,3 +124,45 @@ def test_fatigue_rig_the_law_halves_the_pi_baselines_error_at_10_hz(rig, designs
     law, pi = (d.controller for d in designs)
     e_law, e_pi = _rms_error(rig, law, 10.0), _rms_error(rig, pi, 10.0)
     assert e_law <= 0.5 * e_pi, (e_law, e_pi)
+
+
+def test_a_force_controller_file_is_schema_3_and_a_position_file_stays_schema_2(designs, tmp_path):
+    """Schema 3 (output, feed-forward compliance, gains per kN) round-trips the packed law
+    exactly and validates against its JSON Schema; a position controller still writes schema 2
+    without the new keys."""
+    jsonschema = pytest.importorskip("jsonschema")
+    import json
+
+    from hydropwa.control import controller_schema, load_controller, save_controller
+    from hydropwa.control._io import controller_to_dict
+
+    for d in designs:
+        doc = controller_to_dict(d.controller)
+        assert doc["schema"] == "hydropwa.controller/3" and doc["output"] == "force"
+        jsonschema.Draft202012Validator(controller_schema(3)).validate(json.loads(json.dumps(doc)))
+        path = save_controller(d.controller, tmp_path / f"{d.info['method']}.toml")
+        np.testing.assert_array_equal(load_controller(path).pack(), d.controller.pack())
+    pos = controller_to_dict(PIController(kp=100.0, ki=10.0))
+    assert pos["schema"] == "hydropwa.controller/2"
+    assert "output" not in pos and "feedforward_compliance" not in pos
+
+
+def test_the_transfer_integral_makes_the_first_command_the_old_laws(rig, designs):
+    """transfer_integral: with it the force law's first opening is exactly the old law's
+    (the command is affine in the integral), and the delay applies the old command first."""
+    from hydropwa.control import transfer_integral
+
+    law = designs[0].controller
+    y = np.zeros(8)
+    y[2], y[3], y[4], y[6], y[7] = 60e5, 40e5, X_C + 4e3 / K_SPEC, 100e5, 60e5
+    a_a, a_b = rig.cylinder.area_a, rig.cylinder.area_b
+    u0, c0 = 0.31, 0.19
+    rates = (4e5, 4e5, 0.0)
+    i0 = transfer_integral(law, y, 4e3, rates, (a_a, a_b), u0, c0)
+    ctl = dataclasses.replace(law, transfer=(i0, u0, c0)).pack()
+    cst, log, rch = np.zeros(C.N_CST), np.zeros((C.N_LOG, 1)), np.zeros((C.N_RCH, 1))
+    rch[C.RC_DR, 0], rch[C.RC_DRFF, 0] = rates[:2]
+    sg = np.zeros(32)
+    C.controller_sample(0, 0, 0.0, y, a_a, a_b, ctl, cst, np.array([4e3]), rch, sg, log)
+    assert log[C.L_C, 0] == pytest.approx(c0, abs=1e-12)
+    assert log[C.L_U, 0] == u0  # the pending command: the old law's

@@ -535,6 +535,9 @@ class _Discrete:
     ``feedforward_compliance`` [m per output unit]: with a force or pressure output the flow
     feed-forward passes the velocity ``feedforward_compliance`` times the reference's rate
     (1/k_s + 1/k_h for a force, k_s the specimen's, k_h the oil columns' stiffness).
+    ``transfer`` (integral, command, opening) or None: the run starts from another law's last
+    command without a bump (the integral in this law's output unit times s; a run-time state,
+    not written to files; :func:`~hydropwa.control.press_cycle`).
     """
 
     sample_time: float = DEFAULT_SAMPLE_TIME
@@ -552,6 +555,7 @@ class _Discrete:
     spool_model: SpoolModel | None = None
     output: str = "position"
     feedforward_compliance: float = 0.0
+    transfer: tuple[float, float, float] | None = field(default=None, compare=False)
     machine: dict = field(default_factory=dict, compare=False)
     verification: dict = field(default_factory=dict, compare=False)
 
@@ -642,6 +646,7 @@ class _Discrete:
             or self.position_observer is not None
             or self.spool_model is not None
             or self.output != "position"
+            or self.transfer is not None
             or (
                 self.dead_zone_inverse is not None
                 and (
@@ -715,6 +720,9 @@ class _Discrete:
             ext[C.X_SPLN], ext[C.X_SPLD] = self.spool_model.packed_gain
         ext[C.X_OUT] = OUTPUTS[self.output]
         ext[C.X_FCOMP] = self.feedforward_compliance
+        if self.transfer is not None:  # a run that takes over from another law (no bump)
+            ext[C.X_XFER] = 1.0
+            ext[C.X_INTZ], ext[C.X_UZ], ext[C.X_CZ] = self.transfer
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
             ext[C.X_DZQ] = self.dead_zone_inverse.quiet_band

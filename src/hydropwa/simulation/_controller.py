@@ -103,6 +103,9 @@ gain row (declared in :data:`hydropwa._layout_law.CTL_EXT`)::
     e0+X_FCOMP   the compliance [m per output unit] of the force/pressure feed-forward
                  (:func:`feedforward_rate`): the flow feed-forward passes the velocity
                  X_FCOMP·ṙ_ff, ṙ_ff the output reference's look-ahead rate
+    e0+X_XFER    start from a transfer (1; :func:`transfer_start`): at k = 0 the integral is
+                 e0+X_INTZ, the pending command and opening e0+X_UZ, e0+X_CZ (bumpless
+                 position ↔ force switching, :func:`hydropwa.control.press_cycle`)
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -193,12 +196,12 @@ AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
 (
     X_FF, X_K, X_PTR, X_AA, X_ALPHA, X_PS, X_PT, X_DPMIN, X_REFST, X_MASS, X_BV, X_LEAD, X_VEST,
     X_SPOOL, X_PHI, X_GAM, X_KF, X_KFX, X_KFV, X_DZH, X_EST, X_DZQ, X_ILEAK, X_IBAND, X_DZQR,
-    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO, X_OUT, X_FCOMP,
+    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO, X_OUT, X_FCOMP, X_XFER, X_INTZ, X_UZ, X_CZ,
 ) = (EXT[k] for k in (
     "ff", "k", "ptr", "aa", "alpha", "ps", "pt", "dpmin", "refst", "mass", "bv", "lead", "vest",
     "spool", "phi", "gam", "kf", "kf_x", "kf_v", "dz_hyst", "est", "dz_quiet", "int_leak",
     "int_band", "dz_quiet_rest", "dz_pre_open", "spool_l_nu", "spool_l_dnu", "est_spool",
-    "dz_vent", "dz_quiet_open", "output", "ff_compliance",
+    "dz_vent", "dz_quiet_open", "output", "ff_compliance", "transfer", "int0", "u0", "c0",
 ))
 XR_KNU, XR_KDNU, XR_KUP = (XROW_SLOT[k] for k in ("k_nu", "k_dnu", "k_up"))
 E_PHI, E_GAM, E_AFF, E_L, E_INIT = (EROW_SLOT[k] for k in ("phi", "gam", "aff", "l", "init"))
@@ -657,6 +660,23 @@ def law_start(cst, x, pl):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def transfer_start(ctl, n_ctl, cst):
+    """Stage *transfer* (k = 0, e0+X_XFER = 1): the law takes over from another one without a bump.
+
+    The integral starts at e0+X_INTZ, the pending command and opening (the delay's, the
+    saturation memory's) at e0+X_UZ, e0+X_CZ: the other law's last command, so the valve
+    command is continuous (the integral chosen so that this law's first command is it).
+    """
+    if ext_value(ctl, n_ctl, X_XFER) <= 0.5:
+        return
+    e0 = ext_start(ctl)
+    cst[S_INT] = ctl[e0 + X_INTZ]
+    cst[S_PEND] = ctl[e0 + X_UZ]
+    cst[S_CPEND] = ctl[e0 + X_CZ]
+    cst[S_CPREV] = ctl[e0 + X_CZ]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc):
     """Stage *per-cell Kalman filter* (e0+X_EST): the estimates replace (P_L, v, x); returns them.
 
@@ -943,6 +963,7 @@ def law_step(k, t, meas, r, ctl, n_ctl, areas, cst, rc, lg):
     x, v, pl, nu_m, has_spool = meas[0], meas[1], meas[2], meas[3], meas[4]
     if k == 0:
         law_start(cst, x, pl)
+        transfer_start(ctl, n_ctl, cst)
     kal = ext_value(ctl, n_ctl, X_EST) > 0.5
     pl, v, x = estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc)
     x, v = observer_stage(ctl, n_ctl, cst, k, x, v, rc)
