@@ -607,11 +607,7 @@ class _Discrete:
         if self.spool_model is not None and not isinstance(self.spool_model, SpoolModel):
             raise ControlError(f"{type(self).__name__}.spool_model must be a SpoolModel or None")
         _finite(self, "velocity_filter", "s", ge=0.0)
-        if self.output not in OUTPUTS:
-            raise ControlError(
-                f"{type(self).__name__}.output = {self.output!r}; choose one of {', '.join(OUTPUTS)}"
-            )
-        _finite(self, "feedforward_compliance", "m per output unit", ge=0.0)
+        self._check_output()
         if self.position_observer is not None:
             gains = tuple(float(g) for g in self.position_observer)
             if len(gains) != 2 or not all(math.isfinite(g) for g in gains) or not 0 < gains[0] <= 1:
@@ -627,6 +623,22 @@ class _Discrete:
             raise ControlError(
                 f"{type(self).__name__}.machine has unknown keys {sorted(unknown)}; known: {', '.join(MACHINE_KEYS)}"
             )
+
+    def _check_output(self) -> None:
+        """``output``, ``feedforward_compliance`` and ``transfer`` (issue 52)."""
+        if self.output not in OUTPUTS:
+            raise ControlError(
+                f"{type(self).__name__}.output = {self.output!r}; choose one of {', '.join(OUTPUTS)}"
+            )
+        _finite(self, "feedforward_compliance", "m per output unit", ge=0.0)
+        if self.transfer is not None:
+            tr = tuple(float(v) for v in self.transfer)
+            if len(tr) != 3 or not all(math.isfinite(v) for v in tr):
+                raise ControlError(
+                    f"{type(self).__name__}.transfer = {self.transfer!r} must be (integral, "
+                    "command, opening), three finite numbers; see transfer_integral"
+                )
+            object.__setattr__(self, "transfer", tr)
 
     @property
     def verdict(self) -> str:

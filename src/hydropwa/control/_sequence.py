@@ -4,8 +4,9 @@ A press approaches in position, touches the part, presses in force and retracts 
 :func:`press_cycle` runs that sequence on the full model as segments of one trajectory, each
 under its law, the state carried over at every transfer:
 
-1. **approach** (position law): a trapezoid from the start to 5 mm past the contact at the
-   approach speed; the transfer is *on contact force*: the first sample whose measured
+1. **approach** (position law): a trapezoid from the start at the approach speed to
+   :data:`CREEP_GAP` before the contact, then on at the creep speed F/(T_ramp·k_s) (a stiff part
+   turns the speed into a force rate k_s·v: 5 MN/s at 5e7 N/m and 0.1 m/s); the transfer is *on contact force*: the first sample whose measured
    cylinder force exceeds ``contact_force`` (the run is repeated up to that sample);
 2. **press** (force law): the reference starts at the force measured at the transfer, ramps to
    ``force`` in ``ramp_time``, holds ``hold_time``, and ramps back to the contact force; the
@@ -32,7 +33,12 @@ from ..simulation import _controller as C
 from ._controllers import ControlError
 from ._reference import MotionProfile
 
-__all__ = ["PressCycle", "press_cycle", "transfer_integral"]
+__all__ = ["CREEP_GAP", "HOLD_SETTLE", "PressCycle", "press_cycle", "transfer_integral"]
+
+#: the approach slows to the creep speed this far [m] before the contact position
+CREEP_GAP = 1e-3
+#: the hold's metrics are read from this long [s] after the end of the ramp on
+HOLD_SETTLE = 0.1
 
 
 def transfer_integral(controller, y, r: float, rates: tuple[float, float, float], areas, u0, c0):
@@ -98,23 +104,36 @@ def _run(prm, ctrl, ref, duration, y0, noise, seed, x0=None):
     return res
 
 
-def _approach(prm, position, x_start, speed, contact_force, noise, seed):
-    ld, cyl = prm.load, prm.cylinder
+def _approach_reference(prm, x_start, speed, creep):
+    """The approach: a trapezoid at ``speed`` to :data:`CREEP_GAP` before the contact, then on at
+    the creep speed [m/s] (the rod meets the part no faster than the force ramp asks for);
+    returns (reference, duration [s])."""
+    x_c = prm.load.contact_position
     prof = MotionProfile(
         start_position=x_start,
-        end_position=ld.contact_position + 5e-3,
+        end_position=x_c - CREEP_GAP,
         start_time=0.02,
         max_velocity=speed,
         max_acceleration=2.0,
     )
-    t_end = prof.start_time + prof.duration + 0.2
-    res = _run(prm, position, prof, t_end, None, noise, seed, x0=x_start)
-    above = np.flatnonzero(_cylinder_force(res, cyl) - ld.force > contact_force)
+    t1 = prof.start_time + prof.duration
+    tt = np.concatenate([np.linspace(0.0, t1, 2000), [t1 + (CREEP_GAP + 2e-3) / creep]])
+    xx = np.concatenate([np.asarray(prof(tt[:-1]), dtype=float), [x_c + 2e-3]])
+    return Sampled(tt, xx), float(tt[-1]), t1
+
+
+def _approach(prm, position, x_start, speed, creep, contact_force, noise, seed):
+    ld, cyl = prm.load, prm.cylinder
+    ref, t_end, t_creep = _approach_reference(prm, x_start, speed, creep)
+    res = _run(prm, position, ref, t_end, None, noise, seed, x0=x_start)
+    # armed in the creep only: starting the move takes breakaway and acceleration force too
+    pressed = _cylinder_force(res, cyl) - ld.force > contact_force
+    above = np.flatnonzero(pressed & (res["t"] >= t_creep))
     if above.size == 0:
         raise ControlError("press cycle: the rod never reached the contact force")
     ts = position.sample_time
     t_sw = ts * np.ceil(res["t"][above[0]] / ts)
-    return _run(prm, position, prof, t_sw, None, noise, seed, x0=x_start), prof
+    return _run(prm, position, ref, t_sw, None, noise, seed, x0=x_start)
 
 
 def press_cycle(
@@ -127,7 +146,7 @@ def press_cycle(
     force: float = 20e3,
     ramp_time: float = 0.05,
     hold_time: float = 0.5,
-    contact_force: float = 1e3,
+    contact_force: float = 2e3,
     sensor_noise: dict[str, float] | None = None,
     seed: int = 1,
 ) -> PressCycle:
@@ -140,7 +159,10 @@ def press_cycle(
         raise ControlError("press_cycle needs a position controller and a force controller")
     cyl = params.cylinder
     x_start = params.load.contact_position - approach
-    a, prof = _approach(params, position, x_start, speed, contact_force, sensor_noise, seed)
+    # a stiff part turns the approach speed into a force rate k_s·v (5 MN/s at 5e7 N/m and
+    # 0.1 m/s): the rod meets it no faster than the ramp's rate asks for
+    creep = min(speed, force / ramp_time / params.load.specimen_stiffness)
+    a = _approach(params, position, x_start, speed, creep, contact_force, sensor_noise, seed)
     f0 = float(_cylinder_force(a, cyl)[-1])
     t_up, t_hold = ramp_time, ramp_time + hold_time
     times = np.array([0.0, t_up, t_hold, t_hold + ramp_time, t_hold + ramp_time + 0.01])
@@ -167,7 +189,7 @@ def press_cycle(
 def _metrics(a, b, c, force, t_up, t_hold, cyl) -> dict[str, float]:
     f = _cylinder_force(b, cyl)
     t = b["t"]
-    hold = (t >= t_up + 0.1 * (t_hold - t_up)) & (t <= t_hold)
+    hold = (t >= t_up + HOLD_SETTLE) & (t <= t_hold)  # the hold after its settling time
     # the new law's first two commands (the pending one and its own first) against the old
     # law's last
     jumps = [

@@ -134,8 +134,9 @@ The law is a sequence of small compiled stages, composed by :func:`law_step` (wh
 functions, :mod:`hydropwa.control._target`). Each stage reads its own slots of the layout
 (:mod:`hydropwa._layout_law`) and returns its input unchanged where its slot is 0 (schema 1:
 every schema-2 stage off). In the order of one sample (docs/controller_target.md states it
-for a target): measure (with the noise), :func:`law_start` (k = 0), :func:`estimate_stage`
-(per-cell Kalman filter), :func:`observer_stage`, :func:`velocity_stage`,
+for a target): measure (with the noise), :func:`law_start` and :func:`transfer_start` (k = 0),
+:func:`estimate_stage` (per-cell Kalman filter), :func:`observer_stage`, :func:`velocity_stage`,
+the error e = r − :func:`output_stage` (the position, the cylinder force or P_L),
 :func:`pressure_stage` (Ṗ_L filter, washout), :func:`select_row`, :func:`feedback_command`
 (the schema-1 terms), :func:`feedforward_stage` (flow feed-forward, :func:`reference_state`,
 the spool terms of :func:`spool_feedback`), :func:`opening_stage` (:func:`quiet_stage` with
