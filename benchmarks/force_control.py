@@ -27,6 +27,7 @@ import numpy as np  # noqa: E402
 
 from hydropwa import load_params  # noqa: E402
 from hydropwa.control import (  # noqa: E402
+    PressSpec,
     design_controller,
     design_force,
     design_force_pi,
@@ -90,9 +91,11 @@ def press(speed: float = 0.1) -> None:
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for name, law in laws.items():
-        m = press_cycle(prm, position, law, speed=speed, sensor_noise=NOISE).metrics
+        m = press_cycle(prm, position, law, PressSpec(speed=speed), sensor_noise=NOISE).metrics
         if name == "law":  # the same with the position PI (design_pi) as the approach law
-            m_pi = press_cycle(prm, position_pi, law, speed=speed, sensor_noise=NOISE).metrics
+            m_pi = press_cycle(
+                prm, position_pi, law, PressSpec(speed=speed), sensor_noise=NOISE
+            ).metrics
             _press_row("law, PI approach", m_pi)
         _press_row(name, m)
 

@@ -83,7 +83,7 @@ from ._io import (
 from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_metrics
 from ._noise import NOISE_CHANNELS, sensor_noise_from
 from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
-from ._sequence import PressCycle, press_cycle, transfer_integral
+from ._sequence import PressCycle, PressSpec, press_cycle, transfer_integral
 from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
 from ._target import c_structs, export_c, export_fmu, verdict_line
 from ._verify import (
@@ -142,6 +142,7 @@ __all__ = [
     "ForceVerification",
     "force_task_set",
     "PressCycle",
+    "PressSpec",
     "press_cycle",
     "transfer_integral",
     "design_textbook_pi",

@@ -33,7 +33,14 @@ from ..simulation import _controller as C
 from ._controllers import ControlError
 from ._reference import MotionProfile
 
-__all__ = ["CREEP_GAP", "HOLD_SETTLE", "PressCycle", "press_cycle", "transfer_integral"]
+__all__ = [
+    "CREEP_GAP",
+    "HOLD_SETTLE",
+    "PressCycle",
+    "PressSpec",
+    "press_cycle",
+    "transfer_integral",
+]
 
 #: the approach slows to the creep speed this far [m] before the contact position
 CREEP_GAP = 1e-3
@@ -136,25 +143,36 @@ def _approach(prm, position, x_start, speed, creep, contact_force, noise, seed):
     return _run(prm, position, ref, t_sw, None, noise, seed, x0=x_start)
 
 
+@dataclass(frozen=True)
+class PressSpec:
+    """The press cycle: approach [m] at ``speed`` [m/s], ``force`` [N] reached in ``ramp_time``
+    [s] and held ``hold_time`` [s], the contact transfer at ``contact_force`` [N]."""
+
+    approach: float = 0.1
+    speed: float = 0.1
+    force: float = 20e3
+    ramp_time: float = 0.05
+    hold_time: float = 0.5
+    contact_force: float = 2e3
+
+
 def press_cycle(
     params,
     position,
     force_law,
+    spec: PressSpec | None = None,
     *,
-    approach: float = 0.1,
-    speed: float = 0.1,
-    force: float = 20e3,
-    ramp_time: float = 0.05,
-    hold_time: float = 0.5,
-    contact_force: float = 2e3,
     sensor_noise: dict[str, float] | None = None,
     seed: int = 1,
 ) -> PressCycle:
-    """Approach ``approach`` [m] at ``speed`` [m/s], press to ``force`` [N] in ``ramp_time`` [s],
-    hold ``hold_time`` [s], release, retract (module docstring); returns a :class:`PressCycle`.
+    """Approach, press, hold, release, retract (module docstring; the numbers in ``spec``, a
+    :class:`PressSpec`, default the issue's press); returns a :class:`PressCycle`.
 
     ``position``: a position controller; ``force_law``: a force controller (``output="force"``).
     """
+    sp = PressSpec() if spec is None else spec
+    approach, speed, force = sp.approach, sp.speed, sp.force
+    ramp_time, hold_time, contact_force = sp.ramp_time, sp.hold_time, sp.contact_force
     if getattr(force_law, "output", "position") != "force" or position.output != "position":
         raise ControlError("press_cycle needs a position controller and a force controller")
     cyl = params.cylinder
