@@ -191,3 +191,18 @@ def test_press_cycle_on_the_heavy_axis_transfers_without_a_bump():
     assert m["jump_contact"] <= 0.02
     assert m["jump_release"] <= 0.03
     assert m["p_min"] >= 1e5
+
+
+def test_cli_refuses_an_unknown_output_in_one_line(tmp_path):
+    """``control design --output torque``: one line naming the choices, exit code 2, no file."""
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+
+    out = tmp_path / "f.toml"
+    res = CliRunner().invoke(
+        app, ["control", "design", "-p", "paper", "--output", "torque", "-o", str(out)]
+    )
+    assert res.exit_code == 2
+    assert "--output 'torque' must be position, force or pressure" in res.output
+    assert not out.exists()
