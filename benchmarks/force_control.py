@@ -3,12 +3,16 @@
 Usage::
 
     python benchmarks/force_control.py [--machines paper,heavy] [--hz 1,2,5,10] [--duration 1.2]
+        [--random]
 
 Fatigue rig: a 1e7 N/m specimen (attached at the contact 0.1 m out on the paper rig, 0.25 m
 on the heavy axis of ``tests/machines/industrial.toml``, its load force set to 0), a sine force
 reference of ±15 % of A_A·P_S about 40 % of it, full model, the design's one sample of delay,
 sensor noise 20 µm / 0.1 bar / 0.1 bar (seed 1); RMS of the true force error after the first
 0.3 s, the law (``design_force``) and the baseline (``design_force_pi``), and their ratio.
+``--random`` adds the band-limited random reference of the issue: ``random_reference`` of the
+sine's RMS (0.15/√2 of A_A·P_S) over 1-10 Hz about the same mean, periodic in 2 s (seed 1), run
+2 s (row "1-10 rnd").
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from hydropwa.control import (  # noqa: E402
     design_force_pi,
     design_pi,
     press_cycle,
+    random_reference,
 )
 from hydropwa.linearization import linearize  # noqa: E402
 from hydropwa.params import get_preset  # noqa: E402
@@ -53,17 +58,24 @@ def machine(name: str, stiffness: float = 1e7):
     )
 
 
-def rms_error(prm, ctrl, hz: float, duration: float) -> tuple[float, float]:
+def rms_error(prm, ctrl, hz: float, duration: float, random: bool = False) -> tuple[float, float]:
+    """RMS of the true force error after 0.3 s and the sine's amplitude; ``random``: the
+    band-limited random reference of the same RMS over 1-10 Hz instead of the sine."""
     f_max = prm.cylinder.area_a * prm.supply.pressure
     amp, mean = 0.15 * f_max, 0.4 * f_max
     ld = prm.load
+    ref = (
+        random_reference(amp / np.sqrt(2.0), 1.0, 10.0, duration, offset=mean, seed=1)
+        if random
+        else Sine(amplitude=amp, frequency=hz, offset=mean)
+    )
     res = simulate(
         "full",
         params=prm,
         controller=ctrl,
-        reference=Sine(amplitude=amp, frequency=hz, offset=mean),
+        reference=ref,
         duration=duration,
-        initial_position=ld.contact_position + mean / ld.specimen_stiffness,
+        initial_position=ld.contact_position + float(ref(0.0)) / ld.specimen_stiffness,
         sensor_noise=NOISE,
         seed=1,
     )
@@ -115,6 +127,7 @@ def main() -> None:
     ap.add_argument("--hz", default="1,2,5,10")
     ap.add_argument("--duration", type=float, default=1.2)
     ap.add_argument("--press", action="store_true", help="only the press cycle")
+    ap.add_argument("--random", action="store_true", help="add the band-limited random row")
     a = ap.parse_args()
     if a.press:
         press()
@@ -131,6 +144,13 @@ def main() -> None:
             e_pi, _ = rms_error(prm, pi, hz, a.duration)
             print(
                 f"| {name} | {hz:g} | {amp / 1e3:.2f} | {e_law:.1f} | {e_pi:.1f} | {e_law / e_pi:.3f} |",
+                flush=True,
+            )
+        if a.random:
+            e_law, amp = rms_error(prm, law, 0.0, 2.0, random=True)
+            e_pi, _ = rms_error(prm, pi, 0.0, 2.0, random=True)
+            print(
+                f"| {name} | 1-10 rnd | {amp / 1e3:.2f} | {e_law:.1f} | {e_pi:.1f} | {e_law / e_pi:.3f} |",
                 flush=True,
             )
         print(f"(design of both on {name}: {design_cpu:.1f} CPU-s)")

@@ -206,3 +206,37 @@ def test_cli_refuses_an_unknown_output_in_one_line(tmp_path):
     assert res.exit_code == 2
     assert "--output 'torque' must be position, force or pressure" in res.output
     assert not out.exists()
+
+
+def test_the_random_reference_is_band_limited_with_the_asked_rms():
+    """random_reference: over one period its RMS is the asked one (to rounding), its spectrum
+    (the FFT of one period, an exact multiple of the harmonics' spacing: no leakage) has no line
+    outside [f0, f1] above 1e-9 of the largest, the same seed gives the same signal and another
+    seed another; the spec reads in the unit given; a bad spec is one line."""
+    from hydropwa.control import ControlError, parse_random, random_reference
+
+    sig = random_reference(1500.0, 1.0, 10.0, 2.0, offset=5000.0, seed=1, sample_time=1e-3)
+    v = sig.values[:-1] - 5000.0  # one period, the end sample repeats the first
+    assert np.sqrt(np.mean(v**2)) == pytest.approx(1500.0, rel=1e-12)
+    spec = np.abs(np.fft.rfft(v))
+    f = np.fft.rfftfreq(v.size, 1e-3)
+    inside = (f >= 1.0 - 1e-9) & (f <= 10.0 + 1e-9)
+    assert np.count_nonzero(spec[inside] > 1e-6 * spec.max()) == 19  # 1, 1.5, ..., 10 Hz
+    assert spec[~inside].max() < 1e-9 * spec.max()
+    assert np.array_equal(
+        sig.values, random_reference(1500.0, 1.0, 10.0, 2.0, 5000.0, 1, 1e-3).values
+    )
+    assert not np.allclose(
+        v, random_reference(1500.0, 1.0, 10.0, 2.0, 5000.0, 2, 1e-3).values[:-1] - 5000.0
+    )
+    got = parse_random("random:rms=1.5 kN,f0=1,f1=10,duration=2 s,offset=5 kN,seed=1", "N")
+    assert np.sqrt(np.mean((got.values[:-1] - 5000.0) ** 2)) == pytest.approx(1500.0, rel=1e-12)
+    for bad, says in (
+        ("random:rms=1 kN,f0=1,f1=10", "needs duration"),
+        ("random:rms=1 kN,f0=10,f1=1,duration=2", "f0 < f1"),
+        ("random:rms=1 kN,f0=1,f1=10,duration=2,band=3", "key one of"),
+        ("random:rms=1 kN,f0=1.1,f1=1.2,duration=2", "no harmonic"),
+    ):
+        with pytest.raises(ControlError, match=says) as exc:
+            parse_random(bad, "N")
+        assert "\n" not in str(exc.value)

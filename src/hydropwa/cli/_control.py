@@ -774,12 +774,15 @@ def simulate_command(
 def _simulate_force(ctrl, prm, reference: str, run: dict, out: Path, plot: Path | None) -> None:
     """``control simulate`` with a force or pressure controller: the reference in N (kN, ...) or
     Pa (bar, ...) as a signal spec, the start at the specimen's contact force, the force metrics."""
-    from ..control import ControlError  # deferred: a fast --help
+    from ..control import ControlError, parse_random  # deferred: a fast --help
     from ..params import parse_quantity  # deferred: a fast --help
     from ..simulation import parse_signal, simulate  # deferred: a fast --help
 
     unit = "N" if ctrl.output == "force" else "Pa"
-    ref = parse_signal(reference, unit, "reference")
+    if reference.strip().lower().startswith("random:"):
+        ref = parse_random(reference.strip(), unit, "reference")
+    else:
+        ref = parse_signal(reference, unit, "reference")
     t_end = 2.0 if run["duration"] is None else parse_quantity(run["duration"], "s", "--duration")
     ld = prm.load
     if run["x0"] is not None:

@@ -82,7 +82,15 @@ from ._io import (
 )
 from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_metrics
 from ._noise import NOISE_CHANNELS, sensor_noise_from
-from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
+from ._reference import (
+    MotionProfile,
+    MoveSequence,
+    StepSequence,
+    as_reference,
+    parse_random,
+    parse_reference,
+    random_reference,
+)
 from ._sequence import PressCycle, PressSpec, press_cycle, transfer_integral
 from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
 from ._target import c_structs, export_c, export_fmu, verdict_line
@@ -204,6 +212,8 @@ __all__ = [
     "VALVE_FACTOR",
     "load_controller",
     "parse_reference",
+    "parse_random",
+    "random_reference",
     "save_controller",
     "tracking_metrics",
     "TrackingMetrics",
