@@ -776,9 +776,10 @@ def _simulate_force(ctrl, prm, reference: str, run: dict, out: Path, plot: Path 
     Pa (bar, ...) as a signal spec, the start at the specimen's contact force, the force metrics."""
     from ..control import ControlError, parse_random  # deferred: a fast --help
     from ..params import parse_quantity  # deferred: a fast --help
-    from ..simulation import parse_signal, simulate  # deferred: a fast --help
+    from ..simulation import Signal, parse_signal, simulate  # deferred: a fast --help
 
     unit = "N" if ctrl.output == "force" else "Pa"
+    ref: Signal
     if reference.strip().lower().startswith("random:"):
         ref = parse_random(reference.strip(), unit, "reference")
     else:
