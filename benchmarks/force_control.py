@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/force_control.py [--machines paper,heavy] [--hz 1,2,5,10] [--duration 1.2]
-        [--random]
+        [--random] [--no-noise]
 
 Fatigue rig: a 1e7 N/m specimen (attached at the contact 0.1 m out on the paper rig, 0.25 m
 on the heavy axis of ``tests/machines/industrial.toml``, its load force set to 0), a sine force
@@ -12,7 +12,7 @@ sensor noise 20 µm / 0.1 bar / 0.1 bar (seed 1); RMS of the true force error af
 0.3 s, the law (``design_force``) and the baseline (``design_force_pi``), and their ratio.
 ``--random`` adds the band-limited random reference of the issue: ``random_reference`` of the
 sine's RMS (0.15/√2 of A_A·P_S) over 1-10 Hz about the same mean, periodic in 2 s (seed 1), run
-2 s (row "1-10 rnd").
+2 s (row "1-10 rnd"). ``--no-noise``: exact sensors (to separate the noise's share).
 """
 
 from __future__ import annotations
@@ -58,7 +58,9 @@ def machine(name: str, stiffness: float = 1e7):
     )
 
 
-def rms_error(prm, ctrl, hz: float, duration: float, random: bool = False) -> tuple[float, float]:
+def rms_error(
+    prm, ctrl, hz: float, duration: float, random: bool = False, noise: dict | None = NOISE
+) -> tuple[float, float]:
     """RMS of the true force error after 0.3 s and the sine's amplitude; ``random``: the
     band-limited random reference of the same RMS over 1-10 Hz instead of the sine."""
     f_max = prm.cylinder.area_a * prm.supply.pressure
@@ -76,7 +78,7 @@ def rms_error(prm, ctrl, hz: float, duration: float, random: bool = False) -> tu
         reference=ref,
         duration=duration,
         initial_position=ld.contact_position + float(ref(0.0)) / ld.specimen_stiffness,
-        sensor_noise=NOISE,
+        sensor_noise=noise,
         seed=1,
     )
     keep = res["t"] > 0.3
@@ -128,10 +130,12 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=1.2)
     ap.add_argument("--press", action="store_true", help="only the press cycle")
     ap.add_argument("--random", action="store_true", help="add the band-limited random row")
+    ap.add_argument("--no-noise", action="store_true", help="exact sensors")
     a = ap.parse_args()
     if a.press:
         press()
         return
+    noise = None if a.no_noise else NOISE
     print("| machine | f Hz | amplitude kN | law RMS N | PI RMS N | law/PI |")
     print("| --- | --- | --- | --- | --- | --- |")
     for name in a.machines.split(","):
@@ -140,15 +144,15 @@ def main() -> None:
         law, pi = design_force(prm).controller, design_force_pi(prm).controller
         design_cpu = time.process_time() - t0
         for hz in (float(h) for h in a.hz.split(",")):
-            e_law, amp = rms_error(prm, law, hz, a.duration)
-            e_pi, _ = rms_error(prm, pi, hz, a.duration)
+            e_law, amp = rms_error(prm, law, hz, a.duration, noise=noise)
+            e_pi, _ = rms_error(prm, pi, hz, a.duration, noise=noise)
             print(
                 f"| {name} | {hz:g} | {amp / 1e3:.2f} | {e_law:.1f} | {e_pi:.1f} | {e_law / e_pi:.3f} |",
                 flush=True,
             )
         if a.random:
-            e_law, amp = rms_error(prm, law, 0.0, 2.0, random=True)
-            e_pi, _ = rms_error(prm, pi, 0.0, 2.0, random=True)
+            e_law, amp = rms_error(prm, law, 0.0, 2.0, random=True, noise=noise)
+            e_pi, _ = rms_error(prm, pi, 0.0, 2.0, random=True, noise=noise)
             print(
                 f"| {name} | 1-10 rnd | {amp / 1e3:.2f} | {e_law:.1f} | {e_pi:.1f} | {e_law / e_pi:.3f} |",
                 flush=True,

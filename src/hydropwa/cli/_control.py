@@ -605,7 +605,7 @@ def simulate_command(
         typer.Option(
             "--reference",
             "-r",
-            help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'.",
+            help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'; a force (pressure) controller's in N (Pa), e.g. 'sine:amplitude=2 kN,frequency=10,offset=5 kN', 'random:rms=1 kN,f0=1,f1=10,duration=2,offset=5 kN,seed=1'.",
         ),
     ],
     model: Annotated[
