@@ -391,7 +391,7 @@ def random_reference(
     seed: int = 0,
     sample_time: float = 2e-4,
 ) -> Sampled:
-    """A band-limited random reference: offset + a multisine of RMS ``rms`` over [f0, f1] [Hz].
+    """A band-limited random reference: offset + a multisine of RMS ``rms`` from f0 to f1 (Hz).
 
     Every harmonic of 1/``duration`` in the band gets the same amplitude and a phase drawn
     uniformly from ``numpy.random.default_rng(seed)``; the sum is scaled to the exact RMS over
