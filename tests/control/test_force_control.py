@@ -240,3 +240,30 @@ def test_the_random_reference_is_band_limited_with_the_asked_rms():
         with pytest.raises(ControlError, match=says) as exc:
             parse_random(bad, "N")
         assert "\n" not in str(exc.value)
+
+
+def test_cli_simulates_a_force_controller_on_a_random_reference(rig, designs, tmp_path):
+    """``control simulate --reference random:...`` with a force controller: the run's
+    force_reference is random_reference's (the same spec through the API), and a spec without
+    its duration is one line, exit code 2."""
+    from typer.testing import CliRunner
+
+    from hydropwa.cli import app
+    from hydropwa.control import random_reference, save_controller
+
+    ctl = tmp_path / "f.toml"
+    save_controller(designs[0].controller, ctl, machine_parameters=rig)
+    run = tmp_path / "run.csv"
+    spec = "random:rms=1 kN,f0=1,f1=10,duration=0.2,offset=5 kN,seed=3"
+    args = ["control", "simulate", "-c", str(ctl), "--duration", "0.2", "-o", str(run)]
+    res = CliRunner().invoke(app, [*args, "--reference", spec])
+    assert res.exit_code == 0, res.output
+    from hydropwa.data import read_run
+
+    got = read_run(run, validate=False)
+    want = random_reference(1000.0, 1.0, 10.0, 0.2, offset=5000.0, seed=3)(got.t)
+    # the CSV keeps about 12 significant digits; 1e-9 of 5 kN is far below any real mismatch
+    np.testing.assert_allclose(got["force_reference"], want, rtol=1e-9, atol=1e-6)
+    bad = CliRunner().invoke(app, [*args, "--force", "--reference", "random:rms=1 kN,f0=1,f1=10"])
+    assert bad.exit_code == 2
+    assert "needs duration" in bad.output and bad.output.strip().count("\n") == 0
