@@ -187,6 +187,9 @@ CONTROL_OUTPUT_CHANNELS: tuple[tuple[str, str], ...] = (
     ("error", "m"),
     ("command", "1"),
     ("cell_ctl", "1"),
+    ("force", "N"),
+    ("force_reference", "N"),
+    ("force_error", "N"),
 )
 OUT: dict[str, int] = {
     name: i for i, (name, _u) in enumerate(OUTPUT_CHANNELS + PWA_OUTPUT_CHANNELS)

@@ -88,6 +88,12 @@ CTL_EXT: Block = (
     ("est_spool", 1, "1", "the per-cell Kalman filter measures the spool (1)"),
     ("dz_vent", 1, "1", "pressure vent exp(-T_s/T_p) (0: none)"),
     ("dz_quiet_open", 1, "1", "quiet band's opening delay n in samples (0: none)"),
+    ("output", 1, "1", "controlled output: 0 position x, 1 cylinder force, 2 load pressure P_L"),
+    ("ff_compliance", 1, "m/(output unit)", "feed-forward velocity per unit of output rate"),
+    ("transfer", 1, "1", "start from a transfer (1): the next three slots set the memory at k = 0"),
+    ("int0", 1, "(output unit) s", "integral at the first sample (the command continuous)"),
+    ("u0", 1, "1", "command pending at the first sample (the other law's last)"),
+    ("c0", 1, "1", "opening pending at the first sample (the other law's last)"),
 )
 #: per gain row after the extension header (XROW values each)
 CTL_XROW: Block = (

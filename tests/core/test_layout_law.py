@@ -46,7 +46,7 @@ def test_the_law_reads_every_slot_at_the_layout_offset():
     assert (C.C_ROWS, C.ROW, C.N_EXT, C.XROW, C.EROW, C.N_CST, C.N_LOG, C.N_RCH) == (
         17,
         15,
-        35,
+        41,  # issue 52: + the controlled output, its feed-forward compliance, the transfer
         3,
         C.NZ * C.NZ + 4 * C.NZ + 4,
         34,

@@ -114,3 +114,4 @@ def test_cli_reference_lists_every_command():
     ):
         assert f"`hydropwa {cmd}`" in text, cmd
     assert "`--sample-time PERIOD\\|RATE`" in text  # options come from the typer definitions
+    assert "`--specimen-stiffness <str>`" in text  # control design's force/pressure output

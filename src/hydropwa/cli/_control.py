@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -404,6 +404,22 @@ def design_command(
             "writing; a design that cannot be certified says why and is not written.",
         ),
     ] = False,
+    output: Annotated[
+        str,
+        typer.Option(
+            "--output",
+            help="Controlled output: position (default), force (A_A*P_A - A_B*P_B from the "
+            "pressure sensors) or pressure (P_L); force/pressure design on the chamber PWA model.",
+        ),
+    ] = "position",
+    specimen_stiffness: Annotated[
+        str | None,
+        typer.Option(
+            "--specimen-stiffness",
+            help="Estimated specimen stiffness for --output force/pressure ('1e7 N/m', '10 kN/mm'); "
+            "default the parameters' load.specimen_stiffness.",
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite existing files.")] = False,
 ) -> None:
     """Design a controller on the PWA model, verify it on the full model, write it with its per-cell table."""
@@ -417,16 +433,19 @@ def design_command(
         parse_quantity,  # deferred: loaded only when this command runs (a fast --help)
     )
 
+    if output != "position":
+        opts: dict[str, Any] = {"sample_time": _sample_time(sample_time, rate), "delay": delay}
+        opts["verify"] = verify
+        opts |= {"draws": draws, "seed": seed, "noise": _sensor_noise(sensor_noise)}
+        opts |= {"table": table, "force": force, "write_unverified": write_unverified}
+        _design_force(out, params, output, specimen_stiffness, opts)
+        return
     # the defaults of the one default design (the Python API's, the paper study's)
     method = DEFAULT_DESIGN.method if method is None else method
     delay = DEFAULT_DESIGN.delay if delay is None else delay
     draws = DEFAULT_DESIGN.draws if draws is None else draws
     seed = DEFAULT_DESIGN.seed if seed is None else seed
-    check_output(out, force, option="--out")
-    if table is not None:
-        check_output(table, force, option="--table")
-    if out.suffix.lower() not in (".toml", ".json"):
-        raise ControlError(f"--out {out} must end in .toml or .json")
+    _check_design_outputs(out, table, force)
     _check_design_model(model_name, method, certify)
     model = _linearized_model(model_name, params, pwa)
     ts = _sample_time(sample_time, rate)
@@ -517,6 +536,64 @@ def _report_design(d, out: Path, write_unverified: bool) -> None:
         )
 
 
+def _check_design_outputs(out: Path, table: Path | None, force: bool) -> None:
+    """``control design``'s output files: not there (or ``--force``), a .toml or .json file."""
+    from ..control import ControlError  # deferred: a fast --help
+
+    check_output(out, force, option="--out")
+    if table is not None:
+        check_output(table, force, option="--table")
+    if out.suffix.lower() not in (".toml", ".json"):
+        raise ControlError(f"--out {out} must end in .toml or .json")
+
+
+def _design_force(out: Path, params, output: str, stiffness: str | None, opts: dict) -> None:
+    """``control design --output force|pressure``: :func:`~hydropwa.control.design_force` on the
+    chamber PWA model, :func:`~hydropwa.control.verify_force` on the full model, the file."""
+    from ..control import (  # deferred: loaded only when this command runs (a fast --help)
+        DEFAULT_DESIGN,
+        ControlError,
+        design_force,
+        save_controller,
+        verify_force,
+    )
+    from ..params import parse_quantity  # deferred: a fast --help
+
+    if output not in ("force", "pressure"):
+        raise ControlError(f"--output {output!r} must be position, force or pressure")
+    _check_design_outputs(out, opts["table"], opts["force"])
+    prm = resolve_params(params)
+    if stiffness is not None:
+        k = parse_quantity(stiffness, "N/m", "--specimen-stiffness")
+        prm = prm.replace(**{"load.specimen_stiffness": k})
+    delay = DEFAULT_DESIGN.delay if opts["delay"] is None else opts["delay"]
+    d = design_force(prm, output=output, sample_time=opts["sample_time"], delay=delay)
+    typer.echo(d.table.to_string(index=False))
+    ctrl = d.controller
+    if opts["verify"] is not False:
+        draws = DEFAULT_DESIGN.draws if opts["draws"] is None else opts["draws"]
+        seed = DEFAULT_DESIGN.seed if opts["seed"] is None else opts["seed"]
+        v = verify_force(ctrl, prm, draws=draws, seed=seed, sensor_noise=opts["noise"])
+        typer.echo(f"verification on the full model: {v.verdict} ({len(v.rows)} runs)")
+        for line in v.failures[:10]:
+            typer.echo(f"  {line}")
+        if not v.passed and not opts["write_unverified"]:
+            error_line(
+                f"the controller failed its verification on the full model; {out} not written "
+                "(give --write-unverified to write it with its failed verdict)"
+            )
+            raise typer.Exit(code=1)
+        import dataclasses  # deferred: loaded only when this command runs
+
+        ctrl = dataclasses.replace(ctrl, verification=v.record())
+    save_controller(ctrl, out, overwrite=opts["force"], machine_parameters=prm)
+    if opts["table"] is not None:
+        from .._io import atomic_write_text  # deferred: a fast --help
+
+        atomic_write_text(opts["table"], d.table.to_csv(index=False))
+    typer.echo(f"wrote {out}")
+
+
 def _design_certificate(controller, model):
     """``control design --certify``: the certificate of the design; none: exit 1, nothing written."""
     from ..control import certify  # deferred: loaded only when this command runs
@@ -542,7 +619,7 @@ def simulate_command(
         typer.Option(
             "--reference",
             "-r",
-            help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'.",
+            help="Position reference, e.g. 'trapezoid:from=50 mm,to=150 mm,v=0.2,a=5,start=0.05', 'steps:0=100 mm,0.1=120 mm', 'file:run.csv#x'; a force (pressure) controller's in N (Pa), e.g. 'sine:amplitude=2 kN,frequency=10,offset=5 kN', 'random:rms=1 kN,f0=1,f1=10,duration=2,offset=5 kN,seed=1'.",
         ),
     ],
     model: Annotated[
@@ -647,6 +724,11 @@ def simulate_command(
     noise = _sensor_noise(sensor_noise)
     if noise_from is not None:
         noise = _noise_from(noise_from, sensor_noise)
+    if ctrl.output != "position":
+        run = {"duration": duration, "x0": x0, "rtol": rtol, "noise": noise, "seed": seed}
+        run |= {"model": model, "load_force": load_force, "supply_pressure": supply_pressure}
+        _simulate_force(ctrl, prm, reference, run, out, plot)
+        return
     ref = as_reference(reference)
     if duration is None:
         t_end = ref.start_time + ref.duration + 0.5 if isinstance(ref, MotionProfile) else 2.0
@@ -707,6 +789,57 @@ def _loop_warnings(res, prm, model: str, ctrl, controller: Path) -> None:
             f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
             file=sys.stderr,
         )
+
+
+def _simulate_force(ctrl, prm, reference: str, run: dict, out: Path, plot: Path | None) -> None:
+    """``control simulate`` with a force or pressure controller: the reference in N (kN, ...) or
+    Pa (bar, ...) as a signal spec, the start at the specimen's contact force, the force metrics."""
+    from ..control import ControlError, parse_random  # deferred: a fast --help
+    from ..params import parse_quantity  # deferred: a fast --help
+    from ..simulation import Signal, parse_signal, simulate  # deferred: a fast --help
+
+    unit = "N" if ctrl.output == "force" else "Pa"
+    ref: Signal
+    if reference.strip().lower().startswith("random:"):
+        ref = parse_random(reference.strip(), unit, "reference")
+    else:
+        ref = parse_signal(reference, unit, "reference")
+    t_end = 2.0 if run["duration"] is None else parse_quantity(run["duration"], "s", "--duration")
+    ld = prm.load
+    if run["x0"] is not None:
+        start = parse_quantity(run["x0"], "m", "--x0")
+    elif ld.specimen_stiffness > 0:
+        per = 1.0 if ctrl.output == "force" else prm.cylinder.area_a
+        f0 = per * float(ref(0.0)) - ld.force - ld.preload
+        start = ld.contact_position + f0 / ld.specimen_stiffness
+    else:
+        raise ControlError("a force reference needs the specimen (load.specimen_stiffness) or --x0")
+    res = simulate(
+        run["model"],
+        duration=t_end,
+        params=prm,
+        controller=ctrl,
+        reference=ref,
+        initial_position=start,
+        load_force=run["load_force"],
+        supply_pressure=run["supply_pressure"],
+        rtol=run["rtol"],
+        sensor_noise=run["noise"],
+        seed=run["seed"],
+    )
+    res.save(out, overwrite=True)  # checked with --force by the caller
+    e = res["force_error"]
+    p_min = min(float(res["p_a"].min()), float(res["p_b"].min()))
+    typer.echo(
+        f"force RMS error = {float((e**2).mean() ** 0.5):.4g} N  max |error| = "
+        f"{float(abs(e).max()):.4g} N  lowest chamber = {p_min / 1e5:.3g} bar"
+    )
+    if plot is not None:
+        from ..plotting import plot_result, save_figure  # deferred: a fast --help
+
+        fig = plot_result(res, channels=("force_reference", "force", "u"))
+        save_figure(fig, plot, dpi=150, overwrite=True)
+    typer.echo(f"wrote {out}" + (f" and {plot}" if plot is not None else ""))
 
 
 @app.command("export")

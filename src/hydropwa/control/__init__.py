@@ -55,6 +55,7 @@ from ._design import (
     valve_series,
 )
 from ._design_chamber import design_on_chamber
+from ._design_force import ForceDesign, design_force, design_force_pi, hydraulic_stiffness
 from ._estimator import (
     DEFAULT_PROCESS_NOISE,
     CellEstimator,
@@ -81,7 +82,16 @@ from ._io import (
 )
 from ._metrics import METRIC_UNITS, TrackingMetrics, compare_models, tracking_metrics
 from ._noise import NOISE_CHANNELS, sensor_noise_from
-from ._reference import MotionProfile, MoveSequence, StepSequence, as_reference, parse_reference
+from ._reference import (
+    MotionProfile,
+    MoveSequence,
+    StepSequence,
+    as_reference,
+    parse_random,
+    parse_reference,
+    random_reference,
+)
+from ._sequence import PressCycle, PressSpec, press_cycle, transfer_integral
 from ._study import POSITIONING_TASK, closed_loop_study, closed_loop_verification
 from ._target import c_structs, export_c, export_fmu, verdict_line
 from ._verify import (
@@ -99,6 +109,7 @@ from ._verify import (
     task_set,
     verify_controller,
 )
+from ._verify_force import ForceVerification, force_task_set, verify_force
 
 __all__ = [
     "Certificate",
@@ -131,6 +142,17 @@ __all__ = [
     "VerificationTask",
     "design_controller",
     "design_on_chamber",
+    "design_force",
+    "design_force_pi",
+    "ForceDesign",
+    "hydraulic_stiffness",
+    "verify_force",
+    "ForceVerification",
+    "force_task_set",
+    "PressCycle",
+    "PressSpec",
+    "press_cycle",
+    "transfer_integral",
     "design_textbook_pi",
     "check_machine",
     "closed_loop_warnings",
@@ -190,6 +212,8 @@ __all__ = [
     "VALVE_FACTOR",
     "load_controller",
     "parse_reference",
+    "parse_random",
+    "random_reference",
     "save_controller",
     "tracking_metrics",
     "TrackingMetrics",

@@ -40,6 +40,10 @@ __all__ = [
 #: 2 kHz, the rig's real-time target (Sec. V of the paper).
 DEFAULT_SAMPLE_TIME = 5e-4
 ANTI_WINDUP = {"none": C.AW_NONE, "clamp": C.AW_CLAMP, "back-calculation": C.AW_BACK}
+#: the controlled output (``output``): the reference and the error are in its unit
+OUTPUTS = {"position": C.OUT_POSITION, "force": C.OUT_FORCE, "pressure": C.OUT_PRESSURE}
+#: SI unit of each output's reference
+OUTPUT_UNITS = {"position": "m", "force": "N", "pressure": "Pa"}
 #: scales [Pa, m/s, m, 1] of the distance to a gain row's box (1 bar, 1 mm/s, 1 mm, 1 %)
 BOX_SCALES = (1e5, 1e-3, 1e-3, 1e-2)
 #: the machine a controller was designed for (SI): piston areas, stroke, design supply pressure
@@ -525,6 +529,15 @@ class _Discrete:
     ``load_pressure``: the definition of P_L the gains were designed for, ``asymmetric``
     (P_A − α P_B, the default models) or ``mean-area`` (the paper's form); on the full model
     the controller measures that quantity from the chamber pressures.
+    ``output``: what the reference is for, ``position`` (x [m]), ``force`` (the cylinder force
+    A_A·P_A − A_B·P_B [N], from the pressure sensors) or ``pressure`` (the load pressure P_L
+    [Pa]); the gains then act on that output's error (k_p in 1/N or 1/Pa, k_i in 1/(N·s)).
+    ``feedforward_compliance`` [m per output unit]: with a force or pressure output the flow
+    feed-forward passes the velocity ``feedforward_compliance`` times the reference's rate
+    (1/k_s + 1/k_h for a force, k_s the specimen's, k_h the oil columns' stiffness).
+    ``transfer`` (integral, command, opening) or None: the run starts from another law's last
+    command without a bump (the integral in this law's output unit times s; a run-time state,
+    not written to files; :func:`~hydropwa.control.press_cycle`).
     """
 
     sample_time: float = DEFAULT_SAMPLE_TIME
@@ -540,6 +553,9 @@ class _Discrete:
     velocity_filter: float = 0.0
     position_observer: tuple[float, float] | None = None
     spool_model: SpoolModel | None = None
+    output: str = "position"
+    feedforward_compliance: float = 0.0
+    transfer: tuple[float, float, float] | None = field(default=None, compare=False)
     machine: dict = field(default_factory=dict, compare=False)
     verification: dict = field(default_factory=dict, compare=False)
 
@@ -591,6 +607,7 @@ class _Discrete:
         if self.spool_model is not None and not isinstance(self.spool_model, SpoolModel):
             raise ControlError(f"{type(self).__name__}.spool_model must be a SpoolModel or None")
         _finite(self, "velocity_filter", "s", ge=0.0)
+        self._check_output()
         if self.position_observer is not None:
             gains = tuple(float(g) for g in self.position_observer)
             if len(gains) != 2 or not all(math.isfinite(g) for g in gains) or not 0 < gains[0] <= 1:
@@ -606,6 +623,22 @@ class _Discrete:
             raise ControlError(
                 f"{type(self).__name__}.machine has unknown keys {sorted(unknown)}; known: {', '.join(MACHINE_KEYS)}"
             )
+
+    def _check_output(self) -> None:
+        """``output``, ``feedforward_compliance`` and ``transfer`` (issue 52)."""
+        if self.output not in OUTPUTS:
+            raise ControlError(
+                f"{type(self).__name__}.output = {self.output!r}; choose one of {', '.join(OUTPUTS)}"
+            )
+        _finite(self, "feedforward_compliance", "m per output unit", ge=0.0)
+        if self.transfer is not None:
+            tr = tuple(float(v) for v in self.transfer)
+            if len(tr) != 3 or not all(math.isfinite(v) for v in tr):
+                raise ControlError(
+                    f"{type(self).__name__}.transfer = {self.transfer!r} must be (integral, "
+                    "command, opening), three finite numbers; see transfer_integral"
+                )
+            object.__setattr__(self, "transfer", tr)
 
     @property
     def verdict(self) -> str:
@@ -624,6 +657,8 @@ class _Discrete:
             or self.velocity_filter > 0.0
             or self.position_observer is not None
             or self.spool_model is not None
+            or self.output != "position"
+            or self.transfer is not None
             or (
                 self.dead_zone_inverse is not None
                 and (
@@ -695,6 +730,11 @@ class _Discrete:
             ext[C.X_PHI : C.X_PHI + 4] = self.spool_model.phi
             ext[C.X_GAM : C.X_GAM + 2] = self.spool_model.gamma
             ext[C.X_SPLN], ext[C.X_SPLD] = self.spool_model.packed_gain
+        ext[C.X_OUT] = OUTPUTS[self.output]
+        ext[C.X_FCOMP] = self.feedforward_compliance
+        if self.transfer is not None:  # a run that takes over from another law (no bump)
+            ext[C.X_XFER] = 1.0
+            ext[C.X_INTZ], ext[C.X_UZ], ext[C.X_CZ] = self.transfer
         if self.dead_zone_inverse is not None:
             ext[C.X_DZH] = self.dead_zone_inverse.hysteresis
             ext[C.X_DZQ] = self.dead_zone_inverse.quiet_band
@@ -724,7 +764,12 @@ class _Discrete:
         return out
 
     def _common(self) -> dict[str, Any]:
-        return {
+        out = (
+            {}
+            if self.output == "position"  # a position controller's file is as before
+            else {"output": self.output, "feedforward_compliance": self.feedforward_compliance}
+        )
+        return out | {
             "kind": self.kind,
             "sample_time": self.sample_time,
             "delay": self.delay,

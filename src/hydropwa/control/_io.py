@@ -80,12 +80,16 @@ __all__ = [
 ]
 
 SCHEMA = "hydropwa.controller/2"
+#: schema 3 (issue 52): schema 2 plus ``output`` (force or pressure control),
+#: ``feedforward_compliance`` and the gains per unit of that output; written only for a force or
+#: pressure controller, so a position controller's file is schema 2 as before
+SCHEMA3 = "hydropwa.controller/3"
 #: The most gain rows a controller file may hold: the most cell combinations a PWA export
 #: holds (``linearization.MAX_CHAMBER_CELLS``); a larger table is refused before it is read
 #: (140 000 rows took minutes to load and to export as C).
 MAX_GAIN_ROWS = 5000
 #: schemas :func:`controller_from_dict` reads (schema 1: the law without the extension block)
-SCHEMAS = ("hydropwa.controller/1", SCHEMA)
+SCHEMAS = ("hydropwa.controller/1", SCHEMA, SCHEMA3)
 _LAW = {
     "pi": "u = sat(DZinv(k_p*e + k_i*integral(e) + k_ff*dr/dt - k_v*v - k_pl*(P_L - lowpass(P_L)) - k_dpl*dP_L/dt)), e = r - x",
     "state_feedback": "u = sat(DZinv(u_ff - k_pl*(P_L - lowpass(P_L)) - k_v*v + k_x*(r - x) + k_i*integral(r - x)))",
@@ -172,6 +176,32 @@ _ROW_GAINS2 = {
     "k_dnu": ("ms", 1e3, "s"),
     "k_up": ("", 1.0, ""),
 }
+#: the error-gain units of a force / pressure controller (schema 3): field → (unit, factor, SI)
+_OUTPUT_GAINS = {
+    "force": {
+        "kp": ("1/kN", 1e3, "1/N"),
+        "ki": ("1/(kN*s)", 1e3, "1/(N*s)"),
+        "kff": ("s/kN", 1e3, "s/N"),
+        "k_x": ("1/kN", 1e3, "1/N"),
+        "k_i": ("1/(kN*s)", 1e3, "1/(N*s)"),
+        "feedforward_compliance": ("mm/kN", 1e6, "m/N"),
+    },
+    "pressure": {
+        "kp": ("1/bar", 1e5, "1/Pa"),
+        "ki": ("1/(bar*s)", 1e5, "1/(Pa*s)"),
+        "kff": ("s/bar", 1e5, "s/Pa"),
+        "k_x": ("1/bar", 1e5, "1/Pa"),
+        "k_i": ("1/(bar*s)", 1e5, "1/(Pa*s)"),
+        "feedforward_compliance": ("mm/bar", 1e8, "m/Pa"),
+    },
+}
+
+
+def _gain_units(table: dict, output: str) -> dict:
+    """``table`` (field → unit, factor, SI) with the error gains in units of ``output``."""
+    return table | {k: v for k, v in _OUTPUT_GAINS.get(output, {}).items() if k in table}
+
+
 _BOX = (
     ("p_l", "bar", 1e-5, "Pa"),
     ("v", "mm/s", 1e3, "m/s"),
@@ -241,8 +271,9 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         raise ControlError(
             f"cannot write a {type(ctrl).__name__}; give a PIController or StateFeedbackController"
         )
+    output = ctrl.output
     d: dict[str, Any] = {
-        "schema": SCHEMA,
+        "schema": SCHEMA if output == "position" else SCHEMA3,
         "kind": ctrl.kind,
         "sample_time": _q(ctrl.sample_time, "ms", 1e3),
         "sample_rate": _q(1.0 / ctrl.sample_time, "Hz", 1.0),
@@ -257,6 +288,7 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
         "conventions": dict(CONVENTIONS),
         "velocity_filter": _q(ctrl.velocity_filter, "ms", 1e3),
     }
+    d |= _output_entries(ctrl)
     if ctrl.machine:
         m = ctrl.machine
         d["area_ratio"] = (
@@ -285,14 +317,15 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
             d["spool_model"]["gain"] = list(ctrl.spool_model.gain)
             d["spool_model"]["noise"] = dict(ctrl.spool_model.noise)
     if isinstance(ctrl, PIController):
-        d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in _PI_GAINS.items()}
+        pig = _gain_units(_PI_GAINS, output)
+        d["gains"] = {k: _q(getattr(ctrl, k), u, f) for k, (u, f, _si) in pig.items()}
     else:
         cells = []
         for r in ctrl.rows:
             c: dict[str, Any] = {"label": r.label}
             c["lower"] = {n: _q(v, u, f) for (n, u, f, _si), v in zip(_BOX, r.lower, strict=True)}
             c["upper"] = {n: _q(v, u, f) for (n, u, f, _si), v in zip(_BOX, r.upper, strict=True)}
-            for k, (u, f, _si) in _ROW_GAINS.items():
+            for k, (u, f, _si) in _gain_units(_ROW_GAINS, output).items():
                 c[k] = _q(getattr(r, k), u, f)
             c["u_ff"] = r.u_ff
             if ctrl.spool_model is not None:
@@ -306,6 +339,17 @@ def controller_to_dict(ctrl) -> dict[str, Any]:
     if ctrl.verification:
         d["verification"] = _plain(ctrl.verification)
     return _plain(d)
+
+
+def _output_entries(ctrl) -> dict[str, Any]:
+    """Schema 3's ``output`` and ``feedforward_compliance`` (none for a position controller)."""
+    if ctrl.output == "position":
+        return {}
+    unit, factor, _si = _OUTPUT_GAINS[ctrl.output]["feedforward_compliance"]
+    return {
+        "output": ctrl.output,
+        "feedforward_compliance": _q(ctrl.feedforward_compliance, unit, factor),
+    }
 
 
 def _plain(obj):
@@ -341,7 +385,9 @@ def controller_from_dict(d: dict[str, Any]):
             f"controller file schema {d.get('schema') if isinstance(d, dict) else None!r} is not one of "
             f"{', '.join(SCHEMAS)}"
         )
-    v2 = d["schema"] == SCHEMA
+    v2 = d["schema"] in (SCHEMA, SCHEMA3)
+    output = str(d.get("output", "position")) if d["schema"] == SCHEMA3 else "position"
+    pi_gains, row_gains = _gain_units(_PI_GAINS, output), _gain_units(_ROW_GAINS, output)
     kind = d.get("kind")
     try:
         common: dict[str, Any] = {
@@ -359,15 +405,21 @@ def controller_from_dict(d: dict[str, Any]):
             common["dead_zone_inverse"] = _dead_zone_from_dict(dzi)
         if v2:
             common.update(_read_v2(d))
+        if output != "position":
+            si = _OUTPUT_GAINS.get(output, {}).get("feedforward_compliance", ("", 1.0, ""))[2]
+            common["output"] = output
+            common["feedforward_compliance"] = _read(
+                d.get("feedforward_compliance", 0.0), si, "feedforward_compliance"
+            )
         if kind == "pi":
             g = d.get("gains", {})
-            unknown = set(g) - set(_PI_GAINS)
+            unknown = set(g) - set(pi_gains)
             if unknown:
                 raise ControlError(
-                    f"controller file: unknown gains {sorted(unknown)}; known: {', '.join(_PI_GAINS)}"
+                    f"controller file: unknown gains {sorted(unknown)}; known: {', '.join(pi_gains)}"
                 )
             gains: dict[str, Any] = {
-                k: _read(v, _PI_GAINS[k][2], f"gains.{k}") for k, v in g.items()
+                k: _read(v, pi_gains[k][2], f"gains.{k}") for k, v in g.items()
             }
             return PIController(**common, **gains)
         if kind == "state_feedback":
@@ -380,7 +432,7 @@ def controller_from_dict(d: dict[str, Any]):
                 hi = tuple(
                     _read(c["upper"][n], si, f"cells[{i}].upper.{n}") for n, _u, _f, si in _BOX
                 )
-                g = {k: _read(c[k], _ROW_GAINS[k][2], f"cells[{i}].{k}") for k in _ROW_GAINS}
+                g = {k: _read(c[k], row_gains[k][2], f"cells[{i}].{k}") for k in row_gains}
                 if v2:
                     g |= {
                         k: _read(c.get(k, 0.0), _ROW_GAINS2[k][2], f"cells[{i}].{k}")
@@ -449,9 +501,14 @@ def _read_v2(d: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def controller_schema() -> dict[str, Any]:
-    """The JSON Schema (draft 2020-12) of ``hydropwa.controller/2`` files, shipped in the package."""
-    text = files("hydropwa.control").joinpath("schemas/controller-2.schema.json").read_text("utf-8")
+def controller_schema(version: int = 2) -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of ``hydropwa.controller/<version>`` files (2, or 3: a force
+    or pressure controller), shipped in the package."""
+    text = (
+        files("hydropwa.control")
+        .joinpath(f"schemas/controller-{int(version)}.schema.json")
+        .read_text("utf-8")
+    )
     return json.loads(text)
 
 

@@ -20,7 +20,15 @@ from ..params import parse_quantity
 from ..simulation import Sampled, Signal, as_signal
 from ._controllers import ControlError
 
-__all__ = ["MotionProfile", "MoveSequence", "StepSequence", "parse_reference", "as_reference"]
+__all__ = [
+    "MotionProfile",
+    "MoveSequence",
+    "StepSequence",
+    "parse_reference",
+    "as_reference",
+    "random_reference",
+    "parse_random",
+]
 
 _SAMPLED = 5  # kind of a sampled signal in the packed layout (simulation._signals)
 
@@ -321,6 +329,7 @@ def parse_reference(spec: str) -> Signal:
     ``steps:0 s=50 mm,0.5 s=150 mm,1 s=50 mm`` (:class:`StepSequence`; ``,smooth=20 ms``
     passes the steps through the critically damped filter of time constant 20 ms, giving
     the feed-forward a velocity and an acceleration);
+    ``random:rms=2 mm,f0=1,f1=10,duration=2,offset=0.1,seed=1`` (:func:`random_reference`);
     ``file:PATH`` or ``file:PATH#channel`` (a measured or planned run, channel ``x``
     by default, linearly interpolated); any signal spec of
     :func:`~hydropwa.simulation.parse_signal` in metres (``"step:time=0.1,before=50 mm,after=60 mm"``,
@@ -361,6 +370,8 @@ def parse_reference(spec: str) -> Signal:
                 times.append(parse_quantity(key.strip(), "s", "reference step time"))
                 pos.append(parse_quantity(val.strip(), "m", "reference step position"))
             return StepSequence(np.array(times), np.array(pos), smoothing=smooth)
+        if kind == "random":
+            return parse_random(text, "m", "reference")
         if kind == "file":
             path, _, channel = rest.partition("#")
             return _from_file(Path(path.strip()), channel.strip() or "x")
@@ -369,6 +380,72 @@ def parse_reference(spec: str) -> Signal:
         raise
     except HydropwaError as exc:
         raise ControlError(str(exc)) from None
+
+
+def random_reference(
+    rms: float,
+    f0: float,
+    f1: float,
+    duration: float,
+    offset: float = 0.0,
+    seed: int = 0,
+    sample_time: float = 2e-4,
+) -> Sampled:
+    """A band-limited random reference: offset + a multisine of RMS ``rms`` from f0 to f1 (Hz).
+
+    Every harmonic of 1/``duration`` in the band gets the same amplitude and a phase drawn
+    uniformly from ``numpy.random.default_rng(seed)``; the sum is scaled to the exact RMS over
+    one period [0, ``duration``) and sampled every ``sample_time`` [s] (linearly interpolated,
+    held after ``duration``). It is periodic in ``duration``, so its spectrum is flat in the band
+    and zero outside (no leakage over a whole period); the value at t = 0 is offset + the sum's,
+    not offset. Same seed, same signal.
+    """
+    if not (0.0 <= f0 < f1) or not duration > 0 or not rms > 0:
+        raise ControlError(
+            f"random reference: need 0 <= f0 < f1, duration > 0 and rms > 0 "
+            f"(got f0={f0:g}, f1={f1:g}, duration={duration:g}, rms={rms:g})"
+        )
+    df = 1.0 / duration
+    k = np.arange(max(1, math.ceil(f0 / df - 1e-9)), math.floor(f1 / df + 1e-9) + 1)
+    if k.size == 0:
+        raise ControlError(
+            f"random reference: no harmonic of 1/duration = {df:g} Hz lies in [{f0:g}, {f1:g}] Hz; "
+            "give a longer duration or a wider band"
+        )
+    phase = np.random.default_rng(int(seed)).uniform(0.0, 2.0 * np.pi, k.size)
+    n = max(2, math.ceil(duration / sample_time))
+    t = np.arange(n + 1) * (duration / n)
+    s = np.sin(2.0 * np.pi * df * np.outer(t, k) + phase).sum(axis=1)
+    s *= rms / np.sqrt(np.mean(s[:-1] ** 2))
+    return Sampled(t, offset + s)
+
+
+_RANDOM_KEYS = {"rms": None, "f0": "Hz", "f1": "Hz", "duration": "s", "offset": None, "seed": ""}
+
+
+def parse_random(spec: str, unit: str = "m", name: str = "reference") -> Sampled:
+    """``random:rms=...,f0=...,f1=...,duration=...[,offset=...][,seed=...]`` (rms and offset in
+    ``unit``) as :func:`random_reference`."""
+    kw: dict[str, float] = {}
+    for item in (p for p in spec.partition(":")[2].split(",") if p.strip()):
+        key, eq, val = item.partition("=")
+        key = key.strip()
+        if not eq or key not in _RANDOM_KEYS:
+            raise ControlError(
+                f"{name}: {item.strip()!r} in {spec!r}; give key=value with key one of {', '.join(_RANDOM_KEYS)}"
+            )
+        kw[key] = parse_quantity(val.strip(), _RANDOM_KEYS[key] or unit, f"{name} {key}")
+    missing = [k for k in ("rms", "f0", "f1", "duration") if k not in kw]
+    if missing:
+        raise ControlError(
+            f"{name}: a random reference needs {', '.join(missing)} "
+            "(e.g. 'random:rms=1 kN,f0=1,f1=10,duration=2,offset=5 kN,seed=1')"
+        )
+    if "seed" in kw and kw["seed"] != int(kw["seed"]):
+        raise ControlError(f"{name}: seed must be a whole number (got {kw['seed']:g})")
+    return random_reference(
+        kw["rms"], kw["f0"], kw["f1"], kw["duration"], kw.get("offset", 0.0), int(kw.get("seed", 0))
+    )
 
 
 def _from_file(path: Path, channel: str) -> Sampled:

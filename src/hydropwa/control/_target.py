@@ -91,6 +91,9 @@ _COVERED = frozenset(
         "position_observer",
         "spool_model",
         "estimator",
+        # issue 52: the controlled output (position, force, load pressure) and its feed-forward
+        "output",
+        "feedforward_compliance",
     }
 )
 _CELL_COVERED = frozenset(

@@ -96,6 +96,16 @@ gain row (declared in :data:`hydropwa._layout_law.CTL_EXT`)::
                  within ±q or changes side, and is 0 while the band does not act; with it the
                  vent's share is 0 where it points away from the target while |k_x e| > q
                  (:func:`vent_toward_target`)
+    e0+X_OUT     the controlled output (:func:`output_stage`): 0 the position x [m], 1 the
+                 cylinder force A_A·P_A − A_B·P_B [N] (from P_L, or a load cell's force
+                 where it is fed in as P_L·A), 2 the load pressure P_L [Pa]; r and e are then
+                 in that output's unit
+    e0+X_FCOMP   the compliance [m per output unit] of the force/pressure feed-forward
+                 (:func:`feedforward_rate`): the flow feed-forward passes the velocity
+                 X_FCOMP·ṙ_ff, ṙ_ff the output reference's look-ahead rate
+    e0+X_XFER    start from a transfer (1; :func:`transfer_start`): at k = 0 the integral is
+                 e0+X_INTZ, the pending command and opening e0+X_UZ, e0+X_CZ (bumpless
+                 position ↔ force switching, :func:`hydropwa.control.press_cycle`)
     e0+X_EST     per-cell Kalman filter on (1) (:func:`cell_kalman_filter`): the law then uses
                  the estimates P̂_L, x̂, v̂ (and ν̂, ν̂̇ of its valve states) instead of the
                  measured P_L, x, ẋ and of the valve model's spool estimate
@@ -124,8 +134,9 @@ The law is a sequence of small compiled stages, composed by :func:`law_step` (wh
 functions, :mod:`hydropwa.control._target`). Each stage reads its own slots of the layout
 (:mod:`hydropwa._layout_law`) and returns its input unchanged where its slot is 0 (schema 1:
 every schema-2 stage off). In the order of one sample (docs/controller_target.md states it
-for a target): measure (with the noise), :func:`law_start` (k = 0), :func:`estimate_stage`
-(per-cell Kalman filter), :func:`observer_stage`, :func:`velocity_stage`,
+for a target): measure (with the noise), :func:`law_start` and :func:`transfer_start` (k = 0),
+:func:`estimate_stage` (per-cell Kalman filter), :func:`observer_stage`, :func:`velocity_stage`,
+the error e = r − :func:`output_stage` (the position, the cylinder force or P_L),
 :func:`pressure_stage` (Ṗ_L filter, washout), :func:`select_row`, :func:`feedback_command`
 (the schema-1 terms), :func:`feedforward_stage` (flow feed-forward, :func:`reference_state`,
 the spool terms of :func:`spool_feedback`), :func:`opening_stage` (:func:`quiet_stage` with
@@ -187,12 +198,12 @@ AW_NONE, AW_CLAMP, AW_BACK = 0, 1, 2
 (
     X_FF, X_K, X_PTR, X_AA, X_ALPHA, X_PS, X_PT, X_DPMIN, X_REFST, X_MASS, X_BV, X_LEAD, X_VEST,
     X_SPOOL, X_PHI, X_GAM, X_KF, X_KFX, X_KFV, X_DZH, X_EST, X_DZQ, X_ILEAK, X_IBAND, X_DZQR,
-    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO,
+    X_DZPO, X_SPLN, X_SPLD, X_ESTNU, X_DZPV, X_DZQO, X_OUT, X_FCOMP, X_XFER, X_INTZ, X_UZ, X_CZ,
 ) = (EXT[k] for k in (
     "ff", "k", "ptr", "aa", "alpha", "ps", "pt", "dpmin", "refst", "mass", "bv", "lead", "vest",
     "spool", "phi", "gam", "kf", "kf_x", "kf_v", "dz_hyst", "est", "dz_quiet", "int_leak",
     "int_band", "dz_quiet_rest", "dz_pre_open", "spool_l_nu", "spool_l_dnu", "est_spool",
-    "dz_vent", "dz_quiet_open",
+    "dz_vent", "dz_quiet_open", "output", "ff_compliance", "transfer", "int0", "u0", "c0",
 ))
 XR_KNU, XR_KDNU, XR_KUP = (XROW_SLOT[k] for k in ("k_nu", "k_dnu", "k_up"))
 E_PHI, E_GAM, E_AFF, E_L, E_INIT = (EROW_SLOT[k] for k in ("phi", "gam", "aff", "l", "init"))
@@ -211,6 +222,8 @@ L_T, L_U, L_R, L_E, L_C, L_ROW, L_INT, L_UNEW, L_UFF = (
 )
 # fmt: on
 SPOOL_OFF, SPOOL_MEASURED, SPOOL_ESTIMATED = 0, 1, 2
+#: the controlled output (e0+X_OUT): the position, the cylinder force, the load pressure
+OUT_POSITION, OUT_FORCE, OUT_PRESSURE = 0, 1, 2
 #: inside the quiet band (e0+X_DZQ) the integral holds while |k_x e| < QUIET_HOLD·q, so a
 #: hold's offset stays below about QUIET_HOLD·q/k_x. Measured on the heavy axis's verification
 #: task set (4 draws, 20 µm / 0.1 bar, 1 m/s² observer, q = 0.0071): 4 → worst hold 0.113 mm (the
@@ -448,6 +461,35 @@ def measure(kind, y, a_a, a_b, mean_area, nx=0.0, npa=0.0, npb=0.0):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def output_stage(ctl, n_ctl, x, pl, areas):
+    """Stage *controlled output* (e0+X_OUT): the quantity the reference r is for.
+
+    0 (and schema 1): the position x [m]; 1: the cylinder force A_A·P_A − A_B·P_B [N], which is
+    P_L times A_A (asymmetric form) or Ā (mean-area form); 2: the load pressure P_L [Pa].
+    """
+    out = ext_value(ctl, n_ctl, X_OUT)
+    if out < 0.5:
+        return x
+    if out < 1.5:
+        area = 0.5 * (areas[0] + areas[1]) if ctl[C_PLMEAN] != 0.0 else areas[0]
+        return pl * area
+    return pl
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def feedforward_rate(ctl, e0, rate):
+    """Piston velocity [m/s] the flow feed-forward passes for the look-ahead rate ``rate``.
+
+    The position law: ``rate`` itself. A force or pressure output (e0+X_OUT > 0): the
+    compliance e0+X_FCOMP [m per output unit] times the output reference's rate, for a force
+    (1/k_s + 1/k_h)·Ḟ_ref, k_s the specimen's and k_h the oil columns' stiffness [N/m].
+    """
+    if ctl[e0 + X_OUT] > 0.5:
+        return ctl[e0 + X_FCOMP] * rate
+    return rate
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def spool_opening(nu, dnu, ctl):
     """Opening-equivalent spool position [1] and rate [1/s] of a measured spool (ν, ν̇).
 
@@ -620,6 +662,23 @@ def law_start(cst, x, pl):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
+def transfer_start(ctl, n_ctl, cst):
+    """Stage *transfer* (k = 0, e0+X_XFER = 1): the law takes over from another one without a bump.
+
+    The integral starts at e0+X_INTZ, the pending command and opening (the delay's, the
+    saturation memory's) at e0+X_UZ, e0+X_CZ: the other law's last command, so the valve
+    command is continuous (the integral chosen so that this law's first command is it).
+    """
+    if ext_value(ctl, n_ctl, X_XFER) <= 0.5:
+        return
+    e0 = ext_start(ctl)
+    cst[S_INT] = ctl[e0 + X_INTZ]
+    cst[S_PEND] = ctl[e0 + X_UZ]
+    cst[S_CPEND] = ctl[e0 + X_CZ]
+    cst[S_CPREV] = ctl[e0 + X_CZ]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", **NO_REFCOUNT)
 def estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc):
     """Stage *per-cell Kalman filter* (e0+X_EST): the estimates replace (P_L, v, x); returns them.
 
@@ -737,7 +796,8 @@ def feedforward_stage(ctl, n_ctl, b, row, cst, rc, pl, pl_fb, areas, nu_m, has_s
         return 0.0, pl_fb
     c_fl = 0.0
     if ctl[e0 + X_FF] > 0.5:
-        c_fl = flow_feedforward(ctl, e0, rc[RC_DRFF], pl, ctl[C_PLMEAN], areas[0], areas[1])
+        v_ff = feedforward_rate(ctl, e0, rc[RC_DRFF])
+        c_fl = flow_feedforward(ctl, e0, v_ff, pl, ctl[C_PLMEAN], areas[0], areas[1])
     c_ff = c_fl
     p_dev = pl_fb
     xb = e0 + N_EXT + XROW * row
@@ -905,11 +965,12 @@ def law_step(k, t, meas, r, ctl, n_ctl, areas, cst, rc, lg):
     x, v, pl, nu_m, has_spool = meas[0], meas[1], meas[2], meas[3], meas[4]
     if k == 0:
         law_start(cst, x, pl)
+        transfer_start(ctl, n_ctl, cst)
     kal = ext_value(ctl, n_ctl, X_EST) > 0.5
     pl, v, x = estimate_stage(ctl, n_ctl, cst, k, pl, v, x, nu_m, has_spool, rc)
     x, v = observer_stage(ctl, n_ctl, cst, k, x, v, rc)
     v = velocity_stage(ctl, n_ctl, cst, x, v)
-    e = r - x
+    e = r - output_stage(ctl, n_ctl, x, pl, areas)
     dpl, pl_fb = pressure_stage(ctl, cst, pl)
     row = select_row(ctl, pl, v, x, cst[S_CPREV], int(cst[S_ROW]) if k > 0 else -1)
     b = C_ROWS + ROW * row

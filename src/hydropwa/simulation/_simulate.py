@@ -611,7 +611,7 @@ def simulate(
     control: dict[str, Any] = {}
     if loop is not None:
         control = _control_record(controller, loop[0], raw.log)
-        _closed_loop_channels(channels, loop, raw.log, t_out[0])
+        _closed_loop_channels(channels, loop, raw.log, t_out[0], mdl.params.cylinder)
     status, message, state = _outcome(mdl, raw)
     result = SimulationResult(
         t=t_done,
@@ -873,14 +873,27 @@ def _closed_loop_channels(
     loop: tuple[np.ndarray, Signal, np.ndarray, np.ndarray],
     log: np.ndarray,
     t0: float,
+    cylinder: Any,
 ) -> None:
     """Add the reference, the tracking error, the controller's command and its gain row
-    (held over each sample interval) to a closed loop's channels."""
+    (held over each sample interval) to a closed loop's channels.
+
+    A force or pressure controller (e0+X_OUT > 0) adds ``force`` (A_A·P_A − A_B·P_B [N]),
+    ``force_reference`` and ``force_error`` [N] (a pressure controller's reference in Pa is
+    shown as the force A_A·P_L it asks for) instead of ``reference`` and ``error`` [m]."""
     ctl, ref_sig = loop[0], loop[1]
     tt = channels["t"]
     j = np.clip(np.floor((tt - t0) / ctl[C.C_TS] + 1e-6).astype(int), 0, log.shape[1] - 1)
-    channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
-    channels["error"] = channels["reference"] - channels["x"]
+    e0 = C.C_ROWS + C.ROW * int(ctl[C.C_NROWS])
+    out = float(ctl[e0 + C.X_OUT]) if ctl.size >= e0 + C.N_EXT else 0.0
+    if out > 0.5:
+        per = 1.0 if out < 1.5 else cylinder.area_a  # N per unit of the reference
+        channels["force"] = cylinder.area_a * channels["p_a"] - cylinder.area_b * channels["p_b"]
+        channels["force_reference"] = per * np.asarray(ref_sig(tt), dtype=float)
+        channels["force_error"] = channels["force_reference"] - channels["force"]
+    else:
+        channels["reference"] = np.asarray(ref_sig(tt), dtype=float)
+        channels["error"] = channels["reference"] - channels["x"]
     channels["command"] = log[C.L_C, j]
     channels["cell_ctl"] = log[C.L_ROW, j]
 
