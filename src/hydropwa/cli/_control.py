@@ -713,11 +713,7 @@ def simulate_command(
     model = DEFAULT_KIND.name if model is None else model
     if model not in MODEL_NAMES:
         raise ControlError(f"--model {model!r} is unknown; choose {', '.join(MODEL_NAMES)}")
-    if out.suffix.lower() not in (".csv", ".parquet"):
-        raise ControlError(f"--out {out} must end in .csv or .parquet")
-    check_output(out, force, option="--out")
-    if plot is not None:
-        check_output(plot, force, option="--plot")
+    _check_run_outputs(out, plot, force)
     prm = _machine_of(controller) if params is None else resolve_params(params)
     ctrl = load_controller(controller)
     check_machine(ctrl, prm)
@@ -789,6 +785,17 @@ def _loop_warnings(res, prm, model: str, ctrl, controller: Path) -> None:
             f"({len(ctrl.verification.get('failures', []))} failed checks; see its [verification])",
             file=sys.stderr,
         )
+
+
+def _check_run_outputs(out: Path, plot: Path | None, force: bool) -> None:
+    """``control simulate``'s output files: a .csv or .parquet run, not there (or ``--force``)."""
+    from ..control import ControlError  # deferred: a fast --help
+
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise ControlError(f"--out {out} must end in .csv or .parquet")
+    check_output(out, force, option="--out")
+    if plot is not None:
+        check_output(plot, force, option="--plot")
 
 
 def _simulate_force(ctrl, prm, reference: str, run: dict, out: Path, plot: Path | None) -> None:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._layout import FULL_KIND
 from ..models import as_model
 from ..simulation import simulate
 
@@ -117,7 +118,7 @@ def falsify(
     from ._defaults import DEFAULT_DESIGN  # deferred: the defaults record imports the law
 
     noise = dict(DEFAULT_DESIGN.sensor_noise if sensor_noise is None else sensor_noise)
-    full = as_model("full", params)
+    full = as_model(FULL_KIND.name, params)
     x_ref = 0.5 * params.cylinder.stroke
     duration = float(reach_time) + SETTLE_WINDOW
     rng = np.random.default_rng(seed)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._layout import FULL_KIND
 from ..components._physics import chamber_pressures_from_load
 from ..models import as_model
 from ..simulation import full_point_derivatives
@@ -185,7 +186,7 @@ def one_step_soundness(
     """
     data = loop_data(controller, model) if data is None else data
     prm = model.params
-    full = as_model("full", prm)
+    full = as_model(FULL_KIND.name, prm)
     alpha = prm.cylinder.area_b / prm.cylinder.area_a
     x_h = float(model.x_capacitance)
     y_t = full.initial_state(x_h)

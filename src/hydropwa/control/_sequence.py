@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .._layout import Y_FULL
+from .._layout import FULL_KIND, Y_FULL
 from ..simulation import Sampled, simulate
 from ..simulation import _controller as C
 from ._controllers import ControlError
@@ -97,7 +97,7 @@ def _handover(prev, ctrl, r0: float, rates, cyl):
 def _run(prm, ctrl, ref, duration, y0, noise, seed, x0=None):
     kw = {"initial_state": y0} if y0 is not None else {"initial_position": x0}
     res = simulate(
-        "full",
+        FULL_KIND.name,
         params=prm,
         controller=ctrl,
         reference=ref,

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .._layout import FULL_KIND
 from ..simulation import Sampled, Sine, simulate
 from ._controllers import ControlError
 from ._verify import draw_parameters
@@ -149,7 +150,7 @@ def _run(controller, params, task: ForceTask, noise, seed: int):
     k = ld.specimen_stiffness
     x0 = ld.contact_position + (task.start_force - ld.force - ld.preload) / k
     return simulate(
-        "full",
+        FULL_KIND.name,
         params=params,
         controller=controller,
         reference=task.reference,
