@@ -158,6 +158,7 @@ def prefetch(runner: StageRunner, work: Callable[[], Any]) -> Callable[..., None
         os.close(rfd)
         code = 1
         try:
+            _die_with_parent()
             runner.on_stage = None  # the parent's progress display is the parent's
             work()
             done = {k: v for k, v in runner.record.items() if k not in before}
@@ -174,10 +175,26 @@ def prefetch(runner: StageRunner, work: Callable[[], Any]) -> Callable[..., None
     def join(abort: bool = False) -> None:
         if abort:
             os.kill(pid, signal.SIGTERM)
-        with os.fdopen(rfd, "rb") as fh:
-            data = fh.read()
+        try:
+            with os.fdopen(rfd, "rb") as fh:
+                data = fh.read()
+        except BaseException:  # Ctrl-C while waiting: the second process stops too
+            os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
+            raise
         _, status = os.waitpid(pid, 0)
         if not abort and os.waitstatus_to_exitcode(status) == 0 and data:
             runner.elsewhere.update(json.loads(data))
 
     return join
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the forked child
+    """Linux: this (forked) process gets SIGTERM when its parent dies (a killed study leaves
+    no second process writing into its folder); elsewhere nothing."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
