@@ -193,7 +193,7 @@ def _die_with_parent() -> None:  # pragma: no cover - runs in the forked child
     """Linux: this (forked) process gets SIGTERM when its parent dies (a killed study leaves
     no second process writing into its folder); elsewhere nothing."""
     try:
-        import ctypes
+        import ctypes  # deferred: only a forked second process needs it
 
         ctypes.CDLL(None).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
