@@ -136,17 +136,19 @@ class StageRunner:
         return m
 
 
-def prefetch(runner: StageRunner, work: Callable[[], Any]) -> Callable[..., None]:
+def prefetch(
+    runner: StageRunner, work: Callable[[], Any], here: bool = False
+) -> Callable[..., None]:
     """Run ``work`` (stage calls through ``runner``) in a forked second process meanwhile.
 
     Returns ``join(abort=False)``, which waits for that process (``abort``: stops it first)
     and takes over the records of the stages it ran; the caller then calls those stages
     again in their order, and they reuse what the second process wrote. A second process
     that fails leaves its stages unfinished, so those calls compute them here (and raise
-    what they raise). Without ``os.fork``, or with ``HYDROPWA_STUDY_OVERLAP=0``, ``work``
-    runs here at once.
+    what they raise). With ``here``, without ``os.fork``, or with ``HYDROPWA_STUDY_OVERLAP=0``,
+    ``work`` runs here at once.
     """
-    if not hasattr(os, "fork") or os.environ.get(ENV_OVERLAP, "1").strip() == "0":
+    if here or not hasattr(os, "fork") or os.environ.get(ENV_OVERLAP, "1").strip() == "0":
         work()
         return lambda abort=False: None
     sys.stdout.flush()

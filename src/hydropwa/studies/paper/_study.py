@@ -809,15 +809,19 @@ def _stage_report(
     runner.run("report", text_hash(inp.key(), key, notes, "report"), work)
 
 
-def _overlapped(inp: _Inputs, runner: StageRunner, ident, true, runs, keys) -> str | None:
+def _overlapped(
+    inp: _Inputs, runner: StageRunner, ident, true, runs, keys, serial: bool = False
+) -> str | None:
     """The stages after linearize that do not depend on each other, on two cores.
 
     A second process runs the greybox and evaluate stages while this one runs control and,
     when control ran, the report's engineering section (it reads only pwa.json,
     controller.toml and the identify stage's tables; returned as HTML for the report, else
-    None): about 10 and 9 CPU-s on the paper rig. The caller then calls the stages in their
+    None): about 7 and 8 CPU-s on the paper rig. The caller then calls the stages in their
     order; they reuse what was written (:func:`._stages.prefetch`), so notes and records come
-    out as in one process.
+    out as in one process. ``serial``: all of it here (the study's warm-up process is
+    compiling: a forked process would wait for kernels that the warm-up's reader thread, not
+    forked with it, reports).
     """
     k1, k2, data_key = keys
 
@@ -827,7 +831,7 @@ def _overlapped(inp: _Inputs, runner: StageRunner, ident, true, runs, keys) -> s
             inp, runner, ident, true, text_hash(k1, k2, data_key), runs, _Progress(False), []
         )
 
-    join = prefetch(runner, second)
+    join = prefetch(runner, second, here=serial)
     try:
         _stage_control(inp, runner, true, k2, [])
         html = None if runner.record["control"]["reused"] else engineering_section(inp.out)
@@ -918,7 +922,7 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
     # the rig compiles the full model's solver here; one background process compiles the
     # others' meanwhile (nothing where the disk cache has them): a cold start on two cores
     # costs about half as long (docs/performance.md)
-    with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS):
+    with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS) as warm:
         runner = StageRunner(inp.out, fresh or force, prog.stage_done)
         data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
         by_stage: dict[str, list[str]] = {"inputs": list(notes)}
@@ -927,7 +931,9 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
         by_stage["identify"], n0 = notes[n0:], len(notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
-        engineering = _overlapped(inp, runner, ident, true, runs, (k1, k2, data_key))
+        engineering = _overlapped(
+            inp, runner, ident, true, runs, (k1, k2, data_key), serial=bool(warm.names)
+        )
         greybox_status = _stage_greybox(
             inp, runner, ident, true, text_hash(k1, data_key), runs, notes
         )
