@@ -355,10 +355,17 @@ def _profile_shape(
     unidentified = best.unidentified
     q = t_quantile(next(iter(est.values())).level if est else 0.95, dof)
 
+    # a held shape whose least-squares fit already misses by twice the test's margin is
+    # rejected without its robust refits (they cannot lower the sum of squares below the
+    # least-squares optimum of the same starts)
+    cap = ssr0 + 2.0 * 3.84 * s2
+
     def trial(i: int, name: str, x: float, near: StribeckFit) -> StribeckFit | None:
         nonlocal nfev
         val = 10.0**x if i in (3, 5) else x
-        at = dataclasses.replace(s, fixed={**fixed, name: val}, start=_theta_of(near.friction))
+        at = dataclasses.replace(
+            s, fixed={**fixed, name: val}, start=_theta_of(near.friction), ssr_cap=cap
+        )
         fit = _fit_stribeck_bounded(v, f, at)
         nfev += fit.status.nfev
         return None if float(np.sum(fit.residuals**2)) - ssr0 > 3.84 * s2 else fit
@@ -499,6 +506,9 @@ class _Settings:
     breakaway: tuple[float, float] | None = None
     #: θ to start from first (a profile's neighbouring point), before the multistart
     start: np.ndarray | None = None
+    #: a sum of squared residuals [N²] above which the least-squares stage's best ends the
+    #: fit (no robust refits): a profile's held shape that is rejected anyway
+    ssr_cap: float | None = None
 
 
 @dataclasses.dataclass
@@ -645,6 +655,8 @@ def _solve(pr: _Problem, s: _Settings) -> tuple[Any, int, int]:
         else max(1.4826 * float(np.median(np.abs(best.fun))), 1e-6)
     )
     resid, jac = pr.resid, pr.jac
+    if s.ssr_cap is not None and 2.0 * best.cost * pr.fscale**2 > s.ssr_cap:
+        return best, nfev, n_starts
     if s.breakaway is not None:
         resid, jac = _with_breakaway(pr, s.breakaway, scale_n)
         ranked = sorted(results, key=lambda r: r.cost)[:4]
@@ -652,11 +664,22 @@ def _solve(pr: _Problem, s: _Settings) -> tuple[Any, int, int]:
         best = min(results, key=lambda r: r.cost)
         nfev += sum(int(r.nfev) for r in results)
     if s.loss != "linear":
-        ranked = sorted(results, key=lambda r: r.cost)[:4]
+        ranked = _distinct(pr, sorted(results, key=lambda r: r.cost)[:4])
         robust = [pr.solve(r.x, resid, jac, loss=s.loss, f_scale=scale_n) for r in ranked]
         best = min(robust, key=lambda r: r.cost)
         nfev += sum(int(r.nfev) for r in robust)
     return best, nfev, n_starts
+
+
+def _distinct(pr: _Problem, ranked: list[Any]) -> list[Any]:
+    """``ranked`` without the results that repeat an earlier one (the same optimum reached
+    from several starts, to 1e-3 of its ``x_scale``): a robust refit from each would repeat
+    the same run."""
+    kept: list[Any] = []
+    for r in ranked:
+        if not any(np.all(np.abs(r.x - k.x) <= 1e-3 * pr.x_scale(k.x)) for k in kept):
+            kept.append(r)
+    return kept
 
 
 def _with_breakaway(pr: _Problem, breakaway: tuple[float, float], scale_n: float):

@@ -530,8 +530,14 @@ def _true_params_html(true) -> str:
     )
 
 
-def write_report(out: Path, ident, true, notes: list[str], info: dict) -> Path:
-    """Write ``out/index.html`` from the study's tables and figures; returns its path."""
+def write_report(
+    out: Path, ident, true, notes: list[str], info: dict, engineering: str | None = None
+) -> Path:
+    """Write ``out/index.html`` from the study's tables and figures; returns its path.
+
+    ``engineering``: the engineering section's HTML where it was made already (the study
+    makes it while the evaluate stage runs); else it is made here.
+    """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
     metrics = pd.read_csv(out / "tables" / "metrics.csv")
@@ -597,7 +603,7 @@ corrected for the residuals' autocorrelation. Not written into identified.toml.<
 <h2>Piecewise-affine model (Figs. 1, 2, cells)</h2>
 <p class="small">pwa.json holds the model with one affine system per cell.</p>
 {_figures(out, ("fig01", "fig02", "pwa_cells"))}
-{engineering_section(out)}
+{engineering_section(out) if engineering is None else engineering}
 
 {_paper_tables_section() if info.get("paper_machine", True) else ""}
 

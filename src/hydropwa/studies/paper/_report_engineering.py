@@ -35,6 +35,7 @@ def _save(fig, out: Path, stem: str) -> Path:
 
     (out / "figures").mkdir(parents=True, exist_ok=True)
     save_figure(fig, out / "figures" / f"{stem}.svg", overwrite=True)  # the report owns its folder
+    fig.set_layout_engine("none")  # the first save's layout holds: the PNG does not redo it
     return save_figure(fig, out / "figures" / f"{stem}.png", dpi=110, overwrite=True)
 
 

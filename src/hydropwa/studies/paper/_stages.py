@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import signal
+import sys
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -13,7 +16,11 @@ from typing import Any
 from ... import _interrupt
 from ..._io import atomic_write_text
 
-__all__ = ["STAGE_DIR", "file_hash", "text_hash", "tree_files", "StageRunner"]
+__all__ = ["STAGE_DIR", "file_hash", "text_hash", "tree_files", "StageRunner", "prefetch"]
+
+#: Environment variable: ``0`` runs the paper study's stages one after another in one process
+#: (no second process for the stages that do not depend on each other, :func:`prefetch`).
+ENV_OVERLAP = "HYDROPWA_STUDY_OVERLAP"
 
 #: Folder (inside the report folder) holding the stage manifests.
 STAGE_DIR = ".stages"
@@ -61,6 +68,8 @@ class StageRunner:
         self.fresh = fresh
         self.on_stage = on_stage
         self.record: dict[str, dict[str, Any]] = {}
+        #: records of stages a second process ran (:func:`prefetch`), taken over on reuse
+        self.elsewhere: dict[str, dict[str, Any]] = {}
 
     def manifest_path(self, name: str) -> Path:
         return self.out / STAGE_DIR / f"{name}.json"
@@ -112,11 +121,82 @@ class StageRunner:
                 **extra,
             }
             atomic_write_text(self.manifest_path(name), json.dumps(m, indent=1, default=str) + "\n")
-        self.record[name] = {
+        if reused and name in self.record:  # run earlier in this study (ahead of its turn)
+            return m
+        record = {
             "reused": reused,
             "seconds": time.perf_counter() - t0,
             "work_seconds": m["seconds"],
         }
+        if reused and name in self.elsewhere:  # a second process ran it for this study
+            record = self.elsewhere.pop(name)
+        self.record[name] = record
         if self.on_stage is not None:
-            self.on_stage(name, reused, self.record[name]["seconds"])
+            self.on_stage(name, record["reused"], record["seconds"])
         return m
+
+
+def prefetch(
+    runner: StageRunner, work: Callable[[], Any], here: bool = False
+) -> Callable[..., None]:
+    """Run ``work`` (stage calls through ``runner``) in a forked second process meanwhile.
+
+    Returns ``join(abort=False)``, which waits for that process (``abort``: stops it first)
+    and takes over the records of the stages it ran; the caller then calls those stages
+    again in their order, and they reuse what the second process wrote. A second process
+    that fails leaves its stages unfinished, so those calls compute them here (and raise
+    what they raise). With ``here``, without ``os.fork``, or with ``HYDROPWA_STUDY_OVERLAP=0``,
+    ``work`` runs here at once.
+    """
+    if here or not hasattr(os, "fork") or os.environ.get(ENV_OVERLAP, "1").strip() == "0":
+        work()
+        return lambda abort=False: None
+    sys.stdout.flush()
+    sys.stderr.flush()
+    before = set(runner.record)
+    rfd, wfd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child's coverage is not collected
+        os.close(rfd)
+        code = 1
+        try:
+            _die_with_parent()
+            runner.on_stage = None  # the parent's progress display is the parent's
+            work()
+            done = {k: v for k, v in runner.record.items() if k not in before}
+            os.write(wfd, json.dumps(done).encode())
+            code = 0
+        except BaseException:  # noqa: BLE001 - the parent computes the stage and raises
+            pass
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+    os.close(wfd)
+
+    def join(abort: bool = False) -> None:
+        if abort:
+            os.kill(pid, signal.SIGTERM)
+        try:
+            with os.fdopen(rfd, "rb") as fh:
+                data = fh.read()
+        except BaseException:  # Ctrl-C while waiting: the second process stops too
+            os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
+            raise
+        _, status = os.waitpid(pid, 0)
+        if not abort and os.waitstatus_to_exitcode(status) == 0 and data:
+            runner.elsewhere.update(json.loads(data))
+
+    return join
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the forked child
+    """Linux: this (forked) process gets SIGTERM when its parent dies (a killed study leaves
+    no second process writing into its folder); elsewhere nothing."""
+    try:
+        import ctypes  # deferred: only a forked second process needs it
+
+        ctypes.CDLL(None).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass

@@ -61,7 +61,8 @@ from ...params import SystemParams, get_preset, load_params, params_to_toml
 from ...rig import Rig, load_campaign, run_campaign
 from ...simulation import WarmUp
 from ._report import write_report
-from ._stages import STAGE_DIR, StageRunner, file_hash, text_hash, tree_files
+from ._report_engineering import engineering_section
+from ._stages import STAGE_DIR, StageRunner, file_hash, prefetch, text_hash, tree_files
 
 __all__ = ["StudyError", "StudyResult", "run_paper_study", "EXPERIMENT_NAMES", "STUDY_VERSION"]
 
@@ -438,6 +439,7 @@ def _save(fig, stem: Path) -> list[Path]:
 
     # the stage runner owns the folder and decides what may be replaced
     svg = save_figure(fig, stem.with_suffix(".svg"), overwrite=True)
+    fig.set_layout_engine("none")  # the first save's layout holds: the PNG does not redo it
     png = save_figure(fig, stem.with_suffix(".png"), dpi=110, overwrite=True)
     return [png, svg]
 
@@ -793,12 +795,52 @@ def _stage_control(
 
 
 def _stage_report(
-    inp: _Inputs, runner: StageRunner, ident, true, key: str, notes: list[str], info: dict
+    inp: _Inputs,
+    runner: StageRunner,
+    ident,
+    true,
+    key: str,
+    notes: list[str],
+    info: dict,
+    engineering: str | None = None,
 ):
     def work():
-        return [write_report(inp.out, ident, true, notes, info)], {}
+        return [write_report(inp.out, ident, true, notes, info, engineering)], {}
 
     runner.run("report", text_hash(inp.key(), key, notes, "report"), work)
+
+
+def _overlapped(
+    inp: _Inputs, runner: StageRunner, ident, true, runs, keys, serial: bool = False
+) -> str | None:
+    """The stages after linearize that do not depend on each other, on two cores.
+
+    A second process runs the greybox and evaluate stages while this one runs control and,
+    when control ran, the report's engineering section (it reads only pwa.json,
+    controller.toml and the identify stage's tables; returned as HTML for the report, else
+    None): about 7 and 8 CPU-s on the paper rig. The caller then calls the stages in their
+    order; they reuse what was written (:func:`._stages.prefetch`), so notes and records come
+    out as in one process. ``serial``: all of it here (the study's warm-up process is
+    compiling: a forked process would wait for kernels that the warm-up's reader thread, not
+    forked with it, reports).
+    """
+    k1, k2, data_key = keys
+
+    def second() -> None:
+        _stage_greybox(inp, runner, ident, true, text_hash(k1, data_key), runs, [])
+        _stage_evaluate(
+            inp, runner, ident, true, text_hash(k1, k2, data_key), runs, _Progress(False), []
+        )
+
+    join = prefetch(runner, second, here=serial)
+    try:
+        _stage_control(inp, runner, true, k2, [])
+        html = None if runner.record["control"]["reused"] else engineering_section(inp.out)
+    except BaseException:
+        join(abort=True)
+        raise
+    join()
+    return html
 
 
 # ----------------------------------------------------------------------------- main
@@ -876,7 +918,7 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
     # the rig compiles the full model's solver here; one background process compiles the
     # others' meanwhile (nothing where the disk cache has them): a cold start on two cores
     # costs about half as long (docs/performance.md)
-    with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS):
+    with _Progress(progress) as prog, WarmUp(_STUDY_KERNELS) as warm:
         runner = StageRunner(inp.out, fresh or force, prog.stage_done)
         data_root, data_key = _stage_data(inp, runner, prog, fresh or force)
         by_stage: dict[str, list[str]] = {"inputs": list(notes)}
@@ -885,6 +927,9 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
         by_stage["identify"], n0 = notes[n0:], len(notes)
         runs = _sine_runs(data_root)
         pwa, ps, k2 = _stage_linearize(inp, runner, ident, true, k1, runs)
+        engineering = _overlapped(
+            inp, runner, ident, true, runs, (k1, k2, data_key), serial=bool(warm.names)
+        )
         greybox_status = _stage_greybox(
             inp, runner, ident, true, text_hash(k1, data_key), runs, notes
         )
@@ -907,7 +952,9 @@ def _run_study(inp, fresh, force, progress, t0) -> StudyResult:
         k4 = _stage_control(inp, runner, true, k2, notes)
         by_stage["control"] = notes[n0:]
         info["stage_notes"] = by_stage
-        _stage_report(inp, runner, ident, true, text_hash(k1, k2, k3, k4, info), notes, info)
+        _stage_report(
+            inp, runner, ident, true, text_hash(k1, k2, k3, k4, info), notes, info, engineering
+        )
     return StudyResult(
         out=inp.out,
         report=inp.out / "index.html",
