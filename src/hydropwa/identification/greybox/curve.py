@@ -4,23 +4,26 @@ that carry the Stribeck shape's weak directions into the grey-box's friction int
 With the Stribeck parameters free, the grey-box interval is the output-error cost's, and
 on constant-input friction runs that cost does not hold the truth (issue 49). Measured on
 the paper rig with a hidden curve (F_c 42 N, F_s 118 N, δ 1.6, χ 11 mm/s; 12 runs of the
-friction experiment, seed 5): the fit ends at cost 117 193, the truth costs 137 232 (every
-profile of that cost rejects it), and F_s 139.7 [136.3, 141.4], χ 5.8 [4.7, 7.1] mm/s and
-δ 0.75 [0.70, 0.81] miss it, none flagged weak. One creeping run holds the difference
-(retracting at 14 %, −15 mm/s, where the rod sticks and slips): 74 371 at the truth against
-50 672 at the fit, 6.2 per sample against 0.3–1.2 on the other eleven runs, which the truth
-fits as well as the fit does (each within 4 %). A single-shot simulation of stick-slip
-follows its phase, not its mean: the cost's minimum is where the simulated stick pattern
-matches the measured one, not where the friction is. The optimiser is not the cause: it
-stops (on its step tolerance, after 20 evaluations and two restarts) below the truth's cost. The steady friction
-points of the same runs (:class:`~hydropwa.identification.StribeckIdentifier`, the paper's
-method) average the stick-slip out, and their fit profiles the shape
-(:func:`~hydropwa.identification._friction_curve.fit_stribeck`): on those runs F_c
-41.8 [37.6, 46.4] N, σ 1161 [1123, 1196] N·s/m, and F_s, χ, δ, γ not identified. So each
-free friction parameter's interval becomes the envelope of the grey-box's and the curve's
-(the same machinery as ``identify``'s, not a second copy), the parameters the curve does
-not identify are reported not identified, and the curve's band over the excited speeds is
-given in the fit's notes.
+friction experiment, seed 5): the fit ends at cost 117 193, the truth costs 137 232, and
+F_s 139.7 [136.3, 141.4] N, χ 5.8 [4.7, 7.1] mm/s and δ 0.75 [0.70, 0.81] miss it, none
+flagged weak. One creeping run holds the difference (retracting at 14 %, −15 mm/s, where
+the rod sticks and slips): 74 371 at the truth against 50 672 at the fit, 6.2 per sample
+against 0.56–0.77 at the truth on the other eleven runs, where the truth fits within 5 %
+of the fit or better (extending at 5 %: 4 371 against 8 025). A single-shot simulation of
+stick-slip follows its phase, not its mean: the cost's minimum is where the simulated
+stick pattern matches the measured one, not where the friction is. The optimiser is not
+the cause: it stops (on its step tolerance, after 20 evaluations and two restarts) below
+the truth's cost.
+
+The steady friction points of the same runs
+(:class:`~hydropwa.identification.StribeckIdentifier`, the paper's method) average the
+stick-slip out, and their fit profiles the shape
+(:func:`~hydropwa.identification._friction_curve.fit_stribeck`): on those runs F_c 41.8
+[37.6, 46.4] N, σ 1161 [1123, 1196] N·s/m, F_s weak ([0, 1.2e6] N) and χ, δ, γ not
+identified. So each free friction parameter's interval becomes the envelope of the
+grey-box's and the curve's (the same machinery as ``identify``'s, not a second copy), the
+parameters the curve does not identify are reported not identified, those it flags weak
+are flagged weak, and the curve's band over the excited speeds is given in the fit's notes.
 """
 
 from __future__ import annotations
