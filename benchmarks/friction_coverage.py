@@ -55,7 +55,7 @@ FAMILY = list(itertools.product((0.5, 1.0, 2.0), (0.005, 0.011, 0.03), (1.5, 3.0
 HALF = [(0.5, 0.005, 8.0), (2.0, 0.03, 8.0), (0.5, 0.03, 1.5), (2.0, 0.005, 1.5)]
 SHAPES = {
     "issue": [ISSUE],
-    "half": [*HALF, ISSUE],
+    "half": [ISSUE, *HALF],
     "corners": [*CORNERS, ISSUE],
     "family": [*FAMILY, ISSUE],
 }
@@ -124,8 +124,9 @@ def main() -> None:
     a = ap.parse_args()
     methods = a.methods.split(",")
     totals: dict[tuple[str, str], list[tuple[bool, bool]]] = {}
-    for m, shape, seed in itertools.product(
-        a.machines.split(","), SHAPES[a.shapes], [int(s) for s in a.seeds.split(",")]
+    # machines inner: a run cut short has every machine for the shapes it reached
+    for shape, seed, m in itertools.product(
+        SHAPES[a.shapes], [int(s) for s in a.seeds.split(",")], a.machines.split(",")
     ):
         p = machine(m)
         with tempfile.TemporaryDirectory() as tmp:
