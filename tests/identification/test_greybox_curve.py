@@ -92,3 +92,31 @@ def test_no_curve_without_a_free_shape_or_friction_runs():
     assert friction_curve(runs, p, ("friction.coulomb", "friction.viscous")) is None
     sines = [types.SimpleNamespace(meta={"experiment": "sine"})] * 6
     assert friction_curve(sines, p, ("friction.static", "friction.shape")) is None
+
+
+def test_the_summary_flags_an_interval_that_misses_the_rigs_truth(tmp_path):
+    """``identify model``'s summary: with the virtual rig's ``true_params.toml`` beside the
+    data each value is shown with its truth, a miss flagged by the one rule and counted."""
+    from hydropwa.cli._identify import _truth
+    from hydropwa.identification import TRUTH_OUTSIDE
+    from hydropwa.identification.greybox import GreyBoxFit
+    from hydropwa.params import save_params
+
+    p = get_preset("paper")
+    assert _truth(tmp_path, ["friction.coulomb"]) is None  # no machine recorded: no truth
+    save_params(p, tmp_path / "true_params.toml")
+    truth = _truth(tmp_path, ["friction.coulomb", "friction.static"])
+    assert truth == pytest.approx({"friction.coulomb": 21.153, "friction.static": 174.77}, rel=1e-4)
+    fit = types.SimpleNamespace(
+        estimates_={
+            "friction.coulomb": _est(21.0, 20.0, 22.0),
+            "friction.static": _est(139.7, 136.3, 141.4),
+        },
+        level=0.95,
+        inflation_=np.ones(2),
+        identifiability_=types.SimpleNamespace(weak=["friction.static"], undetermined=[]),
+    )
+    text = "\n".join(GreyBoxFit._estimate_table(fit, truth))
+    assert text.count(TRUTH_OUTSIDE) == 1 and "| yes |" in text
+    assert "1 true value(s) outside their interval: friction.static." in text
+    assert TRUTH_OUTSIDE not in "\n".join(GreyBoxFit._estimate_table(fit, {}))
