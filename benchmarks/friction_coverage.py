@@ -10,7 +10,8 @@ the machine's own friction (not the truth):
 * ``curve``: the Stribeck fit of the runs' steady points with its shape profiled
   (:class:`~hydropwa.identification.StribeckIdentifier`);
 * ``greybox``: :func:`~hydropwa.identification.fit_model` with ``free="friction"`` (what
-  ``hydropwa identify model --free friction`` runs), with its friction-curve check.
+  ``hydropwa identify model --free friction`` runs), with its friction-curve check;
+* ``greybox0`` (on request): the same without the curve's check and without profiles.
 
 Per identified value (F_c, F_s, σ, χ, δ; γ is not scored: constant speeds of mm/s saturate
 the tanh) it counts whether the 95 % interval holds the truth (``covered``), and whether it
@@ -106,11 +107,16 @@ def curve_case(runs, params, truth):
     return score(fit.estimates, fit.unidentified, truth)
 
 
-def greybox_case(runs, params, truth, jobs: int):
-    fit = fit_model("full", runs, "friction", params=params, jobs=jobs)
+def greybox_case(runs, params, truth, jobs: int, **kw):
+    fit = fit_model("full", runs, "friction", params=params, jobs=jobs, **kw)
     est = {n.split(".", 1)[1]: e for n, e in fit.estimates_.items()}
     undet = {n.split(".", 1)[1] for n in fit.identifiability_.undetermined}
     return score(est, undet, truth)
+
+
+#: the grey-box variants: as the CLI runs it, and without the curve's check (nor the
+#: profiles, which take the time: the Wald and scan intervals alone; the "before")
+GREYBOX = {"greybox": {}, "greybox0": {"curve_check": False, "profile": "none"}}
 
 
 def main() -> None:
@@ -139,7 +145,7 @@ def main() -> None:
                     got = (
                         curve_case(runs, p, truth)
                         if meth == "curve"
-                        else greybox_case(runs, p, truth, a.jobs)
+                        else greybox_case(runs, p, truth, a.jobs, **GREYBOX[meth])
                     )
                 totals.setdefault((m, meth), []).extend(got.values())
                 cells = " ".join(
