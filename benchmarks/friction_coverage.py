@@ -14,9 +14,9 @@ the machine's own friction (not the truth):
 * ``greybox0`` (on request): the same without the curve's check and without profiles.
 
 Per identified value (F_c, F_s, σ, χ, δ; γ is not scored: constant speeds of mm/s saturate
-the tanh) it counts whether the 95 % interval holds the truth (``covered``), and whether it
-"holds" by the issue's criterion: within 10 % of the truth, or covered, or reported not
-identified. Prints one row per case and the totals per machine and method::
+the tanh) it counts whether the 95 % interval holds the truth (``covered``: ``c`` in a
+row), whether it "holds" by the issue's criterion (``h``; ``X`` where not): within 10 % of
+the truth, or covered, or reported not identified (``u``). Prints one row per case and the totals per machine and method::
 
     python benchmarks/friction_coverage.py [--machines paper,industrial] [--shapes corners]
         [--seeds 1] [--step "9 %"] [--methods curve,greybox] [--jobs 2]
@@ -91,14 +91,16 @@ def campaign(where: Path, params, shape: tuple, seed: int, step: str):
     return fr
 
 
-def score(estimates: dict, unidentified, truth) -> dict[str, tuple[bool, bool]]:
-    """Per scored value: (interval covers the truth, holds by the issue's criterion)."""
+def score(estimates: dict, unidentified, truth) -> dict[str, tuple[bool, bool, bool]]:
+    """Per scored value: (interval covers the truth, holds by the issue's criterion,
+    reported not identified)."""
     out = {}
     for n in SCORED:
         e = estimates[n]
         t = float(getattr(truth, n))
         cov = truth_in_interval(*e.ci, t) == "yes"
-        out[n] = (cov, cov or abs(e.value - t) <= 0.1 * abs(t) or n in unidentified)
+        unid = n in unidentified
+        out[n] = (cov, cov or abs(e.value - t) <= 0.1 * abs(t) or unid, unid)
     return out
 
 
@@ -129,7 +131,7 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args()
     methods = a.methods.split(",")
-    totals: dict[tuple[str, str], list[tuple[bool, bool]]] = {}
+    totals: dict[tuple[str, str], list[tuple[bool, bool, bool]]] = {}
     # machines inner: a run cut short has every machine for the shapes it reached
     for shape, seed, m in itertools.product(
         SHAPES[a.shapes], [int(s) for s in a.seeds.split(",")], a.machines.split(",")
@@ -149,7 +151,8 @@ def main() -> None:
                     )
                 totals.setdefault((m, meth), []).extend(got.values())
                 cells = " ".join(
-                    f"{n[:6]}:{'c' if c else '-'}{'h' if h else 'X'}" for n, (c, h) in got.items()
+                    f"{n[:6]}:{'c' if c else '-'}{'h' if h else 'X'}{'u' if u else ''}"
+                    for n, (c, h, u) in got.items()
                 )
                 print(
                     f"{m:10s} δ {shape[0]:<4g} χ {1e3 * shape[1]:<4g} mm/s F_s/F_c {shape[2]:<5.3g}"
@@ -158,10 +161,12 @@ def main() -> None:
                 )
     for (m, meth), rows in totals.items():
         n = len(rows)
-        cov, held = sum(c for c, _ in rows), sum(h for _, h in rows)
+        cov, held = sum(r[0] for r in rows), sum(r[1] for r in rows)
+        unid = sum(r[2] for r in rows)
         print(
             f"{m:10s} {meth:7s} N {n}: covered {cov}/{n} ({100 * cov / n:.0f} %), "
-            f"hold (10 %, covered or not identified) {held}/{n} ({100 * held / n:.0f} %)"
+            f"hold (10 %, covered or not identified) {held}/{n} ({100 * held / n:.0f} %), "
+            f"reported not identified {unid}/{n}"
         )
 
 
