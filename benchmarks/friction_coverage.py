@@ -22,7 +22,8 @@ the truth, or covered, or reported not identified (``u``). Prints one row per ca
         [--seeds 1] [--step "9 %"] [--methods curve,greybox] [--jobs 2]
 
 ``--shapes``: ``corners`` (the 8 corners of the family and the issue's shape), ``half`` (4
-of the corners, each level of δ, χ and F_s/F_c twice, and the issue's), ``issue`` (the
+of the corners, each level of δ, χ and F_s/F_c twice, and the issue's; ``half2`` the other
+four corners), ``issue`` (the
 issue's alone) or ``family`` (3 × 3 × 3 and the issue's). N (the values scored) is
 printed with each total. The issue's target: coverage ≥ 90 % and every value holding.
 """
@@ -57,6 +58,7 @@ HALF = [(0.5, 0.005, 8.0), (2.0, 0.03, 8.0), (0.5, 0.03, 1.5), (2.0, 0.005, 1.5)
 SHAPES = {
     "issue": [ISSUE],
     "half": [ISSUE, *HALF],
+    "half2": [c for c in CORNERS if c not in HALF],
     "corners": [*CORNERS, ISSUE],
     "family": [*FAMILY, ISSUE],
 }
