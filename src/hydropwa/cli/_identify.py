@@ -7,6 +7,7 @@ runs are reported as ``warning: ...`` lines (both by the CLI's ``_app``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -290,6 +291,29 @@ def emps(
     typer.echo(text, nl=False)
 
 
+def _truth(data_dir: Path, names: Sequence[str]) -> dict[str, float] | None:
+    """The true values of ``names`` where the data are a virtual rig's (its
+    ``true_params.toml``), else None: the summary then flags an interval that misses one."""
+    import json  # deferred: loaded only when this command runs
+
+    from hydropwa._io import read_text  # deferred: loaded only when this command runs
+    from hydropwa.data import MANIFEST  # deferred: loaded only when this command runs
+    from hydropwa.identification import (  # deferred: loaded only when this command runs
+        MACHINE_FILE,
+        recorded_machine,
+    )
+    from hydropwa.identification.greybox.problem import get_value  # deferred: as above
+
+    found = recorded_machine(data_dir)
+    if found is None:
+        return None
+    rig = found[1].endswith(MACHINE_FILE)
+    if not rig and found[1].endswith(MANIFEST):  # a dataset the virtual rig wrote
+        meta = json.loads(read_text(found[1], "manifest")).get("meta") or {}
+        rig = "true_params" in meta
+    return {n: get_value(found[0], n) for n in names} if rig else None
+
+
 def _joint_start(start: str, free: str) -> str | None:
     """``--start`` for :func:`~hydropwa.identification.greybox.fit_campaign` (None: the
     ordinary fit): ``auto`` makes ``--free all`` a joint fit (the library then starts from
@@ -458,7 +482,7 @@ def model(
         atomic_write_text,  # deferred: loaded only when this command runs (a fast --help)
     )
 
-    atomic_write_text(summary, fit.summary_markdown(), overwrite=force)
+    atomic_write_text(summary, fit.summary_markdown(_truth(data_dir, fit.free)), overwrite=force)
     if figures is not None:
         _fit_figures(fit, figures)
     for n, e in fit.estimates_.items():

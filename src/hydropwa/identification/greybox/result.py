@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -13,7 +14,13 @@ import numpy as np
 from ..._errors import IdentificationError
 from ..._result import DerivedResult, StatusEnum, estimate_rows, status_messages
 from ...params import SystemParams, save_params
-from .._common import OptimizerStatus, ParameterEstimate, SkippedRun
+from .._common import (
+    TRUTH_OUTSIDE,
+    OptimizerStatus,
+    ParameterEstimate,
+    SkippedRun,
+    truth_in_interval,
+)
 
 __all__ = [
     "FitStatus",
@@ -437,8 +444,13 @@ class GreyBoxFit(DerivedResult):
             )
         return pd.DataFrame(rows).set_index("parameter")
 
-    def summary_markdown(self) -> str:
-        """A Markdown summary: values and intervals, runs, identifiability."""
+    def summary_markdown(self, truth: Mapping[str, float] | None = None) -> str:
+        """A Markdown summary: values and intervals, runs, identifiability.
+
+        ``truth``: known true values by parameter name (a virtual rig's
+        ``true_params.toml``); the table then shows each beside its interval and flags an
+        interval that misses it (:func:`~hydropwa.identification.truth_in_interval`).
+        """
         lines = [
             f"# Grey-box fit ({self.model} model)",
             "",
@@ -446,14 +458,8 @@ class GreyBoxFit(DerivedResult):
             f"{self.cost:.4g}, "
             f"{self.wall_time:.1f} s",
             "",
-            f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |",
-            "| --- | --- | --- | --- | --- | --- |",
+            *self._estimate_table(truth or {}),
         ]
-        for i, (n, e) in enumerate(self.estimates_.items()):
-            lines.append(
-                f"| {n} | {e.value:.5g} {e.unit} | {e.std:.3g} | [{e.ci[0]:.4g}, {e.ci[1]:.4g}] | "
-                f"{self.inflation_[i]:.1f} | {'yes' if n in self.identifiability_.weak else ''} |"
-            )
         lines += [
             "",
             "| run | method | segments | excluded | RMS error |",
@@ -504,6 +510,35 @@ class GreyBoxFit(DerivedResult):
         if self.skipped_:
             lines += ["", "Skipped: " + "; ".join(str(s) for s in self.skipped_)]
         return "\n".join(lines) + "\n"
+
+    def _estimate_table(self, truth: Mapping[str, float]) -> list[str]:
+        """The summary's table of estimates (with the truth where known) and a line naming
+        the intervals that miss it."""
+        known = [n for n in self.estimates_ if n in truth]
+        extra = " true | true in interval |" if known else ""
+        lines = [
+            f"| parameter | value | std | {100 * self.level:.0f} % interval | inflation | weak |"
+            + extra,
+            "| --- | --- | --- | --- | --- | --- |" + (" --- | --- |" if known else ""),
+        ]
+        idf, missed = self.identifiability_, []
+        for i, (n, e) in enumerate(self.estimates_.items()):
+            weak = "not identified" if n in idf.undetermined else "yes" if n in idf.weak else ""
+            row = (
+                f"| {n} | {e.value:.5g} {e.unit} | {e.std:.3g} | [{e.ci[0]:.4g}, {e.ci[1]:.4g}] | "
+                f"{self.inflation_[i]:.1f} | {weak} |"
+            )
+            if known:
+                verdict = truth_in_interval(*e.ci, truth.get(n))
+                missed += [n] if verdict == TRUTH_OUTSIDE else []
+                row += f" {truth[n]:.5g} | {verdict} |" if n in truth else " | |"
+            lines.append(row)
+        if missed:
+            lines += [
+                "",
+                f"{len(missed)} true value(s) outside their interval: {', '.join(missed)}.",
+            ]
+        return lines
 
     def _stages_data_validation(self) -> list[str]:
         """The summary's lines on the stages, the data used and the held-out validation."""
