@@ -95,6 +95,10 @@ class Channel:
         What it is, in the paper's terms.
     low_hint : str
         Likely cause when the peak is below ``min_peak``.
+    component : str or None
+        The optional part of the machine the channel exists with (``"lines"``:
+        ``SystemParams.carries``): the rig fits a sensor for it only on a machine that carries
+        the part. None: every machine has it.
     """
 
     name: str
@@ -109,6 +113,7 @@ class Channel:
     high_hint: str
     description: str
     low_hint: str = _UNIT_HINT
+    component: str | None = None
 
     def __post_init__(self) -> None:
         if self.sensor not in SENSOR_KINDS:
@@ -149,9 +154,11 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("f_l",   "N",   None,    "force",    -1e7,  1e7,  0.0,  False, 0, _F_HIGH,
             "external load force F_L, Eq. (10)"),
     Channel("p_line_a", "Pa", "p_line_a", "pressure", -1e5, 1e8, 1e3, True, 0, _P_HIGH,
-            "pressure in the hose line on valve port A (params.Lines)", _P_LOW),
+            "pressure in the hose line on valve port A (params.Lines)", _P_LOW,
+            component="lines"),
     Channel("p_line_b", "Pa", "p_line_b", "pressure", -1e5, 1e8, 1e3, True, 0, _P_HIGH,
-            "pressure in the hose line on valve port B (params.Lines)", _P_LOW),
+            "pressure in the hose line on valve port B (params.Lines)", _P_LOW,
+            component="lines"),
     Channel("z",     "1",   None,    "derived",  -1.05, 1.05, 0.0,  False, 0, _FRACTION_HIGH,
             "valve opening after the dead zone, Eq. (4)"),
     Channel("p_l",   "Pa",  None,    "derived",  -1e8,  1e8,  1e3,  False, 4, _P_HIGH,

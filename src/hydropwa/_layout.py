@@ -279,6 +279,11 @@ class ModelKind:
         threshold``, last state first: the held state of an absent optional component (a hose
         line of zero volume), so the kind then steps exactly as the kind without it. () for
         every kind whose norm runs over all its states.
+    component : str or None
+        The optional part of the parameters the kind adds (``"lines"``,
+        ``SystemParams.carries``): the kind is among a machine's default model sets (the
+        closed-loop comparison, :func:`kinds_for`) only where its parameters carry that part.
+        None: a kind every machine has.
     """
 
     name: str
@@ -298,6 +303,7 @@ class ModelKind:
     factory_options: tuple[tuple[str, object], ...]
     style: tuple[str, str, str]
     norm_free_states: tuple[tuple[str, str, float], ...] = ()
+    component: str | None = None
 
     @property
     def linearized(self) -> bool:
@@ -364,6 +370,7 @@ MODEL_KINDS: dict[str, ModelKind] = {
             lu_blocks=(2, 6), factory="hydropwa.models:FullLinesModel", factory_options=(),
             style=("tab:purple", "-", "full-order, hose lines"),
             norm_free_states=(("p_line_b", "vlb", 0.0), ("p_line_a", "vla", 0.0)),
+            component="lines",
         ),
     )
 }  # fmt: skip
@@ -389,6 +396,16 @@ LOAD_PRESSURE_MODELS: tuple[str, ...] = tuple(
 )
 #: Kinds built from parameters alone, so a grey-box fit can start one from measurements.
 MEASURABLE_MODELS: tuple[str, ...] = tuple(r.name for r in MODEL_KINDS.values() if not r.linearized)
+
+
+#: Kinds every machine has (no optional part: :attr:`ModelKind.component` None).
+BASE_MODELS: tuple[str, ...] = tuple(r.name for r in MODEL_KINDS.values() if r.component is None)
+
+
+def kinds_for(params: Any) -> tuple[str, ...]:
+    """Names of the kinds that apply to a machine, in kernel order: every kind without an
+    optional part, and those whose part ``params`` carries (``SystemParams.carries``)."""
+    return tuple(r.name for r in MODEL_KINDS.values() if params.carries(r.component))
 
 
 def model_kind(name: str) -> ModelKind:

@@ -21,6 +21,7 @@ from hydropwa.data import CANONICAL_UNITS, PLAUSIBLE_RANGES
 from hydropwa.evaluation import CHANNELS as EVALUATED
 from hydropwa.linearization import linearize
 from hydropwa.models import FullOrderModel, ReducedModel
+from hydropwa.params import Lines
 from hydropwa.rig import MEASURED_CHANNELS, machine_sensors, paper_sensors
 
 MEASURED = {"x": 0.07, "v": -0.02, "p_a": 41e5, "p_b": 23e5, "p_s": 95e5, "spool": 0.25}
@@ -54,9 +55,23 @@ def test_the_layers_read_the_table():
 
 
 def test_the_rig_has_a_sensor_for_every_measured_channel(params):
-    for sensors in (paper_sensors(), machine_sensors(params)):
-        assert set(sensors) == set(RECORDED_CHANNELS) - set(channels_of("command"))
-        for ch in channels_of("pressure"):
+    """A machine's rig fits a sensor for every recorded channel of the parts that machine
+    carries (the line pressures only with hose lines, Channel.component); the paper's rig has
+    no lines."""
+    sensed = set(RECORDED_CHANNELS) - set(channels_of("command"))
+    hosed = params.replace(
+        lines=Lines(volume_a=3e-5, volume_b=8e-5, conductance_a=1.5e-8, conductance_b=6e-9)
+    )
+    assert not params.lines.present
+    lines = {c.name for c in CHANNELS if c.component == "lines"}
+    assert lines == {"p_line_a", "p_line_b"}
+    for sensors, expected in (
+        (paper_sensors(), sensed - lines),
+        (machine_sensors(params), sensed - lines),
+        (machine_sensors(hosed), sensed),
+    ):
+        assert set(sensors) == expected
+        for ch in set(channels_of("pressure")) & expected:
             assert sensors[ch].unit == CHANNEL[ch].unit == "Pa"
 
 

@@ -1,7 +1,9 @@
 """Hose lines between valve and chambers (the ``full-lines`` kind, issue 47 item 6).
 
-- Lines of zero volume are no lines: every channel equals the full model's (measured: bit for
-  bit; the bound is 1e-9 relative), with a constant supply and with the pump supply.
+- Lines of zero volume are no lines: the right-hand side, the exact Jacobian and ∂f/∂t equal
+  the full model's bit for bit at every state (with a constant supply and with the pump
+  supply), and so the trajectories agree to the solver's rounding (module doc of
+  ``test_lines_of_zero_volume_step_as_the_full_model``).
 - With lines, the trajectory follows an independent NumPy/SciPy assembly of the line equations
   (``_reference_rhs`` below: continuity on each line with the series modulus, the laminar or
   orifice resistance, the chambers fed through the lines), integrated by ``solve_ivp`` (Radau)
@@ -44,19 +46,93 @@ def _sine(t):
     return 0.3 * np.sin(2 * np.pi * 5.0 * t)
 
 
+def _supplied(pump):
+    return PAPER.replace(supply=machine_supply(PAPER)) if pump else PAPER
+
+
 @pytest.mark.parametrize("pump", [False, True], ids=["constant-supply", "pump"])
 def test_lines_of_zero_volume_are_the_full_model(pump):
-    params = PAPER.replace(supply=machine_supply(PAPER)) if pump else PAPER
+    """Without lines the kind's compiled physics is the full model's: ẏ, ∂f/∂y and ∂f/∂t over
+    300 random states (spool, pressures from cavitation to above supply, velocity, position
+    across the stroke) with random inputs, each entry within 1e-9 of its peak over the states
+    (the issue's bound; measured: equal, or 1 ulp apart where the two compiled functions round
+    a product differently), and the line states' rates and rows exactly 0."""
+    from hydropwa.simulation._rhs_full import dfdt_full, jac_full, rhs_full
+    from hydropwa.simulation._rhs_lines import dfdt_lines, jac_lines, rhs_lines
+
+    params = _supplied(pump)
+    full, lines = FullOrderModel(params), FullLinesModel(params)
+    pf, pl = full.pack(), lines.pack()
+    nf, nl = len(full.state_names), len(lines.state_names)
+    names = full.state_names
+    rng = np.random.default_rng(47)
+    stroke, ps = params.cylinder.stroke, params.supply.pressure
+    got: dict[str, list] = {k: [] for k in ("rhs", "jac", "dfdt")}
+    want: dict[str, list] = {k: [] for k in ("rhs", "jac", "dfdt")}
+    for _ in range(300):
+        yf = full.initial_state(rng.uniform(0.0, stroke))
+        yf[names.index("spool")] = rng.uniform(-1.0, 1.0)
+        yf[names.index("spool_rate")] = rng.normal(0.0, 50.0)
+        yf[names.index("p_a")] = rng.uniform(-0.5e5, 1.3 * ps)
+        yf[names.index("p_b")] = rng.uniform(-0.5e5, 1.3 * ps)
+        yf[names.index("v")] = rng.normal(0.0, 0.05)
+        if pump:
+            yf[names.index("p_s")] = rng.uniform(0.5 * ps, 1.1 * ps)
+        yl = np.concatenate([yf, yf[[names.index("p_a"), names.index("p_b")]]])
+        assert yl.size == nl
+        u, ps_in, fl = rng.uniform(-1, 1), rng.uniform(0.5 * ps, ps), rng.normal(0.0, 100.0)
+        df, dl = np.zeros(nf), np.zeros(nl)
+        rhs_full(yf, u, ps_in, fl, pf, df)
+        rhs_lines(yl, u, ps_in, fl, pl, dl)
+        Jf, Jl = np.zeros((nf, nf)), np.zeros((nl, nl))
+        assert jac_full(yf, u, ps_in, fl, pf, Jf) == jac_lines(yl, u, ps_in, fl, pl, Jl)
+        rates = rng.normal(0.0, 1.0, 3) * (10.0, 1e6, 1e3)
+        tf, tl = np.zeros(nf), np.zeros(nl)
+        dfdt_full(yf, u, ps_in, fl, *rates, pf, tf)
+        dfdt_lines(yl, u, ps_in, fl, *rates, pl, tl)
+        np.testing.assert_array_equal(dl[nf:], 0.0)
+        np.testing.assert_array_equal(Jl[nf:], 0.0)
+        np.testing.assert_array_equal(Jl[:nf, nf:], 0.0)
+        for key, a, b in (("rhs", dl[:nf], df), ("jac", Jl[:nf, :nf], Jf), ("dfdt", tl[:nf], tf)):
+            got[key].append(a)
+            want[key].append(b)
+    for key in got:
+        a, b = np.array(got[key]), np.array(want[key])
+        peak = np.max(np.abs(b), axis=0)
+        assert np.all(np.abs(a - b) <= 1e-9 * peak), key
+
+
+@pytest.mark.parametrize("pump", [False, True], ids=["constant-supply", "pump"])
+def test_lines_of_zero_volume_step_as_the_full_model(pump):
+    """Simulated without lines the kind is as accurate as the full model, and converges to it.
+
+    The physics is the full model's bit for bit (the test above), but the step loop is compiled
+    once per kind with FMA contraction, so the two kernels' roundings differ (from the first
+    sample, 1e-25 m/s here; bit-equal runs on one build, 728 against 729 steps on CI's), and the
+    stick-slip at each reversal of the 5 Hz sine magnifies that to the solver's own error. So
+    against a reference at rtol 1e-8, each channel's error of the line kind at the default rtol
+    stays within 3× the full model's (measured ≤ 2.25×, both ≈ rtol-level: 1e-5 of the
+    position's peak, 3 % of the velocity's at the stick-slip), and at rtol 1e-7 the two agree
+    within 1e-3 of each channel's peak (measured 9.5e-5).
+    """
+    params = _supplied(pump)
     t = np.arange(0.0, 0.3, 1 / 2000)
+    ref = simulate(FullOrderModel(params), (t, _sine(t)), timepts=t, rtol=1e-8)
     full = simulate(FullOrderModel(params), (t, _sine(t)), timepts=t)
     lines = simulate(FullLinesModel(params), (t, _sine(t)), timepts=t)
-    assert lines.stats.steps == full.stats.steps
-    for ch, y in full.channels.items():
-        # 1e-9 relative to the channel's peak (the issue's bound; measured: equal bit for bit)
-        np.testing.assert_allclose(lines.channels[ch], y, rtol=0, atol=1e-9 * np.max(np.abs(y)))
+    assert abs(lines.stats.steps - full.stats.steps) <= 0.02 * full.stats.steps
+    for ch, y in ref.channels.items():
+        e_full = np.max(np.abs(full.channels[ch] - y))
+        e_lines = np.max(np.abs(lines.channels[ch] - y))
+        assert e_lines <= 3.0 * e_full + 1e-12 * np.max(np.abs(y)), (ch, e_lines, e_full)
     np.testing.assert_array_equal(lines.channels["p_line_a"], lines.channels["p_a"])
     np.testing.assert_array_equal(lines.channels["p_line_b"], lines.channels["p_b"])
     assert lines.units["p_line_a"] == "Pa"
+    fine = simulate(FullOrderModel(params), (t, _sine(t)), timepts=t, rtol=1e-7)
+    fine_lines = simulate(FullLinesModel(params), (t, _sine(t)), timepts=t, rtol=1e-7)
+    for ch, y in fine.channels.items():
+        atol = 1e-3 * np.max(np.abs(y))
+        np.testing.assert_allclose(fine_lines.channels[ch], y, rtol=0, atol=atol, err_msg=ch)
 
 
 def _reference_rhs(p, lines, omega0, u_of_t):

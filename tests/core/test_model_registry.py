@@ -171,3 +171,20 @@ def test_the_kind_name_count_sees_a_literal(tmp_path, monkeypatch):
     monkeypatch.setattr(_layout, "__file__", str(pkg / "_layout.py"))
     hits = literal_kind_names()
     assert [h.split(":")[1] for h in hits] == ["3", "6"], hits
+
+
+def test_optional_parts_decide_which_kinds_apply():
+    """A kind with an optional part (``component``) applies only where the parameters carry
+    it: the hose-line kind on a machine with lines, not on the paper's rig."""
+    from hydropwa._layout import BASE_MODELS, MODEL_KINDS, kinds_for
+    from hydropwa.params import Lines, get_preset
+
+    paper = get_preset("paper")
+    hosed = paper.replace(lines=Lines(volume_b=7.85e-5, conductance_b=6e-9))
+    optional = {r.name for r in MODEL_KINDS.values() if r.component is not None}
+    assert optional == {"full-lines"}
+    assert kinds_for(paper) == BASE_MODELS == tuple(n for n in MODEL_KINDS if n not in optional)
+    assert kinds_for(hosed) == tuple(MODEL_KINDS)
+    assert paper.carries(None) and not paper.carries("lines") and hosed.carries("lines")
+    with pytest.raises(ParameterError, match="not an optional part"):
+        paper.carries("valve")

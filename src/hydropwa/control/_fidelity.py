@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .._layout import FULL_KIND, LOAD_PRESSURE_MODELS, MODEL_NAMES, PWA_KIND
+from .._layout import BASE_MODELS, FULL_KIND, LOAD_PRESSURE_MODELS, PWA_KIND, kinds_for
 from ..linearization import linearize
 from ._controllers import ControlError
 from ._metrics import compare_models, tracking_metrics
@@ -34,8 +34,9 @@ __all__ = [
     "valve_warning",
 ]
 
-#: The models of the fidelity study, in the order of its table.
-FIDELITY_MODELS = MODEL_NAMES
+#: The models of the fidelity study every machine has, in the order of its table; a machine
+#: with an optional part (hose lines) adds the kinds of that part (``_layout.kinds_for``).
+FIDELITY_MODELS = BASE_MODELS
 #: Share of each hold skipped before its oscillation is measured (the settling after a move).
 HOLD_SETTLE = 0.5
 #: The models that leave the servo valve out (its spool follows the command at once) and make
@@ -209,7 +210,7 @@ def model_warnings(results, params, *, pwa=None, bandwidth: float | None = None)
 
 
 def closed_loop_fidelity(
-    controller, reference, *, models=FIDELITY_MODELS, pwa=None, **case: Any
+    controller, reference, *, models=None, pwa=None, **case: Any
 ) -> tuple[dict[str, Any], Any]:
     """Run one controller on several model levels; hold oscillations and tracking side by side.
 
@@ -218,7 +219,8 @@ def closed_loop_fidelity(
     controller, reference
         As :func:`~hydropwa.control.compare_models`.
     models : tuple of str
-        Model names (default :data:`FIDELITY_MODELS`).
+        Model names (default: the kinds that apply to the machine, :data:`FIDELITY_MODELS`
+        and, where its parameters carry hose lines, ``full-lines``).
     pwa : PwaModel, optional
         The PWA model (default ``linearize(params)``), as compare_models takes it.
     **case
@@ -238,6 +240,9 @@ def closed_loop_fidelity(
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
+    params = case.get("params") or pwa.params
+    if models is None:
+        models = kinds_for(params)
     results, _ = compare_models(controller, reference, models=tuple(models), pwa=pwa, **case)
     holds = {name: hold_oscillations(res) for name, res in results.items()}
     full = holds.get(FULL_KIND.name)
@@ -262,7 +267,6 @@ def closed_loop_fidelity(
         max_hold="mm", ratio_to_full="1", iae="mm·s", max_following_error="mm", saturation="%"
     )
     table.attrs["units"] = units
-    params = case.get("params") or pwa.params
     if pwa is None and PWA_KIND.name in results:
         pwa = linearize(params)  # the default PWA model of compare_models
     table.attrs["warnings"] = model_warnings(

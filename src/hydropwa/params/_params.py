@@ -817,6 +817,21 @@ class SystemParams:
                     f"SystemParams.{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}"
                 )
 
+    def carries(self, component: str | None) -> bool:
+        """Whether these parameters hold the optional part ``component`` (a field name whose
+        group has a ``present`` property, ``"lines"``); ``None`` (a part every machine has) is
+        always carried. What :attr:`hydropwa._layout.ModelKind.component` and
+        :attr:`hydropwa._channels.Channel.component` name."""
+        if component is None:
+            return True
+        group: Any = getattr(self, component, None)
+        if not hasattr(group, "present"):
+            raise ParameterError(
+                f"{component!r} is not an optional part of SystemParams; the optional parts are "
+                + ", ".join(n for n in COMPONENT_TYPES if hasattr(COMPONENT_TYPES[n], "present"))
+            )
+        return bool(group.present)
+
     @property
     def provenance(self) -> Mapping[str, str]:
         """Where every value came from: dotted field name → source, read-only.

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from .._channels import channels_of
+from .._channels import CHANNEL, channels_of
 from .._errors import ParameterError
 from ..params import Supply, SystemParams, load_params
 from ._sensors import SensorModel, machine_sensors
@@ -209,6 +209,10 @@ class Rig:
             else dict(self._sensors)
         )
         for ch, over in (sensors or {}).items():
+            if ch not in base and not params.carries(
+                CHANNEL[ch].component if ch in CHANNEL else None
+            ):
+                continue  # a transmitter of a part this machine lacks ([sensors.pressure], lines)
             if ch not in base:
                 raise ParameterError(
                     f"[sensors.{ch}]: the rig has no sensor {ch!r}; known: {', '.join(base)}"

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from .._channels import RECORDED_CHANNELS, channels_of
+from .._channels import CHANNEL, RECORDED_CHANNELS, channels_of
 from .._errors import ParameterError
 from ..data import Run
 
@@ -192,7 +192,7 @@ def paper_sensors() -> dict[str, SensorModel]:
         )
 
     return {
-        **{ch: pressure(ch) for ch in channels_of("pressure")},
+        **{ch: pressure(ch) for ch in channels_of("pressure") if CHANNEL[ch].component is None},
         "x": SensorModel(
             "Celesco CLP-250 linear potentiometer",
             "x",
@@ -278,6 +278,9 @@ def machine_sensors(params, supply=None) -> dict[str, SensorModel]:
         )
 
     for ch in channels_of("pressure"):
+        if not params.carries(CHANNEL[ch].component):
+            continue  # a transmitter only on a part the machine has (a hose line)
+        out.setdefault(ch, replace(out["p_a"], channel=ch))  # the paper's part, on this line
         out[ch] = sized(
             ch,
             f"pressure transmitter 0-{p_hi / 1e5:g} bar",
