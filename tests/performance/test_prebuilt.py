@@ -47,6 +47,7 @@ print(json.dumps({"loaded": d._cache.load_overload(sig, d.targetctx) is not None
 
 
 def _built() -> dict:
+    assert BUILD.is_file(), f"{BUILD} is missing: {REBUILD}"
     return json.loads(BUILD.read_text())
 
 
@@ -65,6 +66,8 @@ def test_shipped_entries_are_built_from_the_current_sources():
 
 
 def _matches_this_python() -> bool:
+    if not BUILD.is_file():  # reported by the first test, not at collection
+        return False
     b = _built()
     return (b["numba"], b["python"].rsplit(".", 1)[0], b["machine"]) == (
         numba.__version__,
