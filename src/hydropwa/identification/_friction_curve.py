@@ -326,7 +326,7 @@ def _profile_shape(
     that parameter held at points walked outward from the optimum in steps of a fifth of
     its bounded range (log χ, δ, log γ; γ from ``g_low`` [s/m] unless the caller bounds
     it), each started from its neighbour's fit, until a fit is significantly worse or the
-    bound is reached; that edge is bisected four times, and each parameter's interval
+    bound is reached; that edge is found by false position (:func:`_edge`), and each parameter's interval
     becomes the envelope of the intervals of every held value whose fit is not
     significantly worse (ΔSSR/s² ≤ χ²₁(95 %) = 3.84), the held parameter's own interval
     the accepted range; std = half-width / q. The curve's band (:attr:`StribeckFit.band`)
@@ -360,7 +360,11 @@ def _profile_shape(
     # least-squares optimum of the same starts)
     cap = ssr0 + 2.0 * 3.84 * s2
 
-    def trial(i: int, name: str, x: float, near: StribeckFit) -> StribeckFit | None:
+    limit = 3.84 * s2  # ΔSSR of a held shape that fits as well (χ²₁ 95 %)
+
+    def trial(i: int, name: str, x: float, near: StribeckFit) -> tuple[StribeckFit | None, float]:
+        """The fit with the shape held at x (None where it is significantly worse) and its
+        ΔSSR − limit (≤ 0: accepted; a capped fit's is an upper bound)."""
         nonlocal nfev
         val = 10.0**x if i in (3, 5) else x
         at = dataclasses.replace(
@@ -368,7 +372,8 @@ def _profile_shape(
         )
         fit = _fit_stribeck_bounded(v, f, at)
         nfev += fit.status.nfev
-        return None if float(np.sum(fit.residuals**2)) - ssr0 > 3.84 * s2 else fit
+        g = float(np.sum(fit.residuals**2)) - ssr0 - limit
+        return (None if g > 0.0 else fit), g
 
     for i, name in _SHAPE:
         if name in fixed:
@@ -377,23 +382,15 @@ def _profile_shape(
         h = (ub[i] - lb[i]) / 5.0
         for side, end in ((-1.0, lb[i]), (1.0, ub[i])):
             # walked outward from the optimum, each point started from its neighbour's fit
-            x_in, near = float(th0[i]), best
+            x_in, near, g_in = float(th0[i]), best, -limit
             while side * (end - x_in) > 1e-9:
                 x = float(np.clip(x_in + side * h, min(lb[i], ub[i]), max(lb[i], ub[i])))
-                fit = trial(i, name, x, near)
+                fit, g = trial(i, name, x, near)
                 tried.append((x, fit))
                 if fit is None:
-                    x_out = x
-                    for _ in range(4):  # the edge to within 1/16 of a step
-                        mid = 0.5 * (x_in + x_out)
-                        got = trial(i, name, mid, near)
-                        tried.append((mid, got))
-                        if got is None:
-                            x_out = mid
-                        else:
-                            x_in, near = mid, got
+                    _edge(lambda y, nr: trial(i, name, y, nr), x_in, g_in, near, x, g, tried)
                     break
-                x_in, near = x, fit
+                x_in, near, g_in = x, fit, g
         ok = [(x, fit) for x, fit in tried if fit is not None]
         used += len(ok) - 1
         for _x, fit in ok:
@@ -418,6 +415,39 @@ def _profile_shape(
     return dataclasses.replace(
         best, estimates=est, status=status, weak=weak, band=band, unidentified=unidentified
     )
+
+
+#: fits that locate each profile edge (regula falsi, Illinois variant, on ΔSSR − 3.84 s²)
+EDGE_TRIALS = 3
+
+
+def _edge(trial, x_in, g_in, near, x_out, g_out, tried) -> None:
+    """Locate the edge of the accepted shapes between ``x_in`` (accepted, ΔSSR − limit
+    ``g_in`` ≤ 0) and ``x_out`` (rejected, ``g_out`` > 0) in :data:`EDGE_TRIALS` fits, each
+    appended to ``tried``.
+
+    Near an edge the other parameters move fast with the held one (the paper rig's seed 20:
+    F_s's upper end is 175.0 N at γ = 1325, the edge at ≈ 1290, and ~169 N a sixteenth of a
+    walking step inside), so the envelope needs a fit close to the edge. ΔSSR is smooth in
+    the held value: false position on it lands there in a few fits where bisection (four
+    halvings, 1/16 of a step) stopped short and left the truth 174.8 N outside the envelope
+    on one CPU and inside on another. The Illinois variant halves a retained end's value so
+    that neither end stalls; a step is kept a tenth of the bracket inside either end.
+    """
+    side_kept = 0
+    for _ in range(EDGE_TRIALS):
+        frac = g_in / (g_in - g_out) if g_out > g_in else 0.5
+        mid = x_in + float(np.clip(frac, 0.1, 0.9)) * (x_out - x_in)
+        got, g = trial(mid, near)
+        tried.append((mid, got))
+        if got is None:
+            x_out, g_out = mid, g
+            g_in = 0.5 * g_in if side_kept == -1 else g_in
+            side_kept = -1
+        else:
+            x_in, g_in, near = mid, g, got
+            g_out = 0.5 * g_out if side_kept == 1 else g_out
+            side_kept = 1
 
 
 def _widened(
