@@ -9,6 +9,7 @@ is linear in (F_c, F_s, σ), which gives each start its linear part exactly.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any
 
 import numpy as np
@@ -388,7 +389,8 @@ def _profile_shape(
                 fit, g = trial(i, name, x, near)
                 tried.append((x, fit))
                 if fit is None:
-                    _edge(lambda y, nr: trial(i, name, y, nr), x_in, g_in, near, x, g, tried)
+                    at_held = functools.partial(trial, i, name)
+                    _edge(at_held, x_in, g_in, near, x, g, tried)
                     break
                 x_in, near, g_in = x, fit, g
         ok = [(x, fit) for x, fit in tried if fit is not None]
