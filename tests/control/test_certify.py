@@ -166,3 +166,25 @@ def test_design_certify_refuses_to_write_an_uncertified_design(tmp_path):
     assert not out.exists()
     pi = CliRunner().invoke(app, [*argv[:-2], "--method", "pi", "--out", str(out)])
     assert pi.exit_code == 2 and "--certify needs" in pi.output
+
+
+def test_cli_soundness_samples_grow_the_bound(tmp_path, default, paper):
+    """``control certify --soundness-samples N``: the disturbance set checked on the full model
+    one sample at a time and grown (the band-free law, which certifies); with samples the
+    bound can only grow (the grown set holds the nominal one), and a negative count is one
+    usage error (exit 2)."""
+    dz = dataclasses.replace(default.dead_zone_inverse, integral_band=0.0)
+    path = tmp_path / "ctrl.toml"
+    save_controller(
+        dataclasses.replace(default, dead_zone_inverse=dz), path, machine_parameters=paper
+    )
+    bounds = {}
+    for n in (0, 6):
+        argv = ["control", "certify", str(path), "--soundness-samples", str(n)]
+        res = CliRunner().invoke(app, argv)
+        assert res.exit_code in (0, 1), res.output
+        line = next(ln for ln in res.output.splitlines() if "ultimate bound ē" in ln)
+        bounds[n] = float(line.split("ē = ")[1].split(" mm")[0])
+    assert np.isfinite(bounds[0]) and bounds[6] >= bounds[0]
+    bad = CliRunner().invoke(app, ["control", "certify", str(path), "--soundness-samples", "-1"])
+    assert bad.exit_code == 2

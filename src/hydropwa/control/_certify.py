@@ -248,7 +248,12 @@ class Certificate:
         head = f"certificate: {'certified' if self.success else 'NOT certified'} ({self.message})"
         if not self.success:
             rows = ", ".join(self.failing_rows[:8]) + (" …" if len(self.failing_rows) > 8 else "")
-            return head + (f"\n  failing rows: {rows}" if rows else "")
+            bound = (
+                f"\n  ultimate bound ē = {self.e_bar * 1e3:.3f} mm (not certified)"
+                if np.isfinite(self.e_bar)
+                else ""
+            )
+            return head + bound + (f"\n  failing rows: {rows}" if rows else "")
         e, v, p = self.box
         return (
             f"{head}\n  ultimate bound ē = {self.e_bar * 1e3:.3f} mm; region box |e| ≤ "
