@@ -135,8 +135,8 @@ def test_coulomb_and_static_friction_found_from_sine_runs():
     # (seeds 1–3 without the stage: F_c +2.4, +10.4, −6.8 %, intervals widened by the scan to
     # hold it); with it −1.3, −3.0, −1.6 %, inside intervals from −9.6 … +7.1 % to
     # −12.6 … +7.6 % of the truth
-    assert fit.sliding_["held"] == ["friction.static"]
-    assert "friction.coulomb" in fit.sliding_["parameters"]
+    assert fit.sliding_.held == ("friction.static",)
+    assert "friction.coulomb" in fit.sliding_.parameters
     assert fit.estimates_["friction.coulomb"].value == pytest.approx(
         _value(truth, "friction.coulomb"), rel=0.05
     )

@@ -103,17 +103,19 @@ def test_sliding_stage_refits_all_but_the_breakaway_parameters(truth, friction_f
     three, at +1.5 % and +0.6 %)."""
     fit = friction_fit
     sl = fit.sliding_
-    assert sl["parameters"] == ["friction.coulomb", "friction.viscous"]
-    assert sl["held"] == ["friction.static"]
-    assert sl["v_min"] == pytest.approx(2.0 * truth.friction.stribeck_velocity, rel=1e-12)
-    assert sl["stretches"] >= 4 and sl["runs"] == ["s20", "s40"]
-    assert fit.params_.meta["greybox"]["sliding"]["stretches"] == sl["stretches"]
+    assert sl.applied and sl.parameters == ("friction.coulomb", "friction.viscous")
+    assert sl.held == ("friction.static",)
+    assert sl.v_min == pytest.approx(2.0 * truth.friction.stribeck_velocity, rel=1e-12)
+    assert sl.stretches >= 4 and sl.runs == ("s20", "s40")
+    meta = fit.params_.meta["greybox"]["sliding"]
+    assert meta["stretches"] == sl.stretches and meta["held"] == ["friction.static"]
+    assert "runs" not in meta and sl.to_dict() == meta
     for n, tol in zip(FRICTION, (0.10, 0.05, 0.03), strict=True):
         comp, fld = n.split(".")
         true = getattr(getattr(truth, comp), fld)
         e = fit.estimates_[n]
         assert e.value == pytest.approx(true, rel=tol), n
-        if n in sl["parameters"]:
+        if n in sl.parameters:
             assert e.ci[0] <= true <= e.ci[1], n
     # the fitted parameter set holds the sliding stage's values; the tables say which stage
     assert fit.params_.friction.coulomb == fit.estimates_["friction.coulomb"].value
@@ -176,9 +178,9 @@ def test_sliding_stage_off_or_not_applicable(truth, reversing_runs):
             shooting=Shooting(method="multiple", max_windows=10),
             **quick,
         )
-    assert off.sliding_ == {}
+    assert not off.sliding_.applied and off.sliding_.skipped == ""
     assert "sliding" not in off.params_.meta["greybox"]
-    assert "too few" in windows.sliding_["skipped"]
+    assert not windows.sliding_.applied and "too few" in windows.sliding_.skipped
 
 
 def test_sliding_stage_on_an_industrial_axis():
@@ -222,8 +224,8 @@ def test_sliding_stage_on_an_industrial_axis():
                 nuisance_draws=8,
                 x_scale=xs,
             )
-        assert fit.sliding_["parameters"] == ["friction.coulomb", "friction.viscous"]
-        assert fit.sliding_["v_min"] == pytest.approx(0.04)
+        assert fit.sliding_.parameters == ("friction.coulomb", "friction.viscous")
+        assert fit.sliding_.v_min == pytest.approx(0.04)
         for n, tol in zip(FRICTION, (0.05, 0.02, 0.03), strict=True):
             true = getattr(truth.friction, n.split(".")[1])
             e = fit.estimates_[n]

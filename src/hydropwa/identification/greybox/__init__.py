@@ -21,7 +21,15 @@ from .campaign import CampaignFit, fit_campaign
 from .data import Shooting, noise_level
 from .estimator import FitOptions, fit_model
 from .problem import JOINT_GROUPS, PARAMETER_GROUPS, GreyBoxProblem, expand_free
-from .result import FitStatus, GreyBoxFit, Identifiability, Profile, RunFit, StageResult
+from .result import (
+    FitStatus,
+    GreyBoxFit,
+    Identifiability,
+    Profile,
+    RunFit,
+    SlidingSummary,
+    StageResult,
+)
 from .selection import Selection
 from .stages import FitProgress
 from .uncertainty import autocorrelation_time
@@ -41,6 +49,7 @@ __all__ = [
     "RunFit",
     "Selection",
     "Shooting",
+    "SlidingSummary",
     "StageResult",
     "Validation",
     "autocorrelation_time",

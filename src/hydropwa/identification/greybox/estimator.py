@@ -36,7 +36,7 @@ from .problem import PARAMETER_GROUPS, GreyBoxProblem, expand_free
 from .profile import ProfileTask, carry
 from .profile import profile as _profile
 from .report import fitted_params, identifiability, run_fits
-from .result import GreyBoxFit, Profile
+from .result import GreyBoxFit, Profile, SlidingSummary
 from .selection import Selection, restrict, spans
 from .sliding import BREAKAWAY, Sliding, SlidingSettings, sliding_runs, sliding_stage
 from .stages import STICK, FitProgress, StagePlan, StartResult, theta_starts
@@ -890,7 +890,7 @@ def fit_model(
         est = _at_optimum(plan, best, opts)
         got = _sliding(est, plan, data, opts)
         stages = best.stages + ([got.stage] if isinstance(got, Sliding) else [])
-        sliding_info = got.info if isinstance(got, Sliding) else (got or {})
+        sliding = SlidingSummary.from_info(got.info if isinstance(got, Sliding) else got)
         _warn_unconverged(est)
         names = problem.names
         undetermined = _undetermined(est)
@@ -916,11 +916,7 @@ def fit_model(
         "runs": [rd.name for rd in data.prepared],
         "cost": float(sol.cost),
         "status": int(sol.status),
-        **(
-            {"sliding": {k: v for k, v in sliding_info.items() if k != "runs"}}
-            if sliding_info
-            else {}
-        ),
+        **({"sliding": sliding.to_dict()} if sliding.to_dict() else {}),
     }
     fitted = fitted_params(plan.full, est.values, data.base_model, est.estimates, info)
     fits = run_fits(plan.full, est.values, est.cv.taus)
@@ -939,7 +935,7 @@ def fit_model(
         cost=float(sol.cost), initial_cost=float(best.initial_cost), runs_=fits,
         profiles_=profiles, identifiability_=ident, starts_=logs, model=data.base_model.name,
         skipped_=data.skipped, wall_time=time.perf_counter() - t0, level=opts.level,
-        interval_scan_=est.scan, widened_=est.widened, sliding_=sliding_info, stages_=stages,
+        interval_scan_=est.scan, widened_=est.widened, sliding_=sliding, stages_=stages,
         data_=data.notes, validation_=checked,
     )  # fmt: skip
 

@@ -28,6 +28,7 @@ __all__ = [
     "Identifiability",
     "Profile",
     "RunFit",
+    "SlidingSummary",
     "StageResult",
     "StartRecord",
 ]
@@ -264,6 +265,72 @@ class Identifiability:
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
+class SlidingSummary:
+    """What the sliding stage did (``GreyBoxFit.sliding_``; ``sliding`` of :func:`fit_model`).
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        Refitted on the sliding stretches (empty: the stage did not run).
+    held : tuple of str
+        Breakaway parameters held at the full fit's values.
+    v_min : float
+        Speed above which a stretch slides [m/s] (NaN: not run).
+    stretches : int
+        Sliding stretches fitted.
+    runs : tuple of str
+        The runs they come from.
+    cost, nfev, njev, status
+        The stage's own least-squares outcome (scipy's status code).
+    remaining_std : float
+        The largest Gauss–Newton step still left, in standard deviations (above 1 the
+        parameter is listed as unconverged).
+    skipped : str
+        Why the stage did not apply ("" where it ran or was not asked for: F_c fixed or
+        ``sliding=False``).
+    """
+
+    parameters: tuple[str, ...] = ()
+    held: tuple[str, ...] = ()
+    v_min: float = float("nan")
+    stretches: int = 0
+    runs: tuple[str, ...] = ()
+    cost: float = float("nan")
+    nfev: int = 0
+    njev: int = 0
+    status: int = 0
+    remaining_std: float = float("nan")
+    skipped: str = ""
+
+    @property
+    def applied(self) -> bool:
+        """Whether the stage ran (it refitted parameters)."""
+        return bool(self.parameters)
+
+    @classmethod
+    def from_info(cls, info: dict[str, Any] | None) -> SlidingSummary:
+        """From the stage's plain record (:func:`~.sliding.sliding_stage`'s ``info``, or its
+        ``{"skipped": reason}``; None or empty: not asked for)."""
+        info = dict(info or {})
+        for key in ("parameters", "held", "runs"):
+            if key in info:
+                info[key] = tuple(info[key])
+        unknown = set(info) - {f.name for f in dataclasses.fields(cls)}
+        if unknown:
+            raise ValueError(f"unknown sliding-stage fields: {', '.join(sorted(unknown))}")
+        return cls(**info)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values for metadata (``params_.meta["greybox"]["sliding"]``): the fields that
+        apply (the run list left out); empty when the stage was not asked for."""
+        if self.applied:
+            out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+            del out["runs"], out["skipped"]
+            return {k: list(v) if isinstance(v, tuple) else v for k, v in out.items()}
+        return {"skipped": self.skipped} if self.skipped else {}
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class GreyBoxFit(DerivedResult):
     """Result of :func:`fit_model` (keyword-only; its outcome is derived from ``stages_``).
 
@@ -324,14 +391,10 @@ class GreyBoxFit(DerivedResult):
         Parameters whose interval the scan widened: the cost along their own valley rose
         slower than the quadratic, or a point scanned along another's valley lay within
         their threshold further out.
-    sliding_ : dict
-        The sliding stage (``sliding`` of :func:`fit_model`): ``parameters`` refitted on
-        the sliding stretches, ``held`` breakaway parameters, ``v_min`` [m/s], number of
-        ``stretches``, their ``runs``, the stage's own ``cost``, ``nfev``, ``njev`` and
-        ``status``, and ``remaining_std`` (the largest Gauss–Newton step still left, in
-        standard deviations; above 1 the parameter is listed as unconverged); or
-        ``skipped`` with the reason it did not apply; empty when not asked for (F_c fixed
-        or ``sliding=False``).
+    sliding_ : SlidingSummary
+        The sliding stage (``sliding`` of :func:`fit_model`): the parameters refitted on the
+        sliding stretches, the breakaway parameters held, its own optimiser outcome; or why
+        it was skipped (:class:`SlidingSummary`; its defaults when not asked for).
     stages_ : list of StageResult
         The best start's stages in order (locating, coarse, full, sliding), each with its
         own status: ``status`` and ``success`` follow from the full and the sliding stage.
@@ -362,7 +425,7 @@ class GreyBoxFit(DerivedResult):
     level: float = 0.95
     interval_scan_: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     widened_: list[str] = dataclasses.field(default_factory=list)
-    sliding_: dict[str, Any] = dataclasses.field(default_factory=dict)
+    sliding_: SlidingSummary = dataclasses.field(default_factory=SlidingSummary)
     data_: list[str] = dataclasses.field(default_factory=list)
     validation_: Any = None
 
@@ -439,7 +502,7 @@ class GreyBoxFit(DerivedResult):
                     "inflation": float(self.inflation_[i]),
                     "weak": n in self.identifiability_.weak,
                     "widened": n in self.widened_,
-                    "stage": "sliding" if n in self.sliding_.get("parameters", ()) else FULL_STAGE,
+                    "stage": "sliding" if n in self.sliding_.parameters else FULL_STAGE,
                 }
             )
         return pd.DataFrame(rows).set_index("parameter")
@@ -488,18 +551,14 @@ class GreyBoxFit(DerivedResult):
                 + "."
             )
         sl = self.sliding_
-        if sl.get("parameters"):
+        if sl.applied:
             lines.append(
-                f"Sliding stage: {', '.join(sl['parameters'])} refitted on {sl['stretches']} "
-                f"stretches above {1e3 * sl['v_min']:.3g} mm/s"
-                + (
-                    f", {', '.join(sl['held'])} held at the full fit's values."
-                    if sl["held"]
-                    else "."
-                )
+                f"Sliding stage: {', '.join(sl.parameters)} refitted on {sl.stretches} "
+                f"stretches above {1e3 * sl.v_min:.3g} mm/s"
+                + (f", {', '.join(sl.held)} held at the full fit's values." if sl.held else ".")
             )
-        elif sl.get("skipped"):
-            lines.append(f"Sliding stage not applied: {sl['skipped']}.")
+        elif sl.skipped:
+            lines.append(f"Sliding stage not applied: {sl.skipped}.")
         if self.widened_:
             lines.append(
                 "Widened by the interval scan (the cost stays within the threshold beyond "
