@@ -267,15 +267,15 @@ def sine_case(args: argparse.Namespace) -> None:
             f"| {n} | {tv:.4g} | {START[n] * tv:.4g} | {e.value:.4g} | {100 * (e.value / tv - 1):+.2f} % | "
             f"[{e.ci[0]:.4g}, {e.ci[1]:.4g}] | {'yes' if e.ci[0] <= tv <= e.ci[1] else 'no'} |"
         )
-    if fit.sliding_.get("parameters"):
-        sl = fit.sliding_
+    sl = fit.sliding_
+    if sl.applied:
         print(
-            f"\nsliding stage: {', '.join(sl['parameters'])} refitted on {sl['stretches']} stretches "
-            f"above {1e3 * sl['v_min']:.3g} mm/s ({sl['nfev']} evaluations), "
-            f"{', '.join(sl['held']) or 'nothing'} held"
+            f"\nsliding stage: {', '.join(sl.parameters)} refitted on {sl.stretches} stretches "
+            f"above {1e3 * sl.v_min:.3g} mm/s ({sl.nfev} evaluations), "
+            f"{', '.join(sl.held) or 'nothing'} held"
         )
-    elif fit.sliding_:
-        print(f"\nsliding stage skipped: {fit.sliding_['skipped']}")
+    elif sl.skipped:
+        print(f"\nsliding stage skipped: {sl.skipped}")
     if fit.widened_:
         print(
             "\nwidened by the interval scan (the cost within the threshold beyond the quadratic interval): "
