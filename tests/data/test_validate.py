@@ -198,3 +198,20 @@ def test_declared_fs_mismatch_is_a_warning(clean_run):
     issues = check_run(clean_run.replace(fs=500.0))
     assert [(i.code, i.severity) for i in issues] == [("fs_mismatch", "warning")]
     assert validate_run(clean_run.replace(fs=500.0)).issues == issues
+
+
+def test_a_huge_value_on_a_flat_channel_is_an_issue_not_an_overflow(make_run):
+    """A channel at one value except a sample of 1.2e154 (found by the fuzz test): the spike
+    check's spread (the MAD is 0 there) no longer overflows the sum of squares; the value is
+    reported by the range check like any implausible number."""
+    import warnings
+
+    run = make_run("huge")
+    chans = dict(run.channels)
+    f = np.full_like(chans["f_l"], 100.0)
+    f[50] = 1.2067969983934732e154
+    chans["f_l"] = f
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        issues = check_run(Run("huge", chans, run.units, fs=run.fs))
+    assert any(i.channel == "f_l" for i in issues)

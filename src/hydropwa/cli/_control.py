@@ -934,7 +934,6 @@ def certify_command(
         int,
         typer.Option(
             "--soundness-samples",
-            min=0,
             help="Check the disturbance set one sample at a time on the full model over N "
             "(state, command) pairs and grow it to what they need (the PWA's error and the "
             "flow's curvature); 0 (default): not checked, listed as not modelled. About a "

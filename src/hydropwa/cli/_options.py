@@ -324,6 +324,9 @@ NUMBER_RANGES: dict[str, Range] = {
         0.0, 0.8, "the share of the runs held out of the fit; 0.2 holds out one in five"
     ),
     "--draws": Range(1, 1000, "the parameter draws of the verification; default 4"),
+    "--soundness-samples": Range(
+        0, 100_000, "the (state, command) pairs of the certificate's one-step check; 0: off"
+    ),
     "--seed": Range(0, 2**32 - 1, "a random seed, a non-negative integer below 2^32"),
     "--jobs": Range(1, 1024, "the number of workers"),
     "--dead-zone-hysteresis": Range(0.0, 0.5, "a share of the opening, e.g. 0.005"),

@@ -7,6 +7,7 @@ raises on errors and repairs only what its flags ask for.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Mapping
 
 import numpy as np
@@ -553,8 +554,11 @@ def _check_spikes(run: Run, channel: str, factor: float) -> list[Issue]:
     med = np.median(d[ok])
     scale = 1.4826 * float(np.median(np.abs(d[ok] - med)))
     if scale == 0.0:
-        scale = float(np.std(d[ok]))
-    if scale == 0.0:
+        # the spread scaled by the largest deviation first: values near 1e154 would overflow
+        # the sum of squares (a fuzzed file; such a channel also fails its plausible range)
+        big = float(np.max(np.abs(d[ok] - med)))
+        scale = big * float(np.std((d[ok] - med) / big)) if big > 0.0 else 0.0
+    if not scale > 0.0 or not math.isfinite(scale):
         return []
     spread = np.abs(v[2:] - v[:-2])
     hit = ok & (np.abs(d - med) > factor * scale) & (spread < np.abs(d) / 3.0)
