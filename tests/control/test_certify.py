@@ -170,9 +170,8 @@ def test_design_certify_refuses_to_write_an_uncertified_design(tmp_path):
 
 def test_cli_soundness_samples_grow_the_bound(tmp_path, default, paper):
     """``control certify --soundness-samples N``: the disturbance set checked on the full model
-    one sample at a time and grown (the band-free law, which certifies); with samples the
-    bound can only grow (the grown set holds the nominal one), and a negative count is one
-    usage error (exit 2)."""
+    one sample at a time and grown (the band-free law); with samples the bound grows (the
+    grown set holds the nominal one), and a negative count is one usage error (exit 2)."""
     dz = dataclasses.replace(default.dead_zone_inverse, integral_band=0.0)
     path = tmp_path / "ctrl.toml"
     save_controller(
@@ -185,6 +184,8 @@ def test_cli_soundness_samples_grow_the_bound(tmp_path, default, paper):
         assert res.exit_code in (0, 1), res.output
         line = next(ln for ln in res.output.splitlines() if "ultimate bound ē" in ln)
         bounds[n] = float(line.split("ē = ")[1].split(" mm")[0])
-    assert np.isfinite(bounds[0]) and bounds[6] >= bounds[0]
+    # measured 2.975 → 3.978 mm: the one-step check grows the Ṗ_L row's bound, so a run
+    # that ignored the option (equal bounds) fails
+    assert np.isfinite(bounds[0]) and bounds[6] > 1.05 * bounds[0]
     bad = CliRunner().invoke(app, ["control", "certify", str(path), "--soundness-samples", "-1"])
     assert bad.exit_code == 2

@@ -936,8 +936,8 @@ def certify_command(
             "--soundness-samples",
             help="Check the disturbance set one sample at a time on the full model over N "
             "(state, command) pairs and grow it to what they need (the PWA's error and the "
-            "flow's curvature); 0 (default): not checked, listed as not modelled. About a "
-            "second per 10 pairs.",
+            "flow's curvature); 0 (default): not checked, listed as not modelled. About 0.2 s "
+            "per pair on the paper rig.",
         ),
     ] = 0,
     write: Annotated[

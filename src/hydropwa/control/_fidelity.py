@@ -240,9 +240,9 @@ def closed_loop_fidelity(
     """
     import pandas as pd  # deferred: pandas costs ~0.3 s at import
 
-    params = case.get("params") or pwa.params
-    if models is None:
-        models = kinds_for(params)
+    if models is None:  # the kinds this machine has (compare_models says when none is given)
+        machine = case.get("params") or getattr(pwa, "params", None)
+        models = kinds_for(machine) if machine is not None else FIDELITY_MODELS
     results, _ = compare_models(controller, reference, models=tuple(models), pwa=pwa, **case)
     holds = {name: hold_oscillations(res) for name, res in results.items()}
     full = holds.get(FULL_KIND.name)
@@ -267,6 +267,7 @@ def closed_loop_fidelity(
         max_hold="mm", ratio_to_full="1", iae="mm·s", max_following_error="mm", saturation="%"
     )
     table.attrs["units"] = units
+    params = case.get("params") or pwa.params
     if pwa is None and PWA_KIND.name in results:
         pwa = linearize(params)  # the default PWA model of compare_models
     table.attrs["warnings"] = model_warnings(

@@ -161,6 +161,13 @@ def _accept_state(n, y, f0, ynew, fnew):
 
 
 @njit(**INLINE_NRT_JIT)
+def _sample_stop(k_smp, n_smp, t_out, t_end, dt_smp):
+    """Where the steps end next: sample instant k_smp (t_0 + k·T_s, at most t_end), or t_end
+    once every sample is taken."""
+    return min(t_end, t_out[0] + k_smp * dt_smp) if k_smp < n_smp else t_end
+
+
+@njit(**INLINE_NRT_JIT)
 def _first_sample(kind, t, t_out, t_end, y, p, sg, loop, closed, n_smp, dt_smp):
     """Closed loop: the sample at t_0; returns (samples done, the first steps' end)."""
     ctl, cst, ref, dref, log = loop
@@ -169,8 +176,7 @@ def _first_sample(kind, t, t_out, t_end, y, p, sg, loop, closed, n_smp, dt_smp):
     if closed:  # first sample at t_0, the next one ends the first steps
         _sample(kind, 0, t, y, p, ctl, cst, ref, dref, sg, log)
         k_smp = 1
-        if k_smp < n_smp:
-            t_stop = min(t_end, t_out[0] + k_smp * dt_smp)
+        t_stop = _sample_stop(k_smp, n_smp, t_out, t_end, dt_smp)
     return k_smp, t_stop
 
 
@@ -187,7 +193,7 @@ def _sample_if_due(kind, k_smp, t, t_stop, t_out, t_end, y, f0, p, sg, loop, clo
         t = t_stop
         _sample(kind, k_smp, t, y, p, ctl, cst, ref, dref, sg, log)
         k_smp += 1
-        t_stop = min(t_end, t_out[0] + k_smp * dt_smp) if k_smp < n_smp else t_end
+        t_stop = _sample_stop(k_smp, n_smp, t_out, t_end, dt_smp)
         u, ps, fl = _inputs(t, sg)
         _rhs_for(kind, y, u, ps, fl, p, f0)
         nfev = 1

@@ -916,7 +916,7 @@ def fit_model(
         "runs": [rd.name for rd in data.prepared],
         "cost": float(sol.cost),
         "status": int(sol.status),
-        **({"sliding": sliding.to_dict()} if sliding.to_dict() else {}),
+        **({"sliding": sliding.to_dict()} if sliding.applied or sliding.skipped else {}),
     }
     fitted = fitted_params(plan.full, est.values, data.base_model, est.estimates, info)
     fits = run_fits(plan.full, est.values, est.cv.taus)
