@@ -146,9 +146,9 @@ def press(speed: float = 0.1) -> None:
     print(f"(designs: {time.process_time() - t0:.1f} CPU-s)")
     print(
         "| force law | hold max err % (from 0.1 s) | hold mean err % | overshoot % | jump at contact % | "
-        "jump at release % | largest step % | lowest chamber bar |"
+        "jump at release % | steps after contact / release % | largest step % | lowest chamber bar |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for name, law in laws.items():
         m = press_cycle(prm, position, law, PressSpec(speed=speed), sensor_noise=NOISE).metrics
         if name == "law":  # the same with the position PI (design_pi) as the approach law
@@ -163,6 +163,7 @@ def _press_row(name: str, m: dict) -> None:
     print(
         f"| {name} | {100 * m['hold_error'] / 20e3:.2f} | {100 * m['hold_mean_error'] / 20e3:.3f} | "
         f"{100 * m['overshoot']:.2f} | {100 * m['jump_contact']:.2f} | {100 * m['jump_release']:.2f} | "
+        f"{100 * m['step_after_contact']:.2f} / {100 * m['step_after_release']:.2f} | "
         f"{100 * m['largest_command_step']:.2f} | {m['p_min'] / 1e5:.2f} |",
         flush=True,
     )

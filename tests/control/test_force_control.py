@@ -172,9 +172,12 @@ def test_the_transfer_integral_makes_the_first_command_the_old_laws(rig, designs
 def test_press_cycle_on_the_heavy_axis_transfers_without_a_bump():
     """Heavy axis, 5e7 N/m part, 100 mm approach at 0.1 m/s (position PI), 20 kN in 50 ms held
     0.5 s, release, retract; full model, 20 µm / 0.1 bar noise, one sample of delay. Measured
-    (2026-12-02): overshoot 0.08 %, hold mean error −0.095 %, command step at contact 0.63 %, at
-    release 2.34 % of full opening, lowest chamber 41 bar. Bounds: the issue's 5 %, 1 %, 2 % at
-    contact and 1 bar; at the release 3 % (the issue's 2 % is not met there: measured 2.34 %)."""
+    (2026-12-03): overshoot 0.12 %, hold mean error −0.069 %, largest hold error 0.92 %, the
+    command step at both transfers 0 (the new law's first own command is the old law's last: the
+    integral is chosen on the run's own reference channels and noise, ``law_inputs``), the
+    largest step over the next 10 samples 0.29 % / 0.46 %, lowest chamber 41 bar. Bounds: the
+    issue's 5 %, 1 % (mean and largest), 2 % at each transfer and 1 bar; the transfer steps
+    themselves to 1e-9 of full opening (the dead-zone inverse's round trip of the opening)."""
     from pathlib import Path
 
     from hydropwa import load_params
@@ -188,8 +191,11 @@ def test_press_cycle_on_the_heavy_axis_transfers_without_a_bump():
     m = press_cycle(prm, position, design_force(prm).controller, sensor_noise=NOISE).metrics
     assert m["overshoot"] <= 0.05
     assert abs(m["hold_mean_error"]) <= 0.01 * 20e3
-    assert m["jump_contact"] <= 0.02
-    assert m["jump_release"] <= 0.03
+    assert m["hold_error"] <= 0.01 * 20e3
+    assert m["jump_contact"] <= 1e-9
+    assert m["jump_release"] <= 1e-9
+    assert m["step_after_contact"] <= 0.02
+    assert m["step_after_release"] <= 0.02
     assert m["p_min"] >= 1e5
 
 
@@ -267,3 +273,86 @@ def test_cli_simulates_a_force_controller_on_a_random_reference(rig, designs, tm
     bad = CliRunner().invoke(app, [*args, "--force", "--reference", "random:rms=1 kN,f0=1,f1=10"])
     assert bad.exit_code == 2
     assert "needs duration" in bad.output and bad.output.strip().count("\n") == 0
+
+
+@pytest.mark.skipif(GCC is None, reason="gcc is not installed")
+def test_force_law_fmu_closes_the_loop_on_the_axis_fmu_as_simulate_does(rig, designs, tmp_path):
+    """The force law's controller FMU and the axis FMU (full model with the 1e7 N/m specimen),
+    stepped together by FMPy at the sample time — another tool's loop, no hydropwa simulate in
+    it: 5 ± 2 kN at 5 Hz for 0.3 s from the specimen's contact at 5 kN, exact sensors. The
+    cylinder force follows the package's closed loop (simulate, rtol 1e-8) within 5e-4 of the
+    amplitude, 1 N (the axis FMU integrates with its own step sequence at rtol 1e-8, so the runs
+    agree to the solvers' tolerances, not bit for bit; the bound is a hundred times the measured
+    difference and a fiftieth of the loop's own tracking error, which it must reproduce).
+    Measured (2026-12-03): 0.0097 N apart, the loop's largest tracking error 58 N."""
+    pytest.importorskip("fmpy")
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from hydropwa.control import export_fmu
+    from hydropwa.simulation import export_axis_fmu, law_inputs
+
+    law = designs[0].controller
+    ts = law.sample_time
+    duration = 0.3
+    ref = Sine(amplitude=F_AMP, frequency=5.0, offset=F_MEAN)
+    x0 = X_C + F_MEAN / K_SPEC
+    n = int(np.floor(duration / ts + 1e-9)) + 1
+    tk = ts * np.arange(n)
+    res = simulate(
+        "full",
+        timepts=tk,
+        params=rig,
+        controller=law,
+        reference=ref,
+        initial_position=x0,
+        rtol=1e-8,
+    )
+    assert res.success, res.message
+    a_a, a_b = rig.cylinder.area_a, rig.cylinder.area_b
+    r, rch = law_inputs(law, ref, duration)
+
+    def slave(path, name):
+        md = read_model_description(str(path))
+        unz = extract(str(path))
+        fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=unz,
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
+        return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+    axis, va = slave(export_axis_fmu(rig, tmp_path / "axis.fmu", initial_position=x0), "axis")
+    ctrl, vc = slave(export_fmu(law, tmp_path / "law.fmu"), "law")
+    force = np.empty(n)
+    inputs = ("x", "v", "p_l", "r", "r_rate", "r_rate_ff", "r_acc", "r_rate_pre")
+    rows = (C.RC_DR, C.RC_DRFF, C.RC_DDR, C.RC_DRPO)
+    try:
+        for f in (axis, ctrl):
+            f.instantiate()
+            f.setupExperiment(startTime=0.0)
+            f.enterInitializationMode()
+            f.exitInitializationMode()
+        axis.setReal([va["rtol"]], [1e-8])
+        for k in range(n):
+            x, v, p_a, p_b = axis.getReal([va[c] for c in ("x", "v", "p_a", "p_b")])
+            force[k] = a_a * p_a - a_b * p_b
+            if k == n - 1:
+                break
+            pl = (a_a * p_a - a_b * p_b) / a_a  # the asymmetric P_L the law was designed with
+            vals = [x, v, pl, float(r[k]), *(float(rch[i, k]) for i in rows)]
+            ctrl.setReal([vc[c] for c in inputs], vals)
+            ctrl.doStep(currentCommunicationPoint=float(tk[k]), communicationStepSize=ts)
+            (u,) = ctrl.getReal([vc["u"]])
+            axis.setReal([va["u"]], [u])
+            axis.doStep(currentCommunicationPoint=float(tk[k]), communicationStepSize=ts)
+    finally:
+        for f in (axis, ctrl):
+            f.terminate()
+            f.freeInstance()
+    want = np.asarray(res["force"], dtype=float)
+    err = float(np.max(np.abs(force - want)))
+    track = float(np.max(np.abs(want[tk > 0.1] - ref(tk[tk > 0.1]))))
+    assert err <= 5e-4 * F_AMP, f"FMU loop off by {err:.3g} N (loop's tracking error {track:.3g} N)"
+    assert track > 10 * err  # the comparison resolves the loop's own error

@@ -28,12 +28,13 @@ from typing import Any
 import numpy as np
 
 from .._layout import FULL_KIND, Y_FULL
-from ..simulation import Sampled, simulate
+from ..simulation import Sampled, law_inputs, simulate
 from ..simulation import _controller as C
 from ._controllers import ControlError
 from ._reference import MotionProfile
 
 __all__ = [
+    "AFTER_TRANSFER",
     "CREEP_GAP",
     "HOLD_SETTLE",
     "PressCycle",
@@ -46,17 +47,30 @@ __all__ = [
 CREEP_GAP = 1e-3
 #: the hold's metrics are read from this long [s] after the end of the ramp on
 HOLD_SETTLE = 0.1
+#: the metrics ``step_after_*``: the largest command step over this many samples after a transfer
+AFTER_TRANSFER = 10
 
 
-def transfer_integral(controller, y, r: float, rates: tuple[float, float, float], areas, u0, c0):
+def transfer_integral(
+    controller, y, r: float, rates: tuple[float, float, float], areas, u0, c0, *, channels=None
+):
     """The integral [output unit·s] with which ``controller``'s first command at state ``y``
-    (full model), reference ``r`` and reference rates (ṙ, ṙ_ff, r̈) is the opening ``c0``."""
+    (full model), reference ``r`` and reference rates (ṙ, ṙ_ff, r̈) is the opening ``c0``.
+
+    ``channels``: the run's whole first column of reference channels instead of ``rates`` (the
+    look-ahead rates and the first sample's sensor noise as the run will draw them, from
+    :func:`hydropwa.simulation.law_inputs`); with it the first command is ``c0`` in the run
+    itself, not only in a noise-free replay without look-ahead.
+    """
     probe = dataclasses.replace(controller, transfer=(0.0, u0, c0))
     ctl = probe.pack()
     cst = np.zeros(C.N_CST)
     log = np.zeros((C.N_LOG, 1))
     rch = np.zeros((C.N_RCH, 1))
-    rch[C.RC_DR, 0], rch[C.RC_DRFF, 0], rch[C.RC_DDR, 0] = rates
+    if channels is None:
+        rch[C.RC_DR, 0], rch[C.RC_DRFF, 0], rch[C.RC_DDR, 0] = rates
+    else:
+        rch[:, 0] = np.asarray(channels, dtype=float)
     sg = np.zeros(32)
     C.controller_sample(
         0, 0, 0.0, np.asarray(y, float), areas[0], areas[1], ctl, cst, np.array([r]), rch, sg, log
@@ -85,12 +99,16 @@ def _opening(ctrl, u: float) -> float:
     return float(C.spool_opening(u, 0.0, ctrl.pack())[0])
 
 
-def _handover(prev, ctrl, r0: float, rates, cyl):
-    """``ctrl`` set to take over from the run ``prev``: its last command, the matching integral."""
+def _handover(prev, ctrl, ref, duration: float, noise, seed, cyl):
+    """``ctrl`` set to take over from the run ``prev`` for a run of ``duration`` [s] on ``ref``:
+    its last command, and the integral that makes its first command that command as the run's
+    law will see it (the reference's look-ahead rates and the first sample's noise included)."""
     u0 = float(prev.control["u"][-1])
     c0 = _opening(ctrl, u0)
     y = prev.states[-1]
-    i0 = transfer_integral(ctrl, y, r0, rates, (cyl.area_a, cyl.area_b), u0, c0)
+    r, rch = law_inputs(ctrl, ref, duration, sensor_noise=noise, seed=seed)
+    areas = (cyl.area_a, cyl.area_b)
+    i0 = transfer_integral(ctrl, y, float(r[0]), (0.0, 0.0, 0.0), areas, u0, c0, channels=rch[:, 0])
     return dataclasses.replace(ctrl, transfer=(i0, u0, c0)), y
 
 
@@ -186,7 +204,7 @@ def press_cycle(
     times = np.array([0.0, t_up, t_hold, t_hold + ramp_time, t_hold + ramp_time + 0.01])
     forces = np.array([f0, force, force, contact_force, contact_force])
     ref_f = Sampled(times, forces)
-    fl, y = _handover(a, force_law, f0, (force / ramp_time, force / ramp_time, 0.0), cyl)
+    fl, y = _handover(a, force_law, ref_f, float(times[-1]), sensor_noise, seed + 1, cyl)
     b = _run(params, fl, ref_f, float(times[-1]), y, sensor_noise, seed + 1)
     x_b = float(b.states[-1][Y_FULL["x"]])
     back = MotionProfile(
@@ -196,8 +214,9 @@ def press_cycle(
         max_velocity=speed,
         max_acceleration=2.0,
     )
-    pos, y = _handover(b, position, x_b, (0.0, 0.0, 0.0), cyl)
-    c = _run(params, pos, back, back.duration + 0.2, y, sensor_noise, seed + 2)
+    t_c = back.duration + 0.2
+    pos, y = _handover(b, position, back, t_c, sensor_noise, seed + 2, cyl)
+    c = _run(params, pos, back, t_c, y, sensor_noise, seed + 2)
     t_a = float(a["t"][-1])
     return PressCycle(
         [a, b, c], [t_a, t_a + float(times[-1])], _metrics(a, b, c, force, t_up, t_hold, cyl)
@@ -215,12 +234,17 @@ def _metrics(a, b, c, force, t_up, t_hold, cyl) -> dict[str, float]:
         float(np.max(np.abs(c.control["u"][:2] - b.control["u"][-1]))),
     ]
     steps = np.abs(np.diff(np.concatenate([a.control["u"], b.control["u"], c.control["u"]])))
+    # the new law's own steps over its first AFTER_TRANSFER samples (its response to the state
+    # and the noise it takes over, beyond the bumpless first command)
+    after = [float(np.max(np.abs(np.diff(r.control["u"][: AFTER_TRANSFER + 1])))) for r in (b, c)]
     return {
         "hold_error": float(np.max(np.abs(f[hold] - force))) if hold.any() else float("nan"),
         "hold_mean_error": float(np.mean(f[hold] - force)) if hold.any() else float("nan"),
         "overshoot": max(float(np.max(f[t <= t_hold]) - force), 0.0) / force,
         "jump_contact": jumps[0],
         "jump_release": jumps[1],
+        "step_after_contact": after[0],
+        "step_after_release": after[1],
         "largest_command_step": float(np.max(steps)),
         "p_min": float(min(min(r["p_a"].min(), r["p_b"].min()) for r in (a, b, c))),
     }

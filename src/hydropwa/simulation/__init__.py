@@ -17,7 +17,7 @@ from ._signals import (
     pack_signals,
     parse_signal,
 )
-from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, simulate
+from ._simulate import CHANNEL_UNITS, DEFAULT_RTOL, SimulationResult, law_inputs, simulate
 from ._small_signal import FullSmallSignal, full_point_derivatives, full_small_signal
 from ._status import SolverStats, SolverStatus
 from ._warmup import WarmUp, set_auto_warmup, warm_up
@@ -43,6 +43,7 @@ __all__ = [
     "export_axis_fmu",
     "full_point_derivatives",
     "full_small_signal",
+    "law_inputs",
     "pack_signals",
     "parse_signal",
     "set_compile_notice",

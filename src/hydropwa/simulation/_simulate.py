@@ -1020,6 +1020,29 @@ def _closed_loop_setup(
     return ctl, ref_sig, ref, rch
 
 
+def law_inputs(
+    controller: Any,
+    reference: Any,
+    duration: float,
+    *,
+    sensor_noise: Mapping[str, float] | None = None,
+    seed: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """What the compiled law of a closed-loop :func:`simulate` run reads at its sample instants.
+
+    The reference samples r(t_k) and the reference channels (rows ``RC_*`` of the law's layout:
+    ṙ, the look-ahead rates, r̈ and the sensor noise draws) of a run of ``duration`` [s] from
+    t = 0, exactly as ``simulate(..., controller=controller, reference=reference,
+    duration=duration, sensor_noise=sensor_noise, seed=seed)`` builds them: column k is sample
+    k. A law replayed on them (one sample of a transfer, a lockstep test) sees what the run's
+    law sees.
+    """
+    _ctl, _sig, ref, rch = _closed_loop_setup(
+        controller, reference, np.array([0.0, float(duration)]), sensor_noise, seed
+    )
+    return ref, rch
+
+
 def _held_command(log: np.ndarray, t0: float) -> Sampled:
     """The applied command of every sample interval as a staircase signal (zero-order hold)."""
     tk, uk = _done(log, C.L_T), _done(log, C.L_U)
