@@ -11,7 +11,11 @@ Prints a Markdown table for the README:
     python benchmarks/cold_start.py --no-shipped # the compile path
 
 Cases: ``import hydropwa`` (best of 5), ``hydropwa simulate --params paper --duration 1`` (the full model),
-the README's Python example (extracted from README.md), and the main job ``hydropwa paper``.
+the README's Python example (extracted from README.md), and the main job ``hydropwa paper``;
+then the first ``simulate`` call of the full model inside a process (the call, and the process
+from its start with the imports): in a first process (empty cache), a second one (best of 3),
+and from a copy of the package in a new folder with its own empty cache (a second install of
+the same version).
 Timings on a shared machine vary by tens of per cent; the script reports, it does not assert.
 """
 
@@ -81,6 +85,65 @@ def import_time() -> float:
     return min(runs)
 
 
+#: The first ``simulate`` of the full model inside a process (1 s of the paper rig's sine), timed
+#: in that process: the call alone, and the process's CPU from its start to the call's end
+SIMULATE_CALL = """
+import resource, time
+t0 = time.perf_counter()
+from hydropwa.params import get_preset
+from hydropwa.simulation import simulate
+p = get_preset("paper")
+t1 = time.perf_counter()
+simulate("full", "sine:amplitude=0.4,frequency=1", params=p, duration=1.0)
+t2 = time.perf_counter()
+ru = resource.getrusage(resource.RUSAGE_SELF)
+print(t2 - t1, t2 - t0, ru.ru_utime + ru.ru_stime)
+"""
+
+
+def simulate_call(cache: Path, pythonpath: Path | None = None) -> tuple[float, float, float]:
+    """(the call [s], import + call [s], process CPU [s]) of :data:`SIMULATE_CALL` in a fresh
+    process with the numba cache ``cache``; ``pythonpath``: import hydropwa from there."""
+    extra = {"NUMBA_CACHE_DIR": str(cache), **EXTRA_ENV}
+    if pythonpath is not None:
+        extra["PYTHONPATH"] = str(pythonpath)
+    out = subprocess.check_output(
+        [sys.executable, "-c", SIMULATE_CALL], text=True, env=_env(**extra), cwd=cache.parent
+    )
+    call, total, cpu = (float(v) for v in out.split())
+    return call, total, cpu
+
+
+def process_rows(tmp: Path) -> list[str]:
+    """The simulate call in a first, a second process and in a copy of the package in a new
+    folder (a second install of the same version: its numba cache is empty)."""
+    import shutil
+
+    import hydropwa
+
+    cache = tmp / "cache-calls"
+    first = simulate_call(cache)
+    second = min(simulate_call(cache) for _ in range(3))
+    new = tmp / "new-install"
+    shutil.copytree(
+        Path(hydropwa.__file__).parent,
+        new / "hydropwa",
+        ignore=shutil.ignore_patterns("__pycache__"),
+    )
+    moved = simulate_call(tmp / "cache-new-install", pythonpath=new)
+    targets = {"first process": 3.0, "second process": 0.5, "install in a new folder": 3.0}
+    rows = []
+    for name, (call, total, cpu) in zip(targets, (first, second, moved), strict=True):
+        lim = targets[name]
+        marks = [("met" if v <= lim else "missed") for v in (call, total)]
+        rows.append(
+            f"| `simulate` (full model), {name} | call {call:.2f} s, with imports "
+            f"{total:.2f} s ({cpu:.2f} s CPU) | | ≤ {lim:g} s (call {marks[0]}, "
+            f"with imports {marks[1]}) |"
+        )
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--no-paper", action="store_true", help="skip the main job (the longest case)")
@@ -128,6 +191,8 @@ def main() -> None:
                 file=sys.stderr,
                 flush=True,
             )
+    with tempfile.TemporaryDirectory() as tmp:
+        calls = process_rows(Path(tmp))
     imp = import_time()
     load = os.getloadavg()[0]
     print(f"Load average during the run: {load:.1f} on {os.cpu_count()} cores.\n")
@@ -141,6 +206,8 @@ def main() -> None:
             f"≤ {target:g} s ({mark}, {cold / target:.2f}×) |"
         )
     print(f"| `import hydropwa` | {imp:.2f} s | | ≤ 0.5 s ({'met' if imp <= 0.5 else 'missed'}) |")
+    for row in calls:
+        print(row)
 
 
 if __name__ == "__main__":
