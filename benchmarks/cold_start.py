@@ -9,6 +9,7 @@ Prints a Markdown table for the README:
     python benchmarks/cold_start.py              # all cases (a few minutes on 2 cores)
     python benchmarks/cold_start.py --no-paper   # without the main job
     python benchmarks/cold_start.py --no-shipped # the compile path
+    python benchmarks/cold_start.py --wheel      # also from a wheel of this checkout
 
 Cases: ``import hydropwa`` (best of 5), ``hydropwa simulate --params paper --duration 1`` (the full model),
 the README's Python example (extracted from README.md), and the main job ``hydropwa paper``;
@@ -114,9 +115,10 @@ def simulate_call(cache: Path, pythonpath: Path | None = None) -> tuple[float, f
     return call, total, cpu
 
 
-def process_rows(tmp: Path) -> list[str]:
+def process_rows(tmp: Path, wheel: bool = False) -> list[str]:
     """The simulate call in a first, a second process and in a copy of the package in a new
-    folder (a second install of the same version: its numba cache is empty)."""
+    folder (a second install of the same version: its numba cache is empty); ``wheel``: also
+    from a wheel of this checkout installed into a folder of its own (``pip wheel``)."""
     import shutil
 
     import hydropwa
@@ -132,8 +134,17 @@ def process_rows(tmp: Path) -> list[str]:
     )
     moved = simulate_call(tmp / "cache-new-install", pythonpath=new)
     targets = {"first process": 3.0, "second process": 0.5, "install in a new folder": 3.0}
+    runs = [first, second, moved]
+    if wheel:  # a wheel built from this checkout, installed into a folder of its own
+        dist, site = tmp / "dist", tmp / "wheel-install"
+        pip = [sys.executable, "-m", "pip", "-q"]
+        subprocess.run([*pip, "wheel", "--no-deps", "-w", str(dist), str(ROOT)], check=True)
+        whl = next(dist.glob("hydropwa-*.whl"))
+        subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(whl)], check=True)
+        targets["installed from a wheel"] = 3.0
+        runs.append(simulate_call(tmp / "cache-wheel", pythonpath=site))
     rows = []
-    for name, (call, total, cpu) in zip(targets, (first, second, moved), strict=True):
+    for name, (call, total, cpu) in zip(targets, runs, strict=True):
         lim = targets[name]
         marks = [("met" if v <= lim else "missed") for v in (call, total)]
         rows.append(
@@ -149,6 +160,9 @@ def main() -> None:
     ap.add_argument("--no-paper", action="store_true", help="skip the main job (the longest case)")
     ap.add_argument(
         "--no-shipped", action="store_true", help="ignore the shipped entries: everything compiles"
+    )
+    ap.add_argument(
+        "--wheel", action="store_true", help="also time a wheel of this checkout (builds one)"
     )
     args = ap.parse_args()
     if args.no_shipped:
@@ -192,7 +206,7 @@ def main() -> None:
                 flush=True,
             )
     with tempfile.TemporaryDirectory() as tmp:
-        calls = process_rows(Path(tmp))
+        calls = process_rows(Path(tmp), wheel=args.wheel)
     imp = import_time()
     load = os.getloadavg()[0]
     print(f"Load average during the run: {load:.1f} on {os.cpu_count()} cores.\n")

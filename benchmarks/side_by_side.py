@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/side_by_side.py [--base c7a5ce2] [--rounds 3] [--repeats 5]
+        [--models full,pwa] [--no-cold]
 
 The base commit is checked out into a temporary ``git worktree`` and imported from
 its ``src`` folder by worker processes (``PYTHONPATH``), with this environment's
@@ -48,6 +49,7 @@ import json, sys, time, resource
 import numpy as np
 mode = sys.argv[1]
 repeats = int(sys.argv[2])
+only = set(sys.argv[3].split(",")) if len(sys.argv) > 3 and sys.argv[3] else None
 from hydropwa.params import get_preset
 from hydropwa.models import as_model, ReducedModel
 from hydropwa.linearization import linearize
@@ -73,6 +75,8 @@ models = {
 }
 out = {}
 for name, m in models.items():
+    if only is not None and name not in only:
+        continue
     res = simulate(m, U, duration=10.0, fs=2000.0, rtol=1e-3)
     best = float("inf")
     for _ in range(repeats):
@@ -87,10 +91,12 @@ print(json.dumps(out))
 """
 
 
-def _worker(src: Path, mode: str, repeats: int, env_extra: dict[str, str]) -> dict:
+def _worker(
+    src: Path, mode: str, repeats: int, env_extra: dict[str, str], models: str = ""
+) -> dict:
     env = {**os.environ, "PYTHONPATH": str(src), **env_extra}
     proc = subprocess.run(
-        [sys.executable, "-c", WORKER, mode, str(repeats)],
+        [sys.executable, "-c", WORKER, mode, str(repeats), models],
         capture_output=True,
         text=True,
         env=env,
@@ -108,6 +114,7 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile timing")
+    ap.add_argument("--models", default="", help="comma-separated subset (default: all six)")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
 
@@ -126,7 +133,7 @@ def main() -> None:
                     env = {"NUMBA_CACHE_DIR": str(Path(tmp) / f"cache-{tree}")}
                     if tree != "shipped":  # compiled for this CPU, as the base is
                         env["HYDROPWA_PREBUILT"] = "0"
-                    res = _worker(src, "warm", args.repeats, env)
+                    res = _worker(src, "warm", args.repeats, env, args.models)
                     for name, row in res.items():
                         old = best[tree].get(name)
                         if old is None or row["s"] < old["s"]:

@@ -76,6 +76,8 @@ def setup(tmp_path_factory):
     lib.hydropwa_monitor_row.argtypes = [DP, *([D] * 11), DP]
     lib.hydropwa_monitor_result.argtypes = [DP, DP, ctypes.POINTER(ctypes.c_int), DP]
     lib.hydropwa_monitor_result.restype = ctypes.c_int
+    lib.hydropwa_monitor_continuity.argtypes = [DP, DP, ctypes.POINTER(ctypes.c_int)]
+    lib.hydropwa_monitor_continuity.restype = ctypes.c_int
     return rig, mon, healthy, h, P, lib
 
 
@@ -98,7 +100,10 @@ def _replay_c(lib, mon, run):
     value, rms = (D * 3)(), (D * 3)()
     alarm = (ctypes.c_int * 3)()
     n_alarms = lib.hydropwa_monitor_result(sums, value, alarm, rms)
-    return res, np.array(list(value)), [bool(a) for a in alarm], n_alarms
+    value4, alarm4 = (D * 4)(), (ctypes.c_int * 4)()
+    n_alarms += lib.hydropwa_monitor_continuity(sums, value4, alarm4)
+    values = np.array([*value, *value4])
+    return res, values, [bool(a) for a in (*alarm, *alarm4)], n_alarms
 
 
 def _close(a, b, rel=1e-12):
@@ -108,10 +113,21 @@ def _close(a, b, rel=1e-12):
     assert np.all(np.abs(a[ok] - b[ok]) <= rel * np.maximum(np.abs(b[ok]), 1e-300)), (a, b)
 
 
+#: 0.1 L/min at 50 bar (the issue's smallest leakage) [m³/s]
+LEAK = 0.1 / 6e4
+
+
 @pytest.mark.parametrize(
     "faults",
-    [(), (Fault("friction", 0.30),), (Fault("supply", 0.10),), (Fault("valve_null", 0.005),)],
-    ids=["healthy", "friction", "supply", "valve_null"],
+    [
+        (),
+        (Fault("friction", 0.30),),
+        (Fault("supply", 0.10),),
+        (Fault("valve_null", 0.005),),
+        (Fault("internal_leakage", LEAK),),
+        (Fault("external_leakage_a", 5 * LEAK),),
+    ],
+    ids=["healthy", "friction", "supply", "valve_null", "internal_leakage", "external_leakage_a"],
 )
 def test_c_and_package_in_lockstep(setup, faults):
     rig, mon, _healthy, _h, P, lib = setup

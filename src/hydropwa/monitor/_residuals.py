@@ -417,11 +417,25 @@ def supply_fit(sig: Signals, params: SystemParams, mask: np.ndarray) -> LinearFi
 (MP_PUMP, MP_DROOP, MP_QMAX, MP_PS) = range(25, 29)
 (MP_XLO, MP_XHI, MP_PMIN, MP_VMIN, MP_HAS_FL, MP_HAS_PS, MP_HAS_SPOOL) = range(29, 36)
 (MP_FR_HI, MP_PS_LO, MP_NU_LO, MP_NU_HI) = range(36, 40)
-N_P = 40
+#: the continuity unknowns' column scales (:data:`CONTINUITY_SCALE`) and the thresholds of the
+#: continuity indicators (low, high: E, C_L, C_eA, C_eB; ∓HUGE where a side has no alarm)
+MP_CS = 40
+(MP_E_LO, MP_E_HI, MP_CL_LO, MP_CL_HI) = range(45, 49)
+(MP_CEA_LO, MP_CEA_HI, MP_CEB_LO, MP_CEB_HI) = range(49, 53)
+N_P = 53
 #: Slots of the sums ``S`` (rows used, Σ r_A², Σ r_B², sliding rows, Σ r_F², Σ f², Σ f·F,
 #: Σ p_set, Σ (ν − ν_model)).
 (MS_N, MS_RA2, MS_RB2, MS_NF, MS_RF2, MS_FF, MS_FY, MS_PSET, MS_DNU) = range(9)
-N_S = 9
+#: The continuity fit's sums per chamber (block A from MS_CA, B from MS_CB; GRAM_SLOTS each):
+#: the Gram matrix Σ a aᵀ of the scaled regressor rows a (5 × 5, row-major), Σ a·y and Σ y²
+#: (:func:`continuity_fit`'s blocks); MS_ROW: the current row's regressors (scratch).
+GRAM_SLOTS = 31
+MS_CA, MS_CB = 9, 9 + GRAM_SLOTS
+MS_ROW = 9 + 2 * GRAM_SLOTS
+N_S = MS_ROW + 5
+#: The work array ``W`` of :func:`continuity_result`: the 5 × 6 augmented normal equations
+#: (row-major) and the solution (scaled unknowns) from slot 30.
+N_W = 35
 #: +∞ (HUGE_VAL in C): NaN is 0·HUGE; a threshold side without an alarm is ±HUGE.
 HUGE = math.inf
 
@@ -459,6 +473,15 @@ def monitor_row(S, P, nu, nu_model, x, v, a, pa, pb, dpa, dpb, ps, fl):  # pragm
     r_f = force - f
     used = (x > P[MP_XLO]) and (x < P[MP_XHI]) and (pa > P[MP_PMIN]) and (pb > P[MP_PMIN])
     if used:
+        # the continuity fit's rows (continuity_fit): [V Ṗ, ±ΔP, P_A | P_B, ∓∂Q/∂ν], scaled
+        gram_add(
+            S, MS_CA, va * dpa * P[MP_CS], dp * P[MP_CS + 1], pa * P[MP_CS + 2], 0.0,
+            -ga * P[MP_CS + 4], qa - P[MP_AA] * v,
+        )  # fmt: skip
+        gram_add(
+            S, MS_CB, vb * dpb * P[MP_CS], -dp * P[MP_CS + 1], 0.0, pb * P[MP_CS + 3],
+            gb * P[MP_CS + 4], -qb + P[MP_AB] * v,
+        )  # fmt: skip
         q_s = qa if nu >= 0.0 else -qb
         if q_s < 0.0:
             q_s = 0.0
@@ -492,6 +515,98 @@ def monitor_result(S, P):  # pragma: no cover
     rms_b = math.sqrt(S[MS_RB2] / n) if n > 0.5 else missing
     rms_f = math.sqrt(S[MS_RF2] / S[MS_NF]) if S[MS_NF] > 0.5 else missing
     return fr, p_set, null, a_fr, a_ps, a_nu, rms_a, rms_b, rms_f
+
+
+@njit(cache=True)
+def gram_add(S, o, c0, c1, c2, c3, c4, y):  # pragma: no cover
+    """Add the row (c0..c4; y) to the block sums of ``S`` from slot ``o`` (Σ a aᵀ, Σ a y, Σ y²)."""
+    S[MS_ROW] = c0
+    S[MS_ROW + 1] = c1
+    S[MS_ROW + 2] = c2
+    S[MS_ROW + 3] = c3
+    S[MS_ROW + 4] = c4
+    for i in range(5):
+        for j in range(5):
+            S[o + 5 * i + j] = S[o + 5 * i + j] + S[MS_ROW + i] * S[MS_ROW + j]
+        S[o + 25 + i] = S[o + 25 + i] + S[MS_ROW + i] * y
+    S[o + 30] = S[o + 30] + y * y
+
+
+@njit(cache=True)
+def block_rms(S, o, W, n):  # pragma: no cover
+    """RMS of one block's residual y − a·θ at the solution in W[30:35], from its sums."""
+    ss = S[o + 30]
+    for i in range(5):
+        ss = ss - 2.0 * W[30 + i] * S[o + 25 + i]
+        for j in range(5):
+            ss = ss + W[30 + i] * S[o + 5 * i + j] * W[30 + j]
+    if ss < 0.0:
+        ss = 0.0
+    return math.sqrt(ss / n) + 1e-300
+
+
+@njit(cache=True)
+def solve5(W):  # pragma: no cover
+    """Gaussian elimination with partial pivoting of the 5 × 6 augmented system in W; the
+    solution into W[30:35] (NaN where singular)."""
+    for k in range(5):
+        piv = k
+        big = abs(W[6 * k + k])
+        for i in range(k + 1, 5):
+            if abs(W[6 * i + k]) > big:
+                big = abs(W[6 * i + k])
+                piv = i
+        if piv != k:
+            for j in range(6):
+                t = W[6 * k + j]
+                W[6 * k + j] = W[6 * piv + j]
+                W[6 * piv + j] = t
+        for i in range(k + 1, 5):
+            f = W[6 * i + k] / W[6 * k + k]
+            for j in range(k, 6):
+                W[6 * i + j] = W[6 * i + j] - f * W[6 * k + j]
+    for m in range(5):
+        i = 4 - m
+        acc = W[6 * i + 5]
+        for j in range(i + 1, 5):
+            acc = acc - W[6 * i + j] * W[30 + j]
+        W[30 + i] = acc / W[6 * i + i]
+
+
+@njit(cache=True)
+def continuity_result(S, P, W):  # pragma: no cover
+    """From the sums: the continuity fit's bulk modulus E [Pa], internal leakage C_L and the
+    external leakages C_eA, C_eB [m³/(s·Pa)] and their alarms (1.0 / 0.0) against the thresholds
+    in ``P``; NaN (no alarm) with fewer than 5 rows.
+
+    :func:`continuity_fit`'s weighted least squares from running sums: the normal equations of
+    the two blocks, each weighted by its residual RMS, solved three times (weights 1, then
+    twice each block's RMS at the last solution), as :func:`_wls` does by SVD over the rows.
+    ``W``: work array of :data:`N_W` values.
+    """
+    missing = 0.0 * HUGE
+    n = S[MS_N]
+    if n < 5.5:
+        return missing, missing, missing, missing, 0.0, 0.0, 0.0, 0.0
+    wa = 1.0
+    wb = 1.0
+    for _it in range(3):
+        for i in range(5):
+            for j in range(5):
+                W[6 * i + j] = S[MS_CA + 5 * i + j] / (wa * wa) + S[MS_CB + 5 * i + j] / (wb * wb)
+            W[6 * i + 5] = S[MS_CA + 25 + i] / (wa * wa) + S[MS_CB + 25 + i] / (wb * wb)
+        solve5(W)
+        wa = block_rms(S, MS_CA, W, n)
+        wb = block_rms(S, MS_CB, W, n)
+    e = 1.0 / (W[30] * P[MP_CS])
+    cl = W[31] * P[MP_CS + 1]
+    cea = W[32] * P[MP_CS + 2]
+    ceb = W[33] * P[MP_CS + 3]
+    a_e = 1.0 if (e < P[MP_E_LO] or e > P[MP_E_HI]) else 0.0
+    a_cl = 1.0 if (cl < P[MP_CL_LO] or cl > P[MP_CL_HI]) else 0.0
+    a_cea = 1.0 if (cea < P[MP_CEA_LO] or cea > P[MP_CEA_HI]) else 0.0
+    a_ceb = 1.0 if (ceb < P[MP_CEB_LO] or ceb > P[MP_CEB_HI]) else 0.0
+    return e, cl, cea, ceb, a_e, a_cl, a_cea, a_ceb
 
 
 @njit(cache=True)

@@ -66,10 +66,16 @@ class TargetIndicator:
 
 
 #: The indicators on the target (one row each; the names are :data:`~._indicators.INDICATORS`').
+#: ``value``/``alarm``: places in the outputs of :func:`~._residuals.monitor_result` (0-8)
+#: followed by those of :func:`~._residuals.continuity_result` (9-16).
 TARGET_INDICATORS = (
     TargetIndicator("friction_scale", "1", 0, 3, -1, R.MP_FR_HI),
     TargetIndicator("supply_pressure", "Pa", 1, 4, R.MP_PS_LO, -1),
     TargetIndicator("valve_null", "1", 2, 5, R.MP_NU_LO, R.MP_NU_HI),
+    TargetIndicator("bulk_modulus", "Pa", 9, 13, R.MP_E_LO, R.MP_E_HI),
+    TargetIndicator("internal_leakage", "m**3/s/Pa", 10, 14, R.MP_CL_LO, R.MP_CL_HI),
+    TargetIndicator("external_leakage_a", "m**3/s/Pa", 11, 15, R.MP_CEA_LO, R.MP_CEA_HI),
+    TargetIndicator("external_leakage_b", "m**3/s/Pa", 12, 16, R.MP_CEB_LO, R.MP_CEB_HI),
 )
 
 
@@ -134,6 +140,7 @@ def pack_online(
     }  # fmt: skip
     for slot, value in slots.items():
         P[slot] = float(value)
+    P[R.MP_CS : R.MP_CS + 5] = R.CONTINUITY_SCALE
     for ti in TARGET_INDICATORS:
         lo, hi = thresholds[ti.name]
         if ti.low >= 0:
@@ -204,7 +211,7 @@ def online_check(monitor: HealthMonitor, run: Any, P: np.ndarray) -> OnlineHealt
     r, S = R.monitor_rows(
         P, sig.nu, sig.nu_model, sig.x, sig.v, sig.a, sig.p_a, sig.p_b, sig.dp_a, sig.dp_b, ps, fl
     )
-    out = R.monitor_result(S, P)
+    out = R.monitor_result(S, P) + R.continuity_result(S, P, np.zeros(R.N_W))
     values = {ti.name: float(out[ti.value]) for ti in TARGET_INDICATORS}
     alarms = {ti.name: bool(out[ti.alarm] > 0.5) for ti in TARGET_INDICATORS}
     return OnlineHealth(run.name, r, S, values, alarms, (out[6], out[7], out[8]))
@@ -244,12 +251,18 @@ def c_sources(monitor: HealthMonitor, P: np.ndarray, fs: float, n_runs: int = 1)
     window = max(7, int(round(monitor.window * fs)) | 1)
     sg = _savgol_rows(window, fs)
     code, _names = emit_unit(
-        [R.monitor_row, R.monitor_result],
+        [R.monitor_row, R.monitor_result, R.continuity_result],
         {"smooth_sign": PH._smooth_sign_compiled, "abs_power": PH._abs_power_compiled},
     )
     subs = {
         "@VERSION@": __version__,
         "@N_S@": str(R.N_S),
+        "@N_W@": str(R.N_W),
+        "@E_LO@": _c_double(P[R.MP_E_LO]),
+        "@E_HI@": _c_double(P[R.MP_E_HI]),
+        "@CL_HI@": _c_double(P[R.MP_CL_HI]),
+        "@CEA_HI@": _c_double(P[R.MP_CEA_HI]),
+        "@CEB_HI@": _c_double(P[R.MP_CEB_HI]),
         "@WINDOW@": str(window),
         "@STEP@": str(max(1, window // 2)),
         "@FS@": f"{fs:g}",

@@ -19,6 +19,14 @@ extern const double hydropwa_monitor_sg[3][@WINDOW@];
 #define HYDROPWA_MONITOR_SUPPLY_LOW @PS_LO@
 #define HYDROPWA_MONITOR_NULL_LOW @NU_LO@
 #define HYDROPWA_MONITOR_NULL_HIGH @NU_HI@
+#define HYDROPWA_MONITOR_E_LOW @E_LO@
+#define HYDROPWA_MONITOR_E_HIGH @E_HI@
+#define HYDROPWA_MONITOR_LEAKAGE_HIGH @CL_HI@
+#define HYDROPWA_MONITOR_EXTERNAL_A_HIGH @CEA_HI@
+#define HYDROPWA_MONITOR_EXTERNAL_B_HIGH @CEB_HI@
+
+/* Work space of hydropwa_monitor_continuity (doubles, on its stack). */
+#define HYDROPWA_MONITOR_NW @N_W@
 
 /* One filtered row (SI): spool nu and the valve model's nu_model [1], position x [m], speed
  * v [m/s], acceleration a [m/s^2], chamber pressures p_a, p_b [Pa] and their rates dp_a, dp_b
@@ -34,6 +42,15 @@ void hydropwa_monitor_row(double sums[HYDROPWA_MONITOR_NS], double nu, double nu
  * rms[0..2] the residuals' RMS. Returns the number of alarms. */
 int hydropwa_monitor_result(const double sums[HYDROPWA_MONITOR_NS], double value[3], int alarm[3],
                             double rms[3]);
+
+/* From the sums: the continuity fit (the chambers' flow balances, weighted least squares from
+ * the sums' normal equations): value[0] bulk modulus E [Pa], value[1] internal leakage C_L,
+ * value[2], value[3] external leakages C_eA, C_eB [m^3/(s*Pa); times 3e8 for L/min at 50 bar]
+ * (NaN with fewer than 5 rows); alarm[i] 1 where value[i] is outside its thresholds
+ * (HYDROPWA_MONITOR_E_LOW/HIGH, ..._LEAKAGE_HIGH, ..._EXTERNAL_A/B_HIGH). Returns the number of
+ * alarms. Uses HYDROPWA_MONITOR_NW doubles of stack. */
+int hydropwa_monitor_continuity(const double sums[HYDROPWA_MONITOR_NS], double value[4],
+                                int alarm[4]);
 
 /* Zero the sums (the start of a run or of a window). */
 void hydropwa_monitor_init(double sums[HYDROPWA_MONITOR_NS]);

@@ -26,3 +26,17 @@ int hydropwa_monitor_result(const double sums[HYDROPWA_MONITOR_NS], double value
     alarm[2] = a2 > 0.5;
     return alarm[0] + alarm[1] + alarm[2];
 }
+
+int hydropwa_monitor_continuity(const double sums[HYDROPWA_MONITOR_NS], double value[4],
+                                int alarm[4])
+{
+    double work[HYDROPWA_MONITOR_NW];
+    double a0, a1, a2, a3;
+    hp_continuity_result(sums, P, work, &value[0], &value[1], &value[2], &value[3], &a0, &a1, &a2,
+                         &a3);
+    alarm[0] = a0 > 0.5;
+    alarm[1] = a1 > 0.5;
+    alarm[2] = a2 > 0.5;
+    alarm[3] = a3 > 0.5;
+    return alarm[0] + alarm[1] + alarm[2] + alarm[3];
+}
