@@ -345,7 +345,7 @@ def _march(kind, method, t_out, p, sg, tol, work, loop):
             method, kind, t, h, y, f0, dfdt, W, piv, U, yt, ft, ynew, fnew, yerr, p, sg
         )
         nfev += n_rhs
-        err, finite = _error_norm(n_err, y, ynew, yerr, atol, rtol)
+        err, finite = _error_norm(n, n_err, y, ynew, yerr, atol, rtol)
         finite, n_new = _new_rate(kind, n, fsal, finite, err, ynew, u1, ps1, fl1, p, fnew)
         nfev += n_new
         if not finite or not math.isfinite(err):
