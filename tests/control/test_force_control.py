@@ -356,3 +356,42 @@ def test_force_law_fmu_closes_the_loop_on_the_axis_fmu_as_simulate_does(rig, des
     track = float(np.max(np.abs(want[tk > 0.1] - ref(tk[tk > 0.1]))))
     assert err <= 5e-4 * F_AMP, f"FMU loop off by {err:.3g} N (loop's tracking error {track:.3g} N)"
     assert track > 10 * err  # the comparison resolves the loop's own error
+
+
+def test_law_inputs_are_what_the_runs_law_reads(rig, designs):
+    """law_inputs: the compiled law replayed sample by sample on the run's states at the sample
+    instants and on law_inputs' reference and channels (look-ahead rates and the sensor-noise
+    draws of the seed) gives the run's own commands and rows, to rounding (the run's law and
+    the replay are the same compiled function on the same numbers; 1e-12 of full opening
+    allows for the states at t_k being the output grid's, not the step loop's registers);
+    another seed's channels do not."""
+    from hydropwa.simulation import law_inputs
+
+    law = designs[0].controller
+    ts = law.sample_time
+    duration = 0.1
+    n = int(np.floor(duration / ts + 1e-9)) + 1
+    tk = ts * np.arange(n)
+    ref = Sine(amplitude=F_AMP, frequency=5.0, offset=F_MEAN)
+    res = simulate(
+        "full", timepts=tk, params=rig, controller=law, reference=ref,
+        initial_position=X_C + F_MEAN / K_SPEC, sensor_noise=NOISE, seed=4, rtol=1e-8,
+    )  # fmt: skip
+    assert res.success, res.message
+    a_a, a_b = rig.cylinder.area_a, rig.cylinder.area_b
+
+    def replay(seed):
+        r, rch = law_inputs(law, ref, duration, sensor_noise=NOISE, seed=seed)
+        ctl, cst = law.pack(), np.zeros(C.N_CST)
+        log, sg = np.zeros((C.N_LOG, n)), np.zeros(32)
+        for k in range(n):
+            y = np.ascontiguousarray(res.states[k], dtype=float)
+            C.controller_sample(0, k, tk[k], y, a_a, a_b, ctl, cst, r, rch, sg, log)
+        return log
+
+    log = replay(4)
+    run = res.control
+    np.testing.assert_allclose(log[C.L_U], run["u"], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(log[C.L_ROW].astype(np.int64), run["row"])
+    np.testing.assert_array_equal(log[C.L_R], run["reference"])
+    assert np.max(np.abs(replay(5)[C.L_U] - run["u"])) > 1e-4  # the noise draws matter
