@@ -65,6 +65,8 @@ if mode == "cold":
     simulate(m, U, duration=10.0, fs=2000.0, rtol=1e-3)
     print(json.dumps({"cpu_s": cpu() - c0, "wall_s": time.perf_counter() - w0}))
     raise SystemExit
+# the models of benchmarks/run.py's _models(), written out: the worker runs against the base
+# tree's package, so it cannot import this checkout's run.py (which reads newer private names)
 models = {
     "full": as_model("full", p),
     "reduced": ReducedModel(p),

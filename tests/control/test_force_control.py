@@ -172,7 +172,7 @@ def test_the_transfer_integral_makes_the_first_command_the_old_laws(rig, designs
 def test_press_cycle_on_the_heavy_axis_transfers_without_a_bump():
     """Heavy axis, 5e7 N/m part, 100 mm approach at 0.1 m/s (position PI), 20 kN in 50 ms held
     0.5 s, release, retract; full model, 20 µm / 0.1 bar noise, one sample of delay. Measured
-    (2026-12-03): overshoot 0.12 %, hold mean error −0.069 %, largest hold error 0.92 %, the
+    (2026-12-02): overshoot 0.12 %, hold mean error −0.069 %, largest hold error 0.92 %, the
     command step at both transfers 0 (the new law's first own command is the old law's last: the
     integral is chosen on the run's own reference channels and noise, ``law_inputs``), the
     largest step over the next 10 samples 0.29 % / 0.46 %, lowest chamber 41 bar. Bounds: the
@@ -284,7 +284,7 @@ def test_force_law_fmu_closes_the_loop_on_the_axis_fmu_as_simulate_does(rig, des
     amplitude, 1 N (the axis FMU integrates with its own step sequence at rtol 1e-8, so the runs
     agree to the solvers' tolerances, not bit for bit; the bound is a hundred times the measured
     difference and a fiftieth of the loop's own tracking error, which it must reproduce).
-    Measured (2026-12-03): 0.0097 N apart, the loop's largest tracking error 58 N."""
+    Measured (2026-12-02): 0.0097 N apart, the loop's largest tracking error 58 N."""
     pytest.importorskip("fmpy")
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave

@@ -34,6 +34,7 @@ from .._result import DerivedResult, ResultStatus
 from ..components import _physics as PH
 from ..simulation._emit_c import emit_unit
 from . import _residuals as R
+from ._indicators import INDICATORS
 from ._monitor import REQUIRED, HealthMonitor, HealthReport
 
 __all__ = [
@@ -55,27 +56,32 @@ C_FILES = ("hydropwa_monitor.h", "hydropwa_monitor.c", "README.md")
 @dataclass(frozen=True)
 class TargetIndicator:
     """An indicator the target computes: its place in :func:`~._residuals.monitor_result`'s
-    outputs and its threshold slots in ``P`` (-1: no alarm on that side)."""
+    outputs and its threshold slots in ``P`` (-1: no alarm on that side); its unit is the
+    indicator table's."""
 
     name: str
-    unit: str
     value: int
     alarm: int
     low: int
     high: int
+
+    @property
+    def unit(self) -> str:
+        """SI unit (:data:`~._indicators.INDICATORS`' row of the same name)."""
+        return next(ind.unit for ind in INDICATORS if ind.name == self.name)
 
 
 #: The indicators on the target (one row each; the names are :data:`~._indicators.INDICATORS`').
 #: ``value``/``alarm``: places in the outputs of :func:`~._residuals.monitor_result` (0-8)
 #: followed by those of :func:`~._residuals.continuity_result` (9-16).
 TARGET_INDICATORS = (
-    TargetIndicator("friction_scale", "1", 0, 3, -1, R.MP_FR_HI),
-    TargetIndicator("supply_pressure", "Pa", 1, 4, R.MP_PS_LO, -1),
-    TargetIndicator("valve_null", "1", 2, 5, R.MP_NU_LO, R.MP_NU_HI),
-    TargetIndicator("bulk_modulus", "Pa", 9, 13, R.MP_E_LO, R.MP_E_HI),
-    TargetIndicator("internal_leakage", "m**3/s/Pa", 10, 14, R.MP_CL_LO, R.MP_CL_HI),
-    TargetIndicator("external_leakage_a", "m**3/s/Pa", 11, 15, R.MP_CEA_LO, R.MP_CEA_HI),
-    TargetIndicator("external_leakage_b", "m**3/s/Pa", 12, 16, R.MP_CEB_LO, R.MP_CEB_HI),
+    TargetIndicator("friction_scale", 0, 3, -1, R.MP_FR_HI),
+    TargetIndicator("supply_pressure", 1, 4, R.MP_PS_LO, -1),
+    TargetIndicator("valve_null", 2, 5, R.MP_NU_LO, R.MP_NU_HI),
+    TargetIndicator("bulk_modulus", 9, 13, R.MP_E_LO, R.MP_E_HI),
+    TargetIndicator("internal_leakage", 10, 14, R.MP_CL_LO, R.MP_CL_HI),
+    TargetIndicator("external_leakage_a", 11, 15, R.MP_CEA_LO, R.MP_CEA_HI),
+    TargetIndicator("external_leakage_b", 12, 16, R.MP_CEB_LO, R.MP_CEB_HI),
 )
 
 
